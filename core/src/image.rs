@@ -1,0 +1,338 @@
+//! Image views over caller memory.
+//!
+//! An image is `width x height` texels stored row by row with a row stride
+//! (in texels, `stride >= width`). The last row needs only `width` texels, so
+//! the smallest valid buffer holds [`required_len`] texels. Construction
+//! validates sizes in 64-bit arithmetic (no `u32 * u32` overflow) and every
+//! accessor is bounds-checked, so a kernel can never read or write outside the
+//! caller's slice.
+//!
+//! The texel type is generic; the C ABI instantiates it for `f32`,
+//! `[f32; 2]`, `[f32; 3]`, `[f32; 4]`, `[u8; 4]` and `u32`.
+//!
+//! Whole-image passes take a [`RowRange`] so that a host can split an image
+//! across its own threads; [`ImageViewMut::split_at_row`] hands out disjoint
+//! mutable row bands that keep global row coordinates.
+
+use crate::Error;
+use core::ops::Range;
+
+/// Number of texels a buffer must hold for an image of `width x height` with
+/// row stride `stride`: `(height - 1) * stride + width`.
+///
+/// # Errors
+/// [`Error::InvalidArgument`] if `width` or `height` is zero, if
+/// `stride < width`, or if the count does not fit in `usize`.
+pub fn required_len(width: u32, height: u32, stride: u32) -> Result<usize, Error> {
+    if width == 0 || height == 0 || stride < width {
+        return Err(Error::InvalidArgument);
+    }
+    // (2^32-1)^2 + 2^32 < 2^64: cannot overflow u64.
+    let len = (u64::from(height) - 1) * u64::from(stride) + u64::from(width);
+    usize::try_from(len).map_err(|_| Error::InvalidArgument)
+}
+
+/// A half-open range of image rows `[start, end)`, validated against an image
+/// height: `start < end <= height`.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub struct RowRange {
+    start: u32,
+    end: u32,
+}
+
+impl RowRange {
+    /// The range `[start, end)` of an image `height` rows tall.
+    ///
+    /// # Errors
+    /// [`Error::InvalidArgument`] unless `start < end <= height`.
+    pub fn try_new(start: u32, end: u32, height: u32) -> Result<Self, Error> {
+        if start < end && end <= height {
+            Ok(Self { start, end })
+        } else {
+            Err(Error::InvalidArgument)
+        }
+    }
+
+    /// All rows of an image `height` rows tall.
+    ///
+    /// # Errors
+    /// [`Error::InvalidArgument`] if `height` is zero.
+    pub fn try_all(height: u32) -> Result<Self, Error> {
+        Self::try_new(0, height, height)
+    }
+
+    /// The `index`-th of `count` contiguous, near-equal bands of `self`
+    /// (the first `len % count` bands get one extra row). Bands of an empty
+    /// share (more bands than rows) are `None`.
+    pub fn band(self, index: u32, count: u32) -> Option<Self> {
+        if count == 0 || index >= count {
+            return None;
+        }
+        let len = self.end - self.start;
+        let (q, r) = (len / count, len % count);
+        let start = self.start + index * q + index.min(r);
+        let end = start + q + u32::from(index < r);
+        (start < end).then_some(Self { start, end })
+    }
+
+    /// First row.
+    pub const fn start(self) -> u32 {
+        self.start
+    }
+
+    /// One past the last row.
+    pub const fn end(self) -> u32 {
+        self.end
+    }
+
+    /// Number of rows (at least one).
+    pub const fn len(self) -> u32 {
+        self.end - self.start
+    }
+
+    /// Always `false`: a validated range holds at least one row.
+    pub const fn is_empty(self) -> bool {
+        false
+    }
+
+    /// The rows as a `Range<u32>` for iteration.
+    pub const fn rows(self) -> Range<u32> {
+        self.start..self.end
+    }
+}
+
+/// A read-only image over caller memory.
+#[derive(Debug)]
+pub struct ImageView<'a, T> {
+    data: &'a [T],
+    width: u32,
+    height: u32,
+    stride: u32,
+}
+
+impl<T> Clone for ImageView<'_, T> {
+    fn clone(&self) -> Self {
+        *self
+    }
+}
+impl<T> Copy for ImageView<'_, T> {}
+
+impl<'a, T: Copy> ImageView<'a, T> {
+    /// A view of `width x height` texels with row stride `stride` (texels).
+    ///
+    /// # Errors
+    /// [`Error::InvalidArgument`] for a zero size, `stride < width` or an
+    /// overflowing texel count; [`Error::InsufficientSize`] if `data` holds
+    /// fewer than [`required_len`] texels.
+    pub fn try_new(data: &'a [T], width: u32, height: u32, stride: u32) -> Result<Self, Error> {
+        let len = required_len(width, height, stride)?;
+        if data.len() < len {
+            return Err(Error::InsufficientSize);
+        }
+        Ok(Self {
+            data,
+            width,
+            height,
+            stride,
+        })
+    }
+
+    /// Width in texels.
+    pub const fn width(&self) -> u32 {
+        self.width
+    }
+
+    /// Height in texels.
+    pub const fn height(&self) -> u32 {
+        self.height
+    }
+
+    /// Row stride in texels.
+    pub const fn stride(&self) -> u32 {
+        self.stride
+    }
+
+    /// All rows of the image.
+    pub fn all_rows(&self) -> RowRange {
+        RowRange {
+            start: 0,
+            end: self.height,
+        }
+    }
+
+    /// The texel at `(x, y)`, or `None` outside the image.
+    #[inline]
+    pub fn get(&self, x: u32, y: u32) -> Option<T> {
+        if x < self.width && y < self.height {
+            self.data
+                .get(y as usize * self.stride as usize + x as usize)
+                .copied()
+        } else {
+            None
+        }
+    }
+
+    /// The texel at `(x, y)` with coordinates clamped to the image (edge
+    /// extension), for filters and neighborhood searches.
+    #[inline]
+    pub fn get_clamped(&self, x: i64, y: i64) -> T {
+        let x = x.clamp(0, i64::from(self.width) - 1) as usize;
+        let y = y.clamp(0, i64::from(self.height) - 1) as usize;
+        self.data[y * self.stride as usize + x]
+    }
+
+    /// Row `y` (exactly `width` texels), or `None` outside the image.
+    #[inline]
+    pub fn row(&self, y: u32) -> Option<&'a [T]> {
+        if y < self.height {
+            let start = y as usize * self.stride as usize;
+            self.data.get(start..start + self.width as usize)
+        } else {
+            None
+        }
+    }
+}
+
+/// A mutable image over caller memory that owns a band of rows.
+///
+/// A view made by [`ImageViewMut::try_new`] owns every row; after
+/// [`split_at_row`](ImageViewMut::split_at_row) each part owns a disjoint
+/// band but keeps the image's global coordinates, so a kernel writes pixel
+/// `(x, y)` the same way whichever band it was handed. Accessors return `None`
+/// for rows the view does not own.
+#[derive(Debug)]
+pub struct ImageViewMut<'a, T> {
+    /// Texels from the first owned row on.
+    data: &'a mut [T],
+    width: u32,
+    height: u32,
+    stride: u32,
+    rows: Range<u32>,
+}
+
+impl<'a, T: Copy> ImageViewMut<'a, T> {
+    /// A mutable view of `width x height` texels with row stride `stride`.
+    ///
+    /// # Errors
+    /// As [`ImageView::try_new`].
+    pub fn try_new(data: &'a mut [T], width: u32, height: u32, stride: u32) -> Result<Self, Error> {
+        let len = required_len(width, height, stride)?;
+        if data.len() < len {
+            return Err(Error::InsufficientSize);
+        }
+        Ok(Self {
+            data,
+            width,
+            height,
+            stride,
+            rows: 0..height,
+        })
+    }
+
+    /// Width in texels.
+    pub const fn width(&self) -> u32 {
+        self.width
+    }
+
+    /// Height of the whole image in texels (not only the owned band).
+    pub const fn height(&self) -> u32 {
+        self.height
+    }
+
+    /// Row stride in texels.
+    pub const fn stride(&self) -> u32 {
+        self.stride
+    }
+
+    /// The band of rows this view may read and write, or `None` for an
+    /// empty band (a split at the band's edge).
+    pub fn owned_rows(&self) -> Option<RowRange> {
+        (self.rows.start < self.rows.end).then_some(RowRange {
+            start: self.rows.start,
+            end: self.rows.end,
+        })
+    }
+
+    #[inline]
+    fn index(&self, x: u32, y: u32) -> Option<usize> {
+        (x < self.width && self.rows.contains(&y))
+            .then(|| (y - self.rows.start) as usize * self.stride as usize + x as usize)
+    }
+
+    /// The texel at `(x, y)`, or `None` outside the owned rows.
+    #[inline]
+    pub fn get(&self, x: u32, y: u32) -> Option<T> {
+        self.index(x, y).and_then(|i| self.data.get(i).copied())
+    }
+
+    /// A mutable reference to the texel at `(x, y)`, or `None` outside the
+    /// owned rows.
+    #[inline]
+    pub fn get_mut(&mut self, x: u32, y: u32) -> Option<&mut T> {
+        self.index(x, y).and_then(move |i| self.data.get_mut(i))
+    }
+
+    /// Row `y` (exactly `width` texels), or `None` outside the owned rows.
+    pub fn row_mut(&mut self, y: u32) -> Option<&mut [T]> {
+        let start = self.index(0, y)?;
+        let end = start + self.width as usize;
+        self.data.get_mut(start..end)
+    }
+
+    /// Writes `value` into every texel of the owned rows (padding between
+    /// rows is left alone).
+    pub fn fill(&mut self, value: T) {
+        for y in self.rows.clone() {
+            if let Some(row) = self.row_mut(y) {
+                row.fill(value);
+            }
+        }
+    }
+
+    /// Splits the owned band at global row `y` into `[start, y)` and
+    /// `[y, end)`, for handing disjoint bands to threads.
+    ///
+    /// # Errors
+    /// [`Error::InvalidArgument`] unless `y` lies within the owned band
+    /// (its ends included); `self` is returned unchanged in that case.
+    pub fn split_at_row(self, y: u32) -> Result<(Self, Self), (Error, Self)> {
+        if y < self.rows.start || y > self.rows.end {
+            return Err((Error::InvalidArgument, self));
+        }
+        let Self {
+            data,
+            width,
+            height,
+            stride,
+            rows,
+        } = self;
+        let at = ((y - rows.start) as usize * stride as usize).min(data.len());
+        let (a, b) = data.split_at_mut(at);
+        Ok((
+            Self {
+                data: a,
+                width,
+                height,
+                stride,
+                rows: rows.start..y,
+            },
+            Self {
+                data: b,
+                width,
+                height,
+                stride,
+                rows: y..rows.end,
+            },
+        ))
+    }
+
+    /// A read-only view of the whole image, if this view owns every row.
+    pub fn as_view(&self) -> Option<ImageView<'_, T>> {
+        (self.rows.start == 0 && self.rows.end == self.height).then(|| ImageView {
+            data: &*self.data,
+            width: self.width,
+            height: self.height,
+            stride: self.stride,
+        })
+    }
+}

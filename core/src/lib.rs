@@ -1,0 +1,37 @@
+//! # refl-core
+//!
+//! Reflection-rendering kernels: pure math over buffers the caller owns.
+//!
+//! * `#![no_std]`, no allocation: every image, pyramid and scratch buffer is a
+//!   view over caller memory ([`ImageView`], [`ImageViewMut`]); size queries
+//!   such as [`image::required_len`] say how much to allocate.
+//! * f32 kernels (what a GPU port would run); the tests carry f64 oracles.
+//! * One module per algorithm family, each behind a Cargo feature so that an
+//!   engine compiles only what its scenes need. `mirror` is on by default.
+//! * Conventions (shared by every module): right-handed world, view space
+//!   looks down -Z, "linear depth" is the positive distance along -Z; pixel
+//!   `(x, y)` has its center at `(x + 0.5, y + 0.5)`, origin top-left, y down;
+//!   depth buffers come in the three [`DepthConvention`]s.
+//!
+//! The specification is five papers ("seeds"); every formula cites the seed
+//! and the equation or section it implements. Errata found in the seeds are
+//! noted where they are corrected.
+#![no_std]
+#![deny(missing_docs)]
+#![deny(unsafe_code)]
+
+pub mod camera;
+pub mod error;
+pub mod image;
+#[cfg(feature = "mirror")]
+pub mod mirror;
+
+pub use camera::{Camera, DepthConvention, Ray};
+pub use error::Error;
+pub use image::{ImageView, ImageViewMut, RowRange};
+#[cfg(feature = "mirror")]
+pub use mirror::{mirror_matrix, mirror_point, mirrored_camera, reflect, Plane};
+
+/// Re-export of the glam version refl-core is built against, so that callers
+/// can name the exact vector and matrix types of the Rust API.
+pub use glam;

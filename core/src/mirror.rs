@@ -1,0 +1,190 @@
+//! Planar reflection: the reflection vector, planes, the mirror matrix and
+//! the mirrored (virtual) camera.
+//!
+//! Seed 001 (appendix) builds the "virtual object" of a planar reflector with
+//! a mirror matrix; seed 004 Sec. 4.4.3 gives the reflection vector. Rendering
+//! the scene through [`mirrored_camera`] produces, at each pixel of the
+//! mirror, exactly what the reflected primary ray sees.
+
+use crate::{Camera, Error};
+use glam::{DMat4, DVec4, Mat4, Vec3};
+
+/// The reflection of the unit vector `v` about the unit normal `n`:
+/// `Reflect(V, N) = 2 (V . N) N - V` (seed 004 Sec. 4.4.3).
+///
+/// `v` points from the surface **toward** the viewer (the seed's view
+/// vector); the result points away from the surface on the same side as `v`.
+/// For an incident direction `d` (pointing at the surface) use `reflect(-d, n)`.
+/// A unit `v` and `n` give a unit result.
+#[inline]
+pub fn reflect(v: Vec3, n: Vec3) -> Vec3 {
+    2.0 * v.dot(n) * n - v
+}
+
+/// An oriented plane `n . p + d = 0` with a unit normal `n`.
+///
+/// Built only through the validating constructors, so the normal is always
+/// unit length and finite.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Plane {
+    normal: Vec3,
+    d: f32,
+}
+
+impl Plane {
+    /// The plane of triangle `p1 p2 p3` (seed 001 appendix:
+    /// `n = (P1 - P2) x (P3 - P2)`, `a x + b y + c z + d = 0`).
+    ///
+    /// Erratum (design.md): the appendix's cross product is not normalized,
+    /// but its mirror matrix needs a unit normal; here `n` is normalized and
+    /// `d = -n . centroid` (the centroid keeps `d` consistent with all three
+    /// vertices to rounding). The orientation is the appendix's:
+    /// `(P1 - P2) x (P3 - P2)` points toward the side from which `p1, p2, p3`
+    /// appear **clockwise** (opposite to the usual counter-clockwise
+    /// front-face normal); use [`Plane::flipped`] for the other orientation.
+    /// The mirror matrix is the same for both orientations.
+    ///
+    /// # Errors
+    /// * [`Error::InvalidArgument`]: a non-finite vertex.
+    /// * [`Error::DegenerateGeometry`]: a zero-area or numerically collinear
+    ///   triangle (`|e1 x e2| <= 8 eps |e1| |e2|`, i.e. the sine of the angle at
+    ///   `p2` is below ~1e-6).
+    pub fn try_from_triangle(p1: Vec3, p2: Vec3, p3: Vec3) -> Result<Self, Error> {
+        if !(p1.is_finite() && p2.is_finite() && p3.is_finite()) {
+            return Err(Error::InvalidArgument);
+        }
+        let (e1, e2) = (p1 - p2, p3 - p2);
+        let n = e1.cross(e2);
+        let len = n.length();
+        let scale = e1.length() * e2.length();
+        if !(len > 8.0 * f32::EPSILON * scale) || !len.is_finite() {
+            return Err(Error::DegenerateGeometry);
+        }
+        let normal = n / len;
+        let centroid = (p1 + p2 + p3) / 3.0;
+        Ok(Self {
+            normal,
+            d: -normal.dot(centroid),
+        })
+    }
+
+    /// The plane through `point` with normal direction `normal` (normalized
+    /// here).
+    ///
+    /// # Errors
+    /// [`Error::InvalidArgument`] for non-finite input;
+    /// [`Error::DegenerateGeometry`] for a zero normal.
+    pub fn try_from_point_normal(point: Vec3, normal: Vec3) -> Result<Self, Error> {
+        if !(point.is_finite() && normal.is_finite()) {
+            return Err(Error::InvalidArgument);
+        }
+        let normal = normal.try_normalize().ok_or(Error::DegenerateGeometry)?;
+        Ok(Self {
+            normal,
+            d: -normal.dot(point),
+        })
+    }
+
+    /// The unit normal `(a, b, c)`.
+    pub const fn normal(&self) -> Vec3 {
+        self.normal
+    }
+
+    /// The offset `d` of `a x + b y + c z + d = 0`.
+    pub const fn d(&self) -> f32 {
+        self.d
+    }
+
+    /// The same plane with the opposite orientation.
+    pub fn flipped(&self) -> Self {
+        Self {
+            normal: -self.normal,
+            d: -self.d,
+        }
+    }
+
+    /// Signed distance of `p` from the plane (positive on the normal's side).
+    #[inline]
+    pub fn signed_distance(&self, p: Vec3) -> f32 {
+        self.normal.dot(p) + self.d
+    }
+
+    /// Parameter `t` at which the ray `origin + t dir` meets the plane, or
+    /// `None` if the ray is parallel to it (or the result is not finite).
+    /// `t` may be negative.
+    #[inline]
+    pub fn intersect_ray(&self, origin: Vec3, dir: Vec3) -> Option<f32> {
+        let denom = self.normal.dot(dir);
+        let t = -self.signed_distance(origin) / denom;
+        (denom != 0.0 && t.is_finite()).then_some(t)
+    }
+
+    fn mirror_matrix_f64(&self) -> DMat4 {
+        let n = self.normal.as_dvec3();
+        let d = f64::from(self.d);
+        let (a, b, c) = (n.x, n.y, n.z);
+        // Seed 001 appendix, rows as printed, stored by columns.
+        DMat4::from_cols(
+            DVec4::new(1.0 - 2.0 * a * a, -2.0 * a * b, -2.0 * a * c, 0.0),
+            DVec4::new(-2.0 * a * b, 1.0 - 2.0 * b * b, -2.0 * b * c, 0.0),
+            DVec4::new(-2.0 * a * c, -2.0 * b * c, 1.0 - 2.0 * c * c, 0.0),
+            DVec4::new(-2.0 * a * d, -2.0 * b * d, -2.0 * c * d, 1.0),
+        )
+    }
+}
+
+/// The mirror matrix of `plane` (seed 001 appendix):
+///
+/// ```text
+/// | 1-2a^2  -2ab    -2ac    -2ad |
+/// | -2ab    1-2b^2  -2bc    -2bd |
+/// | -2ac    -2bc    1-2c^2  -2cd |
+/// | 0       0       0       1    |
+/// ```
+///
+/// with the unit normal `(a, b, c)` and offset `d` of the plane (the
+/// appendix's unnormalized normal is an erratum, see [`Plane::try_from_triangle`]).
+/// It maps a world point to its mirror image, is its own inverse and has
+/// determinant -1. Computed in f64, rounded once.
+pub fn mirror_matrix(plane: &Plane) -> Mat4 {
+    plane.mirror_matrix_f64().as_mat4()
+}
+
+/// The mirror image of `p` in `plane`: `p - 2 (n . p + d) n`.
+#[inline]
+pub fn mirror_point(plane: &Plane, p: Vec3) -> Vec3 {
+    p - 2.0 * plane.signed_distance(p) * plane.normal
+}
+
+/// The mirrored (virtual) camera of `cam` for the planar reflector `plane`:
+/// view matrix `V M` with `M` the [`mirror_matrix`], same projection and
+/// image size.
+///
+/// Contract: its primary ray through pixel `p` starts at the mirrored eye and
+/// is the mirror image of `cam`'s primary ray through `p`; beyond the plane
+/// that ray runs along the reflected ray of `cam`'s ray at the mirror. So the
+/// image rendered through it, restricted to the mirror's pixels and clipped to
+/// the plane's front side (geometry behind the mirror must be excluded, e.g.
+/// with a user clip plane or rays starting at the plane), is the exact planar
+/// reflection, pixel for pixel.
+///
+/// Handedness: `V M` contains a reflection ([`Camera::is_mirrored`] is
+/// true), so a rasterizer must flip its front-face test (or cull nothing).
+/// The pixel grid is not flipped: pixel `p` of the virtual image belongs to
+/// pixel `p` of the mirror.
+///
+/// # Errors
+/// Never for a valid camera and plane in practice; forwards
+/// [`Camera::try_new`]'s errors if the product is not finite (e.g. huge
+/// coordinates overflowing f32).
+pub fn mirrored_camera(cam: &Camera, plane: &Plane) -> Result<Camera, Error> {
+    let view = (cam.view().as_dmat4() * plane.mirror_matrix_f64()).as_mat4();
+    Camera::try_new(
+        view,
+        cam.fov_y(),
+        cam.near(),
+        cam.far(),
+        cam.width(),
+        cam.height(),
+    )
+}
