@@ -47,20 +47,28 @@ impl Plane {
     /// # Errors
     /// * [`Error::InvalidArgument`]: a non-finite vertex.
     /// * [`Error::DegenerateGeometry`]: a zero-area or numerically collinear
-    ///   triangle (`|e1 x e2| <= 8 eps |e1| |e2|`, i.e. the sine of the angle at
-    ///   `p2` is below ~1e-6).
+    ///   triangle: the sine of the angle at `p2` is at most `8 eps` (~1e-6),
+    ///   measured scale-free on unit edge vectors.
     pub fn try_from_triangle(p1: Vec3, p2: Vec3, p3: Vec3) -> Result<Self, Error> {
         if !(p1.is_finite() && p2.is_finite() && p3.is_finite()) {
             return Err(Error::InvalidArgument);
         }
-        let (e1, e2) = (p1 - p2, p3 - p2);
-        let n = e1.cross(e2);
-        let len = n.length();
-        let scale = e1.length() * e2.length();
-        if !(len > 8.0 * f32::EPSILON * scale) || !len.is_finite() {
+        // Edges rescaled to unit length before the cross product, so that
+        // neither tiny (1e-20) nor huge (1e30) triangles under- or overflow;
+        // |u1 x u2| is then the sine of the angle at p2.
+        let unit = |e: Vec3| {
+            let m = e.abs().max_element();
+            (m > 0.0 && m.is_finite()).then(|| (e / m).normalize())
+        };
+        let (Some(u1), Some(u2)) = (unit(p1 - p2), unit(p3 - p2)) else {
+            return Err(Error::DegenerateGeometry);
+        };
+        let n = u1.cross(u2);
+        let sin = n.length();
+        if !(sin > 8.0 * f32::EPSILON) {
             return Err(Error::DegenerateGeometry);
         }
-        let normal = n / len;
+        let normal = n / sin;
         let centroid = (p1 + p2 + p3) / 3.0;
         Ok(Self {
             normal,
