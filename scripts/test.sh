@@ -1,0 +1,82 @@
+#!/usr/bin/env bash
+# refl's one test command (README): installs what it needs on a fresh Debian
+# machine, then runs every check CI runs. Exits non-zero on the first failure.
+#
+#   scripts/test.sh
+#
+# Steps: set-up, fmt, clippy (-D warnings), cargo test (workspace; includes
+# the header-staleness test), no_std link check, refl-core built with each
+# feature alone, C++ tests against Embree 3 (normal and ASan+UBSan builds,
+# including the obvhs-vs-Embree cross-check) and `refl report --quick`.
+set -euo pipefail
+cd "$(dirname "$0")/.."
+root=$(pwd)
+step() { printf '\n==== %s ====\n' "$*"; }
+t0=$(date +%s)
+
+step "set-up"
+need_pkgs=()
+command -v cmake >/dev/null 2>&1 || need_pkgs+=(cmake)
+[ -e /usr/include/embree3/rtcore.h ] || need_pkgs+=(libembree-dev)
+command -v c++ >/dev/null 2>&1 || need_pkgs+=(g++)
+if [ ${#need_pkgs[@]} -gt 0 ]; then
+  if [ "$(id -u)" = 0 ] && command -v apt-get >/dev/null 2>&1; then
+    echo "installing ${need_pkgs[*]} with apt-get"
+    export DEBIAN_FRONTEND=noninteractive
+    apt-get update -qq
+    apt-get install -y -qq "${need_pkgs[@]}" >/dev/null
+  else
+    echo "missing: ${need_pkgs[*]}. Install them (Debian: sudo apt-get install -y ${need_pkgs[*]}) and re-run." >&2
+    exit 1
+  fi
+fi
+if command -v rustup >/dev/null 2>&1; then
+  rustup component add rustfmt clippy >/dev/null 2>&1 || true
+  rustup target add x86_64-unknown-none >/dev/null 2>&1 || true
+fi
+
+step "cargo fmt --check"
+cargo fmt --all -- --check
+
+step "clippy -D warnings"
+cargo clippy --workspace --all-targets --locked -- -D warnings
+
+step "cargo test"
+cargo test --workspace --locked
+
+step "no_std: refl-core links into a #![no_std] staticlib with its own panic handler"
+if rustup target list --installed 2>/dev/null | grep -qx x86_64-unknown-none; then
+  nostd_target=x86_64-unknown-none
+else
+  # Without the bare-metal target the host target proves the same: a std
+  # dependency would bring a second panic_impl and fail the link.
+  nostd_target=$(rustc -vV | sed -n 's/^host: //p')
+fi
+CARGO_TARGET_DIR="$root/target/no_std_check" cargo build --locked \
+  --manifest-path no_std_check/Cargo.toml --target "$nostd_target"
+cargo build --locked -p refl-core --no-default-features --features all --target "$nostd_target"
+
+step "refl-core with each feature alone"
+for f in "" mirror hiz cone depth-image layered cluster tcrr epipolar; do
+  echo "-- features: ${f:-<none>}"
+  cargo build --locked -q -p refl-core --no-default-features ${f:+--features "$f"}
+done
+
+step "refl report --quick"
+cargo build --locked --release -p refl
+quick_dir="$root/target/report-quick"
+rm -rf "$quick_dir"
+"$root/target/release/refl" report --quick --out "$quick_dir"
+head -n 1 "$quick_dir/summary.csv" | grep -q '^scene,method,setting,threads,time_ms,reference_ms,speedup,coverage,mean_abs_255,psnr_db,share_over_8'
+for m in reference envmap planar-mirror; do
+  grep -q ",$m," "$quick_dir/summary.csv" || { echo "summary.csv lacks method $m" >&2; exit 1; }
+done
+test -s "$quick_dir/error_vs_time.png"
+
+step "C++ tests against Embree (normal and sanitized builds)"
+xdir="$root/target/crosscheck"
+rm -rf "$xdir"
+"$root/target/release/refl" export-crosscheck "$xdir"
+bash scripts/cpp_tests.sh "$xdir"
+
+step "done in $(( $(date +%s) - t0 )) s"
