@@ -1,0 +1,401 @@
+//! Image views over caller memory and whole-image passes.
+//!
+//! An image is `width x height` texels stored row by row, `stride` texels
+//! from one row start to the next (`stride >= width`). The buffer must hold
+//! at least `(height - 1) * stride + width` texels (`refl_image_required_len`);
+//! the caller states how many it holds in `len`, so a short buffer is
+//! reported as `REFL_STATUS_INSUFFICIENT_SIZE` instead of being overrun.
+//! `data` must be aligned for its texel type.
+
+use crate::ptr::{byte_len, overlaps, read, Out};
+use crate::status::{guard, refl_status};
+use crate::types::{convention, refl_camera, refl_rgba8, refl_vec2, refl_vec3, refl_vec4};
+use refl_core::image::required_len;
+use refl_core::{Camera, Error, ImageView, ImageViewMut, RowRange};
+
+/// A read-only image of `float` texels (e.g. a depth buffer).
+#[repr(C)]
+#[derive(Clone, Copy, Debug)]
+pub struct refl_image_f32 {
+    /// Texel (0, 0); texel (x, y) is `data[y * stride + x]`.
+    pub data: *const f32,
+    /// Number of texels readable from `data` on (the buffer length).
+    pub len: usize,
+    /// Width in texels, > 0.
+    pub width: u32,
+    /// Height in texels, > 0.
+    pub height: u32,
+    /// Row stride in texels, >= `width`.
+    pub stride: u32,
+}
+
+/// A writable image of `float` texels.
+#[repr(C)]
+#[derive(Clone, Copy, Debug)]
+pub struct refl_image_f32_mut {
+    /// Texel (0, 0); texel (x, y) is `data[y * stride + x]`.
+    pub data: *mut f32,
+    /// Number of texels writable from `data` on (the buffer length).
+    pub len: usize,
+    /// Width in texels, > 0.
+    pub width: u32,
+    /// Height in texels, > 0.
+    pub height: u32,
+    /// Row stride in texels, >= `width`.
+    pub stride: u32,
+}
+
+/// A read-only image of two-float texels (e.g. motion vectors).
+#[repr(C)]
+#[derive(Clone, Copy, Debug)]
+pub struct refl_image_vec2 {
+    /// Texel (0, 0); texel (x, y) is `data[y * stride + x]`.
+    pub data: *const refl_vec2,
+    /// Number of texels readable from `data` on (the buffer length).
+    pub len: usize,
+    /// Width in texels, > 0.
+    pub width: u32,
+    /// Height in texels, > 0.
+    pub height: u32,
+    /// Row stride in texels, >= `width`.
+    pub stride: u32,
+}
+
+/// A writable image of two-float texels.
+#[repr(C)]
+#[derive(Clone, Copy, Debug)]
+pub struct refl_image_vec2_mut {
+    /// Texel (0, 0); texel (x, y) is `data[y * stride + x]`.
+    pub data: *mut refl_vec2,
+    /// Number of texels writable from `data` on (the buffer length).
+    pub len: usize,
+    /// Width in texels, > 0.
+    pub width: u32,
+    /// Height in texels, > 0.
+    pub height: u32,
+    /// Row stride in texels, >= `width`.
+    pub stride: u32,
+}
+
+/// A read-only image of three-float texels (e.g. positions or normals).
+#[repr(C)]
+#[derive(Clone, Copy, Debug)]
+pub struct refl_image_vec3 {
+    /// Texel (0, 0); texel (x, y) is `data[y * stride + x]`.
+    pub data: *const refl_vec3,
+    /// Number of texels readable from `data` on (the buffer length).
+    pub len: usize,
+    /// Width in texels, > 0.
+    pub width: u32,
+    /// Height in texels, > 0.
+    pub height: u32,
+    /// Row stride in texels, >= `width`.
+    pub stride: u32,
+}
+
+/// A writable image of three-float texels.
+#[repr(C)]
+#[derive(Clone, Copy, Debug)]
+pub struct refl_image_vec3_mut {
+    /// Texel (0, 0); texel (x, y) is `data[y * stride + x]`.
+    pub data: *mut refl_vec3,
+    /// Number of texels writable from `data` on (the buffer length).
+    pub len: usize,
+    /// Width in texels, > 0.
+    pub width: u32,
+    /// Height in texels, > 0.
+    pub height: u32,
+    /// Row stride in texels, >= `width`.
+    pub stride: u32,
+}
+
+/// A read-only image of four-float texels (e.g. HDR color).
+#[repr(C)]
+#[derive(Clone, Copy, Debug)]
+pub struct refl_image_vec4 {
+    /// Texel (0, 0); texel (x, y) is `data[y * stride + x]`.
+    pub data: *const refl_vec4,
+    /// Number of texels readable from `data` on (the buffer length).
+    pub len: usize,
+    /// Width in texels, > 0.
+    pub width: u32,
+    /// Height in texels, > 0.
+    pub height: u32,
+    /// Row stride in texels, >= `width`.
+    pub stride: u32,
+}
+
+/// A writable image of four-float texels.
+#[repr(C)]
+#[derive(Clone, Copy, Debug)]
+pub struct refl_image_vec4_mut {
+    /// Texel (0, 0); texel (x, y) is `data[y * stride + x]`.
+    pub data: *mut refl_vec4,
+    /// Number of texels writable from `data` on (the buffer length).
+    pub len: usize,
+    /// Width in texels, > 0.
+    pub width: u32,
+    /// Height in texels, > 0.
+    pub height: u32,
+    /// Row stride in texels, >= `width`.
+    pub stride: u32,
+}
+
+/// A read-only image of 8-bit RGBA texels.
+#[repr(C)]
+#[derive(Clone, Copy, Debug)]
+pub struct refl_image_rgba8 {
+    /// Texel (0, 0); texel (x, y) is `data[y * stride + x]`.
+    pub data: *const refl_rgba8,
+    /// Number of texels readable from `data` on (the buffer length).
+    pub len: usize,
+    /// Width in texels, > 0.
+    pub width: u32,
+    /// Height in texels, > 0.
+    pub height: u32,
+    /// Row stride in texels, >= `width`.
+    pub stride: u32,
+}
+
+/// A writable image of 8-bit RGBA texels.
+#[repr(C)]
+#[derive(Clone, Copy, Debug)]
+pub struct refl_image_rgba8_mut {
+    /// Texel (0, 0); texel (x, y) is `data[y * stride + x]`.
+    pub data: *mut refl_rgba8,
+    /// Number of texels writable from `data` on (the buffer length).
+    pub len: usize,
+    /// Width in texels, > 0.
+    pub width: u32,
+    /// Height in texels, > 0.
+    pub height: u32,
+    /// Row stride in texels, >= `width`.
+    pub stride: u32,
+}
+
+/// A read-only image of `uint32_t` texels (e.g. ids, masks, counts).
+#[repr(C)]
+#[derive(Clone, Copy, Debug)]
+pub struct refl_image_u32 {
+    /// Texel (0, 0); texel (x, y) is `data[y * stride + x]`.
+    pub data: *const u32,
+    /// Number of texels readable from `data` on (the buffer length).
+    pub len: usize,
+    /// Width in texels, > 0.
+    pub width: u32,
+    /// Height in texels, > 0.
+    pub height: u32,
+    /// Row stride in texels, >= `width`.
+    pub stride: u32,
+}
+
+/// A writable image of `uint32_t` texels.
+#[repr(C)]
+#[derive(Clone, Copy, Debug)]
+pub struct refl_image_u32_mut {
+    /// Texel (0, 0); texel (x, y) is `data[y * stride + x]`.
+    pub data: *mut u32,
+    /// Number of texels writable from `data` on (the buffer length).
+    pub len: usize,
+    /// Width in texels, > 0.
+    pub width: u32,
+    /// Height in texels, > 0.
+    pub height: u32,
+    /// Row stride in texels, >= `width`.
+    pub stride: u32,
+}
+
+/// Validates an image descriptor and returns the number of texels the view
+/// covers (`required_len`), which is also its slice length.
+///
+/// Order: `NullPointer`, then `InvalidArgument` (misaligned pointer, zero
+/// size, `stride < width`, overflow), then `InsufficientSize`.
+fn checked_len<T>(data: *const T, len: usize, w: u32, h: u32, stride: u32) -> Result<usize, Error> {
+    if data.is_null() {
+        return Err(Error::NullPointer);
+    }
+    if !data.is_aligned() {
+        return Err(Error::InvalidArgument);
+    }
+    let need = required_len(w, h, stride)?;
+    if len < need {
+        return Err(Error::InsufficientSize);
+    }
+    byte_len::<T>(data as usize, need)?;
+    Ok(need)
+}
+
+/// The byte range `(start, length)` an image view covers.
+fn byte_range<T>(data: *const T, need: usize) -> (usize, usize) {
+    (data as usize, need * core::mem::size_of::<T>())
+}
+
+macro_rules! image_views {
+    ($(($c:ident, $m:ident, $texel:ty)),* $(,)?) => {$(
+        impl $c {
+            /// A refl-core view of this image (validated as in the module
+            /// docs).
+            ///
+            /// # Safety
+            /// `data` must be valid for reads of `len` texels (the view reads
+            /// at most `refl_image_required_len` of them) for `'a`, and not be
+            /// written through another pointer meanwhile.
+            pub unsafe fn view<'a>(&self) -> Result<ImageView<'a, $texel>, Error> {
+                let need = checked_len(self.data, self.len, self.width, self.height, self.stride)?;
+                // SAFETY: non-null, aligned, `need <= len` texels readable by
+                // the caller's contract, size fits isize (checked_len). The
+                // texel types are layout-identical (types.rs asserts).
+                let s = unsafe { core::slice::from_raw_parts(self.data.cast::<$texel>(), need) };
+                ImageView::try_new(s, self.width, self.height, self.stride)
+            }
+        }
+
+        impl $m {
+            /// A refl-core mutable view of this image.
+            ///
+            /// # Safety
+            /// `data` must be valid for reads and writes of `len` texels for
+            /// `'a` and not be accessed through another pointer meanwhile.
+            pub unsafe fn view_mut<'a>(&self) -> Result<ImageViewMut<'a, $texel>, Error> {
+                let need = checked_len(self.data.cast_const(), self.len, self.width, self.height, self.stride)?;
+                // SAFETY: as in `view`, plus exclusivity by contract.
+                let s = unsafe { core::slice::from_raw_parts_mut(self.data.cast::<$texel>(), need) };
+                ImageViewMut::try_new(s, self.width, self.height, self.stride)
+            }
+
+            /// The read-only descriptor of the same memory.
+            pub fn as_const(&self) -> $c {
+                $c {
+                    data: self.data.cast_const(),
+                    len: self.len,
+                    width: self.width,
+                    height: self.height,
+                    stride: self.stride,
+                }
+            }
+        }
+    )*};
+}
+
+image_views!(
+    (refl_image_f32, refl_image_f32_mut, f32),
+    (refl_image_vec2, refl_image_vec2_mut, [f32; 2]),
+    (refl_image_vec3, refl_image_vec3_mut, [f32; 3]),
+    (refl_image_vec4, refl_image_vec4_mut, [f32; 4]),
+    (refl_image_rgba8, refl_image_rgba8_mut, [u8; 4]),
+    (refl_image_u32, refl_image_u32_mut, u32),
+);
+
+/// Writes to `*out_len` the number of texels an image of `width x height`
+/// texels with row stride `stride` needs: `(height - 1) * stride + width`
+/// (the last row needs no padding). Multiply by the texel size for bytes.
+///
+/// Returns `REFL_STATUS_NULL_POINTER` if `out_len` is NULL,
+/// `REFL_STATUS_INVALID_ARGUMENT` if `width` or `height` is zero, if
+/// `stride < width`, or if the count does not fit in `size_t`.
+///
+/// # Safety
+/// `out_len` must be NULL or point to a writable `size_t`.
+#[no_mangle]
+pub unsafe extern "C" fn refl_image_required_len(
+    out_len: *mut usize,
+    width: u32,
+    height: u32,
+    stride: u32,
+) -> refl_status {
+    guard(|| {
+        let out = Out::new(out_len)?;
+        let len = required_len(width, height, stride)?;
+        // SAFETY: checked by Out::new; writability is the caller's contract.
+        unsafe { out.write(len) };
+        Ok(())
+    })
+}
+
+/// Converts rows `[row_begin, row_end)` of the depth image `src`, stored in
+/// convention `from`, to convention `to`, writing them to the same rows of
+/// `dst`: `dst = encode_to(decode_from(src))` texel by texel, with the near
+/// and far planes of `camera` (its view and image size are not used; the
+/// camera is still validated). Texels outside the row range and the padding
+/// between rows are not touched. A NaN texel converts to NaN.
+///
+/// `from` and `to` are `refl_depth_convention` values. `dst` and `src` must
+/// have the same width and height (strides may differ). They may be the
+/// same image (same `data` and `stride`: in-place conversion) but must not
+/// otherwise overlap. Hosts can split an image into row bands and convert
+/// them on their own threads.
+///
+/// Returns `REFL_STATUS_NULL_POINTER` if `dst.data`, `src.data` or `camera`
+/// is NULL; `REFL_STATUS_INVALID_ARGUMENT` for an unknown convention, a
+/// zero or overflowing image size, `stride < width`, a misaligned `data`,
+/// different image sizes, a row range that is empty, reversed or beyond
+/// the height, or partially overlapping images;
+/// `REFL_STATUS_INSUFFICIENT_SIZE` if `dst.len` or `src.len` is below
+/// `refl_image_required_len`; the camera's status if it is invalid. On any
+/// of these `dst` is untouched. After `REFL_STATUS_PANIC` (a bug) the rows
+/// of `dst` in the range may be partially written.
+///
+/// # Safety
+/// `camera` must be NULL or point to a readable `refl_camera`; `src.data`
+/// must be readable for `src.len` floats and `dst.data` writable for
+/// `dst.len` floats, for the duration of the call, and no other thread
+/// may write them meanwhile.
+#[no_mangle]
+pub unsafe extern "C" fn refl_convert_depth(
+    dst: refl_image_f32_mut,
+    src: refl_image_f32,
+    camera: *const refl_camera,
+    from: u32,
+    to: u32,
+    row_begin: u32,
+    row_end: u32,
+) -> refl_status {
+    guard(|| {
+        if dst.data.is_null() || src.data.is_null() {
+            return Err(Error::NullPointer);
+        }
+        // SAFETY: caller contract.
+        let cam_c = unsafe { read(camera) }?;
+        let (from, to) = (convention(from)?, convention(to)?);
+        let cam = Camera::try_from(&cam_c)?;
+        let dst_need = checked_len(
+            dst.data.cast_const(),
+            dst.len,
+            dst.width,
+            dst.height,
+            dst.stride,
+        )?;
+        let src_need = checked_len(src.data, src.len, src.width, src.height, src.stride)?;
+        if dst.width != src.width || dst.height != src.height {
+            return Err(Error::InvalidArgument);
+        }
+        let rows = RowRange::try_new(row_begin, row_end, dst.height)?;
+        let (d0, dl) = byte_range(dst.data.cast_const(), dst_need);
+        let (s0, sl) = byte_range(src.data, src_need);
+        let convert = |v: f32| cam.encode_depth(cam.decode_depth(v, from), to);
+        if overlaps(d0, dl, s0, sl) {
+            if d0 != s0 || dst.stride != src.stride {
+                return Err(Error::InvalidArgument);
+            }
+            // In place: one mutable view, no aliasing read view.
+            // SAFETY: caller contract; validated by checked_len.
+            let mut img = unsafe { dst.view_mut() }?;
+            for y in rows.rows() {
+                if let Some(row) = img.row_mut(y) {
+                    row.iter_mut().for_each(|v| *v = convert(*v));
+                }
+            }
+        } else {
+            // SAFETY: caller contract; the two byte ranges are disjoint.
+            let mut out = unsafe { dst.view_mut() }?;
+            // SAFETY: caller contract.
+            let inp = unsafe { src.view() }?;
+            for y in rows.rows() {
+                if let (Some(o), Some(i)) = (out.row_mut(y), inp.row(y)) {
+                    o.iter_mut().zip(i).for_each(|(o, i)| *o = convert(*i));
+                }
+            }
+        }
+        Ok(())
+    })
+}

@@ -1,0 +1,43 @@
+//! # refl-ffi
+//!
+//! The C ABI of refl-core, built as `librefl` (static and shared). The C
+//! header `include/refl.h` is generated from this crate by cbindgen (see
+//! `build.rs`, `cbindgen.toml`) and checked in; `tests/header.rs` fails if
+//! it is stale (`REFL_BLESS_HEADER=1 cargo test -p refl-ffi --test header`
+//! rewrites it).
+//!
+//! Conventions of every export (meshoptimizer / rustls-ffi style):
+//!
+//! * Outputs first, then inputs. Small values (vectors, rays, image
+//!   descriptors) are passed by value; cameras, planes and matrices by
+//!   pointer.
+//! * Every function returns a [`refl_status`]; `REFL_STATUS_OK` is 0. Null
+//!   pointers are reported before anything else, then invalid arguments.
+//! * Outputs are written only on success: results are computed into locals
+//!   and stored last, so a failed call leaves every output byte untouched,
+//!   and an output may alias an input.
+//! * Enums cross the boundary as `uint32_t` and are validated: an unknown
+//!   value is `REFL_STATUS_INVALID_ARGUMENT`, never undefined behavior.
+//! * No panic crosses the boundary: each call runs inside `catch_unwind`
+//!   and a caught panic is `REFL_STATUS_PANIC`.
+//! * Cameras are validated on every call (`refl_camera_validate`).
+//!
+//! The Rust types here double as a Rust view of the ABI (the crate is also
+//! an `rlib`), which the crate's tests use.
+#![allow(non_camel_case_types)]
+#![deny(missing_docs)]
+#![deny(unsafe_op_in_unsafe_fn)]
+#![warn(clippy::undocumented_unsafe_blocks)]
+
+mod camera;
+mod image;
+mod mirror;
+mod ptr;
+mod status;
+mod types;
+
+pub use camera::*;
+pub use image::*;
+pub use mirror::*;
+pub use status::*;
+pub use types::*;

@@ -1,0 +1,259 @@
+//! Planar reflection exports: reflection vector, planes, mirror matrix,
+//! mirrored camera (seed 001 appendix, seed 004 Sec. 4.4.3).
+
+use crate::camera::finite3;
+use crate::ptr::{read, Out};
+use crate::status::{guard, refl_status};
+use crate::types::{refl_camera, refl_mat4, refl_plane, refl_ray, refl_vec3};
+use refl_core::glam::Vec3;
+use refl_core::{Camera, Error, Plane};
+
+/// Reads and validates a plane pointer.
+///
+/// # Safety
+/// `p` must be NULL or point to a readable `refl_plane`.
+unsafe fn plane(p: *const refl_plane) -> Result<Plane, Error> {
+    // SAFETY: forwarded contract.
+    let p = unsafe { read(p) }?;
+    Plane::try_from(&p)
+}
+
+/// A finite result, or `InvalidArgument` (finite inputs overflowed f32).
+fn finite_out(v: Vec3) -> Result<refl_vec3, Error> {
+    v.is_finite()
+        .then(|| v.into())
+        .ok_or(Error::InvalidArgument)
+}
+
+/// Writes to `*out` the reflection of `v` about the normal `n`:
+/// `2 dot(v, n) n - v` (seed 004 Sec. 4.4.3). `v` points from the surface
+/// toward the viewer; the result points away from the surface on the same
+/// side. For an incident direction d (pointing at the surface) pass `-d`.
+/// Unit `v` and `n` give a unit result; nothing is normalized here.
+///
+/// Returns `REFL_STATUS_NULL_POINTER` if `out` is NULL;
+/// `REFL_STATUS_INVALID_ARGUMENT` if an input or the result is not finite.
+///
+/// # Safety
+/// `out` must be NULL or point to a writable `refl_vec3`.
+#[no_mangle]
+pub unsafe extern "C" fn refl_reflect(
+    out: *mut refl_vec3,
+    v: refl_vec3,
+    n: refl_vec3,
+) -> refl_status {
+    guard(|| {
+        let out = Out::new(out)?;
+        let r = finite_out(refl_core::reflect(finite3(v)?, finite3(n)?))?;
+        // SAFETY: caller contract.
+        unsafe { out.write(r) };
+        Ok(())
+    })
+}
+
+/// Writes to `*out` the plane of triangle `p1 p2 p3` (seed 001 appendix),
+/// with unit normal `normalize((p1 - p2) x (p3 - p2))` and
+/// `d = -dot(normal, centroid)`. The normal points toward the side from
+/// which p1, p2, p3 appear clockwise (the appendix's orientation, opposite
+/// to the usual counter-clockwise front face); the mirror matrix does not
+/// depend on the orientation.
+///
+/// Returns `REFL_STATUS_NULL_POINTER` if `out` is NULL;
+/// `REFL_STATUS_INVALID_ARGUMENT` for a non-finite vertex;
+/// `REFL_STATUS_DEGENERATE_GEOMETRY` for a zero-area or numerically
+/// collinear triangle (sine of the angle at p2 below about 1e-6).
+///
+/// # Safety
+/// `out` must be NULL or point to a writable `refl_plane`.
+#[no_mangle]
+pub unsafe extern "C" fn refl_plane_from_triangle(
+    out: *mut refl_plane,
+    p1: refl_vec3,
+    p2: refl_vec3,
+    p3: refl_vec3,
+) -> refl_status {
+    guard(|| {
+        let out = Out::new(out)?;
+        let p = Plane::try_from_triangle(p1.into(), p2.into(), p3.into())?;
+        // SAFETY: caller contract.
+        unsafe { out.write((&p).into()) };
+        Ok(())
+    })
+}
+
+/// Writes to `*out` the plane through `point` with normal direction
+/// `normal` (normalized here).
+///
+/// Returns `REFL_STATUS_NULL_POINTER` if `out` is NULL;
+/// `REFL_STATUS_INVALID_ARGUMENT` for non-finite input;
+/// `REFL_STATUS_DEGENERATE_GEOMETRY` for a zero normal.
+///
+/// # Safety
+/// `out` must be NULL or point to a writable `refl_plane`.
+#[no_mangle]
+pub unsafe extern "C" fn refl_plane_from_point_normal(
+    out: *mut refl_plane,
+    point: refl_vec3,
+    normal: refl_vec3,
+) -> refl_status {
+    guard(|| {
+        let out = Out::new(out)?;
+        let p = Plane::try_from_point_normal(point.into(), normal.into())?;
+        // SAFETY: caller contract.
+        unsafe { out.write((&p).into()) };
+        Ok(())
+    })
+}
+
+/// Writes to `*out` the signed distance of `point` from `plane` (positive
+/// on the normal's side).
+///
+/// Returns `REFL_STATUS_NULL_POINTER` if `out` or `plane` is NULL;
+/// `REFL_STATUS_INVALID_ARGUMENT` for a non-finite point, plane or result;
+/// `REFL_STATUS_DEGENERATE_GEOMETRY` for a zero plane normal.
+///
+/// # Safety
+/// `out` must be NULL or writable; `plane` NULL or readable.
+#[no_mangle]
+pub unsafe extern "C" fn refl_plane_signed_distance(
+    out: *mut f32,
+    plane: *const refl_plane,
+    point: refl_vec3,
+) -> refl_status {
+    guard(|| {
+        let out = Out::new(out)?;
+        // SAFETY: caller contract.
+        let plane = unsafe { self::plane(plane) }?;
+        let s = plane.signed_distance(finite3(point)?);
+        if !s.is_finite() {
+            return Err(Error::InvalidArgument);
+        }
+        // SAFETY: caller contract.
+        unsafe { out.write(s) };
+        Ok(())
+    })
+}
+
+/// Writes to `*out_t` the parameter t at which the ray `ray.origin + t
+/// ray.dir` meets `plane` (t may be negative: the plane is behind the
+/// origin). With a unit `ray.dir`, t is a distance.
+///
+/// Returns `REFL_STATUS_NULL_POINTER` if `out_t` or `plane` is NULL;
+/// `REFL_STATUS_INVALID_ARGUMENT` for a non-finite ray or plane;
+/// `REFL_STATUS_DEGENERATE_GEOMETRY` for a zero plane normal, a ray
+/// parallel to the plane or a non-finite t.
+///
+/// # Safety
+/// `out_t` must be NULL or writable; `plane` NULL or readable.
+#[no_mangle]
+pub unsafe extern "C" fn refl_plane_intersect_ray(
+    out_t: *mut f32,
+    plane: *const refl_plane,
+    ray: refl_ray,
+) -> refl_status {
+    guard(|| {
+        let out = Out::new(out_t)?;
+        // SAFETY: caller contract.
+        let plane = unsafe { self::plane(plane) }?;
+        let (o, d) = (finite3(ray.origin)?, finite3(ray.dir)?);
+        let t = plane.intersect_ray(o, d).ok_or(Error::DegenerateGeometry)?;
+        // SAFETY: caller contract.
+        unsafe { out.write(t) };
+        Ok(())
+    })
+}
+
+/// Writes to `*out` the mirror matrix of `plane` (seed 001 appendix, with
+/// the normal normalized): it maps a world point to its mirror image, is its
+/// own inverse and has determinant -1. Computed in double precision,
+/// rounded once.
+///
+/// Returns `REFL_STATUS_NULL_POINTER` if `out` or `plane` is NULL;
+/// `REFL_STATUS_INVALID_ARGUMENT` for a non-finite plane or result;
+/// `REFL_STATUS_DEGENERATE_GEOMETRY` for a zero normal.
+///
+/// # Safety
+/// `out` must be NULL or writable; `plane` NULL or readable.
+#[no_mangle]
+pub unsafe extern "C" fn refl_mirror_matrix(
+    out: *mut refl_mat4,
+    plane: *const refl_plane,
+) -> refl_status {
+    guard(|| {
+        let out = Out::new(out)?;
+        // SAFETY: caller contract.
+        let plane = unsafe { self::plane(plane) }?;
+        let m = refl_core::mirror_matrix(&plane);
+        if !m.is_finite() {
+            return Err(Error::InvalidArgument);
+        }
+        // SAFETY: caller contract.
+        unsafe { out.write(refl_mat4::from(m)) };
+        Ok(())
+    })
+}
+
+/// Writes to `*out` the mirror image of `point` in `plane`:
+/// `point - 2 (dot(n, point) + d) n`.
+///
+/// Returns `REFL_STATUS_NULL_POINTER` if `out` or `plane` is NULL;
+/// `REFL_STATUS_INVALID_ARGUMENT` for a non-finite point, plane or result;
+/// `REFL_STATUS_DEGENERATE_GEOMETRY` for a zero plane normal.
+///
+/// # Safety
+/// `out` must be NULL or writable; `plane` NULL or readable.
+#[no_mangle]
+pub unsafe extern "C" fn refl_mirror_point(
+    out: *mut refl_vec3,
+    plane: *const refl_plane,
+    point: refl_vec3,
+) -> refl_status {
+    guard(|| {
+        let out = Out::new(out)?;
+        // SAFETY: caller contract.
+        let plane = unsafe { self::plane(plane) }?;
+        let r = finite_out(refl_core::mirror_point(&plane, finite3(point)?))?;
+        // SAFETY: caller contract.
+        unsafe { out.write(r) };
+        Ok(())
+    })
+}
+
+/// Writes to `*out` the mirrored (virtual) camera of `camera` for the
+/// planar reflector `plane`: view matrix `V M` with M the mirror matrix,
+/// same projection and image size. Its primary ray through pixel p starts
+/// at the mirrored eye and, beyond the plane, runs along the reflection of
+/// `camera`'s primary ray through p; so rendering through it (restricted to
+/// the mirror's pixels, geometry behind the mirror excluded, e.g. rays
+/// starting at the plane) gives the exact planar reflection, pixel for
+/// pixel. Its view contains a reflection (`refl_camera_is_mirrored`): a
+/// rasterizer must flip its front-face test. `out` may equal `camera`.
+///
+/// Returns `REFL_STATUS_NULL_POINTER` if `out`, `camera` or `plane` is
+/// NULL; the camera's or plane's status if one is invalid; the camera
+/// status of the product if it is not a valid camera (e.g. huge
+/// coordinates overflowing float).
+///
+/// # Safety
+/// `out` must be NULL or writable; `camera` and `plane` NULL or readable.
+#[no_mangle]
+pub unsafe extern "C" fn refl_mirrored_camera(
+    out: *mut refl_camera,
+    camera: *const refl_camera,
+    plane: *const refl_plane,
+) -> refl_status {
+    guard(|| {
+        let out = Out::new(out)?;
+        if camera.is_null() || plane.is_null() {
+            return Err(Error::NullPointer);
+        }
+        // SAFETY: caller contract.
+        let cam = Camera::try_from(&unsafe { read(camera) }?)?;
+        // SAFETY: caller contract.
+        let plane = unsafe { self::plane(plane) }?;
+        let m = refl_core::mirrored_camera(&cam, &plane)?;
+        // SAFETY: caller contract.
+        unsafe { out.write(refl_camera::from(&m)) };
+        Ok(())
+    })
+}

@@ -1,0 +1,306 @@
+//! Flat `#[repr(C)]` value types of the C ABI and their conversions to and
+//! from refl-core's types. No glam type crosses the boundary.
+
+use refl_core::glam::{Mat4, Vec2, Vec3};
+use refl_core::{Camera, DepthConvention, Error, Ray};
+
+/// A 2-component float vector (a pixel position, or a two-channel texel).
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct refl_vec2 {
+    /// First component (pixel x: right).
+    pub x: f32,
+    /// Second component (pixel y: down).
+    pub y: f32,
+}
+
+/// A 3-component float vector (a point or direction in world space, or a
+/// three-channel texel).
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct refl_vec3 {
+    /// X component.
+    pub x: f32,
+    /// Y component.
+    pub y: f32,
+    /// Z component.
+    pub z: f32,
+}
+
+/// A 4-component float vector (a four-channel texel).
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct refl_vec4 {
+    /// X (red) component.
+    pub x: f32,
+    /// Y (green) component.
+    pub y: f32,
+    /// Z (blue) component.
+    pub z: f32,
+    /// W (alpha) component.
+    pub w: f32,
+}
+
+/// An 8-bit RGBA texel.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct refl_rgba8 {
+    /// Red.
+    pub r: u8,
+    /// Green.
+    pub g: u8,
+    /// Blue.
+    pub b: u8,
+    /// Alpha.
+    pub a: u8,
+}
+
+/// A 4x4 float matrix, column-major: element (row r, column c) is
+/// `m[4 * c + r]`, the layout of OpenGL and glam. Points are column vectors
+/// multiplied on the right (`p' = M p`).
+#[repr(C)]
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct refl_mat4 {
+    /// The 16 elements, column by column.
+    pub m: [f32; 16],
+}
+
+/// A ray `origin + t * dir`.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct refl_ray {
+    /// Start point, world space.
+    pub origin: refl_vec3,
+    /// Direction, world space; unit length when produced by refl.
+    pub dir: refl_vec3,
+}
+
+/// A pinhole camera: world-to-view transform, symmetric perspective
+/// projection and image size. A plain value: fill it yourself or get one
+/// from `refl_camera_look_at` / `refl_mirrored_camera`. Every function that
+/// takes a camera validates it (`refl_camera_validate` states the rules).
+///
+/// Conventions: right-handed world, view space looks down -Z; pixel (x, y)
+/// has its center at (x + 0.5, y + 0.5), origin top-left, y down.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct refl_camera {
+    /// World-to-view matrix. Its 3x3 part must be orthonormal within 1e-4
+    /// (a rotation, or a rotation times a reflection for a mirrored camera)
+    /// and its last row must be exactly (0, 0, 0, 1).
+    pub view: refl_mat4,
+    /// Vertical field of view in radians, in (0, pi).
+    pub fov_y: f32,
+    /// Near plane distance, finite and > 0. (Named `z_near`, not `near`:
+    /// `near` and `far` are macros in <windows.h>.)
+    pub z_near: f32,
+    /// Far plane distance, > `z_near`; may be +infinity.
+    pub z_far: f32,
+    /// Image width in pixels, > 0. The aspect ratio is width / height.
+    pub width: u32,
+    /// Image height in pixels, > 0.
+    pub height: u32,
+}
+
+/// An oriented plane `dot(normal, p) + d = 0`.
+///
+/// Planes produced by refl have a unit normal. A plane you fill yourself
+/// may have any finite non-zero normal; refl then uses the equivalent
+/// `(normal / |normal|, d / |normal|)`.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct refl_plane {
+    /// Normal (a, b, c); points to the plane's front side.
+    pub normal: refl_vec3,
+    /// Offset d of `a x + b y + c z + d = 0`.
+    pub d: f32,
+}
+
+/// A projected or reprojected point: its pixel position and depth, or a
+/// flag saying it has none.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct refl_projection {
+    /// Pixel x (0 when `valid` is false).
+    pub x: f32,
+    /// Pixel y (0 when `valid` is false).
+    pub y: f32,
+    /// Linear depth (`refl_camera_project`, `refl_reproject`) or stored
+    /// depth in the matrix's convention (`refl_apply_reprojection`); 0 when
+    /// `valid` is false.
+    pub depth: f32,
+    /// True if the point lies in front of the eye plane and the result is
+    /// finite; false for points at or behind the eye, which have no image
+    /// position.
+    pub valid: bool,
+}
+
+/// How a depth buffer encodes distance. Functions take the value as a
+/// `uint32_t` and return `REFL_STATUS_INVALID_ARGUMENT` for anything else.
+#[repr(u32)]
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub enum refl_depth_convention {
+    /// Linear view depth: the positive distance along the view's -Z axis.
+    Linear = 0,
+    /// Post-projection depth in [0, 1], near = 0, far = 1 (D3D, Vulkan,
+    /// glClipControl(.., GL_ZERO_TO_ONE)).
+    ZeroToOne = 1,
+    /// Reversed-Z post-projection depth, near = 1, far = 0; with an
+    /// infinite far plane d = near / z.
+    ReversedZ = 2,
+}
+
+/// Decodes a `refl_depth_convention` passed as `uint32_t`.
+pub(crate) fn convention(v: u32) -> Result<DepthConvention, Error> {
+    match v {
+        0 => Ok(DepthConvention::Linear),
+        1 => Ok(DepthConvention::ZeroToOne),
+        2 => Ok(DepthConvention::ReversedZ),
+        _ => Err(Error::InvalidArgument),
+    }
+}
+
+impl From<refl_depth_convention> for DepthConvention {
+    fn from(c: refl_depth_convention) -> Self {
+        match c {
+            refl_depth_convention::Linear => Self::Linear,
+            refl_depth_convention::ZeroToOne => Self::ZeroToOne,
+            refl_depth_convention::ReversedZ => Self::ReversedZ,
+        }
+    }
+}
+
+impl From<Vec2> for refl_vec2 {
+    fn from(v: Vec2) -> Self {
+        Self { x: v.x, y: v.y }
+    }
+}
+impl From<refl_vec2> for Vec2 {
+    fn from(v: refl_vec2) -> Self {
+        Vec2::new(v.x, v.y)
+    }
+}
+impl From<Vec3> for refl_vec3 {
+    fn from(v: Vec3) -> Self {
+        Self {
+            x: v.x,
+            y: v.y,
+            z: v.z,
+        }
+    }
+}
+impl From<refl_vec3> for Vec3 {
+    fn from(v: refl_vec3) -> Self {
+        Vec3::new(v.x, v.y, v.z)
+    }
+}
+impl From<Mat4> for refl_mat4 {
+    fn from(m: Mat4) -> Self {
+        Self {
+            m: m.to_cols_array(),
+        }
+    }
+}
+impl From<refl_mat4> for Mat4 {
+    fn from(m: refl_mat4) -> Self {
+        Mat4::from_cols_array(&m.m)
+    }
+}
+impl From<Ray> for refl_ray {
+    fn from(r: Ray) -> Self {
+        Self {
+            origin: r.origin.into(),
+            dir: r.dir.into(),
+        }
+    }
+}
+
+impl From<&Camera> for refl_camera {
+    fn from(c: &Camera) -> Self {
+        Self {
+            view: c.view().into(),
+            fov_y: c.fov_y(),
+            z_near: c.near(),
+            z_far: c.far(),
+            width: c.width(),
+            height: c.height(),
+        }
+    }
+}
+
+impl TryFrom<&refl_camera> for Camera {
+    type Error = Error;
+    /// Validates through `Camera::try_new`.
+    fn try_from(c: &refl_camera) -> Result<Self, Error> {
+        Camera::try_new(c.view.into(), c.fov_y, c.z_near, c.z_far, c.width, c.height)
+    }
+}
+
+impl From<&refl_core::Plane> for refl_plane {
+    fn from(p: &refl_core::Plane) -> Self {
+        Self {
+            normal: p.normal().into(),
+            d: p.d(),
+        }
+    }
+}
+
+impl TryFrom<&refl_plane> for refl_core::Plane {
+    type Error = Error;
+    /// Rebuilds a core plane. refl-core has no `(normal, d)` constructor,
+    /// so the plane goes through `Plane::try_from_point_normal` with the
+    /// point `-d n` (computed in f64 from the normalized equation): `d`
+    /// comes back to within a few ulp of `|d|`, the normal to within an
+    /// ulp.
+    ///
+    /// Errors: `InvalidArgument` for a non-finite normal or `d`,
+    /// `DegenerateGeometry` for a zero normal.
+    fn try_from(p: &refl_plane) -> Result<Self, Error> {
+        let n = Vec3::from(p.normal);
+        if !(n.is_finite() && p.d.is_finite()) {
+            return Err(Error::InvalidArgument);
+        }
+        let nd = n.as_dvec3();
+        let len = nd.length();
+        if len == 0.0 {
+            return Err(Error::DegenerateGeometry);
+        }
+        let unit = nd / len;
+        let d = f64::from(p.d) / len;
+        let point = (-d * unit).as_vec3();
+        refl_core::Plane::try_from_point_normal(point, unit.as_vec3())
+    }
+}
+
+impl refl_projection {
+    /// A valid projection from core's `(x, y, depth)` or an invalid one.
+    pub(crate) fn from_option(p: Option<Vec3>) -> Self {
+        match p {
+            Some(v) => Self {
+                x: v.x,
+                y: v.y,
+                depth: v.z,
+                valid: true,
+            },
+            None => Self::default(),
+        }
+    }
+}
+
+// Texel layouts the image views reinterpret: refl's vector structs must be
+// the core's array texels, bit for bit.
+const _: () = {
+    use core::mem::{align_of, size_of};
+    assert!(size_of::<refl_vec2>() == size_of::<[f32; 2]>());
+    assert!(align_of::<refl_vec2>() == align_of::<[f32; 2]>());
+    assert!(size_of::<refl_vec3>() == size_of::<[f32; 3]>());
+    assert!(align_of::<refl_vec3>() == align_of::<[f32; 3]>());
+    assert!(size_of::<refl_vec4>() == size_of::<[f32; 4]>());
+    assert!(align_of::<refl_vec4>() == align_of::<[f32; 4]>());
+    assert!(size_of::<refl_rgba8>() == size_of::<[u8; 4]>());
+    assert!(align_of::<refl_rgba8>() == align_of::<[u8; 4]>());
+    assert!(size_of::<refl_mat4>() == 64);
+    assert!(size_of::<refl_camera>() == 84);
+    // refl_status is a uint32_t on the wire.
+    assert!(size_of::<crate::refl_status>() == 4);
+};
