@@ -1,0 +1,198 @@
+//! The reference ray tracer: closest-hit and occlusion queries over a
+//! [`Scene`] with an obvhs compressed wide BVH (CWBVH, 8-wide, SIMD node
+//! tests), the fastest CPU traversal obvhs offers.
+//!
+//! The BVH is built with obvhs' "medium" preset (PLOC with medium search
+//! distance, 5% reinsertion, up to 3 primitives per CWBVH leaf, no spatial
+//! splits), the same steps as `obvhs::cwbvh::builder::build_cwbvh_from_tris`
+//! minus its debug-build validation. Triangles are stored in BVH leaf order,
+//! so traversal needs no index indirection.
+//!
+//! Triangle tests are Möller–Trumbore in f32 (what a GPU would run); a ray
+//! exactly through a shared edge may report either triangle, and the test is
+//! not watertight (a ray through an edge can, rarely, slip between both).
+//! `tests/tracer.rs` checks closest hits against an f64 brute force.
+
+use crate::scene::Scene;
+use glam::{Vec3, Vec3A};
+use obvhs::{
+    bvh2::reinsertion::ReinsertionOptimizer,
+    cwbvh::{bvh2_to_cwbvh::bvh2_to_cwbvh, CwBvh},
+    ploc::PlocBuilder,
+    ray::{Ray as BvhRay, RayHit},
+    triangle::Triangle,
+    BvhBuildParams,
+};
+use std::time::Instant;
+
+/// A ray-triangle hit: the point is `origin + t dir` and
+/// `(1 - u - v) a + u b + v c` for the primitive's vertices `[a, b, c]`.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Hit {
+    /// Primitive id (index into [`Scene::tris`]).
+    pub prim: u32,
+    /// Ray parameter (a distance for a unit direction).
+    pub t: f32,
+    /// Barycentric weight of the second vertex.
+    pub u: f32,
+    /// Barycentric weight of the third vertex.
+    pub v: f32,
+}
+
+/// A triangle prepared for intersection: `v0`, `e1 = v1 - v0`,
+/// `e2 = v2 - v0` and its scene primitive id.
+#[derive(Clone, Copy)]
+struct PackedTri {
+    v0: Vec3A,
+    e1: Vec3A,
+    e2: Vec3A,
+    prim: u32,
+}
+
+/// Closest-hit ray tracer over a scene's triangles.
+pub struct Tracer {
+    bvh: CwBvh,
+    tris: Vec<PackedTri>,
+    build_ms: f64,
+}
+
+impl Tracer {
+    /// Builds the BVH over `scene.tris` (timed, see [`Tracer::build_ms`]).
+    /// The tracer does not keep a reference to the scene; rebuild it if the
+    /// geometry changes.
+    pub fn new(scene: &Scene) -> Tracer {
+        let start = Instant::now();
+        let triangles: Vec<Triangle> = scene
+            .tris
+            .iter()
+            .map(|t| Triangle {
+                v0: t[0].into(),
+                v1: t[1].into(),
+                v2: t[2].into(),
+            })
+            .collect();
+        let bvh = if triangles.is_empty() {
+            CwBvh::default()
+        } else {
+            let config = BvhBuildParams::medium_build();
+            let mut bvh2 = PlocBuilder::with_capacity(triangles.len()).build(
+                config.ploc_search_distance,
+                &triangles,
+                (0..triangles.len() as u32).collect(),
+                config.sort_precision,
+                config.search_depth_threshold,
+            );
+            ReinsertionOptimizer::default().run(&mut bvh2, config.reinsertion_batch_ratio, None);
+            bvh2_to_cwbvh(&bvh2, config.max_prims_per_leaf.clamp(1, 3), true, false)
+        };
+        let tris = bvh
+            .primitive_indices
+            .iter()
+            .map(|&i| {
+                let t = &triangles[i as usize];
+                PackedTri {
+                    v0: t.v0,
+                    e1: t.v1 - t.v0,
+                    e2: t.v2 - t.v0,
+                    prim: i,
+                }
+            })
+            .collect();
+        Tracer {
+            bvh,
+            tris,
+            build_ms: start.elapsed().as_secs_f64() * 1e3,
+        }
+    }
+
+    /// Wall-clock time of the BVH build in milliseconds (including the
+    /// triangle conversion and the leaf-order copy).
+    pub fn build_ms(&self) -> f64 {
+        self.build_ms
+    }
+
+    /// The closest hit of the ray `origin + t dir` with `tmin <= t < tmax`,
+    /// or `None`. `dir` need not be unit length (then `t` is not a
+    /// distance) but must be finite and non-zero.
+    pub fn trace(&self, origin: Vec3, dir: Vec3, tmin: f32, tmax: f32) -> Option<Hit> {
+        let ray = BvhRay::new(origin.into(), dir.into(), tmin, tmax);
+        let mut hit = RayHit::none();
+        let mut uv = (0.0, 0.0);
+        let tris = &self.tris;
+        let found = self.bvh.ray_traverse(ray, &mut hit, |r, id| {
+            match intersect(&tris[id], r) {
+                // The traversal accepts exactly the hits with t < r.tmax.
+                Some((t, u, v)) if t < r.tmax => {
+                    uv = (u, v);
+                    t
+                }
+                _ => f32::INFINITY,
+            }
+        });
+        found.then(|| Hit {
+            prim: tris[hit.primitive_id as usize].prim,
+            t: hit.t,
+            u: uv.0,
+            v: uv.1,
+        })
+    }
+
+    /// `true` if anything lies on the ray `origin + t dir` with
+    /// `tmin <= t < tmax` (any-hit traversal, stops at the first hit).
+    pub fn occluded(&self, origin: Vec3, dir: Vec3, tmin: f32, tmax: f32) -> bool {
+        let ray = BvhRay::new(origin.into(), dir.into(), tmin, tmax);
+        let tris = &self.tris;
+        !self.bvh.ray_traverse_miss(ray, |r, id| {
+            intersect(&tris[id], r).map_or(f32::INFINITY, |(t, _, _)| t)
+        })
+    }
+}
+
+/// Möller–Trumbore: `(t, u, v)` if the ray hits the triangle (edges
+/// inclusive) with `tmin <= t <= tmax`.
+#[inline(always)]
+fn intersect(tri: &PackedTri, ray: &BvhRay) -> Option<(f32, f32, f32)> {
+    let p = ray.direction.cross(tri.e2);
+    let det = tri.e1.dot(p);
+    if det == 0.0 {
+        return None;
+    }
+    let inv = 1.0 / det;
+    let s = ray.origin - tri.v0;
+    let u = s.dot(p) * inv;
+    if !(0.0..=1.0).contains(&u) {
+        return None;
+    }
+    let q = s.cross(tri.e1);
+    let v = ray.direction.dot(q) * inv;
+    if !(v >= 0.0 && u + v <= 1.0) {
+        return None;
+    }
+    let t = tri.e2.dot(q) * inv;
+    (t >= ray.tmin && t <= ray.tmax).then_some((t, u, v))
+}
+
+/// Where the ray `origin + t dir` meets the plane of triangle `tri`
+/// (primitive `prim`), with its barycentrics, whether or not the point lies
+/// inside the triangle; `None` if the ray is parallel to the plane or the
+/// hit is not in front (`t <= 0`). This is how a visibility buffer
+/// reconstructs the exact hit of a pixel from the primitive id a rasterizer
+/// stored there.
+pub fn ray_triangle_plane(tri: &[Vec3; 3], prim: u32, origin: Vec3, dir: Vec3) -> Option<Hit> {
+    let (e1, e2) = (tri[1] - tri[0], tri[2] - tri[0]);
+    let p = dir.cross(e2);
+    let det = e1.dot(p);
+    if det == 0.0 {
+        return None;
+    }
+    let inv = 1.0 / det;
+    let s = origin - tri[0];
+    let q = s.cross(e1);
+    let t = e2.dot(q) * inv;
+    (t > 0.0 && t.is_finite()).then(|| Hit {
+        prim,
+        t,
+        u: s.dot(p) * inv,
+        v: dir.dot(q) * inv,
+    })
+}

@@ -1,0 +1,276 @@
+//! The built-in scenes: documented triangle counts, camera paths, object
+//! structure and flags; the OBJ loader; materials.
+
+use glam::Vec3;
+use refl::scene::{phong_exponent, Material, Scene};
+use std::path::PathBuf;
+
+type Maker = fn(usize) -> Scene;
+
+const SCENES: [(&str, Maker); 3] = [
+    ("room", Scene::room),
+    ("concave", Scene::concave),
+    ("walkthrough", Scene::walkthrough),
+];
+
+fn assert_count_near(scene: &Scene, target: usize) {
+    let ratio = scene.tri_count() as f64 / target as f64;
+    assert!(
+        (ratio - 1.0).abs() <= 0.10,
+        "{}({target}) has {} triangles",
+        scene.name,
+        scene.tri_count()
+    );
+}
+
+#[test]
+fn triangle_counts_are_within_ten_percent_of_the_target() {
+    for (_, make) in SCENES {
+        for target in [10_000, 40_000, Scene::DEFAULT_TRIS] {
+            assert_count_near(&make(target), target);
+        }
+    }
+}
+
+#[test]
+fn a_million_triangles() {
+    for (_, make) in SCENES {
+        assert_count_near(&make(1_000_000), 1_000_000);
+    }
+}
+
+#[test]
+fn default_scenes_have_over_100k_triangles() {
+    assert!(Scene::DEFAULT_TRIS >= 100_000);
+    for (_, make) in SCENES {
+        assert!(make(Scene::DEFAULT_TRIS).tri_count() >= 100_000);
+    }
+}
+
+#[test]
+fn scenes_are_deterministic() {
+    for (_, make) in SCENES {
+        let (a, b) = (make(20_000), make(20_000));
+        assert_eq!(a.tris, b.tris);
+        assert_eq!(a.normals, b.normals);
+        assert_eq!(a.camera_path, b.camera_path);
+    }
+}
+
+#[test]
+fn structure_is_consistent() {
+    for (name, make) in SCENES {
+        let s = make(20_000);
+        assert_eq!(s.name, name);
+        assert_eq!(s.tris.len(), s.normals.len());
+        assert_eq!(s.tris.len(), s.tri_object.len());
+        // Objects own contiguous, consecutive ranges covering every primitive.
+        let mut next = 0;
+        for (id, o) in s.objects.iter().enumerate() {
+            assert_eq!(
+                o.tris.start, next,
+                "{name}: object {} not contiguous",
+                o.name
+            );
+            assert!(!o.tris.is_empty(), "{name}: object {} is empty", o.name);
+            assert!((o.material as usize) < s.materials.len());
+            for p in o.tris.clone() {
+                assert_eq!(s.tri_object[p as usize], id as u32);
+                for v in s.tris[p as usize] {
+                    assert!(v.cmpge(o.bounds.min).all() && v.cmple(o.bounds.max).all());
+                }
+            }
+            next = o.tris.end;
+        }
+        assert_eq!(next as usize, s.tri_count());
+        for (t, n) in s.tris.iter().zip(&s.normals) {
+            let g = (t[1] - t[0]).cross(t[2] - t[0]);
+            assert!(g.length() > 0.0, "{name}: degenerate triangle");
+            for v in n {
+                assert!((v.length() - 1.0).abs() < 1e-4, "{name}: normal not unit");
+            }
+            // Winding follows the shading normals.
+            assert!(g.dot(n[0] + n[1] + n[2]) > 0.0, "{name}: winding");
+        }
+        assert!(s.diameter() > 1.0 && s.diameter().is_finite());
+        assert!(s.near > 0.0 && s.far > s.diameter());
+    }
+}
+
+#[test]
+fn planar_reflectors_are_planar_mirrors() {
+    for (name, make) in SCENES {
+        let s = make(20_000);
+        let planar: Vec<_> = s.objects.iter().filter(|o| o.planar.is_some()).collect();
+        if name != "concave" {
+            assert!(!planar.is_empty(), "{name} has no planar reflector");
+        }
+        for o in planar {
+            let plane = o.planar.unwrap();
+            assert!(s.materials[o.material as usize].is_mirror());
+            for p in o.tris.clone() {
+                for v in s.tris[p as usize] {
+                    assert_eq!(plane.signed_distance(v), 0.0, "{name}: {}", o.name);
+                }
+            }
+        }
+    }
+}
+
+#[test]
+fn scenes_have_the_documented_reflectors() {
+    let material = |s: &Scene, object: &str| {
+        let o = s.objects.iter().find(|o| o.name == object).unwrap();
+        s.materials[o.material as usize].clone()
+    };
+    let room = Scene::room(20_000);
+    assert!(material(&room, "mirror_floor").is_mirror());
+    assert!(material(&room, "mirror_sphere").is_mirror());
+    let torus = material(&room, "glossy_torus");
+    assert!(torus.is_reflective() && (0.2..=0.3).contains(&torus.roughness));
+    assert!(material(&room, "wall_back").checker.is_some());
+    // Diffuse objects touch the mirror floor (y = 0).
+    for name in [
+        "red_box",
+        "blue_cylinder",
+        "green_sphere",
+        "mirror_sphere",
+        "glossy_torus",
+    ] {
+        let o = room.objects.iter().find(|o| o.name == name).unwrap();
+        assert!(
+            o.bounds.min.y.abs() < 1e-3,
+            "{name} does not touch the floor"
+        );
+    }
+
+    let concave = Scene::concave(20_000);
+    assert!(material(&concave, "mirror_bowl").is_mirror());
+    assert!(material(&concave, "concave_cylinder_mirror").is_mirror());
+    assert!(!material(&concave, "cup").is_reflective());
+    // The bowl's shading normals point toward its center (concave side).
+    let bowl = concave
+        .objects
+        .iter()
+        .find(|o| o.name == "mirror_bowl")
+        .unwrap();
+    let center = Vec3::new(0.0, 1.6, 0.0);
+    for p in bowl.tris.clone() {
+        let (t, n) = (concave.tris[p as usize], concave.normals[p as usize]);
+        for k in 0..3 {
+            assert!(n[k].dot(center - t[k]) > 0.0);
+        }
+    }
+
+    let walk = Scene::walkthrough(40_000);
+    let reflective = walk
+        .objects
+        .iter()
+        .filter(|o| walk.materials[o.material as usize].is_reflective())
+        .count();
+    assert!(reflective >= 3);
+    assert!(
+        walk.objects.len() > 50,
+        "walkthrough should be many objects"
+    );
+}
+
+#[test]
+fn camera_paths_are_smooth_and_valid() {
+    for (name, make) in SCENES {
+        let s = make(10_000);
+        let n = s.camera_path.len();
+        assert!((8..=16).contains(&n), "{name}: {n} poses");
+        let d = s.diameter();
+        let steps: Vec<f32> = s
+            .camera_path
+            .windows(2)
+            .map(|w| w[0].eye.distance(w[1].eye))
+            .collect();
+        for (k, &step) in steps.iter().enumerate() {
+            assert!(step > 0.0 && step < 0.15 * d, "{name}: step {k} = {step}");
+        }
+        // Smooth: no step is more than twice another.
+        let (lo, hi) = steps
+            .iter()
+            .fold((f32::MAX, 0.0f32), |(lo, hi), &x| (lo.min(x), hi.max(x)));
+        assert!(hi < 2.5 * lo, "{name}: uneven steps {lo}..{hi}");
+        for k in 0..n {
+            let cam = s.camera(k, 64, 48).unwrap();
+            assert!(cam.linear_depth(s.camera_path[k].target) > 0.0);
+        }
+        assert!(s.camera(n, 64, 48).is_err());
+    }
+}
+
+#[test]
+fn walkthrough_path_stays_inside_the_block_at_eye_height() {
+    let s = Scene::walkthrough(10_000);
+    let b = s.bounds();
+    for p in &s.camera_path {
+        assert!(p.eye.x > b.min.x && p.eye.x < b.max.x);
+        assert!(p.eye.z > b.min.z && p.eye.z < b.max.z);
+        assert!((p.eye.y - 1.6).abs() < 1e-3);
+    }
+}
+
+#[test]
+fn phong_exponent_mapping() {
+    assert_eq!(phong_exponent(0.0), f32::INFINITY);
+    assert_eq!(phong_exponent(1.0), 0.0);
+    assert!((phong_exponent(0.25) - 510.0).abs() < 1e-2);
+    assert!(phong_exponent(0.2) > phong_exponent(0.3));
+}
+
+#[test]
+fn checker_alternates_between_cells() {
+    let m = Material::checkered("c", Vec3::ONE, Vec3::ZERO, 1.0);
+    assert_eq!(m.albedo_at(Vec3::new(0.1, 0.1, 0.1)), Vec3::ONE);
+    assert_eq!(m.albedo_at(Vec3::new(1.1, 0.1, 0.1)), Vec3::ZERO);
+    assert_eq!(m.albedo_at(Vec3::new(1.1, 1.1, 0.1)), Vec3::ONE);
+    assert_eq!(m.albedo_at(Vec3::new(-0.5, 0.1, 0.1)), Vec3::ZERO);
+    let plain = Material::diffuse("d", Vec3::splat(0.5));
+    assert_eq!(plain.albedo_at(Vec3::new(3.3, 1.0, -2.0)), Vec3::splat(0.5));
+    assert!(!plain.is_reflective() && !plain.is_mirror());
+}
+
+fn temp_dir(tag: &str) -> PathBuf {
+    let dir = std::env::temp_dir().join(format!("refl-test-{tag}-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    dir
+}
+
+#[test]
+fn load_obj_with_reflective_flags() {
+    let dir = temp_dir("obj");
+    let path = dir.join("two.obj");
+    std::fs::write(
+        &path,
+        "o mirror_quad\n\
+         v -1 0 -1\nv 1 0 -1\nv 1 0 1\nv -1 0 1\n\
+         f 1 2 3 4\n\
+         o thing\n\
+         v 0 1 0\nv 1 1 0\nv 0 2 0\nv 0 1 1\n\
+         f 5 6 7\nf 5 7 8\nf 5 8 6\nf 6 8 7\n",
+    )
+    .unwrap();
+    let s = Scene::load_obj(&path, &[("mirror", 0.9, 0.0)]).unwrap();
+    std::fs::remove_dir_all(&dir).unwrap();
+    assert_eq!(s.name, "two");
+    assert_eq!(s.objects.len(), 2);
+    assert_eq!(s.tri_count(), 2 + 4);
+    let quad = &s.objects[0];
+    assert_eq!(quad.name, "mirror_quad");
+    let plane = quad.planar.expect("the quad is a planar reflector");
+    assert!((plane.normal().y.abs() - 1.0).abs() < 1e-6);
+    assert!(s.materials[quad.material as usize].is_mirror());
+    let thing = &s.objects[1];
+    assert!(thing.planar.is_none());
+    assert!(!s.materials[thing.material as usize].is_reflective());
+    // Smooth normals averaged over the tetrahedron's shared corners.
+    for n in s.normals.iter().flatten() {
+        assert!((n.length() - 1.0).abs() < 1e-5);
+    }
+    assert!((8..=16).contains(&s.camera_path.len()));
+    assert!(s.camera(0, 32, 32).is_ok());
+}
