@@ -1,0 +1,36 @@
+#!/usr/bin/env bash
+# Configures, builds and runs the C/C++ tests of librefl against Embree 3
+# twice: a normal build (cpp_tests/build) and an AddressSanitizer +
+# UndefinedBehaviorSanitizer build (cpp_tests/build-asan), each with
+# `ctest --output-on-failure`.
+#
+#   scripts/cpp_tests.sh [CROSSCHECK_DIR]
+#
+# CROSSCHECK_DIR: a directory written by
+#   cargo run --release -p refl -- export-crosscheck CROSSCHECK_DIR
+# Given, the obvhs_crosscheck test runs in both builds; otherwise it is
+# skipped (CMake says so). Needs cmake, a C/C++ compiler and libembree-dev.
+set -euo pipefail
+cd "$(dirname "$0")/.."
+root=$(pwd)
+
+crosscheck=""
+if [ $# -ge 1 ] && [ -n "$1" ]; then
+  crosscheck=$(cd "$1" && pwd)
+fi
+jobs=$(nproc 2>/dev/null || echo 2)
+
+run() {
+  local dir=$1; shift
+  echo "==== cpp_tests: $dir ($*) ===="
+  cmake -S "$root/cpp_tests" -B "$root/cpp_tests/$dir" -DCMAKE_BUILD_TYPE=RelWithDebInfo \
+    -DREFL_CROSSCHECK_DIR="$crosscheck" "$@"
+  cmake --build "$root/cpp_tests/$dir" -j "$jobs"
+  ctest --test-dir "$root/cpp_tests/$dir" --output-on-failure -j "$jobs"
+}
+
+run build -DREFL_SANITIZE=OFF
+# halt_on_error: a sanitizer report fails the test, as -fno-sanitize-recover does.
+ASAN_OPTIONS=${ASAN_OPTIONS:-detect_leaks=1:halt_on_error=1:abort_on_error=0} \
+UBSAN_OPTIONS=${UBSAN_OPTIONS:-print_stacktrace=1:halt_on_error=1} \
+  run build-asan -DREFL_SANITIZE=ON
