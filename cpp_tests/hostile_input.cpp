@@ -203,6 +203,11 @@ void camera_functions() {
         if (okay) expect_ok<refl_projection>(n, [&](refl_projection* o) { return refl_camera_project(o, c, p); });
         else expect<refl_projection>(n, st, [&](refl_projection* o) { return refl_camera_project(o, c, p); });
     });
+    per_camera("linear_depth", [&](const refl_camera* c, refl_status st, const char* n, bool okay) {
+        auto f = [&](float* o) { return refl_camera_linear_depth(o, c, p); };
+        if (okay) expect_ok<float>(n, f);
+        else expect<float>(n, st, f);
+    });
     per_camera("unproject", [&](const refl_camera* c, refl_status st, const char* n, bool okay) {
         auto f = [&](refl_vec3* o) { return refl_camera_unproject(o, c, px, 0.5f, REFL_DEPTH_CONVENTION_ZERO_TO_ONE); };
         if (okay) expect_ok<refl_vec3>(n, f);
@@ -280,9 +285,12 @@ void camera_functions() {
     }
     expect<refl_ray>("primary_ray huge pixel", REFL_STATUS_INVALID_ARGUMENT,
                      [&](refl_ray* o) { return refl_camera_primary_ray(o, &g, v2(3e38f, -3e38f)); });
-    for (refl_vec3 b : kBadVec3)
+    for (refl_vec3 b : kBadVec3) {
         expect<refl_projection>("project point", REFL_STATUS_INVALID_ARGUMENT,
                                 [&](refl_projection* o) { return refl_camera_project(o, &g, b); });
+        expect<float>("linear_depth point", REFL_STATUS_INVALID_ARGUMENT,
+                      [&](float* o) { return refl_camera_linear_depth(o, &g, b); });
+    }
     for (float d : {kNaN, kInf, -kInf}) {
         expect<refl_vec3>("unproject depth", REFL_STATUS_INVALID_ARGUMENT,
                           [&](refl_vec3* o) { return refl_camera_unproject(o, &g, px, d, 0); });
@@ -481,6 +489,18 @@ void image_functions() {
     for (const auto& s : bad_sizes)
         expect<size_t>("required_len bad", REFL_STATUS_INVALID_ARGUMENT,
                        [&](size_t* o) { return refl_image_required_len(o, s[0], s[1], s[2]); });
+
+    // refl_row_band
+    const refl_row_range band =
+        expect_ok<refl_row_range>("row_band", [](refl_row_range* o) { return refl_row_band(o, 10, 3, 4); });
+    CHECK(band.begin == 8 && band.end == 10);
+    const refl_row_range empty =
+        expect_ok<refl_row_range>("row_band empty", [](refl_row_range* o) { return refl_row_band(o, 2, 3, 4); });
+    CHECK(empty.begin == empty.end);
+    const uint32_t bad_bands[][3] = {{0, 0, 1}, {4, 0, 0}, {4, 1, 1}, {4, kMax, kMax}, {kMax, 5, 5}};
+    for (const auto& b : bad_bands)
+        expect<refl_row_range>("row_band bad", REFL_STATUS_INVALID_ARGUMENT,
+                               [&](refl_row_range* o) { return refl_row_band(o, b[0], b[1], b[2]); });
 
     // refl_convert_depth: dst is the output; it must stay untouched on error.
     const uint32_t w = 5, h = 4, stride = 7;

@@ -259,6 +259,20 @@ typedef struct refl_projection {
 } refl_projection;
 
 /**
+ * A half-open range of image rows `[begin, end)`.
+ */
+typedef struct refl_row_range {
+    /**
+     * First row.
+     */
+    uint32_t begin;
+    /**
+     * One past the last row; equal to `begin` for an empty band.
+     */
+    uint32_t end;
+} refl_row_range;
+
+/**
  * A writable image of `float` texels.
  */
 typedef struct refl_image_f32_mut {
@@ -714,6 +728,22 @@ refl_status refl_camera_project(struct refl_projection *out,
                                 struct refl_vec3 point);
 
 /**
+ * Writes to `*out` the linear depth of the world point `point`: its
+ * distance in front of the eye along the view axis (negative behind the
+ * eye). Encode it with `refl_camera_encode_depth` for a depth buffer.
+ *
+ * Returns `REFL_STATUS_NULL_POINTER` if `out` or `camera` is NULL;
+ * `REFL_STATUS_INVALID_ARGUMENT` if `point` or the result is not finite;
+ * the camera's status if it is invalid.
+ *
+ * # Safety
+ * `out` must be NULL or writable; `camera` NULL or readable.
+ */
+refl_status refl_camera_linear_depth(float *out,
+                                     const struct refl_camera *camera,
+                                     struct refl_vec3 point);
+
+/**
  * Writes to `*out` the world point seen through `pixel` at stored depth
  * `depth` of convention `convention` (a `refl_depth_convention`).
  *
@@ -897,6 +927,25 @@ refl_status refl_apply_reprojection(struct refl_projection *out,
                                     const struct refl_mat4 *matrix,
                                     struct refl_vec2 pixel,
                                     float depth);
+
+/**
+ * Writes to `*out` the `index`-th of `count` contiguous, near-equal bands
+ * of the rows `[0, height)` (the first `height % count` bands get one row
+ * more), for splitting a whole-image pass such as `refl_convert_depth`
+ * across `count` threads. When there are more bands than rows, the bands
+ * past the last row are empty (`begin == end`): skip them.
+ *
+ * Returns `REFL_STATUS_NULL_POINTER` if `out` is NULL;
+ * `REFL_STATUS_INVALID_ARGUMENT` if `height` or `count` is zero or
+ * `index >= count`.
+ *
+ * # Safety
+ * `out` must be NULL or point to a writable `refl_row_range`.
+ */
+refl_status refl_row_band(struct refl_row_range *out,
+                          uint32_t height,
+                          uint32_t index,
+                          uint32_t count);
 
 /**
  * Writes to `*out_len` the number of texels an image of `width x height`

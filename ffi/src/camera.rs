@@ -167,6 +167,36 @@ pub unsafe extern "C" fn refl_camera_project(
     })
 }
 
+/// Writes to `*out` the linear depth of the world point `point`: its
+/// distance in front of the eye along the view axis (negative behind the
+/// eye). Encode it with `refl_camera_encode_depth` for a depth buffer.
+///
+/// Returns `REFL_STATUS_NULL_POINTER` if `out` or `camera` is NULL;
+/// `REFL_STATUS_INVALID_ARGUMENT` if `point` or the result is not finite;
+/// the camera's status if it is invalid.
+///
+/// # Safety
+/// `out` must be NULL or writable; `camera` NULL or readable.
+#[no_mangle]
+pub unsafe extern "C" fn refl_camera_linear_depth(
+    out: *mut f32,
+    camera: *const refl_camera,
+    point: refl_vec3,
+) -> refl_status {
+    guard(|| {
+        let out = Out::new(out)?;
+        // SAFETY: caller contract.
+        let cam = unsafe { self::camera(camera) }?;
+        let z = cam.linear_depth(finite3(point)?);
+        if !z.is_finite() {
+            return Err(Error::InvalidArgument);
+        }
+        // SAFETY: caller contract.
+        unsafe { out.write(z) };
+        Ok(())
+    })
+}
+
 /// Writes to `*out` the world point seen through `pixel` at stored depth
 /// `depth` of convention `convention` (a `refl_depth_convention`).
 ///

@@ -286,6 +286,57 @@ image_views!(
     (refl_image_u32, refl_image_u32_mut, u32),
 );
 
+/// A half-open range of image rows `[begin, end)`.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct refl_row_range {
+    /// First row.
+    pub begin: u32,
+    /// One past the last row; equal to `begin` for an empty band.
+    pub end: u32,
+}
+
+/// Writes to `*out` the `index`-th of `count` contiguous, near-equal bands
+/// of the rows `[0, height)` (the first `height % count` bands get one row
+/// more), for splitting a whole-image pass such as `refl_convert_depth`
+/// across `count` threads. When there are more bands than rows, the bands
+/// past the last row are empty (`begin == end`): skip them.
+///
+/// Returns `REFL_STATUS_NULL_POINTER` if `out` is NULL;
+/// `REFL_STATUS_INVALID_ARGUMENT` if `height` or `count` is zero or
+/// `index >= count`.
+///
+/// # Safety
+/// `out` must be NULL or point to a writable `refl_row_range`.
+#[no_mangle]
+pub unsafe extern "C" fn refl_row_band(
+    out: *mut refl_row_range,
+    height: u32,
+    index: u32,
+    count: u32,
+) -> refl_status {
+    guard(|| {
+        let out = Out::new(out)?;
+        let all = RowRange::try_all(height)?;
+        if count == 0 || index >= count {
+            return Err(Error::InvalidArgument);
+        }
+        let band = all.band(index, count).map_or(
+            refl_row_range {
+                begin: height,
+                end: height,
+            },
+            |b| refl_row_range {
+                begin: b.start(),
+                end: b.end(),
+            },
+        );
+        // SAFETY: caller contract.
+        unsafe { out.write(band) };
+        Ok(())
+    })
+}
+
 /// Writes to `*out_len` the number of texels an image of `width x height`
 /// texels with row stride `stride` needs: `(height - 1) * stride + width`
 /// (the last row needs no padding). Multiply by the texel size for bytes.

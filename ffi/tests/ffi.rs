@@ -893,3 +893,44 @@ fn misaligned_outputs_are_rejected() {
     );
     assert!(buf.0.iter().all(|b| *b == SENTINEL));
 }
+
+#[test]
+fn linear_depth_matches_core() {
+    let c = camera();
+    let core = core_camera(&c);
+    let p = v3(0.3, -0.2, 1.0);
+    let z: f32 = ok(|o| unsafe { refl_camera_linear_depth(o, &c, p) });
+    assert_eq!(z, core.linear_depth(p.into()));
+    untouched(refl_status::InvalidArgument, |o| unsafe {
+        refl_camera_linear_depth(o, &c, v3(0.0, f32::NAN, 0.0))
+    });
+    untouched(refl_status::NullPointer, |o| unsafe {
+        refl_camera_linear_depth(o, core::ptr::null(), p)
+    });
+}
+
+#[test]
+fn row_bands_cover_the_image() {
+    for (height, count) in [(1u32, 1u32), (7, 3), (10, 10), (3, 8), (480, 7)] {
+        let mut next = 0;
+        for index in 0..count {
+            let b: refl_row_range = ok(|o| unsafe { refl_row_band(o, height, index, count) });
+            if b.begin == b.end {
+                assert_eq!(b.begin, height);
+                continue;
+            }
+            assert_eq!(b.begin, next);
+            assert!(b.end > b.begin && b.end - b.begin <= height.div_ceil(count));
+            next = b.end;
+        }
+        assert_eq!(next, height);
+    }
+    for (h, i, c) in [(0, 0, 1), (4, 0, 0), (4, 2, 2), (4, u32::MAX, 3)] {
+        untouched(refl_status::InvalidArgument, |o| unsafe {
+            refl_row_band(o, h, i, c)
+        });
+    }
+    untouched(refl_status::NullPointer, |_: *mut refl_row_range| unsafe {
+        refl_row_band(core::ptr::null_mut(), 4, 0, 1)
+    });
+}
