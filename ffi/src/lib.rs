@@ -19,7 +19,9 @@
 //! * Enums cross the boundary as `uint32_t` and are validated: an unknown
 //!   value is `REFL_STATUS_INVALID_ARGUMENT`, never undefined behavior.
 //! * No panic crosses the boundary: each call runs inside `catch_unwind`
-//!   and a caught panic is `REFL_STATUS_PANIC`.
+//!   and a caught panic is `REFL_STATUS_PANIC`. This needs the default
+//!   `panic = "unwind"`; a `panic = "abort"` profile turns such a bug into
+//!   an abort instead (never into undefined behavior).
 //! * Cameras are validated on every call (`refl_camera_validate`).
 //!
 //! The Rust types here double as a Rust view of the ABI (the crate is also
