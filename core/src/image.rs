@@ -328,7 +328,7 @@ impl<'a, T: Copy> ImageViewMut<'a, T> {
 
     /// A read-only view of the whole image, if this view owns every row.
     pub fn as_view(&self) -> Option<ImageView<'_, T>> {
-        (self.rows.start == 0 && self.rows.end == self.height).then(|| ImageView {
+        (self.rows.start == 0 && self.rows.end == self.height).then_some(ImageView {
             data: &*self.data,
             width: self.width,
             height: self.height,

@@ -93,6 +93,30 @@ impl Plane {
         })
     }
 
+    /// The plane `n . p + d = 0` from its coefficients. A non-unit `normal`
+    /// is normalized and `d` divided by the same length, so the plane (and
+    /// a unit normal's `d`, bit for bit) is kept.
+    ///
+    /// # Errors
+    /// [`Error::InvalidArgument`] for non-finite input;
+    /// [`Error::DegenerateGeometry`] for a zero normal.
+    pub fn try_new(normal: Vec3, d: f32) -> Result<Self, Error> {
+        if !(normal.is_finite() && d.is_finite()) {
+            return Err(Error::InvalidArgument);
+        }
+        let len = normal.length();
+        if !(len > 0.0) || !len.is_finite() {
+            return Err(Error::DegenerateGeometry);
+        }
+        if len == 1.0 {
+            return Ok(Self { normal, d });
+        }
+        Ok(Self {
+            normal: normal / len,
+            d: d / len,
+        })
+    }
+
     /// The unit normal `(a, b, c)`.
     pub const fn normal(&self) -> Vec3 {
         self.normal

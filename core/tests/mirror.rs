@@ -250,3 +250,23 @@ fn ray_plane_intersection() {
         Some(-2.0)
     );
 }
+
+#[test]
+fn plane_from_coefficients() {
+    let p = Plane::try_new(Vec3::Y, -1.25).unwrap();
+    assert_eq!((p.normal(), p.d()), (Vec3::Y, -1.25));
+    let q = Plane::try_new(Vec3::new(0.0, 2.0, 0.0), -2.5).unwrap();
+    assert_eq!((q.normal(), q.d()), (Vec3::Y, -1.25));
+    assert_eq!(
+        Plane::try_new(Vec3::ZERO, 1.0),
+        Err(Error::DegenerateGeometry)
+    );
+    assert_eq!(
+        Plane::try_new(Vec3::Y, f32::NAN),
+        Err(Error::InvalidArgument)
+    );
+    assert_eq!(
+        Plane::try_new(Vec3::new(f32::INFINITY, 0.0, 0.0), 0.0),
+        Err(Error::InvalidArgument)
+    );
+}

@@ -247,28 +247,14 @@ impl From<&refl_core::Plane> for refl_plane {
 
 impl TryFrom<&refl_plane> for refl_core::Plane {
     type Error = Error;
-    /// Rebuilds a core plane. refl-core has no `(normal, d)` constructor,
-    /// so the plane goes through `Plane::try_from_point_normal` with the
-    /// point `-d n` (computed in f64 from the normalized equation): `d`
-    /// comes back to within a few ulp of `|d|`, the normal to within an
-    /// ulp.
+    /// Rebuilds a core plane with `Plane::try_new`: a unit normal and its
+    /// `d` are kept bit for bit; a non-unit normal is normalized and `d`
+    /// scaled with it.
     ///
     /// Errors: `InvalidArgument` for a non-finite normal or `d`,
     /// `DegenerateGeometry` for a zero normal.
     fn try_from(p: &refl_plane) -> Result<Self, Error> {
-        let n = Vec3::from(p.normal);
-        if !(n.is_finite() && p.d.is_finite()) {
-            return Err(Error::InvalidArgument);
-        }
-        let nd = n.as_dvec3();
-        let len = nd.length();
-        if len == 0.0 {
-            return Err(Error::DegenerateGeometry);
-        }
-        let unit = nd / len;
-        let d = f64::from(p.d) / len;
-        let point = (-d * unit).as_vec3();
-        refl_core::Plane::try_from_point_normal(point, unit.as_vec3())
+        refl_core::Plane::try_new(p.normal.into(), p.d)
     }
 }
 
