@@ -340,6 +340,28 @@ impl Scene {
             .camera(self.near, self.far, width, height)
     }
 
+    /// A pose between the path's poses, for frame sequences denser than the
+    /// stored path: `s` runs from 0 (first pose) to 1 (last pose, clamped);
+    /// eye and target follow uniform Catmull-Rom splines through the stored
+    /// poses (so `s = k / (n - 1)` gives pose `k`), up and field of view are
+    /// those of the nearest stored pose. `None` for an empty path.
+    pub fn pose_at(&self, s: f32) -> Option<CameraPose> {
+        let n = self.camera_path.len();
+        let nearest = self
+            .camera_path
+            .get((s.clamp(0.0, 1.0) * (n.max(1) - 1) as f32).round() as usize)?;
+        if n == 1 {
+            return Some(*nearest);
+        }
+        let eyes: Vec<Vec3> = self.camera_path.iter().map(|p| p.eye).collect();
+        let targets: Vec<Vec3> = self.camera_path.iter().map(|p| p.target).collect();
+        Some(CameraPose {
+            eye: catmull_rom(&eyes, s),
+            target: catmull_rom(&targets, s),
+            ..*nearest
+        })
+    }
+
     /// A room of about `tris` triangles: a planar perfect-mirror floor, a
     /// mirror sphere and a glossy torus (roughness 0.25) standing on it, a box
     /// and a cylinder standing on the mirror, a diffuse sphere, a checkered
@@ -520,7 +542,7 @@ impl Scene {
         let cup_r = 0.35;
         let base_y = bowl_r - (bowl_r * bowl_r - cup_r * cup_r).sqrt();
         let m = b.material(Material::diffuse("cup", Vec3::new(0.9, 0.5, 0.15)));
-        let mesh = cup(cup_r, 0.7, 0.05, share(t, 0.15))
+        let mesh = cup(cup_r, 0.9, 0.05, share(t, 0.15))
             .transformed(Affine3A::from_translation(Vec3::new(0.0, base_y, 0.0)));
         b.object("cup", m, mesh, None);
 
@@ -592,13 +614,14 @@ impl Scene {
         );
         b.object("ground", m, mesh, None);
 
+        // High enough to see the cup over the bowl's rim.
         let path = orbit_path(
             Vec3::ZERO,
-            6.5,
-            (3.4, 2.6),
+            5.8,
+            (5.0, 4.2),
             (-0.7, 0.7),
             12,
-            Vec3::new(0.0, 0.8, -0.5),
+            Vec3::new(0.0, 0.6, -0.4),
             55f32.to_radians(),
         );
         b.finish(
@@ -620,9 +643,11 @@ impl Scene {
 
     /// A densely occluded interior of about `tris` triangles: a 4 x 3 block
     /// of 6 m rooms with 3 m walls (doorways in every interior wall, no
-    /// ceiling), four pillars and two crates per room; some rooms have a
-    /// planar mirror floor, a mirror sphere on a pedestal or glossy pillars.
-    /// 16 camera poses walk a smooth path through six rooms at eye height.
+    /// ceiling), four pillars and two crates per room. Room `(i, j)` has a
+    /// planar mirror floor if `i + j` is even, glossy pillars if
+    /// `(i + 2j) mod 3 = 0` and a mirror sphere on a pedestal unless
+    /// `(2i + j) mod 3 = 1`. 16 camera poses walk a smooth path through seven
+    /// rooms at eye height, alternating mirror and stone floors.
     pub fn walkthrough(tris: usize) -> Scene {
         const NX: i32 = 4;
         const NZ: i32 = 3;
@@ -727,7 +752,7 @@ impl Scene {
             for i in 0..NX {
                 let c = center(i, j);
                 let h = hash32((j * NX + i) as u32 + 17);
-                let glossy = h % 3 == 0;
+                let glossy = (i + 2 * j) % 3 == 0;
                 for (k, (sx, sz)) in [(-1.0, -1.0), (1.0, -1.0), (-1.0, 1.0), (1.0, 1.0)]
                     .into_iter()
                     .enumerate()
@@ -756,7 +781,7 @@ impl Scene {
                         ));
                     b.object(&format!("crate_{i}_{j}_{k}"), crate_m, mesh, None);
                 }
-                if h % 2 == 1 {
+                if (2 * i + j) % 3 != 1 {
                     let sx = if h & 4 == 0 { -1.0 } else { 1.0 };
                     let base = c + Vec3::new(sx * 1.0, 0.0, -1.0);
                     let mesh = cuboid(Vec3::new(0.3, 0.35, 0.3), 12.0)
@@ -787,7 +812,7 @@ impl Scene {
         for j in 0..NZ {
             for i in 0..NX {
                 let c = center(i, j);
-                let mirror = hash32((j * NX + i) as u32 + 101) % 3 == 0;
+                let mirror = (i + j) % 2 == 0;
                 let mesh = grid_for(
                     c + Vec3::new(-ROOM * 0.5, 0.0, ROOM * 0.5),
                     Vec3::X * ROOM,
@@ -805,23 +830,23 @@ impl Scene {
         }
 
         // Walk through doors: room centers joined through door midpoints.
-        let route = [(0, 0), (1, 0), (1, 1), (2, 1), (2, 2), (3, 2)];
+        // The eye looks one waypoint (3 m) ahead and stops at the last door,
+        // looking at the last room's center.
+        let route = [(0, 0), (1, 0), (1, 1), (2, 1), (2, 2), (3, 2), (3, 1)];
         let mut points = Vec::new();
         for w in route.windows(2) {
             let (a, c) = (center(w[0].0, w[0].1), center(w[1].0, w[1].1));
             points.push(a);
             points.push((a + c) * 0.5);
         }
-        points.push(center(3, 2));
-        let eye_h = Vec3::Y * 1.6;
+        points.push(center(3, 1));
+        let ahead = 1.0 / (points.len() - 1) as f32;
         let path = (0..16)
             .map(|k| {
-                let s = k as f32 / 15.0 * 0.97;
-                let eye = catmull_rom(&points, s) + eye_h;
-                let ahead = catmull_rom(&points, s + 0.03) + Vec3::Y * 1.45;
+                let s = k as f32 / 15.0 * (1.0 - ahead);
                 CameraPose {
-                    eye,
-                    target: ahead,
+                    eye: catmull_rom(&points, s) + Vec3::Y * 1.6,
+                    target: catmull_rom(&points, s + ahead) + Vec3::Y * 1.3,
                     up: Vec3::Y,
                     fov_y: 65f32.to_radians(),
                 }

@@ -190,8 +190,13 @@ pub struct Shader<'a> {
     /// Trace hard shadow rays toward every light (deterministic). On by
     /// default.
     pub shadows: bool,
-    /// Offset of secondary ray origins along the geometric normal
-    /// ([`Scene::ray_epsilon`]).
+    /// Self-intersection tolerance of secondary rays
+    /// ([`Scene::ray_epsilon`]): shadow rays start this far off the surface
+    /// along the geometric normal; reflection rays start on the surface and
+    /// ignore hits closer than this along the ray. (Offsetting reflection
+    /// rays along the normal would shift every reflected ray sideways by
+    /// epsilon, moving its hit point, which the exact planar method has no
+    /// reason to reproduce.)
     pub epsilon: f32,
 }
 
@@ -248,10 +253,10 @@ impl<'a> Shader<'a> {
         self.direct(&Surface::at_hit(self.scene, origin, dir, hit))
     }
 
-    /// Radiance along the ray `origin + t dir`, `t > 0`: the shaded first hit
-    /// or the environment.
-    pub fn trace_reflection(&self, origin: Vec3, dir: Vec3) -> Vec3 {
-        match self.tracer.trace(origin, dir, 0.0, f32::INFINITY) {
+    /// Radiance along the ray `origin + t dir`, `t >= tmin`: the shaded
+    /// first hit or the environment.
+    pub fn trace_reflection(&self, origin: Vec3, dir: Vec3, tmin: f32) -> Vec3 {
+        match self.tracer.trace(origin, dir, tmin, f32::INFINITY) {
             Some(hit) => self.shade_reflection_hit(origin, dir, &hit),
             None => env_map(dir),
         }
@@ -261,8 +266,8 @@ impl<'a> Shader<'a> {
     /// unit direction `view` (surface toward the eye), for `roughness`:
     /// one mirror ray for roughness 0, otherwise the glossy estimate of the
     /// module docs with `samples` (at least 1) lobe samples rotated by
-    /// `seed` (e.g. the pixel index). Rays start at the surface offset by
-    /// [`Shader::epsilon`] along the geometric normal.
+    /// `seed` (e.g. the pixel index). Rays start at the surface point with
+    /// `tmin =` [`Shader::epsilon`].
     pub fn reference_reflection(
         &self,
         s: &Surface,
@@ -272,9 +277,9 @@ impl<'a> Shader<'a> {
         seed: u32,
     ) -> Vec3 {
         let mirror = reflection_dir(view, s.shading_normal, s.geo_normal);
-        let origin = s.position + s.geo_normal * self.epsilon;
+        let (origin, tmin) = (s.position, self.epsilon);
         if roughness <= 0.0 {
-            return self.trace_reflection(origin, mirror);
+            return self.trace_reflection(origin, mirror, tmin);
         }
         let exponent = phong_exponent(roughness);
         let samples = samples.max(1);
@@ -288,11 +293,11 @@ impl<'a> Shader<'a> {
             if dir.dot(s.geo_normal) <= 0.0 {
                 continue;
             }
-            sum += self.trace_reflection(origin, dir);
+            sum += self.trace_reflection(origin, dir, tmin);
             accepted += 1;
         }
         if accepted == 0 {
-            self.trace_reflection(origin, mirror)
+            self.trace_reflection(origin, mirror, tmin)
         } else {
             sum / accepted as f32
         }

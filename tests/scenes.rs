@@ -41,7 +41,7 @@ fn a_million_triangles() {
 
 #[test]
 fn default_scenes_have_over_100k_triangles() {
-    assert!(Scene::DEFAULT_TRIS >= 100_000);
+    const { assert!(Scene::DEFAULT_TRIS >= 100_000) };
     for (_, make) in SCENES {
         assert!(make(Scene::DEFAULT_TRIS).tri_count() >= 100_000);
     }
@@ -273,4 +273,24 @@ fn load_obj_with_reflective_flags() {
     }
     assert!((8..=16).contains(&s.camera_path.len()));
     assert!(s.camera(0, 32, 32).is_ok());
+}
+
+#[test]
+fn pose_at_interpolates_the_path() {
+    let s = Scene::room(10_000);
+    let n = s.camera_path.len();
+    for (k, pose) in s.camera_path.iter().enumerate() {
+        let p = s.pose_at(k as f32 / (n - 1) as f32).unwrap();
+        assert!(p.eye.distance(pose.eye) < 1e-4);
+        assert!(p.target.distance(pose.target) < 1e-4);
+    }
+    // Between two poses, and clamped outside [0, 1].
+    let mid = s.pose_at(5.5 / (n - 1) as f32).unwrap();
+    let (a, b) = (s.camera_path[5].eye, s.camera_path[6].eye);
+    assert!(mid.eye.distance((a + b) * 0.5) < 0.05 * a.distance(b));
+    assert_eq!(s.pose_at(-1.0), s.pose_at(0.0));
+    assert_eq!(s.pose_at(2.0), s.pose_at(1.0));
+    let mut empty = s.clone();
+    empty.camera_path.clear();
+    assert!(empty.pose_at(0.5).is_none());
 }

@@ -1,0 +1,387 @@
+//! Reflection methods over a G-buffer, the final composite, and image error
+//! metrics.
+//!
+//! Every method produces a [`ReflectionImage`]: the reflected radiance
+//! (linear RGB) at the reflective pixels it handles, and the `handled` mask
+//! saying which those are. Methods are timed on their reflection pass only;
+//! the G-buffer is rendered (and timed) once, separately.
+//!
+//! | method | handles | how |
+//! |---|---|---|
+//! | [`Method::Reference`] | every reflective pixel | ray-traced, [`Shader::reference_reflection`] |
+//! | [`Method::EnvMap`] | every reflective pixel | [`env_map`] in the mirror direction only: the baseline every seed criticizes |
+//! | [`Method::PlanarMirror`] | pixels of planar perfect mirrors | rasterizes the scene through the mirrored camera, exact |
+//!
+//! # Error metrics
+//!
+//! Images are compared the way the seeds report error, on 8-bit values:
+//! each linear channel is clamped to `[0, 1]`, encoded with the sRGB transfer
+//! function (IEC 61966-2-1: `12.92 c` below 0.0031308, else
+//! `1.055 c^(1/2.4) - 0.055`) and rounded to `0..=255` ([`to_srgb8`]). Over the
+//! pixels of a mask, with `d` the absolute 8-bit difference of one channel:
+//!
+//! * mean absolute difference = mean of `d` over all channels of all pixels
+//!   (0..255 scale);
+//! * PSNR = `10 log10(255^2 / mean(d^2))` in dB (`+inf` if identical);
+//! * share over a threshold `t` = fraction of pixels whose largest channel
+//!   `d` exceeds `t` (the report uses `t = 8`, a visible difference).
+
+use crate::gbuffer::{pixel_center, GBuffer};
+use crate::raster::{rasterize, PixelRect, RasterOptions};
+use crate::shade::{env_map, reflection_dir, Shader};
+use glam::Vec3;
+use rayon::prelude::*;
+use refl_core::Error;
+use std::path::Path;
+use std::time::Instant;
+
+/// The reflected radiance of one method over the reflective pixels it
+/// handles.
+#[derive(Clone, Debug, PartialEq)]
+pub struct ReflectionImage {
+    /// Image width.
+    pub width: u32,
+    /// Image height.
+    pub height: u32,
+    /// Reflected radiance, linear RGB; zero where not handled.
+    pub rgb: Vec<Vec3>,
+    /// `true` where the method produced a reflection.
+    pub handled: Vec<bool>,
+}
+
+impl ReflectionImage {
+    /// An image with nothing handled.
+    pub fn empty(width: u32, height: u32) -> Self {
+        let n = width as usize * height as usize;
+        Self {
+            width,
+            height,
+            rgb: vec![Vec3::ZERO; n],
+            handled: vec![false; n],
+        }
+    }
+
+    /// Number of handled pixels.
+    pub fn handled_count(&self) -> usize {
+        self.handled.iter().filter(|&&h| h).count()
+    }
+
+    /// Fills the pixels selected by `select` (in parallel over rows on
+    /// `pool`) with `f(i)` and marks them handled.
+    fn fill(
+        &mut self,
+        pool: &rayon::ThreadPool,
+        select: impl Fn(usize) -> bool + Sync,
+        f: impl Fn(usize) -> Vec3 + Sync,
+    ) {
+        let w = self.width as usize;
+        pool.install(|| {
+            self.rgb
+                .par_chunks_mut(w)
+                .zip(self.handled.par_chunks_mut(w))
+                .enumerate()
+                .for_each(|(y, (rgb, handled))| {
+                    for x in 0..w {
+                        let i = y * w + x;
+                        if select(i) {
+                            rgb[x] = f(i);
+                            handled[x] = true;
+                        }
+                    }
+                });
+        });
+    }
+}
+
+/// A value with the wall-clock milliseconds it took to compute.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Timed<T> {
+    /// The result.
+    pub value: T,
+    /// Milliseconds.
+    pub ms: f64,
+}
+
+/// Runs `f` and measures it.
+pub fn timed<T>(f: impl FnOnce() -> T) -> Timed<T> {
+    let start = Instant::now();
+    let value = f();
+    Timed {
+        value,
+        ms: start.elapsed().as_secs_f64() * 1e3,
+    }
+}
+
+/// A reflection method, with its settings.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Method {
+    /// Ray-traced reference; `samples` lobe samples per glossy pixel.
+    Reference {
+        /// Glossy sample count (mirror pixels always trace one ray).
+        samples: u32,
+    },
+    /// Environment map in the mirror direction.
+    EnvMap,
+    /// Exact planar reflection by rasterizing through the mirrored camera.
+    PlanarMirror,
+}
+
+impl Method {
+    /// A short name for tables and file names (`reference-64`, `envmap`,
+    /// `planar-mirror`).
+    pub fn name(&self) -> String {
+        match self {
+            Method::Reference { samples } => format!("reference-{samples}"),
+            Method::EnvMap => "envmap".to_owned(),
+            Method::PlanarMirror => "planar-mirror".to_owned(),
+        }
+    }
+
+    /// Runs the method's reflection pass over `g` on `pool`, timed.
+    ///
+    /// # Errors
+    /// As [`planar_mirror`].
+    pub fn run(
+        &self,
+        shader: &Shader,
+        g: &GBuffer,
+        pool: &rayon::ThreadPool,
+    ) -> Result<Timed<ReflectionImage>, Error> {
+        let t = timed(|| match *self {
+            Method::Reference { samples } => Ok(reference(shader, g, samples, pool)),
+            Method::EnvMap => Ok(envmap(g, pool)),
+            Method::PlanarMirror => planar_mirror(shader, g, pool),
+        });
+        t.value.map(|value| Timed { value, ms: t.ms })
+    }
+}
+
+/// The ray-traced reference reflection of every reflective pixel (see
+/// [`Shader::reference_reflection`]; the pixel index seeds the glossy sample
+/// rotation).
+pub fn reference(
+    shader: &Shader,
+    g: &GBuffer,
+    samples: u32,
+    pool: &rayon::ThreadPool,
+) -> ReflectionImage {
+    let mut out = ReflectionImage::empty(g.width(), g.height());
+    out.fill(
+        pool,
+        |i| g.is_reflective(i),
+        |i| {
+            let s = g.surface(i).expect("reflective pixels are hits");
+            let view = -g.primary_ray(i).dir;
+            shader.reference_reflection(&s, view, g.roughness[i], samples, i as u32)
+        },
+    );
+    out
+}
+
+/// The environment map in the mirror direction of every reflective pixel:
+/// no visibility at all.
+pub fn envmap(g: &GBuffer, pool: &rayon::ThreadPool) -> ReflectionImage {
+    let mut out = ReflectionImage::empty(g.width(), g.height());
+    out.fill(
+        pool,
+        |i| g.is_reflective(i),
+        |i| {
+            let view = -g.primary_ray(i).dir;
+            env_map(reflection_dir(view, g.normal[i], g.geo_normal[i]))
+        },
+    );
+    out
+}
+
+/// Exact planar reflections: for each planar reflector object with a
+/// perfect-mirror material that covers pixels of `g`, the scene is
+/// rasterized ([`rasterize`]) through [`refl_core::mirrored_camera`] with the
+/// mirror plane (oriented toward the eye) as clip plane, the reflector itself
+/// excluded and the scissor set to the reflector's pixel bounds; each of the
+/// reflector's pixels then shades the exact hit of the mirrored camera's
+/// primary ray with the visible primitive (one-bounce rule), or the
+/// environment where nothing was drawn. Only those pixels are handled.
+///
+/// # Errors
+/// [`refl_core::mirrored_camera`]'s error for a plane that produces a
+/// non-finite camera.
+pub fn planar_mirror(
+    shader: &Shader,
+    g: &GBuffer,
+    pool: &rayon::ThreadPool,
+) -> Result<ReflectionImage, Error> {
+    let scene = shader.scene;
+    let mut out = ReflectionImage::empty(g.width(), g.height());
+    let eye = g.camera.eye();
+    for (id, object) in scene.objects.iter().enumerate() {
+        let id = id as u32;
+        let Some(plane) = object.planar else {
+            continue;
+        };
+        if !scene.materials[object.material as usize].is_mirror() {
+            continue;
+        }
+        let Some(rect) = PixelRect::bounding(g.width(), g.len(), |i| g.object[i] == id) else {
+            continue;
+        };
+        let plane = if plane.signed_distance(eye) < 0.0 {
+            plane.flipped()
+        } else {
+            plane
+        };
+        let mirrored = refl_core::mirrored_camera(&g.camera, &plane)?;
+        let options = RasterOptions {
+            clip_plane: Some(plane),
+            exclude_object: Some(id),
+            scissor: Some(rect),
+        };
+        let vis = rasterize(scene, &mirrored, &options, pool);
+        out.fill(
+            pool,
+            |i| g.object[i] == id,
+            |i| {
+                let (x, y) = g.pixel(i);
+                let ray = mirrored.primary_ray(pixel_center(x, y));
+                match vis.hit(scene, &mirrored, i) {
+                    Some(hit) => shader.shade_reflection_hit(ray.origin, ray.dir, &hit),
+                    None => env_map(ray.dir),
+                }
+            },
+        );
+    }
+    Ok(out)
+}
+
+/// Direct shading ([`Shader::direct`]) of every pixel of `g`; background
+/// pixels get the environment along their primary ray.
+pub fn direct_image(shader: &Shader, g: &GBuffer, pool: &rayon::ThreadPool) -> Vec<Vec3> {
+    let w = g.width() as usize;
+    let mut out = vec![Vec3::ZERO; g.len()];
+    pool.install(|| {
+        out.par_chunks_mut(w).enumerate().for_each(|(y, row)| {
+            for (x, c) in row.iter_mut().enumerate() {
+                let i = y * w + x;
+                *c = match g.surface(i) {
+                    Some(s) => shader.direct(&s),
+                    None => env_map(g.primary_ray(i).dir),
+                };
+            }
+        });
+    });
+    out
+}
+
+/// The final image: `(1 - specular) * direct + specular * reflection` where
+/// `reflection` handles the pixel, `direct` elsewhere (so a method's
+/// unhandled reflective pixels show their diffuse part only).
+pub fn composite(g: &GBuffer, direct: &[Vec3], reflection: &ReflectionImage) -> Vec<Vec3> {
+    (0..g.len())
+        .map(|i| {
+            if reflection.handled[i] {
+                let s = g.specular[i];
+                direct[i] * (1.0 - s) + reflection.rgb[i] * s
+            } else {
+                direct[i]
+            }
+        })
+        .collect()
+}
+
+/// One linear channel in `[0, 1]` (clamped) to an 8-bit sRGB value.
+pub fn srgb8(c: f32) -> u8 {
+    let c = if c.is_nan() { 0.0 } else { c.clamp(0.0, 1.0) };
+    let s = if c <= 0.003_130_8 {
+        12.92 * c
+    } else {
+        1.055 * c.powf(1.0 / 2.4) - 0.055
+    };
+    (s * 255.0).round() as u8
+}
+
+/// A linear RGB color to 8-bit sRGB (see the module docs).
+pub fn to_srgb8(c: Vec3) -> [u8; 3] {
+    [srgb8(c.x), srgb8(c.y), srgb8(c.z)]
+}
+
+/// Writes a linear RGB image as an 8-bit sRGB PNG.
+///
+/// # Errors
+/// The encoder's or the file system's error; a buffer that does not hold
+/// `width * height` pixels is an encoding error.
+pub fn save_png(path: &Path, width: u32, height: u32, rgb: &[Vec3]) -> image::ImageResult<()> {
+    let bytes: Vec<u8> = rgb.iter().flat_map(|&c| to_srgb8(c)).collect();
+    image::save_buffer(path, &bytes, width, height, image::ExtendedColorType::Rgb8)
+}
+
+/// The difference of two images over a pixel mask, on 8-bit sRGB values
+/// (definitions in the module docs).
+#[derive(Clone, Debug, PartialEq)]
+pub struct ImageError {
+    /// Pixels compared (mask size).
+    pub pixels: usize,
+    /// Mean absolute difference per channel, 0..255 scale.
+    pub mean_abs: f64,
+    /// Peak signal-to-noise ratio in dB; `+inf` for identical images.
+    pub psnr: f64,
+    /// Largest channel difference.
+    pub max_abs: u8,
+    /// `histogram[d]` = pixels whose largest channel difference is `d`.
+    histogram: [u64; 256],
+}
+
+impl ImageError {
+    /// Fraction of the compared pixels whose largest channel difference
+    /// exceeds `levels` (0 when no pixel was compared).
+    pub fn share_over(&self, levels: u8) -> f64 {
+        if self.pixels == 0 {
+            return 0.0;
+        }
+        let over: u64 = self.histogram[levels as usize + 1..].iter().sum();
+        over as f64 / self.pixels as f64
+    }
+
+    /// [`ImageError::share_over`] at the visible threshold of 8 levels.
+    pub fn share_over_8(&self) -> f64 {
+        self.share_over(8)
+    }
+}
+
+/// Compares `a` and `b` (linear RGB, same size) over the pixels where
+/// `mask` is true. With an empty mask the result has `pixels == 0`, zero
+/// differences and infinite PSNR.
+///
+/// # Panics
+/// If the three slices differ in length.
+pub fn compare(a: &[Vec3], b: &[Vec3], mask: &[bool]) -> ImageError {
+    assert!(
+        a.len() == b.len() && a.len() == mask.len(),
+        "compare: images and mask must have the same length"
+    );
+    let mut histogram = [0u64; 256];
+    let (mut pixels, mut sum, mut sum_sq) = (0usize, 0u64, 0u64);
+    for i in (0..a.len()).filter(|&i| mask[i]) {
+        let (qa, qb) = (to_srgb8(a[i]), to_srgb8(b[i]));
+        let mut largest = 0u8;
+        for c in 0..3 {
+            let d = qa[c].abs_diff(qb[c]);
+            sum += u64::from(d);
+            sum_sq += u64::from(d) * u64::from(d);
+            largest = largest.max(d);
+        }
+        histogram[largest as usize] += 1;
+        pixels += 1;
+    }
+    let channels = (3 * pixels).max(1) as f64;
+    let mse = sum_sq as f64 / channels;
+    ImageError {
+        pixels,
+        mean_abs: sum as f64 / channels,
+        psnr: if mse == 0.0 {
+            f64::INFINITY
+        } else {
+            10.0 * (255.0f64 * 255.0 / mse).log10()
+        },
+        max_abs: histogram.iter().rposition(|&n| n > 0).unwrap_or(0) as u8,
+        histogram,
+    }
+}
