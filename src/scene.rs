@@ -199,7 +199,7 @@ pub fn phong_exponent(roughness: f32) -> f32 {
     }
 }
 
-/// A light source. Shading is Lambertian, see [`crate::shade::direct`].
+/// A light source. Shading is Lambertian, see [`crate::shade::Shader::direct`].
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub enum Light {
     /// A light at infinity.
@@ -304,7 +304,7 @@ impl Scene {
         self.tris.len()
     }
 
-    /// Bounds of all triangles.
+    /// Bounds of the scene: the union of the objects' [`Object::bounds`].
     pub fn bounds(&self) -> Aabb {
         self.objects
             .iter()
@@ -316,8 +316,9 @@ impl Scene {
         self.bounds().diagonal()
     }
 
-    /// Offset for secondary ray origins (along the geometric normal), sized
-    /// to the scene: `1e-5` of the diameter, at least `1e-6`.
+    /// Self-intersection tolerance of secondary rays, sized to the scene:
+    /// `1e-5` of the diameter, at least `1e-6` (see
+    /// [`crate::shade::Shader::epsilon`] for how it is applied).
     pub fn ray_epsilon(&self) -> f32 {
         (self.diameter() * 1e-5).max(1e-6)
     }
@@ -409,7 +410,7 @@ impl Scene {
         ];
         for (name, corner, u, normal, a, c) in walls {
             let m = b.material(Material::checkered(name, a, c, 0.5));
-            let mesh = grid_for(corner, u, Vec3::Y * wall_h, normal, share(t, 0.03));
+            let mesh = grid_for(corner, u, Vec3::Y * wall_h, normal, t * 0.03);
             b.object(name, m, mesh, None);
         }
 
@@ -420,8 +421,8 @@ impl Scene {
             0.0,
         ));
         let r = 1.1;
-        let mesh = sphere(r, share(t, 0.25))
-            .transformed(Affine3A::from_translation(Vec3::new(-1.6, r, -1.2)));
+        let mesh =
+            sphere(r, t * 0.25).transformed(Affine3A::from_translation(Vec3::new(-1.6, r, -1.2)));
         b.object("mirror_sphere", m, mesh, None);
 
         let m = b.material(Material::reflective(
@@ -433,15 +434,14 @@ impl Scene {
         let (major, minor) = (0.75, 0.25);
         // Stood up (axis horizontal), then turned about the vertical: the
         // lowest point touches the floor.
-        let mesh =
-            torus(major, minor, share(t, 0.2)).transformed(Affine3A::from_rotation_translation(
-                Quat::from_rotation_y(0.5) * Quat::from_rotation_x(FRAC_PI_2),
-                Vec3::new(2.0, major + minor, -1.8),
-            ));
+        let mesh = torus(major, minor, t * 0.2).transformed(Affine3A::from_rotation_translation(
+            Quat::from_rotation_y(0.5) * Quat::from_rotation_x(FRAC_PI_2),
+            Vec3::new(2.0, major + minor, -1.8),
+        ));
         b.object("glossy_torus", m, mesh, None);
 
         let m = b.material(Material::diffuse("red_box", Vec3::new(0.8, 0.2, 0.15)));
-        let mesh = cuboid(Vec3::new(0.45, 0.6, 0.45), share(t, 0.03)).transformed(
+        let mesh = cuboid(Vec3::new(0.45, 0.6, 0.45), t * 0.03).transformed(
             Affine3A::from_rotation_translation(
                 Quat::from_rotation_y(0.52),
                 Vec3::new(0.6, 0.6, 0.4),
@@ -453,7 +453,7 @@ impl Scene {
             "blue_cylinder",
             Vec3::new(0.2, 0.35, 0.85),
         ));
-        let mesh = cylinder(0.45, 1.6, share(t, 0.06))
+        let mesh = cylinder(0.45, 1.6, t * 0.06)
             .transformed(Affine3A::from_translation(Vec3::new(-2.8, 0.0, 1.2)));
         b.object("blue_cylinder", m, mesh, None);
 
@@ -461,7 +461,7 @@ impl Scene {
             "green_sphere",
             Vec3::new(0.25, 0.75, 0.3),
         ));
-        let mesh = sphere(0.55, share(t, 0.08))
+        let mesh = sphere(0.55, t * 0.08)
             .transformed(Affine3A::from_translation(Vec3::new(2.6, 0.55, 1.4)));
         b.object("green_sphere", m, mesh, None);
 
@@ -471,7 +471,7 @@ impl Scene {
             Vec3::splat(0.08),
             0.2,
         ));
-        let mesh = cuboid(Vec3::new(1.0, 0.4, 0.5), share(t, 0.02))
+        let mesh = cuboid(Vec3::new(1.0, 0.4, 0.5), t * 0.02)
             .transformed(Affine3A::from_translation(Vec3::new(0.0, 0.4, -4.0)));
         b.object("pedestal", m, mesh, None);
 
@@ -534,7 +534,7 @@ impl Scene {
             0.9,
             0.0,
         ));
-        let mesh = bowl(bowl_r, share(t, 0.3))
+        let mesh = bowl(bowl_r, t * 0.3)
             .transformed(Affine3A::from_translation(Vec3::new(0.0, bowl_r, 0.0)));
         b.object("mirror_bowl", m, mesh, None);
 
@@ -542,7 +542,7 @@ impl Scene {
         let cup_r = 0.35;
         let base_y = bowl_r - (bowl_r * bowl_r - cup_r * cup_r).sqrt();
         let m = b.material(Material::diffuse("cup", Vec3::new(0.9, 0.5, 0.15)));
-        let mesh = cup(cup_r, 0.9, 0.05, share(t, 0.15))
+        let mesh = cup(cup_r, 0.9, 0.05, t * 0.15)
             .transformed(Affine3A::from_translation(Vec3::new(0.0, base_y, 0.0)));
         b.object("cup", m, mesh, None);
 
@@ -556,7 +556,7 @@ impl Scene {
             4.5,
             2.8,
             (195f32.to_radians(), 345f32.to_radians()),
-            share(t, 0.2),
+            t * 0.2,
         );
         b.object("concave_cylinder_mirror", m, mesh, None);
 
@@ -566,7 +566,7 @@ impl Scene {
             Vec3::new(0.95, 0.9, 0.4),
             0.25,
         ));
-        let arch_t = share(t, 0.05) / 3.0;
+        let arch_t = t * 0.05 / 3.0;
         let mut arch = cuboid(Vec3::new(0.15, 0.6, 0.2), arch_t)
             .transformed(Affine3A::from_translation(Vec3::new(-0.5, 0.6, 0.0)));
         arch.append(
@@ -584,7 +584,7 @@ impl Scene {
         b.object("arch", m, arch, None);
 
         let m = b.material(Material::diffuse("red_sphere", Vec3::new(0.85, 0.2, 0.2)));
-        let mesh = sphere(0.5, share(t, 0.06))
+        let mesh = sphere(0.5, t * 0.06)
             .transformed(Affine3A::from_translation(Vec3::new(-2.3, 0.5, 0.9)));
         b.object("red_sphere", m, mesh, None);
 
@@ -594,7 +594,7 @@ impl Scene {
             Vec3::new(0.1, 0.3, 0.6),
             0.15,
         ));
-        let mesh = sphere(0.35, share(t, 0.04))
+        let mesh = sphere(0.35, t * 0.04)
             .transformed(Affine3A::from_translation(Vec3::new(0.9, 0.35, 2.3)));
         b.object("checker_sphere", m, mesh, None);
 
@@ -669,7 +669,7 @@ impl Scene {
         };
         let mut b = Builder::new("walkthrough");
 
-        // Walls: one segment per room side on each grid line; interior
+        // Walls: one object per room side on each grid line; interior
         // segments have a centered doorway (two side pieces and a lintel).
         // Walls along x stop short of the walls along z by the thickness, so
         // that no two faces overlap in a plane.
@@ -681,17 +681,17 @@ impl Scene {
         ));
         // Total wall length (ignoring doors) to spread the wall budget.
         let segments = (NX * (NZ + 1) + NZ * (NX + 1)) as f32;
-        let seg_t = share(t, 0.35) / segments;
-        let mut walls = Mesh::default();
-        let wall_segment = |a: Vec3, along_x: bool, door: bool, walls: &mut Mesh| {
-            // `a` is the segment's start on the grid line; the segment runs ROOM
-            // along +x or +z.
+        let seg_t = t * 0.35 / segments;
+        // `a` is the segment's start on the grid line; the segment runs ROOM
+        // along +x or +z.
+        let wall_segment = |a: Vec3, along_x: bool, door: bool| {
+            let mut mesh = Mesh::default();
             let dir = if along_x { Vec3::X } else { Vec3::Z };
             let side = if along_x { Vec3::Z } else { Vec3::X };
             let mut piece = |from: f32, to: f32, y0: f32, y1: f32, share_of: f32| {
                 let mid = a + dir * (from + to) * 0.5 + Vec3::Y * (y0 + y1) * 0.5;
                 let half = dir * (to - from) * 0.5 + Vec3::Y * (y1 - y0) * 0.5 + side * WALL_T;
-                walls.append(
+                mesh.append(
                     cuboid(half.abs(), seg_t * share_of)
                         .transformed(Affine3A::from_translation(mid)),
                 );
@@ -710,20 +710,22 @@ impl Scene {
             } else {
                 piece(start, end, 0.0, WALL_H, 1.0);
             }
+            mesh
         };
         for j in 0..=NZ {
             for i in 0..NX {
                 let a = Vec3::new(x0 + i as f32 * ROOM, 0.0, z0 + j as f32 * ROOM);
-                wall_segment(a, true, j > 0 && j < NZ, &mut walls);
+                let mesh = wall_segment(a, true, j > 0 && j < NZ);
+                b.object(&format!("wall_x_{i}_{j}"), wall_m, mesh, None);
             }
         }
         for i in 0..=NX {
             for j in 0..NZ {
                 let a = Vec3::new(x0 + i as f32 * ROOM, 0.0, z0 + j as f32 * ROOM);
-                wall_segment(a, false, i > 0 && i < NX, &mut walls);
+                let mesh = wall_segment(a, false, i > 0 && i < NX);
+                b.object(&format!("wall_z_{i}_{j}"), wall_m, mesh, None);
             }
         }
-        b.object("walls", wall_m, walls, None);
 
         let stone = b.material(Material::diffuse("pillar", Vec3::new(0.7, 0.68, 0.62)));
         let polished = b.material(Material::reflective(
@@ -745,9 +747,9 @@ impl Scene {
             0.0,
         ));
         let pedestal_m = b.material(Material::diffuse("pedestal", Vec3::splat(0.35)));
-        let pillar_t = share(t, 0.25) / (rooms * 4.0);
-        let crate_t = share(t, 0.1) / (rooms * 2.0);
-        let sphere_t = share(t, 0.1) / rooms;
+        let pillar_t = t * 0.25 / (rooms * 4.0);
+        let crate_t = t * 0.1 / (rooms * 2.0);
+        let sphere_t = t * 0.1 / rooms;
         for j in 0..NZ {
             for i in 0..NX {
                 let c = center(i, j);
@@ -891,7 +893,13 @@ impl Scene {
             .file_stem()
             .map_or_else(|| "obj".to_owned(), |s| s.to_string_lossy().into_owned());
         let mut b = Builder::new(&name);
-        let mut meshes = Vec::new();
+        let mut bounds = Aabb::EMPTY;
+        for model in &models {
+            for p in model.mesh.positions.chunks_exact(3) {
+                bounds.grow(Vec3::new(p[0], p[1], p[2]));
+            }
+        }
+        let plane_tolerance = bounds.diagonal() * 1e-5;
         for model in &models {
             let m = &model.mesh;
             let pos = |i: u32| {
@@ -908,9 +916,9 @@ impl Scene {
             let key = |p: Vec3| [p.x.to_bits(), p.y.to_bits(), p.z.to_bits()];
             if !has_normals {
                 for f in m.indices.chunks_exact(3) {
-                    let (a, b2, c) = (pos(f[0]), pos(f[1]), pos(f[2]));
-                    let n = (b2 - a).cross(c - a);
-                    for p in [a, b2, c] {
+                    let (a, b, c) = (pos(f[0]), pos(f[1]), pos(f[2]));
+                    let n = (b - a).cross(c - a);
+                    for p in [a, b, c] {
                         *accumulated.entry(key(p)).or_insert(Vec3::ZERO) += n;
                     }
                 }
@@ -937,42 +945,32 @@ impl Scene {
                 });
                 mesh.push_raw(p, n);
             }
-            let (albedo, mat_name) = match m.material_id.and_then(|i| mtl.get(i)) {
+            if mesh.tris.is_empty() {
+                continue;
+            }
+            let (albedo, material_name) = match m.material_id.and_then(|i| mtl.get(i)) {
                 Some(mat) => (
                     mat.diffuse.map_or(Vec3::splat(0.7), Vec3::from),
-                    mat.name.clone(),
+                    mat.name.as_str(),
                 ),
-                None => (Vec3::splat(0.7), model.name.clone()),
+                None => (Vec3::splat(0.7), model.name.as_str()),
             };
             let (specular, roughness) = reflective
                 .iter()
                 .find(|(s, _, _)| model.name.contains(s))
                 .map_or((0.0, 1.0), |&(_, s, r)| (s, r));
-            meshes.push((
-                model.name.clone(),
-                mat_name,
+            let material = b.material(Material::reflective(
+                material_name,
                 albedo,
                 specular,
                 roughness,
-                mesh,
             ));
-        }
-        let mut bounds = Aabb::EMPTY;
-        for (.., mesh) in &meshes {
-            mesh.tris.iter().flatten().for_each(|&p| bounds.grow(p));
-        }
-        let tol = bounds.diagonal() * 1e-5;
-        for (obj_name, mat_name, albedo, specular, roughness, mesh) in meshes {
-            if mesh.tris.is_empty() {
-                continue;
-            }
-            let mat = b.material(Material::reflective(&mat_name, albedo, specular, roughness));
             let planar = if specular > 0.0 {
-                mesh.common_plane(tol)
+                mesh.common_plane(plane_tolerance)
             } else {
                 None
             };
-            b.object(&obj_name, mat, mesh, planar);
+            b.object(&model.name, material, mesh, planar);
         }
         let bounds = b.bounds();
         let radius = bounds.diagonal() * 0.5;
@@ -995,11 +993,6 @@ impl Scene {
             path,
         ))
     }
-}
-
-/// `fraction` of the budget `t`.
-fn share(t: f32, fraction: f32) -> f32 {
-    t * fraction
 }
 
 /// Incremental scene construction: objects are appended with contiguous
@@ -1040,7 +1033,7 @@ impl Builder {
         (self.scene.materials.len() - 1) as u32
     }
 
-    fn object(&mut self, name: &str, material: u32, mesh: Mesh, planar: Option<Plane>) -> u32 {
+    fn object(&mut self, name: &str, material: u32, mesh: Mesh, planar: Option<Plane>) {
         let id = self.scene.objects.len() as u32;
         let start = self.scene.tris.len() as u32;
         let mut bounds = Aabb::EMPTY;
@@ -1057,7 +1050,6 @@ impl Builder {
             tris: start..self.scene.tris.len() as u32,
             bounds,
         });
-        id
     }
 
     fn finish(mut self, lights: Vec<Light>, ambient: Vec3, camera_path: Vec<CameraPose>) -> Scene {
@@ -1097,8 +1089,9 @@ impl Mesh {
         self.normals.push(n);
     }
 
-    /// Adds the quad `a b c d` (in order around its boundary) as two
-    /// triangles, skipping a triangle that has collapsed to a point pair.
+    /// Adds the quad `p` (corners in order around its boundary) as two
+    /// triangles, skipping a triangle with coincident corners (a quad
+    /// touching a pole of a surface of revolution).
     fn quad(&mut self, p: [Vec3; 4], n: [Vec3; 4]) {
         if p[0] != p[1] && p[1] != p[2] && p[0] != p[2] {
             self.push([p[0], p[1], p[2]], [n[0], n[1], n[2]]);
