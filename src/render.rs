@@ -10,7 +10,7 @@
 //! |---|---|---|
 //! | [`Method::Reference`] | every reflective pixel | ray-traced, [`Shader::reference_reflection`] |
 //! | [`Method::EnvMap`] | every reflective pixel | [`env_map`] in the mirror direction only: the baseline every seed criticizes |
-//! | [`Method::PlanarMirror`] | pixels of planar perfect mirrors | rasterizes the scene through the mirrored camera, exact |
+//! | [`Method::PlanarMirror`] | pixels of planar perfect mirrors | rasterizes the scene through the mirrored camera; exact at full resolution, visibility upsampled at reduced resolution |
 //!
 //! # Error metrics
 //!
@@ -28,7 +28,9 @@
 
 use crate::gbuffer::{pixel_center, GBuffer};
 use crate::raster::{rasterize, PixelRect, RasterOptions};
+use crate::scene::NONE;
 use crate::shade::{env_map, reflection_dir, Shader};
+use crate::tracer::ray_triangle_plane;
 use glam::Vec3;
 use rayon::prelude::*;
 use refl_core::Error;
@@ -122,8 +124,12 @@ pub enum Method {
     },
     /// Environment map in the mirror direction.
     EnvMap,
-    /// Exact planar reflection by rasterizing through the mirrored camera.
-    PlanarMirror,
+    /// Planar reflection by rasterizing through the mirrored camera at
+    /// `1 / scale` of the resolution in each axis (1 = exact).
+    PlanarMirror {
+        /// Resolution divisor of the mirrored render (at least 1).
+        scale: u32,
+    },
 }
 
 impl Method {
@@ -133,7 +139,8 @@ impl Method {
         match self {
             Method::Reference { samples } => format!("reference-{samples}"),
             Method::EnvMap => "envmap".to_owned(),
-            Method::PlanarMirror => "planar-mirror".to_owned(),
+            Method::PlanarMirror { scale: 1 } => "planar-mirror".to_owned(),
+            Method::PlanarMirror { scale } => format!("planar-mirror-1/{scale}"),
         }
     }
 
@@ -150,7 +157,7 @@ impl Method {
         let t = timed(|| match *self {
             Method::Reference { samples } => Ok(reference(shader, g, samples, pool)),
             Method::EnvMap => Ok(envmap(g, pool)),
-            Method::PlanarMirror => planar_mirror(shader, g, pool),
+            Method::PlanarMirror { scale } => planar_mirror(shader, g, scale, pool),
         });
         t.value.map(|value| Timed { value, ms: t.ms })
     }
@@ -165,16 +172,42 @@ pub fn reference(
     samples: u32,
     pool: &rayon::ThreadPool,
 ) -> ReflectionImage {
-    let mut out = ReflectionImage::empty(g.width(), g.height());
-    out.fill(
-        pool,
-        |i| g.is_reflective(i),
-        |i| {
-            let s = g.surface(i).expect("reflective pixels are hits");
-            let view = -g.primary_ray(i).dir;
-            shader.reference_reflection(&s, view, g.roughness[i], samples, i as u32)
-        },
+    reference_where(shader, g, samples, pool, |i| g.is_reflective(i))
+}
+
+/// [`reference`] restricted to the reflective pixels where `mask` is true:
+/// the reference time of a method that handles only some pixels is measured
+/// on exactly those pixels.
+///
+/// # Panics
+/// If `mask` is shorter than the G-buffer.
+pub fn reference_masked(
+    shader: &Shader,
+    g: &GBuffer,
+    samples: u32,
+    mask: &[bool],
+    pool: &rayon::ThreadPool,
+) -> ReflectionImage {
+    assert!(
+        mask.len() >= g.len(),
+        "reference_masked: mask shorter than the G-buffer"
     );
+    reference_where(shader, g, samples, pool, |i| mask[i] && g.is_reflective(i))
+}
+
+fn reference_where(
+    shader: &Shader,
+    g: &GBuffer,
+    samples: u32,
+    pool: &rayon::ThreadPool,
+    select: impl Fn(usize) -> bool + Sync,
+) -> ReflectionImage {
+    let mut out = ReflectionImage::empty(g.width(), g.height());
+    out.fill(pool, select, |i| {
+        let s = g.surface(i).expect("reflective pixels are hits");
+        let view = -g.primary_ray(i).dir;
+        shader.reference_reflection(&s, view, g.roughness[i], samples, i as u32)
+    });
     out
 }
 
@@ -193,26 +226,38 @@ pub fn envmap(g: &GBuffer, pool: &rayon::ThreadPool) -> ReflectionImage {
     out
 }
 
-/// Exact planar reflections: for each planar reflector object with a
+/// Planar reflections: for each planar reflector object with a
 /// perfect-mirror material that covers pixels of `g`, the scene is
 /// rasterized ([`rasterize`]) through [`refl_core::mirrored_camera`] with the
 /// mirror plane (oriented toward the eye) as clip plane, the reflector itself
 /// excluded and the scissor set to the reflector's pixel bounds; each of the
-/// reflector's pixels then shades the exact hit of the mirrored camera's
-/// primary ray with the visible primitive (one-bounce rule), or the
-/// environment where nothing was drawn. Only those pixels are handled.
+/// reflector's pixels then shades the hit of the mirrored camera's primary
+/// ray with the visible primitive (one-bounce rule), or the environment where
+/// nothing was drawn. Only those pixels are handled.
+///
+/// With `scale = 1` this is exact, pixel for pixel. With `scale > 1` the
+/// mirrored image is rasterized at `ceil(w / scale) x ceil(h / scale)` (the
+/// half- and quarter-resolution planar reflections engines ship) and each
+/// full-resolution pixel takes the primitive of the low-resolution pixel
+/// containing it, intersected with its own full-resolution ray: exact
+/// inside surfaces, wrong only where a silhouette crosses the coarse pixel.
 ///
 /// # Errors
 /// [`refl_core::mirrored_camera`]'s error for a plane that produces a
-/// non-finite camera.
+/// non-finite camera; [`Error::InvalidArgument`] for `scale == 0`.
 pub fn planar_mirror(
     shader: &Shader,
     g: &GBuffer,
+    scale: u32,
     pool: &rayon::ThreadPool,
 ) -> Result<ReflectionImage, Error> {
+    if scale == 0 {
+        return Err(Error::InvalidArgument);
+    }
     let scene = shader.scene;
     let mut out = ReflectionImage::empty(g.width(), g.height());
     let eye = g.camera.eye();
+    let (lw, lh) = (g.width().div_ceil(scale), g.height().div_ceil(scale));
     for (id, object) in scene.objects.iter().enumerate() {
         let id = id as u32;
         let Some(plane) = object.planar else {
@@ -230,19 +275,42 @@ pub fn planar_mirror(
             plane
         };
         let mirrored = refl_core::mirrored_camera(&g.camera, &plane)?;
+        // The same frustum at the reduced resolution (same fov, same aspect
+        // up to the rounding of the size).
+        let coarse = refl_core::Camera::try_new(
+            mirrored.view(),
+            mirrored.fov_y(),
+            mirrored.near(),
+            mirrored.far(),
+            lw,
+            lh,
+        )?;
         let options = RasterOptions {
             clip_plane: Some(plane),
             exclude_object: Some(id),
-            scissor: Some(rect),
+            scissor: Some(PixelRect {
+                x0: rect.x0 / scale,
+                y0: rect.y0 / scale,
+                x1: rect.x1.div_ceil(scale),
+                y1: rect.y1.div_ceil(scale),
+            }),
         };
-        let vis = rasterize(scene, &mirrored, &options, pool);
+        let vis = rasterize(scene, &coarse, &options, pool);
         out.fill(
             pool,
             |i| g.object[i] == id,
             |i| {
                 let (x, y) = g.pixel(i);
                 let ray = mirrored.primary_ray(pixel_center(x, y));
-                match vis.hit(scene, &mirrored, i) {
+                let prim = vis.prim[(y / scale) as usize * lw as usize + (x / scale) as usize];
+                let hit = if scale == 1 {
+                    vis.hit(scene, &mirrored, i)
+                } else if prim == NONE {
+                    None
+                } else {
+                    ray_triangle_plane(&scene.tris[prim as usize], prim, ray.origin, ray.dir)
+                };
+                match hit {
                     Some(hit) => shader.shade_reflection_hit(ray.origin, ray.dir, &hit),
                     None => env_map(ray.dir),
                 }

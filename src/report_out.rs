@@ -66,19 +66,33 @@ impl Row {
             format!("{:.4}", self.speedup),
             format!("{:.6}", self.coverage),
             format!("{:.4}", self.mean_abs_255),
-            if self.psnr_db.is_finite() { format!("{:.3}", self.psnr_db) } else { "inf".into() },
+            if self.psnr_db.is_finite() {
+                format!("{:.3}", self.psnr_db)
+            } else {
+                "inf".into()
+            },
             format!("{:.6}", self.share_over_8),
         ]
     }
 }
 
 fn extra_columns(rows: &[Row]) -> Vec<String> {
-    rows.iter().flat_map(|r| r.extra.iter().map(|(k, _)| k.clone())).collect::<BTreeSet<_>>().into_iter().collect()
+    rows.iter()
+        .flat_map(|r| r.extra.iter().map(|(k, _)| k.clone()))
+        .collect::<BTreeSet<_>>()
+        .into_iter()
+        .collect()
 }
 
 fn all_values(row: &Row, extra: &[String]) -> Vec<String> {
     let mut v = row.base_values().to_vec();
-    v.extend(extra.iter().map(|k| row.extra.iter().find(|(n, _)| n == k).map(|(_, x)| x.clone()).unwrap_or_default()));
+    v.extend(extra.iter().map(|k| {
+        row.extra
+            .iter()
+            .find(|(n, _)| n == k)
+            .map(|(_, x)| x.clone())
+            .unwrap_or_default()
+    }));
     v
 }
 
@@ -86,7 +100,12 @@ fn all_values(row: &Row, extra: &[String]) -> Vec<String> {
 pub fn write_csv(path: &Path, rows: &[Row]) -> io::Result<()> {
     let extra = extra_columns(rows);
     let mut w = csv::Writer::from_path(path)?;
-    w.write_record(BASE_COLUMNS.iter().map(|s| s.to_string()).chain(extra.iter().cloned()))?;
+    w.write_record(
+        BASE_COLUMNS
+            .iter()
+            .map(|s| s.to_string())
+            .chain(extra.iter().cloned()),
+    )?;
     for r in rows {
         w.write_record(all_values(r, &extra))?;
     }
@@ -96,7 +115,11 @@ pub fn write_csv(path: &Path, rows: &[Row]) -> io::Result<()> {
 /// The summary as a Markdown table.
 pub fn markdown_table(rows: &[Row]) -> String {
     let extra = extra_columns(rows);
-    let header: Vec<String> = BASE_COLUMNS.iter().map(|s| s.to_string()).chain(extra.iter().cloned()).collect();
+    let header: Vec<String> = BASE_COLUMNS
+        .iter()
+        .map(|s| s.to_string())
+        .chain(extra.iter().cloned())
+        .collect();
     let mut s = String::new();
     let _ = writeln!(s, "| {} |", header.join(" | "));
     let _ = writeln!(s, "|{}", "---|".repeat(header.len()));
@@ -109,7 +132,8 @@ pub fn markdown_table(rows: &[Row]) -> String {
 /// Writes an 8-bit RGB PNG.
 pub fn save_png(path: &Path, width: u32, height: u32, rgb8: &[[u8; 3]]) -> io::Result<()> {
     let flat: Vec<u8> = rgb8.iter().flatten().copied().collect();
-    image::save_buffer(path, &flat, width, height, image::ExtendedColorType::Rgb8).map_err(io::Error::other)
+    image::save_buffer(path, &flat, width, height, image::ExtendedColorType::Rgb8)
+        .map_err(io::Error::other)
 }
 
 fn ensure_font() {
@@ -118,7 +142,11 @@ fn ensure_font() {
     FONT.call_once(|| {
         // The registry keeps the first registration; failure only means
         // unlabeled text, which plotters reports when drawing.
-        let _ = plotters::style::register_font("sans-serif", FontStyle::Normal, dejavu::sans::regular());
+        let _ = plotters::style::register_font(
+            "sans-serif",
+            FontStyle::Normal,
+            dejavu::sans::regular(),
+        );
     });
 }
 
@@ -127,8 +155,18 @@ fn ensure_font() {
 /// order of increasing time. Rows with zero time are skipped.
 pub fn plot_error_vs_time(path: &Path, rows: &[Row]) -> io::Result<()> {
     ensure_font();
-    let scenes: Vec<&str> = rows.iter().map(|r| r.scene.as_str()).collect::<BTreeSet<_>>().into_iter().collect();
-    let methods: Vec<&str> = rows.iter().map(|r| r.method.as_str()).collect::<BTreeSet<_>>().into_iter().collect();
+    let scenes: Vec<&str> = rows
+        .iter()
+        .map(|r| r.scene.as_str())
+        .collect::<BTreeSet<_>>()
+        .into_iter()
+        .collect();
+    let methods: Vec<&str> = rows
+        .iter()
+        .map(|r| r.method.as_str())
+        .collect::<BTreeSet<_>>()
+        .into_iter()
+        .collect();
     let (w, h) = (900u32, 420 * scenes.len().max(1) as u32);
     let mut buf = vec![0u8; (w * h * 3) as usize];
     {
@@ -136,8 +174,13 @@ pub fn plot_error_vs_time(path: &Path, rows: &[Row]) -> io::Result<()> {
         root.fill(&WHITE).map_err(io::Error::other)?;
         let panels = root.split_evenly((scenes.len().max(1), 1));
         for (scene, area) in scenes.iter().zip(panels.iter()) {
-            let pts: Vec<&Row> = rows.iter().filter(|r| r.scene == *scene && r.time_ms > 0.0).collect();
-            let (tmin, tmax) = pts.iter().fold((f64::MAX, f64::MIN), |(a, b), r| (a.min(r.time_ms), b.max(r.time_ms)));
+            let pts: Vec<&Row> = rows
+                .iter()
+                .filter(|r| r.scene == *scene && r.time_ms > 0.0)
+                .collect();
+            let (tmin, tmax) = pts.iter().fold((f64::MAX, f64::MIN), |(a, b), r| {
+                (a.min(r.time_ms), b.max(r.time_ms))
+            });
             let emax = pts.iter().map(|r| r.mean_abs_255).fold(0.0f64, f64::max);
             if pts.is_empty() {
                 continue;
@@ -147,7 +190,10 @@ pub fn plot_error_vs_time(path: &Path, rows: &[Row]) -> io::Result<()> {
                 .margin(12)
                 .x_label_area_size(40)
                 .y_label_area_size(60)
-                .build_cartesian_2d((tmin * 0.7..tmax * 1.4).log_scale(), 0.0..(emax * 1.1).max(0.5))
+                .build_cartesian_2d(
+                    (tmin * 0.7..tmax * 1.4).log_scale(),
+                    0.0..(emax * 1.1).max(0.5),
+                )
                 .map_err(io::Error::other)?;
             chart
                 .configure_mesh()
@@ -156,14 +202,19 @@ pub fn plot_error_vs_time(path: &Path, rows: &[Row]) -> io::Result<()> {
                 .draw()
                 .map_err(io::Error::other)?;
             for (i, m) in methods.iter().enumerate() {
-                let mut series: Vec<(f64, f64)> =
-                    pts.iter().filter(|r| r.method == *m).map(|r| (r.time_ms, r.mean_abs_255)).collect();
+                let mut series: Vec<(f64, f64)> = pts
+                    .iter()
+                    .filter(|r| r.method == *m)
+                    .map(|r| (r.time_ms, r.mean_abs_255))
+                    .collect();
                 if series.is_empty() {
                     continue;
                 }
                 series.sort_by(|a, b| a.0.total_cmp(&b.0));
                 let color = Palette99::pick(i).to_rgba();
-                chart.draw_series(LineSeries::new(series.clone(), color.stroke_width(2))).map_err(io::Error::other)?;
+                chart
+                    .draw_series(LineSeries::new(series.clone(), color.stroke_width(2)))
+                    .map_err(io::Error::other)?;
                 chart
                     .draw_series(series.iter().map(|&p| Circle::new(p, 4, color.filled())))
                     .map_err(io::Error::other)?

@@ -3,15 +3,15 @@
 //! export.
 
 use glam::{Vec2, Vec3};
-use refl::export::{export_crosscheck, CROSSCHECK_HEIGHT, CROSSCHECK_WIDTH};
-use refl::gbuffer::GBuffer;
-use refl::raster::{rasterize, RasterOptions};
-use refl::render::{
+use refl_app::export::{export_crosscheck, CROSSCHECK_HEIGHT, CROSSCHECK_WIDTH};
+use refl_app::gbuffer::GBuffer;
+use refl_app::raster::{rasterize, RasterOptions};
+use refl_app::render::{
     compare, composite, direct_image, envmap, planar_mirror, reference, srgb8, to_srgb8, Method,
 };
-use refl::scene::{Aabb, CameraPose, Material, Object, Scene, NONE};
-use refl::shade::Shader;
-use refl::tracer::Tracer;
+use refl_app::scene::{Aabb, CameraPose, Material, Object, Scene, NONE};
+use refl_app::shade::Shader;
+use refl_app::tracer::Tracer;
 use refl_core::{Camera, DepthConvention};
 use std::path::PathBuf;
 
@@ -28,6 +28,37 @@ fn gbuffer(scene: &Scene, tracer: &Tracer, pose: usize, w: u32, h: u32) -> GBuff
 }
 
 #[test]
+fn reduced_resolution_planar_mirror_degrades_gracefully() {
+    // Coarser mirrored renders handle the same pixels; their error grows
+    // with the scale but stays at silhouettes (well under the envmap
+    // baseline), and scale 0 is refused.
+    let pool = pool(2);
+    let scene = Scene::room(20_000);
+    let tracer = Tracer::new(&scene);
+    let shader = Shader::new(&scene, &tracer);
+    let g = gbuffer(&scene, &tracer, 0, 160, 120);
+    let truth = reference(&shader, &g, 1, &pool);
+    let exact = planar_mirror(&shader, &g, 1, &pool).unwrap();
+    let mut last = compare(&exact.rgb, &truth.rgb, &exact.handled).mean_abs;
+    for scale in [2, 4] {
+        let coarse = planar_mirror(&shader, &g, scale, &pool).unwrap();
+        assert_eq!(coarse.handled, exact.handled, "scale {scale}");
+        let e = compare(&coarse.rgb, &truth.rgb, &coarse.handled);
+        assert!(e.mean_abs >= last, "scale {scale}: {} < {last}", e.mean_abs);
+        assert!(e.mean_abs < 5.0, "scale {scale}: {}", e.mean_abs);
+        last = e.mean_abs;
+    }
+    assert!(
+        last > 0.0,
+        "a quarter-resolution render cannot be exact at every silhouette"
+    );
+    assert_eq!(
+        planar_mirror(&shader, &g, 0, &pool),
+        Err(refl_core::Error::InvalidArgument)
+    );
+}
+
+#[test]
 fn planar_mirror_matches_the_reference_on_planar_mirror_pixels() {
     let pool = pool(2);
     for (scene, poses) in [
@@ -38,7 +69,7 @@ fn planar_mirror_matches_the_reference_on_planar_mirror_pixels() {
         let shader = Shader::new(&scene, &tracer);
         for pose in poses {
             let g = gbuffer(&scene, &tracer, pose, 160, 120);
-            let planar = planar_mirror(&shader, &g, &pool).unwrap();
+            let planar = planar_mirror(&shader, &g, 1, &pool).unwrap();
             let truth = reference(&shader, &g, 1, &pool);
             // Coverage: exactly the pixels of planar mirror objects.
             for i in 0..g.len() {
@@ -234,7 +265,7 @@ fn scissor_and_exclusion_limit_the_raster() {
     let cam = scene.camera(0, 96, 72).unwrap();
     let pool = pool(2);
     let full = rasterize(&scene, &cam, &RasterOptions::default(), &pool);
-    let rect = refl::raster::PixelRect {
+    let rect = refl_app::raster::PixelRect {
         x0: 10,
         y0: 20,
         x1: 50,
@@ -319,7 +350,7 @@ fn envmap_baseline_is_exact_only_where_reflections_escape() {
     for i in (0..g.len()).filter(|&i| g.is_reflective(i) && g.roughness[i] == 0.0) {
         let s = g.surface(i).unwrap();
         let view = -g.primary_ray(i).dir;
-        let r = refl::shade::reflection_dir(view, s.shading_normal, s.geo_normal);
+        let r = refl_app::shade::reflection_dir(view, s.shading_normal, s.geo_normal);
         if tracer
             .trace(s.position, r, shader.epsilon, f32::INFINITY)
             .is_none()
@@ -341,7 +372,7 @@ fn results_do_not_depend_on_the_thread_count() {
         let pool = pool(threads);
         let g = GBuffer::render(&scene, &tracer, &cam, &pool);
         let r = reference(&shader, &g, 8, &pool);
-        let p = planar_mirror(&shader, &g, &pool).unwrap();
+        let p = planar_mirror(&shader, &g, 1, &pool).unwrap();
         let v = rasterize(&scene, &cam, &RasterOptions::default(), &pool);
         (g.prim, g.position, r, p, v.prim)
     };
@@ -436,7 +467,9 @@ fn composite_blends_direct_and_reflection_by_specular_level() {
     let pool = pool(2);
     let g = gbuffer(&scene, &tracer, 0, 64, 48);
     let direct = direct_image(&shader, &g, &pool);
-    let run = Method::PlanarMirror.run(&shader, &g, &pool).unwrap();
+    let run = Method::PlanarMirror { scale: 1 }
+        .run(&shader, &g, &pool)
+        .unwrap();
     assert!(run.ms >= 0.0);
     let r = run.value;
     let c = composite(&g, &direct, &r);
@@ -453,7 +486,11 @@ fn composite_blends_direct_and_reflection_by_specular_level() {
     assert!(blended > 0);
     assert_eq!(Method::Reference { samples: 32 }.name(), "reference-32");
     assert_eq!(Method::EnvMap.name(), "envmap");
-    assert_eq!(Method::PlanarMirror.name(), "planar-mirror");
+    assert_eq!(Method::PlanarMirror { scale: 1 }.name(), "planar-mirror");
+    assert_eq!(
+        Method::PlanarMirror { scale: 2 }.name(),
+        "planar-mirror-1/2"
+    );
 }
 
 #[test]

@@ -2,7 +2,7 @@
 //! structure and flags; the OBJ loader; materials.
 
 use glam::Vec3;
-use refl::scene::{phong_exponent, Material, Scene};
+use refl_app::scene::{phong_exponent, Material, Scene};
 use std::path::PathBuf;
 
 type Maker = fn(usize) -> Scene;

@@ -1,8 +1,8 @@
 //! The obvhs reference tracer against an f64 brute-force oracle.
 
 use glam::{DVec3, Vec3};
-use refl::scene::Scene;
-use refl::tracer::{ray_triangle_plane, Tracer};
+use refl_app::scene::Scene;
+use refl_app::tracer::{ray_triangle_plane, Tracer};
 
 /// xorshift64*: deterministic test randomness.
 struct Rng(u64);

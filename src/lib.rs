@@ -1,0 +1,17 @@
+//! The root package of refl: built-in scenes, the obvhs reference tracer,
+//! G-buffer and depth-image producers, the reflection renderers built on
+//! refl-core, and `refl report` (error against run time for every method).
+//!
+//! The library is named `refl_app` (the package is `refl`) so that its
+//! artifacts do not collide with refl-ffi's `librefl`.
+#![doc = include_str!("../README.md")]
+
+pub mod export;
+pub mod gbuffer;
+pub mod raster;
+pub mod render;
+pub mod report;
+pub mod report_out;
+pub mod scene;
+pub mod shade;
+pub mod tracer;
