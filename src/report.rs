@@ -84,9 +84,9 @@ impl Sizes {
     pub fn new(quick: bool) -> Self {
         if quick {
             Sizes {
-                width: 160,
-                height: 120,
-                tris: 20_000,
+                width: 256,
+                height: 192,
+                tris: 30_000,
                 truth_samples: 64,
                 reference_samples: &[4, 16],
                 runs: 3,
@@ -369,7 +369,10 @@ pub fn run(opts: &Options) -> Result<PathBuf, String> {
                 };
                 let method_final = composite(&g, &direct, &img);
                 let err = compare(&truth_final, &method_final, &img.handled);
-                let stem = format!("{label}_{method_name}_{}", setting.replace(['=', ';'], "-"));
+                let stem = format!(
+                    "{label}_{method_name}_{}",
+                    setting.replace(['=', ';', '/'], "-")
+                );
                 save(&images.join(format!("{stem}.png")), &g, &method_final)?;
                 save(
                     &images.join(format!("{stem}_diff.png")),

@@ -136,6 +136,21 @@ pub fn save_png(path: &Path, width: u32, height: u32, rgb8: &[[u8; 3]]) -> io::R
         .map_err(io::Error::other)
 }
 
+/// Where the log-scale error axis of the plot ends: errors below it (an
+/// exact method reads 0) are drawn at this value.
+pub const ERROR_FLOOR: f64 = 1e-3;
+
+/// Distinct, print-safe curve colors (Okabe-Ito).
+const COLORS: [RGBColor; 7] = [
+    RGBColor(0, 114, 178),
+    RGBColor(213, 94, 0),
+    RGBColor(0, 158, 115),
+    RGBColor(204, 121, 167),
+    RGBColor(86, 180, 233),
+    RGBColor(230, 159, 0),
+    RGBColor(0, 0, 0),
+];
+
 fn ensure_font() {
     use std::sync::Once;
     static FONT: Once = Once::new();
@@ -150,9 +165,10 @@ fn ensure_font() {
     });
 }
 
-/// Plots error (mean absolute difference, 0..255) against time (ms, log
-/// scale) with one panel per scene and one curve per method, points in the
-/// order of increasing time. Rows with zero time are skipped.
+/// Plots error (mean absolute difference, 0..255, log scale) against time
+/// (ms, log scale) with one panel per scene and one curve per method, points
+/// in the order of increasing time. Errors below [`ERROR_FLOOR`] (exact
+/// methods) are drawn on the floor. Rows with zero time are skipped.
 pub fn plot_error_vs_time(path: &Path, rows: &[Row]) -> io::Result<()> {
     ensure_font();
     let scenes: Vec<&str> = rows
@@ -181,7 +197,10 @@ pub fn plot_error_vs_time(path: &Path, rows: &[Row]) -> io::Result<()> {
             let (tmin, tmax) = pts.iter().fold((f64::MAX, f64::MIN), |(a, b), r| {
                 (a.min(r.time_ms), b.max(r.time_ms))
             });
-            let emax = pts.iter().map(|r| r.mean_abs_255).fold(0.0f64, f64::max);
+            let emax = pts
+                .iter()
+                .map(|r| r.mean_abs_255)
+                .fold(ERROR_FLOOR, f64::max);
             if pts.is_empty() {
                 continue;
             }
@@ -192,13 +211,13 @@ pub fn plot_error_vs_time(path: &Path, rows: &[Row]) -> io::Result<()> {
                 .y_label_area_size(60)
                 .build_cartesian_2d(
                     (tmin * 0.7..tmax * 1.4).log_scale(),
-                    0.0..(emax * 1.1).max(0.5),
+                    (ERROR_FLOOR * 0.8..emax * 2.0).log_scale(),
                 )
                 .map_err(io::Error::other)?;
             chart
                 .configure_mesh()
                 .x_desc("time of the reflection pass (ms, log)")
-                .y_desc("mean abs. difference (0..255)")
+                .y_desc("mean abs. difference (0..255, log)")
                 .draw()
                 .map_err(io::Error::other)?;
             for (i, m) in methods.iter().enumerate() {
@@ -211,7 +230,7 @@ pub fn plot_error_vs_time(path: &Path, rows: &[Row]) -> io::Result<()> {
                     continue;
                 }
                 series.sort_by(|a, b| a.0.total_cmp(&b.0));
-                let color = Palette99::pick(i).to_rgba();
+                let color = COLORS[i % COLORS.len()].to_rgba();
                 chart
                     .draw_series(LineSeries::new(series.clone(), color.stroke_width(2)))
                     .map_err(io::Error::other)?;
