@@ -21,16 +21,17 @@ fi
 jobs=$(nproc 2>/dev/null || echo 2)
 
 run() {
-  local dir=$1; shift
+  local dir=$1 verbosity=$2; shift 2
   echo "==== cpp_tests: $dir ($*) ===="
   cmake -S "$root/cpp_tests" -B "$root/cpp_tests/$dir" -DCMAKE_BUILD_TYPE=RelWithDebInfo \
     -DREFL_CROSSCHECK_DIR="$crosscheck" "$@"
   cmake --build "$root/cpp_tests/$dir" -j "$jobs"
-  ctest --test-dir "$root/cpp_tests/$dir" --output-on-failure -j "$jobs"
+  ctest --test-dir "$root/cpp_tests/$dir" --output-on-failure $verbosity -j "$jobs"
 }
 
-run build -DREFL_SANITIZE=OFF
+# The plain build prints every test's figures (agreement, error, rays/s).
+run build --verbose -DREFL_SANITIZE=OFF
 # halt_on_error: a sanitizer report fails the test, as -fno-sanitize-recover does.
 ASAN_OPTIONS=${ASAN_OPTIONS:-detect_leaks=1:halt_on_error=1:abort_on_error=0} \
 UBSAN_OPTIONS=${UBSAN_OPTIONS:-print_stacktrace=1:halt_on_error=1} \
-  run build-asan -DREFL_SANITIZE=ON
+  run build-asan "" -DREFL_SANITIZE=ON

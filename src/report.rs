@@ -42,6 +42,10 @@ pub struct Options {
     /// (default: all cores).
     #[arg(long)]
     pub threads: Option<usize>,
+    /// Triangle budget of the built-in scenes (default: 150000, quick:
+    /// 30000), for cost-growth curves.
+    #[arg(long)]
+    pub tris: Option<usize>,
     /// Reflective materials for an OBJ scene: `NAME:SPECULAR:ROUGHNESS`,
     /// matching object names containing NAME (repeatable).
     #[arg(long)]
@@ -57,6 +61,7 @@ impl Default for Options {
             method: Vec::new(),
             out: PathBuf::from("report"),
             threads: None,
+            tris: None,
             reflective: Vec::new(),
         }
     }
@@ -222,7 +227,10 @@ fn median(mut v: Vec<f64>) -> f64 {
 /// A message for an unknown scene or method, an unreadable OBJ, or an I/O
 /// failure while writing the report.
 pub fn run(opts: &Options) -> Result<PathBuf, String> {
-    let sizes = Sizes::new(opts.quick);
+    let mut sizes = Sizes::new(opts.quick);
+    if let Some(tris) = opts.tris {
+        sizes.tris = tris;
+    }
     let scenes: Vec<String> = if opts.scene.is_empty() {
         ["room", "concave", "walkthrough"]
             .map(String::from)
