@@ -2,15 +2,19 @@
 //! as points of an error-vs-time curve measured against the ray-traced
 //! reference (obvhs) in the same run, same threads.
 //!
-//! Per scene: build the BVH, render the G-buffer of the first camera pose,
-//! compute the ground truth (the reference at [`Sizes::truth_samples`] glossy
-//! samples), then time each method's reflection pass (median of
-//! [`Sizes::runs`]) and measure its error on the pixels it handles. The
+//! Per scene: build the BVH; for [`Sizes::frames`] poses spread over the
+//! camera path, render the G-buffer, compute the ground truth (the reference
+//! at [`Sizes::truth_samples`] glossy samples), then time each method's
+//! reflection pass (median of [`Sizes::runs`]) and measure its error on the
+//! pixels it handles. A row pools the frames: mean time per frame, errors
+//! over all handled pixels of all frames. The
 //! reference time of a row is the ground-truth pass restricted to the same
 //! pixels (so a method that handles planar mirrors only is compared with
 //! tracing those mirrors only).
 
-use crate::render::{self, compare, composite, direct_image, Method, ReflectionImage};
+use crate::render::{
+    self, compare, composite, direct_image, ImageError, Method, ReflectionImage, Timed,
+};
 use crate::report_out::{self, Row};
 use crate::scene::Scene;
 use crate::shade::Shader;
@@ -82,6 +86,8 @@ pub struct Sizes {
     pub reference_samples: &'static [u32],
     /// Timed repetitions; the median is reported.
     pub runs: usize,
+    /// Camera-path poses rendered per scene (spread over the path).
+    pub frames: usize,
 }
 
 impl Sizes {
@@ -95,6 +101,7 @@ impl Sizes {
                 truth_samples: 64,
                 reference_samples: &[4, 16],
                 runs: 3,
+                frames: 2,
             }
         } else {
             Sizes {
@@ -104,10 +111,14 @@ impl Sizes {
                 truth_samples: 512,
                 reference_samples: &[4, 16, 64, 256],
                 runs: 3,
+                frames: 4,
             }
         }
     }
 }
+
+/// The built-in scenes, in report order.
+pub const BUILT_IN_SCENES: [&str; 3] = ["room", "concave", "walkthrough"];
 
 /// Every method name the report knows, in report order.
 pub const METHODS: [&str; 3] = ["reference", "envmap", "planar-mirror"];
@@ -221,6 +232,104 @@ fn median(mut v: Vec<f64>) -> f64 {
     v[v.len() / 2]
 }
 
+/// Sums over the frames of one scene x method x setting; a row is made
+/// from it once every frame has run.
+#[derive(Clone, Debug, Default)]
+struct Accum {
+    frames: usize,
+    time_ms: f64,
+    reference_ms: f64,
+    handled: usize,
+    reflective: usize,
+    /// Sum of absolute 8-bit channel differences.
+    abs_sum: f64,
+    /// Sum of squared 8-bit channel differences.
+    sq_sum: f64,
+    /// Handled pixels whose largest channel error exceeds 8.
+    over_8: f64,
+    max_abs: u8,
+}
+
+impl Accum {
+    fn add(&mut self, ms: f64, reference_ms: f64, reflective: usize, err: &ImageError) {
+        let channels = 3.0 * err.pixels as f64;
+        self.frames += 1;
+        self.time_ms += ms;
+        self.reference_ms += reference_ms;
+        self.handled += err.pixels;
+        self.reflective += reflective;
+        self.abs_sum += err.mean_abs * channels;
+        // PSNR = 10 log10(255^2 / mse), +inf for mse = 0.
+        self.sq_sum += if err.psnr.is_finite() {
+            255.0 * 255.0 / 10f64.powf(err.psnr / 10.0) * channels
+        } else {
+            0.0
+        };
+        self.over_8 += err.share_over_8() * err.pixels as f64;
+        self.max_abs = self.max_abs.max(err.max_abs);
+    }
+
+    fn row(&self, scene: &str, method: &str, setting: &str, threads: usize) -> Row {
+        let frames = self.frames.max(1) as f64;
+        let (time_ms, reference_ms) = (self.time_ms / frames, self.reference_ms / frames);
+        let channels = 3.0 * self.handled.max(1) as f64;
+        let mse = self.sq_sum / channels;
+        Row {
+            scene: scene.to_owned(),
+            method: method.to_owned(),
+            setting: setting.to_owned(),
+            threads,
+            time_ms,
+            reference_ms,
+            speedup: if time_ms > 0.0 {
+                reference_ms / time_ms
+            } else {
+                f64::INFINITY
+            },
+            coverage: if self.reflective > 0 {
+                self.handled as f64 / self.reflective as f64
+            } else {
+                0.0
+            },
+            mean_abs_255: self.abs_sum / channels,
+            psnr_db: if mse > 0.0 {
+                10.0 * (255.0 * 255.0 / mse).log10()
+            } else {
+                f64::INFINITY
+            },
+            share_over_8: self.over_8 / self.handled.max(1) as f64,
+            extra: vec![
+                ("frames".into(), self.frames.to_string()),
+                ("max_abs_255".into(), self.max_abs.to_string()),
+            ],
+        }
+    }
+}
+
+/// The camera-path poses a run renders: `frames` poses spread evenly over
+/// the path, the first pose always included.
+fn frame_poses(path_len: usize, frames: usize) -> Vec<usize> {
+    let frames = frames.clamp(1, path_len.max(1));
+    let mut poses: Vec<usize> = (0..frames).map(|k| k * path_len / frames).collect();
+    poses.dedup();
+    poses
+}
+
+/// Runs the median of `runs` timings of `f`, returning the first result.
+fn median_run<T, E>(
+    runs: usize,
+    mut f: impl FnMut() -> Result<Timed<T>, E>,
+) -> Result<(T, f64), E> {
+    let mut first = None;
+    let mut times = Vec::with_capacity(runs);
+    for _ in 0..runs.max(1) {
+        let t = f()?;
+        times.push(t.ms);
+        first.get_or_insert(t.value);
+    }
+    Ok((first.expect("runs >= 1"), median(times)))
+}
+
 /// Runs the report and returns the folder it wrote.
 ///
 /// # Errors
@@ -232,9 +341,7 @@ pub fn run(opts: &Options) -> Result<PathBuf, String> {
         sizes.tris = tris;
     }
     let scenes: Vec<String> = if opts.scene.is_empty() {
-        ["room", "concave", "walkthrough"]
-            .map(String::from)
-            .to_vec()
+        BUILT_IN_SCENES.map(String::from).to_vec()
     } else {
         opts.scene.clone()
     };
@@ -254,6 +361,14 @@ pub fn run(opts: &Options) -> Result<PathBuf, String> {
         }
         m
     };
+    if let Some(bad) = scenes
+        .iter()
+        .find(|s| !(BUILT_IN_SCENES.contains(&s.as_str()) || s.ends_with(".obj")))
+    {
+        return Err(format!(
+            "unknown scene '{bad}' (room, concave, walkthrough or a .obj path)"
+        ));
+    }
     let threads = opts
         .threads
         .unwrap_or_else(|| std::thread::available_parallelism().map_or(1, |n| n.get()))
@@ -266,7 +381,7 @@ pub fn run(opts: &Options) -> Result<PathBuf, String> {
     let images = out.join("images");
     std::fs::create_dir_all(&images).map_err(|e| format!("{}: {e}", images.display()))?;
 
-    // The length grows per scene once its frame says which passes it needs.
+    // The length grows per frame once the frame says which passes it needs.
     let bar = ProgressBar::new(0);
     bar.set_style(
         ProgressStyle::with_template("{elapsed_precise} [{bar:30}] {pos}/{len} {msg}")
@@ -277,141 +392,146 @@ pub fn run(opts: &Options) -> Result<PathBuf, String> {
     let mut rows = Vec::new();
     let mut notes = String::new();
     for scene_name in &scenes {
-        bar.inc_length(2);
         bar.set_message(format!("{scene_name}: scene + BVH"));
         let scene = load_scene(scene_name, opts, &sizes)?;
         let label = scene.name.clone();
         let tracer = Tracer::new(&scene);
         let shader = Shader::new(&scene, &tracer);
-        let camera = scene
-            .camera(0, sizes.width, sizes.height)
-            .map_err(|e| format!("{label}: camera: {e}"))?;
-        let g = timed(|| GBuffer::render(&scene, &tracer, &camera, &pool));
-        let (g, gbuffer_ms) = (g.value, g.ms);
-        let reflective = g.reflective_mask();
-        let n_reflective = reflective.iter().filter(|&&r| r).count();
-        let n_glossy = (0..g.len())
-            .filter(|&i| reflective[i] && g.roughness[i] > 0.0)
-            .count();
-        bar.inc(1);
-
-        bar.set_message(format!(
-            "{label}: ground truth ({} spp)",
-            sizes.truth_samples
-        ));
-        let truth = Method::Reference {
-            samples: sizes.truth_samples,
-        };
-        let truth_runs: Vec<_> = (0..sizes.runs)
-            .map(|_| truth.run(&shader, &g, &pool))
-            .collect::<Result<_, _>>()
-            .map_err(|e| e.to_string())?;
-        let truth_ms = median(truth_runs.iter().map(|t| t.ms).collect());
-        let truth_img = truth_runs
-            .into_iter()
-            .next()
-            .map(|t| t.value)
-            .expect("runs >= 1");
-        let direct = direct_image(&shader, &g, &pool);
-        let truth_final = composite(&g, &direct, &truth_img);
-        save(
-            &images.join(format!("{label}_reference.png")),
-            &g,
-            &truth_final,
-        )?;
-        bar.inc(1);
+        let poses = frame_poses(scene.camera_path.len(), sizes.frames);
         let _ = writeln!(
             notes,
-            "- `{label}`: {} triangles, BVH build {:.1} ms, G-buffer {:.1} ms, {}x{} pixels, {} reflective ({} glossy); \
-             ground truth: reference with {} glossy spp, {:.1} ms",
+            "- `{label}`: {} triangles, BVH build {:.1} ms, {}x{} pixels, camera poses {:?} of {}",
             scene.tri_count(),
             tracer.build_ms(),
-            gbuffer_ms,
-            g.width(),
-            g.height(),
-            n_reflective,
-            n_glossy,
-            sizes.truth_samples,
-            truth_ms
+            sizes.width,
+            sizes.height,
+            poses,
+            scene.camera_path.len()
         );
-
-        let needs = FrameNeeds::of(&scene, &g);
-        for method_name in &methods {
-            let runs_of = match settings(method_name, &sizes, needs) {
-                Ok(s) => s,
-                Err(why) => {
-                    let _ = writeln!(notes, "  - `{method_name}` skipped on `{label}`: {why}");
-                    continue;
+        // (method, setting) -> sums over frames, in first-seen order.
+        let mut accums: Vec<((&str, String), Accum)> = Vec::new();
+        // G-buffers of every frame first: which passes the scene needs is
+        // decided over all its frames, so every row pools the same frames.
+        bar.inc_length(poses.len() as u64);
+        let mut frames = Vec::with_capacity(poses.len());
+        for &pose in &poses {
+            let camera = scene
+                .camera(pose, sizes.width, sizes.height)
+                .map_err(|e| format!("{label}: camera: {e}"))?;
+            let g = timed(|| GBuffer::render(&scene, &tracer, &camera, &pool));
+            frames.push((pose, g.value, g.ms));
+            bar.inc(1);
+        }
+        let needs = frames.iter().fold(
+            FrameNeeds {
+                glossy_pixels: 0,
+                planar_mirror_pixels: 0,
+            },
+            |a, (_, g, _)| {
+                let n = FrameNeeds::of(&scene, g);
+                FrameNeeds {
+                    glossy_pixels: a.glossy_pixels + n.glossy_pixels,
+                    planar_mirror_pixels: a.planar_mirror_pixels + n.planar_mirror_pixels,
                 }
+            },
+        );
+        for (method_name, why) in methods
+            .iter()
+            .filter_map(|m| settings(m, &sizes, needs).err().map(|why| (m, why)))
+        {
+            let _ = writeln!(notes, "  - `{method_name}` skipped: {why}");
+        }
+        for (frame, (pose, g, gbuffer_ms)) in frames.iter().enumerate() {
+            let (pose, gbuffer_ms) = (*pose, *gbuffer_ms);
+            let frame_needs = FrameNeeds::of(&scene, g);
+            let reflective = g.reflective_mask();
+            let n_reflective = reflective.iter().filter(|&&r| r).count();
+            bar.inc_length(1);
+
+            bar.set_message(format!(
+                "{label} pose {pose}: ground truth ({} spp)",
+                sizes.truth_samples
+            ));
+            let truth = Method::Reference {
+                samples: sizes.truth_samples,
             };
-            bar.inc_length(runs_of.len() as u64);
-            for (method, setting) in runs_of {
-                bar.set_message(format!("{label}: {method_name} {setting}"));
-                let runs: Vec<_> = (0..sizes.runs)
-                    .map(|_| method.run(&shader, &g, &pool))
-                    .collect::<Result<_, _>>()
-                    .map_err(|e| e.to_string())?;
-                let ms = median(runs.iter().map(|t| t.ms).collect());
-                let img = runs.into_iter().next().map(|t| t.value).expect("runs >= 1");
-                let handled = img.handled_count();
-                // The reference on exactly the handled pixels, same threads.
-                let reference_ms = if handled == n_reflective {
-                    truth_ms
-                } else {
-                    median(
-                        (0..sizes.runs)
-                            .map(|_| {
-                                timed(|| {
-                                    render::reference_masked(
-                                        &shader,
-                                        &g,
-                                        sizes.truth_samples,
-                                        &img.handled,
-                                        &pool,
-                                    )
-                                })
-                                .ms
-                            })
-                            .collect(),
-                    )
-                };
-                let method_final = composite(&g, &direct, &img);
-                let err = compare(&truth_final, &method_final, &img.handled);
-                let stem = format!(
-                    "{label}_{method_name}_{}",
-                    setting.replace(['=', ';', '/'], "-")
-                );
-                save(&images.join(format!("{stem}.png")), &g, &method_final)?;
+            let (truth_img, truth_ms) = median_run(sizes.runs, || truth.run(&shader, g, &pool))
+                .map_err(|e| e.to_string())?;
+            let direct = direct_image(&shader, g, &pool);
+            let truth_final = composite(g, &direct, &truth_img);
+            if frame == 0 {
                 save(
-                    &images.join(format!("{stem}_diff.png")),
-                    &g,
-                    &diff_image(&truth_final, &method_final, &img, &reflective),
+                    &images.join(format!("{label}_reference.png")),
+                    g,
+                    &truth_final,
                 )?;
-                rows.push(Row {
-                    scene: label.clone(),
-                    method: method_name.to_string(),
-                    setting,
-                    threads,
-                    time_ms: ms,
-                    reference_ms,
-                    speedup: if ms > 0.0 {
-                        reference_ms / ms
+            }
+            bar.inc(1);
+            let _ = writeln!(
+                notes,
+                "  - pose {pose}: G-buffer {gbuffer_ms:.1} ms, {n_reflective} reflective pixels ({} glossy, {} planar mirror); \
+                 ground truth {truth_ms:.1} ms",
+                frame_needs.glossy_pixels, frame_needs.planar_mirror_pixels
+            );
+
+            for method_name in &methods {
+                let Ok(runs_of) = settings(method_name, &sizes, needs) else {
+                    continue;
+                };
+                bar.inc_length(runs_of.len() as u64);
+                for (method, setting) in runs_of {
+                    bar.set_message(format!("{label} pose {pose}: {method_name} {setting}"));
+                    let (img, ms) = median_run(sizes.runs, || method.run(&shader, g, &pool))
+                        .map_err(|e| e.to_string())?;
+                    // The reference on exactly the handled pixels, same threads.
+                    let reference_ms = if img.handled_count() == n_reflective {
+                        truth_ms
                     } else {
-                        f64::INFINITY
-                    },
-                    coverage: if n_reflective > 0 {
-                        handled as f64 / n_reflective as f64
-                    } else {
-                        0.0
-                    },
-                    mean_abs_255: err.mean_abs,
-                    psnr_db: err.psnr,
-                    share_over_8: err.share_over_8(),
-                    extra: vec![("max_abs_255".into(), err.max_abs.to_string())],
-                });
-                bar.inc(1);
+                        median_run(sizes.runs, || {
+                            Ok::<_, String>(timed(|| {
+                                render::reference_masked(
+                                    &shader,
+                                    g,
+                                    sizes.truth_samples,
+                                    &img.handled,
+                                    &pool,
+                                )
+                            }))
+                        })?
+                        .1
+                    };
+                    let method_final = composite(g, &direct, &img);
+                    let err = compare(&truth_final, &method_final, &img.handled);
+                    if frame == 0 {
+                        let stem = format!(
+                            "{label}_{method_name}_{}",
+                            setting.replace(['=', ';', '/'], "-")
+                        );
+                        save(&images.join(format!("{stem}.png")), g, &method_final)?;
+                        save(
+                            &images.join(format!("{stem}_diff.png")),
+                            g,
+                            &diff_image(&truth_final, &method_final, &img, &reflective),
+                        )?;
+                    }
+                    let key = (*method_name, setting);
+                    let i = match accums.iter().position(|(k, _)| *k == key) {
+                        Some(i) => i,
+                        None => {
+                            accums.push((key, Accum::default()));
+                            accums.len() - 1
+                        }
+                    };
+                    accums[i].1.add(ms, reference_ms, n_reflective, &err);
+                    bar.inc(1);
+                }
             }
         }
+        rows.extend(
+            accums
+                .iter()
+                .map(|((m, setting), a)| a.row(&label, m, setting, threads)),
+        );
     }
     bar.finish_and_clear();
 
@@ -420,13 +540,16 @@ pub fn run(opts: &Options) -> Result<PathBuf, String> {
     let plot = out.join("error_vs_time.png");
     report_out::plot_error_vs_time(&plot, &rows).map_err(|e| format!("{}: {e}", plot.display()))?;
     let md = format!(
-        "# refl report\n\n{} run, {threads} thread(s). Time is the reflection pass only (median of {}); \
-         `reference_ms` is the ray-traced reference (obvhs) on the same pixels in the same run. \
-         Error is measured against the ground truth on the pixels each method handles \
-         (mean absolute difference on 0..255 of 8-bit sRGB composites, PSNR, share of pixels over 8/255).\n\n\
+        "# refl report\n\n{} run, {threads} thread(s), {} frame(s) per scene. Time is the reflection pass only \
+         (median of {} runs, mean over frames); `reference_ms` is the ray-traced reference (obvhs) on the same \
+         pixels in the same run, same threads. Error is measured against the ground truth (the reference at {} \
+         glossy samples per pixel) on the pixels each method handles, pooled over frames: mean absolute difference \
+         on 0..255 of 8-bit sRGB composites, PSNR, share of pixels over 8/255. Images: the first frame.\n\n\
          ## Scenes\n\n{notes}\n## Summary\n\n{}\n![error vs time](error_vs_time.png)\n",
         if opts.quick { "Quick" } else { "Default" },
+        sizes.frames,
         sizes.runs,
+        sizes.truth_samples,
         report_out::markdown_table(&rows)
     );
     let md_path = out.join("summary.md");

@@ -1,0 +1,120 @@
+//! `refl report` end to end on small sizes: the summary is machine-readable
+//! with the documented columns, every method appears with its settings, the
+//! exact method is exact, the baseline is not, and passes a scene cannot use
+//! are skipped and said so.
+
+use refl_app::report::{run, Options};
+use refl_app::report_out::BASE_COLUMNS;
+
+fn read_csv(path: &std::path::Path) -> (Vec<String>, Vec<Vec<String>>) {
+    let mut r = csv::Reader::from_path(path).unwrap();
+    let header = r.headers().unwrap().iter().map(String::from).collect();
+    let rows = r
+        .records()
+        .map(|rec| rec.unwrap().iter().map(String::from).collect())
+        .collect();
+    (header, rows)
+}
+
+#[test]
+fn quick_report_writes_summary_plot_and_images() {
+    let out = std::env::temp_dir().join(format!("refl-report-test-{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&out);
+    let opts = Options {
+        quick: true,
+        scene: vec!["room".into(), "concave".into()],
+        out: out.clone(),
+        threads: Some(2),
+        tris: Some(8_000),
+        ..Options::default()
+    };
+    assert_eq!(run(&opts).unwrap(), out);
+
+    let (header, rows) = read_csv(&out.join("summary.csv"));
+    assert_eq!(
+        &header[..BASE_COLUMNS.len()],
+        BASE_COLUMNS.map(String::from).as_slice()
+    );
+    let col = |name: &str| header.iter().position(|h| h == name).unwrap();
+    let (scene, method, setting) = (col("scene"), col("method"), col("setting"));
+    let num = |r: &Vec<String>, name: &str| r[col(name)].parse::<f64>().unwrap();
+    let find = |s: &str, m: &str, set: &str| {
+        rows.iter()
+            .find(|r| r[scene] == s && r[method] == m && r[setting] == set)
+            .unwrap_or_else(|| panic!("no row {s} {m} {set}"))
+    };
+
+    // Room: every method, every setting.
+    for set in ["glossy_spp=4", "glossy_spp=16"] {
+        let r = find("room", "reference", set);
+        assert!(num(r, "mean_abs_255") < 1.0, "{set}");
+        assert!(num(r, "time_ms") > 0.0 && num(r, "reference_ms") > 0.0);
+    }
+    let env = find("room", "envmap", "analytic");
+    assert!(
+        num(env, "mean_abs_255") > 10.0,
+        "the envmap baseline ignores visibility"
+    );
+    assert_eq!(num(env, "coverage"), 1.0);
+    let exact = find("room", "planar-mirror", "resolution=1/1");
+    assert!(num(exact, "mean_abs_255") < 0.05, "planar mirror is exact");
+    let cov = num(exact, "coverage");
+    assert!(
+        cov > 0.3 && cov < 1.0,
+        "planar mirrors are part of the reflective pixels: {cov}"
+    );
+    assert!(
+        num(
+            find("room", "planar-mirror", "resolution=1/4"),
+            "mean_abs_255"
+        ) > num(exact, "mean_abs_255")
+    );
+    for r in &rows {
+        let (t, rt, sp) = (num(r, "time_ms"), num(r, "reference_ms"), num(r, "speedup"));
+        assert!(
+            (sp - rt / t).abs() <= 1e-3 * sp.max(1.0),
+            "speedup column is reference_ms / time_ms"
+        );
+        assert_eq!(r[col("threads")], "2");
+    }
+
+    // Concave: no planar mirror and no glossy surface, so planar-mirror is
+    // skipped and the reference needs no sample-count sweep.
+    assert!(rows
+        .iter()
+        .all(|r| !(r[scene] == "concave" && r[method] == "planar-mirror")));
+    find("concave", "reference", "mirror_rays");
+    let md = std::fs::read_to_string(out.join("summary.md")).unwrap();
+    assert!(
+        md.contains("`planar-mirror` skipped: no planar mirror in view"),
+        "{md}"
+    );
+
+    for f in [
+        "error_vs_time.png",
+        "images/room_reference.png",
+        "images/room_planar-mirror_resolution-1-2_diff.png",
+    ] {
+        let img = image::open(out.join(f)).unwrap_or_else(|e| panic!("{f}: {e}"));
+        assert!(img.width() > 0 && img.height() > 0);
+    }
+    std::fs::remove_dir_all(&out).unwrap();
+}
+
+#[test]
+fn unknown_scene_and_method_are_errors() {
+    let bad_scene = Options {
+        scene: vec!["atrium".into()],
+        out: std::env::temp_dir().join(format!("refl-report-bad-{}", std::process::id())),
+        ..Options::default()
+    };
+    assert!(run(&bad_scene).unwrap_err().contains("unknown scene"));
+    let bad_method = Options {
+        method: vec!["ssr".into()],
+        out: std::env::temp_dir().join(format!("refl-report-bad-{}", std::process::id())),
+        ..Options::default()
+    };
+    assert!(run(&bad_method).unwrap_err().contains("unknown method"));
+    // Refused before anything is written.
+    assert!(!bad_scene.out.exists() && !bad_method.out.exists());
+}
