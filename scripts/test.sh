@@ -4,7 +4,7 @@
 #
 #   scripts/test.sh
 #
-# Steps: set-up, fmt, clippy (-D warnings), cargo test (workspace; includes
+# Steps: set-up, fmt, clippy (-D warnings), rustdoc (-D warnings), cargo test (workspace; includes
 # the header-staleness test), no_std link check, refl-core built with each
 # feature alone, C++ tests against Embree 3 (normal and ASan+UBSan builds,
 # including the obvhs-vs-Embree cross-check) and `refl report --quick`.
@@ -40,6 +40,9 @@ cargo fmt --all -- --check
 
 step "clippy -D warnings"
 cargo clippy --workspace --all-targets --locked -- -D warnings
+
+step "cargo doc (warnings denied: broken intra-doc links fail)"
+RUSTDOCFLAGS="-D warnings" cargo doc --workspace --no-deps --locked -q
 
 step "cargo test"
 cargo test --workspace --locked

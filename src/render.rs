@@ -175,7 +175,7 @@ pub fn reference(
     reference_where(shader, g, samples, pool, |i| g.is_reflective(i))
 }
 
-/// [`reference`] restricted to the reflective pixels where `mask` is true:
+/// [`reference()`] restricted to the reflective pixels where `mask` is true:
 /// the reference time of a method that handles only some pixels is measured
 /// on exactly those pixels.
 ///
