@@ -438,6 +438,30 @@ void plane_functions() {
         expect<refl_camera>(b.name, b.status, [&](refl_camera* o) { return refl_mirrored_camera(o, &b.cam, &good); });
     expect<refl_camera>("mirrored NULL camera", REFL_STATUS_NULL_POINTER,
                         [&](refl_camera* o) { return refl_mirrored_camera(o, nullptr, &good); });
+    // Oblique near plane: the mirrored camera with the mirror plane is valid;
+    // the real camera has its eye on the kept side.
+    refl_camera mirrored;
+    REQUIRE(refl_mirrored_camera(&mirrored, &g, &good) == REFL_STATUS_OK);
+    per_plane("oblique_projection", [&](const refl_plane* pl, refl_status st, const char* n) {
+        auto f = [&](refl_mat4* o) {
+            return refl_oblique_projection(o, &mirrored, pl, REFL_DEPTH_CONVENTION_REVERSED_Z);
+        };
+        if (st == REFL_STATUS_OK) expect_ok<refl_mat4>(n, f);
+        else expect<refl_mat4>(n, st, f);
+    });
+    for (const BadCamera& b : bad_cameras())
+        expect<refl_mat4>(b.name, b.status, [&](refl_mat4* o) {
+            return refl_oblique_projection(o, &b.cam, &good, REFL_DEPTH_CONVENTION_ZERO_TO_ONE);
+        });
+    expect<refl_mat4>("oblique NULL camera", REFL_STATUS_NULL_POINTER, [&](refl_mat4* o) {
+        return refl_oblique_projection(o, nullptr, &good, REFL_DEPTH_CONVENTION_ZERO_TO_ONE);
+    });
+    for (uint32_t c : {uint32_t(REFL_DEPTH_CONVENTION_LINEAR), 3u, 0xFFFFFFFFu})
+        expect<refl_mat4>("oblique convention", REFL_STATUS_INVALID_ARGUMENT,
+                          [&](refl_mat4* o) { return refl_oblique_projection(o, &mirrored, &good, c); });
+    expect<refl_mat4>("oblique eye on the kept side", REFL_STATUS_DEGENERATE_GEOMETRY, [&](refl_mat4* o) {
+        return refl_oblique_projection(o, &g, &good, REFL_DEPTH_CONVENTION_ZERO_TO_ONE);
+    });
     for (refl_vec3 b : kBadVec3) {
         expect<float>("signed_distance point", REFL_STATUS_INVALID_ARGUMENT,
                       [&](float* o) { return refl_plane_signed_distance(o, &good, b); });

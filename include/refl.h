@@ -1139,6 +1139,31 @@ refl_status refl_mirrored_camera(struct refl_camera *out,
                                  const struct refl_plane *plane);
 
 /**
+ * Writes to `*out` the projection matrix of `camera` for the
+ * post-projection convention `convention` with its near plane replaced by
+ * the world-space plane `clip` (an oblique near plane, Lengyel 2005): used
+ * with a camera from `refl_mirrored_camera` and the mirror plane oriented
+ * toward the real eye, depth clipping discards everything behind the mirror
+ * without a user clip plane. The x, y and w rows are those of
+ * `refl_camera_projection_matrix`; stored depth is the near value exactly on
+ * `clip` and leaves [0, 1] behind it. Such depth is not decodable with
+ * `refl_camera_decode_depth`. Composed in double precision, rounded once.
+ *
+ * Returns `REFL_STATUS_NULL_POINTER` if `out`, `camera` or `clip` is NULL;
+ * `REFL_STATUS_INVALID_ARGUMENT` for an unknown convention or
+ * `REFL_DEPTH_CONVENTION_LINEAR`; `REFL_STATUS_DEGENERATE_GEOMETRY` if the
+ * eye is not strictly on the negative side of `clip` or the plane keeps
+ * nothing of the frustum; the camera's or plane's status if invalid.
+ *
+ * # Safety
+ * `out` must be NULL or writable; `camera` and `clip` NULL or readable.
+ */
+refl_status refl_oblique_projection(struct refl_mat4 *out,
+                                    const struct refl_camera *camera,
+                                    const struct refl_plane *clip,
+                                    uint32_t convention);
+
+/**
  * A static, NUL-terminated English description of `status`.
  *
  * Never returns NULL: values that are not a `refl_status` get the string

@@ -355,7 +355,7 @@ impl Camera {
     /// Projection matrix (view space to clip space) for a post-projection
     /// convention, in f64. `clip.w = -z_view`, `clip.z / clip.w` is the
     /// stored depth of the module's table.
-    fn projection_f64(&self, c: DepthConvention) -> Result<DMat4, Error> {
+    pub(crate) fn projection_f64(&self, c: DepthConvention) -> Result<DMat4, Error> {
         let (n, f) = (f64::from(self.near), f64::from(self.far));
         // clip.z = a * z_view + b
         let (a, b) = match c {

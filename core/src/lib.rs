@@ -30,7 +30,9 @@ pub use camera::{Camera, DepthConvention, Ray};
 pub use error::Error;
 pub use image::{ImageView, ImageViewMut, RowRange};
 #[cfg(feature = "mirror")]
-pub use mirror::{mirror_matrix, mirror_point, mirrored_camera, reflect, Plane};
+pub use mirror::{
+    mirror_matrix, mirror_point, mirrored_camera, oblique_projection, reflect, Plane,
+};
 
 /// Re-export of the glam version refl-core is built against, so that callers
 /// can name the exact vector and matrix types of the Rust API.

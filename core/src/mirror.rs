@@ -6,7 +6,7 @@
 //! the scene through [`mirrored_camera`] produces, at each pixel of the
 //! mirror, exactly what the reflected primary ray sees.
 
-use crate::{Camera, Error};
+use crate::{Camera, DepthConvention, Error};
 use glam::{DMat4, DVec4, Mat4, Vec3};
 
 /// The reflection of the unit vector `v` about the unit normal `n`:
@@ -219,4 +219,92 @@ pub fn mirrored_camera(cam: &Camera, plane: &Plane) -> Result<Camera, Error> {
         cam.width(),
         cam.height(),
     )
+}
+
+/// The projection matrix of `cam` for post-projection convention `c` with
+/// its near plane replaced by the world-space plane `clip` (an oblique near
+/// plane, after E. Lengyel, "Oblique View Frustum Depth Projection and
+/// Clipping", Journal of Game Development 1(2), 2005, Sec. 2-3), so that a
+/// rasterizer drawing through a [`mirrored_camera`] discards everything
+/// behind the mirror without a user clip plane.
+///
+/// Contract: x, y and w rows are those of [`Camera::projection`]; the depth
+/// row is replaced so that stored depth is the near value (0, or 1 for
+/// reversed-Z) exactly on `clip`, grows toward the far value on the side the
+/// normal points to, reaches the far value (1, or 0 for reversed-Z) at the
+/// far frustum corner opposite the plane (at infinity for an infinite far
+/// plane), and leaves `[0, 1]` behind the plane, so depth clipping does the
+/// plane clipping. The far plane tilts with the near one (it passes through
+/// that far corner), so geometry near the original far plane on the other
+/// side may be clipped early: keep `far` generous, or infinite. Depth is still affine in `1 / z` (linear in screen space)
+/// but no longer a function of view distance alone: decode it with this
+/// matrix's inverse, not with [`Camera::decode_depth`]. Orient `clip` toward
+/// the real eye (the side the reflection shows) as [`Plane::flipped`] allows.
+///
+/// Derivation (f64): with `C` the plane in view space, `M4` the projection's
+/// w row and `Q` the view-space far corner `(sgn(C.x) tan_x, sgn(C.y) tan_y,
+/// -1) * far` (a direction with `w = 0` for an infinite far plane), the
+/// depth row is `a C` for `[0, 1]` depth and `M4 - a C` for reversed-Z,
+/// with `a = (M4 . Q) / (C . Q)`.
+///
+/// # Errors
+/// * [`Error::InvalidArgument`] for [`DepthConvention::Linear`].
+/// * [`Error::DegenerateGeometry`] if the eye is not strictly on the
+///   negative side of `clip` (the plane would cut away the eye's side or
+///   pass through the eye), or the plane does not cross the view direction's
+///   far side (`C . Q <= 0`, nothing in front would be kept).
+pub fn oblique_projection(cam: &Camera, clip: &Plane, c: DepthConvention) -> Result<Mat4, Error> {
+    let proj = cam.projection_f64(c)?;
+    // Planes transform with the inverse transpose: C_view^T = C_world^T V^-1.
+    let world = DVec4::new(
+        f64::from(clip.normal.x),
+        f64::from(clip.normal.y),
+        f64::from(clip.normal.z),
+        f64::from(clip.d),
+    );
+    let inv_view = cam.inverse_view().as_dmat4();
+    let cv = inv_view.transpose() * world;
+    if !(cv.w < 0.0) {
+        return Err(Error::DegenerateGeometry);
+    }
+    let sgn = |v: f64| {
+        if v > 0.0 {
+            1.0
+        } else if v < 0.0 {
+            -1.0
+        } else {
+            0.0
+        }
+    };
+    let tan_y = 1.0 / proj.y_axis.y;
+    let tan_x = 1.0 / proj.x_axis.x;
+    let far = f64::from(cam.far());
+    let dir = DVec4::new(sgn(cv.x) * tan_x, sgn(cv.y) * tan_y, -1.0, 0.0);
+    let q = if far.is_finite() {
+        (dir * far).with_w(1.0)
+    } else {
+        dir
+    };
+    let m4 = proj.row(3);
+    let cq = cv.dot(q);
+    if !(cq > 0.0) {
+        return Err(Error::DegenerateGeometry);
+    }
+    let a = m4.dot(q) / cq;
+    let row = match c {
+        DepthConvention::ReversedZ => m4 - cv * a,
+        _ => cv * a,
+    };
+    // Replace the third row (the depth row) of the column-major matrix.
+    let mut m = proj;
+    m.x_axis.z = row.x;
+    m.y_axis.z = row.y;
+    m.z_axis.z = row.z;
+    m.w_axis.z = row.w;
+    let out = m.as_mat4();
+    if out.is_finite() {
+        Ok(out)
+    } else {
+        Err(Error::DegenerateGeometry)
+    }
 }

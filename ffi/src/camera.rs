@@ -38,7 +38,7 @@ pub(crate) fn finite3(p: refl_vec3) -> Result<Vec3, Error> {
 
 /// A finite matrix, or `DegenerateGeometry` (the result of composing valid
 /// inputs overflowed or was singular).
-fn finite_mat(m: Mat4) -> Result<refl_mat4, Error> {
+pub(crate) fn finite_mat(m: Mat4) -> Result<refl_mat4, Error> {
     m.is_finite()
         .then(|| m.into())
         .ok_or(Error::DegenerateGeometry)

@@ -1,10 +1,10 @@
 //! Planar reflection exports: reflection vector, planes, mirror matrix,
 //! mirrored camera (seed 001 appendix, seed 004 Sec. 4.4.3).
 
-use crate::camera::finite3;
+use crate::camera::{finite3, finite_mat};
 use crate::ptr::{read, Out};
 use crate::status::{guard, refl_status};
-use crate::types::{refl_camera, refl_mat4, refl_plane, refl_ray, refl_vec3};
+use crate::types::{convention, refl_camera, refl_mat4, refl_plane, refl_ray, refl_vec3};
 use refl_core::glam::Vec3;
 use refl_core::{Camera, Error, Plane};
 
@@ -254,6 +254,51 @@ pub unsafe extern "C" fn refl_mirrored_camera(
         let m = refl_core::mirrored_camera(&cam, &plane)?;
         // SAFETY: caller contract.
         unsafe { out.write(refl_camera::from(&m)) };
+        Ok(())
+    })
+}
+
+/// Writes to `*out` the projection matrix of `camera` for the
+/// post-projection convention `convention` with its near plane replaced by
+/// the world-space plane `clip` (an oblique near plane, Lengyel 2005): used
+/// with a camera from `refl_mirrored_camera` and the mirror plane oriented
+/// toward the real eye, depth clipping discards everything behind the mirror
+/// without a user clip plane. The x, y and w rows are those of
+/// `refl_camera_projection_matrix`; stored depth is the near value exactly on
+/// `clip` and leaves [0, 1] behind it. Such depth is not decodable with
+/// `refl_camera_decode_depth`. Composed in double precision, rounded once.
+///
+/// Returns `REFL_STATUS_NULL_POINTER` if `out`, `camera` or `clip` is NULL;
+/// `REFL_STATUS_INVALID_ARGUMENT` for an unknown convention or
+/// `REFL_DEPTH_CONVENTION_LINEAR`; `REFL_STATUS_DEGENERATE_GEOMETRY` if the
+/// eye is not strictly on the negative side of `clip` or the plane keeps
+/// nothing of the frustum; the camera's or plane's status if invalid.
+///
+/// # Safety
+/// `out` must be NULL or writable; `camera` and `clip` NULL or readable.
+#[no_mangle]
+pub unsafe extern "C" fn refl_oblique_projection(
+    out: *mut refl_mat4,
+    camera: *const refl_camera,
+    clip: *const refl_plane,
+    convention: u32,
+) -> refl_status {
+    guard(|| {
+        let out = Out::new(out)?;
+        if camera.is_null() || clip.is_null() {
+            return Err(Error::NullPointer);
+        }
+        // SAFETY: caller contract.
+        let cam = Camera::try_from(&unsafe { read(camera) }?)?;
+        // SAFETY: caller contract.
+        let clip = unsafe { self::plane(clip) }?;
+        let m = finite_mat(refl_core::oblique_projection(
+            &cam,
+            &clip,
+            self::convention(convention)?,
+        )?)?;
+        // SAFETY: caller contract.
+        unsafe { out.write(m) };
         Ok(())
     })
 }

@@ -582,12 +582,51 @@ fn mirrored_camera_matches_core_in_place() {
 }
 
 #[test]
-fn plane_round_trip_is_close() {
+fn plane_round_trip_is_exact() {
     let p: refl_plane =
         ok(|o| unsafe { refl_plane_from_point_normal(o, v3(3.0, -7.0, 2.0), v3(0.3, 0.9, -0.2)) });
     let back = refl_plane::from(&Plane::try_from(&p).unwrap());
-    assert!((Vec3::from(back.normal) - Vec3::from(p.normal)).length() < 1e-6);
-    assert!((back.d - p.d).abs() <= 4.0 * f32::EPSILON * p.d.abs());
+    assert_eq!(Vec3::from(back.normal), Vec3::from(p.normal));
+    assert_eq!(back.d, p.d);
+}
+
+#[test]
+fn oblique_projection_matches_core() {
+    let plane = floor_plane();
+    let c = camera();
+    let m: refl_camera = ok(|o| unsafe { refl_mirrored_camera(o, &c, &plane) });
+    for conv in [
+        refl_depth_convention::ZeroToOne,
+        refl_depth_convention::ReversedZ,
+    ] {
+        let got: refl_mat4 = ok(|o| unsafe { refl_oblique_projection(o, &m, &plane, conv as u32) });
+        let want = refl_core::oblique_projection(
+            &core_camera(&m),
+            &Plane::try_from(&plane).unwrap(),
+            if conv == refl_depth_convention::ReversedZ {
+                DepthConvention::ReversedZ
+            } else {
+                DepthConvention::ZeroToOne
+            },
+        )
+        .unwrap();
+        assert_eq!(got.m, want.to_cols_array());
+    }
+    // The real camera's eye is on the kept side of the floor.
+    untouched::<refl_mat4>(refl_status::DegenerateGeometry, |o| unsafe {
+        refl_oblique_projection(o, &c, &plane, refl_depth_convention::ZeroToOne as u32)
+    });
+    untouched::<refl_mat4>(refl_status::InvalidArgument, |o| unsafe {
+        refl_oblique_projection(o, &m, &plane, refl_depth_convention::Linear as u32)
+    });
+    untouched::<refl_mat4>(refl_status::NullPointer, |o| unsafe {
+        refl_oblique_projection(
+            o,
+            &m,
+            core::ptr::null(),
+            refl_depth_convention::ZeroToOne as u32,
+        )
+    });
 }
 
 #[test]
