@@ -18,6 +18,25 @@ unsafe fn plane(p: *const refl_plane) -> Result<Plane, Error> {
     Plane::try_from(&p)
 }
 
+/// Reads a camera and a plane, null checks first (both reported as
+/// `NullPointer` before either is validated).
+///
+/// # Safety
+/// Each pointer must be NULL or point to a readable value.
+unsafe fn camera_and_plane(
+    camera: *const refl_camera,
+    plane: *const refl_plane,
+) -> Result<(Camera, Plane), Error> {
+    if camera.is_null() || plane.is_null() {
+        return Err(Error::NullPointer);
+    }
+    // SAFETY: forwarded contract.
+    let cam = Camera::try_from(&unsafe { read(camera) }?)?;
+    // SAFETY: forwarded contract.
+    let plane = unsafe { self::plane(plane) }?;
+    Ok((cam, plane))
+}
+
 /// A finite result, or `InvalidArgument` (finite inputs overflowed f32).
 fn finite_out(v: Vec3) -> Result<refl_vec3, Error> {
     v.is_finite()
@@ -244,13 +263,8 @@ pub unsafe extern "C" fn refl_mirrored_camera(
 ) -> refl_status {
     guard(|| {
         let out = Out::new(out)?;
-        if camera.is_null() || plane.is_null() {
-            return Err(Error::NullPointer);
-        }
         // SAFETY: caller contract.
-        let cam = Camera::try_from(&unsafe { read(camera) }?)?;
-        // SAFETY: caller contract.
-        let plane = unsafe { self::plane(plane) }?;
+        let (cam, plane) = unsafe { camera_and_plane(camera, plane) }?;
         let m = refl_core::mirrored_camera(&cam, &plane)?;
         // SAFETY: caller contract.
         unsafe { out.write(refl_camera::from(&m)) };
@@ -285,13 +299,8 @@ pub unsafe extern "C" fn refl_oblique_projection(
 ) -> refl_status {
     guard(|| {
         let out = Out::new(out)?;
-        if camera.is_null() || clip.is_null() {
-            return Err(Error::NullPointer);
-        }
         // SAFETY: caller contract.
-        let cam = Camera::try_from(&unsafe { read(camera) }?)?;
-        // SAFETY: caller contract.
-        let clip = unsafe { self::plane(clip) }?;
+        let (cam, clip) = unsafe { camera_and_plane(camera, clip) }?;
         let m = finite_mat(refl_core::oblique_projection(
             &cam,
             &clip,

@@ -40,11 +40,12 @@ fn v2(x: f32, y: f32) -> refl_vec2 {
     refl_vec2 { x, y }
 }
 
-fn camera() -> refl_camera {
+/// A 640x480 camera at `eye` looking at (0, 0.5, 0).
+fn camera_at(eye: refl_vec3) -> refl_camera {
     ok(|o| unsafe {
         refl_camera_look_at(
             o,
-            v3(1.0, 2.0, 5.0),
+            eye,
             v3(0.0, 0.5, 0.0),
             v3(0.0, 1.0, 0.0),
             1.0,
@@ -54,6 +55,10 @@ fn camera() -> refl_camera {
             480,
         )
     })
+}
+
+fn camera() -> refl_camera {
+    camera_at(v3(1.0, 2.0, 5.0))
 }
 
 fn camera_inf() -> refl_camera {
@@ -410,19 +415,7 @@ fn matrices_match_core() {
 #[test]
 fn reprojection_agrees_with_matrix() {
     let a = camera();
-    let b: refl_camera = ok(|o| unsafe {
-        refl_camera_look_at(
-            o,
-            v3(1.5, 2.0, 5.0),
-            v3(0.0, 0.5, 0.0),
-            v3(0.0, 1.0, 0.0),
-            1.0,
-            0.1,
-            100.0,
-            640,
-            480,
-        )
-    });
+    let b = camera_at(v3(1.5, 2.0, 5.0));
     for conv in [1u32, 2] {
         let m: refl_mat4 = ok(|o| unsafe { refl_reprojection_matrix(o, &a, &b, conv) });
         let d: f32 = ok(|o| unsafe { refl_camera_encode_depth(o, &a, 5.0, conv) });
