@@ -25,6 +25,8 @@ pub mod error;
 pub mod image;
 #[cfg(feature = "mirror")]
 pub mod mirror;
+#[cfg(any(feature = "depth-image", feature = "hiz"))]
+pub mod trace;
 
 pub use camera::{Camera, DepthConvention, Ray};
 pub use error::Error;
@@ -33,6 +35,9 @@ pub use image::{ImageView, ImageViewMut, RowRange};
 pub use mirror::{
     mirror_matrix, mirror_point, mirrored_camera, oblique_projection, reflect, Plane,
 };
+
+#[cfg(any(feature = "depth-image", feature = "hiz"))]
+pub use trace::{DepthHit, DepthImage, Miss, Thickness, Trace, Work};
 
 /// Re-export of the glam version refl-core is built against, so that callers
 /// can name the exact vector and matrix types of the Rust API.
