@@ -25,6 +25,8 @@ pub mod error;
 pub mod image;
 #[cfg(feature = "mirror")]
 pub mod mirror;
+#[cfg(feature = "tcrr")]
+pub mod tcrr;
 #[cfg(any(feature = "depth-image", feature = "hiz"))]
 pub mod trace;
 
@@ -38,6 +40,11 @@ pub use mirror::{
 
 #[cfg(any(feature = "depth-image", feature = "hiz"))]
 pub use trace::{DepthHit, DepthImage, Miss, Thickness, Trace, Work};
+
+#[cfg(feature = "tcrr")]
+pub use tcrr::{
+    reflection_distance, KeyFramePolicy, Reflected, ReflectionBuffers, TcrrParams, INVALID_OFFSET,
+};
 
 /// Re-export of the glam version refl-core is built against, so that callers
 /// can name the exact vector and matrix types of the Rust API.
