@@ -14,4 +14,5 @@ pub mod report;
 pub mod report_out;
 pub mod scene;
 pub mod shade;
+pub mod tcrr;
 pub mod tracer;

@@ -35,8 +35,8 @@ pub struct Options {
     /// file (repeatable; default: the three built-in scenes).
     #[arg(long)]
     pub scene: Vec<String>,
-    /// Methods: `reference`, `envmap`, `planar-mirror` (repeatable; default:
-    /// all).
+    /// Methods: `reference`, `envmap`, `planar-mirror`, `tcrr`, `naive-warp`
+    /// (repeatable; default: all).
     #[arg(long)]
     pub method: Vec<String>,
     /// Output folder.
@@ -121,7 +121,7 @@ impl Sizes {
 pub const BUILT_IN_SCENES: [&str; 3] = ["room", "concave", "walkthrough"];
 
 /// Every method name the report knows, in report order.
-pub const METHODS: [&str; 3] = ["reference", "envmap", "planar-mirror"];
+pub const METHODS: [&str; 5] = ["reference", "envmap", "planar-mirror", "tcrr", "naive-warp"];
 
 /// What one frame's reflective pixels can use: the report skips the passes
 /// a frame has no pixels for (design: "a pipeline that skips passes a scene
@@ -191,6 +191,8 @@ fn settings(
                 )
             })
             .collect()),
+        // Whole camera-path runs, after the per-frame loop (crate::tcrr).
+        "tcrr" | "naive-warp" => Ok(Vec::new()),
         _ => Err("unknown method"),
     }
 }
@@ -532,6 +534,24 @@ pub fn run(opts: &Options) -> Result<PathBuf, String> {
                 .iter()
                 .map(|((m, setting), a)| a.row(&label, m, setting, threads)),
         );
+        let (use_tcrr, use_naive) = (methods.contains(&"tcrr"), methods.contains(&"naive-warp"));
+        if use_tcrr || use_naive {
+            bar.set_message(format!("{label}: tcrr camera path"));
+            let (tcrr_rows, note) = crate::tcrr::report_rows(
+                &shader,
+                &label,
+                opts.quick,
+                sizes.width,
+                sizes.height,
+                use_tcrr,
+                use_naive,
+                threads,
+                &pool,
+                &images,
+            )?;
+            rows.extend(tcrr_rows);
+            notes.push_str(&note);
+        }
     }
     bar.finish_and_clear();
 

@@ -78,6 +78,18 @@ fn quick_report_writes_summary_plot_and_images() {
         assert_eq!(r[col("threads")], "2");
     }
 
+    // TCRR and its naive baseline: one row per setting along the path,
+    // with the re-traced share and key-frame interval columns.
+    for m in ["tcrr", "naive-warp"] {
+        let r = rows
+            .iter()
+            .find(|r| r[scene] == "room" && r[method] == m)
+            .unwrap_or_else(|| panic!("no {m} row"));
+        let share = num(r, "retraced_share");
+        assert!((0.0..=1.0).contains(&share), "{m}: {share}");
+        assert!(num(r, "key_interval") >= 1.0);
+    }
+
     // Concave: no planar mirror and no glossy surface, so planar-mirror is
     // skipped and the reference needs no sample-count sweep.
     assert!(rows

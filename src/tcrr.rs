@@ -1,0 +1,727 @@
+//! TCRR on the built-in camera paths (seed 000): key frames traced with the
+//! obvhs tracer, other frames through `refl_core::tcrr` (search, shifting,
+//! warping) with the masked pixels re-traced; and the naive baseline that
+//! warps the key frame's reflection colors by depth (seed 000 Figs. 1, 6).
+//!
+//! Both handle the perfect-mirror pixels (specular level > 0, roughness 0;
+//! seed 000 treats perfect specular reflections only); `coverage` in the
+//! report says which share of the reflective pixels those are.
+//!
+//! Per frame of a dense sequence along the scene's camera path
+//! ([`Scene::pose_at`]): the G-buffer (not timed, every method needs it);
+//! the reference, which traces every handled pixel (timed: the "trace every
+//! reflective pixel" frame time); then per method and setting, the frame
+//! time of the method: a key frame costs the full trace (the reflection
+//! buffers are its by-products); a TCRR frame costs search + shift + warp +
+//! the re-trace list + tracing the listed pixels, and if the re-trace share
+//! exceeds the key-frame threshold ([`KeyFramePolicy`]) the frame is
+//! traced in full as the new key frame (both costs count). Every pass runs
+//! on the same rayon pool (same threads) as the reference, in row bands.
+
+use crate::gbuffer::GBuffer;
+use crate::render::{
+    compare, composite, direct_image, save_png, timed, ImageError, ReflectionImage,
+};
+use crate::report_out::Row;
+use crate::scene::Scene;
+use crate::shade::{env_map, reflection_dir, Shader};
+use glam::Vec3;
+use rayon::prelude::*;
+use refl_core::tcrr::{
+    self, CurrentView, KeyFramePolicy, ReflectionBuffers, TcrrParams, INVALID_OFFSET, MASK_RETRACE,
+};
+use refl_core::{Camera, DepthConvention, Error, ImageView, ImageViewMut};
+use std::fmt::Write as _;
+use std::path::Path;
+
+/// Caller-buffer bytes per pixel TCRR needs: reflection buffers (depth 4,
+/// normal 12, specular 4, color 12, distance 4), offsets 8, intermediate
+/// image (color 12, depth 4, coverage 1), warped color 12 and mask 1, and
+/// the re-trace list (4, worst case). The current frame's depth and
+/// specular planes are the engine's own G-buffer.
+pub const BYTES_PER_PIXEL: usize = 4 + 12 + 4 + 12 + 4 + 8 + 12 + 4 + 1 + 12 + 1 + 4;
+
+/// Which reuse scheme a run uses.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Scheme {
+    /// Temporal reflection reprojection (seed 000).
+    Tcrr,
+    /// Depth-based warping of the key frame's reflection colors.
+    NaiveWarp,
+}
+
+impl Scheme {
+    /// The report's method name.
+    pub fn name(self) -> &'static str {
+        match self {
+            Scheme::Tcrr => "tcrr",
+            Scheme::NaiveWarp => "naive-warp",
+        }
+    }
+}
+
+/// One setting of a reuse run.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Setting {
+    /// The scheme.
+    pub scheme: Scheme,
+    /// Key-frame threshold on the re-trace share.
+    pub threshold: f32,
+    /// Kernel parameters.
+    pub params: TcrrParams,
+}
+
+impl Setting {
+    /// The setting as `key=value` pairs.
+    pub fn label(&self) -> String {
+        match self.scheme {
+            Scheme::Tcrr => format!(
+                "threshold={};max_iter={};magnification={}",
+                self.threshold, self.params.max_iterations, self.params.magnification
+            ),
+            Scheme::NaiveWarp => format!("threshold={}", self.threshold),
+        }
+    }
+}
+
+/// The reflection buffers of a key frame, owned.
+struct Key {
+    camera: Camera,
+    depth: Vec<f32>,
+    normal: Vec<[f32; 3]>,
+    specular: Vec<f32>,
+    color: Vec<[f32; 3]>,
+    distance: Vec<f32>,
+}
+
+impl Key {
+    fn buffers(&self) -> Result<ReflectionBuffers<'_>, Error> {
+        let (w, h) = (self.camera.width(), self.camera.height());
+        ReflectionBuffers::try_new(
+            self.camera,
+            DepthConvention::Linear,
+            ImageView::try_new(&self.depth, w, h, w)?,
+            ImageView::try_new(&self.normal, w, h, w)?,
+            ImageView::try_new(&self.specular, w, h, w)?,
+            ImageView::try_new(&self.color, w, h, w)?,
+            ImageView::try_new(&self.distance, w, h, w)?,
+        )
+    }
+}
+
+/// The pixels TCRR handles: perfect mirrors.
+pub fn handled_mask(g: &GBuffer) -> Vec<bool> {
+    (0..g.len())
+        .map(|i| g.is_reflective(i) && g.roughness[i] <= 0.0)
+        .collect()
+}
+
+/// The mirror reflection of pixel `i` (a hit pixel) and the reflected ray's
+/// travel distance (`+inf` when it leaves the scene): exactly the
+/// reference's one-ray mirror reflection.
+pub fn trace_mirror(shader: &Shader, g: &GBuffer, i: usize) -> (Vec3, f32) {
+    let Some(s) = g.surface(i) else {
+        return (Vec3::ZERO, f32::INFINITY);
+    };
+    let view = -g.primary_ray(i).dir;
+    let dir = reflection_dir(view, s.shading_normal, s.geo_normal);
+    match shader
+        .tracer
+        .trace(s.position, dir, shader.epsilon, f32::INFINITY)
+    {
+        Some(hit) => (shader.shade_reflection_hit(s.position, dir, &hit), hit.t),
+        None => (env_map(dir), f32::INFINITY),
+    }
+}
+
+/// Traces every handled pixel: colors and distances (zero / `inf`
+/// elsewhere).
+fn trace_all(
+    shader: &Shader,
+    g: &GBuffer,
+    handled: &[bool],
+    pool: &rayon::ThreadPool,
+) -> (Vec<Vec3>, Vec<f32>) {
+    let w = g.width() as usize;
+    let mut color = vec![Vec3::ZERO; g.len()];
+    let mut dist = vec![f32::INFINITY; g.len()];
+    pool.install(|| {
+        color
+            .par_chunks_mut(w)
+            .zip(dist.par_chunks_mut(w))
+            .enumerate()
+            .for_each(|(y, (c, d))| {
+                for x in 0..w {
+                    let i = y * w + x;
+                    if handled[i] {
+                        (c[x], d[x]) = trace_mirror(shader, g, i);
+                    }
+                }
+            });
+    });
+    (color, dist)
+}
+
+fn make_key(g: &GBuffer, handled: &[bool], color: &[Vec3], dist: &[f32]) -> Key {
+    Key {
+        camera: g.camera,
+        depth: g.depth.clone(),
+        normal: g.normal.iter().map(|n| n.to_array()).collect(),
+        specular: (0..g.len())
+            .map(|i| if handled[i] { g.specular[i] } else { 0.0 })
+            .collect(),
+        color: color.iter().map(|c| c.to_array()).collect(),
+        distance: dist.to_vec(),
+    }
+}
+
+/// Row bands for the pool: a few per thread.
+fn bands(pool: &rayon::ThreadPool, h: u32) -> u32 {
+    (pool.current_num_threads() as u32 * 4).clamp(1, h)
+}
+
+/// Splits a mutable view into `n` row bands.
+fn split<T: Copy>(view: ImageViewMut<'_, T>, n: u32) -> Vec<ImageViewMut<'_, T>> {
+    let h = view.height();
+    let mut out = Vec::with_capacity(n as usize);
+    let mut rest = view;
+    for k in 1..n {
+        let (a, b) = match rest.split_at_row(k * h / n) {
+            Ok(p) => p,
+            Err((_, r)) => {
+                rest = r;
+                continue;
+            }
+        };
+        out.push(a);
+        rest = b;
+    }
+    out.push(rest);
+    out
+}
+
+/// One reuse frame's outputs.
+struct Reused {
+    color: Vec<[f32; 3]>,
+    mask: Vec<u8>,
+    reflective: usize,
+    retrace: usize,
+}
+
+/// Search, shift and warp (TCRR) or warp alone (naive) of frame `g` from
+/// key `key`, then the re-trace list and the re-trace of the listed pixels.
+#[allow(clippy::too_many_arguments)]
+fn reuse_frame(
+    scheme: Scheme,
+    key: &Key,
+    offsets: &mut [[f32; 2]],
+    g: &GBuffer,
+    handled_spec: &[f32],
+    shader: &Shader,
+    params: &TcrrParams,
+    pool: &rayon::ThreadPool,
+) -> Result<Reused, Error> {
+    let (w, h) = (g.width(), g.height());
+    let n = g.len();
+    let buffers = key.buffers()?;
+    let nb = bands(pool, h);
+    let eye = g.camera.eye();
+    let mut inter = vec![[0.0f32; 3]; n];
+    let mut idepth = vec![0.0f32; n];
+    let mut coverage = vec![0u8; n];
+    let naive_cov: Vec<u8>;
+    let naive_path: Vec<f32>;
+    let (src, src_depth, src_cov): (&[[f32; 3]], &[f32], &[u8]) = match scheme {
+        Scheme::Tcrr => {
+            let stats: Result<Vec<_>, Error> = pool.install(|| {
+                split(ImageViewMut::try_new(offsets, w, h, w)?, nb)
+                    .into_par_iter()
+                    .map(|mut band| tcrr::search(&mut band, &buffers, eye, params))
+                    .collect()
+            });
+            stats?;
+            let ov = ImageView::try_new(offsets, w, h, w)?;
+            let c = split(ImageViewMut::try_new(&mut inter, w, h, w)?, nb);
+            let d = split(ImageViewMut::try_new(&mut idepth, w, h, w)?, nb);
+            let v = split(ImageViewMut::try_new(&mut coverage, w, h, w)?, nb);
+            let r: Result<Vec<_>, Error> = pool.install(|| {
+                c.into_par_iter()
+                    .zip(d)
+                    .zip(v)
+                    .map(|((mut c, mut d), mut v)| {
+                        tcrr::shift(&mut c, &mut d, &mut v, &buffers, &ov, params)
+                    })
+                    .collect()
+            });
+            r?;
+            (&inter, &idepth, &coverage)
+        }
+        Scheme::NaiveWarp => {
+            naive_cov = key.specular.iter().map(|&s| u8::from(s > 0.0)).collect();
+            naive_path = key
+                .depth
+                .iter()
+                .zip(&key.distance)
+                .map(|(z, r)| z + r)
+                .collect();
+            (&key.color, &naive_path, &naive_cov)
+        }
+    };
+    let current = CurrentView::try_new(
+        g.camera,
+        DepthConvention::Linear,
+        ImageView::try_new(&g.depth, w, h, w)?,
+        ImageView::try_new(handled_spec, w, h, w)?,
+    )?;
+    let mut color = vec![[0.0f32; 3]; n];
+    let mut mask = vec![0u8; n];
+    let sv = ImageView::try_new(src, w, h, w)?;
+    let sd = ImageView::try_new(src_depth, w, h, w)?;
+    let sc = ImageView::try_new(src_cov, w, h, w)?;
+    let c = split(ImageViewMut::try_new(&mut color, w, h, w)?, nb);
+    let m = split(ImageViewMut::try_new(&mut mask, w, h, w)?, nb);
+    let stats: Result<Vec<_>, Error> = pool.install(|| {
+        c.into_par_iter()
+            .zip(m)
+            .map(|(mut c, mut m)| {
+                tcrr::warp(&mut c, &mut m, &current, &buffers, &sv, &sd, &sc, params)
+            })
+            .collect()
+    });
+    let stats = stats?
+        .into_iter()
+        .fold(tcrr::WarpStats::default(), tcrr::WarpStats::merged);
+    let mv = ImageView::try_new(&mask, w, h, w)?;
+    let mut list = vec![0u32; tcrr::retrace_count(&mv)];
+    tcrr::retrace_list(&mut list, &mv)?;
+    let traced: Vec<Vec3> = pool.install(|| {
+        list.par_iter()
+            .map(|&i| trace_mirror(shader, g, i as usize).0)
+            .collect()
+    });
+    for (&i, c) in list.iter().zip(traced) {
+        color[i as usize] = c.to_array();
+    }
+    Ok(Reused {
+        color,
+        mask,
+        reflective: stats.reflective as usize,
+        retrace: stats.retrace as usize,
+    })
+}
+
+/// Sums over the frames of one setting.
+#[derive(Clone, Debug, Default)]
+struct Totals {
+    frames: usize,
+    key_frames: usize,
+    time_ms: f64,
+    reference_ms: f64,
+    handled: usize,
+    reflective_all: usize,
+    retraced: usize,
+    abs_sum: f64,
+    sq_sum: f64,
+    over_8: f64,
+    /// Error sums over the reuse (non-key) frames only.
+    reuse_abs: f64,
+    reuse_channels: f64,
+}
+
+impl Totals {
+    fn add_error(&mut self, err: &ImageError, key: bool) {
+        let ch = 3.0 * err.pixels as f64;
+        self.abs_sum += err.mean_abs * ch;
+        self.sq_sum += if err.psnr.is_finite() {
+            255.0 * 255.0 / 10f64.powf(err.psnr / 10.0) * ch
+        } else {
+            0.0
+        };
+        self.over_8 += err.share_over_8() * err.pixels as f64;
+        if !key {
+            self.reuse_abs += err.mean_abs * ch;
+            self.reuse_channels += ch;
+        }
+    }
+
+    fn row(&self, scene: &str, setting: &Setting, threads: usize) -> Row {
+        let frames = self.frames.max(1) as f64;
+        let (t, r) = (self.time_ms / frames, self.reference_ms / frames);
+        let ch = 3.0 * self.handled.max(1) as f64;
+        let mse = self.sq_sum / ch;
+        Row {
+            scene: scene.to_owned(),
+            method: setting.scheme.name().to_owned(),
+            setting: setting.label(),
+            threads,
+            time_ms: t,
+            reference_ms: r,
+            speedup: if t > 0.0 { r / t } else { f64::INFINITY },
+            coverage: if self.reflective_all > 0 {
+                self.handled as f64 / self.reflective_all as f64
+            } else {
+                0.0
+            },
+            mean_abs_255: self.abs_sum / ch,
+            psnr_db: if mse > 0.0 {
+                10.0 * (255.0 * 255.0 / mse).log10()
+            } else {
+                f64::INFINITY
+            },
+            share_over_8: self.over_8 / self.handled.max(1) as f64,
+            extra: vec![
+                ("frames".into(), self.frames.to_string()),
+                ("key_frames".into(), self.key_frames.to_string()),
+                (
+                    "key_interval".into(),
+                    format!("{:.2}", frames / self.key_frames.max(1) as f64),
+                ),
+                (
+                    "retraced_share".into(),
+                    format!("{:.4}", self.retraced as f64 / self.handled.max(1) as f64),
+                ),
+                (
+                    "mean_abs_255_reuse_frames".into(),
+                    format!("{:.4}", self.reuse_abs / self.reuse_channels.max(1.0)),
+                ),
+                ("bytes_per_pixel".into(), BYTES_PER_PIXEL.to_string()),
+            ],
+        }
+    }
+}
+
+/// Per-setting state along the path.
+struct State {
+    setting: Setting,
+    policy: KeyFramePolicy,
+    key: Option<Key>,
+    offsets: Vec<[f32; 2]>,
+    totals: Totals,
+    /// Per frame: (key frame?, re-traced share, mean abs 255).
+    per_frame: Vec<FrameRecord>,
+}
+
+/// One frame of a setting's run: (key frame?, re-traced share of the
+/// handled pixels, mean absolute difference 0..255).
+pub type FrameRecord = (bool, f64, f64);
+
+/// The output of [`run_path`].
+pub struct PathOutcome {
+    /// One row per setting.
+    pub rows: Vec<Row>,
+    /// Per setting label and scheme name: per-frame (key frame, re-traced
+    /// share of handled pixels, mean absolute difference 0..255).
+    pub per_frame: Vec<(String, Vec<FrameRecord>)>,
+}
+
+/// The frame cameras of a dense sequence of `frames` poses along the
+/// scene's path over path parameters `span` (0 = first pose, 1 = last).
+///
+/// # Errors
+/// As [`refl_core::Camera::try_look_at`]; [`Error::InvalidArgument`] for an
+/// empty path.
+pub fn path_cameras(
+    scene: &Scene,
+    frames: usize,
+    span: (f32, f32),
+    width: u32,
+    height: u32,
+) -> Result<Vec<Camera>, Error> {
+    (0..frames)
+        .map(|k| {
+            let s = span.0 + (span.1 - span.0) * k as f32 / (frames.max(2) - 1) as f32;
+            scene
+                .pose_at(s)
+                .ok_or(Error::InvalidArgument)?
+                .camera(scene.near, scene.far, width, height)
+        })
+        .collect()
+}
+
+/// Runs every setting over the frame cameras; images of frame `image_frame`
+/// (composites of the first setting of each scheme, the reference and the
+/// re-trace marks) go to `images` with file names prefixed by `label`.
+///
+/// # Errors
+/// A kernel's error (a bug: the inputs are built here) or an image write
+/// failure, as a message.
+#[allow(clippy::too_many_arguments)]
+pub fn run_path(
+    shader: &Shader,
+    label: &str,
+    cameras: &[Camera],
+    settings: &[Setting],
+    threads: usize,
+    pool: &rayon::ThreadPool,
+    images: Option<(&Path, usize)>,
+) -> Result<PathOutcome, String> {
+    let scene = shader.scene;
+    let mut states: Vec<State> = settings
+        .iter()
+        .map(|s| {
+            Ok(State {
+                setting: *s,
+                policy: KeyFramePolicy::try_new(s.threshold)?,
+                key: None,
+                offsets: Vec::new(),
+                totals: Totals::default(),
+                per_frame: Vec::new(),
+            })
+        })
+        .collect::<Result<_, Error>>()
+        .map_err(|e| format!("setting: {e}"))?;
+    let err = |e: Error| format!("{label}: tcrr: {e}");
+    for (f, cam) in cameras.iter().enumerate() {
+        let g = GBuffer::render(scene, shader.tracer, cam, pool);
+        let handled = handled_mask(&g);
+        let n_handled = handled.iter().filter(|&&h| h).count();
+        let n_reflective = (0..g.len()).filter(|&i| g.is_reflective(i)).count();
+        let handled_spec: Vec<f32> = (0..g.len())
+            .map(|i| if handled[i] { g.specular[i] } else { 0.0 })
+            .collect();
+        let full = timed(|| trace_all(shader, &g, &handled, pool));
+        let (truth_color, truth_dist) = full.value;
+        let direct = direct_image(shader, &g, pool);
+        let truth_img = ReflectionImage {
+            width: g.width(),
+            height: g.height(),
+            rgb: truth_color.clone(),
+            handled: handled.clone(),
+        };
+        let truth_final = composite(&g, &direct, &truth_img);
+        let save_here = images.filter(|(_, k)| *k == f);
+        if let Some((dir, _)) = save_here {
+            save(
+                dir,
+                &format!("{label}_tcrr_reference.png"),
+                &g,
+                &truth_final,
+            )?;
+        }
+        let mut saved = [false; 2];
+        for st in &mut states {
+            let mut time = 0.0;
+            let mut out: Option<Reused> = None;
+            if let Some(key) = &st.key {
+                let r = timed(|| {
+                    reuse_frame(
+                        st.setting.scheme,
+                        key,
+                        &mut st.offsets,
+                        &g,
+                        &handled_spec,
+                        shader,
+                        &st.setting.params,
+                        pool,
+                    )
+                });
+                time += r.ms;
+                out = Some(r.value.map_err(err)?);
+            }
+            let is_key = match &out {
+                None => true,
+                Some(o) => st
+                    .policy
+                    .needs_key_frame(o.retrace as u64, o.reflective as u64),
+            };
+            let (rgb, retrace_share) = if is_key {
+                // The full trace (measured once above) is this frame's
+                // reflection pass; its by-products are the new buffers.
+                time += full.ms;
+                st.key = Some(make_key(&g, &handled, &truth_color, &truth_dist));
+                st.offsets = vec![INVALID_OFFSET; g.len()];
+                st.totals.key_frames += 1;
+                st.totals.retraced += n_handled;
+                (truth_color.clone(), 1.0)
+            } else {
+                let o = out.expect("reuse frame");
+                st.totals.retraced += o.retrace;
+                let share = o.retrace as f64 / o.reflective.max(1) as f64;
+                if let Some((dir, _)) = save_here {
+                    let slot = usize::from(st.setting.scheme == Scheme::NaiveWarp);
+                    if !saved[slot] {
+                        saved[slot] = true;
+                        let img = ReflectionImage {
+                            width: g.width(),
+                            height: g.height(),
+                            rgb: o.color.iter().map(|c| Vec3::from_array(*c)).collect(),
+                            handled: handled.clone(),
+                        };
+                        let fin = composite(&g, &direct, &img);
+                        let name = st.setting.scheme.name();
+                        save(dir, &format!("{label}_{name}.png"), &g, &fin)?;
+                        // Seed 000 Fig. 7: re-traced pixels in red.
+                        let marked: Vec<Vec3> = (0..g.len())
+                            .map(|i| {
+                                if o.mask[i] == MASK_RETRACE {
+                                    fin[i] * 0.3 + Vec3::new(0.7, 0.0, 0.0)
+                                } else {
+                                    fin[i]
+                                }
+                            })
+                            .collect();
+                        save(dir, &format!("{label}_{name}_retraced.png"), &g, &marked)?;
+                    }
+                }
+                (
+                    o.color.iter().map(|c| Vec3::from_array(*c)).collect(),
+                    share,
+                )
+            };
+            let img = ReflectionImage {
+                width: g.width(),
+                height: g.height(),
+                rgb,
+                handled: handled.clone(),
+            };
+            let fin = composite(&g, &direct, &img);
+            let e = compare(&truth_final, &fin, &handled);
+            st.totals.frames += 1;
+            st.totals.time_ms += time;
+            st.totals.reference_ms += full.ms;
+            st.totals.handled += n_handled;
+            st.totals.reflective_all += n_reflective;
+            st.totals.add_error(&e, is_key);
+            st.per_frame.push((is_key, retrace_share, e.mean_abs));
+        }
+    }
+    Ok(PathOutcome {
+        rows: states
+            .iter()
+            .map(|s| s.totals.row(label, &s.setting, threads))
+            .collect(),
+        per_frame: states
+            .into_iter()
+            .map(|s| {
+                (
+                    format!("{} {}", s.setting.scheme.name(), s.setting.label()),
+                    s.per_frame,
+                )
+            })
+            .collect(),
+    })
+}
+
+fn save(dir: &Path, name: &str, g: &GBuffer, rgb: &[Vec3]) -> Result<(), String> {
+    let p = dir.join(name);
+    save_png(&p, g.width(), g.height(), rgb).map_err(|e| format!("{}: {e}", p.display()))
+}
+
+/// The settings the report runs: the key-frame threshold swept over
+/// 0.1..0.5 at the seed's parameters, then the iteration cap and the
+/// magnification threshold each varied at threshold 0.3; naive warping at
+/// every threshold. `quick` runs the seed's setting only.
+pub fn report_settings(quick: bool, tcrr: bool, naive: bool) -> Vec<Setting> {
+    let base = TcrrParams::default();
+    let thresholds: &[f32] = if quick {
+        &[0.3]
+    } else {
+        &[0.1, 0.2, 0.3, 0.4, 0.5]
+    };
+    let mut v = Vec::new();
+    if tcrr {
+        for &t in thresholds {
+            v.push(Setting {
+                scheme: Scheme::Tcrr,
+                threshold: t,
+                params: base,
+            });
+        }
+        let caps: &[u32] = if quick { &[] } else { &[2, 4, 16] };
+        for &c in caps {
+            v.push(Setting {
+                scheme: Scheme::Tcrr,
+                threshold: 0.3,
+                params: TcrrParams {
+                    max_iterations: c,
+                    ..base
+                },
+            });
+        }
+        let mags: &[f32] = if quick { &[] } else { &[2.0, 4.0, 64.0] };
+        for &m in mags {
+            v.push(Setting {
+                scheme: Scheme::Tcrr,
+                threshold: 0.3,
+                params: TcrrParams {
+                    magnification: m,
+                    ..base
+                },
+            });
+        }
+    }
+    if naive {
+        for &t in thresholds {
+            v.push(Setting {
+                scheme: Scheme::NaiveWarp,
+                threshold: t,
+                params: base,
+            });
+        }
+    }
+    v
+}
+
+/// Runs the report's TCRR rows for one scene: a dense frame sequence along
+/// its camera path (quick: 5 frames over the first 6% of the path;
+/// default: 48 frames over the whole path) at the report's image size.
+/// Returns the rows and a Markdown note.
+///
+/// # Errors
+/// As [`run_path`].
+#[allow(clippy::too_many_arguments)]
+pub fn report_rows(
+    shader: &Shader,
+    label: &str,
+    quick: bool,
+    width: u32,
+    height: u32,
+    tcrr: bool,
+    naive: bool,
+    threads: usize,
+    pool: &rayon::ThreadPool,
+    images: &Path,
+) -> Result<(Vec<Row>, String), String> {
+    let settings = report_settings(quick, tcrr, naive);
+    if settings.is_empty() || shader.scene.camera_path.is_empty() {
+        return Ok((Vec::new(), String::new()));
+    }
+    let (frames, span) = if quick {
+        (8, (0.0, 0.1))
+    } else {
+        (48, (0.0, 1.0))
+    };
+    let cameras = path_cameras(shader.scene, frames, span, width, height)
+        .map_err(|e| format!("{label}: camera: {e}"))?;
+    let out = run_path(
+        shader,
+        label,
+        &cameras,
+        &settings,
+        threads,
+        pool,
+        Some((images, 1)),
+    )?;
+    let mut note = String::new();
+    let _ = writeln!(
+        note,
+        "  - TCRR path: {frames} frames over path parameters {span:?}; {BYTES_PER_PIXEL} caller-buffer bytes per pixel; \
+         images of frame 1, the first after the initial key frame (`{label}_tcrr_retraced.png` marks re-traced \
+         pixels red, seed 000 Fig. 7)"
+    );
+    for (name, pf) in out.per_frame.iter().take(1) {
+        let keys: Vec<usize> = pf
+            .iter()
+            .enumerate()
+            .filter(|(_, p)| p.0)
+            .map(|(k, _)| k)
+            .collect();
+        let shares: Vec<String> = pf.iter().map(|p| format!("{:.2}", p.1)).collect();
+        let _ = writeln!(
+            note,
+            "  - `{name}`: key frames {keys:?}; re-traced share per frame [{}]",
+            shares.join(", ")
+        );
+    }
+    Ok((out.rows, note))
+}
