@@ -241,9 +241,12 @@ fn reuse_frame(
             });
             stats?;
             let ov = ImageView::try_new(offsets, w, h, w)?;
-            let c = split(ImageViewMut::try_new(&mut inter, w, h, w)?, nb);
-            let d = split(ImageViewMut::try_new(&mut idepth, w, h, w)?, nb);
-            let v = split(ImageViewMut::try_new(&mut coverage, w, h, w)?, nb);
+            // Shifting scatters: every band visits the whole grid, so one
+            // band per thread.
+            let nt = (pool.current_num_threads() as u32).clamp(1, h);
+            let c = split(ImageViewMut::try_new(&mut inter, w, h, w)?, nt);
+            let d = split(ImageViewMut::try_new(&mut idepth, w, h, w)?, nt);
+            let v = split(ImageViewMut::try_new(&mut coverage, w, h, w)?, nt);
             let r: Result<Vec<_>, Error> = pool.install(|| {
                 c.into_par_iter()
                     .zip(d)

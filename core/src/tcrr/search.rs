@@ -137,7 +137,9 @@ fn candidate(
     }
     let (x, y) = (u32::try_from(x).ok()?, u32::try_from(y).ok()?);
     let surf = b.surface(x, y)?;
-    let reflective = b.sample(x, y).is_some();
+    // A reflective sample (see `ReflectionBuffers::sample`) without
+    // back-projecting the texel a second time.
+    let reflective = b.is_specular(x, y) && b.distance.get(x, y).is_some_and(|r| r >= 0.0);
     let d = reflection_distance(eye, surf.pos, surf.normal, target);
     Some((surf, reflective, d))
 }

@@ -165,6 +165,10 @@ pub fn shift(
         })
     };
     for y in 0..h.saturating_sub(1) {
+        // The right-hand vertices of one cell are the left-hand ones of the
+        // next: computed once.
+        let mut memo_top: Option<(u32, Option<Vertex>)> = None;
+        let mut memo_bottom: Option<(u32, Option<Vertex>)> = None;
         for x in 0..w.saturating_sub(1) {
             let (Some(pa), Some(pb), Some(pc)) = (pos(x, y), pos(x + 1, y), pos(x, y + 1)) else {
                 continue;
@@ -180,9 +184,19 @@ pub fn shift(
             if hi < band_lo || lo > band_hi {
                 continue;
             }
-            let (Some(a), Some(b), Some(c)) =
-                (vertex(x, y, pa), vertex(x + 1, y, pb), vertex(x, y + 1, pc))
-            else {
+            let a = match memo_top {
+                Some((k, v)) if k == x => v,
+                _ => vertex(x, y, pa),
+            };
+            let b = vertex(x + 1, y, pb);
+            memo_top = Some((x + 1, b));
+            let c = match memo_bottom {
+                Some((k, v)) if k == x => v,
+                _ => vertex(x, y + 1, pc),
+            };
+            let d = pd.and_then(|pd| vertex(x + 1, y + 1, pd));
+            memo_bottom = Some((x + 1, d));
+            let (Some(a), Some(b), Some(c)) = (a, b, c) else {
                 continue;
             };
             let joined = |u: &Vertex, v: &Vertex| edge_joined(u, v, params);
@@ -190,7 +204,7 @@ pub fn shift(
             if ab && ac && bc {
                 draw(&mut out, &a, &b, &c, params, &mut stats);
             }
-            if let Some(d) = pd.and_then(|pd| vertex(x + 1, y + 1, pd)) {
+            if let Some(d) = d {
                 if bc && joined(&b, &d) && joined(&c, &d) {
                     draw(&mut out, &b, &d, &c, params, &mut stats);
                 }
