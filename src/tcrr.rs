@@ -12,7 +12,8 @@
 //! the reference, which traces every handled pixel (timed: the "trace every
 //! reflective pixel" frame time); then per method and setting, the frame
 //! time of the method: a key frame costs the full trace (the reflection
-//! buffers are its by-products); a TCRR frame costs search + shift + warp +
+//! buffers are its by-products) plus back-projecting them once
+//! (`tcrr::prepare`); a TCRR frame costs search + shift + warp +
 //! the re-trace list + tracing the listed pixels, and if the re-trace share
 //! exceeds the key-frame threshold ([`KeyFramePolicy`]) the frame is
 //! traced in full as the new key frame (both costs count). Every pass runs
@@ -35,11 +36,12 @@ use std::fmt::Write as _;
 use std::path::Path;
 
 /// Caller-buffer bytes per pixel TCRR needs: reflection buffers (depth 4,
-/// normal 12, specular 4, color 12, distance 4), offsets 8, intermediate
-/// image (color 12, depth 4, coverage 1), warped color 12 and mask 1, and
-/// the re-trace list (4, worst case). The current frame's depth and
-/// specular planes are the engine's own G-buffer.
-pub const BYTES_PER_PIXEL: usize = 4 + 12 + 4 + 12 + 4 + 8 + 12 + 4 + 1 + 12 + 1 + 4;
+/// normal 12, specular 4, color 12, distance 4), the prepared surfels 32
+/// ([`tcrr::Surfel`]), offsets 8, intermediate image (color 12, depth 4,
+/// coverage 1), warped color 12 and mask 1, and the re-trace list (4,
+/// worst case). The current frame's depth and specular planes are the
+/// engine's own G-buffer.
+pub const BYTES_PER_PIXEL: usize = 4 + 12 + 4 + 12 + 4 + 32 + 8 + 12 + 4 + 1 + 12 + 1 + 4;
 
 /// Which reuse scheme a run uses.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -92,10 +94,13 @@ struct Key {
     specular: Vec<f32>,
     color: Vec<[f32; 3]>,
     distance: Vec<f32>,
+    /// Back-projected once per key frame ([`tcrr::prepare`]).
+    surfels: Vec<tcrr::Surfel>,
 }
 
 impl Key {
-    fn buffers(&self) -> Result<ReflectionBuffers<'_>, Error> {
+    /// The buffers without the surfels attached.
+    fn plain_buffers(&self) -> Result<ReflectionBuffers<'_>, Error> {
         let (w, h) = (self.camera.width(), self.camera.height());
         ReflectionBuffers::try_new(
             self.camera,
@@ -106,6 +111,32 @@ impl Key {
             ImageView::try_new(&self.color, w, h, w)?,
             ImageView::try_new(&self.distance, w, h, w)?,
         )
+    }
+
+    fn buffers(&self) -> Result<ReflectionBuffers<'_>, Error> {
+        let (w, h) = (self.camera.width(), self.camera.height());
+        self.plain_buffers()?
+            .try_with_surfels(ImageView::try_new(&self.surfels, w, h, w)?)
+    }
+
+    /// Fills the surfels from the buffers, in row bands on `pool`.
+    fn prepare(&mut self, pool: &rayon::ThreadPool) -> Result<(), Error> {
+        let (w, h) = (self.camera.width(), self.camera.height());
+        let mut surfels = std::mem::take(&mut self.surfels);
+        surfels.resize(w as usize * h as usize, tcrr::Surfel::default());
+        {
+            let b = self.plain_buffers()?;
+            let nb = bands(pool, h);
+            let r: Result<Vec<_>, Error> = pool.install(|| {
+                split(ImageViewMut::try_new(&mut surfels, w, h, w)?, nb)
+                    .into_par_iter()
+                    .map(|mut band| tcrr::prepare(&mut band, &b))
+                    .collect()
+            });
+            r?;
+        }
+        self.surfels = surfels;
+        Ok(())
     }
 }
 
@@ -172,6 +203,7 @@ fn make_key(g: &GBuffer, handled: &[bool], color: &[Vec3], dist: &[f32]) -> Key 
             .collect(),
         color: color.iter().map(|c| c.to_array()).collect(),
         distance: dist.to_vec(),
+        surfels: Vec::new(),
     }
 }
 
@@ -531,7 +563,11 @@ pub fn run_path(
                 // The full trace (measured once above) is this frame's
                 // reflection pass; its by-products are the new buffers.
                 time += full.ms;
-                st.key = Some(make_key(&g, &handled, &truth_color, &truth_dist));
+                let mut key = make_key(&g, &handled, &truth_color, &truth_dist);
+                let prep = timed(|| key.prepare(pool));
+                prep.value.map_err(err)?;
+                time += prep.ms;
+                st.key = Some(key);
                 st.offsets = vec![INVALID_OFFSET; g.len()];
                 st.totals.key_frames += 1;
                 st.totals.retraced += n_handled;

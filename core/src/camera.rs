@@ -270,6 +270,24 @@ impl Camera {
         }
     }
 
+    /// World-space (not normalized) directions through the pixel centers,
+    /// affine in the pixel index: the direction through the center of pixel
+    /// `(x, y)` is `d0 + x dx + y dy`, scaled so that `eye + z (d0 + x dx +
+    /// y dy)` is the point at linear depth `z` ([`Camera::unproject`] up to
+    /// f32 rounding). Returns `(d0, dx, dy)`.
+    #[cfg(feature = "tcrr")]
+    pub(crate) fn pixel_center_rays(&self) -> (Vec3, Vec3, Vec3) {
+        let (w, h) = (self.width as f32, self.height as f32);
+        let d0 = self.view_dir_through(Vec2::new(0.5, 0.5));
+        let dx = Vec3::new(2.0 * self.tan_half_x / w, 0.0, 0.0);
+        let dy = Vec3::new(0.0, -2.0 * self.tan_half_y / h, 0.0);
+        (
+            self.inv_view.transform_vector3(d0),
+            self.inv_view.transform_vector3(dx),
+            self.inv_view.transform_vector3(dy),
+        )
+    }
+
     /// The (not normalized) view-space direction through `pixel` with
     /// `z = -1`: `(ndc_x tan_x, ndc_y tan_y, -1)`.
     #[inline]

@@ -350,11 +350,46 @@ struct Out {
 /// Search + shift + warp of `cur` from key frame `key`, in `bands` row
 /// bands (each pass split the same way).
 fn run(key: &Frame, cur: &Frame, p: &TcrrParams, prev: Option<&[[f32; 2]]>, bands: u32) -> Out {
+    run_with(key, cur, p, prev, bands, false)
+}
+
+/// [`run`], optionally with [`tcrr::prepare`]d surfels (prepared in the
+/// same bands) attached to the key buffers.
+fn run_with(
+    key: &Frame,
+    cur: &Frame,
+    p: &TcrrParams,
+    prev: Option<&[[f32; 2]]>,
+    bands: u32,
+    surfels: bool,
+) -> Out {
     let (w, h) = key.size();
     let n = (w * h) as usize;
     let b = key.buffers();
-    let mut offsets = prev.map_or(vec![INVALID_OFFSET; n], <[_]>::to_vec);
     let split = |h: u32, k: u32| (k * h) / bands;
+    let mut cache = vec![tcrr::Surfel::default(); n];
+    let b = if surfels {
+        let mut rest = ImageViewMut::try_new(&mut cache, w, h, w).unwrap();
+        let mut reflective = 0;
+        for k in 1..=bands {
+            let (mut band, r) = rest.split_at_row(split(h, k)).map_err(|e| e.0).unwrap();
+            reflective += tcrr::prepare(&mut band, &b).unwrap();
+            rest = r;
+        }
+        let expected = (0..h)
+            .flat_map(|y| (0..w).map(move |x| (x, y)))
+            .filter(|&(x, y)| {
+                let i = (y * w + x) as usize;
+                key.spec[i] > 0.0 && key.dist[i] >= 0.0
+            })
+            .count();
+        assert!(reflective as usize <= expected && reflective > 0);
+        b.try_with_surfels(ImageView::try_new(&cache, w, h, w).unwrap())
+            .unwrap()
+    } else {
+        b
+    };
+    let mut offsets = prev.map_or(vec![INVALID_OFFSET; n], <[_]>::to_vec);
     let mut search = tcrr::SearchStats::default();
     {
         let mut rest = ImageViewMut::try_new(&mut offsets, w, h, w).unwrap();
@@ -904,6 +939,55 @@ fn banded_passes_equal_the_whole_image() {
         assert_eq!(banded.search, whole.search);
         assert_eq!(banded.warp, whole.warp);
     }
+}
+
+#[test]
+fn prepared_surfels_give_identical_results() {
+    for conv in [
+        DepthConvention::Linear,
+        DepthConvention::ZeroToOne,
+        DepthConvention::ReversedZ,
+    ] {
+        let key = render(camera(eye0(), target0(), conv, W, H), conv);
+        let cur = render(
+            camera(eye0() + Vec3::new(0.25, -0.15, -0.2), target0(), conv, W, H),
+            conv,
+        );
+        for subpixel in [true, false] {
+            let p = TcrrParams {
+                subpixel,
+                ..TcrrParams::default()
+            };
+            let plain = run(&key, &cur, &p, None, 1);
+            let fast = run_with(&key, &cur, &p, None, 3, true);
+            assert_eq!(fast.offsets, plain.offsets, "{conv:?}");
+            assert_eq!(fast.inter, plain.inter, "{conv:?}");
+            assert_eq!(fast.coverage, plain.coverage, "{conv:?}");
+            assert_eq!(fast.color, plain.color, "{conv:?}");
+            assert_eq!(fast.mask, plain.mask, "{conv:?}");
+            assert_eq!(fast.search, plain.search, "{conv:?}");
+            assert_eq!(fast.warp, plain.warp, "{conv:?}");
+            assert!(plain.warp.reused > 0);
+        }
+    }
+    // A surfel image of the wrong size is refused.
+    let key = render(
+        camera(eye0(), target0(), DepthConvention::Linear, W, H),
+        DepthConvention::Linear,
+    );
+    let small = vec![tcrr::Surfel::default(); 4];
+    let v = ImageView::try_new(&small, 2, 2, 2).unwrap();
+    assert_eq!(
+        key.buffers().try_with_surfels(v).err(),
+        Some(Error::InvalidArgument)
+    );
+    let mut small = vec![tcrr::Surfel::default(); 4];
+    let mut v = ImageViewMut::try_new(&mut small, 2, 2, 2).unwrap();
+    assert_eq!(
+        tcrr::prepare(&mut v, &key.buffers()),
+        Err(Error::InvalidArgument)
+    );
+    assert_eq!(small, vec![tcrr::Surfel::default(); 4]);
 }
 
 #[test]

@@ -57,8 +57,8 @@ pub mod search;
 pub mod shift;
 pub mod warp;
 
-use crate::{Camera, DepthConvention, Error, ImageView};
-use glam::{Vec2, Vec3};
+use crate::{Camera, DepthConvention, Error, ImageView, ImageViewMut};
+use glam::Vec3;
 
 pub use search::{search, SearchStats};
 pub use shift::{shift, ShiftStats, COVERAGE_EDGE, COVERAGE_NONE, COVERAGE_REUSE};
@@ -285,12 +285,174 @@ pub(crate) struct Surf {
 impl Surf {
     /// `true` if `self` and `other` lie on one surface: each within
     /// `tol * min(z)` of the other's tangent plane.
-    #[inline]
+    #[inline(always)]
     pub fn connected(&self, other: &Surf, tol: f32) -> bool {
         let d = other.pos - self.pos;
         let lim = tol * self.z.min(other.z);
         self.normal.dot(d).abs() <= lim && other.normal.dot(d).abs() <= lim
     }
+}
+
+/// World positions of a camera's pixel centers at a linear depth, affine in
+/// the pixel index ([`Camera::unproject`] without the matrix product per
+/// texel; the inner loops of every pass back-project through it).
+#[derive(Clone, Copy, Debug)]
+pub(crate) struct PixelRays {
+    eye: Vec3,
+    d0: Vec3,
+    dx: Vec3,
+    dy: Vec3,
+}
+
+impl PixelRays {
+    pub(crate) fn new(camera: &Camera) -> Self {
+        let (d0, dx, dy) = camera.pixel_center_rays();
+        Self {
+            eye: camera.eye(),
+            d0,
+            dx,
+            dy,
+        }
+    }
+
+    /// The point at linear depth `z` through the center of pixel `(x, y)`.
+    #[inline(always)]
+    pub(crate) fn point(&self, x: u32, y: u32, z: f32) -> Vec3 {
+        self.eye + (self.d0 + self.dx * x as f32 + self.dy * y as f32) * z
+    }
+}
+
+/// A reflected target prepared for repeated [`distance_squared`] calls
+/// (a direction normalized once).
+#[derive(Clone, Copy, Debug)]
+pub(crate) enum Target {
+    Point(Vec3),
+    Direction(Vec3),
+}
+
+impl Target {
+    #[inline]
+    pub(crate) fn new(r: Reflected) -> Option<Self> {
+        match r {
+            Reflected::Point(p) => p.is_finite().then_some(Target::Point(p)),
+            Reflected::Direction(d) => d.try_normalize().map(Target::Direction),
+        }
+    }
+}
+
+/// The square of [`reflection_distance`] for a unit `normal` and finite
+/// `eye` and `surface`, without square roots (the search compares squared
+/// distances): with `u = reflect(R - W_n, n)` (`|u| = |R - W_n|`), the
+/// ray's nearest point to the eye has parameter `s >= 0` iff
+/// `e . u + |R - W_n|^2 >= 0`, and the squared distance is
+/// `|e x u|^2 / |R - W_n|^2`, else `|e + u|^2`; for a direction `d`,
+/// `|e x reflect(d, n)|^2`. `None` exactly where [`reflection_distance`]
+/// is `None` (the grazing test squared: `h > 0` and
+/// `h^2 > GRAZING_SINE^2 |R - W_n|^2`).
+#[inline(always)]
+pub(crate) fn distance_squared(eye: Vec3, surface: Vec3, n: Vec3, t: Target) -> Option<f32> {
+    let e = eye - surface;
+    if !(n.dot(e) > 0.0) {
+        return None;
+    }
+    let d2 = match t {
+        Target::Point(r) => {
+            let rr = r - surface;
+            let l2 = rr.length_squared();
+            let h = n.dot(rr);
+            if !(h > 0.0 && h * h > GRAZING_SINE * GRAZING_SINE * l2) {
+                return None;
+            }
+            let u = 2.0 * h * n - rr;
+            if e.dot(u) + l2 >= 0.0 {
+                e.cross(u).length_squared() / l2
+            } else {
+                (e + u).length_squared()
+            }
+        }
+        Target::Direction(d) => {
+            let h = n.dot(d);
+            if !(h > GRAZING_SINE) {
+                return None;
+            }
+            e.cross(2.0 * h * n - d).length_squared()
+        }
+    };
+    d2.is_finite().then_some(d2)
+}
+
+/// [`Surfel::flags`] bit: the texel sees a surface (finite positive linear
+/// depth, finite non-zero normal); `pos`, `z` and `normal` are valid.
+pub const SURFEL_SURFACE: u32 = 1;
+/// [`Surfel::flags`] bit: the texel has a positive specular factor.
+pub const SURFEL_SPECULAR: u32 = 2;
+/// [`Surfel::flags`] bit: the texel's reflected distance is `>= 0` (or
+/// `+inf`); with [`SURFEL_SURFACE`] and [`SURFEL_SPECULAR`] the texel is a
+/// reflective sample (see [`ReflectionBuffers`]).
+pub const SURFEL_DISTANCE: u32 = 4;
+
+/// A key-frame texel back-projected once per key frame by [`prepare`]: the
+/// surface of seed 000 Alg. 2 line 3 (`W` from the depth `s.d`) with its
+/// unit normal `s.n`, which every pass reads many times per key frame
+/// (the search up to a 3x3 neighborhood per pixel and step, shifting per
+/// grid vertex, warping per bilinear tap). Attach a prepared image with
+/// [`ReflectionBuffers::try_with_surfels`]; without one the passes
+/// back-project on the fly, with identical results.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+#[repr(C)]
+pub struct Surfel {
+    /// World position of the surface seen through the texel center.
+    pub pos: [f32; 3],
+    /// Linear depth of that point.
+    pub z: f32,
+    /// Unit normal (the stored B.1 normal, normalized).
+    pub normal: [f32; 3],
+    /// [`SURFEL_SURFACE`], [`SURFEL_SPECULAR`], [`SURFEL_DISTANCE`] bits.
+    pub flags: u32,
+}
+
+/// Back-projects the key frame's texels into `surfels` over the rows it
+/// owns (see [`Surfel`]); run it once per key frame (bands in parallel),
+/// then attach the image with [`ReflectionBuffers::try_with_surfels`].
+/// Returns the number of reflective samples in the band.
+///
+/// # Errors
+/// [`Error::InvalidArgument`] (nothing written) if the image's size
+/// differs from the buffers'.
+pub fn prepare(
+    surfels: &mut ImageViewMut<'_, Surfel>,
+    buffers: &ReflectionBuffers<'_>,
+) -> Result<u32, Error> {
+    if surfels.width() != buffers.width() || surfels.height() != buffers.height() {
+        return Err(Error::InvalidArgument);
+    }
+    let Some(rows) = surfels.owned_rows() else {
+        return Ok(0);
+    };
+    let mut n = 0;
+    for y in rows.rows() {
+        for x in 0..buffers.width() {
+            let mut out = Surfel::default();
+            if let Some(s) = buffers.compute_surface(x, y) {
+                out.pos = s.pos.to_array();
+                out.z = s.z;
+                out.normal = s.normal.to_array();
+                out.flags |= SURFEL_SURFACE;
+            }
+            if buffers.specular.get(x, y).is_some_and(|s| s > 0.0) {
+                out.flags |= SURFEL_SPECULAR;
+            }
+            if buffers.distance.get(x, y).is_some_and(|r| r >= 0.0) {
+                out.flags |= SURFEL_DISTANCE;
+            }
+            const SAMPLE: u32 = SURFEL_SURFACE | SURFEL_SPECULAR | SURFEL_DISTANCE;
+            n += u32::from(out.flags & SAMPLE == SAMPLE);
+            if let Some(t) = surfels.get_mut(x, y) {
+                *t = out;
+            }
+        }
+    }
+    Ok(n)
 }
 
 /// The reflection buffers of a key frame (seed 000 Sec. 3.1): the camera
@@ -310,6 +472,8 @@ impl Surf {
 #[derive(Clone, Copy, Debug)]
 pub struct ReflectionBuffers<'a> {
     camera: Camera,
+    rays: PixelRays,
+    surfels: Option<ImageView<'a, Surfel>>,
     convention: DepthConvention,
     depth: ImageView<'a, f32>,
     normal: ImageView<'a, [f32; 3]>,
@@ -353,6 +517,8 @@ impl<'a> ReflectionBuffers<'a> {
         }
         Ok(Self {
             camera,
+            rays: PixelRays::new(&camera),
+            surfels: None,
             convention,
             depth,
             normal,
@@ -360,6 +526,21 @@ impl<'a> ReflectionBuffers<'a> {
             color,
             distance,
         })
+    }
+
+    /// The buffers with a [`prepare`]d surfel image attached: the passes
+    /// read each texel's surface, specular and distance flags from it
+    /// instead of back-projecting. The image must have been prepared from
+    /// these buffers (a stale one gives wrong matches, never a panic).
+    ///
+    /// # Errors
+    /// [`Error::InvalidArgument`] if its size differs from the buffers'.
+    pub fn try_with_surfels(mut self, surfels: ImageView<'a, Surfel>) -> Result<Self, Error> {
+        if surfels.width() != self.width() || surfels.height() != self.height() {
+            return Err(Error::InvalidArgument);
+        }
+        self.surfels = Some(surfels);
+        Ok(self)
     }
 
     /// The key frame's camera (`E_old` is its eye).
@@ -408,32 +589,60 @@ impl<'a> ReflectionBuffers<'a> {
     }
 
     /// The surface seen through texel `(x, y)`, whatever its material.
-    #[inline]
+    #[inline(always)]
     pub(crate) fn surface(&self, x: u32, y: u32) -> Option<Surf> {
+        match &self.surfels {
+            Some(v) => {
+                let s = v.get(x, y)?;
+                (s.flags & SURFEL_SURFACE != 0).then(|| Surf {
+                    pos: Vec3::from_array(s.pos),
+                    normal: Vec3::from_array(s.normal),
+                    z: s.z,
+                })
+            }
+            None => self.compute_surface(x, y),
+        }
+    }
+
+    /// [`ReflectionBuffers::surface`] from the B.1 buffers.
+    #[inline(always)]
+    fn compute_surface(&self, x: u32, y: u32) -> Option<Surf> {
         let d = self.depth.get(x, y)?;
         let z = self.camera.decode_depth(d, self.convention);
         if !(z > 0.0 && z.is_finite()) {
             return None;
         }
         let n = Vec3::from_array(self.normal.get(x, y)?).try_normalize()?;
-        let pos = self.camera.unproject(
-            Vec2::new(x as f32 + 0.5, y as f32 + 0.5),
-            d,
-            self.convention,
-        );
+        let pos = self.rays.point(x, y, z);
         pos.is_finite().then_some(Surf { pos, normal: n, z })
     }
 
+    /// `true` if texel `(x, y)` is a reflective sample's texel apart from
+    /// its surface: positive specular factor and a reflected distance
+    /// `>= 0` (see [`ReflectionBuffers::sample`]).
+    #[inline(always)]
+    pub(crate) fn is_reflective(&self, x: u32, y: u32) -> bool {
+        match &self.surfels {
+            Some(v) => v.get(x, y).is_some_and(|s| {
+                s.flags & (SURFEL_SPECULAR | SURFEL_DISTANCE) == SURFEL_SPECULAR | SURFEL_DISTANCE
+            }),
+            None => self.is_specular(x, y) && self.distance.get(x, y).is_some_and(|r| r >= 0.0),
+        }
+    }
+
     /// `true` if texel `(x, y)` has a positive specular factor.
-    #[inline]
+    #[inline(always)]
     pub(crate) fn is_specular(&self, x: u32, y: u32) -> bool {
-        self.specular.get(x, y).is_some_and(|s| s > 0.0)
+        match &self.surfels {
+            Some(v) => v.get(x, y).is_some_and(|s| s.flags & SURFEL_SPECULAR != 0),
+            None => self.specular.get(x, y).is_some_and(|s| s > 0.0),
+        }
     }
 
     /// The reflective sample at texel `(x, y)`, if it is one.
-    #[inline]
+    #[inline(always)]
     pub(crate) fn sample(&self, x: u32, y: u32) -> Option<Sample> {
-        if !self.is_specular(x, y) {
+        if !self.is_reflective(x, y) {
             return None;
         }
         let r = self.distance.get(x, y)?;
@@ -458,5 +667,47 @@ impl<'a> ReflectionBuffers<'a> {
             let r = s.surf.pos + d * s.r;
             r.is_finite().then_some(Reflected::Point(r))
         }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A small deterministic generator (xorshift) for the property checks.
+    fn rng(state: &mut u64) -> f32 {
+        *state ^= *state << 13;
+        *state ^= *state >> 7;
+        *state ^= *state << 17;
+        (*state >> 40) as f32 / (1u64 << 24) as f32 * 2.0 - 1.0
+    }
+
+    #[test]
+    fn distance_squared_is_the_square_of_reflection_distance() {
+        let mut st = 0x9e37_79b9_7f4a_7c15u64;
+        let mut defined = 0;
+        for k in 0..20_000 {
+            let mut v = || Vec3::new(rng(&mut st), rng(&mut st), rng(&mut st));
+            let eye = v() * 4.0;
+            let w = v();
+            let n = v().normalize_or(Vec3::Y);
+            let r = if k % 5 == 0 {
+                Reflected::Direction(v())
+            } else {
+                Reflected::Point(v() * 3.0)
+            };
+            let d = reflection_distance(eye, w, n, r);
+            let d2 = Target::new(r).and_then(|t| distance_squared(eye, w, n, t));
+            match (d, d2) {
+                (Some(d), Some(d2)) => {
+                    defined += 1;
+                    let (a, b) = (f64::from(d) * f64::from(d), f64::from(d2));
+                    assert!((a - b).abs() <= 1e-5 * (1.0 + a), "{a} {b}");
+                }
+                (None, None) => {}
+                other => panic!("definedness differs: {other:?}"),
+            }
+        }
+        assert!(defined > 5_000, "{defined}");
     }
 }

@@ -1,8 +1,8 @@
 //! Reflection pixel matching by neighborhood search (seed 000 Sec. 3.2.1,
 //! Alg. 2).
 
-use super::{offset_is_valid, reflection_distance, ReflectionBuffers, TcrrParams, INVALID_OFFSET};
-use super::{Reflected, Surf, SNAP_PX};
+use super::{distance_squared, Reflected, Surf, Target, SNAP_PX};
+use super::{offset_is_valid, ReflectionBuffers, TcrrParams, INVALID_OFFSET};
 use crate::{Error, ImageViewMut};
 use glam::Vec3;
 
@@ -58,7 +58,7 @@ const RING: [(i32, i32); 8] = [
 /// depth `s.d`); the start `s_c = s + round(o)` if the previous offset is
 /// valid and lands on a reflective sample, else `s`; then, while a
 /// neighbor of the 3x3 hollow neighborhood has a strictly smaller
-/// [`reflection_distance`] than `s_c`, the search moves to the best one,
+/// [`reflection_distance`](super::reflection_distance) than `s_c`, the search moves to the best one,
 /// unless that neighbor lies outside the reflector's silhouette (not a
 /// reflective sample, or across a depth discontinuity from `s_c`, see
 /// [`TcrrParams::discontinuity`]), which records INVALID. A search that
@@ -122,30 +122,151 @@ pub fn search(
     Ok(stats)
 }
 
-/// The candidate at `(x, y)`: its surface, whether it is a reflective
-/// sample, and its distance for target `r` seen from `eye`.
+/// A candidate texel of the search: its surface, whether it is a
+/// reflective sample's texel, and its squared distance for the pixel's
+/// target (`None` where [`reflection_distance`](super::reflection_distance) is undefined).
+#[derive(Clone, Copy, Debug)]
+struct Cand {
+    surf: Surf,
+    reflective: bool,
+    d2: Option<f32>,
+}
+
+/// A slot of the 3x3 window around the search's current pixel.
+#[derive(Clone, Copy, Debug)]
+enum Slot {
+    /// Not evaluated yet.
+    Unknown,
+    /// Outside the image or no surface.
+    Empty,
+    /// An evaluated candidate.
+    Cand(Cand),
+}
+
+/// Window index of offset `(dx, dy)` in `-1..=1`.
 #[inline]
-fn candidate(
-    b: &ReflectionBuffers<'_>,
-    x: i64,
-    y: i64,
-    target: Reflected,
-    eye: Vec3,
-) -> Option<(Surf, bool, Option<f32>)> {
-    if x < 0 || y < 0 {
-        return None;
-    }
+fn slot_index(dx: i32, dy: i32) -> usize {
+    ((dy + 1) * 3 + dx + 1) as usize
+}
+
+/// The candidate at `(x, y)` for target `t` seen from `eye`.
+#[inline(always)]
+fn candidate(b: &ReflectionBuffers<'_>, x: i64, y: i64, t: Target, eye: Vec3) -> Slot {
+    let Some((surf, reflective)) = texel(b, x, y) else {
+        return Slot::Empty;
+    };
+    Slot::Cand(Cand {
+        surf,
+        reflective,
+        d2: distance_squared(eye, surf.pos, surf.normal, t),
+    })
+}
+
+/// The surface at `(x, y)` and whether it is a reflective sample's texel.
+#[inline(always)]
+fn texel(b: &ReflectionBuffers<'_>, x: i64, y: i64) -> Option<(Surf, bool)> {
     let (x, y) = (u32::try_from(x).ok()?, u32::try_from(y).ok()?);
     let surf = b.surface(x, y)?;
-    // A reflective sample (see `ReflectionBuffers::sample`) without
-    // back-projecting the texel a second time.
-    let reflective = b.is_specular(x, y) && b.distance.get(x, y).is_some_and(|r| r >= 0.0);
-    let d = reflection_distance(eye, surf.pos, surf.normal, target);
-    Some((surf, reflective, d))
+    Some((surf, b.is_reflective(x, y)))
+}
+
+/// Snaps a sub-pixel correction: clamped to one pixel, 0 within
+/// [`SNAP_PX`].
+#[inline]
+fn snap(v: f32) -> f32 {
+    let v = v.clamp(-1.0, 1.0);
+    if v.abs() < SNAP_PX {
+        0.0
+    } else {
+        v
+    }
+}
+
+/// Steps of [`newton_path`] before it hands over to the descent.
+const MAX_NEWTON_STEPS: u32 = 8;
+
+/// The sub-pixel fast path of the search (with [`TcrrParams::subpixel`]):
+/// from the start texel `c`, step one texel at a time toward the zero of
+/// the distance on the current texel's tangent plane ([`refine`], a Newton
+/// step), each step to a reflective texel on the same surface (the
+/// silhouette rule of Alg. 2), until the zero lies within half a texel of
+/// the current one; there the distance must be defined and the 3x3
+/// neighborhood must lie inside the silhouette, and the match is that
+/// texel plus its correction. On a planar reflector the corrected match is
+/// the one the descent reaches (the zero is the same point from every
+/// texel of the plane), on a curved one the same up to the curvature
+/// within a texel; it costs one back-projection per step instead of a
+/// 3x3 neighborhood of distances. `None` (the caller runs the descent)
+/// where a step would leave the silhouette or the image border is
+/// reached, the zero does not project, the steps oscillate between two
+/// texels, or [`MAX_NEWTON_STEPS`] or the iteration cap would be hit.
+#[allow(clippy::too_many_arguments)]
+fn newton_path(
+    b: &ReflectionBuffers<'_>,
+    mut c: (i64, i64),
+    mut cs: Surf,
+    s: (i64, i64),
+    target: Reflected,
+    t: Target,
+    eye: Vec3,
+    p: &TcrrParams,
+) -> Option<([f32; 2], u32)> {
+    let (w, h) = (i64::from(b.width()), i64::from(b.height()));
+    let mut steps = 0u32;
+    let mut prev = c;
+    loop {
+        if c.0 <= 0 || c.1 <= 0 || c.0 >= w - 1 || c.1 >= h - 1 {
+            return None;
+        }
+        let d = refine(b, c, &cs, target, eye)?;
+        if d[0].abs() <= 0.5 && d[1].abs() <= 0.5 {
+            distance_squared(eye, cs.pos, cs.normal, t)?;
+            for &(dx, dy) in RING.iter() {
+                let (ns, refl) = texel(b, c.0 + i64::from(dx), c.1 + i64::from(dy))?;
+                if !(refl && cs.connected(&ns, p.discontinuity)) {
+                    return None;
+                }
+            }
+            let o = [
+                (c.0 - s.0) as f32 + snap(d[0]),
+                (c.1 - s.1) as f32 + snap(d[1]),
+            ];
+            return Some((o, steps + 1));
+        }
+        steps += 1;
+        if steps >= p.max_iterations.min(MAX_NEWTON_STEPS) {
+            return None;
+        }
+        let step = |v: f32| {
+            if v > 0.5 {
+                1
+            } else if v < -0.5 {
+                -1
+            } else {
+                0
+            }
+        };
+        let next = (c.0 + step(d[0]), c.1 + step(d[1]));
+        if next == prev {
+            // Oscillation between two texels (a curved reflector whose
+            // tangent planes place the zero on either side): the descent
+            // decides.
+            return None;
+        }
+        prev = c;
+        let (ns, refl) = texel(b, next.0, next.1)?;
+        if !(refl && cs.connected(&ns, p.discontinuity)) {
+            return None;
+        }
+        c = next;
+        cs = ns;
+    }
 }
 
 /// Alg. 2 for one sample; returns the offset and the neighborhoods
-/// evaluated.
+/// evaluated. The distances are compared squared (the same order as
+/// [`reflection_distance`](super::reflection_distance)); each texel is evaluated once per pixel: a 3x3
+/// window of candidates moves with the search.
 #[allow(clippy::too_many_arguments)]
 fn match_pixel(
     b: &ReflectionBuffers<'_>,
@@ -159,35 +280,52 @@ fn match_pixel(
     let Some(target) = b.target(&s) else {
         return (INVALID_OFFSET, 0);
     };
+    let Some(t) = Target::new(target) else {
+        return (INVALID_OFFSET, 0);
+    };
     let (w, h) = (i64::from(b.width()), i64::from(b.height()));
     let (sx, sy) = (i64::from(x), i64::from(y));
     // Alg. 2 lines 5-6: warm start from the previous offset.
     let mut c = (sx, sy);
-    let mut c_surf = s.surf;
+    let mut center = Cand {
+        surf: s.surf,
+        reflective: true,
+        d2: distance_squared(eye, s.surf.pos, s.surf.normal, t),
+    };
     if offset_is_valid(prev) {
         let (ox, oy) = (libm::roundf(prev[0]), libm::roundf(prev[1]));
-        if ox.abs() < w as f32 && oy.abs() < h as f32 {
+        if ox.abs() < w as f32 && oy.abs() < h as f32 && (ox, oy) != (0.0, 0.0) {
             let start = (sx + ox as i64, sy + oy as i64);
-            if let Some((su, true, _)) = candidate(b, start.0, start.1, target, eye) {
+            if let Slot::Cand(
+                cand @ Cand {
+                    reflective: true, ..
+                },
+            ) = candidate(b, start.0, start.1, t, eye)
+            {
                 c = start;
-                c_surf = su;
+                center = cand;
             }
         }
     }
-    let mut former = reflection_distance(eye, c_surf.pos, c_surf.normal, target);
+    if p.subpixel {
+        if let Some(r) = newton_path(b, c, center.surf, (sx, sy), target, t, eye, p) {
+            return r;
+        }
+    }
+    let mut win = [Slot::Unknown; 9];
+    win[slot_index(0, 0)] = Slot::Cand(center);
+    let mut former = center.d2;
     let mut iters = 0u32;
     while iters < p.max_iterations {
         iters += 1;
         // Line 10: the best neighbor.
-        let mut inside = [false; 8];
         let mut best: Option<(usize, f32)> = None;
-        for (k, (dx, dy)) in RING.iter().enumerate() {
-            let Some((su, refl, d)) = candidate(b, c.0 + *dx as i64, c.1 + *dy as i64, target, eye)
-            else {
-                continue;
-            };
-            inside[k] = refl && c_surf.connected(&su, p.discontinuity);
-            if let Some(d) = d {
+        for (k, &(dx, dy)) in RING.iter().enumerate() {
+            let i = slot_index(dx, dy);
+            if let Slot::Unknown = win[i] {
+                win[i] = candidate(b, c.0 + i64::from(dx), c.1 + i64::from(dy), t, eye);
+            }
+            if let Slot::Cand(Cand { d2: Some(d), .. }) = win[i] {
                 if best.is_none_or(|(_, bd)| d < bd) {
                     best = Some((k, d));
                 }
@@ -198,6 +336,10 @@ fn match_pixel(
             (Some(_), None) => true,
             (None, _) => false,
         };
+        let inside = |slot: &Slot| match slot {
+            Slot::Cand(cd) => cd.reflective && center.surf.connected(&cd.surf, p.discontinuity),
+            _ => false,
+        };
         if !improves {
             // Lines 11-16: a local minimum, inside the silhouette by
             // construction (every step stayed inside).
@@ -206,11 +348,13 @@ fn match_pixel(
             }
             let mut o = [(c.0 - sx) as f32, (c.1 - sy) as f32];
             let on_border = c.0 == 0 || c.1 == 0 || c.0 == w - 1 || c.1 == h - 1;
+            let mut refined = None;
             if on_border {
                 // The minimum may lie beyond the image, where the search
                 // cannot follow: keep the match only if the tangent-plane
                 // zero projects inside the image.
-                let inside_image = refine(b, c, &c_surf, target, eye).is_some_and(|d| {
+                refined = refine(b, c, &center.surf, target, eye);
+                let inside_image = refined.is_some_and(|d| {
                     let (qx, qy) = (c.0 as f32 + 0.5 + d[0], c.1 as f32 + 0.5 + d[1]);
                     qx >= 0.0 && qy >= 0.0 && qx < w as f32 && qy < h as f32
                 });
@@ -218,16 +362,15 @@ fn match_pixel(
                     return (INVALID_OFFSET, iters);
                 }
             }
-            if p.subpixel && inside.iter().all(|&i| i) {
-                if let Some(d) = refine(b, c, &c_surf, target, eye) {
-                    let snap = |v: f32| {
-                        let v = v.clamp(-1.0, 1.0);
-                        if v.abs() < SNAP_PX {
-                            0.0
-                        } else {
-                            v
-                        }
-                    };
+            if p.subpixel
+                && RING
+                    .iter()
+                    .all(|&(dx, dy)| inside(&win[slot_index(dx, dy)]))
+            {
+                if refined.is_none() {
+                    refined = refine(b, c, &center.surf, target, eye);
+                }
+                if let Some(d) = refined {
                     o[0] += snap(d[0]);
                     o[1] += snap(d[1]);
                 }
@@ -235,16 +378,28 @@ fn match_pixel(
             return (o, iters);
         }
         let (k, bd) = best.expect("improves implies a best neighbor");
-        if !inside[k] {
+        let (dx, dy) = RING[k];
+        let next = win[slot_index(dx, dy)];
+        if !inside(&next) {
             // Line 15: the match lies outside the reflector's silhouette.
             return (INVALID_OFFSET, iters);
         }
-        let (dx, dy) = RING[k];
-        c = (c.0 + i64::from(dx), c.1 + i64::from(dy));
-        c_surf = match candidate(b, c.0, c.1, target, eye) {
-            Some((su, _, _)) => su,
-            None => return (INVALID_OFFSET, iters),
+        let Slot::Cand(next) = next else {
+            return (INVALID_OFFSET, iters);
         };
+        // Move the window by (dx, dy): what stays inside keeps its value.
+        let mut moved = [Slot::Unknown; 9];
+        for ny in -1..=1i32 {
+            for nx in -1..=1i32 {
+                let (ox, oy) = (nx + dx, ny + dy);
+                if (-1..=1).contains(&ox) && (-1..=1).contains(&oy) {
+                    moved[slot_index(nx, ny)] = win[slot_index(ox, oy)];
+                }
+            }
+        }
+        win = moved;
+        c = (c.0 + i64::from(dx), c.1 + i64::from(dy));
+        center = next;
         former = Some(bd);
     }
     // Line 21: cap reached.
@@ -252,7 +407,7 @@ fn match_pixel(
 }
 
 /// Sub-pixel refinement of a match at pixel `c` with surface `cs`: the
-/// point `W*` of `c`'s tangent plane whose [`reflection_distance`] is zero
+/// point `W*` of `c`'s tangent plane whose [`reflection_distance`](super::reflection_distance) is zero
 /// (where the line from the eye to `M`, the target mirrored about that
 /// plane, crosses it; for a target at infinity, the line from the eye
 /// against the mirrored direction), projected into the key camera. On a
