@@ -48,6 +48,59 @@
 #define REFL_VERSION_PATCH 0
 
 /**
+ * `refl_tcrr_surfel::flags` bit: the surface fields are valid.
+ */
+#define REFL_TCRR_SURFEL_SURFACE 1
+
+/**
+ * `refl_tcrr_surfel::flags` bit: positive specular factor.
+ */
+#define REFL_TCRR_SURFEL_SPECULAR 2
+
+/**
+ * `refl_tcrr_surfel::flags` bit: reflected distance >= 0 (or +inf).
+ */
+#define REFL_TCRR_SURFEL_DISTANCE 4
+
+/**
+ * Intermediate coverage (`refl_tcrr_shift`): no reflection.
+ */
+#define REFL_TCRR_COVERAGE_NONE 0
+
+/**
+ * Intermediate coverage: a shifted, reusable reflection.
+ */
+#define REFL_TCRR_COVERAGE_REUSE 1
+
+/**
+ * Intermediate coverage: next to a moving reflection edge (re-traced).
+ */
+#define REFL_TCRR_COVERAGE_EDGE 2
+
+/**
+ * Re-trace mask (`refl_tcrr_warp`): not a reflective pixel.
+ */
+#define REFL_TCRR_MASK_NONE 0
+
+/**
+ * Re-trace mask: reflection reused from the key frame.
+ */
+#define REFL_TCRR_MASK_REUSED 1
+
+/**
+ * Re-trace mask: the host must trace this pixel's reflection.
+ */
+#define REFL_TCRR_MASK_RETRACE 2
+
+/**
+ * Caller-buffer bytes per pixel of one TCRR frame besides the host's own
+ * G-buffer: reflection buffers (depth 4, normal 12, specular 4, color 12,
+ * distance 4), surfels 32, offsets 8, intermediate color 12, depth 4 and
+ * coverage 1, warped color 12, mask 1, re-trace list 4 (worst case).
+ */
+#define REFL_TCRR_BYTES_PER_PIXEL 110
+
+/**
  * The result of every fallible refl function. `REFL_STATUS_OK` is zero;
  * every other value names why the call refused its input. A function that
  * returns anything but `REFL_STATUS_OK` has left all of its outputs
@@ -130,6 +183,58 @@ enum refl_depth_convention
 typedef enum refl_depth_convention refl_depth_convention;
 #else
 typedef uint32_t refl_depth_convention;
+#endif // __STDC_VERSION__ >= 202311L
+#endif // __cplusplus
+
+/**
+ * What `refl_tcrr_reflection_distance`'s `reflected` argument is.
+ */
+enum refl_tcrr_reflected
+#if defined(__cplusplus) || __STDC_VERSION__ >= 202311L
+  : uint32_t
+#endif // defined(__cplusplus) || __STDC_VERSION__ >= 202311L
+ {
+    /**
+     * A reflected surface point R.
+     */
+    REFL_TCRR_REFLECTED_POINT = 0,
+    /**
+     * The direction of a reflected ray that left the scene (R at
+     * infinity).
+     */
+    REFL_TCRR_REFLECTED_DIRECTION = 1,
+};
+#ifndef __cplusplus
+#if __STDC_VERSION__ >= 202311L
+typedef enum refl_tcrr_reflected refl_tcrr_reflected;
+#else
+typedef uint32_t refl_tcrr_reflected;
+#endif // __STDC_VERSION__ >= 202311L
+#endif // __cplusplus
+
+/**
+ * How `refl_tcrr_compose` weights the reflection.
+ */
+enum refl_tcrr_fresnel
+#if defined(__cplusplus) || __STDC_VERSION__ >= 202311L
+  : uint32_t
+#endif // defined(__cplusplus) || __STDC_VERSION__ >= 202311L
+ {
+    /**
+     * The specular factor itself.
+     */
+    REFL_TCRR_FRESNEL_OFF = 0,
+    /**
+     * Schlick's approximation with the specular factor as reflectance at
+     * normal incidence.
+     */
+    REFL_TCRR_FRESNEL_SCHLICK = 1,
+};
+#ifndef __cplusplus
+#if __STDC_VERSION__ >= 202311L
+typedef enum refl_tcrr_fresnel refl_tcrr_fresnel;
+#else
+typedef uint32_t refl_tcrr_fresnel;
 #endif // __STDC_VERSION__ >= 202311L
 #endif // __cplusplus
 
@@ -343,6 +448,389 @@ typedef struct refl_plane {
 } refl_plane;
 
 /**
+ * Settings of the TCRR passes (refl-core `TcrrParams`); fill with
+ * `refl_tcrr_default_params`.
+ */
+typedef struct refl_tcrr_params {
+    /**
+     * Iteration cap of the neighborhood search, >= 1 (default 64).
+     */
+    uint32_t max_iterations;
+    /**
+     * Magnification threshold of shifting, finite and >= 1 (seed: 16).
+     */
+    float magnification;
+    /**
+     * Depth-discontinuity tolerance of the reflector's surface, relative
+     * to linear depth; finite, > 0 (default 0.02).
+     */
+    float discontinuity;
+    /**
+     * Discontinuity tolerance of the reflected path `s.d + s.r`, relative;
+     * finite, > 0 (default 0.1).
+     */
+    float reflected_discontinuity;
+    /**
+     * 1: sub-pixel offsets (default); 0: the seed's whole-pixel offsets.
+     */
+    uint32_t subpixel;
+} refl_tcrr_params;
+
+/**
+ * A key-frame texel back-projected once per key frame
+ * (`refl_tcrr_prepare`); layout of refl-core's `tcrr::Surfel`.
+ */
+typedef struct refl_tcrr_surfel {
+    /**
+     * World position of the surface seen through the texel center.
+     */
+    struct refl_vec3 pos;
+    /**
+     * Linear depth of that point.
+     */
+    float z;
+    /**
+     * Unit normal.
+     */
+    struct refl_vec3 normal;
+    /**
+     * Bits: 1 surface valid, 2 positive specular factor, 4 reflected
+     * distance >= 0 (`REFL_TCRR_SURFEL_*`).
+     */
+    uint32_t flags;
+} refl_tcrr_surfel;
+
+/**
+ * A writable image of `refl_tcrr_surfel` texels.
+ */
+typedef struct refl_image_tcrr_surfel_mut {
+    /**
+     * Texel (0, 0); texel (x, y) is `data[y * stride + x]`.
+     */
+    struct refl_tcrr_surfel *data;
+    /**
+     * Number of texels writable from `data` on (the buffer length).
+     */
+    size_t len;
+    /**
+     * Width in texels, > 0.
+     */
+    uint32_t width;
+    /**
+     * Height in texels, > 0.
+     */
+    uint32_t height;
+    /**
+     * Row stride in texels, >= `width`.
+     */
+    uint32_t stride;
+} refl_image_tcrr_surfel_mut;
+
+/**
+ * A read-only image of three-float texels (e.g. positions or normals).
+ */
+typedef struct refl_image_vec3 {
+    /**
+     * Texel (0, 0); texel (x, y) is `data[y * stride + x]`.
+     */
+    const struct refl_vec3 *data;
+    /**
+     * Number of texels readable from `data` on (the buffer length).
+     */
+    size_t len;
+    /**
+     * Width in texels, > 0.
+     */
+    uint32_t width;
+    /**
+     * Height in texels, > 0.
+     */
+    uint32_t height;
+    /**
+     * Row stride in texels, >= `width`.
+     */
+    uint32_t stride;
+} refl_image_vec3;
+
+/**
+ * A read-only image of `refl_tcrr_surfel` texels.
+ */
+typedef struct refl_image_tcrr_surfel {
+    /**
+     * Texel (0, 0); texel (x, y) is `data[y * stride + x]`.
+     */
+    const struct refl_tcrr_surfel *data;
+    /**
+     * Number of texels readable from `data` on (the buffer length).
+     */
+    size_t len;
+    /**
+     * Width in texels, > 0.
+     */
+    uint32_t width;
+    /**
+     * Height in texels, > 0.
+     */
+    uint32_t height;
+    /**
+     * Row stride in texels, >= `width`.
+     */
+    uint32_t stride;
+} refl_image_tcrr_surfel;
+
+/**
+ * The reflection buffers of a key frame (seed 000 Sec. 3.1) and its
+ * camera. All images have the camera's size.
+ */
+typedef struct refl_tcrr_key {
+    /**
+     * The key frame's camera (its eye is `E_old`).
+     */
+    struct refl_camera camera;
+    /**
+     * `refl_depth_convention` of `depth`.
+     */
+    uint32_t convention;
+    /**
+     * B.1 depth.
+     */
+    struct refl_image_f32 depth;
+    /**
+     * B.1 world-space normal (normalized when read).
+     */
+    struct refl_image_vec3 normal;
+    /**
+     * B.2 specular factor, > 0 marks a reflective pixel.
+     */
+    struct refl_image_f32 specular;
+    /**
+     * B.3 reflected color (linear RGB).
+     */
+    struct refl_image_vec3 color;
+    /**
+     * B.4 reflected distance, +inf where the reflected ray left the scene.
+     */
+    struct refl_image_f32 distance;
+    /**
+     * Surfels prepared from these buffers by `refl_tcrr_prepare`, or
+     * `data == NULL` to back-project on the fly (same results, slower).
+     */
+    struct refl_image_tcrr_surfel surfels;
+} refl_tcrr_key;
+
+/**
+ * A writable image of two-float texels.
+ */
+typedef struct refl_image_vec2_mut {
+    /**
+     * Texel (0, 0); texel (x, y) is `data[y * stride + x]`.
+     */
+    struct refl_vec2 *data;
+    /**
+     * Number of texels writable from `data` on (the buffer length).
+     */
+    size_t len;
+    /**
+     * Width in texels, > 0.
+     */
+    uint32_t width;
+    /**
+     * Height in texels, > 0.
+     */
+    uint32_t height;
+    /**
+     * Row stride in texels, >= `width`.
+     */
+    uint32_t stride;
+} refl_image_vec2_mut;
+
+/**
+ * Counts of one `refl_tcrr_search` call over its band.
+ */
+typedef struct refl_tcrr_search_stats {
+    /**
+     * Reflective samples visited.
+     */
+    uint32_t reflective;
+    /**
+     * Samples that found a match.
+     */
+    uint32_t matched;
+    /**
+     * Samples that recorded the INVALID offset.
+     */
+    uint32_t invalid;
+    /**
+     * 3x3 neighborhoods (or fast-path steps) evaluated.
+     */
+    uint64_t iterations;
+} refl_tcrr_search_stats;
+
+/**
+ * A writable image of three-float texels.
+ */
+typedef struct refl_image_vec3_mut {
+    /**
+     * Texel (0, 0); texel (x, y) is `data[y * stride + x]`.
+     */
+    struct refl_vec3 *data;
+    /**
+     * Number of texels writable from `data` on (the buffer length).
+     */
+    size_t len;
+    /**
+     * Width in texels, > 0.
+     */
+    uint32_t width;
+    /**
+     * Height in texels, > 0.
+     */
+    uint32_t height;
+    /**
+     * Row stride in texels, >= `width`.
+     */
+    uint32_t stride;
+} refl_image_vec3_mut;
+
+/**
+ * A writable image of `uint8_t` texels.
+ */
+typedef struct refl_image_u8_mut {
+    /**
+     * Texel (0, 0); texel (x, y) is `data[y * stride + x]`.
+     */
+    uint8_t *data;
+    /**
+     * Number of texels writable from `data` on (the buffer length).
+     */
+    size_t len;
+    /**
+     * Width in texels, > 0.
+     */
+    uint32_t width;
+    /**
+     * Height in texels, > 0.
+     */
+    uint32_t height;
+    /**
+     * Row stride in texels, >= `width`.
+     */
+    uint32_t stride;
+} refl_image_u8_mut;
+
+/**
+ * Counts of one `refl_tcrr_shift` call over its band.
+ */
+typedef struct refl_tcrr_shift_stats {
+    /**
+     * Grid triangles rasterized.
+     */
+    uint32_t drawn;
+    /**
+     * Grid triangles discarded by the magnification threshold.
+     */
+    uint32_t magnified;
+    /**
+     * Pixels of the band covered at least once.
+     */
+    uint32_t covered;
+} refl_tcrr_shift_stats;
+
+/**
+ * A read-only image of two-float texels (e.g. motion vectors).
+ */
+typedef struct refl_image_vec2 {
+    /**
+     * Texel (0, 0); texel (x, y) is `data[y * stride + x]`.
+     */
+    const struct refl_vec2 *data;
+    /**
+     * Number of texels readable from `data` on (the buffer length).
+     */
+    size_t len;
+    /**
+     * Width in texels, > 0.
+     */
+    uint32_t width;
+    /**
+     * Height in texels, > 0.
+     */
+    uint32_t height;
+    /**
+     * Row stride in texels, >= `width`.
+     */
+    uint32_t stride;
+} refl_image_vec2;
+
+/**
+ * Counts of one `refl_tcrr_warp` call over its band.
+ */
+typedef struct refl_tcrr_warp_stats {
+    /**
+     * Reflective pixels of the current frame.
+     */
+    uint32_t reflective;
+    /**
+     * Pixels whose reflection was reused.
+     */
+    uint32_t reused;
+    /**
+     * Pixels marked `REFL_TCRR_MASK_RETRACE`.
+     */
+    uint32_t retrace;
+} refl_tcrr_warp_stats;
+
+/**
+ * The current frame as TCRR reads it.
+ */
+typedef struct refl_tcrr_current {
+    /**
+     * The current camera (its eye is `E_cur`).
+     */
+    struct refl_camera camera;
+    /**
+     * `refl_depth_convention` of `depth`.
+     */
+    uint32_t convention;
+    /**
+     * Current depth buffer.
+     */
+    struct refl_image_f32 depth;
+    /**
+     * Current specular factors, > 0 marks the pixels that need a
+     * reflection.
+     */
+    struct refl_image_f32 specular;
+} refl_tcrr_current;
+
+/**
+ * A read-only image of `uint8_t` texels (e.g. a coverage or re-trace
+ * mask).
+ */
+typedef struct refl_image_u8 {
+    /**
+     * Texel (0, 0); texel (x, y) is `data[y * stride + x]`.
+     */
+    const uint8_t *data;
+    /**
+     * Number of texels readable from `data` on (the buffer length).
+     */
+    size_t len;
+    /**
+     * Width in texels, > 0.
+     */
+    uint32_t width;
+    /**
+     * Height in texels, > 0.
+     */
+    uint32_t height;
+    /**
+     * Row stride in texels, >= `width`.
+     */
+    uint32_t stride;
+} refl_image_u8;
+
+/**
  * A 4-component float vector (a four-channel texel).
  */
 typedef struct refl_vec4 {
@@ -385,110 +873,6 @@ typedef struct refl_rgba8 {
      */
     uint8_t a;
 } refl_rgba8;
-
-/**
- * A read-only image of two-float texels (e.g. motion vectors).
- */
-typedef struct refl_image_vec2 {
-    /**
-     * Texel (0, 0); texel (x, y) is `data[y * stride + x]`.
-     */
-    const struct refl_vec2 *data;
-    /**
-     * Number of texels readable from `data` on (the buffer length).
-     */
-    size_t len;
-    /**
-     * Width in texels, > 0.
-     */
-    uint32_t width;
-    /**
-     * Height in texels, > 0.
-     */
-    uint32_t height;
-    /**
-     * Row stride in texels, >= `width`.
-     */
-    uint32_t stride;
-} refl_image_vec2;
-
-/**
- * A writable image of two-float texels.
- */
-typedef struct refl_image_vec2_mut {
-    /**
-     * Texel (0, 0); texel (x, y) is `data[y * stride + x]`.
-     */
-    struct refl_vec2 *data;
-    /**
-     * Number of texels writable from `data` on (the buffer length).
-     */
-    size_t len;
-    /**
-     * Width in texels, > 0.
-     */
-    uint32_t width;
-    /**
-     * Height in texels, > 0.
-     */
-    uint32_t height;
-    /**
-     * Row stride in texels, >= `width`.
-     */
-    uint32_t stride;
-} refl_image_vec2_mut;
-
-/**
- * A read-only image of three-float texels (e.g. positions or normals).
- */
-typedef struct refl_image_vec3 {
-    /**
-     * Texel (0, 0); texel (x, y) is `data[y * stride + x]`.
-     */
-    const struct refl_vec3 *data;
-    /**
-     * Number of texels readable from `data` on (the buffer length).
-     */
-    size_t len;
-    /**
-     * Width in texels, > 0.
-     */
-    uint32_t width;
-    /**
-     * Height in texels, > 0.
-     */
-    uint32_t height;
-    /**
-     * Row stride in texels, >= `width`.
-     */
-    uint32_t stride;
-} refl_image_vec3;
-
-/**
- * A writable image of three-float texels.
- */
-typedef struct refl_image_vec3_mut {
-    /**
-     * Texel (0, 0); texel (x, y) is `data[y * stride + x]`.
-     */
-    struct refl_vec3 *data;
-    /**
-     * Number of texels writable from `data` on (the buffer length).
-     */
-    size_t len;
-    /**
-     * Width in texels, > 0.
-     */
-    uint32_t width;
-    /**
-     * Height in texels, > 0.
-     */
-    uint32_t height;
-    /**
-     * Row stride in texels, >= `width`.
-     */
-    uint32_t stride;
-} refl_image_vec3_mut;
 
 /**
  * A read-only image of four-float texels (e.g. HDR color).
@@ -1183,6 +1567,243 @@ const char *refl_version(void);
  * and `REFL_VERSION_PATCH`.
  */
 uint32_t refl_version_number(void);
+
+/**
+ * Writes to `*out` the default TCRR settings (iteration cap 64,
+ * magnification 16 as in seed 000 Sec. 4.1, discontinuity 0.02, reflected
+ * discontinuity 0.1, sub-pixel offsets on).
+ *
+ * Returns `REFL_STATUS_NULL_POINTER` if `out` is NULL.
+ *
+ * # Safety
+ * `out` must be NULL or point to a writable `refl_tcrr_params`.
+ */
+refl_status refl_tcrr_default_params(struct refl_tcrr_params *out);
+
+/**
+ * Writes to `*out_bytes` the caller-buffer bytes TCRR needs for a
+ * `width x height` frame with tightly packed rows
+ * (`REFL_TCRR_BYTES_PER_PIXEL` per pixel, see its docs); size each image
+ * with `refl_image_required_len`.
+ *
+ * Returns `REFL_STATUS_NULL_POINTER` if `out_bytes` is NULL;
+ * `REFL_STATUS_INVALID_ARGUMENT` for a zero size or a count that does not
+ * fit in `size_t`.
+ *
+ * # Safety
+ * `out_bytes` must be NULL or point to a writable `size_t`.
+ */
+refl_status refl_tcrr_frame_bytes(size_t *out_bytes, uint32_t width, uint32_t height);
+
+/**
+ * Writes to `*out` the distance function of seed 000 Fig. 4: the distance
+ * from `eye` to the ray that starts at the reflected point R mirrored
+ * about the tangent plane through `surface` with normal `normal`
+ * (normalized here) and passes through `surface`. `reflected` is R for
+ * `kind == REFL_TCRR_REFLECTED_POINT`, or the direction of a reflected ray
+ * that left the scene for `REFL_TCRR_REFLECTED_DIRECTION`.
+ *
+ * Returns `REFL_STATUS_NULL_POINTER` if `out` is NULL;
+ * `REFL_STATUS_INVALID_ARGUMENT` for non-finite input or an unknown
+ * `kind`; `REFL_STATUS_DEGENERATE_GEOMETRY` where the function is
+ * undefined (zero normal, R on or behind the tangent plane, the eye on or
+ * behind it).
+ *
+ * # Safety
+ * `out` must be NULL or point to a writable `float`.
+ */
+refl_status refl_tcrr_reflection_distance(float *out,
+                                          struct refl_vec3 eye,
+                                          struct refl_vec3 surface,
+                                          struct refl_vec3 normal,
+                                          struct refl_vec3 reflected,
+                                          uint32_t kind);
+
+/**
+ * Back-projects rows `[rows.begin, rows.end)` of the key frame into
+ * `surfels` (once per key frame, before the frame's first search) and
+ * writes to `*out_reflective` (if not NULL) the number of reflective
+ * samples in those rows. Attach the image as `key.surfels` afterwards; the
+ * `key.surfels` given here is ignored.
+ *
+ * Returns `REFL_STATUS_NULL_POINTER` if `key` or an image's data is NULL;
+ * `REFL_STATUS_INVALID_ARGUMENT` for an invalid camera or descriptor, an
+ * unknown convention, images of different sizes or a bad row range;
+ * `REFL_STATUS_INSUFFICIENT_SIZE` for a short buffer. Nothing is written
+ * then.
+ *
+ * # Safety
+ * `key` must be NULL or readable and its images readable as described;
+ * `surfels` writable for its rows `rows`; `out_reflective` NULL or
+ * writable.
+ */
+refl_status refl_tcrr_prepare(struct refl_image_tcrr_surfel_mut surfels,
+                              uint32_t *out_reflective,
+                              const struct refl_tcrr_key *key,
+                              struct refl_row_range rows);
+
+/**
+ * Fills rows `[rows.begin, rows.end)` of an offset image with the INVALID
+ * offset (+inf, +inf): after a key frame, so the next search starts at
+ * each pixel itself (seed 000 Alg. 2).
+ *
+ * Returns `REFL_STATUS_NULL_POINTER` for a NULL `offsets.data`;
+ * `REFL_STATUS_INVALID_ARGUMENT` / `REFL_STATUS_INSUFFICIENT_SIZE` for a
+ * bad descriptor or row range.
+ *
+ * # Safety
+ * `offsets` must be writable for the rows.
+ */
+refl_status refl_tcrr_reset_offsets(struct refl_image_vec2_mut offsets, struct refl_row_range rows);
+
+/**
+ * Neighborhood search (seed 000 Alg. 2) over rows `[rows.begin,
+ * rows.end)`: on entry `offsets` holds the previous frame's offsets, on
+ * return the offsets from each key-frame pixel to its match for the
+ * current eye `eye` (INVALID, i.e. non-finite, where none). Counts go to
+ * `*out_stats` if it is not NULL.
+ *
+ * Returns `REFL_STATUS_NULL_POINTER` for NULL `key`, `params` or image
+ * data; `REFL_STATUS_INVALID_ARGUMENT` for a bad camera, convention,
+ * descriptor, size mismatch, row range, non-finite `eye` or parameter
+ * out of range; `REFL_STATUS_INSUFFICIENT_SIZE` for a short buffer.
+ * `offsets` is untouched then.
+ *
+ * # Safety
+ * Pointers NULL or valid; images valid as described; the rows of
+ * `offsets` not accessed by another thread during the call.
+ */
+refl_status refl_tcrr_search(struct refl_image_vec2_mut offsets,
+                             struct refl_tcrr_search_stats *out_stats,
+                             const struct refl_tcrr_key *key,
+                             struct refl_vec3 eye,
+                             const struct refl_tcrr_params *params,
+                             struct refl_row_range rows);
+
+/**
+ * Reflection shifting (seed 000 Sec. 3.2.2) into rows `[rows.begin,
+ * rows.end)` of the intermediate image: the key frame's grid mesh moved by
+ * `offsets` and rasterized with the depth test on `s.d + s.r`, cut at
+ * discontinuities, magnified triangles discarded. The three outputs are
+ * cleared over the rows first. Counts go to `*out_stats` if not NULL.
+ *
+ * Returns as `refl_tcrr_search` (outputs untouched on error).
+ *
+ * # Safety
+ * As `refl_tcrr_search`; the rows of the three outputs not accessed by
+ * another thread during the call.
+ */
+refl_status refl_tcrr_shift(struct refl_image_vec3_mut color,
+                            struct refl_image_f32_mut depth,
+                            struct refl_image_u8_mut coverage,
+                            struct refl_tcrr_shift_stats *out_stats,
+                            const struct refl_tcrr_key *key,
+                            struct refl_image_vec2 offsets,
+                            const struct refl_tcrr_params *params,
+                            struct refl_row_range rows);
+
+/**
+ * Warping (seed 000 Sec. 3.3) of the intermediate image (`source`,
+ * `source_depth`, `coverage` from `refl_tcrr_shift`) into rows
+ * `[rows.begin, rows.end)` of the current view: `color` gets the reused
+ * reflection, `mask` `REFL_TCRR_MASK_{NONE,REUSED,RETRACE}`. For the
+ * naive baseline pass the key frame's own colors, `s.d + s.r` and its
+ * reflective mask (coverage 1). Counts go to `*out_stats` if not NULL.
+ *
+ * Returns as `refl_tcrr_search`, also for NULL `current` (outputs
+ * untouched on error).
+ *
+ * # Safety
+ * As `refl_tcrr_search`; the rows of `color` and `mask` not accessed by
+ * another thread during the call.
+ */
+refl_status refl_tcrr_warp(struct refl_image_vec3_mut color,
+                           struct refl_image_u8_mut mask,
+                           struct refl_tcrr_warp_stats *out_stats,
+                           const struct refl_tcrr_current *current,
+                           const struct refl_tcrr_key *key,
+                           struct refl_image_vec3 source,
+                           struct refl_image_f32 source_depth,
+                           struct refl_image_u8 coverage,
+                           const struct refl_tcrr_params *params,
+                           struct refl_row_range rows);
+
+/**
+ * Writes the pixel indices `y * width + x` of the `REFL_TCRR_MASK_RETRACE`
+ * pixels of `mask`, row-major, to `list[0..count)` and the count to
+ * `*out_count` (the compact list for the host's ray tracer). With `list`
+ * NULL only the count is written (size query).
+ *
+ * Returns `REFL_STATUS_NULL_POINTER` if `out_count` or `mask.data` is
+ * NULL; `REFL_STATUS_INVALID_ARGUMENT` for a bad descriptor or an image
+ * with more than 2^32 pixels; `REFL_STATUS_INSUFFICIENT_SIZE` (nothing
+ * written) if `list_len` is below the count.
+ *
+ * # Safety
+ * `list` NULL or writable for `list_len` `uint32_t`; `out_count` NULL or
+ * writable; `mask` readable.
+ */
+refl_status refl_tcrr_retrace_list(uint32_t *list,
+                                   size_t list_len,
+                                   size_t *out_count,
+                                   struct refl_image_u8 mask);
+
+/**
+ * Output composition (seed 000 Sec. 3.3) over rows `[rows.begin,
+ * rows.end)`: `out = (1 - w) diffuse + w reflection` at the current
+ * frame's reflective pixels, `w` the specular factor (`fresnel ==
+ * REFL_TCRR_FRESNEL_OFF`) or Schlick's Fresnel term of it
+ * (`REFL_TCRR_FRESNEL_SCHLICK`) with `cos = n . normalize(E_cur - P)`;
+ * `out = diffuse` elsewhere.
+ *
+ * Returns `REFL_STATUS_NULL_POINTER` for NULL `current` or image data;
+ * `REFL_STATUS_INVALID_ARGUMENT` for an unknown `fresnel`, a bad camera,
+ * descriptor, size mismatch or row range;
+ * `REFL_STATUS_INSUFFICIENT_SIZE` for a short buffer. `out` is untouched
+ * then.
+ *
+ * # Safety
+ * Images valid as described; the rows of `out` not accessed by another
+ * thread during the call.
+ */
+refl_status refl_tcrr_compose(struct refl_image_vec3_mut out,
+                              struct refl_image_vec3 diffuse,
+                              struct refl_image_vec3 reflection,
+                              struct refl_image_vec3 normal,
+                              const struct refl_tcrr_current *current,
+                              uint32_t fresnel,
+                              struct refl_row_range rows);
+
+/**
+ * Writes to `*out` the reflection weight of `refl_tcrr_compose` for
+ * specular factor `f` and `cos_theta` (both clamped to [0, 1]; 0 for
+ * `f <= 0` or NaN).
+ *
+ * Returns `REFL_STATUS_NULL_POINTER` if `out` is NULL;
+ * `REFL_STATUS_INVALID_ARGUMENT` for an unknown `fresnel`.
+ *
+ * # Safety
+ * `out` must be NULL or point to a writable `float`.
+ */
+refl_status refl_tcrr_fresnel_weight(float *out, float f, float cos_theta, uint32_t fresnel);
+
+/**
+ * The key-frame policy of seed 000 Sec. 4.3/4.4: writes 1 to `*out` if
+ * `retrace` re-traced pixels out of `reflective` exceed the share
+ * `threshold` (0.3 in the seed), else 0 (always 0 without reflective
+ * pixels).
+ *
+ * Returns `REFL_STATUS_NULL_POINTER` if `out` is NULL;
+ * `REFL_STATUS_INVALID_ARGUMENT` for a threshold outside [0, 1] or NaN,
+ * or `retrace > reflective`.
+ *
+ * # Safety
+ * `out` must be NULL or point to a writable `uint32_t`.
+ */
+refl_status refl_tcrr_needs_key_frame(uint32_t *out,
+                                      float threshold,
+                                      uint64_t retrace,
+                                      uint64_t reflective);
 
 #ifdef __cplusplus
 }  // extern "C"

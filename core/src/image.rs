@@ -229,6 +229,43 @@ impl<'a, T: Copy> ImageViewMut<'a, T> {
         })
     }
 
+    /// A mutable view owning only the rows `rows` of a `width x height`
+    /// image with row stride `stride`, over memory that starts at the
+    /// band's first row (`data[0]` is texel `(0, rows.start())`): what a
+    /// host thread holds when it owns one band of a shared image (the FFI
+    /// builds one per call, so threads never alias each other's rows).
+    ///
+    /// # Errors
+    /// As [`ImageView::try_new`] for the whole image's size;
+    /// [`Error::InvalidArgument`] if `rows` ends beyond `height`;
+    /// [`Error::InsufficientSize`] if `data` is shorter than the band
+    /// (`(rows.len() - 1) * stride + width` texels).
+    pub fn try_band(
+        data: &'a mut [T],
+        width: u32,
+        height: u32,
+        stride: u32,
+        rows: RowRange,
+    ) -> Result<Self, Error> {
+        required_len(width, height, stride)?;
+        if rows.end() > height {
+            return Err(Error::InvalidArgument);
+        }
+        if !rows.is_empty() {
+            let need = required_len(width, rows.len(), stride)?;
+            if data.len() < need {
+                return Err(Error::InsufficientSize);
+            }
+        }
+        Ok(Self {
+            data,
+            width,
+            height,
+            stride,
+            rows: rows.start()..rows.end(),
+        })
+    }
+
     /// Width in texels.
     pub const fn width(&self) -> u32 {
         self.width

@@ -9,6 +9,7 @@
 
 use crate::ptr::{byte_len, overlaps, read, Out};
 use crate::status::{guard, refl_status};
+use crate::tcrr::refl_tcrr_surfel;
 use crate::types::{convention, refl_camera, refl_rgba8, refl_vec2, refl_vec3, refl_vec4};
 use refl_core::image::required_len;
 use refl_core::{Camera, Error, ImageView, ImageViewMut, RowRange};
@@ -205,6 +206,71 @@ pub struct refl_image_u32_mut {
     pub stride: u32,
 }
 
+/// A read-only image of `uint8_t` texels (e.g. a coverage or re-trace
+/// mask).
+#[repr(C)]
+#[derive(Clone, Copy, Debug)]
+pub struct refl_image_u8 {
+    /// Texel (0, 0); texel (x, y) is `data[y * stride + x]`.
+    pub data: *const u8,
+    /// Number of texels readable from `data` on (the buffer length).
+    pub len: usize,
+    /// Width in texels, > 0.
+    pub width: u32,
+    /// Height in texels, > 0.
+    pub height: u32,
+    /// Row stride in texels, >= `width`.
+    pub stride: u32,
+}
+
+/// A writable image of `uint8_t` texels.
+#[repr(C)]
+#[derive(Clone, Copy, Debug)]
+pub struct refl_image_u8_mut {
+    /// Texel (0, 0); texel (x, y) is `data[y * stride + x]`.
+    pub data: *mut u8,
+    /// Number of texels writable from `data` on (the buffer length).
+    pub len: usize,
+    /// Width in texels, > 0.
+    pub width: u32,
+    /// Height in texels, > 0.
+    pub height: u32,
+    /// Row stride in texels, >= `width`.
+    pub stride: u32,
+}
+
+/// A read-only image of `refl_tcrr_surfel` texels.
+#[repr(C)]
+#[derive(Clone, Copy, Debug)]
+pub struct refl_image_tcrr_surfel {
+    /// Texel (0, 0); texel (x, y) is `data[y * stride + x]`.
+    pub data: *const refl_tcrr_surfel,
+    /// Number of texels readable from `data` on (the buffer length).
+    pub len: usize,
+    /// Width in texels, > 0.
+    pub width: u32,
+    /// Height in texels, > 0.
+    pub height: u32,
+    /// Row stride in texels, >= `width`.
+    pub stride: u32,
+}
+
+/// A writable image of `refl_tcrr_surfel` texels.
+#[repr(C)]
+#[derive(Clone, Copy, Debug)]
+pub struct refl_image_tcrr_surfel_mut {
+    /// Texel (0, 0); texel (x, y) is `data[y * stride + x]`.
+    pub data: *mut refl_tcrr_surfel,
+    /// Number of texels writable from `data` on (the buffer length).
+    pub len: usize,
+    /// Width in texels, > 0.
+    pub width: u32,
+    /// Height in texels, > 0.
+    pub height: u32,
+    /// Row stride in texels, >= `width`.
+    pub stride: u32,
+}
+
 /// Validates an image descriptor and returns the number of texels the view
 /// covers (`required_len`), which is also its slice length.
 ///
@@ -263,6 +329,33 @@ macro_rules! image_views {
                 ImageViewMut::try_new(s, self.width, self.height, self.stride)
             }
 
+            /// A refl-core mutable view owning only the rows `rows`, over
+            /// the memory of those rows alone (so host threads holding
+            /// disjoint bands of one image never alias each other).
+            ///
+            /// # Safety
+            /// The band's texels must be valid for reads and writes for
+            /// `'a` and not be accessed through another pointer meanwhile.
+            pub unsafe fn band_mut<'a>(&self, rows: RowRange) -> Result<ImageViewMut<'a, $texel>, Error> {
+                let need = checked_len(self.data.cast_const(), self.len, self.width, self.height, self.stride)?;
+                if rows.end() > self.height {
+                    return Err(Error::InvalidArgument);
+                }
+                let start = (rows.start() as usize * self.stride as usize).min(need);
+                let end = if rows.is_empty() {
+                    start
+                } else {
+                    (rows.end() as usize - 1) * self.stride as usize + self.width as usize
+                };
+                // SAFETY: `start <= end <= need <= len` texels from a
+                // non-null, aligned pointer (checked_len); exclusivity of
+                // the band by contract.
+                let s = unsafe {
+                    core::slice::from_raw_parts_mut(self.data.cast::<$texel>().add(start), end - start)
+                };
+                ImageViewMut::try_band(s, self.width, self.height, self.stride, rows)
+            }
+
             /// The read-only descriptor of the same memory.
             pub fn as_const(&self) -> $c {
                 $c {
@@ -284,6 +377,12 @@ image_views!(
     (refl_image_vec4, refl_image_vec4_mut, [f32; 4]),
     (refl_image_rgba8, refl_image_rgba8_mut, [u8; 4]),
     (refl_image_u32, refl_image_u32_mut, u32),
+    (refl_image_u8, refl_image_u8_mut, u8),
+    (
+        refl_image_tcrr_surfel,
+        refl_image_tcrr_surfel_mut,
+        refl_core::tcrr::Surfel
+    ),
 );
 
 /// A half-open range of image rows `[begin, end)`.

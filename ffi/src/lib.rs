@@ -36,10 +36,12 @@ mod image;
 mod mirror;
 mod ptr;
 mod status;
+mod tcrr;
 mod types;
 
 pub use camera::*;
 pub use image::*;
 pub use mirror::*;
 pub use status::*;
+pub use tcrr::*;
 pub use types::*;
