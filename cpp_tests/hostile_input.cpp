@@ -623,6 +623,337 @@ void image_functions() {
     }
 }
 
+
+// TCRR (seed 000): the scalar exports with NULL/NaN/unknown enums, and the
+// passes with NULL data, short buffers, bad conventions, bad parameters and
+// bad row ranges; image outputs must stay byte-identical on every error.
+void tcrr_functions() {
+    // Scalars.
+    const refl_tcrr_params dp =
+        expect_ok<refl_tcrr_params>("tcrr default params", [](refl_tcrr_params* o) { return refl_tcrr_default_params(o); });
+    CHECK_EQ(dp.max_iterations, 64u);
+    expect<refl_tcrr_params>("tcrr default params NULL", REFL_STATUS_NULL_POINTER,
+                             [](refl_tcrr_params*) { return refl_tcrr_default_params(nullptr); }, false);
+    CHECK_EQ(expect_ok<size_t>("tcrr frame bytes", [](size_t* o) { return refl_tcrr_frame_bytes(o, 4, 3); }),
+             size_t(12) * REFL_TCRR_BYTES_PER_PIXEL);
+    expect<size_t>("tcrr frame bytes 0", REFL_STATUS_INVALID_ARGUMENT,
+                   [](size_t* o) { return refl_tcrr_frame_bytes(o, 0, 3); });
+    expect<size_t>("tcrr frame bytes overflow", REFL_STATUS_INVALID_ARGUMENT,
+                   [](size_t* o) { return refl_tcrr_frame_bytes(o, kMax, kMax); });
+    const refl_vec3 eye = v3(0, 2, 1), w = v3(0, 0, 0), n = v3(0, 1, 0), r = v3(1, 1.5f, -2);
+    expect_ok<float>("tcrr distance", [&](float* o) {
+        return refl_tcrr_reflection_distance(o, eye, w, n, r, REFL_TCRR_REFLECTED_POINT);
+    });
+    expect_ok<float>("tcrr distance dir", [&](float* o) {
+        return refl_tcrr_reflection_distance(o, eye, w, n, r, REFL_TCRR_REFLECTED_DIRECTION);
+    });
+    for (refl_vec3 b : {v3(kNaN, 0, 0), v3(0, kInf, 0), v3(0, 0, -kInf)}) {
+        expect<float>("tcrr distance eye", REFL_STATUS_INVALID_ARGUMENT,
+                      [&](float* o) { return refl_tcrr_reflection_distance(o, b, w, n, r, 0); });
+        expect<float>("tcrr distance surface", REFL_STATUS_INVALID_ARGUMENT,
+                      [&](float* o) { return refl_tcrr_reflection_distance(o, eye, b, n, r, 0); });
+        expect<float>("tcrr distance normal", REFL_STATUS_INVALID_ARGUMENT,
+                      [&](float* o) { return refl_tcrr_reflection_distance(o, eye, w, b, r, 0); });
+        expect<float>("tcrr distance reflected", REFL_STATUS_INVALID_ARGUMENT,
+                      [&](float* o) { return refl_tcrr_reflection_distance(o, eye, w, n, b, 1); });
+    }
+    for (uint32_t k : {2u, 0x80000000u, kMax})
+        expect<float>("tcrr distance kind", REFL_STATUS_INVALID_ARGUMENT,
+                      [&](float* o) { return refl_tcrr_reflection_distance(o, eye, w, n, r, k); });
+    expect<float>("tcrr distance zero normal", REFL_STATUS_DEGENERATE_GEOMETRY,
+                  [&](float* o) { return refl_tcrr_reflection_distance(o, eye, w, v3(0, 0, 0), r, 0); });
+    expect<float>("tcrr distance R on the plane", REFL_STATUS_DEGENERATE_GEOMETRY,
+                  [&](float* o) { return refl_tcrr_reflection_distance(o, eye, w, n, v3(1, 0, 0), 0); });
+    expect<float>("tcrr distance eye behind", REFL_STATUS_DEGENERATE_GEOMETRY,
+                  [&](float* o) { return refl_tcrr_reflection_distance(o, v3(0, -1, 0), w, n, r, 0); });
+    expect_ok<float>("tcrr fresnel", [](float* o) { return refl_tcrr_fresnel_weight(o, 0.5f, 0.5f, 1); });
+    for (uint32_t m : {2u, kMax})
+        expect<float>("tcrr fresnel mode", REFL_STATUS_INVALID_ARGUMENT,
+                      [&](float* o) { return refl_tcrr_fresnel_weight(o, 0.5f, 0.5f, m); });
+    CHECK_EQ(expect_ok<uint32_t>("tcrr key frame", [](uint32_t* o) { return refl_tcrr_needs_key_frame(o, 0.3f, 31, 100); }),
+             1u);
+    for (float t : {kNaN, -0.1f, 1.5f, kInf})
+        expect<uint32_t>("tcrr key frame threshold", REFL_STATUS_INVALID_ARGUMENT,
+                         [&](uint32_t* o) { return refl_tcrr_needs_key_frame(o, t, 1, 2); });
+    expect<uint32_t>("tcrr key frame retrace > reflective", REFL_STATUS_INVALID_ARGUMENT,
+                     [](uint32_t* o) { return refl_tcrr_needs_key_frame(o, 0.3f, 3, 2); });
+
+    // A small key frame: a mirror plane facing the camera.
+    const refl_camera g = good_camera();
+    const uint32_t W = g.width, H = g.height;
+    const size_t N = size_t(W) * H;
+    std::vector<float> depth(N, 4.0f), spec(N, 0.9f), dist(N, 2.0f);
+    std::vector<refl_vec3> normal(N, v3(0.2f, 0.4f, 0.9f)), color(N, v3(0.5f, 0.5f, 0.5f));
+    refl_tcrr_key key{};
+    key.camera = g;
+    key.convention = REFL_DEPTH_CONVENTION_LINEAR;
+    key.depth = {depth.data(), N, W, H, W};
+    key.normal = {normal.data(), N, W, H, W};
+    key.specular = {spec.data(), N, W, H, W};
+    key.color = {color.data(), N, W, H, W};
+    key.distance = {dist.data(), N, W, H, W};
+    key.surfels = {nullptr, 0, W, H, W};
+    refl_tcrr_current cur{};
+    cur.camera = g;
+    cur.convention = REFL_DEPTH_CONVENTION_LINEAR;
+    cur.depth = key.depth;
+    cur.specular = key.specular;
+    const refl_row_range all{0, H};
+    const refl_row_range bad_rows[] = {{0, H + 1}, {5, 4}, {kMax, kMax}};
+    std::vector<refl_tcrr_key> bad_keys;
+    auto bad_key = [&](auto edit) {
+        refl_tcrr_key k = key;
+        edit(k);
+        bad_keys.push_back(k);
+    };
+    bad_key([](refl_tcrr_key& k) { k.convention = 3; });
+    bad_key([](refl_tcrr_key& k) { k.convention = kMax; });
+    bad_key([](refl_tcrr_key& k) { k.depth.data = nullptr; });
+    bad_key([](refl_tcrr_key& k) { k.normal.len -= 1; });
+    bad_key([](refl_tcrr_key& k) { k.color.width -= 1; });
+    bad_key([](refl_tcrr_key& k) { k.distance.stride = 1; });
+    bad_key([](refl_tcrr_key& k) { k.camera.fov_y = kNaN; });
+    bad_key([](refl_tcrr_key& k) { k.specular.height = 0; });
+    std::vector<refl_tcrr_params> bad_params;
+    auto bad_param = [&](auto edit) {
+        refl_tcrr_params p = dp;
+        edit(p);
+        bad_params.push_back(p);
+    };
+    bad_param([](refl_tcrr_params& p) { p.max_iterations = 0; });
+    bad_param([](refl_tcrr_params& p) { p.magnification = kNaN; });
+    bad_param([](refl_tcrr_params& p) { p.magnification = 0.5f; });
+    bad_param([](refl_tcrr_params& p) { p.discontinuity = -1.0f; });
+    bad_param([](refl_tcrr_params& p) { p.reflected_discontinuity = kInf; });
+    bad_param([](refl_tcrr_params& p) { p.subpixel = 2; });
+
+    // Runs `f` on sentinel-filled image outputs and checks they stay intact.
+    auto intact = [](const char* what, refl_status want, auto& bufs, auto f) {
+        for (auto* b : bufs) std::memset(b->data(), 0x5A, b->size() * sizeof((*b)[0]));
+        const uint32_t got = f();
+        ++check::checks();
+        bool same = true;
+        for (auto* b : bufs) {
+            const unsigned char* p = reinterpret_cast<const unsigned char*>(b->data());
+            for (size_t i = 0; i < b->size() * sizeof((*b)[0]); ++i) same = same && p[i] == 0x5A;
+        }
+        if (got != static_cast<uint32_t>(want) || !same)
+            check::fail(__FILE__, __LINE__,
+                        std::string(what) + ": got " + check::status_name(got) + ", expected " +
+                            check::status_name(want) + (same ? "" : ", and the output was written"));
+    };
+
+    // refl_tcrr_prepare
+    std::vector<refl_tcrr_surfel> surfels(N);
+    {
+        std::vector<std::vector<refl_tcrr_surfel>*> bufs{&surfels};
+        auto run = [&](refl_image_tcrr_surfel_mut img, const refl_tcrr_key* k, refl_row_range rr) {
+            return [=] { return refl_tcrr_prepare(img, nullptr, k, rr); };
+        };
+        const refl_image_tcrr_surfel_mut good{surfels.data(), N, W, H, W};
+        intact("tcrr prepare NULL key", REFL_STATUS_NULL_POINTER, bufs, run(good, nullptr, all));
+        intact("tcrr prepare NULL data", REFL_STATUS_NULL_POINTER, bufs,
+               run({nullptr, N, W, H, W}, &key, all));
+        intact("tcrr prepare short", REFL_STATUS_INSUFFICIENT_SIZE, bufs, run({surfels.data(), N - 1, W, H, W}, &key, all));
+        intact("tcrr prepare size mismatch", REFL_STATUS_INVALID_ARGUMENT, bufs,
+               run({surfels.data(), N, W - 1, H, W}, &key, {0, 1}));
+        intact("tcrr prepare misaligned", REFL_STATUS_INVALID_ARGUMENT, bufs,
+               run({reinterpret_cast<refl_tcrr_surfel*>(reinterpret_cast<unsigned char*>(surfels.data()) + 1), N - 1, W, H, W},
+                   &key, all));
+        for (const refl_row_range& rr : bad_rows)
+            intact("tcrr prepare rows", REFL_STATUS_INVALID_ARGUMENT, bufs, run(good, &key, rr));
+        for (const refl_tcrr_key& k : bad_keys) {
+            const uint32_t st = refl_tcrr_prepare(good, nullptr, &k, all);
+            CHECK(st != REFL_STATUS_OK);
+        }
+        uint32_t reflective = 0;
+        CHECK_STATUS(refl_tcrr_prepare(good, &reflective, &key, all), REFL_STATUS_OK);
+        CHECK(reflective > 0);
+    }
+    refl_tcrr_key fast = key;
+    fast.surfels = {surfels.data(), N, W, H, W};
+
+    // refl_tcrr_reset_offsets and refl_tcrr_search
+    std::vector<refl_vec2> offsets(N);
+    {
+        std::vector<std::vector<refl_vec2>*> bufs{&offsets};
+        const refl_image_vec2_mut good{offsets.data(), N, W, H, W};
+        intact("tcrr reset NULL", REFL_STATUS_NULL_POINTER, bufs,
+               [&] { return refl_tcrr_reset_offsets({nullptr, N, W, H, W}, all); });
+        intact("tcrr reset short", REFL_STATUS_INSUFFICIENT_SIZE, bufs,
+               [&] { return refl_tcrr_reset_offsets({offsets.data(), N - 1, W, H, W}, all); });
+        for (const refl_row_range& rr : bad_rows)
+            intact("tcrr reset rows", REFL_STATUS_INVALID_ARGUMENT, bufs, [&] { return refl_tcrr_reset_offsets(good, rr); });
+        auto search = [&](refl_image_vec2_mut o, const refl_tcrr_key* k, refl_vec3 e, const refl_tcrr_params* p,
+                          refl_row_range rr) { return [=] { return refl_tcrr_search(o, nullptr, k, e, p, rr); }; };
+        const refl_vec3 e = v3(1.1f, 2.0f, 4.9f);
+        intact("tcrr search NULL key", REFL_STATUS_NULL_POINTER, bufs, search(good, nullptr, e, &dp, all));
+        intact("tcrr search NULL params", REFL_STATUS_NULL_POINTER, bufs, search(good, &key, e, nullptr, all));
+        intact("tcrr search NULL offsets", REFL_STATUS_NULL_POINTER, bufs,
+               search({nullptr, N, W, H, W}, &key, e, &dp, all));
+        intact("tcrr search short", REFL_STATUS_INSUFFICIENT_SIZE, bufs,
+               search({offsets.data(), N - 1, W, H, W}, &key, e, &dp, all));
+        for (refl_vec3 b : {v3(kNaN, 0, 0), v3(0, kInf, 0)})
+            intact("tcrr search eye", REFL_STATUS_INVALID_ARGUMENT, bufs, search(good, &key, b, &dp, all));
+        for (const refl_row_range& rr : bad_rows)
+            intact("tcrr search rows", REFL_STATUS_INVALID_ARGUMENT, bufs, search(good, &key, e, &dp, rr));
+        for (const refl_tcrr_params& p : bad_params)
+            intact("tcrr search params", REFL_STATUS_INVALID_ARGUMENT, bufs, search(good, &key, e, &p, all));
+        for (const refl_tcrr_key& k : bad_keys) {
+            for (auto* b : bufs) std::memset(b->data(), 0x5A, b->size() * sizeof((*b)[0]));
+            CHECK(refl_tcrr_search(good, nullptr, &k, e, &dp, all) != REFL_STATUS_OK);
+            const unsigned char* p = reinterpret_cast<const unsigned char*>(offsets.data());
+            bool same = true;
+            for (size_t i = 0; i < N * sizeof(refl_vec2); ++i) same = same && p[i] == 0x5A;
+            CHECK(same);
+        }
+        CHECK_STATUS(refl_tcrr_reset_offsets(good, all), REFL_STATUS_OK);
+        refl_tcrr_search_stats st{};
+        CHECK_STATUS(refl_tcrr_search(good, &st, &fast, e, &dp, all), REFL_STATUS_OK);
+        CHECK(st.reflective > 0);
+    }
+
+    // refl_tcrr_shift
+    std::vector<refl_vec3> inter(N);
+    std::vector<float> idepth(N);
+    std::vector<uint8_t> coverage(N);
+    {
+        auto shift = [&](refl_image_vec3_mut c, refl_image_f32_mut d, refl_image_u8_mut v, const refl_tcrr_key* k,
+                         refl_image_vec2 o, const refl_tcrr_params* p, refl_row_range rr) {
+            return [=] { return refl_tcrr_shift(c, d, v, nullptr, k, o, p, rr); };
+        };
+        const refl_image_vec3_mut c{inter.data(), N, W, H, W};
+        const refl_image_f32_mut d{idepth.data(), N, W, H, W};
+        const refl_image_u8_mut v{coverage.data(), N, W, H, W};
+        const refl_image_vec2 o{offsets.data(), N, W, H, W};
+        std::vector<std::vector<refl_vec3>*> b1{&inter};
+        std::vector<std::vector<float>*> b2{&idepth};
+        std::vector<std::vector<uint8_t>*> b3{&coverage};
+        auto all_intact = [&](const char* what, refl_status want, auto f) {
+            std::memset(idepth.data(), 0x5A, N * sizeof(float));
+            std::memset(coverage.data(), 0x5A, N);
+            intact(what, want, b1, f);
+            for (size_t i = 0; i < N; ++i) {
+                uint32_t bits;
+                std::memcpy(&bits, &idepth[i], 4);
+                CHECK(bits == 0x5A5A5A5Au && coverage[i] == 0x5A);
+                if (bits != 0x5A5A5A5Au || coverage[i] != 0x5A) break;
+            }
+        };
+        (void)b2;
+        (void)b3;
+        all_intact("tcrr shift NULL key", REFL_STATUS_NULL_POINTER, shift(c, d, v, nullptr, o, &dp, all));
+        all_intact("tcrr shift NULL params", REFL_STATUS_NULL_POINTER, shift(c, d, v, &key, o, nullptr, all));
+        all_intact("tcrr shift NULL color", REFL_STATUS_NULL_POINTER,
+                   shift({nullptr, N, W, H, W}, d, v, &key, o, &dp, all));
+        all_intact("tcrr shift NULL depth", REFL_STATUS_NULL_POINTER,
+                   shift(c, {nullptr, N, W, H, W}, v, &key, o, &dp, all));
+        all_intact("tcrr shift NULL coverage", REFL_STATUS_NULL_POINTER,
+                   shift(c, d, {nullptr, N, W, H, W}, &key, o, &dp, all));
+        all_intact("tcrr shift NULL offsets", REFL_STATUS_NULL_POINTER,
+                   shift(c, d, v, &key, {nullptr, N, W, H, W}, &dp, all));
+        all_intact("tcrr shift short coverage", REFL_STATUS_INSUFFICIENT_SIZE,
+                   shift(c, d, {coverage.data(), N - 1, W, H, W}, &key, o, &dp, all));
+        all_intact("tcrr shift short offsets", REFL_STATUS_INSUFFICIENT_SIZE,
+                   shift(c, d, v, &key, {offsets.data(), 3, W, H, W}, &dp, all));
+        all_intact("tcrr shift size mismatch", REFL_STATUS_INVALID_ARGUMENT,
+                   shift(c, {idepth.data(), N, W - 1, H, W}, v, &key, o, &dp, all));
+        for (const refl_row_range& rr : bad_rows)
+            all_intact("tcrr shift rows", REFL_STATUS_INVALID_ARGUMENT, shift(c, d, v, &key, o, &dp, rr));
+        for (const refl_tcrr_params& p : bad_params)
+            all_intact("tcrr shift params", REFL_STATUS_INVALID_ARGUMENT, shift(c, d, v, &key, o, &p, all));
+        for (const refl_tcrr_key& k : bad_keys) CHECK(shift(c, d, v, &k, o, &dp, all)() != REFL_STATUS_OK);
+        CHECK_STATUS(shift(c, d, v, &fast, o, &dp, all)(), REFL_STATUS_OK);
+    }
+
+    // refl_tcrr_warp, refl_tcrr_retrace_list, refl_tcrr_compose
+    std::vector<refl_vec3> warped(N);
+    std::vector<uint8_t> mask(N);
+    {
+        const refl_image_vec3_mut c{warped.data(), N, W, H, W};
+        const refl_image_u8_mut m{mask.data(), N, W, H, W};
+        const refl_image_vec3 src{inter.data(), N, W, H, W};
+        const refl_image_f32 sd{idepth.data(), N, W, H, W};
+        const refl_image_u8 cov{coverage.data(), N, W, H, W};
+        auto warp = [&](refl_image_vec3_mut cc, refl_image_u8_mut mm, const refl_tcrr_current* cu,
+                        const refl_tcrr_key* k, refl_image_u8 cv, const refl_tcrr_params* p, refl_row_range rr) {
+            return [=] { return refl_tcrr_warp(cc, mm, nullptr, cu, k, src, sd, cv, p, rr); };
+        };
+        std::vector<std::vector<refl_vec3>*> b1{&warped};
+        auto both_intact = [&](const char* what, refl_status want, auto f) {
+            std::memset(mask.data(), 0x5A, N);
+            intact(what, want, b1, f);
+            bool same = true;
+            for (size_t i = 0; i < N; ++i) same = same && mask[i] == 0x5A;
+            CHECK(same);
+        };
+        both_intact("tcrr warp NULL current", REFL_STATUS_NULL_POINTER, warp(c, m, nullptr, &key, cov, &dp, all));
+        both_intact("tcrr warp NULL key", REFL_STATUS_NULL_POINTER, warp(c, m, &cur, nullptr, cov, &dp, all));
+        both_intact("tcrr warp NULL params", REFL_STATUS_NULL_POINTER, warp(c, m, &cur, &key, cov, nullptr, all));
+        both_intact("tcrr warp NULL mask", REFL_STATUS_NULL_POINTER,
+                    warp(c, {nullptr, N, W, H, W}, &cur, &key, cov, &dp, all));
+        both_intact("tcrr warp NULL coverage", REFL_STATUS_NULL_POINTER,
+                    warp(c, m, &cur, &key, {nullptr, N, W, H, W}, &dp, all));
+        both_intact("tcrr warp short mask", REFL_STATUS_INSUFFICIENT_SIZE,
+                    warp(c, {mask.data(), N - 1, W, H, W}, &cur, &key, cov, &dp, all));
+        refl_tcrr_current bad_cur = cur;
+        bad_cur.convention = 7;
+        both_intact("tcrr warp convention", REFL_STATUS_INVALID_ARGUMENT, warp(c, m, &bad_cur, &key, cov, &dp, all));
+        bad_cur = cur;
+        bad_cur.specular.width = 3;
+        both_intact("tcrr warp size mismatch", REFL_STATUS_INVALID_ARGUMENT, warp(c, m, &bad_cur, &key, cov, &dp, all));
+        for (const refl_row_range& rr : bad_rows)
+            both_intact("tcrr warp rows", REFL_STATUS_INVALID_ARGUMENT, warp(c, m, &cur, &key, cov, &dp, rr));
+        for (const refl_tcrr_params& p : bad_params)
+            both_intact("tcrr warp params", REFL_STATUS_INVALID_ARGUMENT, warp(c, m, &cur, &key, cov, &p, all));
+        for (const refl_tcrr_key& k : bad_keys) CHECK(warp(c, m, &cur, &k, cov, &dp, all)() != REFL_STATUS_OK);
+        refl_tcrr_warp_stats ws{};
+        CHECK_STATUS(refl_tcrr_warp(c, m, &ws, &cur, &fast, src, sd, cov, &dp, all), REFL_STATUS_OK);
+        CHECK(ws.reflective > 0);
+
+        const refl_image_u8 mv{mask.data(), N, W, H, W};
+        const size_t count =
+            expect_ok<size_t>("tcrr list count", [&](size_t* o) { return refl_tcrr_retrace_list(nullptr, 0, o, mv); });
+        expect<size_t>("tcrr list NULL mask", REFL_STATUS_NULL_POINTER,
+                       [&](size_t* o) { return refl_tcrr_retrace_list(nullptr, 0, o, {nullptr, N, W, H, W}); }, false);
+        expect<size_t>("tcrr list short mask", REFL_STATUS_INSUFFICIENT_SIZE,
+                       [&](size_t* o) { return refl_tcrr_retrace_list(nullptr, 0, o, {mask.data(), N - 1, W, H, W}); });
+        std::vector<uint8_t> everything(N, REFL_TCRR_MASK_RETRACE);
+        std::vector<uint32_t> list(4, 0x5A5A5A5Au);
+        expect<size_t>("tcrr list too short", REFL_STATUS_INSUFFICIENT_SIZE, [&](size_t* o) {
+            return refl_tcrr_retrace_list(list.data(), list.size(), o, {everything.data(), N, W, H, W});
+        });
+        expect<size_t>("tcrr list misaligned", REFL_STATUS_INVALID_ARGUMENT, [&](size_t* o) {
+            return refl_tcrr_retrace_list(
+                reinterpret_cast<uint32_t*>(reinterpret_cast<unsigned char*>(list.data()) + 1), 2, o,
+                {everything.data(), N, W, H, W});
+        });
+        for (uint32_t v : list) CHECK_EQ(v, 0x5A5A5A5Au);
+        std::vector<uint32_t> full(count + 1);
+        CHECK_EQ(expect_ok<size_t>("tcrr list", [&](size_t* o) { return refl_tcrr_retrace_list(full.data(), full.size(), o, mv); }),
+                 count);
+
+        std::vector<refl_vec3> out(N);
+        std::vector<std::vector<refl_vec3>*> bo{&out};
+        const refl_image_vec3_mut om{out.data(), N, W, H, W};
+        const refl_image_vec3 dif{color.data(), N, W, H, W}, nrm{normal.data(), N, W, H, W};
+        const refl_image_vec3 refl{warped.data(), N, W, H, W};
+        auto compose = [&](refl_image_vec3_mut o, refl_image_vec3 d, const refl_tcrr_current* cu, uint32_t mode,
+                           refl_row_range rr) { return [=] { return refl_tcrr_compose(o, d, refl, nrm, cu, mode, rr); }; };
+        intact("tcrr compose NULL current", REFL_STATUS_NULL_POINTER, bo, compose(om, dif, nullptr, 1, all));
+        intact("tcrr compose NULL out", REFL_STATUS_NULL_POINTER, bo, compose({nullptr, N, W, H, W}, dif, &cur, 1, all));
+        intact("tcrr compose NULL diffuse", REFL_STATUS_NULL_POINTER, bo,
+               compose(om, {nullptr, N, W, H, W}, &cur, 1, all));
+        intact("tcrr compose short diffuse", REFL_STATUS_INSUFFICIENT_SIZE, bo,
+               compose(om, {color.data(), N - 1, W, H, W}, &cur, 1, all));
+        for (uint32_t mode : {2u, kMax})
+            intact("tcrr compose mode", REFL_STATUS_INVALID_ARGUMENT, bo, compose(om, dif, &cur, mode, all));
+        for (const refl_row_range& rr : bad_rows)
+            intact("tcrr compose rows", REFL_STATUS_INVALID_ARGUMENT, bo, compose(om, dif, &cur, 1, rr));
+        CHECK_STATUS(compose(om, dif, &cur, REFL_TCRR_FRESNEL_SCHLICK, all)(), REFL_STATUS_OK);
+    }
+}
+
 }  // namespace
 
 int main() {
@@ -630,5 +961,6 @@ int main() {
     camera_functions();
     plane_functions();
     image_functions();
+    tcrr_functions();
     return check::finish("hostile_input");
 }
