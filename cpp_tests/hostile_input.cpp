@@ -726,6 +726,8 @@ void tcrr_functions() {
     bad_param([](refl_tcrr_params& p) { p.discontinuity = -1.0f; });
     bad_param([](refl_tcrr_params& p) { p.reflected_discontinuity = kInf; });
     bad_param([](refl_tcrr_params& p) { p.subpixel = 2; });
+    bad_param([](refl_tcrr_params& p) { p.retrace_contrast = kNaN; });
+    bad_param([](refl_tcrr_params& p) { p.retrace_contrast = 0.0f; });
 
     // Runs `f` on sentinel-filled image outputs and checks they stay intact.
     auto intact = [](const char* what, refl_status want, auto& bufs, auto f) {

@@ -474,6 +474,12 @@ typedef struct refl_tcrr_params {
      * 1: sub-pixel offsets (default); 0: the seed's whole-pixel offsets.
      */
     uint32_t subpixel;
+    /**
+     * Warping re-traces a pixel whose bilinear taps differ by more than
+     * this in a linear RGB channel (a reflected edge); > 0, +inf turns
+     * the test off (default 0.1).
+     */
+    float retrace_contrast;
 } refl_tcrr_params;
 
 /**
@@ -1571,7 +1577,7 @@ uint32_t refl_version_number(void);
 /**
  * Writes to `*out` the default TCRR settings (iteration cap 64,
  * magnification 16 as in seed 000 Sec. 4.1, discontinuity 0.02, reflected
- * discontinuity 0.1, sub-pixel offsets on).
+ * discontinuity 0.1, sub-pixel offsets on, re-trace contrast 0.1).
  *
  * Returns `REFL_STATUS_NULL_POINTER` if `out` is NULL.
  *
@@ -1708,7 +1714,7 @@ refl_status refl_tcrr_shift(struct refl_image_vec3_mut color,
  * `[rows.begin, rows.end)` of the current view: `color` gets the reused
  * reflection, `mask` `REFL_TCRR_MASK_{NONE,REUSED,RETRACE}`. For the
  * naive baseline pass the key frame's own colors, `s.d + s.r` and its
- * reflective mask (coverage 1). Counts go to `*out_stats` if not NULL.
+ * reflective mask (coverage 1), with `params->retrace_contrast = +inf`. Counts go to `*out_stats` if not NULL.
  *
  * Returns as `refl_tcrr_search`, also for NULL `current` (outputs
  * untouched on error).

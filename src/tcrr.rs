@@ -78,8 +78,11 @@ impl Setting {
     pub fn label(&self) -> String {
         match self.scheme {
             Scheme::Tcrr => format!(
-                "threshold={};max_iter={};magnification={}",
-                self.threshold, self.params.max_iterations, self.params.magnification
+                "threshold={};max_iter={};magnification={};retrace_contrast={}",
+                self.threshold,
+                self.params.max_iterations,
+                self.params.magnification,
+                self.params.retrace_contrast
             ),
             Scheme::NaiveWarp => format!("threshold={}", self.threshold),
         }
@@ -315,11 +318,28 @@ fn reuse_frame(
     let sc = ImageView::try_new(src_cov, w, h, w)?;
     let c = split(ImageViewMut::try_new(&mut color, w, h, w)?, nb);
     let m = split(ImageViewMut::try_new(&mut mask, w, h, w)?, nb);
+    // Naive warping is the seed's baseline: no re-trace contrast test.
+    let warp_params = match scheme {
+        Scheme::Tcrr => *params,
+        Scheme::NaiveWarp => TcrrParams {
+            retrace_contrast: f32::INFINITY,
+            ..*params
+        },
+    };
     let stats: Result<Vec<_>, Error> = pool.install(|| {
         c.into_par_iter()
             .zip(m)
             .map(|(mut c, mut m)| {
-                tcrr::warp(&mut c, &mut m, &current, &buffers, &sv, &sd, &sc, params)
+                tcrr::warp(
+                    &mut c,
+                    &mut m,
+                    &current,
+                    &buffers,
+                    &sv,
+                    &sd,
+                    &sc,
+                    &warp_params,
+                )
             })
             .collect()
     });
@@ -647,8 +667,8 @@ fn save(dir: &Path, name: &str, g: &GBuffer, rgb: &[Vec3]) -> Result<(), String>
 }
 
 /// The settings the report runs: the key-frame threshold swept over
-/// 0.1..0.5 at the seed's parameters, then the iteration cap and the
-/// magnification threshold each varied at threshold 0.3; naive warping at
+/// 0.1..0.5 at the seed's parameters, then the iteration cap, the re-trace
+/// contrast and the magnification threshold each varied at threshold 0.3; naive warping at
 /// every threshold. `quick` runs the seed's setting only.
 pub fn report_settings(quick: bool, tcrr: bool, naive: bool) -> Vec<Setting> {
     let base = TcrrParams::default();
@@ -673,6 +693,18 @@ pub fn report_settings(quick: bool, tcrr: bool, naive: bool) -> Vec<Setting> {
                 threshold: 0.3,
                 params: TcrrParams {
                     max_iterations: c,
+                    ..base
+                },
+            });
+        }
+        // The re-trace contrast test off (the seed's warping) and stricter.
+        let contrasts: &[f32] = if quick { &[] } else { &[f32::INFINITY, 0.05] };
+        for &c in contrasts {
+            v.push(Setting {
+                scheme: Scheme::Tcrr,
+                threshold: 0.3,
+                params: TcrrParams {
+                    retrace_contrast: c,
                     ..base
                 },
             });

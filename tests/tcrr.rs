@@ -70,17 +70,39 @@ fn tcrr_beats_naive_warping_on_the_room_path() {
     let tracer = Tracer::new(&scene);
     let shader = Shader::new(&scene, &tracer);
     let cams = path_cameras(&scene, 5, (0.0, 0.06), 128, 96).unwrap();
+    // The seed's warping (no re-trace contrast test) against naive
+    // warping; then the default contrast test, which re-traces reflected
+    // edges.
+    let seed = Setting {
+        params: TcrrParams {
+            retrace_contrast: f32::INFINITY,
+            ..TcrrParams::default()
+        },
+        ..setting(Scheme::Tcrr)
+    };
+    let strict = Setting {
+        threshold: 1.0,
+        ..setting(Scheme::Tcrr)
+    };
     let out = run_path(
         &shader,
         "room",
         &cams,
-        &[setting(Scheme::Tcrr), setting(Scheme::NaiveWarp)],
+        &[seed, setting(Scheme::NaiveWarp), strict],
         2,
         &pool(),
         None,
     )
     .unwrap();
-    let (t, n) = (&out.rows[0], &out.rows[1]);
+    let (t, n, c) = (&out.rows[0], &out.rows[1], &out.rows[2]);
+    assert_eq!(extra(c, "key_frames"), 1.0);
+    assert!(
+        extra(c, "mean_abs_255_reuse_frames") < extra(t, "mean_abs_255_reuse_frames"),
+        "contrast test {} vs seed warping {}",
+        extra(c, "mean_abs_255_reuse_frames"),
+        extra(t, "mean_abs_255_reuse_frames")
+    );
+    assert!(extra(c, "retraced_share") > 0.0);
     assert_eq!(
         (t.method.as_str(), n.method.as_str()),
         ("tcrr", "naive-warp")

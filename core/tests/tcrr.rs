@@ -710,6 +710,46 @@ fn rotation_only_keeps_zero_offsets_and_matches_the_truth() {
 }
 
 #[test]
+fn retrace_contrast_trades_re_tracing_for_error() {
+    let conv = DepthConvention::Linear;
+    let key = render(camera(eye0(), target0(), conv, W, H), conv);
+    let cur = render(
+        camera(eye0() + Vec3::new(0.4, 0.1, -0.3), target0(), conv, W, H),
+        conv,
+    );
+    let mut last: Option<(u32, f64, Vec<u8>)> = None;
+    for limit in [f32::INFINITY, 0.2, 0.1, 0.05, 0.01] {
+        let p = TcrrParams {
+            retrace_contrast: limit,
+            ..TcrrParams::default()
+        };
+        let out = run(&key, &cur, &p, None, 1);
+        let (err, _) = mean_err(&cur, &out.color, &out.mask);
+        if let Some((retrace, prev_err, prev_mask)) = &last {
+            // A lower limit only adds re-traced pixels (the others keep
+            // their mask and color), and the reused ones get closer to
+            // the truth.
+            assert!(out.warp.retrace >= *retrace, "{limit}");
+            for (a, b) in out.mask.iter().zip(prev_mask) {
+                assert!(a == b || (*a == MASK_RETRACE && *b == MASK_REUSED));
+            }
+            assert!(err <= *prev_err + 1e-9, "{limit}: {err} vs {prev_err}");
+        }
+        last = Some((out.warp.retrace, err, out.mask));
+    }
+    let (retrace_inf, err_inf) = {
+        let p = TcrrParams {
+            retrace_contrast: f32::INFINITY,
+            ..TcrrParams::default()
+        };
+        let out = run(&key, &cur, &p, None, 1);
+        (out.warp.retrace, mean_err(&cur, &out.color, &out.mask).0)
+    };
+    let (retrace, err, _) = last.unwrap();
+    assert!(retrace > retrace_inf && err < err_inf, "{err} {err_inf}");
+}
+
+#[test]
 fn translation_tcrr_is_far_closer_to_the_truth_than_naive_warping() {
     for conv in DepthConvention::ALL {
         let key = render(camera(eye0(), target0(), conv, W, H), conv);
@@ -1031,6 +1071,14 @@ fn bad_input_is_refused_and_outputs_stay_untouched() {
         },
         TcrrParams {
             reflected_discontinuity: f32::INFINITY,
+            ..p
+        },
+        TcrrParams {
+            retrace_contrast: f32::NAN,
+            ..p
+        },
+        TcrrParams {
+            retrace_contrast: 0.0,
             ..p
         },
     ];

@@ -126,6 +126,10 @@ pub struct refl_tcrr_params {
     pub reflected_discontinuity: f32,
     /// 1: sub-pixel offsets (default); 0: the seed's whole-pixel offsets.
     pub subpixel: u32,
+    /// Warping re-traces a pixel whose bilinear taps differ by more than
+    /// this in a linear RGB channel (a reflected edge); > 0, +inf turns
+    /// the test off (default 0.1).
+    pub retrace_contrast: f32,
 }
 
 impl TryFrom<&refl_tcrr_params> for TcrrParams {
@@ -142,6 +146,7 @@ impl TryFrom<&refl_tcrr_params> for TcrrParams {
             discontinuity: p.discontinuity,
             reflected_discontinuity: p.reflected_discontinuity,
             subpixel,
+            retrace_contrast: p.retrace_contrast,
         };
         t.validate()?;
         Ok(t)
@@ -156,6 +161,7 @@ impl From<&TcrrParams> for refl_tcrr_params {
             discontinuity: p.discontinuity,
             reflected_discontinuity: p.reflected_discontinuity,
             subpixel: u32::from(p.subpixel),
+            retrace_contrast: p.retrace_contrast,
         }
     }
 }
@@ -295,7 +301,7 @@ unsafe fn read_key(k: *const refl_tcrr_key) -> Result<refl_tcrr_key, Error> {
 
 /// Writes to `*out` the default TCRR settings (iteration cap 64,
 /// magnification 16 as in seed 000 Sec. 4.1, discontinuity 0.02, reflected
-/// discontinuity 0.1, sub-pixel offsets on).
+/// discontinuity 0.1, sub-pixel offsets on, re-trace contrast 0.1).
 ///
 /// Returns `REFL_STATUS_NULL_POINTER` if `out` is NULL.
 ///
@@ -584,7 +590,7 @@ pub unsafe extern "C" fn refl_tcrr_shift(
 /// `[rows.begin, rows.end)` of the current view: `color` gets the reused
 /// reflection, `mask` `REFL_TCRR_MASK_{NONE,REUSED,RETRACE}`. For the
 /// naive baseline pass the key frame's own colors, `s.d + s.r` and its
-/// reflective mask (coverage 1). Counts go to `*out_stats` if not NULL.
+/// reflective mask (coverage 1), with `params->retrace_contrast = +inf`. Counts go to `*out_stats` if not NULL.
 ///
 /// Returns as `refl_tcrr_search`, also for NULL `current` (outputs
 /// untouched on error).

@@ -121,7 +121,8 @@ impl WarpStats {
 /// reflection image, its depth (`s.d + s.r`) and its coverage from
 /// [`super::shift()`]; for the naive baseline of the seed (Figs. 1, 6) they
 /// are the key frame's own reflected colors (B.3), its linear depth plus
-/// reflected distance, and its reflective mask.
+/// reflected distance, and its reflective mask (with
+/// [`TcrrParams::retrace_contrast`] `= +inf`).
 ///
 /// Per current pixel: not reflective -> [`MASK_NONE`], color 0. Otherwise
 /// its surface point `P` (current depth) is projected into the key camera;
@@ -134,8 +135,11 @@ impl WarpStats {
 /// renormalized); if one of them is not reusable (a gap of the shifted mesh on
 /// `P`'s surface) or has a `source_depth` discontinuous with the nearest
 /// texel's (beyond [`TcrrParams::reflected_discontinuity`]), the pixel
-/// straddles a reflection edge and is marked [`MASK_RETRACE`] too. A projection within [`SNAP_PX`] of a texel center takes
-/// that texel exactly.
+/// straddles a reflection edge and is marked [`MASK_RETRACE`] too, as is a
+/// pixel whose taps' colors differ by more than
+/// [`TcrrParams::retrace_contrast`] in a channel (a reflected edge inside
+/// the reflection, an addition to the seed). A projection within
+/// [`SNAP_PX`] of a texel center takes that texel exactly.
 ///
 /// # Errors
 /// [`Error::InvalidArgument`] (nothing written) if the current view's size
@@ -284,6 +288,8 @@ fn warp_pixel(
     };
     let mut sum = Vec3::ZERO;
     let mut wsum = 0.0f32;
+    let mut lo = Vec3::splat(f32::INFINITY);
+    let mut hi = Vec3::splat(f32::NEG_INFINITY);
     for (i, j, wt) in [
         (ix, iy, (1.0 - tx) * (1.0 - ty)),
         (ix + 1.0, iy, tx * (1.0 - ty)),
@@ -298,11 +304,20 @@ fn warp_pixel(
                     if !same_path(d) {
                         return None;
                     }
-                    sum += Vec3::from_array(c) * wt;
+                    let c = Vec3::from_array(c);
+                    sum += c * wt;
                     wsum += wt;
+                    lo = lo.min(c);
+                    hi = hi.max(c);
                 }
             }
         }
+    }
+    // A reflected edge between the taps: the ray-traced frame point-samples
+    // it, resampling the key frame blurs it (the error of reuse
+    // concentrates there), so the pixel is re-traced.
+    if (hi - lo).max_element() > params.retrace_contrast {
+        return None;
     }
     (wsum > 0.0).then(|| (sum / wsum).to_array())
 }
