@@ -13,5 +13,6 @@ pub mod render;
 pub mod report;
 pub mod report_out;
 pub mod scene;
+pub mod screen;
 pub mod shade;
 pub mod tracer;
