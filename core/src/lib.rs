@@ -23,6 +23,8 @@
 pub mod camera;
 pub mod error;
 pub mod image;
+#[cfg(feature = "layered")]
+pub mod layered;
 #[cfg(feature = "mirror")]
 pub mod mirror;
 #[cfg(any(feature = "depth-image", feature = "hiz"))]
@@ -31,6 +33,12 @@ pub mod trace;
 pub use camera::{Camera, DepthConvention, Ray};
 pub use error::Error;
 pub use image::{ImageView, ImageViewMut, RowRange};
+#[cfg(feature = "layered")]
+pub use layered::{
+    layered_len, prr_classify, ColumnFill, ColumnRay, Face, LayerHit, LayeredGrid, LayeredHit,
+    LayeredLen, LayeredMap, LayeredMapMut, LayeredMiss, LayeredParams, LayeredTrace, LayeredWork,
+    PrrClass,
+};
 #[cfg(feature = "mirror")]
 pub use mirror::{
     mirror_matrix, mirror_point, mirrored_camera, oblique_projection, reflect, Plane,
