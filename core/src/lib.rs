@@ -27,6 +27,8 @@ pub mod image;
 pub mod layered;
 #[cfg(feature = "mirror")]
 pub mod mirror;
+#[cfg(feature = "depth-image")]
+pub mod step;
 #[cfg(any(feature = "depth-image", feature = "hiz"))]
 pub mod trace;
 
@@ -44,6 +46,8 @@ pub use mirror::{
     mirror_matrix, mirror_point, mirrored_camera, oblique_projection, reflect, Plane,
 };
 
+#[cfg(feature = "depth-image")]
+pub use step::{try_step, try_step_rays, StepOptions};
 #[cfg(any(feature = "depth-image", feature = "hiz"))]
 pub use trace::{DepthHit, DepthImage, Miss, Thickness, Trace, Work};
 
