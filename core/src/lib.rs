@@ -22,6 +22,8 @@
 
 pub mod camera;
 pub mod error;
+#[cfg(feature = "hiz")]
+pub mod hiz;
 pub mod image;
 #[cfg(feature = "layered")]
 pub mod layered;
@@ -46,6 +48,12 @@ pub use mirror::{
     mirror_matrix, mirror_point, mirrored_camera, oblique_projection, reflect, Plane,
 };
 
+#[cfg(feature = "hiz")]
+pub use hiz::{
+    hiz_len, try_build_hiz, try_build_hiz_level0_rows, try_build_hiz_level_rows, try_trace_hiz,
+    try_trace_hiz_rays, try_trace_hiz_stats, HiZ, HiZLayout, HiZLevel, HiZOptions, HiZStats,
+    HiZTexel,
+};
 #[cfg(feature = "depth-image")]
 pub use step::{try_step, try_step_rays, StepOptions};
 #[cfg(any(feature = "depth-image", feature = "hiz"))]
