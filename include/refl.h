@@ -134,6 +134,89 @@ typedef uint32_t refl_depth_convention;
 #endif // __cplusplus
 
 /**
+ * Why a layered trace found no hit (`REFL_LAYERED_MISS_NONE` for a hit).
+ */
+enum refl_layered_miss
+#if defined(__cplusplus) || __STDC_VERSION__ >= 202311L
+  : uint32_t
+#endif // defined(__cplusplus) || __STDC_VERSION__ >= 202311L
+ {
+    /**
+     * Not a miss: the ray hit.
+     */
+    REFL_LAYERED_MISS_NONE = 0,
+    /**
+     * The ray does not meet the box.
+     */
+    REFL_LAYERED_MISS_MISSED_BOX = 1,
+    /**
+     * The ray crossed the box without entering the object.
+     */
+    REFL_LAYERED_MISS_LEFT_BOX = 2,
+    /**
+     * The ray ended (t_max) inside the box before the object.
+     */
+    REFL_LAYERED_MISS_END_OF_RAY = 3,
+    /**
+     * The linear-search step cap was reached.
+     */
+    REFL_LAYERED_MISS_OUT_OF_STEPS = 4,
+    /**
+     * The ray starts inside the object.
+     */
+    REFL_LAYERED_MISS_STARTED_INSIDE = 5,
+};
+#ifndef __cplusplus
+#if __STDC_VERSION__ >= 202311L
+typedef enum refl_layered_miss refl_layered_miss;
+#else
+typedef uint32_t refl_layered_miss;
+#endif // __STDC_VERSION__ >= 202311L
+#endif // __cplusplus
+
+/**
+ * The class of a reflector triangle in the potential-reflection-region
+ * test (seed 001 Sec. 3.2).
+ */
+enum refl_prr_class
+#if defined(__cplusplus) || __STDC_VERSION__ >= 202311L
+  : uint32_t
+#endif // defined(__cplusplus) || __STDC_VERSION__ >= 202311L
+ {
+    /**
+     * No reflection of the bounding sphere on the triangle.
+     */
+    REFL_PRR_CLASS_OUTSIDE = 0,
+    /**
+     * The mirrored sphere is on the camera's side of the plane.
+     */
+    REFL_PRR_CLASS_WRONG_SIDE = 1,
+    /**
+     * The camera is inside the mirrored sphere (conservatively reflects).
+     */
+    REFL_PRR_CLASS_CAMERA_INSIDE = 2,
+    /**
+     * Seed case 1: a corner lies inside the cone.
+     */
+    REFL_PRR_CLASS_VERTEX = 3,
+    /**
+     * Seed case 2: an edge crosses the cone.
+     */
+    REFL_PRR_CLASS_EDGE = 4,
+    /**
+     * Seed case 3: the conic section lies inside the triangle.
+     */
+    REFL_PRR_CLASS_ELLIPSE = 5,
+};
+#ifndef __cplusplus
+#if __STDC_VERSION__ >= 202311L
+typedef enum refl_prr_class refl_prr_class;
+#else
+typedef uint32_t refl_prr_class;
+#endif // __STDC_VERSION__ >= 202311L
+#endif // __cplusplus
+
+/**
  * A 4x4 float matrix, column-major: element (row r, column c) is
  * `m[4 * c + r]`, the layout of OpenGL and glam. Points are column vectors
  * multiplied on the right (`p' = M p`).
@@ -323,6 +406,262 @@ typedef struct refl_image_f32 {
      */
     uint32_t stride;
 } refl_image_f32;
+
+/**
+ * Element counts of the three buffers of a layered depth cube map.
+ */
+typedef struct refl_layered_sizes {
+    /**
+     * Floats of the depth buffer: `6 * res * res * layers`.
+     */
+    size_t depth;
+    /**
+     * uint32_t of the payload buffer: `6 * res * res * layers`.
+     */
+    size_t payload;
+    /**
+     * uint32_t of the layer-count buffer: `6 * res * res`.
+     */
+    size_t counts;
+} refl_layered_sizes;
+
+/**
+ * Parameters of the layered trace (seed 001 Sec. 3.3, Algorithm 1).
+ */
+typedef struct refl_layered_params {
+    /**
+     * Linear-search step in texels, > 0 and finite.
+     */
+    float step_texels;
+    /**
+     * Cap on linear-search steps per face, >= 1.
+     */
+    uint32_t max_steps;
+    /**
+     * Cap on binary-search iterations, <= 64.
+     */
+    uint32_t binary_steps;
+    /**
+     * Binary search stops when its bracket spans at most this many
+     * texels, >= 0.
+     */
+    float texel_fraction;
+    /**
+     * Early stop: accept a face's hit when the ray depth is within this
+     * many texels of the stored layer depth, >= 0 (+inf allowed).
+     */
+    float early_stop_texels;
+} refl_layered_params;
+
+/**
+ * The world-space orthographic ray of one face texel, to be cast through
+ * every surface of the object.
+ */
+typedef struct refl_column_ray {
+    /**
+     * Start on the face plane at the texel center, world space.
+     */
+    struct refl_vec3 origin;
+    /**
+     * Unit direction into the box, world space.
+     */
+    struct refl_vec3 dir;
+    /**
+     * World length of the column (the ray leaves the box at `t_max`).
+     */
+    float t_max;
+} refl_column_ray;
+
+/**
+ * The geometry of a layered depth cube map.
+ */
+typedef struct refl_layered_grid {
+    /**
+     * Minimum corner of the object's local box (finite).
+     */
+    struct refl_vec3 min;
+    /**
+     * Maximum corner of the local box; every component must exceed `min`.
+     */
+    struct refl_vec3 max;
+    /**
+     * Texels per face side, >= 1.
+     */
+    uint32_t face_res;
+    /**
+     * Layers per texel, >= 1.
+     */
+    uint32_t layers;
+    /**
+     * Object-to-world transform, an invertible affine matrix (last row
+     * 0, 0, 0, 1); the identity when the box is given in world space.
+     */
+    struct refl_mat4 world_from_local;
+} refl_layered_grid;
+
+/**
+ * A writable layered depth cube map (the three buffers must not overlap).
+ */
+typedef struct refl_layered_map_mut {
+    /**
+     * The grid.
+     */
+    struct refl_layered_grid grid;
+    /**
+     * Normalized depths, `depth_len` floats writable.
+     */
+    float *depth;
+    /**
+     * Number of floats writable from `depth`.
+     */
+    size_t depth_len;
+    /**
+     * Payloads (ids), `payload_len` writable.
+     */
+    uint32_t *payload;
+    /**
+     * Number of uint32_t writable from `payload`.
+     */
+    size_t payload_len;
+    /**
+     * Per-texel layer counts, `counts_len` writable.
+     */
+    uint32_t *counts;
+    /**
+     * Number of uint32_t writable from `counts`.
+     */
+    size_t counts_len;
+} refl_layered_map_mut;
+
+/**
+ * What filling a column did.
+ */
+typedef struct refl_column_fill {
+    /**
+     * Solid intervals found along the column.
+     */
+    uint32_t intervals;
+    /**
+     * Layers stored: `min(intervals, layers)`; fewer than `intervals`
+     * means the thinnest gaps were filled (approximate column).
+     */
+    uint32_t stored;
+} refl_column_fill;
+
+/**
+ * One surface crossing along a column ray.
+ */
+typedef struct refl_layer_hit {
+    /**
+     * Distance along the column ray, finite (clamped to `[0, t_max]`).
+     */
+    float t;
+    /**
+     * Payload of the surface (primitive id, packed color, ...).
+     */
+    uint32_t id;
+    /**
+     * 1 if the surface faces the ray origin (the ray enters the object),
+     * 0 where it leaves; other values are `REFL_STATUS_INVALID_ARGUMENT`.
+     */
+    uint32_t front;
+} refl_layer_hit;
+
+/**
+ * The result of tracing one ray against a layered depth cube map.
+ */
+typedef struct refl_layered_result {
+    /**
+     * 1 for a hit, 0 for a miss.
+     */
+    uint32_t hit;
+    /**
+     * A `refl_layered_miss` value (0 for a hit).
+     */
+    uint32_t miss;
+    /**
+     * World distance along the ray of the hit (0 for a miss).
+     */
+    float t;
+    /**
+     * World position of the hit (zeros for a miss).
+     */
+    struct refl_vec3 position;
+    /**
+     * Face (0..6) whose search produced the hit.
+     */
+    uint32_t face;
+    /**
+     * Texel column `i` on that face.
+     */
+    uint32_t texel_x;
+    /**
+     * Texel row `j` on that face.
+     */
+    uint32_t texel_y;
+    /**
+     * Layer of that texel the hit lies in.
+     */
+    uint32_t layer;
+    /**
+     * Payload of that layer.
+     */
+    uint32_t payload;
+    /**
+     * Ray depth minus stored depth at the hit, in texels (0 for a miss).
+     */
+    float mismatch;
+    /**
+     * Faces searched.
+     */
+    uint32_t faces;
+    /**
+     * Linear-search samples.
+     */
+    uint32_t steps;
+    /**
+     * Binary-search iterations.
+     */
+    uint32_t binary_steps;
+    /**
+     * Buffer reads.
+     */
+    uint32_t fetches;
+} refl_layered_result;
+
+/**
+ * A read-only layered depth cube map: grid plus caller buffers.
+ */
+typedef struct refl_layered_map {
+    /**
+     * The grid.
+     */
+    struct refl_layered_grid grid;
+    /**
+     * Normalized depths, `depth_len` floats readable.
+     */
+    const float *depth;
+    /**
+     * Number of floats readable from `depth`.
+     */
+    size_t depth_len;
+    /**
+     * Payloads (ids), `payload_len` readable.
+     */
+    const uint32_t *payload;
+    /**
+     * Number of uint32_t readable from `payload`.
+     */
+    size_t payload_len;
+    /**
+     * Per-texel layer counts, `counts_len` readable.
+     */
+    const uint32_t *counts;
+    /**
+     * Number of uint32_t readable from `counts`.
+     */
+    size_t counts_len;
+} refl_layered_map;
 
 /**
  * An oriented plane `dot(normal, p) + d = 0`.
@@ -1001,6 +1340,200 @@ refl_status refl_convert_depth(struct refl_image_f32_mut dst,
                                uint32_t to,
                                uint32_t row_begin,
                                uint32_t row_end);
+
+/**
+ * Writes to `*out` the element counts of the depth, payload and count
+ * buffers of a map with `face_res x face_res` texels per face and `layers`
+ * layers.
+ *
+ * Returns `REFL_STATUS_NULL_POINTER` if `out` is NULL;
+ * `REFL_STATUS_INVALID_ARGUMENT` for a zero size or a count overflowing
+ * `size_t`.
+ *
+ * # Safety
+ * `out` must be NULL or point to a writable `refl_layered_sizes`.
+ */
+refl_status refl_layered_len(struct refl_layered_sizes *out, uint32_t face_res, uint32_t layers);
+
+/**
+ * Writes to `*out` the default trace parameters: half-texel steps (at
+ * most 4096 per face), 16 binary iterations down to 1/16 texel, early stop
+ * at one texel.
+ *
+ * Returns `REFL_STATUS_NULL_POINTER` if `out` is NULL.
+ *
+ * # Safety
+ * `out` must be NULL or point to a writable `refl_layered_params`.
+ */
+refl_status refl_layered_params_default(struct refl_layered_params *out);
+
+/**
+ * Writes to `*out` the world-space orthographic ray of texel `(i, j)` of
+ * `face` (0..6): it starts on the face plane at the texel center and runs
+ * into the box, leaving it at `t_max` (seed 001 Sec. 3.3). Cast it through
+ * every surface of the object and pass all crossings to
+ * `refl_layered_fill_column` with the same face; that fills the face and
+ * its opposite, so one face per axis suffices.
+ *
+ * Returns `REFL_STATUS_NULL_POINTER` if `out` or `grid` is NULL;
+ * `REFL_STATUS_INVALID_ARGUMENT` for an invalid grid (non-finite corner,
+ * zero size, non-affine or non-finite matrix), a face above 5 or a texel
+ * out of range; `REFL_STATUS_DEGENERATE_GEOMETRY` for a box of zero
+ * extent or a singular transform.
+ *
+ * # Safety
+ * `out` must be NULL or writable; `grid` NULL or readable.
+ */
+refl_status refl_layered_face_ray(struct refl_column_ray *out,
+                                  const struct refl_layered_grid *grid,
+                                  uint32_t face,
+                                  uint32_t i,
+                                  uint32_t j);
+
+/**
+ * Empties every texel of the map: count 0, depth +inf, payload
+ * 0xFFFFFFFF.
+ *
+ * Returns `REFL_STATUS_NULL_POINTER` if `map` or one of its buffers is
+ * NULL; `REFL_STATUS_INVALID_ARGUMENT` for an invalid grid, misaligned or
+ * overlapping buffers; `REFL_STATUS_INSUFFICIENT_SIZE` for a buffer
+ * shorter than `refl_layered_len` says; `REFL_STATUS_DEGENERATE_GEOMETRY`
+ * as for `refl_layered_face_ray`.
+ *
+ * # Safety
+ * `map` must be NULL or readable, its buffers writable for their lengths.
+ */
+refl_status refl_layered_clear(const struct refl_layered_map_mut *map);
+
+/**
+ * Fills texel `(i, j)` of `face` and of its opposite face from all
+ * `hit_count` crossings `hits` of the column ray `refl_layered_face_ray`
+ * `(face, i, j)`, in any order (seed 001 Sec. 3.4: front layers with their
+ * back faces found through the opposite face). Crossings become solid
+ * intervals (a front hit while outside opens one, a back hit while inside
+ * closes it, other hits are ignored, an open interval ends at the far
+ * face); with more intervals than layers the smallest gaps are filled.
+ * Writes what it did to `*out`.
+ *
+ * Returns `REFL_STATUS_NULL_POINTER` if `out`, `map`, one of the map's
+ * buffers, or `hits` with a non-zero count is NULL;
+ * `REFL_STATUS_INVALID_ARGUMENT` for a face above 5, a texel out of range,
+ * a non-finite `t`, a `front` other than 0 or 1, an invalid grid, or
+ * misaligned or overlapping buffers; `REFL_STATUS_INSUFFICIENT_SIZE` and
+ * `REFL_STATUS_DEGENERATE_GEOMETRY` as for `refl_layered_clear`. On error
+ * nothing is written.
+ *
+ * # Safety
+ * `out` NULL or writable; `map` NULL or readable with writable buffers;
+ * `hits` NULL or readable for `hit_count` elements.
+ */
+refl_status refl_layered_fill_column(struct refl_column_fill *out,
+                                     const struct refl_layered_map_mut *map,
+                                     uint32_t face,
+                                     uint32_t i,
+                                     uint32_t j,
+                                     const struct refl_layer_hit *hits,
+                                     size_t hit_count);
+
+/**
+ * Fills a whole face (and its opposite) from the crossings of all its
+ * column rays: the crossings of texel `(i, j)` are
+ * `hits[offsets[j * res + i] .. offsets[j * res + i + 1]]`, so `offsets`
+ * holds `res * res + 1` non-decreasing values with the last at most
+ * `hit_count` (a CSR layout). Each column is filled as by
+ * `refl_layered_fill_column`. If `out` is not NULL, the number of columns
+ * whose gaps had to be filled (approximate columns) is written to it.
+ *
+ * Everything is validated before anything is written: on error the map
+ * is untouched. Returns `REFL_STATUS_NULL_POINTER` if `map`, its buffers,
+ * `offsets`, or `hits` with a non-zero count is NULL;
+ * `REFL_STATUS_INVALID_ARGUMENT` for decreasing offsets or one beyond
+ * `hit_count`, and the cases of `refl_layered_fill_column`;
+ * `REFL_STATUS_INSUFFICIENT_SIZE` if `offset_count < res * res + 1` or a
+ * map buffer is short.
+ *
+ * # Safety
+ * `out` NULL or writable; `map` NULL or readable with writable buffers;
+ * `hits` NULL or readable for `hit_count`, `offsets` NULL or readable for
+ * `offset_count` elements.
+ */
+refl_status refl_layered_fill_face(uint32_t *out,
+                                   const struct refl_layered_map_mut *map,
+                                   uint32_t face,
+                                   const struct refl_layer_hit *hits,
+                                   size_t hit_count,
+                                   const size_t *offsets,
+                                   size_t offset_count);
+
+/**
+ * Traces one world ray (unit direction) up to distance `t_max` (+inf
+ * allowed) against the map (seed 001 Sec. 3.3-3.4, Algorithm 1: box clip,
+ * up to three faces chosen by the direction's signs, linear then binary
+ * search through the layers, early stop) and writes the result to `*out`.
+ *
+ * Returns `REFL_STATUS_NULL_POINTER` if `out`, `map`, a map buffer or
+ * `params` is NULL; `REFL_STATUS_INVALID_ARGUMENT` for a non-finite ray,
+ * a direction whose length is not 1 (within 1e-3), `t_max` NaN or not
+ * positive, invalid parameters or grid; `REFL_STATUS_INSUFFICIENT_SIZE`
+ * for a short map buffer; `REFL_STATUS_DEGENERATE_GEOMETRY` for a
+ * degenerate grid.
+ *
+ * # Safety
+ * `out` NULL or writable; `map` NULL or readable with readable buffers;
+ * `params` NULL or readable.
+ */
+refl_status refl_layered_trace(struct refl_layered_result *out,
+                               const struct refl_layered_map *map,
+                               struct refl_ray ray,
+                               float t_max,
+                               const struct refl_layered_params *params);
+
+/**
+ * Traces `ray_count` rays (as `refl_layered_trace`, one `t_max` for all)
+ * and writes result `k` to `out[k]`. All rays are validated first: on
+ * error nothing is written.
+ *
+ * Returns `REFL_STATUS_NULL_POINTER` if `map`, a map buffer or `params`
+ * is NULL, or `out` / `rays` with a non-zero count;
+ * `REFL_STATUS_INSUFFICIENT_SIZE` if `out_len < ray_count` or a map buffer
+ * is short; `REFL_STATUS_INVALID_ARGUMENT` as for `refl_layered_trace`,
+ * for any invalid ray, or for `out` overlapping `rays` or the map.
+ *
+ * # Safety
+ * `out` NULL or writable for `out_len` results; `rays` NULL or readable
+ * for `ray_count`; `map` and `params` as for `refl_layered_trace`.
+ */
+refl_status refl_layered_trace_rays(struct refl_layered_result *out,
+                                    size_t out_len,
+                                    const struct refl_layered_map *map,
+                                    const struct refl_ray *rays,
+                                    size_t ray_count,
+                                    float t_max,
+                                    const struct refl_layered_params *params);
+
+/**
+ * Classifies reflector triangle `p0 p1 p2` for a camera at `eye` and a
+ * reflected object with bounding sphere (`center`, `radius`) with the
+ * potential-reflection-region test of seed 001 Sec. 3.2 (camera cone
+ * around the mirrored sphere against the triangle: corner inside, edge
+ * crossing, section inside) and writes a `refl_prr_class` to `*out`.
+ * Classes 2-5 may show a reflection; 0 and 1 cannot.
+ *
+ * Returns `REFL_STATUS_NULL_POINTER` if `out` is NULL;
+ * `REFL_STATUS_INVALID_ARGUMENT` for a non-finite input or a radius that
+ * is not positive; `REFL_STATUS_DEGENERATE_GEOMETRY` for a zero-area
+ * triangle.
+ *
+ * # Safety
+ * `out` must be NULL or point to a writable `uint32_t`.
+ */
+refl_status refl_prr_classify(uint32_t *out,
+                              struct refl_vec3 eye,
+                              struct refl_vec3 center,
+                              float radius,
+                              struct refl_vec3 p0,
+                              struct refl_vec3 p1,
+                              struct refl_vec3 p2);
 
 /**
  * Writes to `*out` the reflection of `v` about the normal `n`:

@@ -33,6 +33,7 @@
 
 mod camera;
 mod image;
+mod layered;
 mod mirror;
 mod ptr;
 mod status;
@@ -40,6 +41,7 @@ mod types;
 
 pub use camera::*;
 pub use image::*;
+pub use layered::*;
 pub use mirror::*;
 pub use status::*;
 pub use types::*;
