@@ -8,6 +8,7 @@
 
 pub mod export;
 pub mod gbuffer;
+pub mod layered;
 pub mod raster;
 pub mod render;
 pub mod report;
