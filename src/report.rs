@@ -17,11 +17,14 @@ use crate::render::{
 };
 use crate::report_out::{self, Row};
 use crate::scene::Scene;
+use crate::screen::{self, RayStats, ScreenMethod};
 use crate::shade::Shader;
 use crate::tracer::Tracer;
 use crate::{gbuffer::GBuffer, render::timed};
 use glam::Vec3;
 use indicatif::{ProgressBar, ProgressStyle};
+use refl_core::hiz::HiZOptions;
+use refl_core::{DepthConvention, StepOptions, Thickness};
 use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
 
@@ -88,6 +91,8 @@ pub struct Sizes {
     pub runs: usize,
     /// Camera-path poses rendered per scene (spread over the path).
     pub frames: usize,
+    /// `--quick`: fewer settings.
+    pub quick: bool,
 }
 
 impl Sizes {
@@ -102,6 +107,7 @@ impl Sizes {
                 reference_samples: &[4, 16],
                 runs: 3,
                 frames: 2,
+                quick: true,
             }
         } else {
             Sizes {
@@ -112,6 +118,7 @@ impl Sizes {
                 reference_samples: &[4, 16, 64, 256],
                 runs: 3,
                 frames: 4,
+                quick: false,
             }
         }
     }
@@ -121,7 +128,7 @@ impl Sizes {
 pub const BUILT_IN_SCENES: [&str; 3] = ["room", "concave", "walkthrough"];
 
 /// Every method name the report knows, in report order.
-pub const METHODS: [&str; 3] = ["reference", "envmap", "planar-mirror"];
+pub const METHODS: [&str; 5] = ["reference", "envmap", "planar-mirror", "step", "hiz"];
 
 /// What one frame's reflective pixels can use: the report skips the passes
 /// a frame has no pixels for (design: "a pipeline that skips passes a scene
@@ -132,6 +139,8 @@ struct FrameNeeds {
     glossy_pixels: usize,
     /// Pixels of planar perfect mirrors.
     planar_mirror_pixels: usize,
+    /// Reflective pixels.
+    reflective_pixels: usize,
 }
 
 impl FrameNeeds {
@@ -141,11 +150,12 @@ impl FrameNeeds {
             .iter()
             .map(|o| o.planar.is_some() && scene.materials[o.material as usize].is_mirror())
             .collect();
-        let (mut glossy_pixels, mut planar_mirror_pixels) = (0, 0);
+        let (mut glossy_pixels, mut planar_mirror_pixels, mut reflective_pixels) = (0, 0, 0);
         for i in 0..g.len() {
             if !g.is_reflective(i) {
                 continue;
             }
+            reflective_pixels += 1;
             glossy_pixels += usize::from(g.roughness[i] > 0.0);
             planar_mirror_pixels += usize::from(
                 planar_mirror
@@ -157,8 +167,108 @@ impl FrameNeeds {
         FrameNeeds {
             glossy_pixels,
             planar_mirror_pixels,
+            reflective_pixels,
         }
     }
+}
+
+/// One setting of a method: an image method of [`render`], or a
+/// screen-space kernel traced against the primary view's depth buffer in a
+/// depth convention.
+#[derive(Clone, Copy, Debug)]
+enum Setting {
+    Image(Method),
+    Screen(ScreenMethod, DepthConvention),
+}
+
+/// The screen-space settings of `name` (`None` if `name` is not a
+/// screen-space method). Reversed-Z with an infinite far plane is the
+/// report's convention; stride 1 and the default Hi-Z also run on linear
+/// and `[0, 1]` depth (finite far plane) in the default run.
+fn screen_settings(name: &str, sizes: &Sizes) -> Option<Vec<(Setting, String)>> {
+    let rz = DepthConvention::ReversedZ;
+    let conv_name = |c: DepthConvention| match c {
+        DepthConvention::Linear => "linear",
+        DepthConvention::ZeroToOne => "zero-to-one",
+        DepthConvention::ReversedZ => "reversed-z-inf",
+    };
+    let mut out = Vec::new();
+    match name {
+        "step" => {
+            for (stride, max_steps) in [(1, u32::MAX), (4, u32::MAX), (16, u32::MAX), (1, 64)] {
+                let opts = StepOptions { stride, max_steps };
+                let cap = if max_steps == u32::MAX {
+                    String::new()
+                } else {
+                    format!(";max_steps={max_steps}")
+                };
+                out.push((
+                    Setting::Screen(ScreenMethod::Step(opts), rz),
+                    format!("stride={stride}{cap}"),
+                ));
+            }
+            if !sizes.quick {
+                for c in [DepthConvention::Linear, DepthConvention::ZeroToOne] {
+                    out.push((
+                        Setting::Screen(ScreenMethod::Step(StepOptions::default()), c),
+                        format!("stride=1;depth={}", conv_name(c)),
+                    ));
+                }
+            }
+        }
+        "hiz" => {
+            let base = HiZOptions::default();
+            let variants = [
+                base,
+                HiZOptions {
+                    prologue_steps: 0,
+                    ..base
+                },
+                HiZOptions {
+                    prologue_steps: 16,
+                    ..base
+                },
+                HiZOptions {
+                    start_level: 0,
+                    ..base
+                },
+                HiZOptions {
+                    stop_level: 2,
+                    ..base
+                },
+                HiZOptions {
+                    max_iterations: 48,
+                    ..base
+                },
+            ];
+            for o in variants {
+                out.push((
+                    Setting::Screen(ScreenMethod::HiZ(o), rz),
+                    format!(
+                        "start={};stop={};prologue={};max_iter={}",
+                        o.start_level, o.stop_level, o.prologue_steps, o.max_iterations
+                    ),
+                ));
+            }
+            if !sizes.quick {
+                for c in [DepthConvention::Linear, DepthConvention::ZeroToOne] {
+                    out.push((
+                        Setting::Screen(ScreenMethod::HiZ(base), c),
+                        format!(
+                            "start={};stop={};prologue={};max_iter={};depth={}",
+                            base.start_level,
+                            base.stop_level,
+                            base.prologue_steps,
+                            base.max_iterations,
+                            conv_name(c)
+                        ),
+                    ));
+                }
+            }
+        }
+        _ => return None,
+    }
+    Some(out)
 }
 
 /// The methods and settings run for method `name` on a frame, or why the
@@ -167,30 +277,43 @@ fn settings(
     name: &str,
     sizes: &Sizes,
     needs: FrameNeeds,
-) -> Result<Vec<(Method, String)>, &'static str> {
+) -> Result<Vec<(Setting, String)>, &'static str> {
+    if let Some(screen) = screen_settings(name, sizes) {
+        return if needs.reflective_pixels == 0 {
+            Err("no reflective pixels in view")
+        } else {
+            Ok(screen)
+        };
+    }
+    let image =
+        |v: Vec<(Method, String)>| v.into_iter().map(|(m, s)| (Setting::Image(m), s)).collect();
     match name {
         // Mirror pixels trace one ray whatever the sample count: without
         // glossy pixels one row says all there is.
-        "reference" if needs.glossy_pixels == 0 => Ok(vec![(
+        "reference" if needs.glossy_pixels == 0 => Ok(image(vec![(
             Method::Reference { samples: 1 },
             "mirror_rays".into(),
-        )]),
-        "reference" => Ok(sizes
-            .reference_samples
-            .iter()
-            .map(|&s| (Method::Reference { samples: s }, format!("glossy_spp={s}")))
-            .collect()),
-        "envmap" => Ok(vec![(Method::EnvMap, "analytic".into())]),
+        )])),
+        "reference" => Ok(image(
+            sizes
+                .reference_samples
+                .iter()
+                .map(|&s| (Method::Reference { samples: s }, format!("glossy_spp={s}")))
+                .collect(),
+        )),
+        "envmap" => Ok(image(vec![(Method::EnvMap, "analytic".into())])),
         "planar-mirror" if needs.planar_mirror_pixels == 0 => Err("no planar mirror in view"),
-        "planar-mirror" => Ok([1, 2, 4]
-            .into_iter()
-            .map(|scale| {
-                (
-                    Method::PlanarMirror { scale },
-                    format!("resolution=1/{scale}"),
-                )
-            })
-            .collect()),
+        "planar-mirror" => Ok(image(
+            [1, 2, 4]
+                .into_iter()
+                .map(|scale| {
+                    (
+                        Method::PlanarMirror { scale },
+                        format!("resolution=1/{scale}"),
+                    )
+                })
+                .collect(),
+        )),
         _ => Err("unknown method"),
     }
 }
@@ -248,6 +371,92 @@ struct Accum {
     /// Handled pixels whose largest channel error exceeds 8.
     over_8: f64,
     max_abs: u8,
+    /// Ray statistics and timings of a screen-space method.
+    screen: Option<ScreenAccum>,
+}
+
+/// Sums over frames of a screen-space method's ray statistics and timings.
+#[derive(Clone, Debug, Default)]
+struct ScreenAccum {
+    stats: RayStats,
+    kernel_ms: f64,
+    kernel_ms_1t: f64,
+    obvhs_ms: f64,
+    obvhs_ms_1t: f64,
+    bytes_per_pixel: f64,
+}
+
+impl ScreenAccum {
+    fn add(&mut self, o: &ScreenAccum) {
+        self.stats.add(&o.stats);
+        self.kernel_ms += o.kernel_ms;
+        self.kernel_ms_1t += o.kernel_ms_1t;
+        self.obvhs_ms += o.obvhs_ms;
+        self.obvhs_ms_1t += o.obvhs_ms_1t;
+        self.bytes_per_pixel = o.bytes_per_pixel;
+    }
+
+    /// The method-specific columns.
+    fn columns(&self) -> Vec<(String, String)> {
+        let s = &self.stats;
+        let rays = s.rays.max(1) as f64;
+        let ns = |ms: f64| ms * 1e6 / rays;
+        let ratio = |a: f64, b: f64| if b > 0.0 { a / b } else { f64::INFINITY };
+        vec![
+            ("rays".into(), s.rays.to_string()),
+            (
+                "visible_share".into(),
+                format!("{:.4}", s.visible as f64 / rays),
+            ),
+            ("hit_rate".into(), format!("{:.4}", s.hit_rate())),
+            (
+                "visible_missed".into(),
+                format!("{:.4}", s.missed as f64 / s.visible.max(1) as f64),
+            ),
+            (
+                "visible_wrong".into(),
+                format!("{:.4}", s.wrong as f64 / s.visible.max(1) as f64),
+            ),
+            (
+                "false_hit_rate".into(),
+                format!("{:.4}", s.false_hit_rate()),
+            ),
+            ("mean_hit_err_px".into(), format!("{:.4}", s.mean_err_px())),
+            ("ns_per_ray".into(), format!("{:.1}", ns(self.kernel_ms))),
+            (
+                "ns_per_ray_1t".into(),
+                format!("{:.1}", ns(self.kernel_ms_1t)),
+            ),
+            (
+                "obvhs_ns_per_ray".into(),
+                format!("{:.1}", ns(self.obvhs_ms)),
+            ),
+            (
+                "obvhs_ns_per_ray_1t".into(),
+                format!("{:.1}", ns(self.obvhs_ms_1t)),
+            ),
+            (
+                "vs_obvhs".into(),
+                format!("{:.3}", ratio(self.obvhs_ms, self.kernel_ms)),
+            ),
+            (
+                "vs_obvhs_1t".into(),
+                format!("{:.3}", ratio(self.obvhs_ms_1t, self.kernel_ms_1t)),
+            ),
+            (
+                "fetches_per_ray".into(),
+                format!("{:.1}", s.fetches as f64 / rays),
+            ),
+            (
+                "iterations_per_ray".into(),
+                format!("{:.1}", s.iterations as f64 / rays),
+            ),
+            (
+                "bytes_per_pixel".into(),
+                format!("{:.2}", self.bytes_per_pixel),
+            ),
+        ]
+    }
 }
 
 impl Accum {
@@ -298,10 +507,16 @@ impl Accum {
                 f64::INFINITY
             },
             share_over_8: self.over_8 / self.handled.max(1) as f64,
-            extra: vec![
-                ("frames".into(), self.frames.to_string()),
-                ("max_abs_255".into(), self.max_abs.to_string()),
-            ],
+            extra: {
+                let mut e = vec![
+                    ("frames".into(), self.frames.to_string()),
+                    ("max_abs_255".into(), self.max_abs.to_string()),
+                ];
+                if let Some(sc) = &self.screen {
+                    e.extend(sc.columns());
+                }
+                e
+            },
         }
     }
 }
@@ -377,6 +592,10 @@ pub fn run(opts: &Options) -> Result<PathBuf, String> {
         .num_threads(threads)
         .build()
         .map_err(|e| e.to_string())?;
+    let pool_1t = rayon::ThreadPoolBuilder::new()
+        .num_threads(1)
+        .build()
+        .map_err(|e| e.to_string())?;
     let out = opts.out.clone();
     let images = out.join("images");
     std::fs::create_dir_all(&images).map_err(|e| format!("{}: {e}", images.display()))?;
@@ -426,12 +645,14 @@ pub fn run(opts: &Options) -> Result<PathBuf, String> {
             FrameNeeds {
                 glossy_pixels: 0,
                 planar_mirror_pixels: 0,
+                reflective_pixels: 0,
             },
             |a, (_, g, _)| {
                 let n = FrameNeeds::of(&scene, g);
                 FrameNeeds {
                     glossy_pixels: a.glossy_pixels + n.glossy_pixels,
                     planar_mirror_pixels: a.planar_mirror_pixels + n.planar_mirror_pixels,
+                    reflective_pixels: a.reflective_pixels + n.reflective_pixels,
                 }
             },
         );
@@ -442,6 +663,9 @@ pub fn run(opts: &Options) -> Result<PathBuf, String> {
             let _ = writeln!(notes, "  - `{method_name}` skipped: {why}");
         }
         for (frame, (pose, g, gbuffer_ms)) in frames.iter().enumerate() {
+            // Rays and reference timings of the screen-space methods, made
+            // when the first of them runs on this frame.
+            let mut screen_frame: Option<screen::ScreenFrame> = None;
             let (pose, gbuffer_ms) = (*pose, *gbuffer_ms);
             let frame_needs = FrameNeeds::of(&scene, g);
             let reflective = g.reflective_mask();
@@ -479,10 +703,49 @@ pub fn run(opts: &Options) -> Result<PathBuf, String> {
                     continue;
                 };
                 bar.inc_length(runs_of.len() as u64);
-                for (method, setting) in runs_of {
+                for (setting_v, setting) in runs_of {
                     bar.set_message(format!("{label} pose {pose}: {method_name} {setting}"));
-                    let (img, ms) = median_run(sizes.runs, || method.run(&shader, g, &pool))
-                        .map_err(|e| e.to_string())?;
+                    let (img, ms, screen_acc) = match setting_v {
+                        Setting::Image(method) => {
+                            let (img, ms) =
+                                median_run(sizes.runs, || method.run(&shader, g, &pool))
+                                    .map_err(|e| e.to_string())?;
+                            (img, ms, None)
+                        }
+                        Setting::Screen(kernel, conv) => {
+                            let sf = screen_frame.get_or_insert_with(|| {
+                                screen::ScreenFrame::new(
+                                    &scene, &tracer, &shader, g, &pool, &pool_1t, sizes.runs,
+                                )
+                            });
+                            let thickness = Thickness::Constant(sf.thickness);
+                            let (obvhs_ms, obvhs_ms_1t) = (sf.obvhs_ms, sf.obvhs_ms_1t);
+                            sf.prepare_depth(g, conv).map_err(|e| e.to_string())?;
+                            let sf = &*sf;
+                            let depth = sf.depth(conv).ok_or("depth buffer")?;
+                            let image = depth.image().map_err(|e| e.to_string())?;
+                            let rays = &sf.rays;
+                            let (traces, ms) = median_run(sizes.runs, || {
+                                screen::run(kernel, &image, thickness, &rays.screen_ray, &pool)
+                            })
+                            .map_err(|e| e.to_string())?;
+                            let (_, ms_1t) = median_run(sizes.runs, || {
+                                screen::run(kernel, &image, thickness, &rays.screen_ray, &pool_1t)
+                            })
+                            .map_err(|e| e.to_string())?;
+                            let stats = screen::evaluate(rays, &traces);
+                            let img = screen::shade(g, &direct, rays, &traces);
+                            let acc = ScreenAccum {
+                                stats,
+                                kernel_ms: ms,
+                                kernel_ms_1t: ms_1t,
+                                obvhs_ms,
+                                obvhs_ms_1t,
+                                bytes_per_pixel: kernel.bytes_per_pixel(g.width(), g.height()),
+                            };
+                            (img, ms, Some(acc))
+                        }
+                    };
                     // The reference on exactly the handled pixels, same threads.
                     let reference_ms = if img.handled_count() == n_reflective {
                         truth_ms
@@ -523,6 +786,13 @@ pub fn run(opts: &Options) -> Result<PathBuf, String> {
                         }
                     };
                     accums[i].1.add(ms, reference_ms, n_reflective, &err);
+                    if let Some(acc) = screen_acc {
+                        accums[i]
+                            .1
+                            .screen
+                            .get_or_insert_with(ScreenAccum::default)
+                            .add(&acc);
+                    }
                     bar.inc(1);
                 }
             }
