@@ -856,6 +856,148 @@ void layered_functions() {
                      [&](uint32_t* o) { return refl_prr_classify(o, v3(0, 3, 5), v3(0, 1, 0), 0.3f, t0, t0, t2); });
 }
 
+// Per-pixel stepping: refl_step_ray (one ray) and refl_step_rays (a batch).
+void step_functions() {
+    const refl_camera g = good_camera();
+    const uint32_t w = g.width, h = g.height;
+    const size_t n = size_t(w) * h;
+    std::vector<float> depth(n, 0.5f), back(n, 0.6f);
+    const refl_image_f32 none{nullptr, 0, 0, 0, 0};
+    const refl_depth_image img{{depth.data(), n, w, h, w}, g, REFL_DEPTH_CONVENTION_ZERO_TO_ONE};
+    const refl_thickness th{0.5f, none};
+    const refl_thickness thb{0.0f, {back.data(), n, w, h, w}};
+    const refl_step_options opts{1, 1000};
+    // From the eye toward the camera's target: the planar case.
+    const float dx = -1.0f, dy = -1.5f, dz = -5.0f;
+    const float inv = 1.0f / std::sqrt(dx * dx + dy * dy + dz * dz);
+    const refl_ray ray{v3(1, 2, 5), v3(dx * inv, dy * inv, dz * inv)};
+
+    for (const refl_thickness* t : {&th, &thb}) {
+        const refl_trace_result r = expect_ok<refl_trace_result>(
+            "step_ray", [&](refl_trace_result* o) { return refl_step_ray(o, &img, t, ray, kInf, &opts); });
+        CHECK_EQ(r.miss, uint32_t(REFL_MISS_NONE));
+        CHECK(r.steps >= 1 && r.steps <= 2);
+    }
+    auto one = [&](const char* what, refl_status want, const refl_depth_image* i, const refl_thickness* t,
+                   refl_ray r, float t_max, const refl_step_options* o) {
+        expect<refl_trace_result>(what, want,
+                                  [=](refl_trace_result* out) { return refl_step_ray(out, i, t, r, t_max, o); });
+    };
+    one("step NULL image", REFL_STATUS_NULL_POINTER, nullptr, &th, ray, kInf, &opts);
+    one("step NULL thickness", REFL_STATUS_NULL_POINTER, &img, nullptr, ray, kInf, &opts);
+    one("step NULL options", REFL_STATUS_NULL_POINTER, &img, &th, ray, kInf, nullptr);
+    refl_depth_image bad = img;
+    bad.depth.data = nullptr;
+    one("step NULL depth data", REFL_STATUS_NULL_POINTER, &bad, &th, ray, kInf, &opts);
+    for (uint32_t c : kBadConventions) {
+        bad = img;
+        bad.convention = c;
+        one("step convention", REFL_STATUS_INVALID_ARGUMENT, &bad, &th, ray, kInf, &opts);
+    }
+    for (const BadCamera& b : bad_cameras()) {
+        bad = img;
+        bad.camera = b.cam;
+        one(b.name, b.status, &bad, &th, ray, kInf, &opts);
+    }
+    bad = img;
+    bad.depth.len = n - 1;
+    one("step depth short", REFL_STATUS_INSUFFICIENT_SIZE, &bad, &th, ray, kInf, &opts);
+    bad = img;
+    bad.depth.height = h - 1;
+    one("step depth size != camera", REFL_STATUS_INVALID_ARGUMENT, &bad, &th, ray, kInf, &opts);
+    bad = img;
+    bad.depth.width = bad.depth.height = bad.depth.stride = kMax;
+    bad.depth.len = SIZE_MAX;
+    one("step depth overflowing", REFL_STATUS_INVALID_ARGUMENT, &bad, &th, ray, kInf, &opts);
+    bad = img;
+    bad.depth.data = reinterpret_cast<const float*>(reinterpret_cast<const unsigned char*>(depth.data()) + 1);
+    bad.depth.len = n - 1;
+    one("step depth misaligned", REFL_STATUS_INVALID_ARGUMENT, &bad, &th, ray, kInf, &opts);
+    for (const refl_vec3& v : kBadVec3) {
+        one("step origin", REFL_STATUS_INVALID_ARGUMENT, &img, &th, refl_ray{v, ray.dir}, kInf, &opts);
+        one("step dir", REFL_STATUS_INVALID_ARGUMENT, &img, &th, refl_ray{ray.origin, v}, kInf, &opts);
+    }
+    one("step dir not unit", REFL_STATUS_INVALID_ARGUMENT, &img, &th, refl_ray{ray.origin, v3(0, 0, -2)}, kInf,
+        &opts);
+    one("step dir zero", REFL_STATUS_INVALID_ARGUMENT, &img, &th, refl_ray{ray.origin, v3(0, 0, 0)}, kInf, &opts);
+    for (float t : {kNaN, 0.0f, -1.0f, -kInf})
+        one("step t_max", REFL_STATUS_INVALID_ARGUMENT, &img, &th, ray, t, &opts);
+    const refl_step_options zero_stride{0, 1000};
+    one("step stride 0", REFL_STATUS_INVALID_ARGUMENT, &img, &th, ray, kInf, &zero_stride);
+    for (float c : {kNaN, -1.0f, -kInf}) {
+        const refl_thickness t{c, none};
+        one("step thickness", REFL_STATUS_INVALID_ARGUMENT, &img, &t, ray, kInf, &opts);
+    }
+    refl_thickness tb = thb;
+    tb.back_faces.width = w - 1;
+    one("step back faces size", REFL_STATUS_INVALID_ARGUMENT, &img, &tb, ray, kInf, &opts);
+    tb = thb;
+    tb.back_faces.len = 3;
+    one("step back faces short", REFL_STATUS_INSUFFICIENT_SIZE, &img, &tb, ray, kInf, &opts);
+
+    // refl_step_rays: the whole output array stays untouched on error.
+    const size_t count = 5;
+    std::vector<refl_ray> rays(count, ray);
+    rays[1].origin = v3(0.5f, 1.0f, 2.0f);
+    std::vector<float> t_max(count, 50.0f);
+    auto batch = [&](const char* what, refl_status want, size_t out_len, const refl_ray* r, size_t rc,
+                     const float* t, size_t tc, const refl_depth_image* i, const refl_thickness* tk,
+                     const refl_step_options* o, bool null_out = false) {
+        std::vector<refl_trace_result> out(count + 1);
+        std::memset(static_cast<void*>(out.data()), 0xA5, out.size() * sizeof(refl_trace_result));
+        std::vector<unsigned char> before(out.size() * sizeof(refl_trace_result));
+        std::memcpy(before.data(), out.data(), before.size());
+        const uint32_t got = refl_step_rays(null_out ? nullptr : out.data(), out_len, r, rc, t, tc, i, tk, o);
+        ++check::checks();
+        const bool same = std::memcmp(before.data(), out.data(), before.size()) == 0;
+        if (got != static_cast<uint32_t>(want) || (want != REFL_STATUS_OK && !same) ||
+            (want == REFL_STATUS_OK && same))
+            check::fail(__FILE__, __LINE__,
+                        std::string("step_rays ") + what + ": got " + check::status_name(got) + ", expected " +
+                            check::status_name(want));
+        if (want == REFL_STATUS_OK) CHECK(std::memcmp(before.data() + count * sizeof(refl_trace_result),
+                                                      reinterpret_cast<unsigned char*>(out.data()) +
+                                                          count * sizeof(refl_trace_result),
+                                                      sizeof(refl_trace_result)) == 0);
+    };
+    batch("ok", REFL_STATUS_OK, count, rays.data(), count, t_max.data(), count, &img, &th, &opts);
+    batch("ok one t_max", REFL_STATUS_OK, count, rays.data(), count, t_max.data(), 1, &img, &thb, &opts);
+    batch("NULL out", REFL_STATUS_NULL_POINTER, count, rays.data(), count, t_max.data(), count, &img, &th, &opts,
+          true);
+    batch("NULL rays", REFL_STATUS_NULL_POINTER, count, nullptr, count, t_max.data(), count, &img, &th, &opts);
+    batch("NULL t_max", REFL_STATUS_NULL_POINTER, count, rays.data(), count, nullptr, count, &img, &th, &opts);
+    batch("NULL image", REFL_STATUS_NULL_POINTER, count, rays.data(), count, t_max.data(), count, nullptr, &th,
+          &opts);
+    batch("NULL thickness", REFL_STATUS_NULL_POINTER, count, rays.data(), count, t_max.data(), count, &img,
+          nullptr, &opts);
+    batch("NULL options", REFL_STATUS_NULL_POINTER, count, rays.data(), count, t_max.data(), count, &img, &th,
+          nullptr);
+    batch("out short", REFL_STATUS_INSUFFICIENT_SIZE, count - 1, rays.data(), count, t_max.data(), count, &img,
+          &th, &opts);
+    batch("t_max short", REFL_STATUS_INSUFFICIENT_SIZE, count, rays.data(), count, t_max.data(), 2, &img, &th,
+          &opts);
+    batch("t_max count 0", REFL_STATUS_INVALID_ARGUMENT, count, rays.data(), count, t_max.data(), 0, &img, &th,
+          &opts);
+    bad = img;
+    bad.convention = 9;
+    batch("convention", REFL_STATUS_INVALID_ARGUMENT, count, rays.data(), count, t_max.data(), count, &bad, &th,
+          &opts);
+    batch("stride 0", REFL_STATUS_INVALID_ARGUMENT, count, rays.data(), count, t_max.data(), count, &img, &th,
+          &zero_stride);
+    for (const refl_vec3& v : kBadVec3) {
+        std::vector<refl_ray> r = rays;
+        r[count - 1].dir = v;
+        batch("NaN ray", REFL_STATUS_INVALID_ARGUMENT, count, r.data(), count, t_max.data(), count, &img, &th,
+              &opts);
+    }
+    std::vector<float> bad_t = t_max;
+    bad_t[2] = kNaN;
+    batch("NaN t_max", REFL_STATUS_INVALID_ARGUMENT, count, rays.data(), count, bad_t.data(), count, &img, &th,
+          &opts);
+    batch("huge count", REFL_STATUS_INVALID_ARGUMENT, SIZE_MAX, rays.data(), SIZE_MAX / 2, t_max.data(), 1, &img,
+          &th, &opts);
+}
+
 }  // namespace
 
 int main() {
@@ -863,6 +1005,7 @@ int main() {
     camera_functions();
     plane_functions();
     image_functions();
+    step_functions();
     layered_functions();
     return check::finish("hostile_input");
 }

@@ -134,6 +134,51 @@ typedef uint32_t refl_depth_convention;
 #endif // __cplusplus
 
 /**
+ * Why a traced ray found no surface; `REFL_MISS_NONE` for a hit.
+ */
+enum refl_miss
+#if defined(__cplusplus) || __STDC_VERSION__ >= 202311L
+  : uint32_t
+#endif // defined(__cplusplus) || __STDC_VERSION__ >= 202311L
+ {
+    /**
+     * The ray hit the depth image.
+     */
+    REFL_MISS_NONE = 0,
+    /**
+     * The projected ray left the image rectangle (or, coming toward the
+     * camera, the near plane) before hitting anything.
+     */
+    REFL_MISS_LEFT_IMAGE = 1,
+    /**
+     * The walk ended while the ray was behind geometry deeper than its
+     * thickness: what it hits is hidden from this image.
+     */
+    REFL_MISS_BEHIND_GEOMETRY = 2,
+    /**
+     * The step or iteration cap was reached.
+     */
+    REFL_MISS_OUT_OF_STEPS = 3,
+    /**
+     * The ray ended (`t_max`, the far plane, or its vanishing point under
+     * an infinite far plane) in front of every surface.
+     */
+    REFL_MISS_END_OF_RAY = 4,
+    /**
+     * Nothing of the ray projects into the view (entirely behind the near
+     * plane, beyond the far plane, or outside the image's frustum).
+     */
+    REFL_MISS_DEGENERATE_PROJECTION = 5,
+};
+#ifndef __cplusplus
+#if __STDC_VERSION__ >= 202311L
+typedef enum refl_miss refl_miss;
+#else
+typedef uint32_t refl_miss;
+#endif // __STDC_VERSION__ >= 202311L
+#endif // __cplusplus
+
+/**
  * Why a layered trace found no hit (`REFL_LAYERED_MISS_NONE` for a hit).
  */
 enum refl_layered_miss
@@ -680,6 +725,104 @@ typedef struct refl_plane {
      */
     float d;
 } refl_plane;
+
+/**
+ * The result of tracing one ray against a depth image.
+ */
+typedef struct refl_trace_result {
+    /**
+     * `REFL_MISS_NONE` (0) for a hit, otherwise the `refl_miss` reason.
+     */
+    uint32_t miss;
+    /**
+     * Sub-pixel position of the hit in the depth image (pixels, origin
+     * top-left); the texel hit is (floor(x), floor(y)). 0 on a miss.
+     */
+    struct refl_vec2 pixel;
+    /**
+     * Ray parameter of the hit (world distance from the origin); the point
+     * origin + t * dir projects to `pixel` up to rounding. 0 on a miss.
+     */
+    float t;
+    /**
+     * Linear depth of the hit point on the ray. 0 on a miss.
+     */
+    float depth;
+    /**
+     * Linear depth stored in the image at the texel hit. 0 on a miss.
+     */
+    float surface_depth;
+    /**
+     * Pixel (or cell) steps along the projected ray, hit or miss.
+     */
+    uint32_t steps;
+    /**
+     * Depth texels read (back-face and pyramid texels included).
+     */
+    uint32_t fetches;
+    /**
+     * Loop iterations of a hierarchical traversal (0 for stepping).
+     */
+    uint32_t iterations;
+} refl_trace_result;
+
+/**
+ * A depth image with the camera that rendered it and its convention.
+ */
+typedef struct refl_depth_image {
+    /**
+     * The stored depths; width and height must equal the camera's. Texel
+     * (x, y) holds the depth seen through pixel center (x + 0.5, y + 0.5).
+     * A NaN texel, or one at or beyond the far plane, holds no surface.
+     */
+    struct refl_image_f32 depth;
+    /**
+     * The camera that rendered the image (validated on every call).
+     */
+    struct refl_camera camera;
+    /**
+     * Convention of the stored depths, a `refl_depth_convention`.
+     */
+    uint32_t convention;
+} refl_depth_image;
+
+/**
+ * How far behind the front-most surface a ray may pass and still hit it.
+ */
+typedef struct refl_thickness {
+    /**
+     * Thickness of every surface in linear depth (world units along the
+     * view axis), >= 0, may be +infinity (everything behind a surface is
+     * solid). Used when `back_faces.data` is NULL, ignored otherwise.
+     */
+    float constant;
+    /**
+     * A back-face depth image (same size, camera and convention as the
+     * front image): the ray hits where its depth lies between the two. Set
+     * `data` to NULL to use `constant` instead (the other fields are then
+     * ignored).
+     */
+    struct refl_image_f32 back_faces;
+} refl_thickness;
+
+/**
+ * Options of the per-pixel stepping kernel (`refl_step_ray`). The
+ * defaults are `stride = 1`, `max_steps = UINT32_MAX`.
+ */
+typedef struct refl_step_options {
+    /**
+     * Texels per coarse step, >= 1. 1 tests every texel the ray's
+     * projection touches; larger strides sample every `stride`-th texel and
+     * refine the last coarse interval texel by texel once the ray reaches
+     * behind a surface.
+     */
+    uint32_t stride;
+    /**
+     * The most steps (coarse plus refinement) spent on one ray; reaching it
+     * gives `REFL_MISS_OUT_OF_STEPS`. 0 allows none.
+     */
+    uint32_t max_steps;
+} refl_step_options;
 
 /**
  * A 4-component float vector (a four-channel texel).
@@ -1716,6 +1859,73 @@ const char *refl_version(void);
  * and `REFL_VERSION_PATCH`.
  */
 uint32_t refl_version_number(void);
+
+/**
+ * Traces one ray against a depth image by per-pixel stepping along its
+ * projection (seed 003 Sec. 3.4; `refl_core::step` documents the
+ * algorithm): the ray `ray.origin + t * ray.dir`, `t` in `[0, t_max]`, is
+ * clipped to the camera's frustum, projected, and walked texel by texel
+ * from its near to its far end; a texel is hit where the ray's linear
+ * depth lies between its front depth and front + thickness (or its
+ * back-face depth). A ray through the camera's eye (a planar reflector's
+ * ray) is resolved with one lookup. Writes the hit or the miss reason to
+ * `*out`.
+ *
+ * `ray.dir` must be unit length (within 1e-3); `t_max` > 0, +infinity
+ * allowed (up to the far plane).
+ *
+ * Returns `REFL_STATUS_NULL_POINTER` if `out`, `image`, `image->depth.data`,
+ * `thickness` or `options` is NULL; `REFL_STATUS_INVALID_ARGUMENT` for a
+ * non-finite or non-unit ray, a NaN or non-positive `t_max`, an unknown
+ * convention, a misaligned pointer, a zero or overflowing image size,
+ * `stride < width`, an image or back-face image whose size differs from
+ * the camera's, a NaN or negative constant thickness, or `stride == 0`;
+ * `REFL_STATUS_INSUFFICIENT_SIZE` if an image's `len` is too small; the
+ * camera's status if it is invalid.
+ *
+ * # Safety
+ * `out` must be NULL or writable; `image`, `thickness` and `options` NULL
+ * or readable; the images' `data` readable for `len` floats and not
+ * written during the call.
+ */
+refl_status refl_step_ray(struct refl_trace_result *out,
+                          const struct refl_depth_image *image,
+                          const struct refl_thickness *thickness,
+                          struct refl_ray ray,
+                          float t_max,
+                          const struct refl_step_options *options);
+
+/**
+ * Traces `ray_count` rays as `refl_step_ray` would, writing result `i` to
+ * `out[i]`. `t_max` holds either one value for every ray
+ * (`t_max_count == 1`) or one per ray (`t_max_count >= ray_count`).
+ *
+ * Every input is validated before anything is written: on any error
+ * `out` is untouched. Elements of `out` past `ray_count` are never
+ * written. Rays are independent: a host splits a large batch into chunks
+ * (e.g. rows of a reflection buffer) and calls this from its own threads.
+ *
+ * Returns `REFL_STATUS_NULL_POINTER` if `out`, `rays`, `t_max`, `image`,
+ * `image->depth.data`, `thickness` or `options` is NULL;
+ * `REFL_STATUS_INSUFFICIENT_SIZE` if `out_len < ray_count` or `t_max_count`
+ * is neither 1 nor at least `ray_count`; `REFL_STATUS_INVALID_ARGUMENT` if
+ * `t_max_count` is 0, or for any ray, `t_max`, image, thickness or option
+ * rejected as by `refl_step_ray`.
+ *
+ * # Safety
+ * `out` must be NULL or writable for `out_len` results; `rays` NULL or
+ * readable for `ray_count` rays; `t_max` NULL or readable for
+ * `t_max_count` floats; the rest as `refl_step_ray`.
+ */
+refl_status refl_step_rays(struct refl_trace_result *out,
+                           size_t out_len,
+                           const struct refl_ray *rays,
+                           size_t ray_count,
+                           const float *t_max,
+                           size_t t_max_count,
+                           const struct refl_depth_image *image,
+                           const struct refl_thickness *thickness,
+                           const struct refl_step_options *options);
 
 #ifdef __cplusplus
 }  // extern "C"

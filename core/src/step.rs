@@ -399,7 +399,7 @@ impl Lookup<'_, '_> {
     /// The front depth of texel `(x, y)`, `None` for an empty texel.
     #[inline]
     fn front(&mut self, x: u32, y: u32) -> Option<f32> {
-        self.work.fetches += 1;
+        self.work.fetches = self.work.fetches.saturating_add(1);
         let z = self.image.linear_at(x, y)?;
         self.is_surface(z).then_some(z)
     }
@@ -410,7 +410,7 @@ impl Lookup<'_, '_> {
         match self.thickness {
             Thickness::Constant(c) => front + c,
             Thickness::BackFaces(view) => {
-                self.work.fetches += 1;
+                self.work.fetches = self.work.fetches.saturating_add(1);
                 match view.get(x, y) {
                     Some(d) => {
                         let z = self.image.camera().decode_depth(d, self.convention);

@@ -1832,7 +1832,9 @@ proptest! {
         let ray = Ray { origin: Vec3::from(o), dir: dir.normalize() };
         let opts = StepOptions { stride, ..StepOptions::default() };
         let tr = try_step(&img, Thickness::Constant(th), ray, t_max, opts).unwrap();
-        prop_assert!(tr.work().steps <= w + h + 2);
+        // Touched texels T <= w + h - 1; coarse steps <= T / stride + 1,
+        // refinement steps <= T.
+        prop_assert!(tr.work().steps <= 2 * (w + h));
         if let Some(hit) = tr.hit() {
             prop_assert!(hit.pixel.x >= 0.0 && hit.pixel.x < w as f32);
             prop_assert!(hit.pixel.y >= 0.0 && hit.pixel.y < h as f32);

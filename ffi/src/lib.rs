@@ -37,6 +37,7 @@ mod layered;
 mod mirror;
 mod ptr;
 mod status;
+mod trace;
 mod types;
 
 pub use camera::*;
@@ -44,4 +45,5 @@ pub use image::*;
 pub use layered::*;
 pub use mirror::*;
 pub use status::*;
+pub use trace::*;
 pub use types::*;
