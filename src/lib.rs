@@ -9,6 +9,7 @@
 pub mod export;
 pub mod gbuffer;
 pub mod layered;
+pub mod layered_render;
 pub mod raster;
 pub mod render;
 pub mod report;

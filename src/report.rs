@@ -128,7 +128,14 @@ impl Sizes {
 pub const BUILT_IN_SCENES: [&str; 3] = ["room", "concave", "walkthrough"];
 
 /// Every method name the report knows, in report order.
-pub const METHODS: [&str; 5] = ["reference", "envmap", "planar-mirror", "step", "hiz"];
+pub const METHODS: [&str; 6] = [
+    "reference",
+    "envmap",
+    "planar-mirror",
+    "step",
+    "hiz",
+    "layered",
+];
 
 /// What one frame's reflective pixels can use: the report skips the passes
 /// a frame has no pixels for (design: "a pipeline that skips passes a scene
@@ -141,6 +148,8 @@ struct FrameNeeds {
     planar_mirror_pixels: usize,
     /// Reflective pixels.
     reflective_pixels: usize,
+    /// Objects the layered method maps (scene-wide).
+    reflected_objects: usize,
 }
 
 impl FrameNeeds {
@@ -168,6 +177,7 @@ impl FrameNeeds {
             glossy_pixels,
             planar_mirror_pixels,
             reflective_pixels,
+            reflected_objects: crate::layered_render::reflected_objects(scene).len(),
         }
     }
 }
@@ -179,6 +189,9 @@ impl FrameNeeds {
 enum Setting {
     Image(Method),
     Screen(ScreenMethod, DepthConvention),
+    /// Layered depth cube maps of the reflected objects: face resolution,
+    /// layers.
+    Layered(u32, u32),
 }
 
 /// The screen-space settings of `name` (`None` if `name` is not a
@@ -278,6 +291,27 @@ fn settings(
     sizes: &Sizes,
     needs: FrameNeeds,
 ) -> Result<Vec<(Setting, String)>, &'static str> {
+    if name == "layered" {
+        return if needs.reflected_objects == 0 {
+            Err("no compact non-reflective object to map")
+        } else if needs.reflective_pixels == 0 {
+            Err("no reflective pixels in view")
+        } else {
+            let res: &[u32] = if sizes.quick {
+                &[32, 64]
+            } else {
+                &[64, 128, 256, 512]
+            };
+            Ok(res
+                .iter()
+                .map(|&r| (Setting::Layered(r, 4), format!("face_res={r};layers=4")))
+                .chain(std::iter::once((
+                    Setting::Layered(res[res.len() - 1], 1),
+                    format!("face_res={};layers=1", res[res.len() - 1]),
+                )))
+                .collect())
+        };
+    }
     if let Some(screen) = screen_settings(name, sizes) {
         return if needs.reflective_pixels == 0 {
             Err("no reflective pixels in view")
@@ -384,6 +418,10 @@ struct ScreenAccum {
     obvhs_ms: f64,
     obvhs_ms_1t: f64,
     bytes_per_pixel: f64,
+    /// Layered rows: `visible` counts rays whose reference hits a mapped
+    /// object, `found` those hit on the same object within a texel
+    /// diagonal, the error is in texels.
+    layered: bool,
 }
 
 impl ScreenAccum {
@@ -394,6 +432,7 @@ impl ScreenAccum {
         self.obvhs_ms += o.obvhs_ms;
         self.obvhs_ms_1t += o.obvhs_ms_1t;
         self.bytes_per_pixel = o.bytes_per_pixel;
+        self.layered = o.layered;
     }
 
     /// The method-specific columns.
@@ -421,7 +460,15 @@ impl ScreenAccum {
                 "false_hit_rate".into(),
                 format!("{:.4}", s.false_hit_rate()),
             ),
-            ("mean_hit_err_px".into(), format!("{:.4}", s.mean_err_px())),
+            (
+                if self.layered {
+                    "mean_hit_err_texels"
+                } else {
+                    "mean_hit_err_px"
+                }
+                .into(),
+                format!("{:.4}", s.mean_err_px()),
+            ),
             ("ns_per_ray".into(), format!("{:.1}", ns(self.kernel_ms))),
             (
                 "ns_per_ray_1t".into(),
@@ -646,6 +693,7 @@ pub fn run(opts: &Options) -> Result<PathBuf, String> {
                 glossy_pixels: 0,
                 planar_mirror_pixels: 0,
                 reflective_pixels: 0,
+                reflected_objects: 0,
             },
             |a, (_, g, _)| {
                 let n = FrameNeeds::of(&scene, g);
@@ -653,6 +701,7 @@ pub fn run(opts: &Options) -> Result<PathBuf, String> {
                     glossy_pixels: a.glossy_pixels + n.glossy_pixels,
                     planar_mirror_pixels: a.planar_mirror_pixels + n.planar_mirror_pixels,
                     reflective_pixels: a.reflective_pixels + n.reflective_pixels,
+                    reflected_objects: n.reflected_objects,
                 }
             },
         );
@@ -662,6 +711,8 @@ pub fn run(opts: &Options) -> Result<PathBuf, String> {
         {
             let _ = writeln!(notes, "  - `{method_name}` skipped: {why}");
         }
+        // Layered maps are built once per scene and setting (static objects).
+        let mut layered_maps: Vec<((u32, u32), crate::layered_render::LayeredScene)> = Vec::new();
         for (frame, (pose, g, gbuffer_ms)) in frames.iter().enumerate() {
             // Rays and reference timings of the screen-space methods, made
             // when the first of them runs on this frame.
@@ -742,6 +793,67 @@ pub fn run(opts: &Options) -> Result<PathBuf, String> {
                                 obvhs_ms,
                                 obvhs_ms_1t,
                                 bytes_per_pixel: kernel.bytes_per_pixel(g.width(), g.height()),
+                                layered: false,
+                            };
+                            (img, ms, Some(acc))
+                        }
+                        Setting::Layered(res, layers) => {
+                            let sf = screen_frame.get_or_insert_with(|| {
+                                screen::ScreenFrame::new(
+                                    &scene, &tracer, &shader, g, &pool, &pool_1t, sizes.runs,
+                                )
+                            });
+                            let sf = &*sf;
+                            let key = (res, layers);
+                            if !layered_maps.iter().any(|(k, _)| *k == key) {
+                                let ls = crate::layered_render::LayeredScene::build(
+                                    &scene, res, layers, &pool,
+                                )
+                                .map_err(|e| format!("{label}: layered maps: {e}"))?;
+                                let _ = writeln!(
+                                    notes,
+                                    "  - layered maps {res}x{res}x{layers}: {} objects, {:.1} ms build, {:.1} MiB",
+                                    ls.objects.len(),
+                                    ls.build_ms,
+                                    ls.bytes() as f64 / (1024.0 * 1024.0)
+                                );
+                                layered_maps.push((key, ls));
+                            }
+                            let ls = &layered_maps
+                                .iter()
+                                .find(|(k, _)| *k == key)
+                                .ok_or("layered maps")?
+                                .1;
+                            let params = refl_core::layered::LayeredParams::default();
+                            let trace = |p: &rayon::ThreadPool| {
+                                let t = timed(|| ls.trace(g, &sf.rays, &params, p));
+                                t.value.map(|v| Timed { value: v, ms: t.ms })
+                            };
+                            let (traces, ms) = median_run(sizes.runs, || trace(&pool))
+                                .map_err(|e| e.to_string())?;
+                            let (_, ms_1t) = median_run(sizes.runs, || trace(&pool_1t))
+                                .map_err(|e| e.to_string())?;
+                            let ls_stats =
+                                crate::layered_render::evaluate(&scene, ls, &sf.rays, &traces);
+                            let img = crate::layered_render::shade(&shader, g, &sf.rays, &traces);
+                            let pixels = f64::from(g.width()) * f64::from(g.height());
+                            let acc = ScreenAccum {
+                                stats: RayStats {
+                                    rays: ls_stats.rays,
+                                    visible: ls_stats.to_objects,
+                                    found: ls_stats.agree,
+                                    false_hits: ls_stats.false_hits,
+                                    err_px_sum: ls_stats.err_texels_sum,
+                                    err_px_count: ls_stats.err_count,
+                                    fetches: ls_stats.fetches,
+                                    ..RayStats::default()
+                                },
+                                kernel_ms: ms,
+                                kernel_ms_1t: ms_1t,
+                                obvhs_ms: sf.obvhs_ms,
+                                obvhs_ms_1t: sf.obvhs_ms_1t,
+                                bytes_per_pixel: ls.bytes() as f64 / pixels,
+                                layered: true,
                             };
                             (img, ms, Some(acc))
                         }
