@@ -300,7 +300,7 @@ fn settings(
             let res: &[u32] = if sizes.quick {
                 &[32, 64]
             } else {
-                &[64, 128, 256, 512]
+                &[32, 64, 128]
             };
             Ok(res
                 .iter()
