@@ -998,6 +998,248 @@ void step_functions() {
           &th, &opts);
 }
 
+// Hi-Z pyramid and traversal (seed 004): size and layout queries, whole and
+// row-band builds into the caller buffer, one ray and a batch.
+void hiz_functions() {
+    const refl_camera g = good_camera();
+    const uint32_t w = g.width, h = g.height;
+    const size_t n = size_t(w) * h;
+    std::vector<float> depth(n, 0.5f), back(n, 0.6f);
+    const refl_image_f32 none{nullptr, 0, 0, 0, 0};
+    const refl_depth_image img{{depth.data(), n, w, h, w}, g, REFL_DEPTH_CONVENTION_ZERO_TO_ONE};
+
+    // Size and layout queries.
+    size_t len = 0;
+    uint32_t levels = 0;
+    CHECK_STATUS(refl_hiz_len(&len, &levels, w, h), REFL_STATUS_OK);
+    CHECK(len > n && levels == 7);
+    for (uint32_t bw : {0u, w}) {
+        const uint32_t bh = bw == 0 ? h : 0;
+        expect<size_t>("hiz_len zero size", REFL_STATUS_INVALID_ARGUMENT, [=](size_t* o) {
+            uint32_t c = 0;
+            return refl_hiz_len(o, &c, bw, bh);
+        });
+        expect<uint32_t>("hiz_len levels zero size", REFL_STATUS_INVALID_ARGUMENT, [=](uint32_t* o) {
+            size_t l = 0;
+            return refl_hiz_len(&l, o, bw, bh);
+        });
+    }
+    expect<size_t>("hiz_len overflowing", REFL_STATUS_INVALID_ARGUMENT, [](size_t* o) {
+        uint32_t c = 0;
+        return refl_hiz_len(o, &c, kMax, kMax);
+    });
+    const refl_hiz_level_info l0 = expect_ok<refl_hiz_level_info>(
+        "hiz_level 0", [&](refl_hiz_level_info* o) { return refl_hiz_level(o, w, h, 0); });
+    CHECK(l0.offset == 0 && l0.width == w && l0.height == h);
+    const refl_hiz_level_info top = expect_ok<refl_hiz_level_info>(
+        "hiz_level top", [&](refl_hiz_level_info* o) { return refl_hiz_level(o, w, h, levels - 1); });
+    CHECK(top.width == 1 && top.height == 1 && top.offset == len - 1);
+    for (uint32_t lv : {levels, levels + 1, kMax})
+        expect<refl_hiz_level_info>("hiz_level past last", REFL_STATUS_INVALID_ARGUMENT,
+                                    [=](refl_hiz_level_info* o) { return refl_hiz_level(o, w, h, lv); });
+    expect<refl_hiz_level_info>("hiz_level zero size", REFL_STATUS_INVALID_ARGUMENT,
+                                [=](refl_hiz_level_info* o) { return refl_hiz_level(o, 0, h, 0); });
+    const refl_hiz_options opts = expect_ok<refl_hiz_options>(
+        "hiz_default_options", [](refl_hiz_options* o) { return refl_hiz_default_options(o); });
+    CHECK(opts.start_level == 2 && opts.stop_level == 0 && opts.max_iterations == 1024 && opts.prologue_steps == 4);
+    CHECK_STATUS(refl_hiz_default_options(nullptr), REFL_STATUS_NULL_POINTER);
+
+    // Builds: on error the whole destination stays byte-identical.
+    std::vector<refl_vec2> pyr(len);
+    CHECK_STATUS(refl_hiz_build(pyr.data(), len, &img), REFL_STATUS_OK);
+    CHECK(pyr[0].x == pyr[0].y && pyr[0].x > 0.0f && pyr[len - 1].x == pyr[0].x);
+    auto build = [&](const char* what, refl_status want, size_t dl, const refl_depth_image* i, int mode,
+                     uint32_t level = kMax, uint32_t r0 = 0, uint32_t r1 = 0) {
+        std::vector<unsigned char> buf((len + 2) * sizeof(refl_vec2) + 16);
+        for (size_t k = 0; k < buf.size(); ++k) buf[k] = pattern(k);
+        const std::vector<unsigned char> before = buf;
+        unsigned char* base = buf.data() + (16 - reinterpret_cast<uintptr_t>(buf.data()) % 16);
+        refl_vec2* dst = mode == 1 ? nullptr : reinterpret_cast<refl_vec2*>(base + (mode == 2 ? 1 : 0));
+        const uint32_t got =
+            level == kMax ? refl_hiz_build(dst, dl, i) : refl_hiz_build_rows(dst, dl, i, level, r0, r1);
+        ++check::checks();
+        if (got != static_cast<uint32_t>(want) || buf != before)
+            check::fail(__FILE__, __LINE__,
+                        std::string("hiz build ") + what + ": got " + check::status_name(got) + ", expected " +
+                            check::status_name(want));
+    };
+    for (uint32_t lv : {kMax, 0u}) {
+        const uint32_t r1 = lv == kMax ? 0 : h;
+        build("NULL dst", REFL_STATUS_NULL_POINTER, len, &img, 1, lv, 0, r1);
+        build("NULL image", REFL_STATUS_NULL_POINTER, len, nullptr, 0, lv, 0, r1);
+        build("dst short", REFL_STATUS_INSUFFICIENT_SIZE, len - 1, &img, 0, lv, 0, r1);
+        build("dst misaligned", REFL_STATUS_INVALID_ARGUMENT, len, &img, 2, lv, 0, r1);
+        build("dst huge", REFL_STATUS_INVALID_ARGUMENT, SIZE_MAX, &img, 0, lv, 0, r1);
+        refl_depth_image bad = img;
+        bad.depth.data = nullptr;
+        build("NULL depth data", REFL_STATUS_NULL_POINTER, len, &bad, 0, lv, 0, r1);
+        for (uint32_t c : kBadConventions) {
+            bad = img;
+            bad.convention = c;
+            build("convention", REFL_STATUS_INVALID_ARGUMENT, len, &bad, 0, lv, 0, r1);
+        }
+        for (const BadCamera& b : bad_cameras()) {
+            bad = img;
+            bad.camera = b.cam;
+            build(b.name, b.status, len, &bad, 0, lv, 0, r1);
+        }
+        bad = img;
+        bad.depth.len = n - 1;
+        build("depth short", REFL_STATUS_INSUFFICIENT_SIZE, len, &bad, 0, lv, 0, r1);
+        bad = img;
+        bad.depth.width = w - 1;
+        build("depth size != camera", REFL_STATUS_INVALID_ARGUMENT, len, &bad, 0, lv, 0, r1);
+    }
+    build("rows level past last", REFL_STATUS_INVALID_ARGUMENT, len, &img, 0, levels, 0, 1);
+    build("rows empty", REFL_STATUS_INVALID_ARGUMENT, len, &img, 0, 0, 3, 3);
+    build("rows reversed", REFL_STATUS_INVALID_ARGUMENT, len, &img, 0, 0, 4, 2);
+    build("rows past height", REFL_STATUS_INVALID_ARGUMENT, len, &img, 0, 1, 0, h);
+    {
+        // The pyramid may not overlap the depth image it reads.
+        std::vector<float> shared(n + 2 * len + 4, 0.5f);
+        const refl_depth_image si{{shared.data(), n, w, h, w}, g, REFL_DEPTH_CONVENTION_ZERO_TO_ONE};
+        const std::vector<float> before = shared;
+        CHECK_STATUS(refl_hiz_build(reinterpret_cast<refl_vec2*>(shared.data() + 2), len, &si),
+                     REFL_STATUS_INVALID_ARGUMENT);
+        CHECK(std::memcmp(before.data(), shared.data(), shared.size() * sizeof(float)) == 0);
+    }
+    {
+        // Level by level, row band by row band: equal to the whole build.
+        std::vector<refl_vec2> banded(len);
+        for (uint32_t lv = 0; lv < levels; ++lv) {
+            refl_hiz_level_info li{};
+            CHECK_STATUS(refl_hiz_level(&li, w, h, lv), REFL_STATUS_OK);
+            for (uint32_t r = 0; r < li.height; r += 2)
+                CHECK_STATUS(refl_hiz_build_rows(banded.data(), len, &img, lv, r, r + 2 < li.height ? r + 2 : li.height),
+                             REFL_STATUS_OK);
+        }
+        CHECK(std::memcmp(banded.data(), pyr.data(), len * sizeof(refl_vec2)) == 0);
+    }
+
+    // One ray.
+    const refl_hiz hz{pyr.data(), len, g, REFL_DEPTH_CONVENTION_ZERO_TO_ONE};
+    const refl_thickness th{0.5f, none};
+    const refl_thickness thb{0.0f, {back.data(), n, w, h, w}};
+    const float dx = -1.0f, dy = -1.5f, dz = -5.0f;
+    const float inv = 1.0f / std::sqrt(dx * dx + dy * dy + dz * dz);
+    const refl_ray ray{v3(1, 2, 5), v3(dx * inv, dy * inv, dz * inv)};
+    for (const refl_thickness* t : {&th, &thb}) {
+        const refl_trace_result r = expect_ok<refl_trace_result>(
+            "hiz_trace_ray", [&](refl_trace_result* o) { return refl_hiz_trace_ray(o, &hz, t, ray, kInf, &opts); });
+        CHECK_EQ(r.miss, uint32_t(REFL_MISS_NONE));
+        CHECK(r.fetches >= 1);
+    }
+    auto one = [&](const char* what, refl_status want, const refl_hiz* z, const refl_thickness* t, refl_ray r,
+                   float t_max, const refl_hiz_options* o) {
+        expect<refl_trace_result>(
+            what, want, [=](refl_trace_result* out) { return refl_hiz_trace_ray(out, z, t, r, t_max, o); });
+    };
+    one("hiz NULL pyramid", REFL_STATUS_NULL_POINTER, nullptr, &th, ray, kInf, &opts);
+    one("hiz NULL thickness", REFL_STATUS_NULL_POINTER, &hz, nullptr, ray, kInf, &opts);
+    one("hiz NULL options", REFL_STATUS_NULL_POINTER, &hz, &th, ray, kInf, nullptr);
+    refl_hiz bad = hz;
+    bad.data = nullptr;
+    one("hiz NULL data", REFL_STATUS_NULL_POINTER, &bad, &th, ray, kInf, &opts);
+    bad = hz;
+    bad.len = len - 1;
+    one("hiz pyramid short", REFL_STATUS_INSUFFICIENT_SIZE, &bad, &th, ray, kInf, &opts);
+    bad = hz;
+    bad.data = reinterpret_cast<const refl_vec2*>(reinterpret_cast<const unsigned char*>(pyr.data()) + 1);
+    bad.len = len - 1;
+    one("hiz pyramid misaligned", REFL_STATUS_INVALID_ARGUMENT, &bad, &th, ray, kInf, &opts);
+    bad = hz;
+    bad.len = SIZE_MAX;
+    one("hiz pyramid huge", REFL_STATUS_INVALID_ARGUMENT, &bad, &th, ray, kInf, &opts);
+    for (uint32_t c : kBadConventions) {
+        bad = hz;
+        bad.convention = c;
+        one("hiz convention", REFL_STATUS_INVALID_ARGUMENT, &bad, &th, ray, kInf, &opts);
+    }
+    for (const BadCamera& b : bad_cameras()) {
+        bad = hz;
+        bad.camera = b.cam;
+        one(b.name, b.status, &bad, &th, ray, kInf, &opts);
+    }
+    for (const refl_vec3& v : kBadVec3) {
+        one("hiz origin", REFL_STATUS_INVALID_ARGUMENT, &hz, &th, refl_ray{v, ray.dir}, kInf, &opts);
+        one("hiz dir", REFL_STATUS_INVALID_ARGUMENT, &hz, &th, refl_ray{ray.origin, v}, kInf, &opts);
+    }
+    one("hiz dir not unit", REFL_STATUS_INVALID_ARGUMENT, &hz, &th, refl_ray{ray.origin, v3(0, 0, -2)}, kInf, &opts);
+    one("hiz dir zero", REFL_STATUS_INVALID_ARGUMENT, &hz, &th, refl_ray{ray.origin, v3(0, 0, 0)}, kInf, &opts);
+    for (float t : {kNaN, 0.0f, -1.0f, -kInf})
+        one("hiz t_max", REFL_STATUS_INVALID_ARGUMENT, &hz, &th, ray, t, &opts);
+    for (float c : {kNaN, -1.0f, -kInf}) {
+        const refl_thickness t{c, none};
+        one("hiz thickness", REFL_STATUS_INVALID_ARGUMENT, &hz, &t, ray, kInf, &opts);
+    }
+    refl_thickness tb = thb;
+    tb.back_faces.width = w - 1;
+    one("hiz back faces size", REFL_STATUS_INVALID_ARGUMENT, &hz, &tb, ray, kInf, &opts);
+    tb = thb;
+    tb.back_faces.len = 3;
+    one("hiz back faces short", REFL_STATUS_INSUFFICIENT_SIZE, &hz, &tb, ray, kInf, &opts);
+
+    // A batch: the whole output array stays untouched on error.
+    const size_t count = 5;
+    std::vector<refl_ray> rays(count, ray);
+    rays[1].origin = v3(0.5f, 1.0f, 2.0f);
+    std::vector<float> t_max(count, 50.0f);
+    auto batch = [&](const char* what, refl_status want, size_t out_len, const refl_ray* r, size_t rc,
+                     const float* t, size_t tc, const refl_hiz* z, const refl_thickness* tk,
+                     const refl_hiz_options* o, bool null_out = false) {
+        std::vector<refl_trace_result> out(count + 1);
+        std::memset(static_cast<void*>(out.data()), 0xA5, out.size() * sizeof(refl_trace_result));
+        std::vector<unsigned char> before(out.size() * sizeof(refl_trace_result));
+        std::memcpy(before.data(), out.data(), before.size());
+        const uint32_t got = refl_hiz_trace_rays(null_out ? nullptr : out.data(), out_len, r, rc, t, tc, z, tk, o);
+        ++check::checks();
+        const bool same = std::memcmp(before.data(), out.data(), before.size()) == 0;
+        if (got != static_cast<uint32_t>(want) || (want != REFL_STATUS_OK && !same) ||
+            (want == REFL_STATUS_OK && same))
+            check::fail(__FILE__, __LINE__,
+                        std::string("hiz_trace_rays ") + what + ": got " + check::status_name(got) +
+                            ", expected " + check::status_name(want));
+        if (want == REFL_STATUS_OK)
+            CHECK(std::memcmp(before.data() + count * sizeof(refl_trace_result),
+                              reinterpret_cast<unsigned char*>(out.data()) + count * sizeof(refl_trace_result),
+                              sizeof(refl_trace_result)) == 0);
+    };
+    batch("ok", REFL_STATUS_OK, count, rays.data(), count, t_max.data(), count, &hz, &th, &opts);
+    batch("ok one t_max", REFL_STATUS_OK, count, rays.data(), count, t_max.data(), 1, &hz, &thb, &opts);
+    batch("NULL out", REFL_STATUS_NULL_POINTER, count, rays.data(), count, t_max.data(), count, &hz, &th, &opts,
+          true);
+    batch("NULL rays", REFL_STATUS_NULL_POINTER, count, nullptr, count, t_max.data(), count, &hz, &th, &opts);
+    batch("NULL t_max", REFL_STATUS_NULL_POINTER, count, rays.data(), count, nullptr, count, &hz, &th, &opts);
+    batch("NULL pyramid", REFL_STATUS_NULL_POINTER, count, rays.data(), count, t_max.data(), count, nullptr, &th,
+          &opts);
+    batch("NULL thickness", REFL_STATUS_NULL_POINTER, count, rays.data(), count, t_max.data(), count, &hz,
+          nullptr, &opts);
+    batch("NULL options", REFL_STATUS_NULL_POINTER, count, rays.data(), count, t_max.data(), count, &hz, &th,
+          nullptr);
+    batch("out short", REFL_STATUS_INSUFFICIENT_SIZE, count - 1, rays.data(), count, t_max.data(), count, &hz,
+          &th, &opts);
+    batch("t_max short", REFL_STATUS_INSUFFICIENT_SIZE, count, rays.data(), count, t_max.data(), 2, &hz, &th,
+          &opts);
+    batch("t_max count 0", REFL_STATUS_INVALID_ARGUMENT, count, rays.data(), count, t_max.data(), 0, &hz, &th,
+          &opts);
+    bad = hz;
+    bad.convention = 9;
+    batch("convention", REFL_STATUS_INVALID_ARGUMENT, count, rays.data(), count, t_max.data(), count, &bad, &th,
+          &opts);
+    for (const refl_vec3& v : kBadVec3) {
+        std::vector<refl_ray> r = rays;
+        r[count - 1].dir = v;
+        batch("NaN ray", REFL_STATUS_INVALID_ARGUMENT, count, r.data(), count, t_max.data(), count, &hz, &th,
+              &opts);
+    }
+    std::vector<float> bad_t = t_max;
+    bad_t[2] = kNaN;
+    batch("NaN t_max", REFL_STATUS_INVALID_ARGUMENT, count, rays.data(), count, bad_t.data(), count, &hz, &th,
+          &opts);
+    batch("huge count", REFL_STATUS_INVALID_ARGUMENT, SIZE_MAX, rays.data(), SIZE_MAX / 2, t_max.data(), 1, &hz,
+          &th, &opts);
+}
+
 }  // namespace
 
 int main() {
@@ -1007,5 +1249,6 @@ int main() {
     image_functions();
     step_functions();
     layered_functions();
+    hiz_functions();
     return check::finish("hostile_input");
 }

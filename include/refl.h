@@ -387,6 +387,185 @@ typedef struct refl_projection {
 } refl_projection;
 
 /**
+ * Where one pyramid level lives in the buffer: texels `offset` to
+ * `offset + width * height - 1`, row by row, row stride `width`.
+ */
+typedef struct refl_hiz_level_info {
+    /**
+     * Index (in `refl_vec2` texels) of the level's first texel.
+     */
+    size_t offset;
+    /**
+     * Width in texels: `max(1, image_width >> level)`.
+     */
+    uint32_t width;
+    /**
+     * Height in texels: `max(1, image_height >> level)`.
+     */
+    uint32_t height;
+} refl_hiz_level_info;
+
+/**
+ * Settings of the Hi-Z traversal. `refl_hiz_default_options` gives the
+ * defaults: start level 2, stop level 0, 1024 iterations, 4 prologue steps.
+ * Every setting returns the same first hit; they trade iterations for
+ * fetches.
+ */
+typedef struct refl_hiz_options {
+    /**
+     * Level the hierarchical walk starts at after the prologue; clamped to
+     * the last level and raised to `stop_level` if below it.
+     */
+    uint32_t start_level;
+    /**
+     * Finest level of the hierarchical walk: 0 resolves hits in the
+     * hierarchy; L > 0 resolves a level-L cell by unit steps through its
+     * pixels (still exact). Clamped to the last level.
+     */
+    uint32_t stop_level;
+    /**
+     * Cap on hierarchical loop iterations; reaching it gives
+     * `REFL_MISS_OUT_OF_STEPS`.
+     */
+    uint32_t max_iterations;
+    /**
+     * One-pixel steps before the hierarchy; `UINT32_MAX` gives plain
+     * per-pixel stepping.
+     */
+    uint32_t prologue_steps;
+} refl_hiz_options;
+
+/**
+ * A read-only image of `float` texels (e.g. a depth buffer).
+ */
+typedef struct refl_image_f32 {
+    /**
+     * Texel (0, 0); texel (x, y) is `data[y * stride + x]`.
+     */
+    const float *data;
+    /**
+     * Number of texels readable from `data` on (the buffer length).
+     */
+    size_t len;
+    /**
+     * Width in texels, > 0.
+     */
+    uint32_t width;
+    /**
+     * Height in texels, > 0.
+     */
+    uint32_t height;
+    /**
+     * Row stride in texels, >= `width`.
+     */
+    uint32_t stride;
+} refl_image_f32;
+
+/**
+ * A depth image with the camera that rendered it and its convention.
+ */
+typedef struct refl_depth_image {
+    /**
+     * The stored depths; width and height must equal the camera's. Texel
+     * (x, y) holds the depth seen through pixel center (x + 0.5, y + 0.5).
+     * A NaN texel, or one at or beyond the far plane, holds no surface.
+     */
+    struct refl_image_f32 depth;
+    /**
+     * The camera that rendered the image (validated on every call).
+     */
+    struct refl_camera camera;
+    /**
+     * Convention of the stored depths, a `refl_depth_convention`.
+     */
+    uint32_t convention;
+} refl_depth_image;
+
+/**
+ * The result of tracing one ray against a depth image.
+ */
+typedef struct refl_trace_result {
+    /**
+     * `REFL_MISS_NONE` (0) for a hit, otherwise the `refl_miss` reason.
+     */
+    uint32_t miss;
+    /**
+     * Sub-pixel position of the hit in the depth image (pixels, origin
+     * top-left); the texel hit is (floor(x), floor(y)). 0 on a miss.
+     */
+    struct refl_vec2 pixel;
+    /**
+     * Ray parameter of the hit (world distance from the origin); the point
+     * origin + t * dir projects to `pixel` up to rounding. 0 on a miss.
+     */
+    float t;
+    /**
+     * Linear depth of the hit point on the ray. 0 on a miss.
+     */
+    float depth;
+    /**
+     * Linear depth stored in the image at the texel hit. 0 on a miss.
+     */
+    float surface_depth;
+    /**
+     * Pixel (or cell) steps along the projected ray, hit or miss.
+     */
+    uint32_t steps;
+    /**
+     * Depth texels read (back-face and pyramid texels included).
+     */
+    uint32_t fetches;
+    /**
+     * Loop iterations of a hierarchical traversal (0 for stepping).
+     */
+    uint32_t iterations;
+} refl_trace_result;
+
+/**
+ * A built Hi-Z pyramid with the camera of its depth image.
+ */
+typedef struct refl_hiz {
+    /**
+     * The pyramid built by `refl_hiz_build` (texel `x` = closest, `y` =
+     * farthest linear depth).
+     */
+    const struct refl_vec2 *data;
+    /**
+     * Number of texels readable from `data`, at least `refl_hiz_len`'s.
+     */
+    size_t len;
+    /**
+     * The camera of the depth image the pyramid was built from (validated
+     * on every call); its size is the pyramid's level-0 size.
+     */
+    struct refl_camera camera;
+    /**
+     * Convention of the depth image, a `refl_depth_convention`; used to
+     * decode back-face images.
+     */
+    uint32_t convention;
+} refl_hiz;
+
+/**
+ * How far behind the front-most surface a ray may pass and still hit it.
+ */
+typedef struct refl_thickness {
+    /**
+     * Thickness of every surface in linear depth (world units along the
+     * view axis), >= 0, may be +infinity (everything behind a surface is
+     * solid). Used when `back_faces.data` is NULL, ignored otherwise.
+     */
+    float constant;
+    /**
+     * A back-face depth image (same size, camera and convention as the
+     * front image): the ray hits where its depth lies between the two. Set
+     * `data` to NULL to use `constant` instead (the other fields are then
+     * ignored).
+     */
+    struct refl_image_f32 back_faces;
+} refl_thickness;
+
+/**
  * A half-open range of image rows `[begin, end)`.
  */
 typedef struct refl_row_range {
@@ -425,32 +604,6 @@ typedef struct refl_image_f32_mut {
      */
     uint32_t stride;
 } refl_image_f32_mut;
-
-/**
- * A read-only image of `float` texels (e.g. a depth buffer).
- */
-typedef struct refl_image_f32 {
-    /**
-     * Texel (0, 0); texel (x, y) is `data[y * stride + x]`.
-     */
-    const float *data;
-    /**
-     * Number of texels readable from `data` on (the buffer length).
-     */
-    size_t len;
-    /**
-     * Width in texels, > 0.
-     */
-    uint32_t width;
-    /**
-     * Height in texels, > 0.
-     */
-    uint32_t height;
-    /**
-     * Row stride in texels, >= `width`.
-     */
-    uint32_t stride;
-} refl_image_f32;
 
 /**
  * Element counts of the three buffers of a layered depth cube map.
@@ -725,85 +878,6 @@ typedef struct refl_plane {
      */
     float d;
 } refl_plane;
-
-/**
- * The result of tracing one ray against a depth image.
- */
-typedef struct refl_trace_result {
-    /**
-     * `REFL_MISS_NONE` (0) for a hit, otherwise the `refl_miss` reason.
-     */
-    uint32_t miss;
-    /**
-     * Sub-pixel position of the hit in the depth image (pixels, origin
-     * top-left); the texel hit is (floor(x), floor(y)). 0 on a miss.
-     */
-    struct refl_vec2 pixel;
-    /**
-     * Ray parameter of the hit (world distance from the origin); the point
-     * origin + t * dir projects to `pixel` up to rounding. 0 on a miss.
-     */
-    float t;
-    /**
-     * Linear depth of the hit point on the ray. 0 on a miss.
-     */
-    float depth;
-    /**
-     * Linear depth stored in the image at the texel hit. 0 on a miss.
-     */
-    float surface_depth;
-    /**
-     * Pixel (or cell) steps along the projected ray, hit or miss.
-     */
-    uint32_t steps;
-    /**
-     * Depth texels read (back-face and pyramid texels included).
-     */
-    uint32_t fetches;
-    /**
-     * Loop iterations of a hierarchical traversal (0 for stepping).
-     */
-    uint32_t iterations;
-} refl_trace_result;
-
-/**
- * A depth image with the camera that rendered it and its convention.
- */
-typedef struct refl_depth_image {
-    /**
-     * The stored depths; width and height must equal the camera's. Texel
-     * (x, y) holds the depth seen through pixel center (x + 0.5, y + 0.5).
-     * A NaN texel, or one at or beyond the far plane, holds no surface.
-     */
-    struct refl_image_f32 depth;
-    /**
-     * The camera that rendered the image (validated on every call).
-     */
-    struct refl_camera camera;
-    /**
-     * Convention of the stored depths, a `refl_depth_convention`.
-     */
-    uint32_t convention;
-} refl_depth_image;
-
-/**
- * How far behind the front-most surface a ray may pass and still hit it.
- */
-typedef struct refl_thickness {
-    /**
-     * Thickness of every surface in linear depth (world units along the
-     * view axis), >= 0, may be +infinity (everything behind a surface is
-     * solid). Used when `back_faces.data` is NULL, ignored otherwise.
-     */
-    float constant;
-    /**
-     * A back-face depth image (same size, camera and convention as the
-     * front image): the ray hits where its depth lies between the two. Set
-     * `data` to NULL to use `constant` instead (the other fields are then
-     * ignored).
-     */
-    struct refl_image_f32 back_faces;
-} refl_thickness;
 
 /**
  * Options of the per-pixel stepping kernel (`refl_step_ray`). The
@@ -1409,6 +1483,163 @@ refl_status refl_apply_reprojection(struct refl_projection *out,
                                     const struct refl_mat4 *matrix,
                                     struct refl_vec2 pixel,
                                     float depth);
+
+/**
+ * Size query: the number of `refl_vec2` texels of the Hi-Z pyramid of a
+ * `width x height` image (all levels) into `*out_len`, and its level count
+ * (the last level is 1 x 1) into `*out_levels`.
+ *
+ * Returns `REFL_STATUS_NULL_POINTER` if an output is NULL,
+ * `REFL_STATUS_INVALID_ARGUMENT` for a zero size or a count that does not
+ * fit in `size_t`.
+ *
+ * # Safety
+ * `out_len` and `out_levels` must be NULL or writable.
+ */
+refl_status refl_hiz_len(size_t *out_len, uint32_t *out_levels, uint32_t width, uint32_t height);
+
+/**
+ * Layout query: where level `level` of the pyramid of a `width x height`
+ * image lives in the buffer.
+ *
+ * Returns `REFL_STATUS_NULL_POINTER` if `out` is NULL,
+ * `REFL_STATUS_INVALID_ARGUMENT` for a zero or overflowing size or a
+ * `level` not below the level count.
+ *
+ * # Safety
+ * `out` must be NULL or writable.
+ */
+refl_status refl_hiz_level(struct refl_hiz_level_info *out,
+                           uint32_t width,
+                           uint32_t height,
+                           uint32_t level);
+
+/**
+ * The default traversal options into `*out`.
+ *
+ * Returns `REFL_STATUS_NULL_POINTER` if `out` is NULL.
+ *
+ * # Safety
+ * `out` must be NULL or writable.
+ */
+refl_status refl_hiz_default_options(struct refl_hiz_options *out);
+
+/**
+ * Builds the whole Hi-Z pyramid of `*image` into `dst` (seed 004
+ * Sec. 4.4.1): level 0 is the image's linear depth (NaN, or a depth that
+ * decodes to <= 0, is "no surface" and stored as NaN), each coarser texel
+ * the min (`x`) and max (`y`) of the 2x2 texels below, the last column and
+ * row also folding an odd leftover column/row, so every texel bounds all
+ * texels under it. NaN is ignored by min/max.
+ *
+ * Returns `REFL_STATUS_NULL_POINTER` if `dst`, `image` or
+ * `image->depth.data` is NULL; `REFL_STATUS_INSUFFICIENT_SIZE` if
+ * `dst_len` is below `refl_hiz_len`'s count or the image's `len` is too
+ * small; `REFL_STATUS_INVALID_ARGUMENT` for an unknown convention, a
+ * misaligned pointer, a bad image size or stride, an image whose size
+ * differs from the camera's, or `dst` overlapping the depth image; the
+ * camera's status if it is invalid. Nothing is written on error.
+ *
+ * # Safety
+ * `dst` must be NULL or writable for `dst_len` texels; `image` NULL or
+ * readable, its `depth.data` readable for `depth.len` floats and not
+ * written during the call.
+ */
+refl_status refl_hiz_build(struct refl_vec2 *dst,
+                           size_t dst_len,
+                           const struct refl_depth_image *image);
+
+/**
+ * Builds rows `[row_start, row_end)` of level `level` of the pyramid in
+ * `dst`, for hosts that split the build across threads: build level 0
+ * (from `*image`) completely, then level 1 (from level 0 in `dst`), and so
+ * on; the row bands of one level may run concurrently on different
+ * threads. Only the rows written and, for `level > 0`, level `level - 1`
+ * (read) are touched. The result equals `refl_hiz_build`'s.
+ *
+ * Returns as `refl_hiz_build`, plus `REFL_STATUS_INVALID_ARGUMENT` if
+ * `level` is not below the level count or the rows are empty, reversed or
+ * beyond the level's height.
+ *
+ * # Safety
+ * As `refl_hiz_build`; in addition no other thread may write the rows
+ * this call writes or the level it reads during the call.
+ */
+refl_status refl_hiz_build_rows(struct refl_vec2 *dst,
+                                size_t dst_len,
+                                const struct refl_depth_image *image,
+                                uint32_t level,
+                                uint32_t row_start,
+                                uint32_t row_end);
+
+/**
+ * Traces one ray against a Hi-Z pyramid (seed 004 Sec. 4.4.3 with the
+ * extensions of Sec. 4.6.6 travel behind surfaces, 4.6.7 rays toward the
+ * camera and 4.7.1 a linear prologue; `refl_core::hiz` documents the
+ * algorithm): the ray `ray.origin + t * ray.dir`, `t` in `[0, t_max]`, is
+ * clipped to the camera's frustum and walked in screen space over the
+ * pyramid; a texel is hit where the ray's linear depth lies between its
+ * front depth and front + thickness (or its back-face depth). The first
+ * hit agrees with `refl_step_ray` (per-pixel stepping) within a pixel.
+ * Writes the hit or the miss reason to `*out`.
+ *
+ * `ray.dir` must be unit length (within 1e-3); `t_max` > 0, +infinity
+ * allowed.
+ *
+ * Returns `REFL_STATUS_NULL_POINTER` if `out`, `hiz`, `hiz->data`,
+ * `thickness` or `options` is NULL; `REFL_STATUS_INVALID_ARGUMENT` for a
+ * non-finite or non-unit ray, a NaN or non-positive `t_max`, an unknown
+ * convention, a misaligned pointer, a NaN or negative constant thickness,
+ * or a back-face image whose size differs from the camera's;
+ * `REFL_STATUS_INSUFFICIENT_SIZE` if `hiz->len` is below `refl_hiz_len`'s
+ * count for the camera's size or a back-face image's `len` is too small;
+ * the camera's status if it is invalid.
+ *
+ * # Safety
+ * `out` must be NULL or writable; `hiz`, `thickness` and `options` NULL
+ * or readable; `hiz->data` readable for `hiz->len` texels and the
+ * back-face image's `data` for its `len` floats, not written during the
+ * call.
+ */
+refl_status refl_hiz_trace_ray(struct refl_trace_result *out,
+                               const struct refl_hiz *hiz,
+                               const struct refl_thickness *thickness,
+                               struct refl_ray ray,
+                               float t_max,
+                               const struct refl_hiz_options *options);
+
+/**
+ * Traces `ray_count` rays as `refl_hiz_trace_ray` would, writing result
+ * `i` to `out[i]`. `t_max` holds one value for every ray
+ * (`t_max_count == 1`) or one per ray (`t_max_count >= ray_count`).
+ *
+ * Every input is validated before anything is written: on any error `out`
+ * is untouched. Elements of `out` past `ray_count` are never written.
+ * Rays are independent: split a batch into chunks and call this from
+ * several threads.
+ *
+ * Returns `REFL_STATUS_NULL_POINTER` if `out`, `rays`, `t_max`, `hiz`,
+ * `hiz->data`, `thickness` or `options` is NULL;
+ * `REFL_STATUS_INSUFFICIENT_SIZE` if `out_len < ray_count` or
+ * `t_max_count` is neither 1 nor at least `ray_count`;
+ * `REFL_STATUS_INVALID_ARGUMENT` if `t_max_count` is 0, or for any ray,
+ * `t_max`, pyramid, thickness or option rejected as by
+ * `refl_hiz_trace_ray`.
+ *
+ * # Safety
+ * `out` must be NULL or writable for `out_len` results; `rays` NULL or
+ * readable for `ray_count` rays; `t_max` NULL or readable for
+ * `t_max_count` floats; the rest as `refl_hiz_trace_ray`.
+ */
+refl_status refl_hiz_trace_rays(struct refl_trace_result *out,
+                                size_t out_len,
+                                const struct refl_ray *rays,
+                                size_t ray_count,
+                                const float *t_max,
+                                size_t t_max_count,
+                                const struct refl_hiz *hiz,
+                                const struct refl_thickness *thickness,
+                                const struct refl_hiz_options *options);
 
 /**
  * Writes to `*out` the `index`-th of `count` contiguous, near-equal bands

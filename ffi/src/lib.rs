@@ -32,6 +32,7 @@
 #![warn(clippy::undocumented_unsafe_blocks)]
 
 mod camera;
+mod hiz;
 mod image;
 mod layered;
 mod mirror;
@@ -41,6 +42,7 @@ mod trace;
 mod types;
 
 pub use camera::*;
+pub use hiz::*;
 pub use image::*;
 pub use layered::*;
 pub use mirror::*;
