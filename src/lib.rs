@@ -8,6 +8,7 @@
 
 pub mod export;
 pub mod gbuffer;
+pub mod growth;
 pub mod layered;
 pub mod layered_render;
 pub mod raster;

@@ -53,6 +53,10 @@ pub struct Options {
     /// 30000), for cost-growth curves.
     #[arg(long)]
     pub tris: Option<usize>,
+    /// Cost growth: the room at these triangle counts (comma-separated;
+    /// default run: 10000,100000,1000000, `--quick`: none); `0` skips it.
+    #[arg(long, value_delimiter = ',')]
+    pub growth: Vec<usize>,
     /// Reflective materials for an OBJ scene: `NAME:SPECULAR:ROUGHNESS`,
     /// matching object names containing NAME (repeatable).
     #[arg(long)]
@@ -69,6 +73,7 @@ impl Default for Options {
             out: PathBuf::from("report"),
             threads: None,
             tris: None,
+            growth: Vec::new(),
             reflective: Vec::new(),
         }
     }
@@ -917,6 +922,30 @@ pub fn run(opts: &Options) -> Result<PathBuf, String> {
     }
     bar.finish_and_clear();
 
+    let growth_sizes: Vec<usize> = if opts.growth.is_empty() {
+        if opts.quick || !scenes.iter().any(|s| s == "room") {
+            Vec::new()
+        } else {
+            vec![10_000, 100_000, 1_000_000]
+        }
+    } else {
+        opts.growth.iter().copied().filter(|&n| n > 0).collect()
+    };
+    let growth_md = if growth_sizes.is_empty() {
+        String::new()
+    } else {
+        bar.set_message("cost growth");
+        let rows =
+            crate::growth::measure(&growth_sizes, sizes.width, sizes.height, sizes.runs, &pool)?;
+        let path = out.join("growth.csv");
+        crate::growth::write_csv(&path, &rows).map_err(|e| format!("{}: {e}", path.display()))?;
+        format!(
+            "\n## Cost growth (room, camera pose 0, {threads} thread(s), reversed-Z)\n\nTimes per frame for all \
+             reflection rays; the screen-space kernels exclude producing the depth buffer, `build+obvhs` is what a \
+             dynamic scene pays per frame with a BVH. Also in `growth.csv`.\n\n{}",
+            crate::growth::markdown(&rows)
+        )
+    };
     let csv = out.join("summary.csv");
     report_out::write_csv(&csv, &rows).map_err(|e| format!("{}: {e}", csv.display()))?;
     let plot = out.join("error_vs_time.png");
@@ -927,7 +956,7 @@ pub fn run(opts: &Options) -> Result<PathBuf, String> {
          pixels in the same run, same threads. Error is measured against the ground truth (the reference at {} \
          glossy samples per pixel) on the pixels each method handles, pooled over frames: mean absolute difference \
          on 0..255 of 8-bit sRGB composites, PSNR, share of pixels over 8/255. Images: the first frame.\n\n\
-         ## Scenes\n\n{notes}\n## Summary\n\n{}\n![error vs time](error_vs_time.png)\n",
+         ## Scenes\n\n{notes}\n## Summary\n\n{}\n![error vs time](error_vs_time.png)\n{growth_md}",
         if opts.quick { "Quick" } else { "Default" },
         sizes.frames,
         sizes.runs,
