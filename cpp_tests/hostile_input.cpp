@@ -771,8 +771,21 @@ void layered_functions() {
     CHECK(map_untouched());
 
     // A real map: a sphere-like column per texel of the -X face.
+    // Every texel of the -X face gets the column [0.5, 1.5]: texel k's hits
+    // are all_hits[2k .. 2k + 2).
     CHECK_STATUS(refl_layered_clear(&mm), REFL_STATUS_OK);
-    CHECK_STATUS(refl_layered_fill_face(nullptr, &mm, 1, good_hits, 2, offsets.data(), 17), REFL_STATUS_OK);
+    std::vector<refl_layer_hit> all_hits;
+    std::vector<size_t> all_offsets(17, 0);
+    for (size_t k = 0; k < 16; ++k) {
+        all_hits.push_back(good_hits[0]);
+        all_hits.push_back(good_hits[1]);
+        all_offsets[k + 1] = all_hits.size();
+    }
+    uint32_t approximate = 7;
+    CHECK_STATUS(
+        refl_layered_fill_face(&approximate, &mm, 1, all_hits.data(), all_hits.size(), all_offsets.data(), 17),
+        REFL_STATUS_OK);
+    CHECK_EQ(approximate, 0u);  // one interval per column fits the layers
     const refl_column_fill f = expect_ok<refl_column_fill>(
         "fill_column", [&](refl_column_fill* o) { return refl_layered_fill_column(o, &mm, 3, 1, 1, good_hits, 2); });
     CHECK(f.intervals == 1 && f.stored == 1);
