@@ -38,8 +38,8 @@ pub struct Options {
     /// file (repeatable; default: the three built-in scenes).
     #[arg(long)]
     pub scene: Vec<String>,
-    /// Methods: `reference`, `envmap`, `planar-mirror` (repeatable; default:
-    /// all).
+    /// Methods: `reference`, `envmap`, `planar-mirror`, `step`, `hiz`,
+    /// `layered` (repeatable; default: all).
     #[arg(long)]
     pub method: Vec<String>,
     /// Output folder.
