@@ -86,7 +86,7 @@ pub fn measure(
             let mut ms = Vec::new();
             let mut traces = Vec::new();
             for _ in 0..runs.max(1) {
-                let t = screen::run(m, &image, thickness, &rays.screen_ray, pool)
+                let t = screen::run(m, true, &image, thickness, &rays.screen_ray, pool)
                     .map_err(|e| e.to_string())?;
                 ms.push(t.ms);
                 traces = t.value;

@@ -193,7 +193,7 @@ impl FrameNeeds {
 #[derive(Clone, Copy, Debug)]
 enum Setting {
     Image(Method),
-    Screen(ScreenMethod, DepthConvention),
+    Screen(ScreenMethod, DepthConvention, bool),
     /// Layered depth cube maps of the reflected objects: face resolution,
     /// layers.
     Layered(u32, u32),
@@ -221,14 +221,18 @@ fn screen_settings(name: &str, sizes: &Sizes) -> Option<Vec<(Setting, String)>> 
                     format!(";max_steps={max_steps}")
                 };
                 out.push((
-                    Setting::Screen(ScreenMethod::Step(opts), rz),
+                    Setting::Screen(ScreenMethod::Step(opts), rz, true),
                     format!("stride={stride}{cap}"),
                 ));
             }
+            out.push((
+                Setting::Screen(ScreenMethod::Step(StepOptions::default()), rz, false),
+                "stride=1;refine=off".into(),
+            ));
             if !sizes.quick {
                 for c in [DepthConvention::Linear, DepthConvention::ZeroToOne] {
                     out.push((
-                        Setting::Screen(ScreenMethod::Step(StepOptions::default()), c),
+                        Setting::Screen(ScreenMethod::Step(StepOptions::default()), c, true),
                         format!("stride=1;depth={}", conv_name(c)),
                     ));
                 }
@@ -261,17 +265,24 @@ fn screen_settings(name: &str, sizes: &Sizes) -> Option<Vec<(Setting, String)>> 
             ];
             for o in variants {
                 out.push((
-                    Setting::Screen(ScreenMethod::HiZ(o), rz),
+                    Setting::Screen(ScreenMethod::HiZ(o), rz, true),
                     format!(
                         "start={};stop={};prologue={};max_iter={}",
                         o.start_level, o.stop_level, o.prologue_steps, o.max_iterations
                     ),
                 ));
             }
+            out.push((
+                Setting::Screen(ScreenMethod::HiZ(base), rz, false),
+                format!(
+                    "start={};stop={};prologue={};max_iter={};refine=off",
+                    base.start_level, base.stop_level, base.prologue_steps, base.max_iterations
+                ),
+            ));
             if !sizes.quick {
                 for c in [DepthConvention::Linear, DepthConvention::ZeroToOne] {
                     out.push((
-                        Setting::Screen(ScreenMethod::HiZ(base), c),
+                        Setting::Screen(ScreenMethod::HiZ(base), c, true),
                         format!(
                             "start={};stop={};prologue={};max_iter={};depth={}",
                             base.start_level,
@@ -768,7 +779,7 @@ pub fn run(opts: &Options) -> Result<PathBuf, String> {
                                     .map_err(|e| e.to_string())?;
                             (img, ms, None)
                         }
-                        Setting::Screen(kernel, conv) => {
+                        Setting::Screen(kernel, conv, refine) => {
                             let sf = screen_frame.get_or_insert_with(|| {
                                 screen::ScreenFrame::new(
                                     &scene, &tracer, &shader, g, &pool, &pool_1t, sizes.runs,
@@ -782,11 +793,25 @@ pub fn run(opts: &Options) -> Result<PathBuf, String> {
                             let image = depth.image().map_err(|e| e.to_string())?;
                             let rays = &sf.rays;
                             let (traces, ms) = median_run(sizes.runs, || {
-                                screen::run(kernel, &image, thickness, &rays.screen_ray, &pool)
+                                screen::run(
+                                    kernel,
+                                    refine,
+                                    &image,
+                                    thickness,
+                                    &rays.screen_ray,
+                                    &pool,
+                                )
                             })
                             .map_err(|e| e.to_string())?;
                             let (_, ms_1t) = median_run(sizes.runs, || {
-                                screen::run(kernel, &image, thickness, &rays.screen_ray, &pool_1t)
+                                screen::run(
+                                    kernel,
+                                    refine,
+                                    &image,
+                                    thickness,
+                                    &rays.screen_ray,
+                                    &pool_1t,
+                                )
                             })
                             .map_err(|e| e.to_string())?;
                             let stats = screen::evaluate(rays, &traces);

@@ -467,12 +467,15 @@ pub fn build_hiz(
 
 /// Runs `method` on every ray of `rays` against `depth` on `pool`, timed
 /// (Hi-Z: pyramid build included; the pyramid buffer is allocated outside
-/// the timed part, as an engine keeps it across frames).
+/// the timed part, as an engine keeps it across frames). With `refine`,
+/// every hit goes through [`refl_core::trace::refine_hit`] (inside the
+/// timed part).
 ///
 /// # Errors
 /// A refl-core error (a bad ray or setting).
 pub fn run(
     method: ScreenMethod,
+    refine: bool,
     depth: &DepthImage<'_>,
     thickness: refl_core::Thickness<'_>,
     rays: &[Ray],
@@ -518,7 +521,21 @@ pub fn run(
                         })
                 })
             }
+        }?;
+        if refine {
+            pool.install(|| {
+                out.par_chunks_mut(CHUNK)
+                    .zip(rays.par_chunks(CHUNK))
+                    .for_each(|(o, r)| {
+                        for (t, ray) in o.iter_mut().zip(r) {
+                            if let Trace::Hit(h) = t {
+                                *h = refl_core::trace::refine_hit(depth, ray, f32::INFINITY, h);
+                            }
+                        }
+                    })
+            });
         }
+        Ok(())
     });
     t.value?;
     Ok(crate::render::Timed {

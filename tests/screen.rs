@@ -39,7 +39,7 @@ fn traces(
     pool: &rayon::ThreadPool,
 ) -> Vec<Trace> {
     let image = depth.image().expect("image");
-    screen::run(m, &image, Thickness::Constant(thickness), rays, pool)
+    screen::run(m, true, &image, Thickness::Constant(thickness), rays, pool)
         .expect("run")
         .value
 }
