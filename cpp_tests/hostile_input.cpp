@@ -870,6 +870,76 @@ void layered_functions() {
 }
 
 // Per-pixel stepping: refl_step_ray (one ray) and refl_step_rays (a batch).
+void refine_functions() {
+    const refl_camera g = good_camera();
+    const uint32_t w = g.width, h = g.height;
+    const size_t n = size_t(w) * h;
+    std::vector<float> depth(n, 0.5f);
+    const refl_depth_image img{{depth.data(), n, w, h, w}, g, REFL_DEPTH_CONVENTION_ZERO_TO_ONE};
+    const refl_image_f32 none{nullptr, 0, 0, 0, 0};
+    const refl_thickness th{0.5f, none};
+    const refl_step_options opts{1, 1000};
+    const float dx = -1.0f, dy = -1.5f, dz = -5.0f;
+    const float inv = 1.0f / std::sqrt(dx * dx + dy * dy + dz * dz);
+    const refl_ray ray{v3(1, 2, 5), v3(dx * inv, dy * inv, dz * inv)};
+    const refl_trace_result hit = expect_ok<refl_trace_result>(
+        "refine: step_ray", [&](refl_trace_result* o) { return refl_step_ray(o, &img, &th, ray, kInf, &opts); });
+    CHECK_EQ(hit.miss, uint32_t(REFL_MISS_NONE));
+    // A flat depth image: the refined hit stays on the ray, in the image.
+    const refl_trace_result r = expect_ok<refl_trace_result>(
+        "refine_hit", [&](refl_trace_result* o) { return refl_refine_hit(o, &img, ray, kInf, &hit); });
+    CHECK_EQ(r.miss, uint32_t(REFL_MISS_NONE));
+    CHECK(r.pixel.x >= 0.0f && r.pixel.x < float(w) && r.pixel.y >= 0.0f && r.pixel.y < float(h));
+    CHECK(r.fetches >= hit.fetches);
+    // A miss passes through unchanged.
+    refl_trace_result miss = hit;
+    miss.miss = REFL_MISS_LEFT_IMAGE;
+    const refl_trace_result m = expect_ok<refl_trace_result>(
+        "refine miss", [&](refl_trace_result* o) { return refl_refine_hit(o, &img, ray, kInf, &miss); });
+    CHECK(std::memcmp(&m, &miss, sizeof m) == 0);
+    auto one = [&](const char* what, refl_status want, const refl_depth_image* i, refl_ray rr, float t_max,
+                   const refl_trace_result* in) {
+        expect<refl_trace_result>(what, want,
+                                  [=](refl_trace_result* o) { return refl_refine_hit(o, i, rr, t_max, in); });
+    };
+    one("refine NULL image", REFL_STATUS_NULL_POINTER, nullptr, ray, kInf, &hit);
+    one("refine NULL hit", REFL_STATUS_NULL_POINTER, &img, ray, kInf, nullptr);
+    refl_depth_image bad = img;
+    bad.depth.data = nullptr;
+    one("refine NULL depth data", REFL_STATUS_NULL_POINTER, &bad, ray, kInf, &hit);
+    for (uint32_t c : kBadConventions) {
+        bad = img;
+        bad.convention = c;
+        one("refine convention", REFL_STATUS_INVALID_ARGUMENT, &bad, ray, kInf, &hit);
+    }
+    for (const BadCamera& b : bad_cameras()) {
+        bad = img;
+        bad.camera = b.cam;
+        one(b.name, b.status, &bad, ray, kInf, &hit);
+    }
+    bad = img;
+    bad.depth.len = n - 1;
+    one("refine depth short", REFL_STATUS_INSUFFICIENT_SIZE, &bad, ray, kInf, &hit);
+    for (const refl_vec3& v : kBadVec3) {
+        one("refine origin", REFL_STATUS_INVALID_ARGUMENT, &img, refl_ray{v, ray.dir}, kInf, &hit);
+        one("refine dir", REFL_STATUS_INVALID_ARGUMENT, &img, refl_ray{ray.origin, v}, kInf, &hit);
+    }
+    for (float t : {kNaN, 0.0f, -1.0f, -kInf}) one("refine t_max", REFL_STATUS_INVALID_ARGUMENT, &img, ray, t, &hit);
+    for (uint32_t bad_miss : {6u, 1000u, kMax}) {
+        refl_trace_result b = hit;
+        b.miss = bad_miss;
+        one("refine miss value", REFL_STATUS_INVALID_ARGUMENT, &img, ray, kInf, &b);
+    }
+    for (float f : {kNaN, kInf, -kInf}) {
+        refl_trace_result b = hit;
+        b.t = f;
+        one("refine hit t", REFL_STATUS_INVALID_ARGUMENT, &img, ray, kInf, &b);
+        b = hit;
+        b.pixel.x = f;
+        one("refine hit pixel", REFL_STATUS_INVALID_ARGUMENT, &img, ray, kInf, &b);
+    }
+}
+
 void step_functions() {
     const refl_camera g = good_camera();
     const uint32_t w = g.width, h = g.height;
@@ -1262,6 +1332,7 @@ int main() {
     image_functions();
     step_functions();
     layered_functions();
+    refine_functions();
     hiz_functions();
     return check::finish("hostile_input");
 }

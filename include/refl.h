@@ -2158,6 +2158,34 @@ refl_status refl_step_rays(struct refl_trace_result *out,
                            const struct refl_thickness *thickness,
                            const struct refl_step_options *options);
 
+/**
+ * Refines a hit of `refl_step_ray` / `refl_hiz_trace_ray` to sub-texel
+ * accuracy (`refl_core::trace::refine_hit`): the ray is intersected with
+ * the plane through the hit texel's center point and its coplanar (or
+ * continuous) neighbors, never across a silhouette; where that plane is
+ * met outside the 3x3 texels around the texel, the fit moves there (up to
+ * 4 fits). On a surface seen at a grazing angle this moves the hit from
+ * the first texel plate the ray meets to the surface itself. The refined
+ * `pixel`, `t` and `depth` replace the hit's if the point lies on the ray
+ * within `[0, t_max]`; otherwise, and for a miss (`hit->miss != 0`),
+ * `*out` is `*hit`. `fetches` counts the extra texels read.
+ *
+ * Returns `REFL_STATUS_NULL_POINTER` if `out`, `image`,
+ * `image->depth.data` or `hit` is NULL; `REFL_STATUS_INVALID_ARGUMENT` for
+ * a non-finite or non-unit ray, a NaN or non-positive `t_max`, a hit with
+ * an unknown miss value or non-finite fields, or an invalid image (as
+ * `refl_step_ray`); `REFL_STATUS_INSUFFICIENT_SIZE` for a short image.
+ *
+ * # Safety
+ * `out` NULL or writable; `image` and `hit` NULL or readable; the image's
+ * `data` readable for `len` floats and not written during the call.
+ */
+refl_status refl_refine_hit(struct refl_trace_result *out,
+                            const struct refl_depth_image *image,
+                            struct refl_ray ray,
+                            float t_max,
+                            const struct refl_trace_result *hit);
+
 #ifdef __cplusplus
 }  // extern "C"
 #endif  // __cplusplus

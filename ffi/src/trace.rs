@@ -340,3 +340,75 @@ pub unsafe extern "C" fn refl_step_rays(
         Ok(())
     })
 }
+
+/// Refines a hit of `refl_step_ray` / `refl_hiz_trace_ray` to sub-texel
+/// accuracy (`refl_core::trace::refine_hit`): the ray is intersected with
+/// the plane through the hit texel's center point and its coplanar (or
+/// continuous) neighbors, never across a silhouette; where that plane is
+/// met outside the 3x3 texels around the texel, the fit moves there (up to
+/// 4 fits). On a surface seen at a grazing angle this moves the hit from
+/// the first texel plate the ray meets to the surface itself. The refined
+/// `pixel`, `t` and `depth` replace the hit's if the point lies on the ray
+/// within `[0, t_max]`; otherwise, and for a miss (`hit->miss != 0`),
+/// `*out` is `*hit`. `fetches` counts the extra texels read.
+///
+/// Returns `REFL_STATUS_NULL_POINTER` if `out`, `image`,
+/// `image->depth.data` or `hit` is NULL; `REFL_STATUS_INVALID_ARGUMENT` for
+/// a non-finite or non-unit ray, a NaN or non-positive `t_max`, a hit with
+/// an unknown miss value or non-finite fields, or an invalid image (as
+/// `refl_step_ray`); `REFL_STATUS_INSUFFICIENT_SIZE` for a short image.
+///
+/// # Safety
+/// `out` NULL or writable; `image` and `hit` NULL or readable; the image's
+/// `data` readable for `len` floats and not written during the call.
+#[no_mangle]
+pub unsafe extern "C" fn refl_refine_hit(
+    out: *mut refl_trace_result,
+    image: *const refl_depth_image,
+    ray: refl_ray,
+    t_max: f32,
+    hit: *const refl_trace_result,
+) -> refl_status {
+    guard(|| {
+        let out = Out::new(out)?;
+        // SAFETY: caller contract.
+        let (img_c, h) = unsafe { (read(image)?, read(hit)?) };
+        // SAFETY: caller contract.
+        let img = unsafe { depth_image(&img_c) }?;
+        let ray = Ray {
+            origin: ray.origin.into(),
+            dir: ray.dir.into(),
+        };
+        refl_core::trace::validate_ray(&ray, t_max)?;
+        if h.miss > refl_miss::DegenerateProjection as u32
+            || !(h.pixel.x.is_finite()
+                && h.pixel.y.is_finite()
+                && h.t.is_finite()
+                && h.depth.is_finite()
+                && h.surface_depth.is_finite())
+        {
+            return Err(Error::InvalidArgument);
+        }
+        let result = if h.miss == refl_miss::None as u32 {
+            let core_hit = refl_core::DepthHit {
+                pixel: refl_core::glam::Vec2::new(h.pixel.x, h.pixel.y),
+                t: h.t,
+                depth: h.depth,
+                surface_depth: h.surface_depth,
+                work: refl_core::Work {
+                    steps: h.steps,
+                    fetches: h.fetches,
+                    iterations: h.iterations,
+                },
+            };
+            refl_trace_result::from(refl_core::Trace::Hit(refl_core::trace::refine_hit(
+                &img, &ray, t_max, &core_hit,
+            )))
+        } else {
+            h
+        };
+        // SAFETY: caller contract.
+        unsafe { out.write(result) };
+        Ok(())
+    })
+}

@@ -420,3 +420,70 @@ fn step_rays_matches_step_ray_and_writes_only_on_success() {
     assert_eq!(s, refl_status::NullPointer);
     assert!(out.iter().all(|o| *o == sentinel));
 }
+
+/// `refl_refine_hit` equals `refl_core::trace::refine_hit` on every hit
+/// of the ray set, passes misses through, and leaves `out` untouched on
+/// error.
+#[test]
+fn refine_hit_matches_core() {
+    let cam = camera();
+    for conv in DepthConvention::ALL {
+        let (front, _) = images(&cam, conv);
+        let img_c = depth_image_c(&cam, &front, conv);
+        let view = ImageView::try_new(&front, cam.width(), cam.height(), cam.width()).unwrap();
+        let img = DepthImage::try_new(view, cam, conv).unwrap();
+        let th = refl_thickness {
+            constant: 0.5,
+            back_faces: refl_image_f32 {
+                data: core::ptr::null(),
+                len: 0,
+                width: 0,
+                height: 0,
+                stride: 0,
+            },
+        };
+        let mut refined = 0;
+        for (ray, t_max) in rays(&cam) {
+            let (s, hit) = call_one(&img_c, &th, ray_c(&ray), t_max, &default_options());
+            assert_eq!(s, refl_status::Ok);
+            let mut out = MaybeUninit::<refl_trace_result>::uninit();
+            let s = unsafe { refl_refine_hit(out.as_mut_ptr(), &img_c, ray_c(&ray), t_max, &hit) };
+            assert_eq!(s, refl_status::Ok);
+            let out = unsafe { out.assume_init() };
+            let core = try_step(
+                &img,
+                Thickness::Constant(0.5),
+                ray,
+                t_max,
+                Default::default(),
+            )
+            .unwrap();
+            match core {
+                Trace::Hit(h) => {
+                    let r = refl_core::trace::refine_hit(&img, &ray, t_max, &h);
+                    expect_same(&out, &Trace::Hit(r));
+                    refined += usize::from(r.t != h.t);
+                }
+                Trace::Miss { .. } => assert_eq!(out, hit),
+            }
+        }
+        assert!(refined > 0, "{conv:?}: nothing refined");
+        // Errors leave the output untouched.
+        let sentinel = refl_trace_result {
+            miss: 77,
+            ..Default::default()
+        };
+        let mut out = sentinel;
+        let bad = refl_trace_result {
+            t: f32::NAN,
+            ..Default::default()
+        };
+        let (ray, t_max) = rays(&cam)[0];
+        let s = unsafe { refl_refine_hit(&mut out, &img_c, ray_c(&ray), t_max, &bad) };
+        assert_eq!(s, refl_status::InvalidArgument);
+        assert_eq!(out, sentinel);
+        let s = unsafe { refl_refine_hit(&mut out, core::ptr::null(), ray_c(&ray), t_max, &bad) };
+        assert_eq!(s, refl_status::NullPointer);
+        assert_eq!(out, sentinel);
+    }
+}
