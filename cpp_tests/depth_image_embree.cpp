@@ -27,13 +27,15 @@
 //    Found: a kernel hit within 1 px (Euclidean) of the reference hit's
 //    projection. False hit: a hit on a ray whose reference is not visible.
 //  * Kernels: stepping with stride 1, 4, 16; Hi-Z with its default options
-//    and three variants; constant thickness 0.005 scene diameters; every
-//    convention. Timed on one thread and on all hardware threads (std::thread
+//    and three variants; stride 1 and default Hi-Z again with
+//    refl_refine_hit on every hit; constant thickness 0.005 scene diameters;
+//    every convention. Timed on one thread and on all hardware threads (std::thread
 //    chunks), next to rtcIntersect1 on the same (original) rays.
 //
 // Checks (correctness only, never time): every status OK, no NaN in any
 // result, hit rate on visible rays >= 0.95 for stride 1 and every Hi-Z
-// setting in every convention, Hi-Z agrees with stride-1 stepping (both miss,
+// setting in every convention, refinement never lowers the hit rate, Hi-Z
+// agrees with stride-1 stepping (both miss,
 // or both hit within one pixel) on >= 99% of the rays, the multi-threaded
 // row-band pyramid build is bit-identical to refl_hiz_build. Own scene only:
 // on a synthetic set of long rays (projected walk > 256 px) the unit-step /
@@ -335,6 +337,7 @@ void finish_rays(Rays& r, const View& v, RTCScene s, double diameter, unsigned t
 struct Kernel {
     std::string kind, setting;
     bool hiz = false;
+    bool refine = false;  // refl_refine_hit on every hit (inside the timed pass)
     refl_step_options step{1, UINT32_MAX};
     refl_hiz_options hopt{};
 };
@@ -371,6 +374,15 @@ std::vector<Kernel> kernels() {
     o = def;
     o.stop_level = 2;
     hiz("stop 2", o);
+    // The same kernels with sub-texel refinement of every hit.
+    Kernel r1 = k[0];
+    r1.setting += " + refine";
+    r1.refine = true;
+    k.push_back(r1);
+    Kernel r2 = k[3];
+    r2.setting += " + refine";
+    r2.refine = true;
+    k.push_back(r2);
     return k;
 }
 
@@ -383,8 +395,16 @@ struct Target {
 
 uint32_t trace_chunk(const Kernel& k, const Target& t, const refl_ray* rays, size_t n, refl_trace_result* out) {
     const float tmax = kInf;
-    if (k.hiz) return refl_hiz_trace_rays(out, n, rays, n, &tmax, 1, &t.hiz, &t.thickness, &k.hopt);
-    return refl_step_rays(out, n, rays, n, &tmax, 1, &t.image, &t.thickness, &k.step);
+    const refl_status s = k.hiz ? refl_hiz_trace_rays(out, n, rays, n, &tmax, 1, &t.hiz, &t.thickness, &k.hopt)
+                                : refl_step_rays(out, n, rays, n, &tmax, 1, &t.image, &t.thickness, &k.step);
+    if (s != REFL_STATUS_OK || !k.refine) return s;
+    for (size_t i = 0; i < n; ++i) {
+        if (out[i].miss != REFL_MISS_NONE) continue;
+        const refl_trace_result hit = out[i];
+        const refl_status r = refl_refine_hit(&out[i], &t.image, rays[i], tmax, &hit);
+        if (r != REFL_STATUS_OK) return r;
+    }
+    return REFL_STATUS_OK;
 }
 
 // Traces all rays on `threads` threads; false if a call failed.
@@ -524,7 +544,7 @@ Pyramid build_pyramid(const DepthBuf& db, unsigned threads) {
 }
 
 void print_header() {
-    std::printf("  %-5s %-22s %-7s %7s %6s %7s %6s %6s %7s %6s %8s | %8s %8s %8s %8s %6s %6s\n", "kern", "setting",
+    std::printf("  %-5s %-32s %-7s %7s %6s %7s %6s %6s %7s %6s %8s | %8s %8s %8s %8s %6s %6s\n", "kern", "setting",
                 "conv", "rays", "vis%", "hitrate", "vmiss", "vwrong", "false", "errpx", "fetch/r", "ns/r 1t",
                 "ns/r Nt", "embr 1t", "embr Nt", "x 1t", "x Nt");
 }
@@ -557,6 +577,7 @@ void run_kernels(const char* title, const View& v, RTCScene s, const Rays& r, do
         t.thickness.constant = float(kThicknessOfDiameter * diameter);
         t.thickness.back_faces = refl_image_f32{nullptr, 0, 0, 0, 0};
         std::vector<refl_trace_result> step1, step1_long;
+        double raw_hit_rate = 0.0;
         for (const Kernel& k : ks) {
             std::vector<refl_trace_result> out;
             bool ok = trace_all(k, t, r.screen, out, nt);
@@ -566,7 +587,7 @@ void run_kernels(const char* title, const View& v, RTCScene s, const Rays& r, do
             CHECK(ok);
             const Stats st = evaluate(r, out);
             const double n1 = r.size() ? s1 * 1e9 / double(r.size()) : 0.0, nn = r.size() ? sn * 1e9 / double(r.size()) : 0.0;
-            std::printf("  %-5s %-22s %-7s %7zu %6.1f %7.4f %6zu %6zu %7.4f %6.3f %8.1f | %8.1f %8.1f %8.1f %8.1f %6.2f "
+            std::printf("  %-5s %-32s %-7s %7zu %6.1f %7.4f %6zu %6zu %7.4f %6.3f %8.1f | %8.1f %8.1f %8.1f %8.1f %6.2f "
                         "%6.2f\n",
                         k.kind.c_str(), k.setting.c_str(), convention_name(conv), st.rays,
                         st.rays ? 100.0 * double(st.visible) / double(st.rays) : 0.0, st.hit_rate(), st.missed,
@@ -582,6 +603,9 @@ void run_kernels(const char* title, const View& v, RTCScene s, const Rays& r, do
                                  k.setting.c_str(), convention_name(conv));
                 CHECK(st.hit_rate() >= 0.95);
             }
+            if (!k.hiz && k.step.stride == 1 && !k.refine) raw_hit_rate = st.hit_rate();
+            // Refinement only moves hits onto the surface: never fewer found.
+            if (k.refine) CHECK(st.hit_rate() >= raw_hit_rate);
             if (!k.hiz && k.step.stride == 1) {
                 step1 = out;
             } else if (k.hiz) {
@@ -589,7 +613,7 @@ void run_kernels(const char* title, const View& v, RTCScene s, const Rays& r, do
                 const LongRays l = long_rays(v, r.screen, step1, out);
                 char line[256];
                 std::snprintf(line, sizeof line,
-                              "  %-7s %-22s agrees with stride 1 on %.4f of %zu rays; long rays (> %.0f px): %zu, "
+                              "  %-7s %-32s agrees with stride 1 on %.4f of %zu rays; long rays (> %.0f px): %zu, "
                               "fetches stride 1 / hiz = %.2f",
                               convention_name(conv), k.setting.c_str(), a, out.size(), kLongRayPx, l.n, l.ratio());
                 agree_lines.push_back(line);
@@ -606,7 +630,7 @@ void run_kernels(const char* title, const View& v, RTCScene s, const Rays& r, do
             std::vector<refl_trace_result> a, b;
             CHECK(trace_all(ks[0], t, *long_set, a, nt));
             for (const Kernel& k : ks) {
-                if (!k.hiz) continue;
+                if (!k.hiz || k.refine) continue;
                 CHECK(trace_all(k, t, *long_set, b, nt));
                 size_t nan = 0;
                 for (const auto& x : b) nan += !finite_result(x);
@@ -614,7 +638,7 @@ void run_kernels(const char* title, const View& v, RTCScene s, const Rays& r, do
                 const double ag = agreement(a, b);
                 const LongRays l = long_rays(v, *long_set, a, b);
                 std::snprintf(line, sizeof line,
-                              "  %-7s %-22s synthetic set %zu rays: agreement %.4f; long rays (> %.0f px) %zu: "
+                              "  %-7s %-32s synthetic set %zu rays: agreement %.4f; long rays (> %.0f px) %zu: "
                               "fetches/ray stride 1 %.1f, hiz %.1f, ratio %.2f",
                               convention_name(conv), k.setting.c_str(), long_set->size(), ag, kLongRayPx, l.n,
                               l.n ? double(l.step_fetches) / double(l.n) : 0.0,
