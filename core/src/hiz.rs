@@ -587,7 +587,7 @@ pub fn try_trace_hiz_stats(
 ) -> Result<(Trace, HiZStats), Error> {
     validate_ray(&ray, t_max)?;
     validate_thickness(hiz, &thickness)?;
-    Ok(trace_valid(hiz, thickness, &ray, t_max, options))
+    Ok(trace_valid::<true>(hiz, thickness, &ray, t_max, options))
 }
 
 /// Traces `rays[i]` with maximum distance `t_max[i]` (or `t_max[0]` for
@@ -626,7 +626,7 @@ pub fn try_trace_hiz_rays(
         validate_ray(r, tm(i))?;
     }
     for (i, (o, r)) in out.iter_mut().zip(rays).enumerate() {
-        *o = trace_valid(hiz, thickness, r, tm(i), options).0;
+        *o = trace_valid::<false>(hiz, thickness, r, tm(i), options).0;
     }
     Ok(())
 }
@@ -784,15 +784,38 @@ fn project_segment(hiz: &HiZ<'_>, ray: &Ray, t_max: f32) -> Option<Segment> {
     finite.then_some(seg)
 }
 
+// Rounding to integers without libm. In `no_std` (x86-64 baseline, no
+// SSE4.1 `roundss`) `libm::floorf`/`ceilf` are out-of-line software calls;
+// the walk rounds several coordinates per cell, so these were a measurable
+// part of its cost. A truncating conversion (`cvttss2si`) plus a one-step
+// fix-up is exact for every f32: `v as i64` is `trunc(v)`, which is itself
+// an f32 value, so `(v as i64) as f32` is exact and compares exactly with
+// `v`; `as` saturates outside the i64 range and maps NaN to 0, as
+// `floorf(v) as i64` and `ceilf(v) as i64` do (the fix-up saturates too).
+
+/// `libm::floorf(v) as i64`, for every f32 `v` (see above).
+#[inline]
+fn floor_i64(v: f32) -> i64 {
+    let i = v as i64;
+    i.saturating_sub(i64::from((i as f32) > v))
+}
+
+/// `libm::ceilf(v) as i64`, for every f32 `v` (see above).
+#[inline]
+fn ceil_i64(v: f32) -> i64 {
+    let i = v as i64;
+    i.saturating_add(i64::from((i as f32) < v))
+}
+
 /// Pixel index of coordinate `v` for motion `d` along the axis: `floor(v)`,
 /// or `ceil(v) - 1` when moving toward smaller coordinates (a position on a
 /// boundary belongs to the pixel the ray is entering).
 #[inline]
 fn dir_floor(v: f32, d: f32) -> i64 {
     if d < 0.0 {
-        libm::ceilf(v) as i64 - 1
+        ceil_i64(v).wrapping_sub(1)
     } else {
-        libm::floorf(v) as i64
+        floor_i64(v)
     }
 }
 
@@ -803,14 +826,27 @@ fn below(i: u32) -> f32 {
     f32::from_bits(v.to_bits() - 1)
 }
 
-/// A cell of some level: its indices and level-0 pixel span.
-#[derive(Clone, Debug)]
+/// A cell of some level: its indices, its level-0 pixel span
+/// `[x0, x1) x [y0, y1)` and the index of its texel in the pyramid buffer.
+/// Plain integers (no `Range`), so that it is `Copy` and stays in registers.
+#[derive(Clone, Copy, Debug)]
 struct Cell {
     level: u32,
     x: u32,
     y: u32,
-    xs: Range<u32>,
-    ys: Range<u32>,
+    x0: u32,
+    x1: u32,
+    y0: u32,
+    y1: u32,
+    index: usize,
+}
+
+impl Cell {
+    /// Whether level-0 pixel `(px, py)` lies in the cell.
+    #[inline]
+    fn contains(&self, px: u32, py: u32) -> bool {
+        px >= self.x0 && px < self.x1 && py >= self.y0 && py < self.y1
+    }
 }
 
 /// Where the segment leaves a cell: parameter and which axes cross.
@@ -822,21 +858,27 @@ struct Exit {
 }
 
 enum Step {
-    Hit(DepthHit),
+    /// Hit at `s` on the surface at linear depth `surface` (level 0).
+    Hit { s: f32, surface: f32 },
     /// Crossed into the next cell.
     Next,
     /// The segment ended (or left the image).
     End,
     /// The cell may hold a hit in `[sa, sb]` (levels > 0 only).
-    Inside {
-        cell: Cell,
-        sa: f32,
-        sb: f32,
-    },
+    Inside { cell: Cell, sa: f32, sb: f32 },
 }
 
-struct Walker<'h, 'a> {
+/// One ray's traversal state. Everything that is constant per ray (the
+/// segment, the level table, the image size, the thickness) is read once
+/// here, not per cell. `STATS`: whether to keep the [`HiZStats`] counters
+/// (the batch entry point drops them, so it does not pay for them).
+struct Walker<'h, 'a, const STATS: bool> {
     hiz: &'h HiZ<'a>,
+    levels: &'h [HiZLevel; MAX_LEVELS],
+    data: &'a [HiZTexel],
+    /// Level-0 size.
+    width: u32,
+    height: u32,
     seg: Segment,
     thickness: Thickness<'a>,
     far: f32,
@@ -847,38 +889,58 @@ struct Walker<'h, 'a> {
     stats: HiZStats,
 }
 
-impl Walker<'_, '_> {
+impl<const STATS: bool> Walker<'_, '_, STATS> {
+    /// The cell of level `level` (`< level_count`) that holds the frontier.
+    #[inline]
     fn cell(&self, level: u32) -> Cell {
-        let l = self.hiz.layout.levels[level as usize];
+        let l = self.levels[level as usize];
         let x = (self.px >> level).min(l.width - 1);
         let y = (self.py >> level).min(l.height - 1);
+        // As `cell_span`: `x << level <= px` and, below the last cell,
+        // `(x + 1) << level < width`, so the shifts do not overflow.
+        let x1 = if x + 1 >= l.width {
+            self.width
+        } else {
+            (x + 1) << level
+        };
+        let y1 = if y + 1 >= l.height {
+            self.height
+        } else {
+            (y + 1) << level
+        };
         Cell {
             level,
             x,
             y,
-            xs: cell_span(x, level, l.width, self.hiz.layout.width),
-            ys: cell_span(y, level, l.height, self.hiz.layout.height),
+            x0: x << level,
+            x1,
+            y0: y << level,
+            y1,
+            index: l.offset + y as usize * l.width as usize + x as usize,
         }
     }
 
-    fn fetch(&mut self, level: u32, x: u32, y: u32) -> HiZTexel {
+    /// The cell's texel (counted as a fetch).
+    #[inline]
+    fn fetch(&mut self, c: &Cell) -> HiZTexel {
         self.work.fetches = self.work.fetches.saturating_add(1);
-        self.hiz.texel(level, x, y).unwrap_or([f32::NAN; 2])
+        self.data.get(c.index).copied().unwrap_or([f32::NAN; 2])
     }
 
+    #[inline]
     fn exit(&self, c: &Cell) -> Exit {
         let sd = &self.seg;
         let sx = if sd.dx > 0.0 {
-            (c.xs.end as f32 - sd.x0) / sd.dx
+            (c.x1 as f32 - sd.x0) / sd.dx
         } else if sd.dx < 0.0 {
-            (c.xs.start as f32 - sd.x0) / sd.dx
+            (c.x0 as f32 - sd.x0) / sd.dx
         } else {
             f32::INFINITY
         };
         let sy = if sd.dy > 0.0 {
-            (c.ys.end as f32 - sd.y0) / sd.dy
+            (c.y1 as f32 - sd.y0) / sd.dy
         } else if sd.dy < 0.0 {
-            (c.ys.start as f32 - sd.y0) / sd.dy
+            (c.y0 as f32 - sd.y0) / sd.dy
         } else {
             f32::INFINITY
         };
@@ -894,6 +956,7 @@ impl Walker<'_, '_> {
     /// 1 / closest]` (level 0: the texel's own `[z_front, z_front +
     /// thickness]` or `[z_front, z_back]`), or `None` if it has no hittable
     /// surface (NaN, or background at or beyond the far plane).
+    #[inline]
     fn slab(&mut self, c: &Cell, t: HiZTexel) -> Option<(f32, f32)> {
         let zmin = t[0];
         if !(zmin < self.far) {
@@ -920,6 +983,7 @@ impl Walker<'_, '_> {
     }
 
     /// The part of `[from, to]` where `q(s)` lies in `[q_lo, q_hi]`.
+    #[inline]
     fn interval(&self, q_lo: f32, q_hi: f32, from: f32, to: f32) -> Option<(f32, f32)> {
         let sd = &self.seg;
         let (mut a, mut b) = (from, to);
@@ -935,10 +999,20 @@ impl Walker<'_, '_> {
         (a <= b).then_some((a, b))
     }
 
+    /// Counts a boundary tie: `floor(v)` is not the pixel `n` the frontier
+    /// moved to.
+    #[inline]
+    fn tie(&mut self, v: f32, n: i64) {
+        if STATS && floor_i64(v) != n && v.is_finite() {
+            self.stats.boundary_ties = self.stats.boundary_ties.saturating_add(1);
+        }
+    }
+
     /// Moves the frontier along one axis to the pixel of coordinate `v`,
-    /// kept inside `span` and never backward.
-    fn sync_axis(&mut self, v: f32, d: f32, p: u32, span: &Range<u32>) -> u32 {
-        let f = dir_floor(v, d).clamp(i64::from(span.start), i64::from(span.end) - 1) as u32;
+    /// kept inside `[lo, hi)` and never backward.
+    #[inline]
+    fn sync_axis(&mut self, v: f32, d: f32, p: u32, lo: u32, hi: u32) -> u32 {
+        let f = dir_floor(v, d).clamp(i64::from(lo), i64::from(hi) - 1) as u32;
         let n = if d > 0.0 {
             p.max(f)
         } else if d < 0.0 {
@@ -946,44 +1020,40 @@ impl Walker<'_, '_> {
         } else {
             p
         };
-        if libm::floorf(v) as i64 != i64::from(n) && v.is_finite() {
-            self.stats.boundary_ties = self.stats.boundary_ties.saturating_add(1);
-        }
+        self.tie(v, i64::from(n));
         n
     }
 
     /// Moves the frontier to the ray position at `self.s` inside cell `c`.
+    #[inline]
     fn sync_in(&mut self, c: &Cell) {
         let (x, y) = (self.seg.x(self.s), self.seg.y(self.s));
-        self.px = self.sync_axis(x, self.seg.dx, self.px, &c.xs);
-        self.py = self.sync_axis(y, self.seg.dy, self.py, &c.ys);
+        self.px = self.sync_axis(x, self.seg.dx, self.px, c.x0, c.x1);
+        self.py = self.sync_axis(y, self.seg.dy, self.py, c.y0, c.y1);
     }
 
     /// Crosses from cell `c` into its neighbor through `e`. `false` when
     /// the segment ends inside `c` or the neighbor lies outside the image.
+    #[inline(always)]
     fn cross(&mut self, c: &Cell, e: Exit) -> bool {
         if !(e.s < 1.0) {
             return false;
         }
-        let (wi, hi) = (
-            i64::from(self.hiz.layout.width),
-            i64::from(self.hiz.layout.height),
-        );
         let nx = if !e.cross_x {
             i64::from(self.px)
         } else if self.seg.dx > 0.0 {
-            i64::from(c.xs.end)
+            i64::from(c.x1)
         } else {
-            i64::from(c.xs.start) - 1
+            i64::from(c.x0) - 1
         };
         let ny = if !e.cross_y {
             i64::from(self.py)
         } else if self.seg.dy > 0.0 {
-            i64::from(c.ys.end)
+            i64::from(c.y1)
         } else {
-            i64::from(c.ys.start) - 1
+            i64::from(c.y0) - 1
         };
-        if nx < 0 || nx >= wi || ny < 0 || ny >= hi {
+        if nx < 0 || nx >= i64::from(self.width) || ny < 0 || ny >= i64::from(self.height) {
             return false;
         }
         self.s = self.s.max(e.s);
@@ -991,27 +1061,24 @@ impl Walker<'_, '_> {
         let (x, y) = (self.seg.x(self.s), self.seg.y(self.s));
         if e.cross_x {
             self.px = nx as u32;
-            if libm::floorf(x) as i64 != nx {
-                self.stats.boundary_ties = self.stats.boundary_ties.saturating_add(1);
-            }
+            self.tie(x, nx);
         } else {
-            self.px = self.sync_axis(x, self.seg.dx, self.px, &c.xs);
+            self.px = self.sync_axis(x, self.seg.dx, self.px, c.x0, c.x1);
         }
         if e.cross_y {
             self.py = ny as u32;
-            if libm::floorf(y) as i64 != ny {
-                self.stats.boundary_ties = self.stats.boundary_ties.saturating_add(1);
-            }
+            self.tie(y, ny);
         } else {
-            self.py = self.sync_axis(y, self.seg.dy, self.py, &c.ys);
+            self.py = self.sync_axis(y, self.seg.dy, self.py, c.y0, c.y1);
         }
         true
     }
 
     /// Visits the cell of level `level` that holds the frontier.
+    #[inline(always)]
     fn visit(&mut self, level: u32) -> Step {
         let c = self.cell(level);
-        let t = self.fetch(level, c.x, c.y);
+        let t = self.fetch(&c);
         let e = self.exit(&c);
         let to = e.s.min(1.0);
         let found = self
@@ -1025,7 +1092,10 @@ impl Walker<'_, '_> {
                     Step::End
                 }
             }
-            Some((sa, _)) if level == 0 => Step::Hit(self.hit(sa, t[0])),
+            Some((sa, _)) if level == 0 => Step::Hit {
+                s: sa,
+                surface: t[0],
+            },
             Some((sa, sb)) => Step::Inside { cell: c, sa, sb },
         }
     }
@@ -1052,16 +1122,19 @@ impl Walker<'_, '_> {
     /// or simply ended.
     fn end(&mut self) -> Trace {
         let sd = self.seg;
-        let x = dir_floor(sd.x(1.0), sd.dx).clamp(0, i64::from(self.hiz.layout.width) - 1) as u32;
-        let y = dir_floor(sd.y(1.0), sd.dy).clamp(0, i64::from(self.hiz.layout.height) - 1) as u32;
-        let t = self.fetch(0, x, y);
+        let x = dir_floor(sd.x(1.0), sd.dx).clamp(0, i64::from(self.width) - 1) as u32;
+        let y = dir_floor(sd.y(1.0), sd.dy).clamp(0, i64::from(self.height) - 1) as u32;
         let c = Cell {
             level: 0,
             x,
             y,
-            xs: x..x + 1,
-            ys: y..y + 1,
+            x0: x,
+            x1: x + 1,
+            y0: y,
+            y1: y + 1,
+            index: self.levels[0].offset + y as usize * self.width as usize + x as usize,
         };
+        let t = self.fetch(&c);
         let behind = self.slab(&c, t).is_some_and(|(q_lo, _)| sd.q1 < q_lo);
         let reason = if behind {
             Miss::BehindGeometry
@@ -1085,7 +1158,7 @@ impl Walker<'_, '_> {
         while n < o.prologue_steps {
             n += 1;
             match self.visit(0) {
-                Step::Hit(h) => return Trace::Hit(h),
+                Step::Hit { s, surface } => return Trace::Hit(self.hit(s, surface)),
                 Step::End => return self.end(),
                 Step::Next | Step::Inside { .. } => {}
             }
@@ -1097,7 +1170,9 @@ impl Walker<'_, '_> {
         // before that end, going back up would only fetch it again.
         let mut parent = [(u32::MAX, u32::MAX, 0.0f32); MAX_LEVELS];
         loop {
-            self.stats.max_level = self.stats.max_level.max(level);
+            if STATS {
+                self.stats.max_level = self.stats.max_level.max(level);
+            }
             if self.work.iterations >= o.max_iterations {
                 return Trace::Miss {
                     reason: Miss::OutOfSteps,
@@ -1106,14 +1181,17 @@ impl Walker<'_, '_> {
             }
             self.work.iterations += 1;
             match self.visit(level) {
-                Step::Hit(h) => return Trace::Hit(h),
+                Step::Hit { s, surface } => return Trace::Hit(self.hit(s, surface)),
                 Step::End => return self.end(),
                 Step::Next => {
                     if level < top {
-                        let up = self.cell(level + 1);
-                        let (px, py, sb) = parent[level as usize + 1];
-                        if (up.x, up.y) != (px, py) || self.s > sb {
-                            level += 1;
+                        let up = level + 1;
+                        let l = self.levels[up as usize];
+                        let ux = (self.px >> up).min(l.width - 1);
+                        let uy = (self.py >> up).min(l.height - 1);
+                        let (px, py, sb) = parent[up as usize];
+                        if (ux, uy) != (px, py) || self.s > sb {
+                            level = up;
                         }
                     }
                 }
@@ -1127,7 +1205,7 @@ impl Walker<'_, '_> {
                     }
                     // Unit steps through the cell (Sec. 4.7.1).
                     loop {
-                        if !cell.xs.contains(&self.px) || !cell.ys.contains(&self.py) {
+                        if !cell.contains(self.px, self.py) {
                             break;
                         }
                         if self.s > sb {
@@ -1138,7 +1216,7 @@ impl Walker<'_, '_> {
                             break;
                         }
                         match self.visit(0) {
-                            Step::Hit(h) => return Trace::Hit(h),
+                            Step::Hit { s, surface } => return Trace::Hit(self.hit(s, surface)),
                             Step::End => return self.end(),
                             Step::Next => {}
                             Step::Inside { .. } => break,
@@ -1151,7 +1229,7 @@ impl Walker<'_, '_> {
     }
 }
 
-fn trace_valid(
+fn trace_valid<const STATS: bool>(
     hiz: &HiZ<'_>,
     thickness: Thickness<'_>,
     ray: &Ray,
@@ -1170,8 +1248,12 @@ fn trace_valid(
     let (w, h) = (hiz.layout.width, hiz.layout.height);
     let px = dir_floor(seg.x0, seg.dx).clamp(0, i64::from(w) - 1) as u32;
     let py = dir_floor(seg.y0, seg.dy).clamp(0, i64::from(h) - 1) as u32;
-    let mut walker = Walker {
+    let mut walker = Walker::<STATS> {
         hiz,
+        levels: &hiz.layout.levels,
+        data: hiz.data,
+        width: w,
+        height: h,
         seg,
         thickness,
         far: hiz.camera.far(),
