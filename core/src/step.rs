@@ -297,32 +297,49 @@ struct Walker {
     end_y: u32,
     s: f32,
     done: bool,
+    /// The next boundary crossing along x and y ([`Walker::crossing`] of
+    /// the current texel). Each depends only on the texel index along its
+    /// own axis, so it is recomputed (from `p_a`, exactly as before) only
+    /// when the walk steps along that axis: one division per step instead
+    /// of two, same values.
+    cx: Option<f32>,
+    cy: Option<f32>,
 }
 
-/// The texel containing coordinate `c`, clamped to `[0, n - 1]`.
+/// The texel containing coordinate `c`, clamped to `[0, n - 1]`:
+/// `floor(c)` clamped, without the out-of-line `libm::floorf` (no hardware
+/// floor in `no_std` on baseline x86-64). Exact: `floor(c) <= 0` iff
+/// `c < 1` (or NaN, which `floor(c) as u32` also maps to 0);
+/// `floor(c) >= (n - 1) as f32` iff `c >= (n - 1) as f32` because that
+/// bound is an integer-valued f32; otherwise `1 <= c < n - 1`, where the
+/// truncating `c as u32` is `floor(c)`.
 #[inline]
 fn texel(c: f32, n: u32) -> u32 {
-    let f = libm::floorf(c);
-    if f <= 0.0 {
+    if !(c >= 1.0) {
         0
-    } else if f >= (n - 1) as f32 {
+    } else if c >= (n - 1) as f32 {
         n - 1
     } else {
-        f as u32
+        c as u32
     }
 }
 
 impl Walker {
     fn new(seg: &Segment, width: u32, height: u32) -> Self {
+        let (p_a, dir) = (seg.p_a, seg.p_b - seg.p_a);
+        let (x, y) = (texel(p_a.x, width), texel(p_a.y, height));
+        let (end_x, end_y) = (texel(seg.p_b.x, width), texel(seg.p_b.y, height));
         Self {
-            p_a: seg.p_a,
-            dir: seg.p_b - seg.p_a,
-            x: texel(seg.p_a.x, width),
-            y: texel(seg.p_a.y, height),
-            end_x: texel(seg.p_b.x, width),
-            end_y: texel(seg.p_b.y, height),
+            p_a,
+            dir,
+            x,
+            y,
+            end_x,
+            end_y,
             s: 0.0,
             done: false,
+            cx: Self::crossing(p_a.x, dir.x, x, end_x),
+            cy: Self::crossing(p_a.y, dir.y, y, end_y),
         }
     }
 
@@ -344,8 +361,7 @@ impl Walker {
             return None;
         }
         let (x, y, s_in) = (self.x, self.y, self.s);
-        let cx = Self::crossing(self.p_a.x, self.dir.x, self.x, self.end_x);
-        let cy = Self::crossing(self.p_a.y, self.dir.y, self.y, self.end_y);
+        let (cx, cy) = (self.cx, self.cy);
         let step_x = match (cx, cy) {
             (None, None) => {
                 self.done = true;
@@ -361,46 +377,95 @@ impl Walker {
             (Some(a), Some(b)) => a <= b,
         };
         let s_cross = if step_x { cx } else { cy }.unwrap_or(1.0);
-        let s_out = s_cross.clamp(s_in, 1.0);
+        // `s_cross.clamp(s_in, 1.0)` without its `s_in <= 1` assertion
+        // (which holds: every `s` of the walk is at most 1).
+        let s_out = if s_cross < s_in {
+            s_in
+        } else if s_cross > 1.0 {
+            1.0
+        } else {
+            s_cross
+        };
         if step_x {
             self.x = if self.end_x > self.x {
                 self.x + 1
             } else {
                 self.x - 1
             };
+            self.cx = Self::crossing(self.p_a.x, self.dir.x, self.x, self.end_x);
         } else {
             self.y = if self.end_y > self.y {
                 self.y + 1
             } else {
                 self.y - 1
             };
+            self.cy = Self::crossing(self.p_a.y, self.dir.y, self.y, self.end_y);
         }
         self.s = s_out;
         Some(Span { x, y, s_in, s_out })
     }
 }
 
-/// Depth lookups with the fetch counter.
-struct Lookup<'i, 'a> {
+/// [`DepthConvention`]s as const generic parameters: the kernel is
+/// instantiated per convention so that decoding a fetched depth
+/// ([`Camera::decode_depth`](crate::Camera::decode_depth)) does not branch
+/// on the convention per texel.
+const LINEAR: u8 = 0;
+/// See [`LINEAR`].
+const ZERO_TO_ONE: u8 = 1;
+/// See [`LINEAR`].
+const REVERSED_Z: u8 = 2;
+
+/// The [`DepthConvention`] of a const generic parameter (see [`LINEAR`]).
+#[inline(always)]
+const fn convention<const C: u8>() -> DepthConvention {
+    match C {
+        LINEAR => DepthConvention::Linear,
+        ZERO_TO_ONE => DepthConvention::ZeroToOne,
+        _ => DepthConvention::ReversedZ,
+    }
+}
+
+/// Depth lookups with the fetch counter, for images of convention
+/// [`convention::<C>()`](convention).
+struct Lookup<'i, 'a, const C: u8> {
     image: &'i DepthImage<'a>,
     thickness: Thickness<'a>,
     far: f32,
-    convention: DepthConvention,
     work: Work,
+    /// The last `(s, iz(s), 1 / iz(s))` computed: consecutive texels share
+    /// their boundary parameter (`s_out` of one is `s_in` of the next), so
+    /// the division is done once per boundary. Keyed by the bits of `s`;
+    /// the values are a pure function of them, so reuse is exact.
+    depth_cache: (u32, f32, f32),
 }
 
-impl Lookup<'_, '_> {
+impl<const C: u8> Lookup<'_, '_, C> {
     /// `true` if a decoded linear depth is a surface (module docs).
     #[inline]
     fn is_surface(&self, z: f32) -> bool {
         z > 0.0 && z < self.far
     }
 
+    /// `(iz(s), 1 / iz(s))` of the segment at screen parameter `s`.
+    #[inline]
+    fn ray_depth(&mut self, seg: &Segment, s: f32) -> (f32, f32) {
+        let (bits, iz, z) = self.depth_cache;
+        if bits == s.to_bits() {
+            return (iz, z);
+        }
+        let iz = seg.iz(s);
+        let z = 1.0 / iz;
+        self.depth_cache = (s.to_bits(), iz, z);
+        (iz, z)
+    }
+
     /// The front depth of texel `(x, y)`, `None` for an empty texel.
     #[inline]
     fn front(&mut self, x: u32, y: u32) -> Option<f32> {
         self.work.fetches = self.work.fetches.saturating_add(1);
-        let z = self.image.linear_at(x, y)?;
+        let d = self.image.depth().get(x, y)?;
+        let z = self.image.camera().decode_depth(d, convention::<C>());
         self.is_surface(z).then_some(z)
     }
 
@@ -413,7 +478,7 @@ impl Lookup<'_, '_> {
                 self.work.fetches = self.work.fetches.saturating_add(1);
                 match view.get(x, y) {
                     Some(d) => {
-                        let z = self.image.camera().decode_depth(d, self.convention);
+                        let z = self.image.camera().decode_depth(d, convention::<C>());
                         if self.is_surface(z) && z > front {
                             z
                         } else {
@@ -436,13 +501,13 @@ enum Test {
 }
 
 /// The full test of one texel (stage 4).
-#[inline]
-fn test_texel(seg: &Segment, look: &mut Lookup<'_, '_>, span: &Span) -> Test {
+#[inline(always)]
+fn test_texel<const C: u8>(seg: &Segment, look: &mut Lookup<'_, '_, C>, span: &Span) -> Test {
     let Some(front) = look.front(span.x, span.y) else {
         return Test::Clear { occluded: false };
     };
-    let (iz_in, iz_out) = (seg.iz(span.s_in), seg.iz(span.s_out));
-    let (z_in, z_out) = (1.0 / iz_in, 1.0 / iz_out);
+    let (iz_in, z_in) = look.ray_depth(seg, span.s_in);
+    let (iz_out, z_out) = look.ray_depth(seg, span.s_out);
     if z_in.max(z_out) < front {
         // Entirely in front: no back-face fetch needed.
         return Test::Clear { occluded: false };
@@ -549,14 +614,18 @@ pub fn try_step(
     validate_ray(&ray, t_max)?;
     validate_thickness(image, &thickness)?;
     validate_options(&opts)?;
-    Ok(step_unchecked(
-        &Projector::new(image),
-        image,
-        thickness,
-        &ray,
-        t_max,
-        opts,
-    ))
+    let pr = Projector::new(image);
+    Ok(match image.convention() {
+        DepthConvention::Linear => {
+            step_unchecked::<LINEAR>(&pr, image, thickness, &ray, t_max, opts)
+        }
+        DepthConvention::ZeroToOne => {
+            step_unchecked::<ZERO_TO_ONE>(&pr, image, thickness, &ray, t_max, opts)
+        }
+        DepthConvention::ReversedZ => {
+            step_unchecked::<REVERSED_Z>(&pr, image, thickness, &ray, t_max, opts)
+        }
+    })
 }
 
 /// Traces `rays[i]` with maximum distance `t_max[i]` (or `t_max[0]` for
@@ -596,14 +665,37 @@ pub fn try_step_rays(
         validate_ray(ray, tm(i))?;
     }
     let pr = Projector::new(image);
-    for (i, (o, ray)) in out.iter_mut().zip(rays).enumerate() {
-        *o = step_unchecked(&pr, image, thickness, ray, tm(i), opts);
+    let args = (&pr, image, thickness, rays, t_max, opts);
+    match image.convention() {
+        DepthConvention::Linear => step_all::<LINEAR>(out, args),
+        DepthConvention::ZeroToOne => step_all::<ZERO_TO_ONE>(out, args),
+        DepthConvention::ReversedZ => step_all::<REVERSED_Z>(out, args),
     }
     Ok(())
 }
 
-/// The kernel on validated input.
-fn step_unchecked(
+/// [`try_step_rays`] after validation, for an image of convention
+/// [`convention::<C>()`](convention).
+fn step_all<const C: u8>(
+    out: &mut [Trace],
+    (pr, image, thickness, rays, t_max, opts): (
+        &Projector,
+        &DepthImage<'_>,
+        Thickness<'_>,
+        &[Ray],
+        &[f32],
+        StepOptions,
+    ),
+) {
+    let tm = |i: usize| if t_max.len() == 1 { t_max[0] } else { t_max[i] };
+    for (i, (o, ray)) in out.iter_mut().zip(rays).enumerate() {
+        *o = step_unchecked::<C>(pr, image, thickness, ray, tm(i), opts);
+    }
+}
+
+/// The kernel on validated input, for an image of convention
+/// [`convention::<C>()`](convention).
+fn step_unchecked<const C: u8>(
     pr: &Projector,
     image: &DepthImage<'_>,
     thickness: Thickness<'_>,
@@ -611,12 +703,12 @@ fn step_unchecked(
     t_max: f32,
     opts: StepOptions,
 ) -> Trace {
-    let mut look = Lookup {
+    let mut look = Lookup::<C> {
         image,
         thickness,
         far: pr.far,
-        convention: image.convention(),
         work: Work::default(),
+        depth_cache: (0, 0.0, 0.0),
     };
     let Some(seg) = clip(pr, ray, t_max) else {
         return Trace::Miss {
@@ -624,6 +716,8 @@ fn step_unchecked(
             work: look.work,
         };
     };
+    // The walk starts at s = 0.
+    look.depth_cache = (0.0f32.to_bits(), seg.iz(0.0), 1.0 / seg.iz(0.0));
     let mut walker = Walker::new(&seg, image.width(), image.height());
     let stride = opts.stride;
     let mut occluded = false;
@@ -631,57 +725,74 @@ fn step_unchecked(
         reason: Miss::OutOfSteps,
         work,
     };
-    loop {
-        // One coarse interval: up to `stride` texels, the last one sampled.
-        let group_start = walker;
-        let mut sample = None;
-        let mut group_len = 0;
-        while group_len < stride {
-            match walker.next() {
-                Some(span) => sample = Some(span),
-                None => break,
-            }
-            group_len += 1;
-        }
-        let Some(span) = sample else { break };
-        if look.work.steps >= opts.max_steps {
-            return out_of_steps(look.work);
-        }
-        look.work.steps += 1;
-        if group_len == 1 {
-            // A one-texel interval (stride 1, or the planar case and other
-            // one-texel walks at any stride): the full test at once.
-            match test_texel(&seg, &mut look, &span) {
-                Test::Hit { s, front } => return make_hit(&seg, &span, s, front, look.work),
-                Test::Clear { occluded: o } => occluded = o,
-            }
-            continue;
-        }
-        // Coarse sample: does the ray reach behind the front surface here?
-        let trigger = match look.front(span.x, span.y) {
-            Some(front) => {
-                let z = (1.0 / seg.iz(span.s_in)).max(1.0 / seg.iz(span.s_out));
-                z >= front
-            }
-            None => false,
-        };
-        if !trigger {
-            occluded = false;
-            continue;
-        }
-        // Refine the interval texel by texel.
-        // The replay visits the same `group_len` texels (the walk is
-        // deterministic), the coarse sample last.
-        let mut fine = group_start;
-        for _ in 0..group_len {
-            let Some(f) = fine.next() else { break };
+    // Stride 1: every interval is one texel, fully tested (the general
+    // loop below does the same with its grouping bookkeeping).
+    if stride == 1 {
+        while let Some(span) = walker.next() {
             if look.work.steps >= opts.max_steps {
                 return out_of_steps(look.work);
             }
             look.work.steps += 1;
-            match test_texel(&seg, &mut look, &f) {
-                Test::Hit { s, front } => return make_hit(&seg, &f, s, front, look.work),
+            match test_texel(&seg, &mut look, &span) {
+                Test::Hit { s, front } => return make_hit(&seg, &span, s, front, look.work),
                 Test::Clear { occluded: o } => occluded = o,
+            }
+        }
+    } else {
+        loop {
+            // One coarse interval: up to `stride` texels, the last one sampled.
+            let group_start = walker;
+            let mut sample = None;
+            let mut group_len = 0;
+            while group_len < stride {
+                match walker.next() {
+                    Some(span) => sample = Some(span),
+                    None => break,
+                }
+                group_len += 1;
+            }
+            let Some(span) = sample else { break };
+            if look.work.steps >= opts.max_steps {
+                return out_of_steps(look.work);
+            }
+            look.work.steps += 1;
+            if group_len == 1 {
+                // A one-texel interval (stride 1, or the planar case and other
+                // one-texel walks at any stride): the full test at once.
+                match test_texel(&seg, &mut look, &span) {
+                    Test::Hit { s, front } => return make_hit(&seg, &span, s, front, look.work),
+                    Test::Clear { occluded: o } => occluded = o,
+                }
+                continue;
+            }
+            // Coarse sample: does the ray reach behind the front surface here?
+            let trigger = match look.front(span.x, span.y) {
+                Some(front) => {
+                    let (_, z_in) = look.ray_depth(&seg, span.s_in);
+                    let (_, z_out) = look.ray_depth(&seg, span.s_out);
+                    let z = z_in.max(z_out);
+                    z >= front
+                }
+                None => false,
+            };
+            if !trigger {
+                occluded = false;
+                continue;
+            }
+            // Refine the interval texel by texel.
+            // The replay visits the same `group_len` texels (the walk is
+            // deterministic), the coarse sample last.
+            let mut fine = group_start;
+            for _ in 0..group_len {
+                let Some(f) = fine.next() else { break };
+                if look.work.steps >= opts.max_steps {
+                    return out_of_steps(look.work);
+                }
+                look.work.steps += 1;
+                match test_texel(&seg, &mut look, &f) {
+                    Test::Hit { s, front } => return make_hit(&seg, &f, s, front, look.work),
+                    Test::Clear { occluded: o } => occluded = o,
+                }
             }
         }
     }
