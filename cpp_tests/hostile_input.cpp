@@ -691,13 +691,15 @@ void layered_functions() {
     }
 
     // The map buffers.
-    std::vector<float> depth(len.depth, -7.0f);
+    std::vector<float> depth(len.depth, -7.0f), bounds(len.bounds, -7.0f);
     std::vector<uint32_t> payload(len.payload, 7u), counts(len.counts, 7u);
-    const refl_layered_map_mut mm{grid, depth.data(), depth.size(), payload.data(), payload.size(), counts.data(),
-                                  counts.size()};
+    const refl_layered_map_mut mm{grid,          depth.data(),  depth.size(),  payload.data(), payload.size(),
+                                  counts.data(), counts.size(), bounds.data(), bounds.size()};
     auto map_untouched = [&]() {
         for (float d : depth)
             if (d != -7.0f) return false;
+        for (float b : bounds)
+            if (b != -7.0f) return false;
         for (uint32_t p : payload)
             if (p != 7u) return false;
         for (uint32_t c : counts)
@@ -725,6 +727,37 @@ void layered_functions() {
         m = mm;
         m.grid.face_res = 0;
         CHECK_STATUS(refl_layered_clear(&m), REFL_STATUS_INVALID_ARGUMENT);
+        m = mm;
+        m.bounds = nullptr;
+        CHECK_STATUS(refl_layered_clear(&m), REFL_STATUS_NULL_POINTER);
+        m = mm;
+        m.bounds_len -= 1;
+        CHECK_STATUS(refl_layered_clear(&m), REFL_STATUS_INSUFFICIENT_SIZE);
+        m = mm;
+        m.bounds = depth.data();
+        CHECK_STATUS(refl_layered_clear(&m), REFL_STATUS_INVALID_ARGUMENT);  // bounds overlap depth
+        CHECK(map_untouched());
+    }
+
+    // refl_layered_build_bounds: bad descriptors leave everything untouched.
+    CHECK_STATUS(refl_layered_build_bounds(nullptr), REFL_STATUS_NULL_POINTER);
+    {
+        refl_layered_map_mut m = mm;
+        m.bounds = nullptr;
+        CHECK_STATUS(refl_layered_build_bounds(&m), REFL_STATUS_NULL_POINTER);
+        m = mm;
+        m.bounds_len = 1;
+        CHECK_STATUS(refl_layered_build_bounds(&m), REFL_STATUS_INSUFFICIENT_SIZE);
+        m = mm;
+        m.bounds = reinterpret_cast<float*>(reinterpret_cast<unsigned char*>(bounds.data()) + 1);
+        m.bounds_len -= 1;
+        CHECK_STATUS(refl_layered_build_bounds(&m), REFL_STATUS_INVALID_ARGUMENT);  // misaligned
+        m = mm;
+        m.grid.min.x = kNaN;
+        CHECK_STATUS(refl_layered_build_bounds(&m), REFL_STATUS_INVALID_ARGUMENT);
+        m = mm;
+        m.grid.max.y = m.grid.min.y;
+        CHECK_STATUS(refl_layered_build_bounds(&m), REFL_STATUS_DEGENERATE_GEOMETRY);
         CHECK(map_untouched());
     }
 
@@ -789,10 +822,13 @@ void layered_functions() {
     const refl_column_fill f = expect_ok<refl_column_fill>(
         "fill_column", [&](refl_column_fill* o) { return refl_layered_fill_column(o, &mm, 3, 1, 1, good_hits, 2); });
     CHECK(f.intervals == 1 && f.stored == 1);
+    // Exact bounds again after the single-column fill: NaN-free.
+    CHECK_STATUS(refl_layered_build_bounds(&mm), REFL_STATUS_OK);
+    for (float b : bounds) CHECK(!std::isnan(b));
 
     // refl_layered_trace
-    const refl_layered_map map{grid, depth.data(), depth.size(), payload.data(), payload.size(), counts.data(),
-                               counts.size()};
+    const refl_layered_map map{grid,          depth.data(),  depth.size(),  payload.data(), payload.size(),
+                               counts.data(), counts.size(), bounds.data(), bounds.size()};
     const refl_ray ray{v3(-3, 0.1f, 0.2f), v3(1, 0, 0)};
     const refl_layered_result r = expect_ok<refl_layered_result>(
         "trace", [&](refl_layered_result* o) { return refl_layered_trace(o, &map, ray, kInf, &params); });
@@ -818,6 +854,11 @@ void layered_functions() {
     bad_p = params;
     bad_p.binary_steps = kMax;
     expect<refl_layered_result>("trace binary_steps", REFL_STATUS_INVALID_ARGUMENT, trace(ray, kInf, &bad_p));
+    for (float x : {kNaN, -1.0f, kInf}) {
+        bad_p = params;
+        bad_p.smooth_texels = x;
+        expect<refl_layered_result>("trace smooth_texels", REFL_STATUS_INVALID_ARGUMENT, trace(ray, kInf, &bad_p));
+    }
     expect<refl_layered_result>("trace NULL params", REFL_STATUS_NULL_POINTER, trace(ray, kInf, nullptr), false);
     expect<refl_layered_result>("trace NULL map", REFL_STATUS_NULL_POINTER, [&](refl_layered_result* o) {
         return refl_layered_trace(o, nullptr, ray, kInf, &params);
@@ -826,6 +867,16 @@ void layered_functions() {
         refl_layered_map m = map;
         m.payload_len = 3;
         expect<refl_layered_result>("trace short payload", REFL_STATUS_INSUFFICIENT_SIZE, [&](refl_layered_result* o) {
+            return refl_layered_trace(o, &m, ray, kInf, &params);
+        }, false);
+        m = map;
+        m.bounds_len = 3;
+        expect<refl_layered_result>("trace short bounds", REFL_STATUS_INSUFFICIENT_SIZE, [&](refl_layered_result* o) {
+            return refl_layered_trace(o, &m, ray, kInf, &params);
+        }, false);
+        m = map;
+        m.bounds = nullptr;
+        expect<refl_layered_result>("trace NULL bounds", REFL_STATUS_NULL_POINTER, [&](refl_layered_result* o) {
             return refl_layered_trace(o, &m, ray, kInf, &params);
         }, false);
     }

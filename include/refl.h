@@ -621,6 +621,12 @@ typedef struct refl_layered_sizes {
      * uint32_t of the layer-count buffer: `6 * res * res`.
      */
     size_t counts;
+    /**
+     * Floats of the empty-space bound buffer: per face, levels
+     * `1..=ceil(log2 res)` of `ceil(res / 2^l)^2` cells, `2 * layers`
+     * floats each (0 for res 1).
+     */
+    size_t bounds;
 } refl_layered_sizes;
 
 /**
@@ -632,7 +638,7 @@ typedef struct refl_layered_params {
      */
     float step_texels;
     /**
-     * Cap on linear-search steps per face, >= 1.
+     * Cap on linear-search steps plus bound cells visited per face, >= 1.
      */
     uint32_t max_steps;
     /**
@@ -645,10 +651,17 @@ typedef struct refl_layered_params {
      */
     float texel_fraction;
     /**
-     * Early stop: accept a face's hit when the ray depth is within this
-     * many texels of the stored layer depth, >= 0 (+inf allowed).
+     * Early stop: accept a face's hit on interpolated depth when the ray
+     * depth is within this many texels of the layer depth, >= 0 (+inf
+     * allowed).
      */
     float early_stop_texels;
+    /**
+     * The binary search interpolates depth between texel centers whose
+     * depths differ by at most this many texels (same layer count); 0
+     * reads the nearest texel only. >= 0 and finite.
+     */
+    float smooth_texels;
 } refl_layered_params;
 
 /**
@@ -698,7 +711,7 @@ typedef struct refl_layered_grid {
 } refl_layered_grid;
 
 /**
- * A writable layered depth cube map (the three buffers must not overlap).
+ * A writable layered depth cube map (the four buffers must not overlap).
  */
 typedef struct refl_layered_map_mut {
     /**
@@ -729,6 +742,14 @@ typedef struct refl_layered_map_mut {
      * Number of uint32_t writable from `counts`.
      */
     size_t counts_len;
+    /**
+     * Empty-space bounds, `bounds_len` writable.
+     */
+    float *bounds;
+    /**
+     * Number of floats writable from `bounds`.
+     */
+    size_t bounds_len;
 } refl_layered_map_mut;
 
 /**
@@ -814,7 +835,7 @@ typedef struct refl_layered_result {
      */
     uint32_t faces;
     /**
-     * Linear-search samples.
+     * Linear-search samples plus bound-pyramid cells visited.
      */
     uint32_t steps;
     /**
@@ -859,6 +880,15 @@ typedef struct refl_layered_map {
      * Number of uint32_t readable from `counts`.
      */
     size_t counts_len;
+    /**
+     * Empty-space bounds as `refl_layered_build_bounds` (or the fill
+     * functions) left them, `bounds_len` readable.
+     */
+    const float *bounds;
+    /**
+     * Number of floats readable from `bounds`.
+     */
+    size_t bounds_len;
 } refl_layered_map;
 
 /**
@@ -1716,8 +1746,8 @@ refl_status refl_convert_depth(struct refl_image_f32_mut dst,
                                uint32_t row_end);
 
 /**
- * Writes to `*out` the element counts of the depth, payload and count
- * buffers of a map with `face_res x face_res` texels per face and `layers`
+ * Writes to `*out` the element counts of the depth, payload, count and
+ * bound buffers of a map with `face_res x face_res` texels per face and `layers`
  * layers.
  *
  * Returns `REFL_STATUS_NULL_POINTER` if `out` is NULL;
@@ -1731,8 +1761,9 @@ refl_status refl_layered_len(struct refl_layered_sizes *out, uint32_t face_res, 
 
 /**
  * Writes to `*out` the default trace parameters: half-texel steps (at
- * most 4096 per face), 16 binary iterations down to 1/16 texel, early stop
- * at one texel.
+ * most 4096 steps and skipped cells per face), 16 binary iterations down
+ * to 1/16 texel, early stop at one texel, depth interpolated across steps
+ * of up to 4 texels.
  *
  * Returns `REFL_STATUS_NULL_POINTER` if `out` is NULL.
  *
@@ -1766,7 +1797,7 @@ refl_status refl_layered_face_ray(struct refl_column_ray *out,
 
 /**
  * Empties every texel of the map: count 0, depth +inf, payload
- * 0xFFFFFFFF.
+ * 0xFFFFFFFF, bounds +inf (the exact bounds of the empty map).
  *
  * Returns `REFL_STATUS_NULL_POINTER` if `map` or one of its buffers is
  * NULL; `REFL_STATUS_INVALID_ARGUMENT` for an invalid grid, misaligned or
@@ -1787,7 +1818,9 @@ refl_status refl_layered_clear(const struct refl_layered_map_mut *map);
  * intervals (a front hit while outside opens one, a back hit while inside
  * closes it, other hits are ignored, an open interval ends at the far
  * face); with more intervals than layers the smallest gaps are filled.
- * Writes what it did to `*out`.
+ * The bound cells that see the column become "never skip" (traces stay
+ * correct, only slower, until `refl_layered_build_bounds`). Writes what it
+ * did to `*out`.
  *
  * Returns `REFL_STATUS_NULL_POINTER` if `out`, `map`, one of the map's
  * buffers, or `hits` with a non-zero count is NULL;
@@ -1815,8 +1848,10 @@ refl_status refl_layered_fill_column(struct refl_column_fill *out,
  * `hits[offsets[j * res + i] .. offsets[j * res + i + 1]]`, so `offsets`
  * holds `res * res + 1` non-decreasing values with the last at most
  * `hit_count` (a CSR layout). Each column is filled as by
- * `refl_layered_fill_column`. If `out` is not NULL, the number of columns
- * whose gaps had to be filled (approximate columns) is written to it.
+ * `refl_layered_fill_column`; then the empty-space bounds of `face` and
+ * its opposite are rebuilt (as `refl_layered_build_bounds` does). If `out`
+ * is not NULL, the number of columns whose gaps had to be filled
+ * (approximate columns) is written to it.
  *
  * Everything is validated before anything is written: on error the map
  * is untouched. Returns `REFL_STATUS_NULL_POINTER` if `map`, its buffers,
@@ -1840,10 +1875,27 @@ refl_status refl_layered_fill_face(uint32_t *out,
                                    size_t offset_count);
 
 /**
+ * Builds the empty-space bounds of all six faces from the filled map: per
+ * face a pyramid of the smallest front depth over each cell dilated by one
+ * texel, which lets traces skip cells the ray crosses in front of every
+ * surface or behind every solid interval (an addition to seed 001).
+ *
+ * Returns `REFL_STATUS_NULL_POINTER`, `REFL_STATUS_INVALID_ARGUMENT`,
+ * `REFL_STATUS_INSUFFICIENT_SIZE` and `REFL_STATUS_DEGENERATE_GEOMETRY` as
+ * `refl_layered_clear`; on error nothing is written.
+ *
+ * # Safety
+ * `map` must be NULL or readable, its buffers writable for their lengths.
+ */
+refl_status refl_layered_build_bounds(const struct refl_layered_map_mut *map);
+
+/**
  * Traces one world ray (unit direction) up to distance `t_max` (+inf
  * allowed) against the map (seed 001 Sec. 3.3-3.4, Algorithm 1: box clip,
  * up to three faces chosen by the direction's signs, linear then binary
- * search through the layers, early stop) and writes the result to `*out`.
+ * search through the layers, early stop; with empty space skipped through
+ * the bounds and the binary search on interpolated depth) and writes the
+ * result to `*out`.
  *
  * Returns `REFL_STATUS_NULL_POINTER` if `out`, `map`, a map buffer or
  * `params` is NULL; `REFL_STATUS_INVALID_ARGUMENT` for a non-finite ray,

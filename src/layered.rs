@@ -37,6 +37,8 @@ pub struct LayeredObject {
     pub payload: Vec<u32>,
     /// Layer counts per texel.
     pub counts: Vec<u32>,
+    /// Empty-space bounds ([`LayeredMapMut::build_bounds`]).
+    pub bounds: Vec<f32>,
     /// Columns cast (`3 res^2`).
     pub columns: u32,
     /// Columns with more solid intervals than layers (approximate).
@@ -52,8 +54,14 @@ impl LayeredObject {
     /// The refl-core view for tracing.
     pub fn map(&self) -> LayeredMap<'_> {
         // The buffers were sized from the grid in `build`.
-        LayeredMap::try_new(self.grid, &self.depth, &self.payload, &self.counts)
-            .expect("buffers sized from their grid")
+        LayeredMap::try_new(
+            self.grid,
+            &self.depth,
+            &self.payload,
+            &self.counts,
+            &self.bounds,
+        )
+        .expect("buffers sized from their grid")
     }
 }
 
@@ -142,10 +150,11 @@ pub fn build(
     let pad = b.diagonal() * 1e-3;
     let grid = LayeredGrid::try_new(b.min - pad, b.max + pad, face_res, layers)?;
     let len = grid.len();
-    let (mut depth, mut payload, mut counts) = (
+    let (mut depth, mut payload, mut counts, mut bounds) = (
         vec![0.0f32; len.depth],
         vec![0u32; len.payload],
         vec![0u32; len.counts],
+        vec![0.0f32; len.bounds],
     );
     let first = obj.tris.start;
     let tris = &scene.tris[obj.tris.start as usize..obj.tris.end as usize];
@@ -168,7 +177,8 @@ pub fn build(
     let mut approx = 0;
     let mut crossings = 0u64;
     {
-        let mut m = LayeredMapMut::try_new(grid, &mut depth, &mut payload, &mut counts)?;
+        let mut m =
+            LayeredMapMut::try_new(grid, &mut depth, &mut payload, &mut counts, &mut bounds)?;
         m.clear();
         for (k, mut hits) in columns.into_iter().enumerate() {
             let (f, ij) = (k / (res * res), k % (res * res));
@@ -177,6 +187,7 @@ pub fn build(
             let fill = m.try_fill_column(faces[f], i, j, &mut hits)?;
             approx += (fill.stored < fill.intervals) as u32;
         }
+        m.build_bounds();
     }
     Ok(LayeredObject {
         object: object_id,
@@ -184,6 +195,7 @@ pub fn build(
         depth,
         payload,
         counts,
+        bounds,
         columns: (3 * res * res) as u32,
         approx_columns: approx,
         crossings,

@@ -82,11 +82,13 @@ impl LayeredScene {
         })
     }
 
-    /// Caller-buffer bytes of all maps (depth, payload, counts).
+    /// Caller-buffer bytes of all maps (depth, payload, counts, bounds).
     pub fn bytes(&self) -> usize {
         self.objects
             .iter()
-            .map(|o| o.depth.len() * 4 + o.payload.len() * 4 + o.counts.len() * 4)
+            .map(|o| {
+                o.depth.len() * 4 + o.payload.len() * 4 + o.counts.len() * 4 + o.bounds.len() * 4
+            })
             .sum()
     }
 

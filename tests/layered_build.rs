@@ -117,19 +117,22 @@ fn compare(scene: &Scene, name: &str, res: u32, layers: u32, n: usize) -> Agreem
 fn convex_sphere_map_agrees_with_obvhs() {
     let scene = Scene::room(20_000);
     let a = compare(&scene, "green_sphere", 96, 1, 4000);
-    assert!(a.rate() >= 0.985, "agreement {}", a.rate());
+    assert!(a.rate() >= 0.99, "agreement {}", a.rate());
     assert!(a.both > 1000);
-    assert!(a.q(0.95) <= 1.0);
-    assert!(a.q(0.99) <= 2.0);
+    assert!(a.q(0.95) <= 0.25);
+    assert!(a.q(0.99) <= 1.0);
+    // Empty space is skipped (half-texel steps alone read ~10x more).
+    assert!(a.fetches <= 200.0, "{}", a.fetches);
 }
 
 #[test]
 fn concave_arch_map_agrees_with_obvhs() {
     let scene = Scene::concave(20_000);
     let many = compare(&scene, "arch", 96, 4, 4000);
-    assert!(many.rate() >= 0.985, "agreement {}", many.rate());
+    assert!(many.rate() >= 0.99, "agreement {}", many.rate());
     assert!(many.both > 1000);
-    assert!(many.q(0.95) <= 1.0);
+    assert!(many.q(0.95) <= 0.25);
+    assert!(many.q(0.99) <= 1.0);
     // One layer fills the arch's opening along some axes: approximate.
     let one = compare(&scene, "arch", 96, 1, 4000);
     assert!(

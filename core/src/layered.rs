@@ -11,6 +11,16 @@
 //! early-stop threshold. The cost of a trace does not depend on the object's
 //! triangle count.
 //!
+//! Two additions of ours, beyond the seed: the linear search skips empty
+//! space with a per-face pyramid of per-layer depth hulls
+//! ([`LayeredMapMut::build_bounds`]), and the binary search reads depth
+//! bilinearly interpolated between texel centers where the surface is
+//! continuous ([`LayeredParams::smooth_texels`]), accepting an inside
+//! sample of the linear search only where the interpolated depth confirms
+//! it. At 512 x 512 texels per face this brings hit points from about 1.5
+//! texels (99th percentile) to about 0.1 and reads about 10x fewer texels
+//! per ray (`cpp_tests/layered_embree`).
+//!
 //! # Conventions (decided here; the seed leaves them open)
 //!
 //! * **Frames.** The map is built in the object's *local* frame, on the
@@ -46,11 +56,15 @@
 //!
 //! # Buffers
 //!
-//! All data lives in three caller buffers whose sizes [`layered_len`] gives:
+//! All data lives in four caller buffers whose sizes [`layered_len`] gives:
 //!
 //! * `depth: [f32]`, index `((face * res + j) * res + i) * L + k`;
 //! * `payload: [u32]`, same index (the id of the surface of layer `k`);
-//! * `counts: [u32]`, index `(face * res + j) * res + i`.
+//! * `counts: [u32]`, index `(face * res + j) * res + i` (a face and its
+//!   opposite hold the same count; the trace reads the searched face's);
+//! * `bounds: [f32]`, per face (face-major) the levels `l = 1, 2, ...,
+//!   ceil(log2 res)` of `ceil(res / 2^l)^2` cells, row-major, each cell
+//!   `L` pairs `(smallest front, largest back)` depth of layer `k`.
 //!
 //! Unused layer slots hold `+inf` depth and payload [`NO_PAYLOAD`].
 
@@ -141,7 +155,7 @@ impl Face {
     }
 }
 
-/// Element counts of the three buffers of a layered depth cube map.
+/// Element counts of the four buffers of a layered depth cube map.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub struct LayeredLen {
     /// `f32` depths: `6 * res * res * layers`.
@@ -150,6 +164,32 @@ pub struct LayeredLen {
     pub payload: usize,
     /// `u32` per-texel layer counts: `6 * res * res`.
     pub counts: usize,
+    /// `f32` empty-space bounds (our addition, see [`LayeredMapMut::build_bounds`]):
+    /// per face a pyramid of levels `1..=ceil(log2 res)`, level `l` having
+    /// `ceil(res / 2^l)^2` cells of `2 * layers` values; 0 for `res == 1`.
+    pub bounds: usize,
+}
+
+/// Number of bound-pyramid levels above the texels: `ceil(log2(res))`.
+const fn bound_levels(res: u32) -> u32 {
+    if res <= 1 {
+        0
+    } else {
+        32 - (res - 1).leading_zeros()
+    }
+}
+
+/// Cells per side of bound level `l` (`l >= 1`): `ceil(res / 2^l)`.
+const fn level_dim(res: u32, l: u32) -> usize {
+    let res = res as u64;
+    ((res + (1u64 << l) - 1) >> l) as usize
+}
+
+/// Bound cells of one face over all levels (each `2 * layers` floats).
+fn bounds_per_face(res: u32) -> u64 {
+    (1..=bound_levels(res))
+        .map(|l| (level_dim(res, l) as u64).pow(2))
+        .sum()
 }
 
 /// How many elements each buffer of a map with `face_res x face_res` texels
@@ -169,11 +209,14 @@ pub fn layered_len(face_res: u32, layers: u32) -> Result<LayeredLen, Error> {
     let depth = texels
         .checked_mul(layers as u64)
         .ok_or(Error::InvalidArgument)?;
+    // At most 2/3 of depth (+ a level-1 rounding row): no overflow.
+    let bounds = 6 * 2 * layers as u64 * bounds_per_face(face_res);
     let to_usize = |v: u64| usize::try_from(v).map_err(|_| Error::InvalidArgument);
     Ok(LayeredLen {
         depth: to_usize(depth)?,
         payload: to_usize(depth)?,
         counts: to_usize(texels)?,
+        bounds: to_usize(bounds)?,
     })
 }
 
@@ -300,6 +343,7 @@ impl LayeredGrid {
             depth: 0,
             payload: 0,
             counts: 0,
+            bounds: 0,
         })
     }
 
@@ -369,9 +413,19 @@ impl LayeredGrid {
         (face.index() * self.res as usize + j as usize) * self.res as usize + i as usize
     }
 
-    fn check_buffers(&self, depth: usize, payload: usize, counts: usize) -> Result<(), Error> {
+    fn check_buffers(
+        &self,
+        depth: usize,
+        payload: usize,
+        counts: usize,
+        bounds: usize,
+    ) -> Result<(), Error> {
         let need = self.len();
-        if depth < need.depth || payload < need.payload || counts < need.counts {
+        if depth < need.depth
+            || payload < need.payload
+            || counts < need.counts
+            || bounds < need.bounds
+        {
             return Err(Error::InsufficientSize);
         }
         Ok(())
@@ -409,10 +463,11 @@ pub struct LayeredMapMut<'a> {
     depth: &'a mut [f32],
     payload: &'a mut [u32],
     counts: &'a mut [u32],
+    bounds: &'a mut [f32],
 }
 
 impl<'a> LayeredMapMut<'a> {
-    /// Binds the three buffers (sizes from [`layered_len`]; longer buffers
+    /// Binds the four buffers (sizes from [`layered_len`]; longer buffers
     /// are fine, only the prefix is used) to `grid`. The contents are left
     /// as they are; call [`LayeredMapMut::clear`] before filling.
     ///
@@ -424,13 +479,15 @@ impl<'a> LayeredMapMut<'a> {
         depth: &'a mut [f32],
         payload: &'a mut [u32],
         counts: &'a mut [u32],
+        bounds: &'a mut [f32],
     ) -> Result<Self, Error> {
-        grid.check_buffers(depth.len(), payload.len(), counts.len())?;
+        grid.check_buffers(depth.len(), payload.len(), counts.len(), bounds.len())?;
         Ok(Self {
             grid,
             depth,
             payload,
             counts,
+            bounds,
         })
     }
 
@@ -439,12 +496,147 @@ impl<'a> LayeredMapMut<'a> {
         &self.grid
     }
 
-    /// Empties every texel: count 0, depth `+inf`, payload [`NO_PAYLOAD`].
+    /// Empties every texel: count 0, depth `+inf`, payload [`NO_PAYLOAD`];
+    /// the bounds become those of the empty map (empty hulls: everything
+    /// can be skipped), which are exact.
     pub fn clear(&mut self) {
         let n = self.grid.len();
         self.depth[..n.depth].fill(f32::INFINITY);
         self.payload[..n.payload].fill(NO_PAYLOAD);
         self.counts[..n.counts].fill(0);
+        for (k, b) in self.bounds[..n.bounds].iter_mut().enumerate() {
+            *b = if k % 2 == 0 {
+                f32::INFINITY
+            } else {
+                f32::NEG_INFINITY
+            };
+        }
+    }
+
+    /// Makes the bounds of every cell that may see texel `(i, j)` of `face`
+    /// and its opposite "never skip" (every layer spans the whole depth):
+    /// conservative until [`LayeredMapMut::build_bounds`] makes them exact
+    /// again.
+    fn invalidate_bounds(&mut self, face: Face, i: u32, j: u32) {
+        let res = self.grid.res;
+        let per = 2 * self.grid.layers as usize;
+        let per_face = bounds_per_face(res) as usize * per;
+        let (i0, i1) = (i.saturating_sub(1), (i + 1).min(res - 1));
+        let (j0, j1) = (j.saturating_sub(1), (j + 1).min(res - 1));
+        for f in [face, face.opposite()] {
+            let mut off = f.index() * per_face;
+            for l in 1..=bound_levels(res) {
+                let dim = level_dim(res, l);
+                let sh = |x: u32| (u64::from(x) >> l) as usize;
+                for cj in sh(j0)..=sh(j1) {
+                    for ci in sh(i0)..=sh(i1) {
+                        let c = off + (cj * dim + ci) * per;
+                        for k in 0..per / 2 {
+                            self.bounds[c + 2 * k] = f32::NEG_INFINITY;
+                            self.bounds[c + 2 * k + 1] = f32::INFINITY;
+                        }
+                    }
+                }
+                off += dim * dim * per;
+            }
+        }
+    }
+
+    /// Builds the empty-space bounds of every face from the filled map (our
+    /// addition to seed 001, not in the paper): for each face a pyramid
+    /// whose level-`l` cell `(ci, cj)` holds, for each layer `k`, the
+    /// smallest front depth and the largest back depth (read from the
+    /// opposite face, seed 001 Sec. 3.4) of layer `k` over the texels of
+    /// the cell **dilated by one texel** on each side (`+inf` / `-inf` where
+    /// none of them has layer `k`). Each texel's solid interval `k` lies in
+    /// the cell's hull of layer `k`, and the depth the trace interpolates at
+    /// a point comes from the (at most four) texel centers within one texel
+    /// of it; so a ray whose depth range while crossing the cell misses
+    /// every hull meets no solid there, and [`LayeredMap::trace`] skips the
+    /// cell (in front of the object, behind it, or in a gap between
+    /// layers of a concave object).
+    ///
+    /// [`LayeredMapMut::try_fill_column`] marks the cells it affects "never
+    /// skip", so traces stay correct without this call, only slower; call
+    /// it once after filling. Cost: about `16 * layers` reads per level-1
+    /// cell (`res^2 / 4` of them per face) plus the upper levels.
+    pub fn build_bounds(&mut self) {
+        for face in Face::ALL {
+            self.build_face_bounds(face);
+        }
+    }
+
+    /// [`LayeredMapMut::build_bounds`] for `face` alone (call it for a face
+    /// and its opposite after filling that column grid).
+    pub fn build_face_bounds(&mut self, face: Face) {
+        let res = self.grid.res;
+        let levels = bound_levels(res);
+        if levels == 0 {
+            return;
+        }
+        let l = self.grid.layers as usize;
+        let per = 2 * l;
+        let base = face.index() * bounds_per_face(res) as usize * per;
+        let opp = face.opposite();
+        // Level 1 from the texels (dilated 2x2 cells: 4x4 texel windows).
+        let dim1 = level_dim(res, 1);
+        for cj in 0..dim1 {
+            for ci in 0..dim1 {
+                let c = base + (cj * dim1 + ci) * per;
+                for k in 0..l {
+                    self.bounds[c + 2 * k] = f32::INFINITY;
+                    self.bounds[c + 2 * k + 1] = f32::NEG_INFINITY;
+                }
+                let (x0, x1) = (
+                    (2 * ci).saturating_sub(1),
+                    (2 * ci + 2).min(res as usize - 1),
+                );
+                let (y0, y1) = (
+                    (2 * cj).saturating_sub(1),
+                    (2 * cj + 2).min(res as usize - 1),
+                );
+                for y in y0..=y1 {
+                    for x in x0..=x1 {
+                        let ni = self.grid.texel_index(face, x as u32, y as u32);
+                        let fi = self.grid.texel_index(opp, x as u32, y as u32);
+                        let m = (self.counts[ni] as usize).min(l);
+                        for k in 0..m {
+                            let z = self.depth[ni * l + k];
+                            let d = 1.0 - self.depth[fi * l + m - 1 - k];
+                            let (lo, hi) = (&mut self.bounds[c + 2 * k], z);
+                            *lo = lo.min(hi);
+                            let hi = &mut self.bounds[c + 2 * k + 1];
+                            *hi = hi.max(d);
+                        }
+                    }
+                }
+            }
+        }
+        // Upper levels: hulls over the 2x2 children (each already dilated).
+        let (mut child, mut cdim) = (base, dim1);
+        for lv in 2..=levels {
+            let dim = level_dim(res, lv);
+            let off = child + cdim * cdim * per;
+            for cj in 0..dim {
+                for ci in 0..dim {
+                    let c = off + (cj * dim + ci) * per;
+                    for k in 0..l {
+                        let (mut lo, mut hi) = (f32::INFINITY, f32::NEG_INFINITY);
+                        for y in 2 * cj..(2 * cj + 2).min(cdim) {
+                            for x in 2 * ci..(2 * ci + 2).min(cdim) {
+                                let cc = child + (y * cdim + x) * per + 2 * k;
+                                lo = lo.min(self.bounds[cc]);
+                                hi = hi.max(self.bounds[cc + 1]);
+                            }
+                        }
+                        self.bounds[c + 2 * k] = lo;
+                        self.bounds[c + 2 * k + 1] = hi;
+                    }
+                }
+            }
+            child = off;
+            cdim = dim;
+        }
     }
 
     /// Fills texel `(i, j)` of `face` **and of its opposite face** from all
@@ -532,6 +724,7 @@ impl<'a> LayeredMapMut<'a> {
         let fi = self.grid.texel_index(far, i, j);
         self.counts[ni] = n as u32;
         self.counts[fi] = n as u32;
+        self.invalidate_bounds(face, i, j);
         Ok(ColumnFill {
             intervals,
             stored: n as u32,
@@ -545,6 +738,7 @@ impl<'a> LayeredMapMut<'a> {
             depth: self.depth,
             payload: self.payload,
             counts: self.counts,
+            bounds: self.bounds,
         }
     }
 }
@@ -613,6 +807,7 @@ pub struct LayeredMap<'a> {
     depth: &'a [f32],
     payload: &'a [u32],
     counts: &'a [u32],
+    bounds: &'a [f32],
 }
 
 /// Parameters of [`LayeredMap::trace`] (seed 001 Sec. 3.3 and Algorithm 1).
@@ -622,8 +817,9 @@ pub struct LayeredParams {
     /// in box coordinates times `face_res`), `> 0`. Below 1 no texel is
     /// skipped; the seed marches "at an equal distance".
     pub step_texels: f32,
-    /// Cap on linear-search steps per face (`>= 1`); a face that reaches it
-    /// before leaving the box reports [`LayeredMiss::OutOfSteps`].
+    /// Cap on linear-search steps plus bound-pyramid cells visited per
+    /// face (`>= 1`); a face that reaches it before leaving the box reports
+    /// [`LayeredMiss::OutOfSteps`].
     pub max_steps: u32,
     /// Cap on binary-search iterations (`<= 64`).
     pub binary_steps: u32,
@@ -633,13 +829,23 @@ pub struct LayeredParams {
     /// The seed's early-stop threshold (Sec. 3.3): a face's hit is accepted
     /// without searching the remaining faces when the ray's depth `h` and
     /// the stored layer depth `z` differ by at most this many texels. `>= 0`
-    /// (`+inf` accepts the first face that hits).
+    /// (`+inf` accepts the first face that hits). Only hits on
+    /// interpolated depth (see `smooth_texels`) stop early.
     pub early_stop_texels: f32,
+    /// Our addition (not in seed 001): the binary search reads depths
+    /// bilinearly interpolated between the four nearest texel centers where
+    /// they are continuous (same layer count, and each used layer's front
+    /// and back depths spread over at most this many texels), and the
+    /// nearest texel's depth elsewhere (silhouettes, layer-count changes,
+    /// steep jumps). `0` turns interpolation off (the seed's nearest-texel
+    /// lookup). `>= 0`, finite.
+    pub smooth_texels: f32,
 }
 
 impl Default for LayeredParams {
-    /// Half-texel steps (up to 4096), 16 binary iterations down to 1/16
-    /// texel, early stop at one texel.
+    /// Half-texel steps (up to 4096 steps and cells per face), 16 binary
+    /// iterations down to 1/16 texel, early stop at one texel,
+    /// interpolation across depth steps up to 4 texels.
     fn default() -> Self {
         Self {
             step_texels: 0.5,
@@ -647,6 +853,7 @@ impl Default for LayeredParams {
             binary_steps: 16,
             texel_fraction: 1.0 / 16.0,
             early_stop_texels: 1.0,
+            smooth_texels: 4.0,
         }
     }
 }
@@ -658,6 +865,7 @@ impl LayeredParams {
             || self.binary_steps > 64
             || !(self.texel_fraction >= 0.0)
             || !(self.early_stop_texels >= 0.0)
+            || !(self.smooth_texels >= 0.0 && self.smooth_texels.is_finite())
         {
             return Err(Error::InvalidArgument);
         }
@@ -670,11 +878,12 @@ impl LayeredParams {
 pub struct LayeredWork {
     /// Faces searched (0 to 3).
     pub faces: u32,
-    /// Linear-search samples, all faces.
+    /// Linear-search samples plus bound-pyramid cells visited, all faces.
     pub steps: u32,
     /// Binary-search iterations, all faces.
     pub binary_steps: u32,
-    /// Buffer reads: layer counts, front depths, back depths and payload.
+    /// Buffer reads: layer counts, front depths, back depths, bounds and
+    /// payload.
     pub fetches: u32,
 }
 
@@ -766,6 +975,35 @@ struct Candidate {
     texel: [u32; 2],
     layer: u32,
     mismatch: f32,
+    /// The hit lies on interpolated depth (see [`LayeredParams::smooth_texels`]).
+    smooth: bool,
+}
+
+impl Candidate {
+    /// Whether the seed's early stop accepts it: on interpolated depth and
+    /// within the threshold of the surface.
+    fn confident(&self, p: &LayeredParams) -> bool {
+        self.smooth && self.mismatch <= p.early_stop_texels
+    }
+
+    /// Ranking between faces: confident hits first, then hits on
+    /// interpolated depth, then the seed's smallest `|h - z|`.
+    fn better_than(&self, o: &Candidate, p: &LayeredParams) -> bool {
+        let key = |c: &Candidate| (!c.confident(p), !c.smooth);
+        match key(self).cmp(&key(o)) {
+            core::cmp::Ordering::Less => true,
+            core::cmp::Ordering::Greater => false,
+            core::cmp::Ordering::Equal => self.mismatch < o.mismatch,
+        }
+    }
+}
+
+/// The bound pyramid of one searched face: level `l` (1-based) starts at
+/// `off[l]` and has `dim[l]` cells a side of `2 * layers` values.
+struct Pyramid {
+    levels: u32,
+    off: [usize; 33],
+    dim: [usize; 33],
 }
 
 /// Inside a layer at a sample.
@@ -782,10 +1020,16 @@ struct Inside {
 struct Sample {
     texel: [u32; 2],
     inside: Option<Inside>,
+    /// The depths were interpolated (continuous neighborhood).
+    smooth: bool,
 }
 
 impl<'a> LayeredMap<'a> {
     /// Binds read-only buffers (sizes from [`layered_len`]) to `grid`.
+    /// `bounds` must hold what [`LayeredMapMut::build_bounds`] (or the
+    /// "never skip" marks of [`LayeredMapMut::try_fill_column`]) left
+    /// there; bounds that claim emptiness where the map has surfaces make
+    /// traces skip them.
     ///
     /// # Errors
     /// [`Error::InsufficientSize`] if a buffer is shorter than
@@ -795,13 +1039,15 @@ impl<'a> LayeredMap<'a> {
         depth: &'a [f32],
         payload: &'a [u32],
         counts: &'a [u32],
+        bounds: &'a [f32],
     ) -> Result<Self, Error> {
-        grid.check_buffers(depth.len(), payload.len(), counts.len())?;
+        grid.check_buffers(depth.len(), payload.len(), counts.len(), bounds.len())?;
         Ok(Self {
             grid,
             depth,
             payload,
             counts,
+            bounds,
         })
     }
 
@@ -860,8 +1106,11 @@ impl<'a> LayeredMap<'a> {
         let l = self.grid.layers as usize;
         let ni = self.grid.texel_index(face, i, j);
         let fi = self.grid.texel_index(face.opposite(), i, j);
-        let m = (self.counts[ni].min(self.counts[fi]) as usize).min(l);
-        *fetches += 2;
+        // The fill functions give a face and its opposite the same count;
+        // the searched face's is read (clamped: a corrupt map stays in
+        // bounds).
+        let m = (self.counts[ni] as usize).min(l);
+        *fetches += 1;
         let (nb, fb) = (ni * l, fi * l);
         for k in 0..m {
             let z = self.depth[nb + k];
@@ -878,12 +1127,243 @@ impl<'a> LayeredMap<'a> {
                         layer: k as u32,
                         front: h - z,
                     }),
+                    smooth: false,
                 };
             }
         }
         Sample {
             texel,
             inside: None,
+            smooth: false,
+        }
+    }
+
+    /// The inside test at box point `q` for `face` with depths bilinearly
+    /// interpolated between the four nearest texel centers where they are
+    /// continuous (our addition, [`LayeredParams::smooth_texels`]; within a
+    /// texel the seed reads one depth). Elsewhere, and with `tau <= 0`, it
+    /// is [`LayeredMap::sample`]. `tau`: the continuity threshold in
+    /// normalized depth.
+    fn sample_smooth(&self, face: Face, q: Vec3, tau: f32, fetches: &mut u32) -> Sample {
+        if !(tau > 0.0) {
+            return self.sample(face, q, fetches);
+        }
+        let res = self.grid.res;
+        let a = face.axis();
+        let (u, v) = face.uv_axes();
+        // Continuous texel coordinates relative to texel centers.
+        let corner = |x: f32| {
+            let c = x * res as f32 - 0.5;
+            let f = libm::floorf(c);
+            let lo = f as i64; // saturating; NaN -> 0
+            let w = (c - f).clamp(0.0, 1.0);
+            let w = if w.is_nan() { 0.0 } else { w };
+            let cl = |k: i64| k.clamp(0, res as i64 - 1) as u32;
+            (cl(lo), cl(lo.saturating_add(1)), w)
+        };
+        let (i0, i1, wx) = corner(q[u]);
+        let (j0, j1, wy) = corner(q[v]);
+        let l = self.grid.layers as usize;
+        let opp = face.opposite();
+        let ids = [(i0, j0), (i1, j0), (i0, j1), (i1, j1)];
+        let mut m = [0usize; 4];
+        let mut base = [(0usize, 0usize); 4];
+        for (c, &(i, j)) in ids.iter().enumerate() {
+            let ni = self.grid.texel_index(face, i, j);
+            let fi = self.grid.texel_index(opp, i, j);
+            m[c] = (self.counts[ni] as usize).min(l);
+            base[c] = (ni * l, fi * l);
+        }
+        *fetches += 4;
+        let n = m[0];
+        if n == 0 || m.iter().any(|&x| x != n) {
+            return self.sample(face, q, fetches);
+        }
+        let w = [
+            (1.0 - wx) * (1.0 - wy),
+            wx * (1.0 - wy),
+            (1.0 - wx) * wy,
+            wx * wy,
+        ];
+        let h = if face.is_positive() { 1.0 - q[a] } else { q[a] };
+        let lerp = |vals: [f32; 4]| {
+            let (mut lo, mut hi) = (vals[0], vals[0]);
+            for &x in &vals[1..] {
+                lo = lo.min(x);
+                hi = hi.max(x);
+            }
+            // NaN (a corrupt map) compares false: interpolation refused.
+            (hi - lo <= tau)
+                .then(|| w[0] * vals[0] + w[1] * vals[1] + w[2] * vals[2] + w[3] * vals[3])
+        };
+        for k in 0..n {
+            let zs = base.map(|(nb, _)| self.depth[nb + k]);
+            *fetches += 4;
+            let Some(z) = lerp(zs) else {
+                return self.sample(face, q, fetches);
+            };
+            if h < z {
+                break;
+            }
+            let ds = base.map(|(_, fb)| 1.0 - self.depth[fb + n - 1 - k]);
+            *fetches += 4;
+            let Some(d) = lerp(ds) else {
+                return self.sample(face, q, fetches);
+            };
+            if h <= d {
+                let mut s = self.sample_texel(face, q);
+                s.inside = Some(Inside {
+                    layer: k as u32,
+                    front: h - z,
+                });
+                s.smooth = true;
+                return s;
+            }
+        }
+        let mut s = self.sample_texel(face, q);
+        s.smooth = true;
+        s
+    }
+
+    /// The nearest texel of box point `q` on `face`, with no test.
+    fn sample_texel(&self, face: Face, q: Vec3) -> Sample {
+        let res = self.grid.res;
+        let (u, v) = face.uv_axes();
+        let cell = |x: f32| {
+            let c = (x * res as f32) as i64; // saturating; NaN -> 0
+            c.clamp(0, res as i64 - 1) as u32
+        };
+        Sample {
+            texel: [cell(q[u]), cell(q[v])],
+            inside: None,
+            smooth: false,
+        }
+    }
+
+    /// The bound pyramid of `face`.
+    fn pyramid(&self, face: Face) -> Pyramid {
+        let res = self.grid.res;
+        let per = 2 * self.grid.layers as usize;
+        let levels = bound_levels(res);
+        let mut p = Pyramid {
+            levels,
+            off: [0; 33],
+            dim: [0; 33],
+        };
+        let mut a = face.index() * bounds_per_face(res) as usize * per;
+        for l in 1..=levels as usize {
+            let dim = level_dim(res, l as u32);
+            p.off[l] = a;
+            p.dim[l] = dim;
+            a += dim * dim * per;
+        }
+        p
+    }
+
+    /// Empty-space skipping (our addition, see
+    /// [`LayeredMapMut::build_bounds`]): from ray parameter `s` (box point
+    /// `ob + d s`), walks the bound pyramid of `face` (Hi-Z style: up a
+    /// level after each skipped cell, down where a cell cannot be skipped)
+    /// to the first level-1 cell the ray cannot skip. Returns its entry and
+    /// exit parameters, `(span, span)` if the ray leaves the box first, or
+    /// `None` when the step cap ran out.
+    #[allow(clippy::too_many_arguments)]
+    fn skip(
+        &self,
+        face: Face,
+        pyr: &Pyramid,
+        ob: Vec3,
+        d: Vec3,
+        mut s: f32,
+        span: f32,
+        level: &mut u32,
+        min_ds: f32,
+        budget: &mut u32,
+        work: &mut LayeredWork,
+    ) -> Option<(f32, f32)> {
+        if pyr.levels == 0 {
+            return Some((s, span));
+        }
+        let res = self.grid.res as f32;
+        let layers = self.grid.layers as usize;
+        let per = 2 * layers;
+        let a = face.axis();
+        let (u, v) = face.uv_axes();
+        let depth = |s: f32| {
+            let x = ob[a] + d[a] * s;
+            if face.is_positive() {
+                1.0 - x
+            } else {
+                x
+            }
+        };
+        loop {
+            if s >= span {
+                return Some((span, span));
+            }
+            if *budget == 0 {
+                return None;
+            }
+            *budget -= 1;
+            work.steps += 1;
+            let l = (*level).clamp(1, pyr.levels) as usize;
+            let size = (1u64 << l) as f32;
+            let dim = pyr.dim[l];
+            // The cell holding the point, ties broken toward the direction.
+            let cell = |c: usize| -> (usize, f32, f32) {
+                let x = (ob[c] + d[c] * s) * res;
+                let nudge = if d[c] > 0.0 {
+                    1e-3
+                } else if d[c] < 0.0 {
+                    -1e-3
+                } else {
+                    0.0
+                };
+                let k = (libm::floorf((x + nudge) / size) as i64).clamp(0, dim as i64 - 1);
+                // Exit parameter along this axis.
+                let lo = k as f32 * size;
+                let hi = (lo + size).min(res);
+                let te = if d[c] > 0.0 {
+                    (hi / res - ob[c]) / d[c]
+                } else if d[c] < 0.0 {
+                    (lo / res - ob[c]) / d[c]
+                } else {
+                    f32::INFINITY
+                };
+                (k as usize, te, x)
+            };
+            let (ci, tu, _) = cell(u);
+            let (cj, tv, _) = cell(v);
+            let mut end = tu.min(tv).min(span);
+            if !(end > s) {
+                end = (s + min_ds).min(span);
+            }
+            let c = pyr.off[l] + (cj * dim + ci) * per;
+            let (ha, hb) = (depth(s), depth(end));
+            let (ha, hb) = (ha.min(hb), ha.max(hb));
+            // Empty if the depth range misses every layer's hull; the
+            // hulls' fronts grow with the layer, so the first hull in
+            // front of the range ends the test.
+            let mut empty = true;
+            for k in 0..layers {
+                work.fetches += 1;
+                if hb < self.bounds[c + 2 * k] {
+                    break;
+                }
+                work.fetches += 1;
+                if !(ha > self.bounds[c + 2 * k + 1]) {
+                    empty = false;
+                    break;
+                }
+            }
+            if empty {
+                s = end;
+                *level = (l as u32 + 1).min(pyr.levels);
+            } else if l > 1 {
+                *level = l as u32 - 1;
+            } else {
+                return Some((s, end));
+            }
         }
     }
 
@@ -898,11 +1378,18 @@ impl<'a> LayeredMap<'a> {
     ///    direction component first. On each, a linear search with steps
     ///    of [`LayeredParams::step_texels`] looks for the first sample inside
     ///    the object with Algorithm 1's layer loop; a binary search then
-    ///    refines between that sample and the previous one.
+    ///    refines between that sample and the previous one. Ours: the
+    ///    linear search jumps over cells of the bound pyramid the ray
+    ///    crosses outside every layer's hull
+    ///    ([`LayeredMapMut::build_bounds`]), and the binary search runs on
+    ///    interpolated depth ([`LayeredParams::smooth_texels`]), started
+    ///    only where the interpolated depth confirms the inside sample.
     /// 3. The seed's early stop: a face whose hit has `|h - z|` within
-    ///    [`LayeredParams::early_stop_texels`] is accepted at once; otherwise
-    ///    the hit with the smallest mismatch over the searched faces wins
-    ///    (the face that sees the surface, seed 001 Fig. 5).
+    ///    [`LayeredParams::early_stop_texels`] is accepted at once (ours:
+    ///    if the hit lies on interpolated depth); otherwise hits on
+    ///    interpolated depth win over nearest-texel ones, then the smallest
+    ///    mismatch over the searched faces (the face that sees the surface,
+    ///    seed 001 Fig. 5).
     ///
     /// A ray whose origin lies inside the box is searched from its origin;
     /// if the origin is inside the object on every face that was searched,
@@ -977,10 +1464,10 @@ impl<'a> LayeredMap<'a> {
             work.faces += 1;
             match self.search_face(face, o, d, dmax, t0, t1, origin_in_box, params, &mut work) {
                 FaceOutcome::Hit(c) => {
-                    if best.is_none_or(|b| c.mismatch < b.mismatch) {
+                    if best.is_none_or(|b| c.better_than(&b, params)) {
                         best = Some(c);
                     }
-                    if c.mismatch <= params.early_stop_texels {
+                    if c.confident(params) {
                         break;
                     }
                 }
@@ -1016,7 +1503,13 @@ impl<'a> LayeredMap<'a> {
     }
 
     /// Linear then binary search on one face (seed 001 Algorithm 1 and the
-    /// binary search of Sec. 3.3).
+    /// binary search of Sec. 3.3), with two additions of ours: empty space
+    /// is skipped with the bound pyramid ([`LayeredMap::skip`]), and an
+    /// inside sample of the linear search (nearest texel, as in the seed)
+    /// starts the binary search only if the interpolated depth
+    /// ([`LayeredMap::sample_smooth`]) confirms it; the binary search then
+    /// runs on interpolated depth. An unconfirmed sample (a ray grazing the
+    /// corner of a texel's column) does not stop the search.
     #[allow(clippy::too_many_arguments)]
     fn search_face(
         &self,
@@ -1033,68 +1526,159 @@ impl<'a> LayeredMap<'a> {
         let res = self.grid.res as f32;
         // Texels spanned per unit of t (largest box-coordinate component).
         let texels_per_t = dmax * res;
-        let dt_nominal = p.step_texels / texels_per_t;
+        let dt = p.step_texels / texels_per_t;
+        let min_ds = 1e-3 / texels_per_t;
+        let tau = self.depth_of_texels(face, p.smooth_texels);
+        // Parameters s = t - t0 from the box entry (precision far away).
         let span = t1 - t0;
-        let needed = libm::ceilf(span / dt_nominal).max(1.0);
-        let (n, dt, capped) = if needed <= p.max_steps as f32 {
-            (needed as u32, span / needed, false)
-        } else {
-            (p.max_steps, dt_nominal, true)
-        };
-        let at = |t: f32| o + d * t;
+        let ob = o + d * t0;
+        let at = |s: f32| ob + d * s;
+        let pyr = self.pyramid(face);
+        let mut level = pyr.levels.min(3);
+        let mut budget = p.max_steps;
         let mut prev: Option<f32> = None;
-        for s in 0..=n {
-            let t = if s == n && !capped {
-                t1
-            } else {
-                t0 + dt * s as f32
-            };
-            work.steps += 1;
-            let sample = self.sample(face, at(t), &mut work.fetches);
-            let Some(inside) = sample.inside else {
-                prev = Some(t);
+        let mut s = 0.0f32;
+        // Where the current non-skippable level-1 cell ends.
+        let mut check_at = 0.0f32;
+        loop {
+            if s >= check_at && check_at < span {
+                let Some((entry, end)) = self.skip(
+                    face,
+                    &pyr,
+                    ob,
+                    d,
+                    check_at,
+                    span,
+                    &mut level,
+                    min_ds,
+                    &mut budget,
+                    work,
+                ) else {
+                    return FaceOutcome::Nothing { out_of_steps: true };
+                };
+                if entry >= span {
+                    return FaceOutcome::Nothing {
+                        out_of_steps: false,
+                    };
+                }
+                check_at = end;
+                if entry > s {
+                    // [.., entry] was skipped: outside.
+                    prev = Some(entry);
+                    s = (entry + dt).min(end);
+                }
                 continue;
-            };
-            let Some(lo) = prev else {
-                if origin_in_box {
-                    return FaceOutcome::StartedInside;
-                }
-                // The object touches the box where the ray enters it.
-                return FaceOutcome::Hit(self.candidate(face, t, sample.texel, inside));
-            };
-            // Binary search between the last outside and first inside.
-            let (mut lo, mut hi, mut last) = (lo, t, (sample.texel, inside));
-            for _ in 0..p.binary_steps {
-                if (hi - lo) * texels_per_t <= p.texel_fraction {
-                    break;
-                }
-                let mid = 0.5 * (lo + hi);
-                work.binary_steps += 1;
-                let m = self.sample(face, at(mid), &mut work.fetches);
-                match m.inside {
-                    Some(x) => {
-                        hi = mid;
-                        last = (m.texel, x);
+            }
+            let last = s >= span;
+            let s_here = s.min(span);
+            if budget == 0 {
+                return FaceOutcome::Nothing { out_of_steps: true };
+            }
+            budget -= 1;
+            work.steps += 1;
+            let smp = self.sample(face, at(s_here), &mut work.fetches);
+            match (smp.inside, prev) {
+                (None, _) => prev = Some(s_here),
+                (Some(inside), None) => {
+                    if origin_in_box {
+                        return FaceOutcome::StartedInside;
                     }
-                    None => lo = mid,
+                    // The object touches the box where the ray enters it.
+                    let sm = self.sample_smooth(face, at(s_here), tau, &mut work.fetches);
+                    let (sm, x) = match sm.inside {
+                        Some(x) => (sm, x),
+                        None => (smp, inside),
+                    };
+                    return FaceOutcome::Hit(self.candidate(face, t0 + s_here, &sm, x));
+                }
+                (Some(_), Some(lo)) => {
+                    let sm = self.sample_smooth(face, at(s_here), tau, &mut work.fetches);
+                    if let Some(x) = sm.inside {
+                        let c = self.refine(face, ob, d, t0, lo, s_here, (sm, x), dt, tau, p, work);
+                        return FaceOutcome::Hit(c);
+                    }
+                    // A graze the interpolated depth does not confirm.
+                    prev = Some(s_here);
                 }
             }
-            return FaceOutcome::Hit(self.candidate(face, hi, last.0, last.1));
-        }
-        FaceOutcome::Nothing {
-            out_of_steps: capped,
+            if last {
+                return FaceOutcome::Nothing {
+                    out_of_steps: false,
+                };
+            }
+            s = s_here + dt;
         }
     }
 
+    /// The binary search of seed 001 Sec. 3.3 between `lo` (outside) and
+    /// `hi` (inside, sample `last`) on interpolated depth. If the
+    /// interpolated surface begins before `lo`, the bracket first steps
+    /// back (at most four steps of `dt`).
+    #[allow(clippy::too_many_arguments)]
+    fn refine(
+        &self,
+        face: Face,
+        ob: Vec3,
+        d: Vec3,
+        t0: f32,
+        mut lo: f32,
+        mut hi: f32,
+        mut last: (Sample, Inside),
+        dt: f32,
+        tau: f32,
+        p: &LayeredParams,
+        work: &mut LayeredWork,
+    ) -> Candidate {
+        let at = |s: f32| ob + d * s;
+        let texels_per_s = p.step_texels / dt;
+        let mut back = 0;
+        loop {
+            work.binary_steps += 1;
+            let m = self.sample_smooth(face, at(lo), tau, &mut work.fetches);
+            let Some(x) = m.inside else { break };
+            hi = lo;
+            last = (m, x);
+            if back == 4 || lo <= 0.0 {
+                return self.candidate(face, t0 + hi, &last.0, last.1);
+            }
+            lo = (lo - dt).max(0.0);
+            back += 1;
+        }
+        for _ in 0..p.binary_steps {
+            if (hi - lo) * texels_per_s <= p.texel_fraction {
+                break;
+            }
+            let mid = 0.5 * (lo + hi);
+            work.binary_steps += 1;
+            let m = self.sample_smooth(face, at(mid), tau, &mut work.fetches);
+            match m.inside {
+                Some(x) => {
+                    hi = mid;
+                    last = (m, x);
+                }
+                None => lo = mid,
+            }
+        }
+        self.candidate(face, t0 + hi, &last.0, last.1)
+    }
+
     /// The candidate of an entry into layer `x.layer` of `face`.
-    fn candidate(&self, face: Face, t: f32, texel: [u32; 2], x: Inside) -> Candidate {
+    fn candidate(&self, face: Face, t: f32, s: &Sample, x: Inside) -> Candidate {
         Candidate {
             t,
             face,
-            texel,
+            texel: s.texel,
             layer: x.layer,
             mismatch: self.texels(face, x.front),
+            smooth: s.smooth,
         }
+    }
+
+    /// `texels` texels of `face` (its larger side) as a normalized depth.
+    fn depth_of_texels(&self, face: Face, texels: f32) -> f32 {
+        let (su, sv) = self.grid.texel_size(face);
+        let ext = self.grid.max[face.axis()] - self.grid.min[face.axis()];
+        texels * su.max(sv) / ext
     }
 
     /// A normalized depth difference along `face`'s axis in texels of the

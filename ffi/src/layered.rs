@@ -5,7 +5,8 @@
 //! Buffer layout (see refl-core's `layered` module): for `res` texels per
 //! face side and `L` layers, `depth` (float) and `payload` (uint32_t) hold
 //! `6 * res * res * L` elements at index `((face * res + j) * res + i) * L + k`,
-//! `counts` (uint32_t) holds `6 * res * res` at `(face * res + j) * res + i`.
+//! `counts` (uint32_t) holds `6 * res * res` at `(face * res + j) * res + i`,
+//! `bounds` (float) the empty-space pyramids (`refl_layered_build_bounds`).
 //! Faces: 0 = +X, 1 = -X, 2 = +Y, 3 = -Y, 4 = +Z, 5 = -Z; each looks into
 //! the box; texel axes of axis a are u = (a + 1) % 3, v = (a + 2) % 3.
 //! Depths are normalized to [0, 1] from the face.
@@ -47,6 +48,10 @@ pub struct refl_layered_sizes {
     pub payload: usize,
     /// uint32_t of the layer-count buffer: `6 * res * res`.
     pub counts: usize,
+    /// Floats of the empty-space bound buffer: per face, levels
+    /// `1..=ceil(log2 res)` of `ceil(res / 2^l)^2` cells, `2 * layers`
+    /// floats each (0 for res 1).
+    pub bounds: usize,
 }
 
 /// A read-only layered depth cube map: grid plus caller buffers.
@@ -67,9 +72,14 @@ pub struct refl_layered_map {
     pub counts: *const u32,
     /// Number of uint32_t readable from `counts`.
     pub counts_len: usize,
+    /// Empty-space bounds as `refl_layered_build_bounds` (or the fill
+    /// functions) left them, `bounds_len` readable.
+    pub bounds: *const f32,
+    /// Number of floats readable from `bounds`.
+    pub bounds_len: usize,
 }
 
-/// A writable layered depth cube map (the three buffers must not overlap).
+/// A writable layered depth cube map (the four buffers must not overlap).
 #[repr(C)]
 #[derive(Clone, Copy, Debug)]
 pub struct refl_layered_map_mut {
@@ -87,6 +97,10 @@ pub struct refl_layered_map_mut {
     pub counts: *mut u32,
     /// Number of uint32_t writable from `counts`.
     pub counts_len: usize,
+    /// Empty-space bounds, `bounds_len` writable.
+    pub bounds: *mut f32,
+    /// Number of floats writable from `bounds`.
+    pub bounds_len: usize,
 }
 
 /// The world-space orthographic ray of one face texel, to be cast through
@@ -132,16 +146,21 @@ pub struct refl_column_fill {
 pub struct refl_layered_params {
     /// Linear-search step in texels, > 0 and finite.
     pub step_texels: f32,
-    /// Cap on linear-search steps per face, >= 1.
+    /// Cap on linear-search steps plus bound cells visited per face, >= 1.
     pub max_steps: u32,
     /// Cap on binary-search iterations, <= 64.
     pub binary_steps: u32,
     /// Binary search stops when its bracket spans at most this many
     /// texels, >= 0.
     pub texel_fraction: f32,
-    /// Early stop: accept a face's hit when the ray depth is within this
-    /// many texels of the stored layer depth, >= 0 (+inf allowed).
+    /// Early stop: accept a face's hit on interpolated depth when the ray
+    /// depth is within this many texels of the layer depth, >= 0 (+inf
+    /// allowed).
     pub early_stop_texels: f32,
+    /// The binary search interpolates depth between texel centers whose
+    /// depths differ by at most this many texels (same layer count); 0
+    /// reads the nearest texel only. >= 0 and finite.
+    pub smooth_texels: f32,
 }
 
 /// Why a layered trace found no hit (`REFL_LAYERED_MISS_NONE` for a hit).
@@ -188,7 +207,7 @@ pub struct refl_layered_result {
     pub mismatch: f32,
     /// Faces searched.
     pub faces: u32,
-    /// Linear-search samples.
+    /// Linear-search samples plus bound-pyramid cells visited.
     pub steps: u32,
     /// Binary-search iterations.
     pub binary_steps: u32,
@@ -223,6 +242,7 @@ impl From<LayeredParams> for refl_layered_params {
             binary_steps: p.binary_steps,
             texel_fraction: p.texel_fraction,
             early_stop_texels: p.early_stop_texels,
+            smooth_texels: p.smooth_texels,
         }
     }
 }
@@ -235,6 +255,7 @@ impl From<refl_layered_params> for LayeredParams {
             binary_steps: p.binary_steps,
             texel_fraction: p.texel_fraction,
             early_stop_texels: p.early_stop_texels,
+            smooth_texels: p.smooth_texels,
         }
     }
 }
@@ -346,25 +367,28 @@ impl refl_layered_map {
         buffer(self.depth, self.depth_len)?;
         buffer(self.payload, self.payload_len)?;
         buffer(self.counts, self.counts_len)?;
+        buffer(self.bounds, self.bounds_len)?;
         let grid = LayeredGrid::try_from(&self.grid)?;
         // SAFETY: non-null, aligned, lengths fit isize (checked above);
         // readability by the caller's contract.
-        let (d, p, c) = unsafe {
+        let (d, p, c, b) = unsafe {
             (
                 core::slice::from_raw_parts(self.depth, self.depth_len),
                 core::slice::from_raw_parts(self.payload, self.payload_len),
                 core::slice::from_raw_parts(self.counts, self.counts_len),
+                core::slice::from_raw_parts(self.bounds, self.bounds_len),
             )
         };
-        LayeredMap::try_new(grid, d, p, c)
+        LayeredMap::try_new(grid, d, p, c, b)
     }
 
-    /// The byte ranges of the three buffers.
-    fn ranges(&self) -> [(usize, usize); 3] {
+    /// The byte ranges of the four buffers.
+    fn ranges(&self) -> [(usize, usize); 4] {
         [
             (self.depth as usize, self.depth_len * 4),
             (self.payload as usize, self.payload_len * 4),
             (self.counts as usize, self.counts_len * 4),
+            (self.bounds as usize, self.bounds_len * 4),
         ]
     }
 }
@@ -379,31 +403,34 @@ impl refl_layered_map_mut {
         let a = buffer(self.depth.cast_const(), self.depth_len)?;
         let b = buffer(self.payload.cast_const(), self.payload_len)?;
         let c = buffer(self.counts.cast_const(), self.counts_len)?;
-        if overlaps(a.0, a.1, b.0, b.1)
-            || overlaps(a.0, a.1, c.0, c.1)
-            || overlaps(b.0, b.1, c.0, c.1)
-        {
-            return Err(Error::InvalidArgument);
+        let e = buffer(self.bounds.cast_const(), self.bounds_len)?;
+        let all = [a, b, c, e];
+        for (k, x) in all.iter().enumerate() {
+            if all[k + 1..].iter().any(|y| overlaps(x.0, x.1, y.0, y.1)) {
+                return Err(Error::InvalidArgument);
+            }
         }
         let grid = LayeredGrid::try_from(&self.grid)?;
         // SAFETY: non-null, aligned, sizes fit isize, pairwise disjoint
         // (checked above); exclusivity by the caller's contract.
-        let (d, p, c) = unsafe {
+        let (d, p, c, b) = unsafe {
             (
                 core::slice::from_raw_parts_mut(self.depth, self.depth_len),
                 core::slice::from_raw_parts_mut(self.payload, self.payload_len),
                 core::slice::from_raw_parts_mut(self.counts, self.counts_len),
+                core::slice::from_raw_parts_mut(self.bounds, self.bounds_len),
             )
         };
-        LayeredMapMut::try_new(grid, d, p, c)
+        LayeredMapMut::try_new(grid, d, p, c, b)
     }
 
-    /// The byte ranges of the three buffers.
-    fn ranges(&self) -> [(usize, usize); 3] {
+    /// The byte ranges of the four buffers.
+    fn ranges(&self) -> [(usize, usize); 4] {
         [
             (self.depth as usize, self.depth_len * 4),
             (self.payload as usize, self.payload_len * 4),
             (self.counts as usize, self.counts_len * 4),
+            (self.bounds as usize, self.bounds_len * 4),
         ]
     }
 }
@@ -439,8 +466,8 @@ unsafe fn read_hits(
     Ok(())
 }
 
-/// Writes to `*out` the element counts of the depth, payload and count
-/// buffers of a map with `face_res x face_res` texels per face and `layers`
+/// Writes to `*out` the element counts of the depth, payload, count and
+/// bound buffers of a map with `face_res x face_res` texels per face and `layers`
 /// layers.
 ///
 /// Returns `REFL_STATUS_NULL_POINTER` if `out` is NULL;
@@ -464,6 +491,7 @@ pub unsafe extern "C" fn refl_layered_len(
                 depth: l.depth,
                 payload: l.payload,
                 counts: l.counts,
+                bounds: l.bounds,
             })
         };
         Ok(())
@@ -471,8 +499,9 @@ pub unsafe extern "C" fn refl_layered_len(
 }
 
 /// Writes to `*out` the default trace parameters: half-texel steps (at
-/// most 4096 per face), 16 binary iterations down to 1/16 texel, early stop
-/// at one texel.
+/// most 4096 steps and skipped cells per face), 16 binary iterations down
+/// to 1/16 texel, early stop at one texel, depth interpolated across steps
+/// of up to 4 texels.
 ///
 /// Returns `REFL_STATUS_NULL_POINTER` if `out` is NULL.
 ///
@@ -529,7 +558,7 @@ pub unsafe extern "C" fn refl_layered_face_ray(
 }
 
 /// Empties every texel of the map: count 0, depth +inf, payload
-/// 0xFFFFFFFF.
+/// 0xFFFFFFFF, bounds +inf (the exact bounds of the empty map).
 ///
 /// Returns `REFL_STATUS_NULL_POINTER` if `map` or one of its buffers is
 /// NULL; `REFL_STATUS_INVALID_ARGUMENT` for an invalid grid, misaligned or
@@ -558,7 +587,9 @@ pub unsafe extern "C" fn refl_layered_clear(map: *const refl_layered_map_mut) ->
 /// intervals (a front hit while outside opens one, a back hit while inside
 /// closes it, other hits are ignored, an open interval ends at the far
 /// face); with more intervals than layers the smallest gaps are filled.
-/// Writes what it did to `*out`.
+/// The bound cells that see the column become "never skip" (traces stay
+/// correct, only slower, until `refl_layered_build_bounds`). Writes what it
+/// did to `*out`.
 ///
 /// Returns `REFL_STATUS_NULL_POINTER` if `out`, `map`, one of the map's
 /// buffers, or `hits` with a non-zero count is NULL;
@@ -616,8 +647,10 @@ pub unsafe extern "C" fn refl_layered_fill_column(
 /// `hits[offsets[j * res + i] .. offsets[j * res + i + 1]]`, so `offsets`
 /// holds `res * res + 1` non-decreasing values with the last at most
 /// `hit_count` (a CSR layout). Each column is filled as by
-/// `refl_layered_fill_column`. If `out` is not NULL, the number of columns
-/// whose gaps had to be filled (approximate columns) is written to it.
+/// `refl_layered_fill_column`; then the empty-space bounds of `face` and
+/// its opposite are rebuilt (as `refl_layered_build_bounds` does). If `out`
+/// is not NULL, the number of columns whose gaps had to be filled
+/// (approximate columns) is written to it.
 ///
 /// Everything is validated before anything is written: on error the map
 /// is untouched. Returns `REFL_STATUS_NULL_POINTER` if `map`, its buffers,
@@ -688,6 +721,8 @@ pub unsafe extern "C" fn refl_layered_fill_face(
                 approx += (f.stored < f.intervals) as u32;
             }
         }
+        m.build_face_bounds(face);
+        m.build_face_bounds(face.opposite());
         if let Some(o) = out {
             // SAFETY: caller contract.
             unsafe { o.write(approx) };
@@ -696,10 +731,37 @@ pub unsafe extern "C" fn refl_layered_fill_face(
     })
 }
 
+/// Builds the empty-space bounds of all six faces from the filled map: per
+/// face a pyramid of the smallest front depth over each cell dilated by one
+/// texel, which lets traces skip cells the ray crosses in front of every
+/// surface or behind every solid interval (an addition to seed 001).
+///
+/// Returns `REFL_STATUS_NULL_POINTER`, `REFL_STATUS_INVALID_ARGUMENT`,
+/// `REFL_STATUS_INSUFFICIENT_SIZE` and `REFL_STATUS_DEGENERATE_GEOMETRY` as
+/// `refl_layered_clear`; on error nothing is written.
+///
+/// # Safety
+/// `map` must be NULL or readable, its buffers writable for their lengths.
+#[no_mangle]
+pub unsafe extern "C" fn refl_layered_build_bounds(
+    map: *const refl_layered_map_mut,
+) -> refl_status {
+    guard(|| {
+        // SAFETY: caller contract.
+        let desc = unsafe { read(map) }?;
+        // SAFETY: caller contract.
+        let mut m = unsafe { desc.view_mut() }?;
+        m.build_bounds();
+        Ok(())
+    })
+}
+
 /// Traces one world ray (unit direction) up to distance `t_max` (+inf
 /// allowed) against the map (seed 001 Sec. 3.3-3.4, Algorithm 1: box clip,
 /// up to three faces chosen by the direction's signs, linear then binary
-/// search through the layers, early stop) and writes the result to `*out`.
+/// search through the layers, early stop; with empty space skipped through
+/// the bounds and the binary search on interpolated depth) and writes the
+/// result to `*out`.
 ///
 /// Returns `REFL_STATUS_NULL_POINTER` if `out`, `map`, a map buffer or
 /// `params` is NULL; `REFL_STATUS_INVALID_ARGUMENT` for a non-finite ray,

@@ -50,6 +50,7 @@ struct Bufs {
     depth: Vec<f32>,
     payload: Vec<u32>,
     counts: Vec<u32>,
+    bounds: Vec<f32>,
 }
 
 impl Bufs {
@@ -59,6 +60,7 @@ impl Bufs {
             depth: vec![7.0; l.depth],
             payload: vec![7; l.payload],
             counts: vec![7; l.counts],
+            bounds: vec![7.0; l.bounds],
         }
     }
     fn map_mut(&mut self, g: refl_layered_grid) -> refl_layered_map_mut {
@@ -70,6 +72,8 @@ impl Bufs {
             payload_len: self.payload.len(),
             counts: self.counts.as_mut_ptr(),
             counts_len: self.counts.len(),
+            bounds: self.bounds.as_mut_ptr(),
+            bounds_len: self.bounds.len(),
         }
     }
     fn map(&self, g: refl_layered_grid) -> refl_layered_map {
@@ -81,6 +85,8 @@ impl Bufs {
             payload_len: self.payload.len(),
             counts: self.counts.as_ptr(),
             counts_len: self.counts.len(),
+            bounds: self.bounds.as_ptr(),
+            bounds_len: self.bounds.len(),
         }
     }
 }
@@ -126,11 +132,16 @@ fn build_c(g: refl_layered_grid) -> Bufs {
     b
 }
 
-/// The same map through refl-core directly.
-fn build_rust(g: LayeredGrid) -> (Vec<f32>, Vec<u32>, Vec<u32>) {
+/// The same map through refl-core directly (bounds built at the end).
+fn build_rust(g: LayeredGrid) -> (Vec<f32>, Vec<u32>, Vec<u32>, Vec<f32>) {
     let l = g.len();
-    let (mut d, mut p, mut c) = (vec![0.0; l.depth], vec![0; l.payload], vec![0; l.counts]);
-    let mut m = LayeredMapMut::try_new(g, &mut d, &mut p, &mut c).unwrap();
+    let (mut d, mut p, mut c, mut b) = (
+        vec![0.0; l.depth],
+        vec![0; l.payload],
+        vec![0; l.counts],
+        vec![0.0; l.bounds],
+    );
+    let mut m = LayeredMapMut::try_new(g, &mut d, &mut p, &mut c, &mut b).unwrap();
     m.clear();
     let res = g.face_res();
     for face in [Face::NegX, Face::NegY, Face::NegZ] {
@@ -150,7 +161,8 @@ fn build_rust(g: LayeredGrid) -> (Vec<f32>, Vec<u32>, Vec<u32>) {
             }
         }
     }
-    (d, p, c)
+    m.build_bounds();
+    (d, p, c, b)
 }
 
 #[test]
@@ -158,13 +170,14 @@ fn sizes_params_and_face_rays_match_the_core() {
     let l: refl_layered_sizes = ok(|o| unsafe { refl_layered_len(o, 5, 3) });
     let core = refl_core::layered_len(5, 3).unwrap();
     assert_eq!(
-        (l.depth, l.payload, l.counts),
-        (core.depth, core.payload, core.counts)
+        (l.depth, l.payload, l.counts, l.bounds),
+        (core.depth, core.payload, core.counts, core.bounds)
     );
     let mut sentinel = refl_layered_sizes {
         depth: 1,
         payload: 2,
         counts: 3,
+        bounds: 4,
     };
     let before = sentinel;
     assert_eq!(
@@ -230,9 +243,11 @@ fn sizes_params_and_face_rays_match_the_core() {
 fn filling_through_the_abi_equals_filling_in_rust() {
     let g = grid_c(24, 2);
     let c = build_c(g);
-    let (d, p, n) = build_rust(LayeredGrid::try_from(&g).unwrap());
+    let (d, p, n, bounds) = build_rust(LayeredGrid::try_from(&g).unwrap());
     assert_eq!(c.counts, n);
     assert_eq!(c.payload, p);
+    // refl_layered_fill_face rebuilt the bounds of the faces it filled.
+    assert_eq!(c.bounds, bounds);
     assert_eq!(c.depth.len(), d.len());
     for (a, b) in c.depth.iter().zip(&d) {
         assert!(a == b || (a.is_infinite() && b.is_infinite()));
@@ -259,13 +274,68 @@ fn filling_through_the_abi_equals_filling_in_rust() {
     let base = (24 + 3) * 24 + 2; // face 1, j 3, i 2
     assert_eq!(b.counts[base], 1);
     assert_eq!(b.payload[base * 2], 8);
+    // The column's bound cells are "never skip" until rebuilt, then exact
+    // as refl-core builds them.
+    let never_skip = |b: &[f32]| {
+        b.chunks(2)
+            .any(|h| h[0] == f32::NEG_INFINITY && h[1] == f32::INFINITY)
+    };
+    assert!(never_skip(&b.bounds));
+    assert_eq!(unsafe { refl_layered_build_bounds(&m) }, refl_status::Ok);
+    assert!(!never_skip(&b.bounds));
+    let (mut d2, mut p2, mut c2, mut b2) = (
+        b.depth.clone(),
+        b.payload.clone(),
+        b.counts.clone(),
+        vec![0.0; b.bounds.len()],
+    );
+    LayeredMapMut::try_new(
+        LayeredGrid::try_from(&g).unwrap(),
+        &mut d2,
+        &mut p2,
+        &mut c2,
+        &mut b2,
+    )
+    .unwrap()
+    .build_bounds();
+    assert_eq!(b.bounds, b2);
+    // Errors leave the bounds untouched.
+    let snapshot = b.bounds.clone();
+    let mut short = b.map_mut(g);
+    short.bounds_len -= 1;
+    assert_eq!(
+        unsafe { refl_layered_build_bounds(&short) },
+        refl_status::InsufficientSize
+    );
+    let mut alias = b.map_mut(g);
+    alias.bounds = alias.depth;
+    assert_eq!(
+        unsafe { refl_layered_build_bounds(&alias) },
+        refl_status::InvalidArgument
+    );
+    let mut null = b.map_mut(g);
+    null.bounds = core::ptr::null_mut();
+    assert_eq!(
+        unsafe { refl_layered_build_bounds(&null) },
+        refl_status::NullPointer
+    );
+    assert_eq!(
+        unsafe { refl_layered_build_bounds(core::ptr::null()) },
+        refl_status::NullPointer
+    );
+    assert_eq!(b.bounds, snapshot);
 }
 
 #[test]
 fn fill_errors_leave_the_map_untouched() {
     let g = grid_c(4, 2);
     let mut b = Bufs::new(&g);
-    let snapshot = (b.depth.clone(), b.payload.clone(), b.counts.clone());
+    let snapshot = (
+        b.depth.clone(),
+        b.payload.clone(),
+        b.counts.clone(),
+        b.bounds.clone(),
+    );
     let m = b.map_mut(g);
     let good = [refl_layer_hit {
         t: 0.5,
@@ -300,6 +370,12 @@ fn fill_errors_leave_the_map_untouched() {
     assert_eq!(call(&m, &good, 6, &mut fill), refl_status::InvalidArgument);
     let mut short = m;
     short.counts_len -= 1;
+    assert_eq!(
+        call(&short, &good, 0, &mut fill),
+        refl_status::InsufficientSize
+    );
+    let mut short = m;
+    short.bounds_len -= 1;
     assert_eq!(
         call(&short, &good, 0, &mut fill),
         refl_status::InsufficientSize
@@ -358,7 +434,12 @@ fn fill_errors_leave_the_map_untouched() {
     );
     assert_eq!((fill.intervals, approx), (77, 55));
     assert_eq!(
-        (b.depth.clone(), b.payload.clone(), b.counts.clone()),
+        (
+            b.depth.clone(),
+            b.payload.clone(),
+            b.counts.clone(),
+            b.bounds.clone()
+        ),
         snapshot
     );
 }
@@ -373,6 +454,7 @@ fn traces_through_the_abi_equal_the_core() {
         &b.depth,
         &b.payload,
         &b.counts,
+        &b.bounds,
     )
     .unwrap();
     let params: refl_layered_params = ok(|o| unsafe { refl_layered_params_default(o) });
@@ -484,11 +566,31 @@ fn trace_errors_leave_outputs_untouched() {
             refl_layered_trace(core::ptr::null_mut(), &map, good, 1.0, &params),
             refl_status::NullPointer
         );
+        let bad_params = refl_layered_params {
+            smooth_texels: f32::NAN,
+            ..params
+        };
+        assert_eq!(
+            refl_layered_trace(&mut out, &map, good, 1.0, &bad_params),
+            refl_status::InvalidArgument
+        );
         let mut short = map;
         short.depth_len -= 1;
         assert_eq!(
             refl_layered_trace(&mut out, &short, good, 1.0, &params),
             refl_status::InsufficientSize
+        );
+        let mut short = map;
+        short.bounds_len -= 1;
+        assert_eq!(
+            refl_layered_trace(&mut out, &short, good, 1.0, &params),
+            refl_status::InsufficientSize
+        );
+        let mut null = map;
+        null.bounds = core::ptr::null();
+        assert_eq!(
+            refl_layered_trace(&mut out, &null, good, 1.0, &params),
+            refl_status::NullPointer
         );
     }
     assert_eq!(out, sentinel);
