@@ -71,7 +71,6 @@ fn image_16384_squared_steps_and_hiz_without_overflow() {
         side /= 2;
     }
     assert_eq!(hiz_len(N, N).expect("len"), expect);
-    drop(step);
     let mut pyramid = vec![[0.0f32; 2]; expect];
     try_build_hiz(&mut pyramid, &img).expect("build");
     let hiz = HiZ::try_new(&pyramid, cam, DepthConvention::Linear).expect("hiz");
