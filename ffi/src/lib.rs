@@ -32,16 +32,22 @@
 #![warn(clippy::undocumented_unsafe_blocks)]
 
 mod camera;
+mod hiz;
 mod image;
+mod layered;
 mod mirror;
 mod ptr;
 mod status;
 mod tcrr;
+mod trace;
 mod types;
 
 pub use camera::*;
+pub use hiz::*;
 pub use image::*;
+pub use layered::*;
 pub use mirror::*;
 pub use status::*;
 pub use tcrr::*;
+pub use trace::*;
 pub use types::*;
