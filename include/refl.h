@@ -1015,25 +1015,6 @@ typedef struct refl_plane {
 } refl_plane;
 
 /**
- * Options of the per-pixel stepping kernel (`refl_step_ray`). The
- * defaults are `stride = 1`, `max_steps = UINT32_MAX`.
- */
-typedef struct refl_step_options {
-    /**
-     * Texels per coarse step, >= 1. 1 tests every texel the ray's
-     * projection touches; larger strides sample every `stride`-th texel and
-     * refine the last coarse interval texel by texel once the ray reaches
-     * behind a surface.
-     */
-    uint32_t stride;
-    /**
-     * The most steps (coarse plus refinement) spent on one ray; reaching it
-     * gives `REFL_MISS_OUT_OF_STEPS`. 0 allows none.
-     */
-    uint32_t max_steps;
-} refl_step_options;
-
-/**
  * Settings of the TCRR passes (refl-core `TcrrParams`); fill with
  * `refl_tcrr_default_params`.
  */
@@ -1421,6 +1402,25 @@ typedef struct refl_image_u8 {
      */
     uint32_t stride;
 } refl_image_u8;
+
+/**
+ * Options of the per-pixel stepping kernel (`refl_step_ray`). The
+ * defaults are `stride = 1`, `max_steps = UINT32_MAX`.
+ */
+typedef struct refl_step_options {
+    /**
+     * Texels per coarse step, >= 1. 1 tests every texel the ray's
+     * projection touches; larger strides sample every `stride`-th texel and
+     * refine the last coarse interval texel by texel once the ray reaches
+     * behind a surface.
+     */
+    uint32_t stride;
+    /**
+     * The most steps (coarse plus refinement) spent on one ray; reaching it
+     * gives `REFL_MISS_OUT_OF_STEPS`. 0 allows none.
+     */
+    uint32_t max_steps;
+} refl_step_options;
 
 /**
  * A 4-component float vector (a four-channel texel).
@@ -2534,101 +2534,6 @@ const char *refl_version(void);
 uint32_t refl_version_number(void);
 
 /**
- * Traces one ray against a depth image by per-pixel stepping along its
- * projection (seed 003 Sec. 3.4; `refl_core::step` documents the
- * algorithm): the ray `ray.origin + t * ray.dir`, `t` in `[0, t_max]`, is
- * clipped to the camera's frustum, projected, and walked texel by texel
- * from its near to its far end; a texel is hit where the ray's linear
- * depth lies between its front depth and front + thickness (or its
- * back-face depth). A ray through the camera's eye (a planar reflector's
- * ray) is resolved with one lookup. Writes the hit or the miss reason to
- * `*out`.
- *
- * `ray.dir` must be unit length (within 1e-3); `t_max` > 0, +infinity
- * allowed (up to the far plane).
- *
- * Returns `REFL_STATUS_NULL_POINTER` if `out`, `image`, `image->depth.data`,
- * `thickness` or `options` is NULL; `REFL_STATUS_INVALID_ARGUMENT` for a
- * non-finite or non-unit ray, a NaN or non-positive `t_max`, an unknown
- * convention, a misaligned pointer, a zero or overflowing image size,
- * `stride < width`, an image or back-face image whose size differs from
- * the camera's, a NaN or negative constant thickness, or `stride == 0`;
- * `REFL_STATUS_INSUFFICIENT_SIZE` if an image's `len` is too small; the
- * camera's status if it is invalid.
- *
- * # Safety
- * `out` must be NULL or writable; `image`, `thickness` and `options` NULL
- * or readable; the images' `data` readable for `len` floats and not
- * written during the call.
- */
-refl_status refl_step_ray(struct refl_trace_result *out,
-                          const struct refl_depth_image *image,
-                          const struct refl_thickness *thickness,
-                          struct refl_ray ray,
-                          float t_max,
-                          const struct refl_step_options *options);
-
-/**
- * Traces `ray_count` rays as `refl_step_ray` would, writing result `i` to
- * `out[i]`. `t_max` holds either one value for every ray
- * (`t_max_count == 1`) or one per ray (`t_max_count >= ray_count`).
- *
- * Every input is validated before anything is written: on any error
- * `out` is untouched. Elements of `out` past `ray_count` are never
- * written. Rays are independent: a host splits a large batch into chunks
- * (e.g. rows of a reflection buffer) and calls this from its own threads.
- *
- * Returns `REFL_STATUS_NULL_POINTER` if `out`, `rays`, `t_max`, `image`,
- * `image->depth.data`, `thickness` or `options` is NULL;
- * `REFL_STATUS_INSUFFICIENT_SIZE` if `out_len < ray_count` or `t_max_count`
- * is neither 1 nor at least `ray_count`; `REFL_STATUS_INVALID_ARGUMENT` if
- * `t_max_count` is 0, or for any ray, `t_max`, image, thickness or option
- * rejected as by `refl_step_ray`.
- *
- * # Safety
- * `out` must be NULL or writable for `out_len` results; `rays` NULL or
- * readable for `ray_count` rays; `t_max` NULL or readable for
- * `t_max_count` floats; the rest as `refl_step_ray`.
- */
-refl_status refl_step_rays(struct refl_trace_result *out,
-                           size_t out_len,
-                           const struct refl_ray *rays,
-                           size_t ray_count,
-                           const float *t_max,
-                           size_t t_max_count,
-                           const struct refl_depth_image *image,
-                           const struct refl_thickness *thickness,
-                           const struct refl_step_options *options);
-
-/**
- * Refines a hit of `refl_step_ray` / `refl_hiz_trace_ray` to sub-texel
- * accuracy (`refl_core::trace::refine_hit`): the ray is intersected with
- * the plane through the hit texel's center point and its coplanar (or
- * continuous) neighbors, never across a silhouette; where that plane is
- * met outside the 3x3 texels around the texel, the fit moves there (up to
- * 4 fits). On a surface seen at a grazing angle this moves the hit from
- * the first texel plate the ray meets to the surface itself. The refined
- * `pixel`, `t` and `depth` replace the hit's if the point lies on the ray
- * within `[0, t_max]`; otherwise, and for a miss (`hit->miss != 0`),
- * `*out` is `*hit`. `fetches` counts the extra texels read.
- *
- * Returns `REFL_STATUS_NULL_POINTER` if `out`, `image`,
- * `image->depth.data` or `hit` is NULL; `REFL_STATUS_INVALID_ARGUMENT` for
- * a non-finite or non-unit ray, a NaN or non-positive `t_max`, a hit with
- * an unknown miss value or non-finite fields, or an invalid image (as
- * `refl_step_ray`); `REFL_STATUS_INSUFFICIENT_SIZE` for a short image.
- *
- * # Safety
- * `out` NULL or writable; `image` and `hit` NULL or readable; the image's
- * `data` readable for `len` floats and not written during the call.
- */
-refl_status refl_refine_hit(struct refl_trace_result *out,
-                            const struct refl_depth_image *image,
-                            struct refl_ray ray,
-                            float t_max,
-                            const struct refl_trace_result *hit);
-
-/**
  * Writes to `*out` the default TCRR settings (iteration cap 64,
  * magnification 16 as in seed 000 Sec. 4.1, discontinuity 0.02, reflected
  * discontinuity 0.1, sub-pixel offsets on, re-trace contrast 0.1).
@@ -2864,6 +2769,101 @@ refl_status refl_tcrr_needs_key_frame(uint32_t *out,
                                       float threshold,
                                       uint64_t retrace,
                                       uint64_t reflective);
+
+/**
+ * Traces one ray against a depth image by per-pixel stepping along its
+ * projection (seed 003 Sec. 3.4; `refl_core::step` documents the
+ * algorithm): the ray `ray.origin + t * ray.dir`, `t` in `[0, t_max]`, is
+ * clipped to the camera's frustum, projected, and walked texel by texel
+ * from its near to its far end; a texel is hit where the ray's linear
+ * depth lies between its front depth and front + thickness (or its
+ * back-face depth). A ray through the camera's eye (a planar reflector's
+ * ray) is resolved with one lookup. Writes the hit or the miss reason to
+ * `*out`.
+ *
+ * `ray.dir` must be unit length (within 1e-3); `t_max` > 0, +infinity
+ * allowed (up to the far plane).
+ *
+ * Returns `REFL_STATUS_NULL_POINTER` if `out`, `image`, `image->depth.data`,
+ * `thickness` or `options` is NULL; `REFL_STATUS_INVALID_ARGUMENT` for a
+ * non-finite or non-unit ray, a NaN or non-positive `t_max`, an unknown
+ * convention, a misaligned pointer, a zero or overflowing image size,
+ * `stride < width`, an image or back-face image whose size differs from
+ * the camera's, a NaN or negative constant thickness, or `stride == 0`;
+ * `REFL_STATUS_INSUFFICIENT_SIZE` if an image's `len` is too small; the
+ * camera's status if it is invalid.
+ *
+ * # Safety
+ * `out` must be NULL or writable; `image`, `thickness` and `options` NULL
+ * or readable; the images' `data` readable for `len` floats and not
+ * written during the call.
+ */
+refl_status refl_step_ray(struct refl_trace_result *out,
+                          const struct refl_depth_image *image,
+                          const struct refl_thickness *thickness,
+                          struct refl_ray ray,
+                          float t_max,
+                          const struct refl_step_options *options);
+
+/**
+ * Traces `ray_count` rays as `refl_step_ray` would, writing result `i` to
+ * `out[i]`. `t_max` holds either one value for every ray
+ * (`t_max_count == 1`) or one per ray (`t_max_count >= ray_count`).
+ *
+ * Every input is validated before anything is written: on any error
+ * `out` is untouched. Elements of `out` past `ray_count` are never
+ * written. Rays are independent: a host splits a large batch into chunks
+ * (e.g. rows of a reflection buffer) and calls this from its own threads.
+ *
+ * Returns `REFL_STATUS_NULL_POINTER` if `out`, `rays`, `t_max`, `image`,
+ * `image->depth.data`, `thickness` or `options` is NULL;
+ * `REFL_STATUS_INSUFFICIENT_SIZE` if `out_len < ray_count` or `t_max_count`
+ * is neither 1 nor at least `ray_count`; `REFL_STATUS_INVALID_ARGUMENT` if
+ * `t_max_count` is 0, or for any ray, `t_max`, image, thickness or option
+ * rejected as by `refl_step_ray`.
+ *
+ * # Safety
+ * `out` must be NULL or writable for `out_len` results; `rays` NULL or
+ * readable for `ray_count` rays; `t_max` NULL or readable for
+ * `t_max_count` floats; the rest as `refl_step_ray`.
+ */
+refl_status refl_step_rays(struct refl_trace_result *out,
+                           size_t out_len,
+                           const struct refl_ray *rays,
+                           size_t ray_count,
+                           const float *t_max,
+                           size_t t_max_count,
+                           const struct refl_depth_image *image,
+                           const struct refl_thickness *thickness,
+                           const struct refl_step_options *options);
+
+/**
+ * Refines a hit of `refl_step_ray` / `refl_hiz_trace_ray` to sub-texel
+ * accuracy (`refl_core::trace::refine_hit`): the ray is intersected with
+ * the plane through the hit texel's center point and its coplanar (or
+ * continuous) neighbors, never across a silhouette; where that plane is
+ * met outside the 3x3 texels around the texel, the fit moves there (up to
+ * 4 fits). On a surface seen at a grazing angle this moves the hit from
+ * the first texel plate the ray meets to the surface itself. The refined
+ * `pixel`, `t` and `depth` replace the hit's if the point lies on the ray
+ * within `[0, t_max]`; otherwise, and for a miss (`hit->miss != 0`),
+ * `*out` is `*hit`. `fetches` counts the extra texels read.
+ *
+ * Returns `REFL_STATUS_NULL_POINTER` if `out`, `image`,
+ * `image->depth.data` or `hit` is NULL; `REFL_STATUS_INVALID_ARGUMENT` for
+ * a non-finite or non-unit ray, a NaN or non-positive `t_max`, a hit with
+ * an unknown miss value or non-finite fields, or an invalid image (as
+ * `refl_step_ray`); `REFL_STATUS_INSUFFICIENT_SIZE` for a short image.
+ *
+ * # Safety
+ * `out` NULL or writable; `image` and `hit` NULL or readable; the image's
+ * `data` readable for `len` floats and not written during the call.
+ */
+refl_status refl_refine_hit(struct refl_trace_result *out,
+                            const struct refl_depth_image *image,
+                            struct refl_ray ray,
+                            float t_max,
+                            const struct refl_trace_result *hit);
 
 #ifdef __cplusplus
 }  // extern "C"
