@@ -21,6 +21,8 @@
 #![deny(unsafe_code)]
 
 pub mod camera;
+#[cfg(feature = "epipolar")]
+pub mod epipolar;
 pub mod error;
 pub mod image;
 #[cfg(feature = "mirror")]
