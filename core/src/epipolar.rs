@@ -854,8 +854,8 @@ pub enum Reason {
     Failed = 1,
     /// Regular resampling picked the pixel this frame (white).
     Resampled = 2,
-    /// As `Failed`, and a point near the pixel was discarded by the
-    /// abrupt-motion test (blue).
+    /// A point near the pixel was discarded by the abrupt-motion test
+    /// (blue).
     Abrupt = 3,
     /// No reprojection this frame (first frame, view-frustum check).
     Unavailable = 4,
@@ -923,9 +923,11 @@ fn gcd(mut a: u32, mut b: u32) -> u32 {
 ///    full traversal ([`Reason::Unavailable`]);
 /// 2. the pixel's regular-resampling slot is `frame mod N`: full traversal
 ///    ([`Reason::Resampled`]);
-/// 3. `cnt >= m_cnt`: test `aip.object` only, on `[0, tmax)` with `tmax`
+/// 3. a point near the pixel was dropped by the abrupt-motion test: full
+///    traversal ([`Reason::Abrupt`]);
+/// 4. `cnt >= m_cnt`: test `aip.object` only, on `[0, tmax)` with `tmax`
 ///    the depth guard ([`Reason::Reprojected`]);
-/// 4. otherwise full traversal ([`Reason::Failed`] or [`Reason::Abrupt`]).
+/// 5. otherwise full traversal ([`Reason::Failed`]).
 ///
 /// With [`Params::shift_origin`], a full traversal of a pixel whose entry
 /// holds a scene object starts at `max(0, aip.t - shift_epsilon)` (Sec. 5.3).
@@ -963,6 +965,13 @@ pub fn decide(aip: &AipEntry, x: u32, y: u32, frame: u32, params: &Params) -> De
     if n > 0 && resample_slot(x, y, n) == frame % n {
         return traverse(Reason::Resampled);
     }
+    // Fig. 6 (blue): pixels near a point dropped for abrupt motion take the
+    // ORSA. Dropping the near point alone would leave the farther points
+    // around it unchallenged: they would win the pixel and the one-object
+    // test would hit them through the object that was dropped.
+    if aip.flags & AipEntry::ABRUPT_REJECTED != 0 {
+        return traverse(Reason::Abrupt);
+    }
     if aip.object != INVALID_OBJECT && aip.cnt >= params.m_cnt {
         return Decision {
             object: aip.object,
@@ -975,11 +984,7 @@ pub fn decide(aip: &AipEntry, x: u32, y: u32, frame: u32, params: &Params) -> De
             reason: Reason::Reprojected,
         };
     }
-    if aip.flags & AipEntry::ABRUPT_REJECTED != 0 {
-        traverse(Reason::Abrupt)
-    } else {
-        traverse(Reason::Failed)
-    }
+    traverse(Reason::Failed)
 }
 
 /// [`decide`] for the rows `rows` of a `width`-wide image: `out[i]` for
