@@ -19,6 +19,7 @@ use crate::render::timed;
 use crate::report_out::{self, Row};
 use crate::scene::Scene;
 use crate::tracer::{Hit, Tracer};
+use glam::Vec3;
 use rayon::prelude::*;
 use refl_core::epipolar::{
     decide, scratch_len, try_reproject, AipEntry, Decision, Params, PosEntry, Reason,
@@ -200,6 +201,24 @@ pub struct PathSizes {
     pub step: f32,
     /// Where on the path (0..1) the stretch starts.
     pub start: f32,
+    /// Where the camera looks.
+    pub gaze: Gaze,
+}
+
+/// Where the walkthrough camera looks.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Gaze {
+    /// Along the direction of motion (the tangent of the eye path, tilted
+    /// down like the stored poses): a walker looking where they go, the
+    /// walkthrough of seed 002 Sec. 4.1 ("the camera is typically moving
+    /// forward or rotates").
+    AlongPath,
+    /// The scene's stored targets (the walkthrough scene looks 3 m ahead
+    /// along its route, so around corners it walks sideways, up to 54
+    /// degrees off its view axis: the new eye leaves the previous view
+    /// pyramid and the view-frustum check of Sec. 4.1 turns reprojection
+    /// off for the frame).
+    Stored,
 }
 
 impl PathSizes {
@@ -212,6 +231,7 @@ impl PathSizes {
                 frames: 10,
                 step: 0.05,
                 start: 0.3,
+                gaze: Gaze::AlongPath,
             }
         } else {
             PathSizes {
@@ -220,13 +240,15 @@ impl PathSizes {
                 frames: 48,
                 step: 0.05,
                 start: 0.3,
+                gaze: Gaze::AlongPath,
             }
         }
     }
 }
 
 /// The cameras of `frames` frames along the scene's path from `start`, the
-/// eye advancing about `step` per frame (arc length of the eye spline).
+/// eye advancing about `step` per frame (arc length of the eye spline),
+/// looking as `sizes.gaze` says.
 pub fn path_cameras(scene: &Scene, sizes: &PathSizes) -> Result<Vec<Camera>, String> {
     // Arc length of the eye spline, sampled finely.
     let samples = 4000;
@@ -249,11 +271,24 @@ pub fn path_cameras(scene: &Scene, sizes: &PathSizes) -> Result<Vec<Camera>, Str
     let start_len = arc[(sizes.start.clamp(0.0, 1.0) * samples as f32) as usize];
     (0..sizes.frames)
         .map(|k| {
-            let s = s_at(start_len + k as f32 * sizes.step);
-            scene
-                .pose_at(s)
-                .ok_or("empty camera path".to_string())?
-                .camera(scene.near, scene.far, sizes.width, sizes.height)
+            let len = start_len + k as f32 * sizes.step;
+            let s = s_at(len);
+            let mut pose = scene.pose_at(s).ok_or("empty camera path".to_string())?;
+            if sizes.gaze == Gaze::AlongPath {
+                // Tangent of the eye path over +-10 cm of arc length,
+                // horizontal, with the stored pose's downward tilt.
+                let (a, b) = (eye(s_at(len - 0.1)), eye(s_at(len + 0.1)));
+                let (Some(a), Some(b)) = (a, b) else {
+                    return Err(format!("{}: empty camera path", scene.name));
+                };
+                let stored = pose.target - pose.eye;
+                let flat = Vec3::new(b.x - a.x, 0.0, b.z - a.z).normalize_or_zero();
+                if flat != Vec3::ZERO {
+                    let horizontal = Vec3::new(stored.x, 0.0, stored.z).length();
+                    pose.target = pose.eye + flat * horizontal + Vec3::Y * stored.y;
+                }
+            }
+            pose.camera(scene.near, scene.far, sizes.width, sizes.height)
                 .map_err(|e| format!("{}: camera: {e}", scene.name))
         })
         .collect()
@@ -312,11 +347,9 @@ fn irsa(
 fn method_pixel(
     scene_tracer: &Tracer,
     objects: &ObjectTracers,
-    camera: &Camera,
-    i: usize,
+    r: &refl_core::Ray,
     d: &Decision,
 ) -> PixelOut {
-    let r = ray_of(camera, i);
     let full = |tmin: f32| scene_tracer.trace(r.origin, r.dir, tmin, f32::INFINITY);
     match d.reason {
         Reason::Reprojected if d.object == BACKGROUND_OBJECT => (None, PixelPath::Resolved),
@@ -370,32 +403,27 @@ fn method_frame(
     }
     let radius = background_radius(scene);
     let aip = &state.aip;
+    // Decide, trace and store the POS entry of the next frame in one pass
+    // (one primary ray per pixel).
     let out: Vec<PixelOut> = pool.install(|| {
-        (0..aip.len())
-            .into_par_iter()
-            .with_min_len(w)
-            .map(|i| {
-                let d = decide(&aip[i], (i % w) as u32, (i / w) as u32, frame, params);
-                method_pixel(tracer, objects, camera, i, &d)
-            })
-            .collect()
-    });
-    pool.install(|| {
         state
             .pos
             .par_iter_mut()
-            .zip(out.par_iter())
             .enumerate()
             .with_min_len(w)
-            .for_each(|(i, (p, (hit, _)))| {
+            .map(|(i, p)| {
+                let d = decide(&aip[i], (i % w) as u32, (i / w) as u32, frame, params);
                 let r = ray_of(camera, i);
-                *p = match hit {
+                let out = method_pixel(tracer, objects, &r, &d);
+                *p = match out.0 {
                     Some(h) => {
                         PosEntry::hit(r.origin, r.dir, h.t, scene.tri_object[h.prim as usize])
                     }
                     None => PosEntry::background(r.origin, r.dir, radius),
                 };
+                out
             })
+            .collect()
     });
     state.previous = Some(*camera);
     Ok(out)
@@ -422,14 +450,45 @@ pub struct Mismatch {
     pub path: PixelPath,
 }
 
-/// `true` if two hits are the same visibility: the same primitive at the
-/// same distance (to 1e-6 relative: the same triangle test on the same
-/// ray), or both misses.
-pub fn same_hit(a: &Option<Hit>, b: &Option<Hit>) -> bool {
+/// How a method's hit compares with ORSA's on the same ray.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Agreement {
+    /// Both miss, or both hit the same object at the same distance (to
+    /// [`SAME_T`] relative). Within one object the primitive may differ: a
+    /// ray through an edge shared by two triangles of the object hits both
+    /// at one distance, and which one a traversal reports depends on the
+    /// order it visits them (a per-object BVH and the scene BVH differ).
+    Same,
+    /// Different objects at the same distance (to [`SAME_T`] relative): the
+    /// ray hits the line where two objects touch (a pillar on the floor).
+    /// The visible point is the same; counted and listed, not an error.
+    Tie,
+    /// A visibility error: one misses and the other hits, or the distances
+    /// differ.
+    Error,
+}
+
+/// Relative distance tolerance of [`agreement`]: far above the f32
+/// rounding of one triangle test (about `1e-7` relative), far below any
+/// distance between two surfaces of the scenes (millimeters at meters).
+pub const SAME_T: f32 = 1e-4;
+
+/// Compares the hits `a` (the method) and `b` (ORSA) of one ray.
+pub fn agreement(scene: &Scene, a: &Option<Hit>, b: &Option<Hit>) -> Agreement {
     match (a, b) {
-        (None, None) => true,
-        (Some(a), Some(b)) => a.prim == b.prim && (a.t - b.t).abs() <= 1e-6 * a.t.abs().max(1e-6),
-        _ => false,
+        (None, None) => Agreement::Same,
+        (Some(a), Some(b)) => {
+            if (a.t - b.t).abs() > SAME_T * a.t.abs().max(b.t.abs()).max(1e-6) {
+                Agreement::Error
+            } else if a.prim == b.prim
+                || scene.tri_object[a.prim as usize] == scene.tri_object[b.prim as usize]
+            {
+                Agreement::Same
+            } else {
+                Agreement::Tie
+            }
+        }
+        _ => Agreement::Error,
     }
 }
 
@@ -449,8 +508,10 @@ pub struct Totals {
     pub resampled: usize,
     /// No reprojection (first frame, view-frustum check).
     pub unavailable: usize,
-    /// Visibility mismatches against ORSA.
+    /// Visibility errors against ORSA ([`Agreement::Error`]).
     pub mismatches: Vec<Mismatch>,
+    /// Ties with ORSA ([`Agreement::Tie`]): same point, another object.
+    pub ties: Vec<Mismatch>,
     /// Method time per frame, ms.
     pub times: Vec<f64>,
 }
@@ -478,6 +539,25 @@ pub fn run(
     images: Option<&Path>,
 ) -> Result<PathReport, String> {
     let cams = path_cameras(scene, sizes)?;
+    // Sec. 4.1 on the other gaze: how many frames would fail the
+    // view-frustum check (and be rendered by ORSA alone).
+    let other_gaze = match sizes.gaze {
+        Gaze::AlongPath => Gaze::Stored,
+        Gaze::Stored => Gaze::AlongPath,
+    };
+    let frustum_fails = |cams: &[Camera]| {
+        cams.windows(2)
+            .filter(|w| !refl_core::epipolar::frustum_contains(&w[0], w[1].eye()))
+            .count()
+    };
+    let other = path_cameras(
+        scene,
+        &PathSizes {
+            gaze: other_gaze,
+            ..*sizes
+        },
+    )?;
+    let (fails, other_fails) = (frustum_fails(&cams), frustum_fails(&other));
     let build = timed(|| ObjectTracers::new(scene));
     let objects = build.value;
     let median = |mut v: Vec<f64>| {
@@ -487,8 +567,9 @@ pub fn run(
     // ORSA and IRSA per frame (median of `runs`).
     let mut truth = Vec::with_capacity(cams.len());
     let (mut orsa_ms, mut irsa_ms) = (Vec::new(), Vec::new());
-    let mut irsa_mismatch = 0usize;
-    for cam in &cams {
+    // IRSA against ORSA: errors and ties (pixels listed in the notes).
+    let (mut irsa_errors, mut irsa_ties) = (Vec::new(), 0usize);
+    for (f, cam) in cams.iter().enumerate() {
         let mut t = Vec::new();
         let mut hits = None;
         for _ in 0..runs.max(1) {
@@ -499,15 +580,28 @@ pub fn run(
         orsa_ms.push(median(t));
         let hits = hits.expect("runs >= 1");
         let mut t = Vec::new();
-        for _ in 0..runs.max(1) {
+        for rep in 0..runs.max(1) {
             let r = timed(|| irsa(scene, &objects, cam, &hits, pool));
             t.push(r.ms);
-            irsa_mismatch += r
-                .value
-                .iter()
-                .zip(&hits)
-                .filter(|(a, b)| !same_hit(a, b))
-                .count();
+            if rep > 0 {
+                continue;
+            }
+            for (i, (a, b)) in r.value.iter().zip(&hits).enumerate() {
+                match agreement(scene, a, b) {
+                    Agreement::Same => {}
+                    Agreement::Tie => irsa_ties += 1,
+                    Agreement::Error => irsa_errors.push(Mismatch {
+                        frame: f,
+                        pixel: (
+                            (i % sizes.width as usize) as u32,
+                            (i / sizes.width as usize) as u32,
+                        ),
+                        orsa: b.map(|h| (h.prim, h.t)),
+                        method: a.map(|h| (h.prim, h.t)),
+                        path: PixelPath::Resolved,
+                    }),
+                }
+            }
         }
         irsa_ms.push(median(t));
         truth.push(hits);
@@ -551,8 +645,9 @@ pub fn run(
                         PixelPath::Resampled => tot.resampled += 1,
                         PixelPath::Unavailable => tot.unavailable += 1,
                     }
-                    if !same_hit(hit, t) {
-                        tot.mismatches.push(Mismatch {
+                    let agree = agreement(scene, hit, t);
+                    if agree != Agreement::Same {
+                        let m = Mismatch {
                             frame: f,
                             pixel: (
                                 (i % sizes.width as usize) as u32,
@@ -561,7 +656,12 @@ pub fn run(
                             orsa: t.map(|h| (h.prim, h.t)),
                             method: hit.map(|h| (h.prim, h.t)),
                             path: *path,
-                        });
+                        };
+                        if agree == Agreement::Tie {
+                            tot.ties.push(m);
+                        } else {
+                            tot.mismatches.push(m);
+                        }
                     }
                 }
                 if f == cams.len() / 2 {
@@ -569,6 +669,7 @@ pub fn run(
                         let stem = v.setting.replace(['=', ';', '/', ' ', '(', ')'], "-");
                         save_path_image(
                             &dir.join(format!("{}_epipolar_{stem}_paths.png", scene.name)),
+                            scene,
                             sizes,
                             &out,
                             &truth[f],
@@ -616,7 +717,8 @@ pub fn run(
     let mut irsa_row = base("irsa", "known_object", i_ms);
     irsa_row.extra = vec![
         ("frames".into(), frames.to_string()),
-        ("visibility_errors".into(), irsa_mismatch.to_string()),
+        ("visibility_errors".into(), irsa_errors.len().to_string()),
+        ("ties".into(), irsa_ties.to_string()),
         ("irsa_ms".into(), format!("{i_ms:.4}")),
     ];
     rows.push(irsa_row);
@@ -625,9 +727,61 @@ pub fn run(
         notes,
         "- `{}` walkthrough (seed 002): {frames} frames at {}x{}, eye step {} per frame from path position {}; \
          per-object BVHs built in {:.1} ms; ORSA {o_ms:.2} ms/frame, IRSA {i_ms:.2} ms/frame (frames 1..); \
-         IRSA visibility differences from ORSA: {irsa_mismatch}",
-        scene.name, sizes.width, sizes.height, sizes.step, sizes.start, build.ms
+         IRSA visibility errors against ORSA: {}, ties (same point, another object): {irsa_ties}; camera gaze {:?}: {fails} of {} frame \
+         pairs fail the view-frustum check (Sec. 4.1), with gaze {other_gaze:?} {other_fails} would",
+        scene.name,
+        sizes.width,
+        sizes.height,
+        sizes.step,
+        sizes.start,
+        build.ms,
+        irsa_errors.len(),
+        sizes.gaze,
+        frames.saturating_sub(1)
     );
+    for m in irsa_errors.iter().take(20) {
+        let _ = writeln!(
+            notes,
+            "  - IRSA frame {} pixel {:?}: ORSA {:?}, IRSA {:?}",
+            m.frame, m.pixel, m.orsa, m.method
+        );
+    }
+    // Every mismatch and tie of every setting, one CSV line each.
+    let mut csv =
+        String::from("setting,kind,frame,x,y,path,orsa_prim,orsa_t,method_prim,method_t\n");
+    let fmt_hit = |h: Option<(u32, f32)>| match h {
+        Some((p, t)) => format!("{p},{t}"),
+        None => ",".to_string(),
+    };
+    let irsa_list = irsa_errors.iter().map(|m| ("irsa", "error", m));
+    let method_lists = totals.iter().flat_map(|(setting, t)| {
+        t.mismatches
+            .iter()
+            .map(move |m| (setting.as_str(), "error", m))
+            .chain(t.ties.iter().map(move |m| (setting.as_str(), "tie", m)))
+    });
+    for (setting, kind, m) in irsa_list.chain(method_lists) {
+        let _ = writeln!(
+            csv,
+            "{setting},{kind},{},{},{},{:?},{},{}",
+            m.frame,
+            m.pixel.0,
+            m.pixel.1,
+            m.path,
+            fmt_hit(m.orsa),
+            fmt_hit(m.method)
+        );
+    }
+    if let Some(dir) = images {
+        let file = dir.join(format!("{}_epipolar_mismatches.csv", scene.name));
+        std::fs::write(&file, csv).map_err(|e| format!("{}: {e}", file.display()))?;
+        let _ = writeln!(
+            notes,
+            "  - every visibility error and tie: `images/{}`",
+            file.file_name()
+                .map_or(String::new(), |f| f.to_string_lossy().into_owned())
+        );
+    }
     for (setting, t) in &totals {
         // Shares over the frames that had a reprojection (frame 0 and
         // frames failing the view-frustum check are all ORSA).
@@ -658,6 +812,7 @@ pub fn run(
                 ),
             ),
             ("visibility_errors".into(), t.mismatches.len().to_string()),
+            ("ties".into(), t.ties.len().to_string()),
             ("irsa_ms".into(), format!("{i_ms:.4}")),
             (
                 "vs_irsa".into(),
@@ -669,7 +824,7 @@ pub fn run(
             notes,
             "  - `epipolar` {setting}: c_R {:.1}%, c_E {:.1}%, c_O {:.1}% (of frames with reprojection; \
              {} of {} frames without), {:.2} ms/frame ({:.2}x ORSA, {:.2}x IRSA time), \
-             {} visibility errors",
+             {} visibility errors, {} ties",
             100.0 * share(t.resolved),
             100.0 * share(t.failed),
             100.0 * share(t.resampled),
@@ -678,7 +833,8 @@ pub fn run(
             ms,
             if ms > 0.0 { o_ms / ms } else { 0.0 },
             if i_ms > 0.0 { ms / i_ms } else { 0.0 },
-            t.mismatches.len()
+            t.mismatches.len(),
+            t.ties.len()
         );
         for m in t.mismatches.iter().take(20) {
             let _ = writeln!(
@@ -704,6 +860,7 @@ pub fn run(
 /// magenta, background pixels resolved by the background sphere dark red.
 fn save_path_image(
     path: &Path,
+    scene: &Scene,
     sizes: &PathSizes,
     out: &[PixelOut],
     truth: &[Option<Hit>],
@@ -712,7 +869,7 @@ fn save_path_image(
         .iter()
         .zip(truth)
         .map(|((hit, p), t)| {
-            if !same_hit(hit, t) {
+            if agreement(scene, hit, t) == Agreement::Error {
                 return [255, 0, 255];
             }
             match p {

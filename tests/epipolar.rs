@@ -2,7 +2,7 @@
 //! traversal (ORSA) on every pixel of every frame, with the default
 //! settings, and most pixels take one ray/object test.
 
-use refl_app::epipolar::{run, PathSizes};
+use refl_app::epipolar::{run, Gaze, PathSizes};
 use refl_app::scene::Scene;
 use refl_app::tracer::Tracer;
 
@@ -20,6 +20,7 @@ fn walkthrough_has_no_visibility_errors() {
         frames: 8,
         step: 0.05,
         start: 0.3,
+        gaze: Gaze::AlongPath,
     };
     let report = run(&scene, &tracer, &sizes, 1, &pool, 2, None).unwrap();
     let (_, default) = &report.totals[0];
