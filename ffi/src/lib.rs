@@ -32,6 +32,7 @@
 #![warn(clippy::undocumented_unsafe_blocks)]
 
 mod camera;
+mod epipolar;
 mod image;
 mod mirror;
 mod ptr;
@@ -39,6 +40,7 @@ mod status;
 mod types;
 
 pub use camera::*;
+pub use epipolar::*;
 pub use image::*;
 pub use mirror::*;
 pub use status::*;
