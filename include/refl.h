@@ -355,6 +355,18 @@ typedef struct refl_epipolar_params {
      */
     uint32_t depth_guard;
     /**
+     * Relative margin of the depth guard, in [0, 1); default 0.01: the
+     * one-object test accepts hits nearer than `t_other * (1 - margin)`.
+     */
+    float guard_margin;
+    /**
+     * Guard window radius (default 2, at most
+     * `REFL_EPIPOLAR_MAX_SPLAT_RADIUS`, 0 off): after the splat each
+     * pixel's `t_other` is lowered to the `t` of the entries within this
+     * many pixels that hold another object.
+     */
+    uint32_t guard_window;
+    /**
      * View-frustum check of Sec. 4.1 (default 1).
      */
     uint32_t frustum_check;

@@ -179,6 +179,20 @@ pub fn variants() -> Vec<Variant> {
             },
         ),
         v(
+            "guard_margin=0",
+            Params {
+                guard_margin: 0.0,
+                ..d
+            },
+        ),
+        v(
+            "guard_window=0",
+            Params {
+                guard_window: 0,
+                ..d
+            },
+        ),
+        v(
             "shift_origin=on",
             Params {
                 shift_origin: true,

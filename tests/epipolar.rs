@@ -39,6 +39,8 @@ fn walkthrough_has_no_visibility_errors() {
     // Every setting with the depth guard and the occlusion check is exact.
     for (setting, t) in &report.totals {
         if setting != "depth_guard=off"
+            && setting != "guard_margin=0"
+            && setting != "guard_window=0"
             && setting != "occlusion_check=off"
             && setting != "shift_origin=on"
             && setting != "splat=1x1;m_cnt=1"

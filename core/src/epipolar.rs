@@ -120,8 +120,9 @@ pub struct AipEntry {
     pub cnt: u32,
     /// Depth guard (our addition to Alg. 1, see [`Params::depth_guard`]):
     /// the smallest signed distance of a point of another object splatted
-    /// here (or of `object` itself before it became the nearest, which only
-    /// makes the guard stricter); `+inf` when none.
+    /// here, or discarded by the occlusion check with its splat covering
+    /// this pixel (or of `object` itself before it became the nearest,
+    /// which only makes the guard stricter); `+inf` when none.
     pub t_other: f32,
     /// Bit set of [`AipEntry::NO_REPROJECTION`],
     /// [`AipEntry::OCCLUSION_REJECTED`], [`AipEntry::ABRUPT_REJECTED`].
@@ -179,6 +180,25 @@ pub struct Params {
     /// ray, which hits the larger one behind the silhouette, is accepted:
     /// a visibility error, even under pure rotation.
     pub depth_guard: bool,
+    /// Relative margin of the depth guard (default 0.01, in `[0, 1)`):
+    /// the one-object test accepts only hits nearer than
+    /// `t_other * (1 - guard_margin)`. Where two objects meet or
+    /// interpenetrate (a sphere through a wall, a pillar on the floor) the
+    /// nearer surface switches along their intersection curve; the other
+    /// object's points splatted next to that curve lie at almost the same
+    /// distance as the predicted object's hit, and without a margin a pixel
+    /// just across the curve accepts the predicted object a few millimeters
+    /// behind the other one. Such pixels take full traversal instead.
+    pub guard_margin: f32,
+    /// Guard window radius `g` (default 2, at most [`MAX_SPLAT_RADIUS`];
+    /// 0 turns it off; used with [`Params::depth_guard`]): after the splat,
+    /// [`AipEntry::t_other`] of each pixel is lowered to the distance `t` of
+    /// every entry within `g` pixels (Chebyshev) that holds another object.
+    /// A 1-pixel sliver of an object growing out from behind another where
+    /// the two meet (a sphere through the edge of a wall) can miss every
+    /// 3x3 splat of its own points by a pixel, and the splat order decides
+    /// which guards an entry sees; the window is order-independent.
+    pub guard_window: u32,
     /// The view-frustum check of Sec. 4.1 (default on). Off, reprojection
     /// also runs when the new eye left the previous view pyramid (moving
     /// backward or sideways); objects the previous frame never saw can then
@@ -211,6 +231,8 @@ impl Default for Params {
             m_cnt: 5,
             splat_radius: 1,
             depth_guard: true,
+            guard_margin: 0.01,
+            guard_window: 2,
             frustum_check: true,
             occlusion_check: true,
             resample_period: 9,
@@ -226,11 +248,15 @@ impl Params {
     ///
     /// # Errors
     /// [`Error::InvalidArgument`] for `m_cnt == 0`, a splat radius above
-    /// [`MAX_SPLAT_RADIUS`] or a negative or non-finite `shift_epsilon`.
+    /// [`MAX_SPLAT_RADIUS`], a negative or non-finite `shift_epsilon` or a
+    /// `guard_margin` outside `[0, 1)` or a `guard_window` above
+    /// [`MAX_SPLAT_RADIUS`].
     pub fn validate(&self) -> Result<(), Error> {
         if self.m_cnt == 0
             || self.splat_radius > MAX_SPLAT_RADIUS
             || !(self.shift_epsilon >= 0.0 && self.shift_epsilon.is_finite())
+            || !(self.guard_margin >= 0.0 && self.guard_margin < 1.0)
+            || self.guard_window > MAX_SPLAT_RADIUS
         {
             return Err(Error::InvalidArgument);
         }
@@ -665,10 +691,24 @@ pub fn try_reproject(
                     continue;
                 }
                 records.reset();
-                for k in 0..q.len() {
-                    let (x, y) = q.pixel(k);
-                    let entry = &pos[y as usize * w as usize + x as usize];
-                    ctx.point(entry, Some(&mut records), &mut stats);
+                // `Quadrant::pixel` order, without a division per point.
+                let (c0, c1) = q.columns;
+                for r in 0..q.rows.1 - q.rows.0 {
+                    let y = if q.rows_descending {
+                        q.rows.1 - 1 - r
+                    } else {
+                        q.rows.0 + r
+                    };
+                    let row = &pos[y as usize * w as usize..][..w as usize];
+                    if q.columns_descending {
+                        for entry in row[c0 as usize..c1 as usize].iter().rev() {
+                            ctx.point(entry, Some(&mut records), &mut stats);
+                        }
+                    } else {
+                        for entry in &row[c0 as usize..c1 as usize] {
+                            ctx.point(entry, Some(&mut records), &mut stats);
+                        }
+                    }
                 }
             }
         }
@@ -678,7 +718,37 @@ pub fn try_reproject(
             }
         }
     }
+    if params.depth_guard && params.guard_window > 0 {
+        guard_window(ctx.aip, w, h, params.guard_window);
+    }
     Ok(stats)
+}
+
+/// The guard window of [`Params::guard_window`]: lowers `t_other` of every
+/// entry to the `t` of the entries within `g` pixels holding another
+/// object. Reads only `object` and `t`, which it does not change, so it
+/// works in place and in any order.
+fn guard_window(aip: &mut [AipEntry], w: u32, h: u32, g: u32) {
+    let (w, h, g) = (w as usize, h as usize, g as usize);
+    for y in 0..h {
+        let (y0, y1) = (y.saturating_sub(g), (y + g).min(h - 1));
+        for x in 0..w {
+            let object = aip[y * w + x].object;
+            if object == INVALID_OBJECT {
+                continue;
+            }
+            let (x0, x1) = (x.saturating_sub(g), (x + g).min(w - 1));
+            let mut guard = aip[y * w + x].t_other;
+            for ny in y0..=y1 {
+                for n in &aip[ny * w + x0..=ny * w + x1] {
+                    if n.object != object && n.object != INVALID_OBJECT {
+                        guard = guard.min(n.t);
+                    }
+                }
+            }
+            aip[y * w + x].t_other = guard;
+        }
+    }
 }
 
 /// Per-column and per-row distance records of the occlusion check.
@@ -795,7 +865,16 @@ impl Splat<'_> {
         if let Some(rec) = records {
             if !rec.check(px, x, y) {
                 stats.occlusion_rejected += 1;
-                self.flag(x, y, AipEntry::OCCLUSION_REJECTED);
+                // The discarded point still bounds the one-object test of
+                // another object (the depth guard): something is there at
+                // distance t.
+                let object = entry.object;
+                self.for_each(x, y, |a| {
+                    a.flags |= AipEntry::OCCLUSION_REJECTED;
+                    if a.object != object {
+                        a.t_other = a.t_other.min(t);
+                    }
+                });
                 return;
             }
         }
@@ -871,7 +950,8 @@ pub struct Decision {
     /// reprojection).
     pub object: u32,
     /// End of the interval of the one-object test: the depth guard
-    /// [`AipEntry::t_other`] with [`Params::depth_guard`], else `+inf`.
+    /// `t_other * (1 - guard_margin)` ([`AipEntry::t_other`],
+    /// [`Params::guard_margin`]) with [`Params::depth_guard`], else `+inf`.
     pub tmax: f32,
     /// Ray distance at which a full traversal of this pixel may start:
     /// 0, or with [`Params::shift_origin`] the AIP distance minus epsilon
@@ -926,7 +1006,9 @@ fn gcd(mut a: u32, mut b: u32) -> u32 {
 /// 3. a point near the pixel was dropped by the abrupt-motion test: full
 ///    traversal ([`Reason::Abrupt`]);
 /// 4. `cnt >= m_cnt`: test `aip.object` only, on `[0, tmax)` with `tmax`
-///    the depth guard ([`Reason::Reprojected`]);
+///    the depth guard ([`Reason::Reprojected`]); a background prediction
+///    with another object's point in its splat (finite `t_other`) takes
+///    full traversal instead when the guard is on;
 /// 5. otherwise full traversal ([`Reason::Failed`]).
 ///
 /// With [`Params::shift_origin`], a full traversal of a pixel whose entry
@@ -973,14 +1055,21 @@ pub fn decide(aip: &AipEntry, x: u32, y: u32, frame: u32, params: &Params) -> De
         return traverse(Reason::Abrupt);
     }
     if aip.object != INVALID_OBJECT && aip.cnt >= params.m_cnt {
+        let tmax = if params.depth_guard {
+            aip.t_other * (1.0 - params.guard_margin)
+        } else {
+            f32::INFINITY
+        };
+        // A background decision has no ray/object test to bound: with the
+        // depth guard, any other object's point in the splat sends the pixel
+        // to full traversal.
+        if aip.object == BACKGROUND_OBJECT && params.depth_guard && aip.t_other.is_finite() {
+            return traverse(Reason::Failed);
+        }
         return Decision {
             object: aip.object,
             tmin: 0.0,
-            tmax: if params.depth_guard {
-                aip.t_other
-            } else {
-                f32::INFINITY
-            },
+            tmax,
             reason: Reason::Reprojected,
         };
     }

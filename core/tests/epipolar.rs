@@ -149,6 +149,10 @@ fn run_pair(scene: &[Boxed], c0: &Camera, c1: &Camera, params: &Params) -> Outco
 /// previous pyramid).
 fn check_only(occlusion_check: bool) -> Params {
     Params {
+        // The depth guard's margin and ring catch some occlusion errors
+        // too; here the occlusion check alone is under test.
+        guard_margin: 0.0,
+        guard_window: 0,
         resample_period: 0,
         abrupt_frames: 0,
         frustum_check: false,
@@ -421,7 +425,16 @@ fn reproject_brute(pos: &[PosEntry], c0: &Camera, c1: &Camera, p: &Params) -> Ve
                 col_ok && row_ok
             });
             if !ok {
-                flag(&mut aip, AipEntry::OCCLUSION_REJECTED);
+                // Flag, and the discarded point guards other objects.
+                for iy in (cy - r).max(0)..=(cy + r).min(h as i64 - 1) {
+                    for ix in (cx - r).max(0)..=(cx + r).min(w as i64 - 1) {
+                        let a = &mut aip[(iy * w as i64 + ix) as usize];
+                        a.flags |= AipEntry::OCCLUSION_REJECTED;
+                        if a.object != entry.object {
+                            a.t_other = a.t_other.min(t);
+                        }
+                    }
+                }
                 continue;
             }
             kept.push((cx, cy, dy.abs(), dx.abs(), below, right));
@@ -448,6 +461,28 @@ fn reproject_brute(pos: &[PosEntry], c0: &Camera, c1: &Camera, p: &Params) -> Ve
                         a.cnt += 1;
                     } else {
                         a.t_other = a.t_other.min(t);
+                    }
+                }
+            }
+        }
+    }
+    if p.depth_guard && p.guard_window > 0 {
+        // Guard window, from a copy (the kernel works in place).
+        let g = p.guard_window as i64;
+        let before = aip.clone();
+        for y in 0..h as i64 {
+            for x in 0..w as i64 {
+                let e = before[(y * w as i64 + x) as usize];
+                if e.object == INVALID_OBJECT {
+                    continue;
+                }
+                for ny in (y - g).max(0)..=(y + g).min(h as i64 - 1) {
+                    for nx in (x - g).max(0)..=(x + g).min(w as i64 - 1) {
+                        let n = before[(ny * w as i64 + nx) as usize];
+                        if n.object != e.object && n.object != INVALID_OBJECT {
+                            let a = &mut aip[(y * w as i64 + x) as usize];
+                            a.t_other = a.t_other.min(n.t);
+                        }
                     }
                 }
             }
@@ -501,6 +536,7 @@ fn splat_counts_and_closer_object_overwrite() {
     let mut scratch = vec![0.0; scratch_len(9, 9).unwrap()];
     let params = Params {
         abrupt_frames: 0,
+        guard_window: 0,
         ..Params::default()
     };
     // Pure rotation (same eye): no occlusion ordering, row order.
@@ -871,5 +907,61 @@ fn bad_input_is_refused_and_outputs_untouched() {
         } else {
             assert_eq!(*d, empty);
         }
+    }
+}
+
+#[test]
+fn depth_guard_margin_and_background_guard() {
+    let p = Params {
+        resample_period: 0,
+        ..Params::default()
+    };
+    let entry = AipEntry {
+        object: 3,
+        t: 9.0,
+        cnt: 9,
+        t_other: 10.0,
+        flags: 0,
+    };
+    // The one-object interval ends a relative margin before the nearest
+    // point of another object.
+    let d = decide(&entry, 0, 0, 0, &p);
+    assert_eq!(d.object, 3);
+    assert_eq!(d.tmax, 10.0 * (1.0 - p.guard_margin));
+    assert!(d.tmax < 10.0 && p.guard_margin > 0.0);
+    let d0 = decide(
+        &entry,
+        0,
+        0,
+        0,
+        &Params {
+            guard_margin: 0.0,
+            ..p
+        },
+    );
+    assert_eq!(d0.tmax, 10.0);
+    // A background prediction next to another object's point: traverse.
+    let bg = AipEntry {
+        object: BACKGROUND_OBJECT,
+        t: 1000.0,
+        ..entry
+    };
+    assert_eq!(decide(&bg, 0, 0, 0, &p).reason, Reason::Failed);
+    let alone = AipEntry {
+        t_other: f32::INFINITY,
+        ..bg
+    };
+    let d = decide(&alone, 0, 0, 0, &p);
+    assert_eq!(
+        (d.object, d.reason),
+        (BACKGROUND_OBJECT, Reason::Reprojected)
+    );
+    // Out-of-range margins are refused.
+    for m in [f32::NAN, 1.0, -0.1, f32::INFINITY] {
+        let bad = Params {
+            guard_margin: m,
+            ..p
+        };
+        assert!(bad.validate().is_err(), "{m}");
     }
 }

@@ -92,6 +92,14 @@ pub struct refl_epipolar_params {
     /// Depth guard (default 1): the one-object test only accepts a hit
     /// nearer than `refl_epipolar_aip_entry.t_other`.
     pub depth_guard: u32,
+    /// Relative margin of the depth guard, in [0, 1); default 0.01: the
+    /// one-object test accepts hits nearer than `t_other * (1 - margin)`.
+    pub guard_margin: f32,
+    /// Guard window radius (default 2, at most
+    /// `REFL_EPIPOLAR_MAX_SPLAT_RADIUS`, 0 off): after the splat each
+    /// pixel's `t_other` is lowered to the `t` of the entries within this
+    /// many pixels that hold another object.
+    pub guard_window: u32,
     /// View-frustum check of Sec. 4.1 (default 1).
     pub frustum_check: u32,
     /// Epipolar ordering and occlusion check of Sec. 4.2 (default 1).
@@ -195,6 +203,8 @@ impl TryFrom<&refl_epipolar_params> for Params {
             m_cnt: p.m_cnt,
             splat_radius: p.splat_radius,
             depth_guard: flag(p.depth_guard)?,
+            guard_margin: p.guard_margin,
+            guard_window: p.guard_window,
             frustum_check: flag(p.frustum_check)?,
             occlusion_check: flag(p.occlusion_check)?,
             resample_period: p.resample_period,
@@ -213,6 +223,8 @@ impl From<&Params> for refl_epipolar_params {
             m_cnt: p.m_cnt,
             splat_radius: p.splat_radius,
             depth_guard: u32::from(p.depth_guard),
+            guard_margin: p.guard_margin,
+            guard_window: p.guard_window,
             frustum_check: u32::from(p.frustum_check),
             occlusion_check: u32::from(p.occlusion_check),
             resample_period: p.resample_period,

@@ -252,6 +252,10 @@ fn bad_input_is_refused_and_outputs_untouched() {
             shift_epsilon: f32::NAN,
             ..p
         },
+        refl_epipolar_params {
+            guard_margin: 1.0,
+            ..p
+        },
     ] {
         run(n, sl, n, &rc0, &bad, refl_status::InvalidArgument);
     }
