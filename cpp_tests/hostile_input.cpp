@@ -810,6 +810,757 @@ void epipolar_functions() {
     });
 }
 
+// Layered depth cube maps (seed 001): size query, column rays, filling,
+// tracing, PRR classification.
+void layered_functions() {
+    const float ident[16] = {1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1};
+    refl_layered_grid grid{};
+    grid.min = v3(-1, -1, -1);
+    grid.max = v3(1, 1, 1);
+    grid.face_res = 4;
+    grid.layers = 2;
+    std::memcpy(grid.world_from_local.m, ident, sizeof ident);
+
+    // refl_layered_len
+    const refl_layered_sizes len =
+        expect_ok<refl_layered_sizes>("layered_len", [](refl_layered_sizes* o) { return refl_layered_len(o, 4, 2); });
+    CHECK_EQ(len.counts, size_t(6 * 16));
+    CHECK_EQ(len.depth, size_t(6 * 16 * 2));
+    expect<refl_layered_sizes>("layered_len res 0", REFL_STATUS_INVALID_ARGUMENT,
+                             [](refl_layered_sizes* o) { return refl_layered_len(o, 0, 2); });
+    expect<refl_layered_sizes>("layered_len layers 0", REFL_STATUS_INVALID_ARGUMENT,
+                             [](refl_layered_sizes* o) { return refl_layered_len(o, 4, 0); });
+    if (sizeof(size_t) == 8)
+        expect<refl_layered_sizes>("layered_len overflow", REFL_STATUS_INVALID_ARGUMENT,
+                                 [](refl_layered_sizes* o) { return refl_layered_len(o, kMax, kMax); });
+
+    // refl_layered_params_default
+    const refl_layered_params params = expect_ok<refl_layered_params>(
+        "params_default", [](refl_layered_params* o) { return refl_layered_params_default(o); });
+    CHECK(params.step_texels > 0.0f && params.max_steps > 0);
+    CHECK_STATUS(refl_layered_params_default(nullptr), REFL_STATUS_NULL_POINTER);
+
+    // refl_layered_face_ray
+    const refl_column_ray col = expect_ok<refl_column_ray>(
+        "face_ray", [&](refl_column_ray* o) { return refl_layered_face_ray(o, &grid, 1, 0, 3); });
+    CHECK_EQ(col.origin.x, -1.0f);
+    CHECK_EQ(col.dir.x, 1.0f);
+    CHECK_EQ(col.t_max, 2.0f);
+    expect<refl_column_ray>("face_ray face 6", REFL_STATUS_INVALID_ARGUMENT,
+                            [&](refl_column_ray* o) { return refl_layered_face_ray(o, &grid, 6, 0, 0); });
+    expect<refl_column_ray>("face_ray face max", REFL_STATUS_INVALID_ARGUMENT,
+                            [&](refl_column_ray* o) { return refl_layered_face_ray(o, &grid, kMax, 0, 0); });
+    expect<refl_column_ray>("face_ray texel", REFL_STATUS_INVALID_ARGUMENT,
+                            [&](refl_column_ray* o) { return refl_layered_face_ray(o, &grid, 0, 4, 0); });
+    expect<refl_column_ray>("face_ray NULL grid", REFL_STATUS_NULL_POINTER,
+                            [&](refl_column_ray* o) { return refl_layered_face_ray(o, nullptr, 0, 0, 0); }, false);
+    const struct {
+        const char* what;
+        void (*edit)(refl_layered_grid&);
+        refl_status st;
+    } bad_grids[] = {
+        {"min NaN", [](refl_layered_grid& g) { g.min.x = kNaN; }, REFL_STATUS_INVALID_ARGUMENT},
+        {"max inf", [](refl_layered_grid& g) { g.max.z = kInf; }, REFL_STATUS_INVALID_ARGUMENT},
+        {"flat box", [](refl_layered_grid& g) { g.max.y = g.min.y; }, REFL_STATUS_DEGENERATE_GEOMETRY},
+        {"reversed box", [](refl_layered_grid& g) { g.max.x = -2.0f; }, REFL_STATUS_DEGENERATE_GEOMETRY},
+        {"res 0", [](refl_layered_grid& g) { g.face_res = 0; }, REFL_STATUS_INVALID_ARGUMENT},
+        {"layers 0", [](refl_layered_grid& g) { g.layers = 0; }, REFL_STATUS_INVALID_ARGUMENT},
+        {"matrix NaN", [](refl_layered_grid& g) { g.world_from_local.m[5] = kNaN; }, REFL_STATUS_INVALID_ARGUMENT},
+        {"matrix projective", [](refl_layered_grid& g) { g.world_from_local.m[3] = 0.5f; },
+         REFL_STATUS_INVALID_ARGUMENT},
+        {"matrix singular", [](refl_layered_grid& g) { g.world_from_local.m[0] = 0.0f; },
+         REFL_STATUS_DEGENERATE_GEOMETRY},
+    };
+    for (const auto& b : bad_grids) {
+        refl_layered_grid g = grid;
+        b.edit(g);
+        expect<refl_column_ray>(b.what, b.st, [&](refl_column_ray* o) { return refl_layered_face_ray(o, &g, 0, 0, 0); });
+    }
+
+    // The map buffers.
+    std::vector<float> depth(len.depth, -7.0f), bounds(len.bounds, -7.0f);
+    std::vector<uint32_t> payload(len.payload, 7u), counts(len.counts, 7u);
+    const refl_layered_map_mut mm{grid,          depth.data(),  depth.size(),  payload.data(), payload.size(),
+                                  counts.data(), counts.size(), bounds.data(), bounds.size()};
+    auto map_untouched = [&]() {
+        for (float d : depth)
+            if (d != -7.0f) return false;
+        for (float b : bounds)
+            if (b != -7.0f) return false;
+        for (uint32_t p : payload)
+            if (p != 7u) return false;
+        for (uint32_t c : counts)
+            if (c != 7u) return false;
+        return true;
+    };
+
+    // refl_layered_clear: only bad descriptors here (success is used below).
+    CHECK_STATUS(refl_layered_clear(nullptr), REFL_STATUS_NULL_POINTER);
+    {
+        refl_layered_map_mut m = mm;
+        m.depth = nullptr;
+        CHECK_STATUS(refl_layered_clear(&m), REFL_STATUS_NULL_POINTER);
+        m = mm;
+        m.counts_len -= 1;
+        CHECK_STATUS(refl_layered_clear(&m), REFL_STATUS_INSUFFICIENT_SIZE);
+        m = mm;
+        m.payload = counts.data();
+        m.payload_len = counts.size();
+        CHECK_STATUS(refl_layered_clear(&m), REFL_STATUS_INVALID_ARGUMENT);  // overlapping buffers
+        m = mm;
+        m.depth = reinterpret_cast<float*>(reinterpret_cast<unsigned char*>(depth.data()) + 1);
+        m.depth_len -= 1;
+        CHECK_STATUS(refl_layered_clear(&m), REFL_STATUS_INVALID_ARGUMENT);
+        m = mm;
+        m.grid.face_res = 0;
+        CHECK_STATUS(refl_layered_clear(&m), REFL_STATUS_INVALID_ARGUMENT);
+        m = mm;
+        m.bounds = nullptr;
+        CHECK_STATUS(refl_layered_clear(&m), REFL_STATUS_NULL_POINTER);
+        m = mm;
+        m.bounds_len -= 1;
+        CHECK_STATUS(refl_layered_clear(&m), REFL_STATUS_INSUFFICIENT_SIZE);
+        m = mm;
+        m.bounds = depth.data();
+        CHECK_STATUS(refl_layered_clear(&m), REFL_STATUS_INVALID_ARGUMENT);  // bounds overlap depth
+        CHECK(map_untouched());
+    }
+
+    // refl_layered_build_bounds: bad descriptors leave everything untouched.
+    CHECK_STATUS(refl_layered_build_bounds(nullptr), REFL_STATUS_NULL_POINTER);
+    {
+        refl_layered_map_mut m = mm;
+        m.bounds = nullptr;
+        CHECK_STATUS(refl_layered_build_bounds(&m), REFL_STATUS_NULL_POINTER);
+        m = mm;
+        m.bounds_len = 1;
+        CHECK_STATUS(refl_layered_build_bounds(&m), REFL_STATUS_INSUFFICIENT_SIZE);
+        m = mm;
+        m.bounds = reinterpret_cast<float*>(reinterpret_cast<unsigned char*>(bounds.data()) + 1);
+        m.bounds_len -= 1;
+        CHECK_STATUS(refl_layered_build_bounds(&m), REFL_STATUS_INVALID_ARGUMENT);  // misaligned
+        m = mm;
+        m.grid.min.x = kNaN;
+        CHECK_STATUS(refl_layered_build_bounds(&m), REFL_STATUS_INVALID_ARGUMENT);
+        m = mm;
+        m.grid.max.y = m.grid.min.y;
+        CHECK_STATUS(refl_layered_build_bounds(&m), REFL_STATUS_DEGENERATE_GEOMETRY);
+        CHECK(map_untouched());
+    }
+
+    // refl_layered_fill_column
+    const refl_layer_hit good_hits[2] = {{0.5f, 1u, 1u}, {1.5f, 2u, 0u}};
+    const refl_layer_hit nan_hit[1] = {{kNaN, 1u, 1u}};
+    const refl_layer_hit inf_hit[1] = {{kInf, 1u, 0u}};
+    const refl_layer_hit bad_front[1] = {{0.5f, 1u, 2u}};
+    auto fill = [&](const refl_layer_hit* h, size_t n, uint32_t face, uint32_t i) {
+        return [=, &mm](refl_column_fill* o) { return refl_layered_fill_column(o, &mm, face, i, 0, h, n); };
+    };
+    expect<refl_column_fill>("fill NaN t", REFL_STATUS_INVALID_ARGUMENT, fill(nan_hit, 1, 0, 0));
+    expect<refl_column_fill>("fill inf t", REFL_STATUS_INVALID_ARGUMENT, fill(inf_hit, 1, 0, 0));
+    expect<refl_column_fill>("fill front 2", REFL_STATUS_INVALID_ARGUMENT, fill(bad_front, 1, 0, 0));
+    expect<refl_column_fill>("fill face 6", REFL_STATUS_INVALID_ARGUMENT, fill(good_hits, 2, 6, 0));
+    expect<refl_column_fill>("fill texel 4", REFL_STATUS_INVALID_ARGUMENT, fill(good_hits, 2, 0, 4));
+    expect<refl_column_fill>("fill NULL hits", REFL_STATUS_NULL_POINTER, fill(nullptr, 2, 0, 0), false);
+    expect<refl_column_fill>("fill NULL map", REFL_STATUS_NULL_POINTER, [&](refl_column_fill* o) {
+        return refl_layered_fill_column(o, nullptr, 0, 0, 0, good_hits, 2);
+    }, false);
+    CHECK(map_untouched());
+
+    // refl_layered_fill_face (the output count may be NULL).
+    std::vector<size_t> offsets(17, 0);
+    offsets[16] = 2;
+    for (size_t k = 1; k < 16; ++k) offsets[k] = 2;
+    auto face_fill = [&](const size_t* offs, size_t n_offs, const refl_layer_hit* h, size_t n) {
+        return [=, &mm](uint32_t* o) { return refl_layered_fill_face(o, &mm, 1, h, n, offs, n_offs); };
+    };
+    expect<uint32_t>("fill_face short offsets", REFL_STATUS_INSUFFICIENT_SIZE,
+                     face_fill(offsets.data(), 16, good_hits, 2), false);
+    expect<uint32_t>("fill_face offsets beyond hits", REFL_STATUS_INVALID_ARGUMENT,
+                     face_fill(offsets.data(), 17, good_hits, 1), false);
+    std::vector<size_t> decreasing = offsets;
+    decreasing[3] = 0;
+    expect<uint32_t>("fill_face decreasing offsets", REFL_STATUS_INVALID_ARGUMENT,
+                     face_fill(decreasing.data(), 17, good_hits, 2), false);
+    expect<uint32_t>("fill_face NaN hit", REFL_STATUS_INVALID_ARGUMENT, face_fill(offsets.data(), 17, nan_hit, 1),
+                     false);
+    expect<uint32_t>("fill_face NULL offsets", REFL_STATUS_NULL_POINTER, face_fill(nullptr, 17, good_hits, 2), false);
+    expect<uint32_t>("fill_face NULL map", REFL_STATUS_NULL_POINTER, [&](uint32_t* o) {
+        return refl_layered_fill_face(o, nullptr, 1, good_hits, 2, offsets.data(), 17);
+    }, false);
+    CHECK(map_untouched());
+
+    // A real map: a sphere-like column per texel of the -X face.
+    // Every texel of the -X face gets the column [0.5, 1.5]: texel k's hits
+    // are all_hits[2k .. 2k + 2).
+    CHECK_STATUS(refl_layered_clear(&mm), REFL_STATUS_OK);
+    std::vector<refl_layer_hit> all_hits;
+    std::vector<size_t> all_offsets(17, 0);
+    for (size_t k = 0; k < 16; ++k) {
+        all_hits.push_back(good_hits[0]);
+        all_hits.push_back(good_hits[1]);
+        all_offsets[k + 1] = all_hits.size();
+    }
+    uint32_t approximate = 7;
+    CHECK_STATUS(
+        refl_layered_fill_face(&approximate, &mm, 1, all_hits.data(), all_hits.size(), all_offsets.data(), 17),
+        REFL_STATUS_OK);
+    CHECK_EQ(approximate, 0u);  // one interval per column fits the layers
+    const refl_column_fill f = expect_ok<refl_column_fill>(
+        "fill_column", [&](refl_column_fill* o) { return refl_layered_fill_column(o, &mm, 3, 1, 1, good_hits, 2); });
+    CHECK(f.intervals == 1 && f.stored == 1);
+    // Exact bounds again after the single-column fill: NaN-free.
+    CHECK_STATUS(refl_layered_build_bounds(&mm), REFL_STATUS_OK);
+    for (float b : bounds) CHECK(!std::isnan(b));
+
+    // refl_layered_trace
+    const refl_layered_map map{grid,          depth.data(),  depth.size(),  payload.data(), payload.size(),
+                               counts.data(), counts.size(), bounds.data(), bounds.size()};
+    const refl_ray ray{v3(-3, 0.1f, 0.2f), v3(1, 0, 0)};
+    const refl_layered_result r = expect_ok<refl_layered_result>(
+        "trace", [&](refl_layered_result* o) { return refl_layered_trace(o, &map, ray, kInf, &params); });
+    CHECK(r.hit == 1);
+    CHECK(std::fabs(r.t - 2.5f) < 0.6f);
+    auto trace = [&](refl_ray rr, float t_max, const refl_layered_params* p) {
+        return [=, &map](refl_layered_result* o) { return refl_layered_trace(o, &map, rr, t_max, p); };
+    };
+    for (const refl_vec3& b : kBadVec3) {
+        expect<refl_layered_result>("trace bad origin", REFL_STATUS_INVALID_ARGUMENT, trace({b, ray.dir}, kInf, &params));
+        expect<refl_layered_result>("trace bad dir", REFL_STATUS_INVALID_ARGUMENT, trace({ray.origin, b}, kInf, &params));
+    }
+    expect<refl_layered_result>("trace dir not unit", REFL_STATUS_INVALID_ARGUMENT,
+                                trace({ray.origin, v3(2, 0, 0)}, kInf, &params));
+    for (float t : {kNaN, 0.0f, -1.0f, -kInf})
+        expect<refl_layered_result>("trace t_max", REFL_STATUS_INVALID_ARGUMENT, trace(ray, t, &params));
+    refl_layered_params bad_p = params;
+    bad_p.step_texels = kNaN;
+    expect<refl_layered_result>("trace step NaN", REFL_STATUS_INVALID_ARGUMENT, trace(ray, kInf, &bad_p));
+    bad_p = params;
+    bad_p.max_steps = 0;
+    expect<refl_layered_result>("trace max_steps 0", REFL_STATUS_INVALID_ARGUMENT, trace(ray, kInf, &bad_p));
+    bad_p = params;
+    bad_p.binary_steps = kMax;
+    expect<refl_layered_result>("trace binary_steps", REFL_STATUS_INVALID_ARGUMENT, trace(ray, kInf, &bad_p));
+    for (float x : {kNaN, -1.0f, kInf}) {
+        bad_p = params;
+        bad_p.smooth_texels = x;
+        expect<refl_layered_result>("trace smooth_texels", REFL_STATUS_INVALID_ARGUMENT, trace(ray, kInf, &bad_p));
+    }
+    expect<refl_layered_result>("trace NULL params", REFL_STATUS_NULL_POINTER, trace(ray, kInf, nullptr), false);
+    expect<refl_layered_result>("trace NULL map", REFL_STATUS_NULL_POINTER, [&](refl_layered_result* o) {
+        return refl_layered_trace(o, nullptr, ray, kInf, &params);
+    }, false);
+    {
+        refl_layered_map m = map;
+        m.payload_len = 3;
+        expect<refl_layered_result>("trace short payload", REFL_STATUS_INSUFFICIENT_SIZE, [&](refl_layered_result* o) {
+            return refl_layered_trace(o, &m, ray, kInf, &params);
+        }, false);
+        m = map;
+        m.bounds_len = 3;
+        expect<refl_layered_result>("trace short bounds", REFL_STATUS_INSUFFICIENT_SIZE, [&](refl_layered_result* o) {
+            return refl_layered_trace(o, &m, ray, kInf, &params);
+        }, false);
+        m = map;
+        m.bounds = nullptr;
+        expect<refl_layered_result>("trace NULL bounds", REFL_STATUS_NULL_POINTER, [&](refl_layered_result* o) {
+            return refl_layered_trace(o, &m, ray, kInf, &params);
+        }, false);
+    }
+
+    // refl_layered_trace_rays
+    const refl_ray rays[3] = {ray, {v3(-3, 5, 0), v3(1, 0, 0)}, {v3(0, 0, 0), v3(0, 1, 0)}};
+    const refl_ray bad_rays[2] = {ray, {v3(kNaN, 0, 0), v3(1, 0, 0)}};
+    {
+        std::vector<refl_layered_result> out(3);
+        CHECK_STATUS(refl_layered_trace_rays(out.data(), 3, &map, rays, 3, kInf, &params), REFL_STATUS_OK);
+        CHECK(out[0].hit == 1 && out[1].hit == 0 && out[1].miss == REFL_LAYERED_MISS_MISSED_BOX);
+        CHECK_STATUS(refl_layered_trace_rays(nullptr, 0, &map, nullptr, 0, kInf, &params), REFL_STATUS_OK);
+    }
+    auto batch = [&](const refl_ray* rr, size_t n, size_t out_len) {
+        return [=, &map](refl_layered_result* o) {
+            return refl_layered_trace_rays(o, out_len, &map, rr, n, kInf, &params);
+        };
+    };
+    expect<refl_layered_result>("trace_rays bad ray", REFL_STATUS_INVALID_ARGUMENT, batch(bad_rays, 2, 2), false);
+    expect<refl_layered_result>("trace_rays NULL rays", REFL_STATUS_NULL_POINTER, batch(nullptr, 1, 1), false);
+    expect<refl_layered_result>("trace_rays short out", REFL_STATUS_INSUFFICIENT_SIZE, batch(rays, 2, 1), false);
+    CHECK_STATUS(refl_layered_trace_rays(nullptr, 1, &map, rays, 1, kInf, &params), REFL_STATUS_NULL_POINTER);
+    CHECK_STATUS(refl_layered_trace_rays(nullptr, 1, nullptr, rays, 1, kInf, &params), REFL_STATUS_NULL_POINTER);
+
+    // refl_prr_classify
+    const refl_vec3 t0 = v3(-10, 0, -10), t1 = v3(10, 0, -10), t2 = v3(0, 0, 10);
+    const uint32_t cls = expect_ok<uint32_t>("prr_classify", [&](uint32_t* o) {
+        return refl_prr_classify(o, v3(0, 3, 5), v3(0, 1, 0), 0.3f, t0, t1, t2);
+    });
+    CHECK_EQ(cls, uint32_t(REFL_PRR_CLASS_ELLIPSE));
+    for (const refl_vec3& b : kBadVec3) {
+        expect<uint32_t>("prr bad eye", REFL_STATUS_INVALID_ARGUMENT,
+                         [&](uint32_t* o) { return refl_prr_classify(o, b, v3(0, 1, 0), 0.3f, t0, t1, t2); });
+        expect<uint32_t>("prr bad vertex", REFL_STATUS_INVALID_ARGUMENT,
+                         [&](uint32_t* o) { return refl_prr_classify(o, v3(0, 3, 5), v3(0, 1, 0), 0.3f, t0, b, t2); });
+    }
+    for (float r : {kNaN, 0.0f, -1.0f, kInf})
+        expect<uint32_t>("prr radius", REFL_STATUS_INVALID_ARGUMENT,
+                         [&](uint32_t* o) { return refl_prr_classify(o, v3(0, 3, 5), v3(0, 1, 0), r, t0, t1, t2); });
+    expect<uint32_t>("prr degenerate", REFL_STATUS_DEGENERATE_GEOMETRY,
+                     [&](uint32_t* o) { return refl_prr_classify(o, v3(0, 3, 5), v3(0, 1, 0), 0.3f, t0, t0, t2); });
+}
+
+// Per-pixel stepping: refl_step_ray (one ray) and refl_step_rays (a batch).
+void refine_functions() {
+    const refl_camera g = good_camera();
+    const uint32_t w = g.width, h = g.height;
+    const size_t n = size_t(w) * h;
+    std::vector<float> depth(n, 0.5f);
+    const refl_depth_image img{{depth.data(), n, w, h, w}, g, REFL_DEPTH_CONVENTION_ZERO_TO_ONE};
+    const refl_image_f32 none{nullptr, 0, 0, 0, 0};
+    const refl_thickness th{0.5f, none};
+    const refl_step_options opts{1, 1000};
+    const float dx = -1.0f, dy = -1.5f, dz = -5.0f;
+    const float inv = 1.0f / std::sqrt(dx * dx + dy * dy + dz * dz);
+    const refl_ray ray{v3(1, 2, 5), v3(dx * inv, dy * inv, dz * inv)};
+    const refl_trace_result hit = expect_ok<refl_trace_result>(
+        "refine: step_ray", [&](refl_trace_result* o) { return refl_step_ray(o, &img, &th, ray, kInf, &opts); });
+    CHECK_EQ(hit.miss, uint32_t(REFL_MISS_NONE));
+    // A flat depth image: the refined hit stays on the ray, in the image.
+    const refl_trace_result r = expect_ok<refl_trace_result>(
+        "refine_hit", [&](refl_trace_result* o) { return refl_refine_hit(o, &img, ray, kInf, &hit); });
+    CHECK_EQ(r.miss, uint32_t(REFL_MISS_NONE));
+    CHECK(r.pixel.x >= 0.0f && r.pixel.x < float(w) && r.pixel.y >= 0.0f && r.pixel.y < float(h));
+    CHECK(r.fetches >= hit.fetches);
+    // A miss passes through unchanged.
+    refl_trace_result miss = hit;
+    miss.miss = REFL_MISS_LEFT_IMAGE;
+    const refl_trace_result m = expect_ok<refl_trace_result>(
+        "refine miss", [&](refl_trace_result* o) { return refl_refine_hit(o, &img, ray, kInf, &miss); });
+    CHECK(std::memcmp(&m, &miss, sizeof m) == 0);
+    auto one = [&](const char* what, refl_status want, const refl_depth_image* i, refl_ray rr, float t_max,
+                   const refl_trace_result* in) {
+        expect<refl_trace_result>(what, want,
+                                  [=](refl_trace_result* o) { return refl_refine_hit(o, i, rr, t_max, in); });
+    };
+    one("refine NULL image", REFL_STATUS_NULL_POINTER, nullptr, ray, kInf, &hit);
+    one("refine NULL hit", REFL_STATUS_NULL_POINTER, &img, ray, kInf, nullptr);
+    refl_depth_image bad = img;
+    bad.depth.data = nullptr;
+    one("refine NULL depth data", REFL_STATUS_NULL_POINTER, &bad, ray, kInf, &hit);
+    for (uint32_t c : kBadConventions) {
+        bad = img;
+        bad.convention = c;
+        one("refine convention", REFL_STATUS_INVALID_ARGUMENT, &bad, ray, kInf, &hit);
+    }
+    for (const BadCamera& b : bad_cameras()) {
+        bad = img;
+        bad.camera = b.cam;
+        one(b.name, b.status, &bad, ray, kInf, &hit);
+    }
+    bad = img;
+    bad.depth.len = n - 1;
+    one("refine depth short", REFL_STATUS_INSUFFICIENT_SIZE, &bad, ray, kInf, &hit);
+    for (const refl_vec3& v : kBadVec3) {
+        one("refine origin", REFL_STATUS_INVALID_ARGUMENT, &img, refl_ray{v, ray.dir}, kInf, &hit);
+        one("refine dir", REFL_STATUS_INVALID_ARGUMENT, &img, refl_ray{ray.origin, v}, kInf, &hit);
+    }
+    for (float t : {kNaN, 0.0f, -1.0f, -kInf}) one("refine t_max", REFL_STATUS_INVALID_ARGUMENT, &img, ray, t, &hit);
+    for (uint32_t bad_miss : {6u, 1000u, kMax}) {
+        refl_trace_result b = hit;
+        b.miss = bad_miss;
+        one("refine miss value", REFL_STATUS_INVALID_ARGUMENT, &img, ray, kInf, &b);
+    }
+    for (float f : {kNaN, kInf, -kInf}) {
+        refl_trace_result b = hit;
+        b.t = f;
+        one("refine hit t", REFL_STATUS_INVALID_ARGUMENT, &img, ray, kInf, &b);
+        b = hit;
+        b.pixel.x = f;
+        one("refine hit pixel", REFL_STATUS_INVALID_ARGUMENT, &img, ray, kInf, &b);
+    }
+}
+
+void step_functions() {
+    const refl_camera g = good_camera();
+    const uint32_t w = g.width, h = g.height;
+    const size_t n = size_t(w) * h;
+    std::vector<float> depth(n, 0.5f), back(n, 0.6f);
+    const refl_image_f32 none{nullptr, 0, 0, 0, 0};
+    const refl_depth_image img{{depth.data(), n, w, h, w}, g, REFL_DEPTH_CONVENTION_ZERO_TO_ONE};
+    const refl_thickness th{0.5f, none};
+    const refl_thickness thb{0.0f, {back.data(), n, w, h, w}};
+    const refl_step_options opts{1, 1000};
+    // From the eye toward the camera's target: the planar case.
+    const float dx = -1.0f, dy = -1.5f, dz = -5.0f;
+    const float inv = 1.0f / std::sqrt(dx * dx + dy * dy + dz * dz);
+    const refl_ray ray{v3(1, 2, 5), v3(dx * inv, dy * inv, dz * inv)};
+
+    for (const refl_thickness* t : {&th, &thb}) {
+        const refl_trace_result r = expect_ok<refl_trace_result>(
+            "step_ray", [&](refl_trace_result* o) { return refl_step_ray(o, &img, t, ray, kInf, &opts); });
+        CHECK_EQ(r.miss, uint32_t(REFL_MISS_NONE));
+        CHECK(r.steps >= 1 && r.steps <= 2);
+    }
+    auto one = [&](const char* what, refl_status want, const refl_depth_image* i, const refl_thickness* t,
+                   refl_ray r, float t_max, const refl_step_options* o) {
+        expect<refl_trace_result>(what, want,
+                                  [=](refl_trace_result* out) { return refl_step_ray(out, i, t, r, t_max, o); });
+    };
+    one("step NULL image", REFL_STATUS_NULL_POINTER, nullptr, &th, ray, kInf, &opts);
+    one("step NULL thickness", REFL_STATUS_NULL_POINTER, &img, nullptr, ray, kInf, &opts);
+    one("step NULL options", REFL_STATUS_NULL_POINTER, &img, &th, ray, kInf, nullptr);
+    refl_depth_image bad = img;
+    bad.depth.data = nullptr;
+    one("step NULL depth data", REFL_STATUS_NULL_POINTER, &bad, &th, ray, kInf, &opts);
+    for (uint32_t c : kBadConventions) {
+        bad = img;
+        bad.convention = c;
+        one("step convention", REFL_STATUS_INVALID_ARGUMENT, &bad, &th, ray, kInf, &opts);
+    }
+    for (const BadCamera& b : bad_cameras()) {
+        bad = img;
+        bad.camera = b.cam;
+        one(b.name, b.status, &bad, &th, ray, kInf, &opts);
+    }
+    bad = img;
+    bad.depth.len = n - 1;
+    one("step depth short", REFL_STATUS_INSUFFICIENT_SIZE, &bad, &th, ray, kInf, &opts);
+    bad = img;
+    bad.depth.height = h - 1;
+    one("step depth size != camera", REFL_STATUS_INVALID_ARGUMENT, &bad, &th, ray, kInf, &opts);
+    bad = img;
+    bad.depth.width = bad.depth.height = bad.depth.stride = kMax;
+    bad.depth.len = SIZE_MAX;
+    one("step depth overflowing", REFL_STATUS_INVALID_ARGUMENT, &bad, &th, ray, kInf, &opts);
+    bad = img;
+    bad.depth.data = reinterpret_cast<const float*>(reinterpret_cast<const unsigned char*>(depth.data()) + 1);
+    bad.depth.len = n - 1;
+    one("step depth misaligned", REFL_STATUS_INVALID_ARGUMENT, &bad, &th, ray, kInf, &opts);
+    for (const refl_vec3& v : kBadVec3) {
+        one("step origin", REFL_STATUS_INVALID_ARGUMENT, &img, &th, refl_ray{v, ray.dir}, kInf, &opts);
+        one("step dir", REFL_STATUS_INVALID_ARGUMENT, &img, &th, refl_ray{ray.origin, v}, kInf, &opts);
+    }
+    one("step dir not unit", REFL_STATUS_INVALID_ARGUMENT, &img, &th, refl_ray{ray.origin, v3(0, 0, -2)}, kInf,
+        &opts);
+    one("step dir zero", REFL_STATUS_INVALID_ARGUMENT, &img, &th, refl_ray{ray.origin, v3(0, 0, 0)}, kInf, &opts);
+    for (float t : {kNaN, 0.0f, -1.0f, -kInf})
+        one("step t_max", REFL_STATUS_INVALID_ARGUMENT, &img, &th, ray, t, &opts);
+    const refl_step_options zero_stride{0, 1000};
+    one("step stride 0", REFL_STATUS_INVALID_ARGUMENT, &img, &th, ray, kInf, &zero_stride);
+    for (float c : {kNaN, -1.0f, -kInf}) {
+        const refl_thickness t{c, none};
+        one("step thickness", REFL_STATUS_INVALID_ARGUMENT, &img, &t, ray, kInf, &opts);
+    }
+    refl_thickness tb = thb;
+    tb.back_faces.width = w - 1;
+    one("step back faces size", REFL_STATUS_INVALID_ARGUMENT, &img, &tb, ray, kInf, &opts);
+    tb = thb;
+    tb.back_faces.len = 3;
+    one("step back faces short", REFL_STATUS_INSUFFICIENT_SIZE, &img, &tb, ray, kInf, &opts);
+
+    // refl_step_rays: the whole output array stays untouched on error.
+    const size_t count = 5;
+    std::vector<refl_ray> rays(count, ray);
+    rays[1].origin = v3(0.5f, 1.0f, 2.0f);
+    std::vector<float> t_max(count, 50.0f);
+    auto batch = [&](const char* what, refl_status want, size_t out_len, const refl_ray* r, size_t rc,
+                     const float* t, size_t tc, const refl_depth_image* i, const refl_thickness* tk,
+                     const refl_step_options* o, bool null_out = false) {
+        std::vector<refl_trace_result> out(count + 1);
+        std::memset(static_cast<void*>(out.data()), 0xA5, out.size() * sizeof(refl_trace_result));
+        std::vector<unsigned char> before(out.size() * sizeof(refl_trace_result));
+        std::memcpy(before.data(), out.data(), before.size());
+        const uint32_t got = refl_step_rays(null_out ? nullptr : out.data(), out_len, r, rc, t, tc, i, tk, o);
+        ++check::checks();
+        const bool same = std::memcmp(before.data(), out.data(), before.size()) == 0;
+        if (got != static_cast<uint32_t>(want) || (want != REFL_STATUS_OK && !same) ||
+            (want == REFL_STATUS_OK && same))
+            check::fail(__FILE__, __LINE__,
+                        std::string("step_rays ") + what + ": got " + check::status_name(got) + ", expected " +
+                            check::status_name(want));
+        if (want == REFL_STATUS_OK) CHECK(std::memcmp(before.data() + count * sizeof(refl_trace_result),
+                                                      reinterpret_cast<unsigned char*>(out.data()) +
+                                                          count * sizeof(refl_trace_result),
+                                                      sizeof(refl_trace_result)) == 0);
+    };
+    batch("ok", REFL_STATUS_OK, count, rays.data(), count, t_max.data(), count, &img, &th, &opts);
+    batch("ok one t_max", REFL_STATUS_OK, count, rays.data(), count, t_max.data(), 1, &img, &thb, &opts);
+    batch("NULL out", REFL_STATUS_NULL_POINTER, count, rays.data(), count, t_max.data(), count, &img, &th, &opts,
+          true);
+    batch("NULL rays", REFL_STATUS_NULL_POINTER, count, nullptr, count, t_max.data(), count, &img, &th, &opts);
+    batch("NULL t_max", REFL_STATUS_NULL_POINTER, count, rays.data(), count, nullptr, count, &img, &th, &opts);
+    batch("NULL image", REFL_STATUS_NULL_POINTER, count, rays.data(), count, t_max.data(), count, nullptr, &th,
+          &opts);
+    batch("NULL thickness", REFL_STATUS_NULL_POINTER, count, rays.data(), count, t_max.data(), count, &img,
+          nullptr, &opts);
+    batch("NULL options", REFL_STATUS_NULL_POINTER, count, rays.data(), count, t_max.data(), count, &img, &th,
+          nullptr);
+    batch("out short", REFL_STATUS_INSUFFICIENT_SIZE, count - 1, rays.data(), count, t_max.data(), count, &img,
+          &th, &opts);
+    batch("t_max short", REFL_STATUS_INSUFFICIENT_SIZE, count, rays.data(), count, t_max.data(), 2, &img, &th,
+          &opts);
+    batch("t_max count 0", REFL_STATUS_INVALID_ARGUMENT, count, rays.data(), count, t_max.data(), 0, &img, &th,
+          &opts);
+    bad = img;
+    bad.convention = 9;
+    batch("convention", REFL_STATUS_INVALID_ARGUMENT, count, rays.data(), count, t_max.data(), count, &bad, &th,
+          &opts);
+    batch("stride 0", REFL_STATUS_INVALID_ARGUMENT, count, rays.data(), count, t_max.data(), count, &img, &th,
+          &zero_stride);
+    for (const refl_vec3& v : kBadVec3) {
+        std::vector<refl_ray> r = rays;
+        r[count - 1].dir = v;
+        batch("NaN ray", REFL_STATUS_INVALID_ARGUMENT, count, r.data(), count, t_max.data(), count, &img, &th,
+              &opts);
+    }
+    std::vector<float> bad_t = t_max;
+    bad_t[2] = kNaN;
+    batch("NaN t_max", REFL_STATUS_INVALID_ARGUMENT, count, rays.data(), count, bad_t.data(), count, &img, &th,
+          &opts);
+    batch("huge count", REFL_STATUS_INVALID_ARGUMENT, SIZE_MAX, rays.data(), SIZE_MAX / 2, t_max.data(), 1, &img,
+          &th, &opts);
+}
+
+// Hi-Z pyramid and traversal (seed 004): size and layout queries, whole and
+// row-band builds into the caller buffer, one ray and a batch.
+void hiz_functions() {
+    const refl_camera g = good_camera();
+    const uint32_t w = g.width, h = g.height;
+    const size_t n = size_t(w) * h;
+    std::vector<float> depth(n, 0.5f), back(n, 0.6f);
+    const refl_image_f32 none{nullptr, 0, 0, 0, 0};
+    const refl_depth_image img{{depth.data(), n, w, h, w}, g, REFL_DEPTH_CONVENTION_ZERO_TO_ONE};
+
+    // Size and layout queries.
+    size_t len = 0;
+    uint32_t levels = 0;
+    CHECK_STATUS(refl_hiz_len(&len, &levels, w, h), REFL_STATUS_OK);
+    CHECK(len > n && levels == 7);
+    for (uint32_t bw : {0u, w}) {
+        const uint32_t bh = bw == 0 ? h : 0;
+        expect<size_t>("hiz_len zero size", REFL_STATUS_INVALID_ARGUMENT, [=](size_t* o) {
+            uint32_t c = 0;
+            return refl_hiz_len(o, &c, bw, bh);
+        });
+        expect<uint32_t>("hiz_len levels zero size", REFL_STATUS_INVALID_ARGUMENT, [=](uint32_t* o) {
+            size_t l = 0;
+            return refl_hiz_len(&l, o, bw, bh);
+        });
+    }
+    expect<size_t>("hiz_len overflowing", REFL_STATUS_INVALID_ARGUMENT, [](size_t* o) {
+        uint32_t c = 0;
+        return refl_hiz_len(o, &c, kMax, kMax);
+    });
+    const refl_hiz_level_info l0 = expect_ok<refl_hiz_level_info>(
+        "hiz_level 0", [&](refl_hiz_level_info* o) { return refl_hiz_level(o, w, h, 0); });
+    CHECK(l0.offset == 0 && l0.width == w && l0.height == h);
+    const refl_hiz_level_info top = expect_ok<refl_hiz_level_info>(
+        "hiz_level top", [&](refl_hiz_level_info* o) { return refl_hiz_level(o, w, h, levels - 1); });
+    CHECK(top.width == 1 && top.height == 1 && top.offset == len - 1);
+    for (uint32_t lv : {levels, levels + 1, kMax})
+        expect<refl_hiz_level_info>("hiz_level past last", REFL_STATUS_INVALID_ARGUMENT,
+                                    [=](refl_hiz_level_info* o) { return refl_hiz_level(o, w, h, lv); });
+    expect<refl_hiz_level_info>("hiz_level zero size", REFL_STATUS_INVALID_ARGUMENT,
+                                [=](refl_hiz_level_info* o) { return refl_hiz_level(o, 0, h, 0); });
+    const refl_hiz_options opts = expect_ok<refl_hiz_options>(
+        "hiz_default_options", [](refl_hiz_options* o) { return refl_hiz_default_options(o); });
+    CHECK(opts.start_level == 2 && opts.stop_level == 0 && opts.max_iterations == 1024 && opts.prologue_steps == 4);
+    CHECK_STATUS(refl_hiz_default_options(nullptr), REFL_STATUS_NULL_POINTER);
+
+    // Builds: on error the whole destination stays byte-identical.
+    std::vector<refl_vec2> pyr(len);
+    CHECK_STATUS(refl_hiz_build(pyr.data(), len, &img), REFL_STATUS_OK);
+    CHECK(pyr[0].x == pyr[0].y && pyr[0].x > 0.0f && pyr[len - 1].x == pyr[0].x);
+    auto build = [&](const char* what, refl_status want, size_t dl, const refl_depth_image* i, int mode,
+                     uint32_t level = kMax, uint32_t r0 = 0, uint32_t r1 = 0) {
+        std::vector<unsigned char> buf((len + 2) * sizeof(refl_vec2) + 16);
+        for (size_t k = 0; k < buf.size(); ++k) buf[k] = pattern(k);
+        const std::vector<unsigned char> before = buf;
+        unsigned char* base = buf.data() + (16 - reinterpret_cast<uintptr_t>(buf.data()) % 16);
+        refl_vec2* dst = mode == 1 ? nullptr : reinterpret_cast<refl_vec2*>(base + (mode == 2 ? 1 : 0));
+        const uint32_t got =
+            level == kMax ? refl_hiz_build(dst, dl, i) : refl_hiz_build_rows(dst, dl, i, level, r0, r1);
+        ++check::checks();
+        if (got != static_cast<uint32_t>(want) || buf != before)
+            check::fail(__FILE__, __LINE__,
+                        std::string("hiz build ") + what + ": got " + check::status_name(got) + ", expected " +
+                            check::status_name(want));
+    };
+    for (uint32_t lv : {kMax, 0u}) {
+        const uint32_t r1 = lv == kMax ? 0 : h;
+        build("NULL dst", REFL_STATUS_NULL_POINTER, len, &img, 1, lv, 0, r1);
+        build("NULL image", REFL_STATUS_NULL_POINTER, len, nullptr, 0, lv, 0, r1);
+        build("dst short", REFL_STATUS_INSUFFICIENT_SIZE, len - 1, &img, 0, lv, 0, r1);
+        build("dst misaligned", REFL_STATUS_INVALID_ARGUMENT, len, &img, 2, lv, 0, r1);
+        build("dst huge", REFL_STATUS_INVALID_ARGUMENT, SIZE_MAX, &img, 0, lv, 0, r1);
+        refl_depth_image bad = img;
+        bad.depth.data = nullptr;
+        build("NULL depth data", REFL_STATUS_NULL_POINTER, len, &bad, 0, lv, 0, r1);
+        for (uint32_t c : kBadConventions) {
+            bad = img;
+            bad.convention = c;
+            build("convention", REFL_STATUS_INVALID_ARGUMENT, len, &bad, 0, lv, 0, r1);
+        }
+        for (const BadCamera& b : bad_cameras()) {
+            bad = img;
+            bad.camera = b.cam;
+            build(b.name, b.status, len, &bad, 0, lv, 0, r1);
+        }
+        bad = img;
+        bad.depth.len = n - 1;
+        build("depth short", REFL_STATUS_INSUFFICIENT_SIZE, len, &bad, 0, lv, 0, r1);
+        bad = img;
+        bad.depth.width = w - 1;
+        build("depth size != camera", REFL_STATUS_INVALID_ARGUMENT, len, &bad, 0, lv, 0, r1);
+    }
+    build("rows level past last", REFL_STATUS_INVALID_ARGUMENT, len, &img, 0, levels, 0, 1);
+    build("rows empty", REFL_STATUS_INVALID_ARGUMENT, len, &img, 0, 0, 3, 3);
+    build("rows reversed", REFL_STATUS_INVALID_ARGUMENT, len, &img, 0, 0, 4, 2);
+    build("rows past height", REFL_STATUS_INVALID_ARGUMENT, len, &img, 0, 1, 0, h);
+    {
+        // The pyramid may not overlap the depth image it reads.
+        std::vector<float> shared(n + 2 * len + 4, 0.5f);
+        const refl_depth_image si{{shared.data(), n, w, h, w}, g, REFL_DEPTH_CONVENTION_ZERO_TO_ONE};
+        const std::vector<float> before = shared;
+        CHECK_STATUS(refl_hiz_build(reinterpret_cast<refl_vec2*>(shared.data() + 2), len, &si),
+                     REFL_STATUS_INVALID_ARGUMENT);
+        CHECK(std::memcmp(before.data(), shared.data(), shared.size() * sizeof(float)) == 0);
+    }
+    {
+        // Level by level, row band by row band: equal to the whole build.
+        std::vector<refl_vec2> banded(len);
+        for (uint32_t lv = 0; lv < levels; ++lv) {
+            refl_hiz_level_info li{};
+            CHECK_STATUS(refl_hiz_level(&li, w, h, lv), REFL_STATUS_OK);
+            for (uint32_t r = 0; r < li.height; r += 2)
+                CHECK_STATUS(refl_hiz_build_rows(banded.data(), len, &img, lv, r, r + 2 < li.height ? r + 2 : li.height),
+                             REFL_STATUS_OK);
+        }
+        CHECK(std::memcmp(banded.data(), pyr.data(), len * sizeof(refl_vec2)) == 0);
+    }
+
+    // One ray.
+    const refl_hiz hz{pyr.data(), len, g, REFL_DEPTH_CONVENTION_ZERO_TO_ONE};
+    const refl_thickness th{0.5f, none};
+    const refl_thickness thb{0.0f, {back.data(), n, w, h, w}};
+    const float dx = -1.0f, dy = -1.5f, dz = -5.0f;
+    const float inv = 1.0f / std::sqrt(dx * dx + dy * dy + dz * dz);
+    const refl_ray ray{v3(1, 2, 5), v3(dx * inv, dy * inv, dz * inv)};
+    for (const refl_thickness* t : {&th, &thb}) {
+        const refl_trace_result r = expect_ok<refl_trace_result>(
+            "hiz_trace_ray", [&](refl_trace_result* o) { return refl_hiz_trace_ray(o, &hz, t, ray, kInf, &opts); });
+        CHECK_EQ(r.miss, uint32_t(REFL_MISS_NONE));
+        CHECK(r.fetches >= 1);
+    }
+    auto one = [&](const char* what, refl_status want, const refl_hiz* z, const refl_thickness* t, refl_ray r,
+                   float t_max, const refl_hiz_options* o) {
+        expect<refl_trace_result>(
+            what, want, [=](refl_trace_result* out) { return refl_hiz_trace_ray(out, z, t, r, t_max, o); });
+    };
+    one("hiz NULL pyramid", REFL_STATUS_NULL_POINTER, nullptr, &th, ray, kInf, &opts);
+    one("hiz NULL thickness", REFL_STATUS_NULL_POINTER, &hz, nullptr, ray, kInf, &opts);
+    one("hiz NULL options", REFL_STATUS_NULL_POINTER, &hz, &th, ray, kInf, nullptr);
+    refl_hiz bad = hz;
+    bad.data = nullptr;
+    one("hiz NULL data", REFL_STATUS_NULL_POINTER, &bad, &th, ray, kInf, &opts);
+    bad = hz;
+    bad.len = len - 1;
+    one("hiz pyramid short", REFL_STATUS_INSUFFICIENT_SIZE, &bad, &th, ray, kInf, &opts);
+    bad = hz;
+    bad.data = reinterpret_cast<const refl_vec2*>(reinterpret_cast<const unsigned char*>(pyr.data()) + 1);
+    bad.len = len - 1;
+    one("hiz pyramid misaligned", REFL_STATUS_INVALID_ARGUMENT, &bad, &th, ray, kInf, &opts);
+    bad = hz;
+    bad.len = SIZE_MAX;
+    one("hiz pyramid huge", REFL_STATUS_INVALID_ARGUMENT, &bad, &th, ray, kInf, &opts);
+    for (uint32_t c : kBadConventions) {
+        bad = hz;
+        bad.convention = c;
+        one("hiz convention", REFL_STATUS_INVALID_ARGUMENT, &bad, &th, ray, kInf, &opts);
+    }
+    for (const BadCamera& b : bad_cameras()) {
+        bad = hz;
+        bad.camera = b.cam;
+        one(b.name, b.status, &bad, &th, ray, kInf, &opts);
+    }
+    for (const refl_vec3& v : kBadVec3) {
+        one("hiz origin", REFL_STATUS_INVALID_ARGUMENT, &hz, &th, refl_ray{v, ray.dir}, kInf, &opts);
+        one("hiz dir", REFL_STATUS_INVALID_ARGUMENT, &hz, &th, refl_ray{ray.origin, v}, kInf, &opts);
+    }
+    one("hiz dir not unit", REFL_STATUS_INVALID_ARGUMENT, &hz, &th, refl_ray{ray.origin, v3(0, 0, -2)}, kInf, &opts);
+    one("hiz dir zero", REFL_STATUS_INVALID_ARGUMENT, &hz, &th, refl_ray{ray.origin, v3(0, 0, 0)}, kInf, &opts);
+    for (float t : {kNaN, 0.0f, -1.0f, -kInf})
+        one("hiz t_max", REFL_STATUS_INVALID_ARGUMENT, &hz, &th, ray, t, &opts);
+    for (float c : {kNaN, -1.0f, -kInf}) {
+        const refl_thickness t{c, none};
+        one("hiz thickness", REFL_STATUS_INVALID_ARGUMENT, &hz, &t, ray, kInf, &opts);
+    }
+    refl_thickness tb = thb;
+    tb.back_faces.width = w - 1;
+    one("hiz back faces size", REFL_STATUS_INVALID_ARGUMENT, &hz, &tb, ray, kInf, &opts);
+    tb = thb;
+    tb.back_faces.len = 3;
+    one("hiz back faces short", REFL_STATUS_INSUFFICIENT_SIZE, &hz, &tb, ray, kInf, &opts);
+
+    // A batch: the whole output array stays untouched on error.
+    const size_t count = 5;
+    std::vector<refl_ray> rays(count, ray);
+    rays[1].origin = v3(0.5f, 1.0f, 2.0f);
+    std::vector<float> t_max(count, 50.0f);
+    auto batch = [&](const char* what, refl_status want, size_t out_len, const refl_ray* r, size_t rc,
+                     const float* t, size_t tc, const refl_hiz* z, const refl_thickness* tk,
+                     const refl_hiz_options* o, bool null_out = false) {
+        std::vector<refl_trace_result> out(count + 1);
+        std::memset(static_cast<void*>(out.data()), 0xA5, out.size() * sizeof(refl_trace_result));
+        std::vector<unsigned char> before(out.size() * sizeof(refl_trace_result));
+        std::memcpy(before.data(), out.data(), before.size());
+        const uint32_t got = refl_hiz_trace_rays(null_out ? nullptr : out.data(), out_len, r, rc, t, tc, z, tk, o);
+        ++check::checks();
+        const bool same = std::memcmp(before.data(), out.data(), before.size()) == 0;
+        if (got != static_cast<uint32_t>(want) || (want != REFL_STATUS_OK && !same) ||
+            (want == REFL_STATUS_OK && same))
+            check::fail(__FILE__, __LINE__,
+                        std::string("hiz_trace_rays ") + what + ": got " + check::status_name(got) +
+                            ", expected " + check::status_name(want));
+        if (want == REFL_STATUS_OK)
+            CHECK(std::memcmp(before.data() + count * sizeof(refl_trace_result),
+                              reinterpret_cast<unsigned char*>(out.data()) + count * sizeof(refl_trace_result),
+                              sizeof(refl_trace_result)) == 0);
+    };
+    batch("ok", REFL_STATUS_OK, count, rays.data(), count, t_max.data(), count, &hz, &th, &opts);
+    batch("ok one t_max", REFL_STATUS_OK, count, rays.data(), count, t_max.data(), 1, &hz, &thb, &opts);
+    batch("NULL out", REFL_STATUS_NULL_POINTER, count, rays.data(), count, t_max.data(), count, &hz, &th, &opts,
+          true);
+    batch("NULL rays", REFL_STATUS_NULL_POINTER, count, nullptr, count, t_max.data(), count, &hz, &th, &opts);
+    batch("NULL t_max", REFL_STATUS_NULL_POINTER, count, rays.data(), count, nullptr, count, &hz, &th, &opts);
+    batch("NULL pyramid", REFL_STATUS_NULL_POINTER, count, rays.data(), count, t_max.data(), count, nullptr, &th,
+          &opts);
+    batch("NULL thickness", REFL_STATUS_NULL_POINTER, count, rays.data(), count, t_max.data(), count, &hz,
+          nullptr, &opts);
+    batch("NULL options", REFL_STATUS_NULL_POINTER, count, rays.data(), count, t_max.data(), count, &hz, &th,
+          nullptr);
+    batch("out short", REFL_STATUS_INSUFFICIENT_SIZE, count - 1, rays.data(), count, t_max.data(), count, &hz,
+          &th, &opts);
+    batch("t_max short", REFL_STATUS_INSUFFICIENT_SIZE, count, rays.data(), count, t_max.data(), 2, &hz, &th,
+          &opts);
+    batch("t_max count 0", REFL_STATUS_INVALID_ARGUMENT, count, rays.data(), count, t_max.data(), 0, &hz, &th,
+          &opts);
+    bad = hz;
+    bad.convention = 9;
+    batch("convention", REFL_STATUS_INVALID_ARGUMENT, count, rays.data(), count, t_max.data(), count, &bad, &th,
+          &opts);
+    for (const refl_vec3& v : kBadVec3) {
+        std::vector<refl_ray> r = rays;
+        r[count - 1].dir = v;
+        batch("NaN ray", REFL_STATUS_INVALID_ARGUMENT, count, r.data(), count, t_max.data(), count, &hz, &th,
+              &opts);
+    }
+    std::vector<float> bad_t = t_max;
+    bad_t[2] = kNaN;
+    batch("NaN t_max", REFL_STATUS_INVALID_ARGUMENT, count, rays.data(), count, bad_t.data(), count, &hz, &th,
+          &opts);
+    batch("huge count", REFL_STATUS_INVALID_ARGUMENT, SIZE_MAX, rays.data(), SIZE_MAX / 2, t_max.data(), 1, &hz,
+          &th, &opts);
+}
+
 }  // namespace
 
 int main() {
@@ -818,5 +1569,9 @@ int main() {
     plane_functions();
     image_functions();
     epipolar_functions();
+    step_functions();
+    layered_functions();
+    refine_functions();
+    hiz_functions();
     return check::finish("hostile_input");
 }

@@ -93,6 +93,31 @@ inline Mesh sphere(V3 c, double r, int rings, int segments) {
     return m;
 }
 
+// A torus around the +Y axis through c: major radius R, minor radius r,
+// `rings` segments around the axis and `sides` around the tube, every quad
+// wound the same way (a closed, consistently oriented mesh).
+inline Mesh torus(V3 c, double R, double r, int rings, int sides) {
+    Mesh m;
+    const double pi = 3.14159265358979323846;
+    for (int i = 0; i < rings; ++i) {
+        const double u = 2.0 * pi * i / rings;
+        for (int j = 0; j < sides; ++j) {
+            const double v = 2.0 * pi * j / sides, w = R + r * std::cos(v);
+            m.add_vertex({c.x + w * std::cos(u), c.y + r * std::sin(v), c.z + w * std::sin(u)});
+        }
+    }
+    const uint32_t nr = static_cast<uint32_t>(rings), ns = static_cast<uint32_t>(sides);
+    for (uint32_t i = 0; i < nr; ++i) {
+        for (uint32_t j = 0; j < ns; ++j) {
+            const uint32_t a = i * ns + j, b = ((i + 1) % nr) * ns + j;
+            const uint32_t cc = ((i + 1) % nr) * ns + (j + 1) % ns, d = i * ns + (j + 1) % ns;
+            m.add_triangle(a, b, cc);
+            m.add_triangle(a, cc, d);
+        }
+    }
+    return m;
+}
+
 // Sets flush-to-zero and denormals-are-zero, as Embree recommends.
 inline void set_ftz_daz() {
     _MM_SET_FLUSH_ZERO_MODE(_MM_FLUSH_ZERO_ON);

@@ -171,6 +171,134 @@ typedef uint32_t refl_depth_convention;
 #endif // __cplusplus
 
 /**
+ * Why a traced ray found no surface; `REFL_MISS_NONE` for a hit.
+ */
+enum refl_miss
+#if defined(__cplusplus) || __STDC_VERSION__ >= 202311L
+  : uint32_t
+#endif // defined(__cplusplus) || __STDC_VERSION__ >= 202311L
+ {
+    /**
+     * The ray hit the depth image.
+     */
+    REFL_MISS_NONE = 0,
+    /**
+     * The projected ray left the image rectangle (or, coming toward the
+     * camera, the near plane) before hitting anything.
+     */
+    REFL_MISS_LEFT_IMAGE = 1,
+    /**
+     * The walk ended while the ray was behind geometry deeper than its
+     * thickness: what it hits is hidden from this image.
+     */
+    REFL_MISS_BEHIND_GEOMETRY = 2,
+    /**
+     * The step or iteration cap was reached.
+     */
+    REFL_MISS_OUT_OF_STEPS = 3,
+    /**
+     * The ray ended (`t_max`, the far plane, or its vanishing point under
+     * an infinite far plane) in front of every surface.
+     */
+    REFL_MISS_END_OF_RAY = 4,
+    /**
+     * Nothing of the ray projects into the view (entirely behind the near
+     * plane, beyond the far plane, or outside the image's frustum).
+     */
+    REFL_MISS_DEGENERATE_PROJECTION = 5,
+};
+#ifndef __cplusplus
+#if __STDC_VERSION__ >= 202311L
+typedef enum refl_miss refl_miss;
+#else
+typedef uint32_t refl_miss;
+#endif // __STDC_VERSION__ >= 202311L
+#endif // __cplusplus
+
+/**
+ * Why a layered trace found no hit (`REFL_LAYERED_MISS_NONE` for a hit).
+ */
+enum refl_layered_miss
+#if defined(__cplusplus) || __STDC_VERSION__ >= 202311L
+  : uint32_t
+#endif // defined(__cplusplus) || __STDC_VERSION__ >= 202311L
+ {
+    /**
+     * Not a miss: the ray hit.
+     */
+    REFL_LAYERED_MISS_NONE = 0,
+    /**
+     * The ray does not meet the box.
+     */
+    REFL_LAYERED_MISS_MISSED_BOX = 1,
+    /**
+     * The ray crossed the box without entering the object.
+     */
+    REFL_LAYERED_MISS_LEFT_BOX = 2,
+    /**
+     * The ray ended (t_max) inside the box before the object.
+     */
+    REFL_LAYERED_MISS_END_OF_RAY = 3,
+    /**
+     * The linear-search step cap was reached.
+     */
+    REFL_LAYERED_MISS_OUT_OF_STEPS = 4,
+    /**
+     * The ray starts inside the object.
+     */
+    REFL_LAYERED_MISS_STARTED_INSIDE = 5,
+};
+#ifndef __cplusplus
+#if __STDC_VERSION__ >= 202311L
+typedef enum refl_layered_miss refl_layered_miss;
+#else
+typedef uint32_t refl_layered_miss;
+#endif // __STDC_VERSION__ >= 202311L
+#endif // __cplusplus
+
+/**
+ * The class of a reflector triangle in the potential-reflection-region
+ * test (seed 001 Sec. 3.2).
+ */
+enum refl_prr_class
+#if defined(__cplusplus) || __STDC_VERSION__ >= 202311L
+  : uint32_t
+#endif // defined(__cplusplus) || __STDC_VERSION__ >= 202311L
+ {
+    /**
+     * No reflection of the bounding sphere on the triangle.
+     */
+    REFL_PRR_CLASS_OUTSIDE = 0,
+    /**
+     * The mirrored sphere is on the camera's side of the plane.
+     */
+    REFL_PRR_CLASS_WRONG_SIDE = 1,
+    /**
+     * The camera is inside the mirrored sphere (conservatively reflects).
+     */
+    REFL_PRR_CLASS_CAMERA_INSIDE = 2,
+    /**
+     * Seed case 1: a corner lies inside the cone.
+     */
+    REFL_PRR_CLASS_VERTEX = 3,
+    /**
+     * Seed case 2: an edge crosses the cone.
+     */
+    REFL_PRR_CLASS_EDGE = 4,
+    /**
+     * Seed case 3: the conic section lies inside the triangle.
+     */
+    REFL_PRR_CLASS_ELLIPSE = 5,
+};
+#ifndef __cplusplus
+#if __STDC_VERSION__ >= 202311L
+typedef enum refl_prr_class refl_prr_class;
+#else
+typedef uint32_t refl_prr_class;
+#endif // __STDC_VERSION__ >= 202311L
+#endif // __cplusplus
+
+/**
  * Why a pixel takes the path its decision names (seed 002 Fig. 6).
  */
 enum refl_epipolar_reason
@@ -513,6 +641,185 @@ typedef struct refl_epipolar_decision {
 } refl_epipolar_decision;
 
 /**
+ * Where one pyramid level lives in the buffer: texels `offset` to
+ * `offset + width * height - 1`, row by row, row stride `width`.
+ */
+typedef struct refl_hiz_level_info {
+    /**
+     * Index (in `refl_vec2` texels) of the level's first texel.
+     */
+    size_t offset;
+    /**
+     * Width in texels: `max(1, image_width >> level)`.
+     */
+    uint32_t width;
+    /**
+     * Height in texels: `max(1, image_height >> level)`.
+     */
+    uint32_t height;
+} refl_hiz_level_info;
+
+/**
+ * Settings of the Hi-Z traversal. `refl_hiz_default_options` gives the
+ * defaults: start level 2, stop level 0, 1024 iterations, 4 prologue steps.
+ * Every setting returns the same first hit; they trade iterations for
+ * fetches.
+ */
+typedef struct refl_hiz_options {
+    /**
+     * Level the hierarchical walk starts at after the prologue; clamped to
+     * the last level and raised to `stop_level` if below it.
+     */
+    uint32_t start_level;
+    /**
+     * Finest level of the hierarchical walk: 0 resolves hits in the
+     * hierarchy; L > 0 resolves a level-L cell by unit steps through its
+     * pixels (still exact). Clamped to the last level.
+     */
+    uint32_t stop_level;
+    /**
+     * Cap on hierarchical loop iterations; reaching it gives
+     * `REFL_MISS_OUT_OF_STEPS`.
+     */
+    uint32_t max_iterations;
+    /**
+     * One-pixel steps before the hierarchy; `UINT32_MAX` gives plain
+     * per-pixel stepping.
+     */
+    uint32_t prologue_steps;
+} refl_hiz_options;
+
+/**
+ * A read-only image of `float` texels (e.g. a depth buffer).
+ */
+typedef struct refl_image_f32 {
+    /**
+     * Texel (0, 0); texel (x, y) is `data[y * stride + x]`.
+     */
+    const float *data;
+    /**
+     * Number of texels readable from `data` on (the buffer length).
+     */
+    size_t len;
+    /**
+     * Width in texels, > 0.
+     */
+    uint32_t width;
+    /**
+     * Height in texels, > 0.
+     */
+    uint32_t height;
+    /**
+     * Row stride in texels, >= `width`.
+     */
+    uint32_t stride;
+} refl_image_f32;
+
+/**
+ * A depth image with the camera that rendered it and its convention.
+ */
+typedef struct refl_depth_image {
+    /**
+     * The stored depths; width and height must equal the camera's. Texel
+     * (x, y) holds the depth seen through pixel center (x + 0.5, y + 0.5).
+     * A NaN texel, or one at or beyond the far plane, holds no surface.
+     */
+    struct refl_image_f32 depth;
+    /**
+     * The camera that rendered the image (validated on every call).
+     */
+    struct refl_camera camera;
+    /**
+     * Convention of the stored depths, a `refl_depth_convention`.
+     */
+    uint32_t convention;
+} refl_depth_image;
+
+/**
+ * The result of tracing one ray against a depth image.
+ */
+typedef struct refl_trace_result {
+    /**
+     * `REFL_MISS_NONE` (0) for a hit, otherwise the `refl_miss` reason.
+     */
+    uint32_t miss;
+    /**
+     * Sub-pixel position of the hit in the depth image (pixels, origin
+     * top-left); the texel hit is (floor(x), floor(y)). 0 on a miss.
+     */
+    struct refl_vec2 pixel;
+    /**
+     * Ray parameter of the hit (world distance from the origin); the point
+     * origin + t * dir projects to `pixel` up to rounding. 0 on a miss.
+     */
+    float t;
+    /**
+     * Linear depth of the hit point on the ray. 0 on a miss.
+     */
+    float depth;
+    /**
+     * Linear depth stored in the image at the texel hit. 0 on a miss.
+     */
+    float surface_depth;
+    /**
+     * Pixel (or cell) steps along the projected ray, hit or miss.
+     */
+    uint32_t steps;
+    /**
+     * Depth texels read (back-face and pyramid texels included).
+     */
+    uint32_t fetches;
+    /**
+     * Loop iterations of a hierarchical traversal (0 for stepping).
+     */
+    uint32_t iterations;
+} refl_trace_result;
+
+/**
+ * A built Hi-Z pyramid with the camera of its depth image.
+ */
+typedef struct refl_hiz {
+    /**
+     * The pyramid built by `refl_hiz_build` (texel `x` = closest, `y` =
+     * farthest linear depth).
+     */
+    const struct refl_vec2 *data;
+    /**
+     * Number of texels readable from `data`, at least `refl_hiz_len`'s.
+     */
+    size_t len;
+    /**
+     * The camera of the depth image the pyramid was built from (validated
+     * on every call); its size is the pyramid's level-0 size.
+     */
+    struct refl_camera camera;
+    /**
+     * Convention of the depth image, a `refl_depth_convention`; used to
+     * decode back-face images.
+     */
+    uint32_t convention;
+} refl_hiz;
+
+/**
+ * How far behind the front-most surface a ray may pass and still hit it.
+ */
+typedef struct refl_thickness {
+    /**
+     * Thickness of every surface in linear depth (world units along the
+     * view axis), >= 0, may be +infinity (everything behind a surface is
+     * solid). Used when `back_faces.data` is NULL, ignored otherwise.
+     */
+    float constant;
+    /**
+     * A back-face depth image (same size, camera and convention as the
+     * front image): the ray hits where its depth lies between the two. Set
+     * `data` to NULL to use `constant` instead (the other fields are then
+     * ignored).
+     */
+    struct refl_image_f32 back_faces;
+} refl_thickness;
+
+/**
  * A half-open range of image rows `[begin, end)`.
  */
 typedef struct refl_row_range {
@@ -553,30 +860,290 @@ typedef struct refl_image_f32_mut {
 } refl_image_f32_mut;
 
 /**
- * A read-only image of `float` texels (e.g. a depth buffer).
+ * Element counts of the three buffers of a layered depth cube map.
  */
-typedef struct refl_image_f32 {
+typedef struct refl_layered_sizes {
     /**
-     * Texel (0, 0); texel (x, y) is `data[y * stride + x]`.
+     * Floats of the depth buffer: `6 * res * res * layers`.
      */
-    const float *data;
+    size_t depth;
     /**
-     * Number of texels readable from `data` on (the buffer length).
+     * uint32_t of the payload buffer: `6 * res * res * layers`.
      */
-    size_t len;
+    size_t payload;
     /**
-     * Width in texels, > 0.
+     * uint32_t of the layer-count buffer: `6 * res * res`.
      */
-    uint32_t width;
+    size_t counts;
     /**
-     * Height in texels, > 0.
+     * Floats of the empty-space bound buffer: per face, levels
+     * `1..=ceil(log2 res)` of `ceil(res / 2^l)^2` cells, `2 * layers`
+     * floats each (0 for res 1).
      */
-    uint32_t height;
+    size_t bounds;
+} refl_layered_sizes;
+
+/**
+ * Parameters of the layered trace (seed 001 Sec. 3.3, Algorithm 1).
+ */
+typedef struct refl_layered_params {
     /**
-     * Row stride in texels, >= `width`.
+     * Linear-search step in texels, > 0 and finite.
      */
-    uint32_t stride;
-} refl_image_f32;
+    float step_texels;
+    /**
+     * Cap on linear-search steps plus bound cells visited per face, >= 1.
+     */
+    uint32_t max_steps;
+    /**
+     * Cap on binary-search iterations, <= 64.
+     */
+    uint32_t binary_steps;
+    /**
+     * Binary search stops when its bracket spans at most this many
+     * texels, >= 0.
+     */
+    float texel_fraction;
+    /**
+     * Early stop: accept a face's hit on interpolated depth when the ray
+     * depth is within this many texels of the layer depth, >= 0 (+inf
+     * allowed).
+     */
+    float early_stop_texels;
+    /**
+     * The binary search interpolates depth between texel centers whose
+     * depths differ by at most this many texels (same layer count); 0
+     * reads the nearest texel only. >= 0 and finite.
+     */
+    float smooth_texels;
+} refl_layered_params;
+
+/**
+ * The world-space orthographic ray of one face texel, to be cast through
+ * every surface of the object.
+ */
+typedef struct refl_column_ray {
+    /**
+     * Start on the face plane at the texel center, world space.
+     */
+    struct refl_vec3 origin;
+    /**
+     * Unit direction into the box, world space.
+     */
+    struct refl_vec3 dir;
+    /**
+     * World length of the column (the ray leaves the box at `t_max`).
+     */
+    float t_max;
+} refl_column_ray;
+
+/**
+ * The geometry of a layered depth cube map.
+ */
+typedef struct refl_layered_grid {
+    /**
+     * Minimum corner of the object's local box (finite).
+     */
+    struct refl_vec3 min;
+    /**
+     * Maximum corner of the local box; every component must exceed `min`.
+     */
+    struct refl_vec3 max;
+    /**
+     * Texels per face side, >= 1.
+     */
+    uint32_t face_res;
+    /**
+     * Layers per texel, >= 1.
+     */
+    uint32_t layers;
+    /**
+     * Object-to-world transform, an invertible affine matrix (last row
+     * 0, 0, 0, 1); the identity when the box is given in world space.
+     */
+    struct refl_mat4 world_from_local;
+} refl_layered_grid;
+
+/**
+ * A writable layered depth cube map (the four buffers must not overlap).
+ */
+typedef struct refl_layered_map_mut {
+    /**
+     * The grid.
+     */
+    struct refl_layered_grid grid;
+    /**
+     * Normalized depths, `depth_len` floats writable.
+     */
+    float *depth;
+    /**
+     * Number of floats writable from `depth`.
+     */
+    size_t depth_len;
+    /**
+     * Payloads (ids), `payload_len` writable.
+     */
+    uint32_t *payload;
+    /**
+     * Number of uint32_t writable from `payload`.
+     */
+    size_t payload_len;
+    /**
+     * Per-texel layer counts, `counts_len` writable.
+     */
+    uint32_t *counts;
+    /**
+     * Number of uint32_t writable from `counts`.
+     */
+    size_t counts_len;
+    /**
+     * Empty-space bounds, `bounds_len` writable.
+     */
+    float *bounds;
+    /**
+     * Number of floats writable from `bounds`.
+     */
+    size_t bounds_len;
+} refl_layered_map_mut;
+
+/**
+ * What filling a column did.
+ */
+typedef struct refl_column_fill {
+    /**
+     * Solid intervals found along the column.
+     */
+    uint32_t intervals;
+    /**
+     * Layers stored: `min(intervals, layers)`; fewer than `intervals`
+     * means the thinnest gaps were filled (approximate column).
+     */
+    uint32_t stored;
+} refl_column_fill;
+
+/**
+ * One surface crossing along a column ray.
+ */
+typedef struct refl_layer_hit {
+    /**
+     * Distance along the column ray, finite (clamped to `[0, t_max]`).
+     */
+    float t;
+    /**
+     * Payload of the surface (primitive id, packed color, ...).
+     */
+    uint32_t id;
+    /**
+     * 1 if the surface faces the ray origin (the ray enters the object),
+     * 0 where it leaves; other values are `REFL_STATUS_INVALID_ARGUMENT`.
+     */
+    uint32_t front;
+} refl_layer_hit;
+
+/**
+ * The result of tracing one ray against a layered depth cube map.
+ */
+typedef struct refl_layered_result {
+    /**
+     * 1 for a hit, 0 for a miss.
+     */
+    uint32_t hit;
+    /**
+     * A `refl_layered_miss` value (0 for a hit).
+     */
+    uint32_t miss;
+    /**
+     * World distance along the ray of the hit (0 for a miss).
+     */
+    float t;
+    /**
+     * World position of the hit (zeros for a miss).
+     */
+    struct refl_vec3 position;
+    /**
+     * Face (0..6) whose search produced the hit.
+     */
+    uint32_t face;
+    /**
+     * Texel column `i` on that face.
+     */
+    uint32_t texel_x;
+    /**
+     * Texel row `j` on that face.
+     */
+    uint32_t texel_y;
+    /**
+     * Layer of that texel the hit lies in.
+     */
+    uint32_t layer;
+    /**
+     * Payload of that layer.
+     */
+    uint32_t payload;
+    /**
+     * Ray depth minus stored depth at the hit, in texels (0 for a miss).
+     */
+    float mismatch;
+    /**
+     * Faces searched.
+     */
+    uint32_t faces;
+    /**
+     * Linear-search samples plus bound-pyramid cells visited.
+     */
+    uint32_t steps;
+    /**
+     * Binary-search iterations.
+     */
+    uint32_t binary_steps;
+    /**
+     * Buffer reads.
+     */
+    uint32_t fetches;
+} refl_layered_result;
+
+/**
+ * A read-only layered depth cube map: grid plus caller buffers.
+ */
+typedef struct refl_layered_map {
+    /**
+     * The grid.
+     */
+    struct refl_layered_grid grid;
+    /**
+     * Normalized depths, `depth_len` floats readable.
+     */
+    const float *depth;
+    /**
+     * Number of floats readable from `depth`.
+     */
+    size_t depth_len;
+    /**
+     * Payloads (ids), `payload_len` readable.
+     */
+    const uint32_t *payload;
+    /**
+     * Number of uint32_t readable from `payload`.
+     */
+    size_t payload_len;
+    /**
+     * Per-texel layer counts, `counts_len` readable.
+     */
+    const uint32_t *counts;
+    /**
+     * Number of uint32_t readable from `counts`.
+     */
+    size_t counts_len;
+    /**
+     * Empty-space bounds as `refl_layered_build_bounds` (or the fill
+     * functions) left them, `bounds_len` readable.
+     */
+    const float *bounds;
+    /**
+     * Number of floats readable from `bounds`.
+     */
+    size_t bounds_len;
+} refl_layered_map;
 
 /**
  * An oriented plane `dot(normal, p) + d = 0`.
@@ -595,6 +1162,25 @@ typedef struct refl_plane {
      */
     float d;
 } refl_plane;
+
+/**
+ * Options of the per-pixel stepping kernel (`refl_step_ray`). The
+ * defaults are `stride = 1`, `max_steps = UINT32_MAX`.
+ */
+typedef struct refl_step_options {
+    /**
+     * Texels per coarse step, >= 1. 1 tests every texel the ray's
+     * projection touches; larger strides sample every `stride`-th texel and
+     * refine the last coarse interval texel by texel once the ray reaches
+     * behind a surface.
+     */
+    uint32_t stride;
+    /**
+     * The most steps (coarse plus refinement) spent on one ray; reaching it
+     * gives `REFL_MISS_OUT_OF_STEPS`. 0 allows none.
+     */
+    uint32_t max_steps;
+} refl_step_options;
 
 /**
  * A 4-component float vector (a four-channel texel).
@@ -1278,6 +1864,163 @@ refl_status refl_epipolar_decide_rows(struct refl_epipolar_decision *out,
                                       const struct refl_epipolar_params *params);
 
 /**
+ * Size query: the number of `refl_vec2` texels of the Hi-Z pyramid of a
+ * `width x height` image (all levels) into `*out_len`, and its level count
+ * (the last level is 1 x 1) into `*out_levels`.
+ *
+ * Returns `REFL_STATUS_NULL_POINTER` if an output is NULL,
+ * `REFL_STATUS_INVALID_ARGUMENT` for a zero size or a count that does not
+ * fit in `size_t`.
+ *
+ * # Safety
+ * `out_len` and `out_levels` must be NULL or writable.
+ */
+refl_status refl_hiz_len(size_t *out_len, uint32_t *out_levels, uint32_t width, uint32_t height);
+
+/**
+ * Layout query: where level `level` of the pyramid of a `width x height`
+ * image lives in the buffer.
+ *
+ * Returns `REFL_STATUS_NULL_POINTER` if `out` is NULL,
+ * `REFL_STATUS_INVALID_ARGUMENT` for a zero or overflowing size or a
+ * `level` not below the level count.
+ *
+ * # Safety
+ * `out` must be NULL or writable.
+ */
+refl_status refl_hiz_level(struct refl_hiz_level_info *out,
+                           uint32_t width,
+                           uint32_t height,
+                           uint32_t level);
+
+/**
+ * The default traversal options into `*out`.
+ *
+ * Returns `REFL_STATUS_NULL_POINTER` if `out` is NULL.
+ *
+ * # Safety
+ * `out` must be NULL or writable.
+ */
+refl_status refl_hiz_default_options(struct refl_hiz_options *out);
+
+/**
+ * Builds the whole Hi-Z pyramid of `*image` into `dst` (seed 004
+ * Sec. 4.4.1): level 0 is the image's linear depth (NaN, or a depth that
+ * decodes to <= 0, is "no surface" and stored as NaN), each coarser texel
+ * the min (`x`) and max (`y`) of the 2x2 texels below, the last column and
+ * row also folding an odd leftover column/row, so every texel bounds all
+ * texels under it. NaN is ignored by min/max.
+ *
+ * Returns `REFL_STATUS_NULL_POINTER` if `dst`, `image` or
+ * `image->depth.data` is NULL; `REFL_STATUS_INSUFFICIENT_SIZE` if
+ * `dst_len` is below `refl_hiz_len`'s count or the image's `len` is too
+ * small; `REFL_STATUS_INVALID_ARGUMENT` for an unknown convention, a
+ * misaligned pointer, a bad image size or stride, an image whose size
+ * differs from the camera's, or `dst` overlapping the depth image; the
+ * camera's status if it is invalid. Nothing is written on error.
+ *
+ * # Safety
+ * `dst` must be NULL or writable for `dst_len` texels; `image` NULL or
+ * readable, its `depth.data` readable for `depth.len` floats and not
+ * written during the call.
+ */
+refl_status refl_hiz_build(struct refl_vec2 *dst,
+                           size_t dst_len,
+                           const struct refl_depth_image *image);
+
+/**
+ * Builds rows `[row_start, row_end)` of level `level` of the pyramid in
+ * `dst`, for hosts that split the build across threads: build level 0
+ * (from `*image`) completely, then level 1 (from level 0 in `dst`), and so
+ * on; the row bands of one level may run concurrently on different
+ * threads. Only the rows written and, for `level > 0`, level `level - 1`
+ * (read) are touched. The result equals `refl_hiz_build`'s.
+ *
+ * Returns as `refl_hiz_build`, plus `REFL_STATUS_INVALID_ARGUMENT` if
+ * `level` is not below the level count or the rows are empty, reversed or
+ * beyond the level's height.
+ *
+ * # Safety
+ * As `refl_hiz_build`; in addition no other thread may write the rows
+ * this call writes or the level it reads during the call.
+ */
+refl_status refl_hiz_build_rows(struct refl_vec2 *dst,
+                                size_t dst_len,
+                                const struct refl_depth_image *image,
+                                uint32_t level,
+                                uint32_t row_start,
+                                uint32_t row_end);
+
+/**
+ * Traces one ray against a Hi-Z pyramid (seed 004 Sec. 4.4.3 with the
+ * extensions of Sec. 4.6.6 travel behind surfaces, 4.6.7 rays toward the
+ * camera and 4.7.1 a linear prologue; `refl_core::hiz` documents the
+ * algorithm): the ray `ray.origin + t * ray.dir`, `t` in `[0, t_max]`, is
+ * clipped to the camera's frustum and walked in screen space over the
+ * pyramid; a texel is hit where the ray's linear depth lies between its
+ * front depth and front + thickness (or its back-face depth). The first
+ * hit agrees with `refl_step_ray` (per-pixel stepping) within a pixel.
+ * Writes the hit or the miss reason to `*out`.
+ *
+ * `ray.dir` must be unit length (within 1e-3); `t_max` > 0, +infinity
+ * allowed.
+ *
+ * Returns `REFL_STATUS_NULL_POINTER` if `out`, `hiz`, `hiz->data`,
+ * `thickness` or `options` is NULL; `REFL_STATUS_INVALID_ARGUMENT` for a
+ * non-finite or non-unit ray, a NaN or non-positive `t_max`, an unknown
+ * convention, a misaligned pointer, a NaN or negative constant thickness,
+ * or a back-face image whose size differs from the camera's;
+ * `REFL_STATUS_INSUFFICIENT_SIZE` if `hiz->len` is below `refl_hiz_len`'s
+ * count for the camera's size or a back-face image's `len` is too small;
+ * the camera's status if it is invalid.
+ *
+ * # Safety
+ * `out` must be NULL or writable; `hiz`, `thickness` and `options` NULL
+ * or readable; `hiz->data` readable for `hiz->len` texels and the
+ * back-face image's `data` for its `len` floats, not written during the
+ * call.
+ */
+refl_status refl_hiz_trace_ray(struct refl_trace_result *out,
+                               const struct refl_hiz *hiz,
+                               const struct refl_thickness *thickness,
+                               struct refl_ray ray,
+                               float t_max,
+                               const struct refl_hiz_options *options);
+
+/**
+ * Traces `ray_count` rays as `refl_hiz_trace_ray` would, writing result
+ * `i` to `out[i]`. `t_max` holds one value for every ray
+ * (`t_max_count == 1`) or one per ray (`t_max_count >= ray_count`).
+ *
+ * Every input is validated before anything is written: on any error `out`
+ * is untouched. Elements of `out` past `ray_count` are never written.
+ * Rays are independent: split a batch into chunks and call this from
+ * several threads.
+ *
+ * Returns `REFL_STATUS_NULL_POINTER` if `out`, `rays`, `t_max`, `hiz`,
+ * `hiz->data`, `thickness` or `options` is NULL;
+ * `REFL_STATUS_INSUFFICIENT_SIZE` if `out_len < ray_count` or
+ * `t_max_count` is neither 1 nor at least `ray_count`;
+ * `REFL_STATUS_INVALID_ARGUMENT` if `t_max_count` is 0, or for any ray,
+ * `t_max`, pyramid, thickness or option rejected as by
+ * `refl_hiz_trace_ray`.
+ *
+ * # Safety
+ * `out` must be NULL or writable for `out_len` results; `rays` NULL or
+ * readable for `ray_count` rays; `t_max` NULL or readable for
+ * `t_max_count` floats; the rest as `refl_hiz_trace_ray`.
+ */
+refl_status refl_hiz_trace_rays(struct refl_trace_result *out,
+                                size_t out_len,
+                                const struct refl_ray *rays,
+                                size_t ray_count,
+                                const float *t_max,
+                                size_t t_max_count,
+                                const struct refl_hiz *hiz,
+                                const struct refl_thickness *thickness,
+                                const struct refl_hiz_options *options);
+
+/**
  * Writes to `*out` the `index`-th of `count` contiguous, near-equal bands
  * of the rows `[0, height)` (the first `height % count` bands get one row
  * more), for splitting a whole-image pass such as `refl_convert_depth`
@@ -1350,6 +2093,222 @@ refl_status refl_convert_depth(struct refl_image_f32_mut dst,
                                uint32_t to,
                                uint32_t row_begin,
                                uint32_t row_end);
+
+/**
+ * Writes to `*out` the element counts of the depth, payload, count and
+ * bound buffers of a map with `face_res x face_res` texels per face and `layers`
+ * layers.
+ *
+ * Returns `REFL_STATUS_NULL_POINTER` if `out` is NULL;
+ * `REFL_STATUS_INVALID_ARGUMENT` for a zero size or a count overflowing
+ * `size_t`.
+ *
+ * # Safety
+ * `out` must be NULL or point to a writable `refl_layered_sizes`.
+ */
+refl_status refl_layered_len(struct refl_layered_sizes *out, uint32_t face_res, uint32_t layers);
+
+/**
+ * Writes to `*out` the default trace parameters: half-texel steps (at
+ * most 4096 steps and skipped cells per face), 16 binary iterations down
+ * to 1/16 texel, early stop at one texel, depth interpolated across steps
+ * of up to 4 texels.
+ *
+ * Returns `REFL_STATUS_NULL_POINTER` if `out` is NULL.
+ *
+ * # Safety
+ * `out` must be NULL or point to a writable `refl_layered_params`.
+ */
+refl_status refl_layered_params_default(struct refl_layered_params *out);
+
+/**
+ * Writes to `*out` the world-space orthographic ray of texel `(i, j)` of
+ * `face` (0..6): it starts on the face plane at the texel center and runs
+ * into the box, leaving it at `t_max` (seed 001 Sec. 3.3). Cast it through
+ * every surface of the object and pass all crossings to
+ * `refl_layered_fill_column` with the same face; that fills the face and
+ * its opposite, so one face per axis suffices.
+ *
+ * Returns `REFL_STATUS_NULL_POINTER` if `out` or `grid` is NULL;
+ * `REFL_STATUS_INVALID_ARGUMENT` for an invalid grid (non-finite corner,
+ * zero size, non-affine or non-finite matrix), a face above 5 or a texel
+ * out of range; `REFL_STATUS_DEGENERATE_GEOMETRY` for a box of zero
+ * extent or a singular transform.
+ *
+ * # Safety
+ * `out` must be NULL or writable; `grid` NULL or readable.
+ */
+refl_status refl_layered_face_ray(struct refl_column_ray *out,
+                                  const struct refl_layered_grid *grid,
+                                  uint32_t face,
+                                  uint32_t i,
+                                  uint32_t j);
+
+/**
+ * Empties every texel of the map: count 0, depth +inf, payload
+ * 0xFFFFFFFF, bounds +inf (the exact bounds of the empty map).
+ *
+ * Returns `REFL_STATUS_NULL_POINTER` if `map` or one of its buffers is
+ * NULL; `REFL_STATUS_INVALID_ARGUMENT` for an invalid grid, misaligned or
+ * overlapping buffers; `REFL_STATUS_INSUFFICIENT_SIZE` for a buffer
+ * shorter than `refl_layered_len` says; `REFL_STATUS_DEGENERATE_GEOMETRY`
+ * as for `refl_layered_face_ray`.
+ *
+ * # Safety
+ * `map` must be NULL or readable, its buffers writable for their lengths.
+ */
+refl_status refl_layered_clear(const struct refl_layered_map_mut *map);
+
+/**
+ * Fills texel `(i, j)` of `face` and of its opposite face from all
+ * `hit_count` crossings `hits` of the column ray `refl_layered_face_ray`
+ * `(face, i, j)`, in any order (seed 001 Sec. 3.4: front layers with their
+ * back faces found through the opposite face). Crossings become solid
+ * intervals (a front hit while outside opens one, a back hit while inside
+ * closes it, other hits are ignored, an open interval ends at the far
+ * face); with more intervals than layers the smallest gaps are filled.
+ * The bound cells that see the column become "never skip" (traces stay
+ * correct, only slower, until `refl_layered_build_bounds`). Writes what it
+ * did to `*out`.
+ *
+ * Returns `REFL_STATUS_NULL_POINTER` if `out`, `map`, one of the map's
+ * buffers, or `hits` with a non-zero count is NULL;
+ * `REFL_STATUS_INVALID_ARGUMENT` for a face above 5, a texel out of range,
+ * a non-finite `t`, a `front` other than 0 or 1, an invalid grid, or
+ * misaligned or overlapping buffers; `REFL_STATUS_INSUFFICIENT_SIZE` and
+ * `REFL_STATUS_DEGENERATE_GEOMETRY` as for `refl_layered_clear`. On error
+ * nothing is written.
+ *
+ * # Safety
+ * `out` NULL or writable; `map` NULL or readable with writable buffers;
+ * `hits` NULL or readable for `hit_count` elements.
+ */
+refl_status refl_layered_fill_column(struct refl_column_fill *out,
+                                     const struct refl_layered_map_mut *map,
+                                     uint32_t face,
+                                     uint32_t i,
+                                     uint32_t j,
+                                     const struct refl_layer_hit *hits,
+                                     size_t hit_count);
+
+/**
+ * Fills a whole face (and its opposite) from the crossings of all its
+ * column rays: the crossings of texel `(i, j)` are
+ * `hits[offsets[j * res + i] .. offsets[j * res + i + 1]]`, so `offsets`
+ * holds `res * res + 1` non-decreasing values with the last at most
+ * `hit_count` (a CSR layout). Each column is filled as by
+ * `refl_layered_fill_column`; then the empty-space bounds of `face` and
+ * its opposite are rebuilt (as `refl_layered_build_bounds` does). If `out`
+ * is not NULL, the number of columns whose gaps had to be filled
+ * (approximate columns) is written to it.
+ *
+ * Everything is validated before anything is written: on error the map
+ * is untouched. Returns `REFL_STATUS_NULL_POINTER` if `map`, its buffers,
+ * `offsets`, or `hits` with a non-zero count is NULL;
+ * `REFL_STATUS_INVALID_ARGUMENT` for decreasing offsets or one beyond
+ * `hit_count`, and the cases of `refl_layered_fill_column`;
+ * `REFL_STATUS_INSUFFICIENT_SIZE` if `offset_count < res * res + 1` or a
+ * map buffer is short.
+ *
+ * # Safety
+ * `out` NULL or writable; `map` NULL or readable with writable buffers;
+ * `hits` NULL or readable for `hit_count`, `offsets` NULL or readable for
+ * `offset_count` elements.
+ */
+refl_status refl_layered_fill_face(uint32_t *out,
+                                   const struct refl_layered_map_mut *map,
+                                   uint32_t face,
+                                   const struct refl_layer_hit *hits,
+                                   size_t hit_count,
+                                   const size_t *offsets,
+                                   size_t offset_count);
+
+/**
+ * Builds the empty-space bounds of all six faces from the filled map: per
+ * face a pyramid of the smallest front depth over each cell dilated by one
+ * texel, which lets traces skip cells the ray crosses in front of every
+ * surface or behind every solid interval (an addition to seed 001).
+ *
+ * Returns `REFL_STATUS_NULL_POINTER`, `REFL_STATUS_INVALID_ARGUMENT`,
+ * `REFL_STATUS_INSUFFICIENT_SIZE` and `REFL_STATUS_DEGENERATE_GEOMETRY` as
+ * `refl_layered_clear`; on error nothing is written.
+ *
+ * # Safety
+ * `map` must be NULL or readable, its buffers writable for their lengths.
+ */
+refl_status refl_layered_build_bounds(const struct refl_layered_map_mut *map);
+
+/**
+ * Traces one world ray (unit direction) up to distance `t_max` (+inf
+ * allowed) against the map (seed 001 Sec. 3.3-3.4, Algorithm 1: box clip,
+ * up to three faces chosen by the direction's signs, linear then binary
+ * search through the layers, early stop; with empty space skipped through
+ * the bounds and the binary search on interpolated depth) and writes the
+ * result to `*out`.
+ *
+ * Returns `REFL_STATUS_NULL_POINTER` if `out`, `map`, a map buffer or
+ * `params` is NULL; `REFL_STATUS_INVALID_ARGUMENT` for a non-finite ray,
+ * a direction whose length is not 1 (within 1e-3), `t_max` NaN or not
+ * positive, invalid parameters or grid; `REFL_STATUS_INSUFFICIENT_SIZE`
+ * for a short map buffer; `REFL_STATUS_DEGENERATE_GEOMETRY` for a
+ * degenerate grid.
+ *
+ * # Safety
+ * `out` NULL or writable; `map` NULL or readable with readable buffers;
+ * `params` NULL or readable.
+ */
+refl_status refl_layered_trace(struct refl_layered_result *out,
+                               const struct refl_layered_map *map,
+                               struct refl_ray ray,
+                               float t_max,
+                               const struct refl_layered_params *params);
+
+/**
+ * Traces `ray_count` rays (as `refl_layered_trace`, one `t_max` for all)
+ * and writes result `k` to `out[k]`. All rays are validated first: on
+ * error nothing is written.
+ *
+ * Returns `REFL_STATUS_NULL_POINTER` if `map`, a map buffer or `params`
+ * is NULL, or `out` / `rays` with a non-zero count;
+ * `REFL_STATUS_INSUFFICIENT_SIZE` if `out_len < ray_count` or a map buffer
+ * is short; `REFL_STATUS_INVALID_ARGUMENT` as for `refl_layered_trace`,
+ * for any invalid ray, or for `out` overlapping `rays` or the map.
+ *
+ * # Safety
+ * `out` NULL or writable for `out_len` results; `rays` NULL or readable
+ * for `ray_count`; `map` and `params` as for `refl_layered_trace`.
+ */
+refl_status refl_layered_trace_rays(struct refl_layered_result *out,
+                                    size_t out_len,
+                                    const struct refl_layered_map *map,
+                                    const struct refl_ray *rays,
+                                    size_t ray_count,
+                                    float t_max,
+                                    const struct refl_layered_params *params);
+
+/**
+ * Classifies reflector triangle `p0 p1 p2` for a camera at `eye` and a
+ * reflected object with bounding sphere (`center`, `radius`) with the
+ * potential-reflection-region test of seed 001 Sec. 3.2 (camera cone
+ * around the mirrored sphere against the triangle: corner inside, edge
+ * crossing, section inside) and writes a `refl_prr_class` to `*out`.
+ * Classes 2-5 may show a reflection; 0 and 1 cannot.
+ *
+ * Returns `REFL_STATUS_NULL_POINTER` if `out` is NULL;
+ * `REFL_STATUS_INVALID_ARGUMENT` for a non-finite input or a radius that
+ * is not positive; `REFL_STATUS_DEGENERATE_GEOMETRY` for a zero-area
+ * triangle.
+ *
+ * # Safety
+ * `out` must be NULL or point to a writable `uint32_t`.
+ */
+refl_status refl_prr_classify(uint32_t *out,
+                              struct refl_vec3 eye,
+                              struct refl_vec3 center,
+                              float radius,
+                              struct refl_vec3 p0,
+                              struct refl_vec3 p1,
+                              struct refl_vec3 p2);
 
 /**
  * Writes to `*out` the reflection of `v` about the normal `n`:
@@ -1532,6 +2491,101 @@ const char *refl_version(void);
  * and `REFL_VERSION_PATCH`.
  */
 uint32_t refl_version_number(void);
+
+/**
+ * Traces one ray against a depth image by per-pixel stepping along its
+ * projection (seed 003 Sec. 3.4; `refl_core::step` documents the
+ * algorithm): the ray `ray.origin + t * ray.dir`, `t` in `[0, t_max]`, is
+ * clipped to the camera's frustum, projected, and walked texel by texel
+ * from its near to its far end; a texel is hit where the ray's linear
+ * depth lies between its front depth and front + thickness (or its
+ * back-face depth). A ray through the camera's eye (a planar reflector's
+ * ray) is resolved with one lookup. Writes the hit or the miss reason to
+ * `*out`.
+ *
+ * `ray.dir` must be unit length (within 1e-3); `t_max` > 0, +infinity
+ * allowed (up to the far plane).
+ *
+ * Returns `REFL_STATUS_NULL_POINTER` if `out`, `image`, `image->depth.data`,
+ * `thickness` or `options` is NULL; `REFL_STATUS_INVALID_ARGUMENT` for a
+ * non-finite or non-unit ray, a NaN or non-positive `t_max`, an unknown
+ * convention, a misaligned pointer, a zero or overflowing image size,
+ * `stride < width`, an image or back-face image whose size differs from
+ * the camera's, a NaN or negative constant thickness, or `stride == 0`;
+ * `REFL_STATUS_INSUFFICIENT_SIZE` if an image's `len` is too small; the
+ * camera's status if it is invalid.
+ *
+ * # Safety
+ * `out` must be NULL or writable; `image`, `thickness` and `options` NULL
+ * or readable; the images' `data` readable for `len` floats and not
+ * written during the call.
+ */
+refl_status refl_step_ray(struct refl_trace_result *out,
+                          const struct refl_depth_image *image,
+                          const struct refl_thickness *thickness,
+                          struct refl_ray ray,
+                          float t_max,
+                          const struct refl_step_options *options);
+
+/**
+ * Traces `ray_count` rays as `refl_step_ray` would, writing result `i` to
+ * `out[i]`. `t_max` holds either one value for every ray
+ * (`t_max_count == 1`) or one per ray (`t_max_count >= ray_count`).
+ *
+ * Every input is validated before anything is written: on any error
+ * `out` is untouched. Elements of `out` past `ray_count` are never
+ * written. Rays are independent: a host splits a large batch into chunks
+ * (e.g. rows of a reflection buffer) and calls this from its own threads.
+ *
+ * Returns `REFL_STATUS_NULL_POINTER` if `out`, `rays`, `t_max`, `image`,
+ * `image->depth.data`, `thickness` or `options` is NULL;
+ * `REFL_STATUS_INSUFFICIENT_SIZE` if `out_len < ray_count` or `t_max_count`
+ * is neither 1 nor at least `ray_count`; `REFL_STATUS_INVALID_ARGUMENT` if
+ * `t_max_count` is 0, or for any ray, `t_max`, image, thickness or option
+ * rejected as by `refl_step_ray`.
+ *
+ * # Safety
+ * `out` must be NULL or writable for `out_len` results; `rays` NULL or
+ * readable for `ray_count` rays; `t_max` NULL or readable for
+ * `t_max_count` floats; the rest as `refl_step_ray`.
+ */
+refl_status refl_step_rays(struct refl_trace_result *out,
+                           size_t out_len,
+                           const struct refl_ray *rays,
+                           size_t ray_count,
+                           const float *t_max,
+                           size_t t_max_count,
+                           const struct refl_depth_image *image,
+                           const struct refl_thickness *thickness,
+                           const struct refl_step_options *options);
+
+/**
+ * Refines a hit of `refl_step_ray` / `refl_hiz_trace_ray` to sub-texel
+ * accuracy (`refl_core::trace::refine_hit`): the ray is intersected with
+ * the plane through the hit texel's center point and its coplanar (or
+ * continuous) neighbors, never across a silhouette; where that plane is
+ * met outside the 3x3 texels around the texel, the fit moves there (up to
+ * 4 fits). On a surface seen at a grazing angle this moves the hit from
+ * the first texel plate the ray meets to the surface itself. The refined
+ * `pixel`, `t` and `depth` replace the hit's if the point lies on the ray
+ * within `[0, t_max]`; otherwise, and for a miss (`hit->miss != 0`),
+ * `*out` is `*hit`. `fetches` counts the extra texels read.
+ *
+ * Returns `REFL_STATUS_NULL_POINTER` if `out`, `image`,
+ * `image->depth.data` or `hit` is NULL; `REFL_STATUS_INVALID_ARGUMENT` for
+ * a non-finite or non-unit ray, a NaN or non-positive `t_max`, a hit with
+ * an unknown miss value or non-finite fields, or an invalid image (as
+ * `refl_step_ray`); `REFL_STATUS_INSUFFICIENT_SIZE` for a short image.
+ *
+ * # Safety
+ * `out` NULL or writable; `image` and `hit` NULL or readable; the image's
+ * `data` readable for `len` floats and not written during the call.
+ */
+refl_status refl_refine_hit(struct refl_trace_result *out,
+                            const struct refl_depth_image *image,
+                            struct refl_ray ray,
+                            float t_max,
+                            const struct refl_trace_result *hit);
 
 #ifdef __cplusplus
 }  // extern "C"

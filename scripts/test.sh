@@ -71,9 +71,13 @@ quick_dir="$root/target/report-quick"
 rm -rf "$quick_dir"
 "$root/target/release/refl" report --quick --out "$quick_dir"
 head -n 1 "$quick_dir/summary.csv" | grep -q '^scene,method,setting,threads,time_ms,reference_ms,speedup,coverage,mean_abs_255,psnr_db,share_over_8'
-for m in reference envmap planar-mirror; do
+for m in reference envmap planar-mirror step hiz layered; do
   grep -q ",$m," "$quick_dir/summary.csv" || { echo "summary.csv lacks method $m" >&2; exit 1; }
 done
+# The depth-image rows carry their ray columns.
+head -n 1 "$quick_dir/summary.csv" | tr ',' '\n' | grep -qx hit_rate
+head -n 1 "$quick_dir/summary.csv" | tr ',' '\n' | grep -qx false_hit_rate
+head -n 1 "$quick_dir/summary.csv" | tr ',' '\n' | grep -qx mean_hit_err_px
 test -s "$quick_dir/error_vs_time.png"
 
 step "C++ tests against Embree (normal and sanitized builds)"

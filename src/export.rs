@@ -17,7 +17,9 @@
 //!   same-index ray found by [`Tracer::trace`]; `(u, v)` weight the second
 //!   and third vertex, Embree's convention.
 //! * `meta.txt`: `key = value` lines (scene, triangle count, image size, ray
-//!   counts, epsilon).
+//!   counts, epsilon, and the camera: `view` as 16 f32 column-major,
+//!   `fov_y` in radians, `near`, `far`), so that a C++ test can rebuild the
+//!   primary view's depth buffer.
 //!
 //! The rays belong to the room scene's first camera at
 //! [`CROSSCHECK_WIDTH`] x [`CROSSCHECK_HEIGHT`]: one reflection ray per
@@ -119,6 +121,16 @@ pub fn export_crosscheck(dir: &Path, scene_tris: usize) -> io::Result<()> {
     writeln!(f, "primary_rays = {}", primary.len())?;
     writeln!(f, "primary_stride = {PRIMARY_STRIDE}")?;
     writeln!(f, "epsilon = {}", scene.ray_epsilon())?;
+    let view: Vec<String> = camera
+        .view()
+        .to_cols_array()
+        .iter()
+        .map(|x| x.to_string())
+        .collect();
+    writeln!(f, "view = {}", view.join(" "))?;
+    writeln!(f, "fov_y = {}", camera.fov_y())?;
+    writeln!(f, "near = {}", camera.near())?;
+    writeln!(f, "far = {}", camera.far())?;
     f.flush()
 }
 

@@ -9,10 +9,14 @@
 pub mod epipolar;
 pub mod export;
 pub mod gbuffer;
+pub mod growth;
+pub mod layered;
+pub mod layered_render;
 pub mod raster;
 pub mod render;
 pub mod report;
 pub mod report_out;
 pub mod scene;
+pub mod screen;
 pub mod shade;
 pub mod tracer;

@@ -17,11 +17,14 @@ use crate::render::{
 };
 use crate::report_out::{self, Row};
 use crate::scene::Scene;
+use crate::screen::{self, RayStats, ScreenMethod};
 use crate::shade::Shader;
 use crate::tracer::Tracer;
 use crate::{gbuffer::GBuffer, render::timed};
 use glam::Vec3;
 use indicatif::{ProgressBar, ProgressStyle};
+use refl_core::hiz::HiZOptions;
+use refl_core::{DepthConvention, StepOptions, Thickness};
 use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
 
@@ -35,8 +38,8 @@ pub struct Options {
     /// file (repeatable; default: the three built-in scenes).
     #[arg(long)]
     pub scene: Vec<String>,
-    /// Methods: `reference`, `envmap`, `planar-mirror` (repeatable; default:
-    /// all).
+    /// Methods: `reference`, `envmap`, `planar-mirror`, `step`, `hiz`,
+    /// `layered` (repeatable; default: all).
     #[arg(long)]
     pub method: Vec<String>,
     /// Output folder.
@@ -50,6 +53,10 @@ pub struct Options {
     /// 30000), for cost-growth curves.
     #[arg(long)]
     pub tris: Option<usize>,
+    /// Cost growth: the room at these triangle counts (comma-separated;
+    /// default run: 10000,100000,1000000, `--quick`: none); `0` skips it.
+    #[arg(long, value_delimiter = ',')]
+    pub growth: Vec<usize>,
     /// Reflective materials for an OBJ scene: `NAME:SPECULAR:ROUGHNESS`,
     /// matching object names containing NAME (repeatable).
     #[arg(long)]
@@ -66,6 +73,7 @@ impl Default for Options {
             out: PathBuf::from("report"),
             threads: None,
             tris: None,
+            growth: Vec::new(),
             reflective: Vec::new(),
         }
     }
@@ -88,6 +96,8 @@ pub struct Sizes {
     pub runs: usize,
     /// Camera-path poses rendered per scene (spread over the path).
     pub frames: usize,
+    /// `--quick`: fewer settings.
+    pub quick: bool,
 }
 
 impl Sizes {
@@ -102,6 +112,7 @@ impl Sizes {
                 reference_samples: &[4, 16],
                 runs: 3,
                 frames: 2,
+                quick: true,
             }
         } else {
             Sizes {
@@ -112,6 +123,7 @@ impl Sizes {
                 reference_samples: &[4, 16, 64, 256],
                 runs: 3,
                 frames: 4,
+                quick: false,
             }
         }
     }
@@ -121,7 +133,7 @@ impl Sizes {
 pub const BUILT_IN_SCENES: [&str; 3] = ["room", "concave", "walkthrough"];
 
 /// Every method name the report knows, in report order.
-pub const METHODS: [&str; 6] = [
+pub const METHODS: [&str; 9] = [
     "reference",
     "envmap",
     "planar-mirror",
@@ -130,6 +142,9 @@ pub const METHODS: [&str; 6] = [
     "epipolar",
     "orsa",
     "irsa",
+    "step",
+    "hiz",
+    "layered",
 ];
 
 /// What one frame's reflective pixels can use: the report skips the passes
@@ -141,6 +156,10 @@ struct FrameNeeds {
     glossy_pixels: usize,
     /// Pixels of planar perfect mirrors.
     planar_mirror_pixels: usize,
+    /// Reflective pixels.
+    reflective_pixels: usize,
+    /// Objects the layered method maps (scene-wide).
+    reflected_objects: usize,
 }
 
 impl FrameNeeds {
@@ -150,11 +169,12 @@ impl FrameNeeds {
             .iter()
             .map(|o| o.planar.is_some() && scene.materials[o.material as usize].is_mirror())
             .collect();
-        let (mut glossy_pixels, mut planar_mirror_pixels) = (0, 0);
+        let (mut glossy_pixels, mut planar_mirror_pixels, mut reflective_pixels) = (0, 0, 0);
         for i in 0..g.len() {
             if !g.is_reflective(i) {
                 continue;
             }
+            reflective_pixels += 1;
             glossy_pixels += usize::from(g.roughness[i] > 0.0);
             planar_mirror_pixels += usize::from(
                 planar_mirror
@@ -166,8 +186,123 @@ impl FrameNeeds {
         FrameNeeds {
             glossy_pixels,
             planar_mirror_pixels,
+            reflective_pixels,
+            reflected_objects: crate::layered_render::reflected_objects(scene).len(),
         }
     }
+}
+
+/// One setting of a method: an image method of [`render`], or a
+/// screen-space kernel traced against the primary view's depth buffer in a
+/// depth convention.
+#[derive(Clone, Copy, Debug)]
+enum Setting {
+    Image(Method),
+    Screen(ScreenMethod, DepthConvention, bool),
+    /// Layered depth cube maps of the reflected objects: face resolution,
+    /// layers.
+    Layered(u32, u32),
+}
+
+/// The screen-space settings of `name` (`None` if `name` is not a
+/// screen-space method). Reversed-Z with an infinite far plane is the
+/// report's convention; stride 1 and the default Hi-Z also run on linear
+/// and `[0, 1]` depth (finite far plane) in the default run.
+fn screen_settings(name: &str, sizes: &Sizes) -> Option<Vec<(Setting, String)>> {
+    let rz = DepthConvention::ReversedZ;
+    let conv_name = |c: DepthConvention| match c {
+        DepthConvention::Linear => "linear",
+        DepthConvention::ZeroToOne => "zero-to-one",
+        DepthConvention::ReversedZ => "reversed-z-inf",
+    };
+    let mut out = Vec::new();
+    match name {
+        "step" => {
+            for (stride, max_steps) in [(1, u32::MAX), (4, u32::MAX), (16, u32::MAX), (1, 64)] {
+                let opts = StepOptions { stride, max_steps };
+                let cap = if max_steps == u32::MAX {
+                    String::new()
+                } else {
+                    format!(";max_steps={max_steps}")
+                };
+                out.push((
+                    Setting::Screen(ScreenMethod::Step(opts), rz, true),
+                    format!("stride={stride}{cap}"),
+                ));
+            }
+            out.push((
+                Setting::Screen(ScreenMethod::Step(StepOptions::default()), rz, false),
+                "stride=1;refine=off".into(),
+            ));
+            if !sizes.quick {
+                for c in [DepthConvention::Linear, DepthConvention::ZeroToOne] {
+                    out.push((
+                        Setting::Screen(ScreenMethod::Step(StepOptions::default()), c, true),
+                        format!("stride=1;depth={}", conv_name(c)),
+                    ));
+                }
+            }
+        }
+        "hiz" => {
+            let base = HiZOptions::default();
+            let variants = [
+                base,
+                HiZOptions {
+                    prologue_steps: 0,
+                    ..base
+                },
+                HiZOptions {
+                    prologue_steps: 16,
+                    ..base
+                },
+                HiZOptions {
+                    start_level: 0,
+                    ..base
+                },
+                HiZOptions {
+                    stop_level: 2,
+                    ..base
+                },
+                HiZOptions {
+                    max_iterations: 48,
+                    ..base
+                },
+            ];
+            for o in variants {
+                out.push((
+                    Setting::Screen(ScreenMethod::HiZ(o), rz, true),
+                    format!(
+                        "start={};stop={};prologue={};max_iter={}",
+                        o.start_level, o.stop_level, o.prologue_steps, o.max_iterations
+                    ),
+                ));
+            }
+            out.push((
+                Setting::Screen(ScreenMethod::HiZ(base), rz, false),
+                format!(
+                    "start={};stop={};prologue={};max_iter={};refine=off",
+                    base.start_level, base.stop_level, base.prologue_steps, base.max_iterations
+                ),
+            ));
+            if !sizes.quick {
+                for c in [DepthConvention::Linear, DepthConvention::ZeroToOne] {
+                    out.push((
+                        Setting::Screen(ScreenMethod::HiZ(base), c, true),
+                        format!(
+                            "start={};stop={};prologue={};max_iter={};depth={}",
+                            base.start_level,
+                            base.stop_level,
+                            base.prologue_steps,
+                            base.max_iterations,
+                            conv_name(c)
+                        ),
+                    ));
+                }
+            }
+        }
+        _ => return None,
+    }
+    Some(out)
 }
 
 /// The methods and settings run for method `name` on a frame, or why the
@@ -176,30 +311,64 @@ fn settings(
     name: &str,
     sizes: &Sizes,
     needs: FrameNeeds,
-) -> Result<Vec<(Method, String)>, &'static str> {
+) -> Result<Vec<(Setting, String)>, &'static str> {
+    if name == "layered" {
+        return if needs.reflected_objects == 0 {
+            Err("no compact non-reflective object to map")
+        } else if needs.reflective_pixels == 0 {
+            Err("no reflective pixels in view")
+        } else {
+            let res: &[u32] = if sizes.quick {
+                &[32, 64]
+            } else {
+                &[32, 64, 128]
+            };
+            Ok(res
+                .iter()
+                .map(|&r| (Setting::Layered(r, 4), format!("face_res={r};layers=4")))
+                .chain(std::iter::once((
+                    Setting::Layered(res[res.len() - 1], 1),
+                    format!("face_res={};layers=1", res[res.len() - 1]),
+                )))
+                .collect())
+        };
+    }
+    if let Some(screen) = screen_settings(name, sizes) {
+        return if needs.reflective_pixels == 0 {
+            Err("no reflective pixels in view")
+        } else {
+            Ok(screen)
+        };
+    }
+    let image =
+        |v: Vec<(Method, String)>| v.into_iter().map(|(m, s)| (Setting::Image(m), s)).collect();
     match name {
         // Mirror pixels trace one ray whatever the sample count: without
         // glossy pixels one row says all there is.
-        "reference" if needs.glossy_pixels == 0 => Ok(vec![(
+        "reference" if needs.glossy_pixels == 0 => Ok(image(vec![(
             Method::Reference { samples: 1 },
             "mirror_rays".into(),
-        )]),
-        "reference" => Ok(sizes
-            .reference_samples
-            .iter()
-            .map(|&s| (Method::Reference { samples: s }, format!("glossy_spp={s}")))
-            .collect()),
-        "envmap" => Ok(vec![(Method::EnvMap, "analytic".into())]),
+        )])),
+        "reference" => Ok(image(
+            sizes
+                .reference_samples
+                .iter()
+                .map(|&s| (Method::Reference { samples: s }, format!("glossy_spp={s}")))
+                .collect(),
+        )),
+        "envmap" => Ok(image(vec![(Method::EnvMap, "analytic".into())])),
         "planar-mirror" if needs.planar_mirror_pixels == 0 => Err("no planar mirror in view"),
-        "planar-mirror" => Ok([1, 2, 4]
-            .into_iter()
-            .map(|scale| {
-                (
-                    Method::PlanarMirror { scale },
-                    format!("resolution=1/{scale}"),
-                )
-            })
-            .collect()),
+        "planar-mirror" => Ok(image(
+            [1, 2, 4]
+                .into_iter()
+                .map(|scale| {
+                    (
+                        Method::PlanarMirror { scale },
+                        format!("resolution=1/{scale}"),
+                    )
+                })
+                .collect(),
+        )),
         _ => Err("unknown method"),
     }
 }
@@ -257,6 +426,105 @@ struct Accum {
     /// Handled pixels whose largest channel error exceeds 8.
     over_8: f64,
     max_abs: u8,
+    /// Ray statistics and timings of a screen-space method.
+    screen: Option<ScreenAccum>,
+}
+
+/// Sums over frames of a screen-space method's ray statistics and timings.
+#[derive(Clone, Debug, Default)]
+struct ScreenAccum {
+    stats: RayStats,
+    kernel_ms: f64,
+    kernel_ms_1t: f64,
+    obvhs_ms: f64,
+    obvhs_ms_1t: f64,
+    bytes_per_pixel: f64,
+    /// Layered rows: `visible` counts rays whose reference hits a mapped
+    /// object, `found` those hit on the same object within a texel
+    /// diagonal, the error is in texels.
+    layered: bool,
+}
+
+impl ScreenAccum {
+    fn add(&mut self, o: &ScreenAccum) {
+        self.stats.add(&o.stats);
+        self.kernel_ms += o.kernel_ms;
+        self.kernel_ms_1t += o.kernel_ms_1t;
+        self.obvhs_ms += o.obvhs_ms;
+        self.obvhs_ms_1t += o.obvhs_ms_1t;
+        self.bytes_per_pixel = o.bytes_per_pixel;
+        self.layered = o.layered;
+    }
+
+    /// The method-specific columns.
+    fn columns(&self) -> Vec<(String, String)> {
+        let s = &self.stats;
+        let rays = s.rays.max(1) as f64;
+        let ns = |ms: f64| ms * 1e6 / rays;
+        let ratio = |a: f64, b: f64| if b > 0.0 { a / b } else { f64::INFINITY };
+        vec![
+            ("rays".into(), s.rays.to_string()),
+            (
+                "visible_share".into(),
+                format!("{:.4}", s.visible as f64 / rays),
+            ),
+            ("hit_rate".into(), format!("{:.4}", s.hit_rate())),
+            (
+                "visible_missed".into(),
+                format!("{:.4}", s.missed as f64 / s.visible.max(1) as f64),
+            ),
+            (
+                "visible_wrong".into(),
+                format!("{:.4}", s.wrong as f64 / s.visible.max(1) as f64),
+            ),
+            (
+                "false_hit_rate".into(),
+                format!("{:.4}", s.false_hit_rate()),
+            ),
+            (
+                if self.layered {
+                    "mean_hit_err_texels"
+                } else {
+                    "mean_hit_err_px"
+                }
+                .into(),
+                format!("{:.4}", s.mean_err_px()),
+            ),
+            ("ns_per_ray".into(), format!("{:.1}", ns(self.kernel_ms))),
+            (
+                "ns_per_ray_1t".into(),
+                format!("{:.1}", ns(self.kernel_ms_1t)),
+            ),
+            (
+                "obvhs_ns_per_ray".into(),
+                format!("{:.1}", ns(self.obvhs_ms)),
+            ),
+            (
+                "obvhs_ns_per_ray_1t".into(),
+                format!("{:.1}", ns(self.obvhs_ms_1t)),
+            ),
+            (
+                "vs_obvhs".into(),
+                format!("{:.3}", ratio(self.obvhs_ms, self.kernel_ms)),
+            ),
+            (
+                "vs_obvhs_1t".into(),
+                format!("{:.3}", ratio(self.obvhs_ms_1t, self.kernel_ms_1t)),
+            ),
+            (
+                "fetches_per_ray".into(),
+                format!("{:.1}", s.fetches as f64 / rays),
+            ),
+            (
+                "iterations_per_ray".into(),
+                format!("{:.1}", s.iterations as f64 / rays),
+            ),
+            (
+                "bytes_per_pixel".into(),
+                format!("{:.2}", self.bytes_per_pixel),
+            ),
+        ]
+    }
 }
 
 impl Accum {
@@ -307,10 +575,16 @@ impl Accum {
                 f64::INFINITY
             },
             share_over_8: self.over_8 / self.handled.max(1) as f64,
-            extra: vec![
-                ("frames".into(), self.frames.to_string()),
-                ("max_abs_255".into(), self.max_abs.to_string()),
-            ],
+            extra: {
+                let mut e = vec![
+                    ("frames".into(), self.frames.to_string()),
+                    ("max_abs_255".into(), self.max_abs.to_string()),
+                ];
+                if let Some(sc) = &self.screen {
+                    e.extend(sc.columns());
+                }
+                e
+            },
         }
     }
 }
@@ -386,6 +660,10 @@ pub fn run(opts: &Options) -> Result<PathBuf, String> {
         .num_threads(threads)
         .build()
         .map_err(|e| e.to_string())?;
+    let pool_1t = rayon::ThreadPoolBuilder::new()
+        .num_threads(1)
+        .build()
+        .map_err(|e| e.to_string())?;
     let out = opts.out.clone();
     let images = out.join("images");
     std::fs::create_dir_all(&images).map_err(|e| format!("{}: {e}", images.display()))?;
@@ -435,12 +713,16 @@ pub fn run(opts: &Options) -> Result<PathBuf, String> {
             FrameNeeds {
                 glossy_pixels: 0,
                 planar_mirror_pixels: 0,
+                reflective_pixels: 0,
+                reflected_objects: 0,
             },
             |a, (_, g, _)| {
                 let n = FrameNeeds::of(&scene, g);
                 FrameNeeds {
                     glossy_pixels: a.glossy_pixels + n.glossy_pixels,
                     planar_mirror_pixels: a.planar_mirror_pixels + n.planar_mirror_pixels,
+                    reflective_pixels: a.reflective_pixels + n.reflective_pixels,
+                    reflected_objects: n.reflected_objects,
                 }
             },
         );
@@ -451,7 +733,12 @@ pub fn run(opts: &Options) -> Result<PathBuf, String> {
         {
             let _ = writeln!(notes, "  - `{method_name}` skipped: {why}");
         }
+        // Layered maps are built once per scene and setting (static objects).
+        let mut layered_maps: Vec<((u32, u32), crate::layered_render::LayeredScene)> = Vec::new();
         for (frame, (pose, g, gbuffer_ms)) in frames.iter().enumerate() {
+            // Rays and reference timings of the screen-space methods, made
+            // when the first of them runs on this frame.
+            let mut screen_frame: Option<screen::ScreenFrame> = None;
             let (pose, gbuffer_ms) = (*pose, *gbuffer_ms);
             let frame_needs = FrameNeeds::of(&scene, g);
             let reflective = g.reflective_mask();
@@ -492,10 +779,124 @@ pub fn run(opts: &Options) -> Result<PathBuf, String> {
                     continue;
                 };
                 bar.inc_length(runs_of.len() as u64);
-                for (method, setting) in runs_of {
+                for (setting_v, setting) in runs_of {
                     bar.set_message(format!("{label} pose {pose}: {method_name} {setting}"));
-                    let (img, ms) = median_run(sizes.runs, || method.run(&shader, g, &pool))
-                        .map_err(|e| e.to_string())?;
+                    let (img, ms, screen_acc) = match setting_v {
+                        Setting::Image(method) => {
+                            let (img, ms) =
+                                median_run(sizes.runs, || method.run(&shader, g, &pool))
+                                    .map_err(|e| e.to_string())?;
+                            (img, ms, None)
+                        }
+                        Setting::Screen(kernel, conv, refine) => {
+                            let sf = screen_frame.get_or_insert_with(|| {
+                                screen::ScreenFrame::new(
+                                    &scene, &tracer, &shader, g, &pool, &pool_1t, sizes.runs,
+                                )
+                            });
+                            let thickness = Thickness::Constant(sf.thickness);
+                            let (obvhs_ms, obvhs_ms_1t) = (sf.obvhs_ms, sf.obvhs_ms_1t);
+                            sf.prepare_depth(g, conv).map_err(|e| e.to_string())?;
+                            let sf = &*sf;
+                            let depth = sf.depth(conv).ok_or("depth buffer")?;
+                            let image = depth.image().map_err(|e| e.to_string())?;
+                            let rays = &sf.rays;
+                            let (traces, ms) = median_run(sizes.runs, || {
+                                screen::run(
+                                    kernel,
+                                    refine,
+                                    &image,
+                                    thickness,
+                                    &rays.screen_ray,
+                                    &pool,
+                                )
+                            })
+                            .map_err(|e| e.to_string())?;
+                            let (_, ms_1t) = median_run(sizes.runs, || {
+                                screen::run(
+                                    kernel,
+                                    refine,
+                                    &image,
+                                    thickness,
+                                    &rays.screen_ray,
+                                    &pool_1t,
+                                )
+                            })
+                            .map_err(|e| e.to_string())?;
+                            let stats = screen::evaluate(rays, &traces);
+                            let img = screen::shade(g, &direct, rays, &traces);
+                            let acc = ScreenAccum {
+                                stats,
+                                kernel_ms: ms,
+                                kernel_ms_1t: ms_1t,
+                                obvhs_ms,
+                                obvhs_ms_1t,
+                                bytes_per_pixel: kernel.bytes_per_pixel(g.width(), g.height()),
+                                layered: false,
+                            };
+                            (img, ms, Some(acc))
+                        }
+                        Setting::Layered(res, layers) => {
+                            let sf = screen_frame.get_or_insert_with(|| {
+                                screen::ScreenFrame::new(
+                                    &scene, &tracer, &shader, g, &pool, &pool_1t, sizes.runs,
+                                )
+                            });
+                            let sf = &*sf;
+                            let key = (res, layers);
+                            if !layered_maps.iter().any(|(k, _)| *k == key) {
+                                let ls = crate::layered_render::LayeredScene::build(
+                                    &scene, res, layers, &pool,
+                                )
+                                .map_err(|e| format!("{label}: layered maps: {e}"))?;
+                                let _ = writeln!(
+                                    notes,
+                                    "  - layered maps {res}x{res}x{layers}: {} objects, {:.1} ms build, {:.1} MiB",
+                                    ls.objects.len(),
+                                    ls.build_ms,
+                                    ls.bytes() as f64 / (1024.0 * 1024.0)
+                                );
+                                layered_maps.push((key, ls));
+                            }
+                            let ls = &layered_maps
+                                .iter()
+                                .find(|(k, _)| *k == key)
+                                .ok_or("layered maps")?
+                                .1;
+                            let params = refl_core::layered::LayeredParams::default();
+                            let trace = |p: &rayon::ThreadPool| {
+                                let t = timed(|| ls.trace(g, &sf.rays, &params, p));
+                                t.value.map(|v| Timed { value: v, ms: t.ms })
+                            };
+                            let (traces, ms) = median_run(sizes.runs, || trace(&pool))
+                                .map_err(|e| e.to_string())?;
+                            let (_, ms_1t) = median_run(sizes.runs, || trace(&pool_1t))
+                                .map_err(|e| e.to_string())?;
+                            let ls_stats =
+                                crate::layered_render::evaluate(&scene, ls, &sf.rays, &traces);
+                            let img = crate::layered_render::shade(&shader, g, &sf.rays, &traces);
+                            let pixels = f64::from(g.width()) * f64::from(g.height());
+                            let acc = ScreenAccum {
+                                stats: RayStats {
+                                    rays: ls_stats.rays,
+                                    visible: ls_stats.to_objects,
+                                    found: ls_stats.agree,
+                                    false_hits: ls_stats.false_hits,
+                                    err_px_sum: ls_stats.err_texels_sum,
+                                    err_px_count: ls_stats.err_count,
+                                    fetches: ls_stats.fetches,
+                                    ..RayStats::default()
+                                },
+                                kernel_ms: ms,
+                                kernel_ms_1t: ms_1t,
+                                obvhs_ms: sf.obvhs_ms,
+                                obvhs_ms_1t: sf.obvhs_ms_1t,
+                                bytes_per_pixel: ls.bytes() as f64 / pixels,
+                                layered: true,
+                            };
+                            (img, ms, Some(acc))
+                        }
+                    };
                     // The reference on exactly the handled pixels, same threads.
                     let reference_ms = if img.handled_count() == n_reflective {
                         truth_ms
@@ -536,6 +937,13 @@ pub fn run(opts: &Options) -> Result<PathBuf, String> {
                         }
                     };
                     accums[i].1.add(ms, reference_ms, n_reflective, &err);
+                    if let Some(acc) = screen_acc {
+                        accums[i]
+                            .1
+                            .screen
+                            .get_or_insert_with(ScreenAccum::default)
+                            .add(&acc);
+                    }
                     bar.inc(1);
                 }
             }
@@ -567,6 +975,30 @@ pub fn run(opts: &Options) -> Result<PathBuf, String> {
     }
     bar.finish_and_clear();
 
+    let growth_sizes: Vec<usize> = if opts.growth.is_empty() {
+        if opts.quick || !scenes.iter().any(|s| s == "room") {
+            Vec::new()
+        } else {
+            vec![10_000, 100_000, 1_000_000]
+        }
+    } else {
+        opts.growth.iter().copied().filter(|&n| n > 0).collect()
+    };
+    let growth_md = if growth_sizes.is_empty() {
+        String::new()
+    } else {
+        bar.set_message("cost growth");
+        let rows =
+            crate::growth::measure(&growth_sizes, sizes.width, sizes.height, sizes.runs, &pool)?;
+        let path = out.join("growth.csv");
+        crate::growth::write_csv(&path, &rows).map_err(|e| format!("{}: {e}", path.display()))?;
+        format!(
+            "\n## Cost growth (room, camera pose 0, {threads} thread(s), reversed-Z)\n\nTimes per frame for all \
+             reflection rays; the screen-space kernels exclude producing the depth buffer, `build+obvhs` is what a \
+             dynamic scene pays per frame with a BVH. Also in `growth.csv`.\n\n{}",
+            crate::growth::markdown(&rows)
+        )
+    };
     let csv = out.join("summary.csv");
     report_out::write_csv(&csv, &rows).map_err(|e| format!("{}: {e}", csv.display()))?;
     let plot = out.join("error_vs_time.png");
@@ -577,7 +1009,7 @@ pub fn run(opts: &Options) -> Result<PathBuf, String> {
          pixels in the same run, same threads. Error is measured against the ground truth (the reference at {} \
          glossy samples per pixel) on the pixels each method handles, pooled over frames: mean absolute difference \
          on 0..255 of 8-bit sRGB composites, PSNR, share of pixels over 8/255. Images: the first frame.\n\n\
-         ## Scenes\n\n{notes}\n## Summary\n\n{}\n![error vs time](error_vs_time.png)\n",
+         ## Scenes\n\n{notes}\n## Summary\n\n{}\n![error vs time](error_vs_time.png)\n{growth_md}",
         if opts.quick { "Quick" } else { "Default" },
         sizes.frames,
         sizes.runs,

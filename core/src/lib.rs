@@ -24,20 +24,40 @@ pub mod camera;
 #[cfg(feature = "epipolar")]
 pub mod epipolar;
 pub mod error;
+#[cfg(feature = "hiz")]
+pub mod hiz;
 pub mod image;
+#[cfg(feature = "layered")]
+pub mod layered;
 #[cfg(feature = "mirror")]
 pub mod mirror;
+#[cfg(feature = "depth-image")]
+pub mod step;
 #[cfg(any(feature = "depth-image", feature = "hiz"))]
 pub mod trace;
 
 pub use camera::{Camera, DepthConvention, Ray};
 pub use error::Error;
 pub use image::{ImageView, ImageViewMut, RowRange};
+#[cfg(feature = "layered")]
+pub use layered::{
+    layered_len, prr_classify, ColumnFill, ColumnRay, Face, LayerHit, LayeredGrid, LayeredHit,
+    LayeredLen, LayeredMap, LayeredMapMut, LayeredMiss, LayeredParams, LayeredTrace, LayeredWork,
+    PrrClass,
+};
 #[cfg(feature = "mirror")]
 pub use mirror::{
     mirror_matrix, mirror_point, mirrored_camera, oblique_projection, reflect, Plane,
 };
 
+#[cfg(feature = "hiz")]
+pub use hiz::{
+    hiz_len, try_build_hiz, try_build_hiz_level0_rows, try_build_hiz_level_rows, try_trace_hiz,
+    try_trace_hiz_rays, try_trace_hiz_stats, HiZ, HiZLayout, HiZLevel, HiZOptions, HiZStats,
+    HiZTexel,
+};
+#[cfg(feature = "depth-image")]
+pub use step::{try_step, try_step_rays, StepOptions};
 #[cfg(any(feature = "depth-image", feature = "hiz"))]
 pub use trace::{DepthHit, DepthImage, Miss, Thickness, Trace, Work};
 

@@ -33,15 +33,21 @@
 
 mod camera;
 mod epipolar;
+mod hiz;
 mod image;
+mod layered;
 mod mirror;
 mod ptr;
 mod status;
+mod trace;
 mod types;
 
 pub use camera::*;
 pub use epipolar::*;
+pub use hiz::*;
 pub use image::*;
+pub use layered::*;
 pub use mirror::*;
 pub use status::*;
+pub use trace::*;
 pub use types::*;

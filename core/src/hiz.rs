@@ -1,0 +1,1268 @@
+//! Hi-Z: a min/max depth pyramid in one caller buffer and the hierarchical
+//! screen-space ray traversal over it (seed 004, Sec. 4.4.1 Hi-Z pass,
+//! Sec. 4.4.3 ray-tracing pass with Listings 4.2 and 4.5, Sec. 4.6.6 travel
+//! behind surfaces, Sec. 4.6.7 ray marching toward the camera, Sec. 4.7.1
+//! combining linear and Hi-Z traversal).
+//!
+//! # Pyramid
+//!
+//! Every texel is `[closest, farthest]`: the smallest and largest **linear
+//! depth** (positive distance along the view's -Z) of the surfaces under it.
+//! Level 0 is the full-resolution image, decoded once from the depth
+//! image's [`DepthConvention`]; level `L` has size
+//! `max(1, w >> L) x max(1, h >> L)` and the pyramid ends at `1 x 1`
+//! ([`HiZLayout`]).
+//!
+//! * Why linear depth and not the stored convention: the traversal compares
+//!   in `1 / z` and adds thickness in linear units, so decoding once per
+//!   texel at build time replaces two decodes per fetch, and "closest" and
+//!   "farthest" are `min` and `max` in every convention. The seed's listing
+//!   takes the minimum of post-projection depth (Sec. 4.5.1, Listing 4.3);
+//!   design.md erratum: with reversed-Z the closest surface is the
+//!   *maximum* stored value. Decoding first applies that flip exactly.
+//! * Non-power-of-two sizes (the seed's listing assumes powers of two,
+//!   design.md erratum): coarse texel `(i, j)` of level `L` folds texels
+//!   `2i..2i+2` x `2j..2j+2` of level `L - 1`, and the last column (row)
+//!   also folds the odd leftover column (row), a 3x2, 2x3 or 3x3
+//!   footprint, so every coarse texel bounds all texels under it. In level-0
+//!   pixels, cell `i` of level `L` covers `[i 2^L, (i + 1) 2^L)`, except the
+//!   last cell, which reaches the image edge.
+//! * No surface: a stored depth that decodes to NaN or to a linear depth
+//!   `<= 0` is "no surface" and is stored as NaN. `min`/`max` ignore NaN
+//!   (IEEE `minNum`/`maxNum`), so a coarse texel is NaN only if no texel
+//!   under it has a surface. A depth on the far plane (`z >= far`, e.g. a
+//!   cleared buffer, or `+inf` with an infinite far plane) is kept in the
+//!   pyramid but is background for the traversal: it is never hit.
+//!
+//! # Traversal
+//!
+//! [`try_trace_hiz`] clips the ray to the view frustum and `[0, t_max]`, then
+//! walks the projected segment in screen space: pixel `(x, y)` and
+//! `q = 1 / z`, which is affine along the projected segment (Sec. 4.4.3:
+//! the perspective divide makes post-projection depth, an affine function of
+//! `1 / z`, linear in screen space). A ray point hits level-0 texel `(x, y)`
+//! when its linear depth `z` satisfies `z_front <= z <= z_front + thickness`
+//! (or `<= z_back` with a back-face image), the shared rule of
+//! [`crate::trace`]. A cell of level `L` can contain such a point only
+//! where `q` lies in `[1 / (farthest + thickness), 1 / closest]`; the walk
+//! (Listing 4.2):
+//!
+//! 1. Prologue (Sec. 4.7.1): [`HiZOptions::prologue_steps`] unit steps,
+//!    pixel by pixel, before the hierarchy, to get away from the surface the
+//!    ray starts on.
+//! 2. Hierarchical walk from [`HiZOptions::start_level`]: in the current
+//!    cell, intersect the part of the segment inside the cell with the
+//!    cell's depth slab. If it is empty, cross to the next cell and go up a
+//!    level (Listing 4.5: `level + 2` then `--level`), except while the
+//!    walk is still inside the coarser cell it last descended from and
+//!    before the end of that cell's possible-hit interval (going up would
+//!    only fetch that cell again). Otherwise advance to
+//!    the slab entry (the "minimum depth plane" of Listing 4.2 for rays
+//!    moving away from the camera, the farthest plane of the max pyramid
+//!    for rays moving toward it, Sec. 4.6.7) and go down a level. At level 0
+//!    the slab entry is the hit.
+//! 3. Travel behind surfaces (Sec. 4.6.6): a cell whose whole slab lies in
+//!    front of the ray's depth range (the ray is behind `farthest +
+//!    thickness` everywhere in it) is crossed like empty space.
+//! 4. At [`HiZOptions::stop_level`] `> 0` a cell that may hold a hit is
+//!    resolved by unit steps through its pixels (Sec. 4.7.1, "end the Hi-Z
+//!    traversal at a much earlier level ... then continue with another
+//!    linear search"), then the walk goes on. Every setting returns the
+//!    same, exact first hit; the levels only trade iterations for fetches.
+//!
+//! Cell-edge stall: Listing 4.5 finds the current cell from the ray
+//! position (`getCell`) and nudges crossings by `HIZ_CROSS_EPSILON`. A
+//! position exactly on a cell boundary (axis-aligned rays, rays through
+//! cell corners, rays moving toward smaller coordinates, which land on the
+//! lower boundary that `floor` assigns to the old cell) then finds the old
+//! cell again and makes no progress. Here the walk keeps an integer
+//! *frontier*: the level-0 pixel the ray is in, which only moves forward
+//! along each axis of motion; a crossing sets it to the first pixel past
+//! the boundary, and positions are rounded toward the direction of motion.
+//! Every iteration either descends a level or moves the frontier by at least
+//! one pixel, so the walk always terminates, even without the iteration
+//! cap. [`HiZStats::boundary_ties`] counts the positions where plain `floor`
+//! would have picked another cell.
+//!
+//! The result is the shared [`Trace`] with [`Work`]: `steps` counts cell
+//! crossings (at any level, prologue and unit steps included), `fetches`
+//! every pyramid texel read (and back-face texel read), `iterations` the
+//! hierarchical loop iterations (the capped quantity).
+//!
+//! There is no self-intersection skip: a ray whose origin already lies in a
+//! texel's hit slab hits at `t = 0`. Start reflection rays slightly off the
+//! surface (the seed crosses one cell first for the same reason).
+
+use crate::trace::{validate_ray, DepthHit, DepthImage, Miss, Thickness, Trace, Work};
+use crate::{Camera, DepthConvention, Error, Ray, RowRange};
+use core::ops::Range;
+use glam::{Mat4, Vec2, Vec4};
+
+/// One pyramid texel: `[closest, farthest]` linear depth (NaN: no surface).
+pub type HiZTexel = [f32; 2];
+
+/// Most levels a pyramid can have (a `u32::MAX`-wide image halves 31 times).
+pub const MAX_LEVELS: usize = 32;
+
+/// Where one pyramid level lives in the caller buffer: texels
+/// `offset .. offset + width * height`, row by row, row stride `width`.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash)]
+pub struct HiZLevel {
+    /// Index of the level's first texel in the pyramid buffer.
+    pub offset: usize,
+    /// Width in texels.
+    pub width: u32,
+    /// Height in texels.
+    pub height: u32,
+}
+
+impl HiZLevel {
+    /// Number of texels, `width * height`.
+    pub const fn len(&self) -> usize {
+        self.width as usize * self.height as usize
+    }
+
+    /// Always `false`: a level holds at least one texel.
+    pub const fn is_empty(&self) -> bool {
+        false
+    }
+
+    /// The level's texels as an index range of the pyramid buffer.
+    pub const fn range(&self) -> Range<usize> {
+        self.offset..self.offset + self.len()
+    }
+}
+
+/// The layout of a Hi-Z pyramid for a `width x height` image: level count
+/// and where each level lives in the one caller buffer (levels back to back,
+/// finest first).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub struct HiZLayout {
+    width: u32,
+    height: u32,
+    count: u32,
+    len: usize,
+    levels: [HiZLevel; MAX_LEVELS],
+}
+
+impl HiZLayout {
+    /// The layout for a `width x height` image. Level `L` is
+    /// `max(1, width >> L) x max(1, height >> L)`; the last level is `1 x 1`.
+    ///
+    /// # Errors
+    /// [`Error::InvalidArgument`] for a zero size or a texel count that does
+    /// not fit in `usize`.
+    pub fn try_new(width: u32, height: u32) -> Result<Self, Error> {
+        if width == 0 || height == 0 {
+            return Err(Error::InvalidArgument);
+        }
+        let mut levels = [HiZLevel::default(); MAX_LEVELS];
+        let (mut w, mut h) = (width, height);
+        let mut offset: u64 = 0;
+        let mut count = 0usize;
+        loop {
+            let offset_usize = usize::try_from(offset).map_err(|_| Error::InvalidArgument)?;
+            levels[count] = HiZLevel {
+                offset: offset_usize,
+                width: w,
+                height: h,
+            };
+            // w * h < 2^64; the sum is checked.
+            offset = offset
+                .checked_add(u64::from(w) * u64::from(h))
+                .ok_or(Error::InvalidArgument)?;
+            count += 1;
+            if (w == 1 && h == 1) || count == MAX_LEVELS {
+                break;
+            }
+            w = (w / 2).max(1);
+            h = (h / 2).max(1);
+        }
+        let len = usize::try_from(offset).map_err(|_| Error::InvalidArgument)?;
+        Ok(Self {
+            width,
+            height,
+            count: count as u32,
+            len,
+            levels,
+        })
+    }
+
+    /// Width of level 0.
+    pub const fn width(&self) -> u32 {
+        self.width
+    }
+
+    /// Height of level 0.
+    pub const fn height(&self) -> u32 {
+        self.height
+    }
+
+    /// Number of levels (level 0 included; at least 1).
+    pub const fn level_count(&self) -> u32 {
+        self.count
+    }
+
+    /// Total texels of all levels: the length of the caller buffer.
+    pub const fn len(&self) -> usize {
+        self.len
+    }
+
+    /// Always `false`: a pyramid holds at least one texel.
+    pub const fn is_empty(&self) -> bool {
+        false
+    }
+
+    /// Level `level`, or `None` past the last level.
+    pub fn level(&self, level: u32) -> Option<HiZLevel> {
+        (level < self.count).then(|| self.levels[level as usize])
+    }
+
+    /// The texels of rows `rows` of level `level` as an index range of the
+    /// pyramid buffer, for handing row bands to threads; `None` if the level
+    /// does not exist or the rows exceed its height.
+    pub fn rows_range(&self, level: u32, rows: RowRange) -> Option<Range<usize>> {
+        let l = self.level(level)?;
+        (rows.end() <= l.height).then(|| {
+            let w = l.width as usize;
+            l.offset + rows.start() as usize * w..l.offset + rows.end() as usize * w
+        })
+    }
+
+    /// The level-0 pixels under texel `(x, y)` of level `level`:
+    /// `[x 2^L, (x + 1) 2^L) x [y 2^L, (y + 1) 2^L)`, the last column and row
+    /// reaching the image edge. `None` outside the level.
+    pub fn footprint(&self, level: u32, x: u32, y: u32) -> Option<(Range<u32>, Range<u32>)> {
+        let l = self.level(level)?;
+        (x < l.width && y < l.height).then(|| {
+            (
+                cell_span(x, level, l.width, self.width),
+                cell_span(y, level, l.height, self.height),
+            )
+        })
+    }
+}
+
+/// Level-0 span of cell `c` of a level `level` with `cells` cells along an
+/// axis of `full` pixels.
+#[inline]
+fn cell_span(c: u32, level: u32, cells: u32, full: u32) -> Range<u32> {
+    let lo = (u64::from(c) << level) as u32;
+    let hi = if c + 1 >= cells {
+        full
+    } else {
+        (u64::from(c + 1) << level) as u32
+    };
+    lo..hi
+}
+
+/// Number of texels ([`HiZTexel`]s) of the Hi-Z pyramid of a
+/// `width x height` image, all levels: the size of the caller buffer.
+///
+/// # Errors
+/// As [`HiZLayout::try_new`].
+pub fn hiz_len(width: u32, height: u32) -> Result<usize, Error> {
+    HiZLayout::try_new(width, height).map(|l| l.len())
+}
+
+/// Decoded linear depth as stored in the pyramid: NaN for "no surface"
+/// (NaN or `z <= 0`).
+#[inline]
+fn sanitize(z: f32) -> f32 {
+    if z > 0.0 {
+        z
+    } else {
+        f32::NAN
+    }
+}
+
+/// Builds rows `rows` of level 0 (seed 004 Sec. 4.4.1: "Mip 0 is our depth
+/// buffer"): each texel is `[z, z]` with `z` the linear depth decoded from
+/// `depth`'s convention, or NaN for no surface. `band` holds exactly those
+/// rows, row stride = image width: texel `(x, y)` goes to
+/// `band[(y - rows.start()) * width + x]` (take it from the pyramid buffer
+/// with [`HiZLayout::rows_range`]).
+///
+/// # Errors
+/// [`Error::InvalidArgument`] if `rows` exceed the image height;
+/// [`Error::InsufficientSize`] if `band` is shorter than
+/// `rows.len() * width`. Nothing is written on error.
+///
+/// # Panics
+/// Never.
+pub fn try_build_hiz_level0_rows(
+    band: &mut [HiZTexel],
+    depth: &DepthImage<'_>,
+    rows: RowRange,
+) -> Result<(), Error> {
+    if rows.end() > depth.height() {
+        return Err(Error::InvalidArgument);
+    }
+    let w = depth.width() as usize;
+    let need = (rows.len() as usize)
+        .checked_mul(w)
+        .ok_or(Error::InvalidArgument)?;
+    if band.len() < need {
+        return Err(Error::InsufficientSize);
+    }
+    let (cam, c) = (depth.camera(), depth.convention());
+    for (dst, y) in band.chunks_exact_mut(w).zip(rows.rows()) {
+        if let Some(src) = depth.depth().row(y) {
+            for (o, &d) in dst.iter_mut().zip(src) {
+                let z = sanitize(cam.decode_depth(d, c));
+                *o = [z, z];
+            }
+        }
+    }
+    Ok(())
+}
+
+/// Builds rows `rows` of level `level >= 1` from the complete level
+/// `level - 1` (seed 004 Sec. 4.4.1 / Listing 4.3, min and max of the 2x2
+/// texels below, plus the odd leftover column/row at the last column/row:
+/// a conservative 3x2, 2x3 or 3x3 footprint). NaN (no surface) is ignored
+/// by `min`/`max`; a texel with no surface under it stays NaN.
+///
+/// `finer` is level `level - 1` (at least its `width * height` texels),
+/// `band` receives rows `rows` of level `level`, row stride = level width.
+/// Different row bands of one level may be built concurrently.
+///
+/// # Errors
+/// [`Error::InvalidArgument`] if `level` is 0 or not below
+/// [`HiZLayout::level_count`], or `rows` exceed the level's height;
+/// [`Error::InsufficientSize`] if `finer` or `band` is too short. Nothing is
+/// written on error.
+///
+/// # Panics
+/// Never.
+pub fn try_build_hiz_level_rows(
+    band: &mut [HiZTexel],
+    finer: &[HiZTexel],
+    layout: &HiZLayout,
+    level: u32,
+    rows: RowRange,
+) -> Result<(), Error> {
+    if level == 0 {
+        return Err(Error::InvalidArgument);
+    }
+    let (f, c) = match (layout.level(level - 1), layout.level(level)) {
+        (Some(f), Some(c)) => (f, c),
+        _ => return Err(Error::InvalidArgument),
+    };
+    if rows.end() > c.height {
+        return Err(Error::InvalidArgument);
+    }
+    let cw = c.width as usize;
+    if finer.len() < f.len() || band.len() < rows.len() as usize * cw {
+        return Err(Error::InsufficientSize);
+    }
+    let fw = f.width as usize;
+    for (dst, y) in band.chunks_exact_mut(cw).zip(rows.rows()) {
+        let ys = cell_children(y, c.height, f.height);
+        for (x, o) in dst.iter_mut().enumerate() {
+            let xs = cell_children(x as u32, c.width, f.width);
+            let (mut lo, mut hi) = (f32::NAN, f32::NAN);
+            for yy in ys.clone() {
+                let row = &finer[yy as usize * fw..];
+                for t in &row[xs.start as usize..xs.end as usize] {
+                    lo = lo.min(t[0]);
+                    hi = hi.max(t[1]);
+                }
+            }
+            *o = [lo, hi];
+        }
+    }
+    Ok(())
+}
+
+/// Texels of the finer level folded into coarse texel `c` along one axis:
+/// `[2c, 2c + 2)`, the last coarse texel reaching the finer edge.
+#[inline]
+fn cell_children(c: u32, coarse: u32, fine: u32) -> Range<u32> {
+    // c < coarse = max(1, fine / 2), so 2c < fine.
+    let hi = if c + 1 >= coarse { fine } else { 2 * c + 2 };
+    2 * c..hi
+}
+
+/// Builds the whole pyramid of `depth` into `dst` (level by level, see
+/// [`try_build_hiz_level0_rows`] and [`try_build_hiz_level_rows`] for the row-band
+/// variants a threaded host uses).
+///
+/// # Errors
+/// [`Error::InsufficientSize`] if `dst` holds fewer than
+/// [`hiz_len`]`(width, height)` texels. Nothing is written on error.
+///
+/// # Panics
+/// Never.
+pub fn try_build_hiz(dst: &mut [HiZTexel], depth: &DepthImage<'_>) -> Result<(), Error> {
+    let layout = HiZLayout::try_new(depth.width(), depth.height())?;
+    if dst.len() < layout.len() {
+        return Err(Error::InsufficientSize);
+    }
+    let l0 = layout.levels[0];
+    try_build_hiz_level0_rows(&mut dst[l0.range()], depth, RowRange::try_all(l0.height)?)?;
+    for level in 1..layout.count {
+        let (f, c) = (
+            layout.levels[level as usize - 1],
+            layout.levels[level as usize],
+        );
+        let (head, tail) = dst.split_at_mut(c.offset);
+        try_build_hiz_level_rows(
+            &mut tail[..c.len()],
+            &head[f.range()],
+            &layout,
+            level,
+            RowRange::try_all(c.height)?,
+        )?;
+    }
+    Ok(())
+}
+
+/// A built pyramid with the camera of its depth image: what [`try_trace_hiz`]
+/// walks.
+#[derive(Clone, Copy, Debug)]
+pub struct HiZ<'a> {
+    data: &'a [HiZTexel],
+    layout: HiZLayout,
+    camera: Camera,
+    convention: DepthConvention,
+    /// World to homogeneous pixel space, rows x, y and w (`w` = linear
+    /// depth) of [`Camera::world_to_pixel`].
+    to_pixel: Mat4,
+}
+
+impl<'a> HiZ<'a> {
+    /// Binds a pyramid buffer (built by [`try_build_hiz`] from a depth image of
+    /// `camera`) to its camera and the convention of that depth image (used
+    /// only to decode [`Thickness::BackFaces`]).
+    ///
+    /// # Errors
+    /// [`Error::InsufficientSize`] if `data` holds fewer than
+    /// [`hiz_len`]`(camera.width(), camera.height())` texels.
+    pub fn try_new(
+        data: &'a [HiZTexel],
+        camera: Camera,
+        convention: DepthConvention,
+    ) -> Result<Self, Error> {
+        let layout = HiZLayout::try_new(camera.width(), camera.height())?;
+        if data.len() < layout.len() {
+            return Err(Error::InsufficientSize);
+        }
+        // The x, y and w rows do not depend on the depth convention.
+        let to_pixel = camera.world_to_pixel(DepthConvention::ZeroToOne)?;
+        Ok(Self {
+            data,
+            layout,
+            camera,
+            convention,
+            to_pixel,
+        })
+    }
+
+    /// The pyramid's layout.
+    pub const fn layout(&self) -> &HiZLayout {
+        &self.layout
+    }
+
+    /// The camera of the depth image.
+    pub const fn camera(&self) -> &Camera {
+        &self.camera
+    }
+
+    /// The convention of the depth image (and of back-face images).
+    pub const fn convention(&self) -> DepthConvention {
+        self.convention
+    }
+
+    /// Texel `(x, y)` of level `level`: `[closest, farthest]` linear depth,
+    /// or `None` outside the pyramid.
+    pub fn texel(&self, level: u32, x: u32, y: u32) -> Option<HiZTexel> {
+        let l = self.layout.level(level)?;
+        if x >= l.width || y >= l.height {
+            return None;
+        }
+        self.data
+            .get(l.offset + y as usize * l.width as usize + x as usize)
+            .copied()
+    }
+}
+
+/// Settings of [`try_trace_hiz`]. Every setting returns the same exact first
+/// hit (up to f32 rounding); they trade loop iterations for fetches.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub struct HiZOptions {
+    /// Level the hierarchical walk starts at after the prologue (seed 004
+    /// Listing 4.5, `HIZ_START_LEVEL`, 2 in the seed's demo). Clamped to
+    /// the last level, and raised to `stop_level` if below it.
+    pub start_level: u32,
+    /// Finest level of the hierarchical walk. `0` resolves hits in the
+    /// hierarchy itself; `L > 0` resolves a level-`L` cell that may hold a
+    /// hit by unit steps through its pixels (Sec. 4.7.1), which stays exact.
+    /// Clamped to the last level.
+    pub stop_level: u32,
+    /// Cap on hierarchical loop iterations (Listing 4.5, `MAX_ITERATIONS`);
+    /// reaching it is [`Miss::OutOfSteps`]. The prologue and the unit steps
+    /// below `stop_level` are bounded by their own lengths, not by this cap.
+    pub max_iterations: u32,
+    /// Unit (one-pixel) steps before the hierarchy (Sec. 4.7.1). `u32::MAX`
+    /// gives plain per-pixel stepping.
+    pub prologue_steps: u32,
+}
+
+impl Default for HiZOptions {
+    /// Start at level 2 as the seed's demo, stop at level 0 (exact), 4
+    /// prologue steps, at most 1024 iterations.
+    fn default() -> Self {
+        Self {
+            start_level: 2,
+            stop_level: 0,
+            max_iterations: 1024,
+            prologue_steps: 4,
+        }
+    }
+}
+
+/// Diagnostic counters of one traversal, beyond the shared [`Work`].
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash)]
+pub struct HiZStats {
+    /// Cell selections where `floor` of the ray position picked a different
+    /// cell than the one the ray is entering: the ray sat exactly on a cell
+    /// boundary (or rounded back across it). Position-based cell lookup
+    /// (seed 004 Listing 4.5 `getCell`) stalls there; the frontier walk
+    /// advances.
+    pub boundary_ties: u32,
+    /// Highest level the walk reached.
+    pub max_level: u32,
+}
+
+/// Traces `ray` over `[0, t_max]` against the Hi-Z pyramid (seed 004
+/// Sec. 4.4.3, Listings 4.2/4.5, with the extensions of Sec. 4.6.6, 4.6.7
+/// and 4.7.1; see the module docs). Returns the first point of the ray, in
+/// ray order, whose linear depth lies in a texel's hit slab, or the reason
+/// for a miss.
+///
+/// The hit's `t` is consistent with [`Ray::at`]: `ray.at(t)` projects to
+/// `pixel` at linear depth `depth` (up to f32 rounding); `pixel.floor()` is
+/// the texel hit and `surface_depth` its front depth.
+///
+/// Misses: [`Miss::BehindGeometry`] if the segment ended (or left the
+/// image) while its end point lay behind the hit slab of the texel there;
+/// otherwise [`Miss::LeftImage`] when it left through a side of the image
+/// or the near plane (a ray coming toward the camera), [`Miss::EndOfRay`]
+/// at `t_max`, the far plane or the vanishing point;
+/// [`Miss::OutOfSteps`] at [`HiZOptions::max_iterations`];
+/// [`Miss::DegenerateProjection`] if no part of the ray lies in the view
+/// frustum.
+///
+/// # Errors
+/// [`Error::InvalidArgument`] for a ray or `t_max` rejected by
+/// [`validate_ray`], a negative or NaN constant
+/// thickness, or a back-face image whose size differs from the pyramid's.
+///
+/// # Panics
+/// Never.
+pub fn try_trace_hiz(
+    hiz: &HiZ<'_>,
+    thickness: Thickness<'_>,
+    ray: Ray,
+    t_max: f32,
+    options: &HiZOptions,
+) -> Result<Trace, Error> {
+    try_trace_hiz_stats(hiz, thickness, ray, t_max, options).map(|(t, _)| t)
+}
+
+/// [`try_trace_hiz`] that also returns its [`HiZStats`].
+///
+/// # Errors
+/// As [`try_trace_hiz`].
+///
+/// # Panics
+/// Never.
+pub fn try_trace_hiz_stats(
+    hiz: &HiZ<'_>,
+    thickness: Thickness<'_>,
+    ray: Ray,
+    t_max: f32,
+    options: &HiZOptions,
+) -> Result<(Trace, HiZStats), Error> {
+    validate_ray(&ray, t_max)?;
+    validate_thickness(hiz, &thickness)?;
+    Ok(trace_valid::<true>(hiz, thickness, &ray, t_max, options))
+}
+
+/// Traces `rays[i]` with maximum distance `t_max[i]` (or `t_max[0]` for
+/// every ray when `t_max.len() == 1`) into `out[i]`, as [`try_trace_hiz`]
+/// would. For threads, split `rays`, `out` (and `t_max`) into matching
+/// chunks and call this on each.
+///
+/// # Errors
+/// * [`Error::InsufficientSize`]: `out.len() < rays.len()`, or `t_max` is
+///   neither of length 1 nor at least `rays.len()` long.
+/// * [`Error::InvalidArgument`]: `t_max` is empty, or any ray, `t_max` or
+///   the thickness is rejected as by [`try_trace_hiz`].
+///
+/// Every input is validated before anything is written; on `Err`, `out` is
+/// untouched.
+///
+/// # Panics
+/// Never.
+pub fn try_trace_hiz_rays(
+    out: &mut [Trace],
+    hiz: &HiZ<'_>,
+    thickness: Thickness<'_>,
+    rays: &[Ray],
+    t_max: &[f32],
+    options: &HiZOptions,
+) -> Result<(), Error> {
+    if t_max.is_empty() {
+        return Err(Error::InvalidArgument);
+    }
+    if out.len() < rays.len() || (t_max.len() != 1 && t_max.len() < rays.len()) {
+        return Err(Error::InsufficientSize);
+    }
+    validate_thickness(hiz, &thickness)?;
+    let tm = |i: usize| if t_max.len() == 1 { t_max[0] } else { t_max[i] };
+    for (i, r) in rays.iter().enumerate() {
+        validate_ray(r, tm(i))?;
+    }
+    for (i, (o, r)) in out.iter_mut().zip(rays).enumerate() {
+        *o = trace_valid::<false>(hiz, thickness, r, tm(i), options).0;
+    }
+    Ok(())
+}
+
+fn validate_thickness(hiz: &HiZ<'_>, thickness: &Thickness<'_>) -> Result<(), Error> {
+    match thickness {
+        Thickness::Constant(t) if !(*t >= 0.0) => Err(Error::InvalidArgument),
+        Thickness::BackFaces(v)
+            if v.width() != hiz.layout.width || v.height() != hiz.layout.height =>
+        {
+            Err(Error::InvalidArgument)
+        }
+        _ => Ok(()),
+    }
+}
+
+/// The clipped ray in screen space: `P(s) = P0 + s D`, `s` in `[0, 1]`,
+/// with `P = (pixel x, pixel y, q = 1 / z)`.
+#[derive(Clone, Copy, Debug)]
+struct Segment {
+    x0: f32,
+    y0: f32,
+    q0: f32,
+    dx: f32,
+    dy: f32,
+    dq: f32,
+    q1: f32,
+    /// Ray parameter at `s = 0`.
+    t0: f32,
+    /// Ray parameter at `s = 1` (may be `+inf`).
+    t1: f32,
+    /// `t(s) = t0 + s k / q(s)` (perspective-correct interpolation).
+    k: f32,
+    /// The segment ends on a side of the view frustum or the near plane
+    /// (left the image).
+    ends_on_side: bool,
+}
+
+impl Segment {
+    #[inline]
+    fn x(&self, s: f32) -> f32 {
+        self.x0 + s * self.dx
+    }
+    #[inline]
+    fn y(&self, s: f32) -> f32 {
+        self.y0 + s * self.dy
+    }
+    #[inline]
+    fn q(&self, s: f32) -> f32 {
+        self.q0 + s * self.dq
+    }
+}
+
+/// Clips `t` in `[lo, hi]` to the half-space `a + b t >= 0`.
+#[inline]
+fn clip(lo: &mut f32, hi: &mut f32, side: &mut bool, a: f32, b: f32, is_side: bool) -> bool {
+    if b > 0.0 {
+        let t = -a / b;
+        if t > *lo {
+            *lo = t;
+        }
+    } else if b < 0.0 {
+        let t = -a / b;
+        if t < *hi {
+            *hi = t;
+            *side = is_side;
+        }
+    } else if !(a >= 0.0) {
+        return false;
+    }
+    true
+}
+
+/// Projects and clips the ray (seed 004 Sec. 4.4.3: the ray as
+/// `O + D t` in screen space, here clipped to the frustum in homogeneous
+/// pixel space so that rays toward infinity end at their vanishing point).
+fn project_segment(hiz: &HiZ<'_>, ray: &Ray, t_max: f32) -> Option<Segment> {
+    let m = &hiz.to_pixel;
+    let o = *m * Vec4::new(ray.origin.x, ray.origin.y, ray.origin.z, 1.0);
+    let d = *m * Vec4::new(ray.dir.x, ray.dir.y, ray.dir.z, 0.0);
+    let (wf, hf) = (hiz.layout.width as f32, hiz.layout.height as f32);
+    let (n, f) = (hiz.camera.near(), hiz.camera.far());
+    let (mut lo, mut hi, mut side) = (0.0f32, t_max, false);
+    let ok = clip(&mut lo, &mut hi, &mut side, o.w - n, d.w, true)
+        && (f.is_infinite() || clip(&mut lo, &mut hi, &mut side, f - o.w, -d.w, false))
+        && clip(&mut lo, &mut hi, &mut side, o.x, d.x, true)
+        && clip(
+            &mut lo,
+            &mut hi,
+            &mut side,
+            wf * o.w - o.x,
+            wf * d.w - d.x,
+            true,
+        )
+        && clip(&mut lo, &mut hi, &mut side, o.y, d.y, true)
+        && clip(
+            &mut lo,
+            &mut hi,
+            &mut side,
+            hf * o.w - o.y,
+            hf * d.w - d.y,
+            true,
+        );
+    if !ok || !(lo <= hi) || !lo.is_finite() {
+        return None;
+    }
+    // Start point: plain homogeneous divide.
+    let w0 = o.w + lo * d.w;
+    let (x0, y0, q0) = ((o.x + lo * d.x) / w0, (o.y + lo * d.y) / w0, 1.0 / w0);
+    // End point and k = (t1 - t0) q1, scaled by l = 1 / t1 for long (or
+    // infinite) segments so that the end stays finite.
+    let (x1, y1, q1, k) = if hi <= 1.0 {
+        let w1 = o.w + hi * d.w;
+        (
+            (o.x + hi * d.x) / w1,
+            (o.y + hi * d.y) / w1,
+            1.0 / w1,
+            (hi - lo) / w1,
+        )
+    } else {
+        let l = 1.0 / hi;
+        let ws = o.w * l + d.w;
+        (
+            (o.x * l + d.x) / ws,
+            (o.y * l + d.y) / ws,
+            l / ws,
+            (1.0 - lo * l) / ws,
+        )
+    };
+    if !(w0 > 0.0) || !(q1 >= 0.0) || !(k >= 0.0) {
+        return None;
+    }
+    let (x0, y0, x1, y1) = (
+        x0.clamp(0.0, wf),
+        y0.clamp(0.0, hf),
+        x1.clamp(0.0, wf),
+        y1.clamp(0.0, hf),
+    );
+    let seg = Segment {
+        x0,
+        y0,
+        q0,
+        dx: x1 - x0,
+        dy: y1 - y0,
+        dq: q1 - q0,
+        q1,
+        t0: lo,
+        t1: hi,
+        k,
+        ends_on_side: side,
+    };
+    let finite = [seg.x0, seg.y0, seg.q0, seg.dx, seg.dy, seg.dq, seg.k]
+        .iter()
+        .all(|v| v.is_finite());
+    finite.then_some(seg)
+}
+
+// Rounding to integers without libm. In `no_std` (x86-64 baseline, no
+// SSE4.1 `roundss`) `libm::floorf`/`ceilf` are out-of-line software calls;
+// the walk rounds several coordinates per cell, so these were a measurable
+// part of its cost. A truncating conversion (`cvttss2si`) plus a one-step
+// fix-up is exact for every f32: `v as i64` is `trunc(v)`, which is itself
+// an f32 value, so `(v as i64) as f32` is exact and compares exactly with
+// `v`; `as` saturates outside the i64 range and maps NaN to 0, as
+// `floorf(v) as i64` and `ceilf(v) as i64` do (the fix-up saturates too).
+
+/// `libm::floorf(v) as i64`, for every f32 `v` (see above).
+#[inline]
+fn floor_i64(v: f32) -> i64 {
+    let i = v as i64;
+    i.saturating_sub(i64::from((i as f32) > v))
+}
+
+/// `libm::ceilf(v) as i64`, for every f32 `v` (see above).
+#[inline]
+fn ceil_i64(v: f32) -> i64 {
+    let i = v as i64;
+    i.saturating_add(i64::from((i as f32) < v))
+}
+
+/// Pixel index of coordinate `v` for motion `d` along the axis: `floor(v)`,
+/// or `ceil(v) - 1` when moving toward smaller coordinates (a position on a
+/// boundary belongs to the pixel the ray is entering).
+#[inline]
+fn dir_floor(v: f32, d: f32) -> i64 {
+    if d < 0.0 {
+        ceil_i64(v).wrapping_sub(1)
+    } else {
+        floor_i64(v)
+    }
+}
+
+/// The largest f32 below `i + 1`, for clamping a position into pixel `i`.
+#[inline]
+fn below(i: u32) -> f32 {
+    let v = (i as f32) + 1.0;
+    f32::from_bits(v.to_bits() - 1)
+}
+
+/// A cell of some level: its indices, its level-0 pixel span
+/// `[x0, x1) x [y0, y1)` and the index of its texel in the pyramid buffer.
+/// Plain integers (no `Range`), so that it is `Copy` and stays in registers.
+#[derive(Clone, Copy, Debug)]
+struct Cell {
+    level: u32,
+    x: u32,
+    y: u32,
+    x0: u32,
+    x1: u32,
+    y0: u32,
+    y1: u32,
+    index: usize,
+}
+
+impl Cell {
+    /// Whether level-0 pixel `(px, py)` lies in the cell.
+    #[inline]
+    fn contains(&self, px: u32, py: u32) -> bool {
+        px >= self.x0 && px < self.x1 && py >= self.y0 && py < self.y1
+    }
+}
+
+/// Where the segment leaves a cell: parameter and which axes cross.
+#[derive(Clone, Copy, Debug)]
+struct Exit {
+    s: f32,
+    cross_x: bool,
+    cross_y: bool,
+}
+
+enum Step {
+    /// Hit at `s` on the surface at linear depth `surface` (level 0).
+    Hit { s: f32, surface: f32 },
+    /// Crossed into the next cell.
+    Next,
+    /// The segment ended (or left the image).
+    End,
+    /// The cell may hold a hit in `[sa, sb]` (levels > 0 only).
+    Inside { cell: Cell, sa: f32, sb: f32 },
+}
+
+/// One ray's traversal state. Everything that is constant per ray (the
+/// segment, the level table, the image size, the thickness) is read once
+/// here, not per cell. `STATS`: whether to keep the [`HiZStats`] counters
+/// (the batch entry point drops them, so it does not pay for them).
+struct Walker<'h, 'a, const STATS: bool> {
+    hiz: &'h HiZ<'a>,
+    levels: &'h [HiZLevel; MAX_LEVELS],
+    data: &'a [HiZTexel],
+    /// Level-0 size.
+    width: u32,
+    height: u32,
+    seg: Segment,
+    thickness: Thickness<'a>,
+    far: f32,
+    s: f32,
+    px: u32,
+    py: u32,
+    work: Work,
+    stats: HiZStats,
+}
+
+impl<const STATS: bool> Walker<'_, '_, STATS> {
+    /// The cell of level `level` (`< level_count`) that holds the frontier.
+    #[inline]
+    fn cell(&self, level: u32) -> Cell {
+        let l = self.levels[level as usize];
+        let x = (self.px >> level).min(l.width - 1);
+        let y = (self.py >> level).min(l.height - 1);
+        // As `cell_span`: `x << level <= px` and, below the last cell,
+        // `(x + 1) << level < width`, so the shifts do not overflow.
+        let x1 = if x + 1 >= l.width {
+            self.width
+        } else {
+            (x + 1) << level
+        };
+        let y1 = if y + 1 >= l.height {
+            self.height
+        } else {
+            (y + 1) << level
+        };
+        Cell {
+            level,
+            x,
+            y,
+            x0: x << level,
+            x1,
+            y0: y << level,
+            y1,
+            index: l.offset + y as usize * l.width as usize + x as usize,
+        }
+    }
+
+    /// The cell's texel (counted as a fetch).
+    #[inline]
+    fn fetch(&mut self, c: &Cell) -> HiZTexel {
+        self.work.fetches = self.work.fetches.saturating_add(1);
+        self.data.get(c.index).copied().unwrap_or([f32::NAN; 2])
+    }
+
+    #[inline]
+    fn exit(&self, c: &Cell) -> Exit {
+        let sd = &self.seg;
+        let sx = if sd.dx > 0.0 {
+            (c.x1 as f32 - sd.x0) / sd.dx
+        } else if sd.dx < 0.0 {
+            (c.x0 as f32 - sd.x0) / sd.dx
+        } else {
+            f32::INFINITY
+        };
+        let sy = if sd.dy > 0.0 {
+            (c.y1 as f32 - sd.y0) / sd.dy
+        } else if sd.dy < 0.0 {
+            (c.y0 as f32 - sd.y0) / sd.dy
+        } else {
+            f32::INFINITY
+        };
+        let s = sx.min(sy);
+        Exit {
+            s,
+            cross_x: sx <= s,
+            cross_y: sy <= s,
+        }
+    }
+
+    /// The cell's hit slab in `q`: `[1 / (farthest + thickness),
+    /// 1 / closest]` (level 0: the texel's own `[z_front, z_front +
+    /// thickness]` or `[z_front, z_back]`), or `None` if it has no hittable
+    /// surface (NaN, or background at or beyond the far plane).
+    #[inline]
+    fn slab(&mut self, c: &Cell, t: HiZTexel) -> Option<(f32, f32)> {
+        let zmin = t[0];
+        if !(zmin < self.far) {
+            return None;
+        }
+        let upper = match self.thickness {
+            Thickness::Constant(th) if c.level == 0 => zmin + th,
+            Thickness::Constant(th) => t[1].max(zmin) + th,
+            Thickness::BackFaces(back) if c.level == 0 => {
+                self.work.fetches = self.work.fetches.saturating_add(1);
+                let zb = back
+                    .get(c.x, c.y)
+                    .map(|d| self.hiz.camera.decode_depth(d, self.hiz.convention))
+                    .unwrap_or(f32::NAN);
+                if zb >= zmin {
+                    zb
+                } else {
+                    zmin
+                }
+            }
+            Thickness::BackFaces(_) => f32::INFINITY,
+        };
+        Some((1.0 / upper, 1.0 / zmin))
+    }
+
+    /// The part of `[from, to]` where `q(s)` lies in `[q_lo, q_hi]`.
+    #[inline]
+    fn interval(&self, q_lo: f32, q_hi: f32, from: f32, to: f32) -> Option<(f32, f32)> {
+        let sd = &self.seg;
+        let (mut a, mut b) = (from, to);
+        if sd.dq > 0.0 {
+            a = a.max((q_lo - sd.q0) / sd.dq);
+            b = b.min((q_hi - sd.q0) / sd.dq);
+        } else if sd.dq < 0.0 {
+            a = a.max((q_hi - sd.q0) / sd.dq);
+            b = b.min((q_lo - sd.q0) / sd.dq);
+        } else if !(sd.q0 >= q_lo && sd.q0 <= q_hi) {
+            return None;
+        }
+        (a <= b).then_some((a, b))
+    }
+
+    /// Counts a boundary tie: `floor(v)` is not the pixel `n` the frontier
+    /// moved to.
+    #[inline]
+    fn tie(&mut self, v: f32, n: i64) {
+        if STATS && floor_i64(v) != n && v.is_finite() {
+            self.stats.boundary_ties = self.stats.boundary_ties.saturating_add(1);
+        }
+    }
+
+    /// Moves the frontier along one axis to the pixel of coordinate `v`,
+    /// kept inside `[lo, hi)` and never backward.
+    #[inline]
+    fn sync_axis(&mut self, v: f32, d: f32, p: u32, lo: u32, hi: u32) -> u32 {
+        let f = dir_floor(v, d).clamp(i64::from(lo), i64::from(hi) - 1) as u32;
+        let n = if d > 0.0 {
+            p.max(f)
+        } else if d < 0.0 {
+            p.min(f)
+        } else {
+            p
+        };
+        self.tie(v, i64::from(n));
+        n
+    }
+
+    /// Moves the frontier to the ray position at `self.s` inside cell `c`.
+    #[inline]
+    fn sync_in(&mut self, c: &Cell) {
+        let (x, y) = (self.seg.x(self.s), self.seg.y(self.s));
+        self.px = self.sync_axis(x, self.seg.dx, self.px, c.x0, c.x1);
+        self.py = self.sync_axis(y, self.seg.dy, self.py, c.y0, c.y1);
+    }
+
+    /// Crosses from cell `c` into its neighbor through `e`. `false` when
+    /// the segment ends inside `c` or the neighbor lies outside the image.
+    #[inline(always)]
+    fn cross(&mut self, c: &Cell, e: Exit) -> bool {
+        if !(e.s < 1.0) {
+            return false;
+        }
+        let nx = if !e.cross_x {
+            i64::from(self.px)
+        } else if self.seg.dx > 0.0 {
+            i64::from(c.x1)
+        } else {
+            i64::from(c.x0) - 1
+        };
+        let ny = if !e.cross_y {
+            i64::from(self.py)
+        } else if self.seg.dy > 0.0 {
+            i64::from(c.y1)
+        } else {
+            i64::from(c.y0) - 1
+        };
+        if nx < 0 || nx >= i64::from(self.width) || ny < 0 || ny >= i64::from(self.height) {
+            return false;
+        }
+        self.s = self.s.max(e.s);
+        self.work.steps = self.work.steps.saturating_add(1);
+        let (x, y) = (self.seg.x(self.s), self.seg.y(self.s));
+        if e.cross_x {
+            self.px = nx as u32;
+            self.tie(x, nx);
+        } else {
+            self.px = self.sync_axis(x, self.seg.dx, self.px, c.x0, c.x1);
+        }
+        if e.cross_y {
+            self.py = ny as u32;
+            self.tie(y, ny);
+        } else {
+            self.py = self.sync_axis(y, self.seg.dy, self.py, c.y0, c.y1);
+        }
+        true
+    }
+
+    /// Visits the cell of level `level` that holds the frontier.
+    #[inline(always)]
+    fn visit(&mut self, level: u32) -> Step {
+        let c = self.cell(level);
+        let t = self.fetch(&c);
+        let e = self.exit(&c);
+        let to = e.s.min(1.0);
+        let found = self
+            .slab(&c, t)
+            .and_then(|(lo, hi)| self.interval(lo, hi, self.s, to));
+        match found {
+            None => {
+                if self.cross(&c, e) {
+                    Step::Next
+                } else {
+                    Step::End
+                }
+            }
+            Some((sa, _)) if level == 0 => Step::Hit {
+                s: sa,
+                surface: t[0],
+            },
+            Some((sa, sb)) => Step::Inside { cell: c, sa, sb },
+        }
+    }
+
+    fn hit(&self, s: f32, surface: f32) -> DepthHit {
+        let sd = &self.seg;
+        let q = sd.q(s);
+        let t = (sd.t0 + s * sd.k / q).clamp(sd.t0, sd.t1);
+        let pixel = Vec2::new(
+            sd.x(s).clamp(self.px as f32, below(self.px)),
+            sd.y(s).clamp(self.py as f32, below(self.py)),
+        );
+        DepthHit {
+            pixel,
+            t,
+            depth: 1.0 / q,
+            surface_depth: surface,
+            work: self.work,
+        }
+    }
+
+    /// The miss at the end of the segment: passed behind geometry (the end
+    /// point lies behind the hit slab of the texel there), left the image,
+    /// or simply ended.
+    fn end(&mut self) -> Trace {
+        let sd = self.seg;
+        let x = dir_floor(sd.x(1.0), sd.dx).clamp(0, i64::from(self.width) - 1) as u32;
+        let y = dir_floor(sd.y(1.0), sd.dy).clamp(0, i64::from(self.height) - 1) as u32;
+        let c = Cell {
+            level: 0,
+            x,
+            y,
+            x0: x,
+            x1: x + 1,
+            y0: y,
+            y1: y + 1,
+            index: self.levels[0].offset + y as usize * self.width as usize + x as usize,
+        };
+        let t = self.fetch(&c);
+        let behind = self.slab(&c, t).is_some_and(|(q_lo, _)| sd.q1 < q_lo);
+        let reason = if behind {
+            Miss::BehindGeometry
+        } else if sd.ends_on_side {
+            Miss::LeftImage
+        } else {
+            Miss::EndOfRay
+        };
+        Trace::Miss {
+            reason,
+            work: self.work,
+        }
+    }
+
+    fn run(&mut self, o: &HiZOptions) -> Trace {
+        let top = self.hiz.layout.count - 1;
+        let stop = o.stop_level.min(top);
+        let start = o.start_level.min(top).max(stop);
+        // Prologue: unit steps (Sec. 4.7.1).
+        let mut n = 0;
+        while n < o.prologue_steps {
+            n += 1;
+            match self.visit(0) {
+                Step::Hit { s, surface } => return Trace::Hit(self.hit(s, surface)),
+                Step::End => return self.end(),
+                Step::Next | Step::Inside { .. } => {}
+            }
+        }
+        // Hierarchical walk (Listings 4.2 / 4.5).
+        let mut level = start;
+        // For each level, the cell last descended from and the end of its
+        // possible-hit interval: while the walk stays inside that cell
+        // before that end, going back up would only fetch it again.
+        let mut parent = [(u32::MAX, u32::MAX, 0.0f32); MAX_LEVELS];
+        loop {
+            if STATS {
+                self.stats.max_level = self.stats.max_level.max(level);
+            }
+            if self.work.iterations >= o.max_iterations {
+                return Trace::Miss {
+                    reason: Miss::OutOfSteps,
+                    work: self.work,
+                };
+            }
+            self.work.iterations += 1;
+            match self.visit(level) {
+                Step::Hit { s, surface } => return Trace::Hit(self.hit(s, surface)),
+                Step::End => return self.end(),
+                Step::Next => {
+                    if level < top {
+                        let up = level + 1;
+                        let l = self.levels[up as usize];
+                        let ux = (self.px >> up).min(l.width - 1);
+                        let uy = (self.py >> up).min(l.height - 1);
+                        let (px, py, sb) = parent[up as usize];
+                        if (ux, uy) != (px, py) || self.s > sb {
+                            level = up;
+                        }
+                    }
+                }
+                Step::Inside { cell, sa, sb } => {
+                    self.s = self.s.max(sa);
+                    self.sync_in(&cell);
+                    if level > stop {
+                        parent[level as usize] = (cell.x, cell.y, sb);
+                        level -= 1;
+                        continue;
+                    }
+                    // Unit steps through the cell (Sec. 4.7.1).
+                    loop {
+                        if !cell.contains(self.px, self.py) {
+                            break;
+                        }
+                        if self.s > sb {
+                            let e = self.exit(&cell);
+                            if !self.cross(&cell, e) {
+                                return self.end();
+                            }
+                            break;
+                        }
+                        match self.visit(0) {
+                            Step::Hit { s, surface } => return Trace::Hit(self.hit(s, surface)),
+                            Step::End => return self.end(),
+                            Step::Next => {}
+                            Step::Inside { .. } => break,
+                        }
+                    }
+                    level = (level + 1).min(top);
+                }
+            }
+        }
+    }
+}
+
+fn trace_valid<const STATS: bool>(
+    hiz: &HiZ<'_>,
+    thickness: Thickness<'_>,
+    ray: &Ray,
+    t_max: f32,
+    options: &HiZOptions,
+) -> (Trace, HiZStats) {
+    let Some(seg) = project_segment(hiz, ray, t_max) else {
+        return (
+            Trace::Miss {
+                reason: Miss::DegenerateProjection,
+                work: Work::default(),
+            },
+            HiZStats::default(),
+        );
+    };
+    let (w, h) = (hiz.layout.width, hiz.layout.height);
+    let px = dir_floor(seg.x0, seg.dx).clamp(0, i64::from(w) - 1) as u32;
+    let py = dir_floor(seg.y0, seg.dy).clamp(0, i64::from(h) - 1) as u32;
+    let mut walker = Walker::<STATS> {
+        hiz,
+        levels: &hiz.layout.levels,
+        data: hiz.data,
+        width: w,
+        height: h,
+        seg,
+        thickness,
+        far: hiz.camera.far(),
+        s: 0.0,
+        px,
+        py,
+        work: Work::default(),
+        stats: HiZStats::default(),
+    };
+    let trace = walker.run(options);
+    (trace, walker.stats)
+}

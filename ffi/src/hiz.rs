@@ -1,0 +1,458 @@
+//! Hi-Z min/max pyramid and hierarchical ray traversal (seed 004
+//! Sec. 4.4.1, 4.4.3, 4.6.6, 4.6.7, 4.7.1; `refl_core::hiz` documents the
+//! algorithm).
+//!
+//! The pyramid lives in one caller buffer of `refl_vec2` texels: `x` is the
+//! closest and `y` the farthest linear depth under the texel (NaN: no
+//! surface). `refl_hiz_len` gives its length and level count,
+//! `refl_hiz_level` where each level lives.
+
+use crate::ptr::{byte_len, overlaps, read, Out};
+use crate::status::{guard, refl_status};
+use crate::trace::{depth_image, refl_depth_image, refl_thickness, refl_trace_result};
+use crate::types::{convention, refl_camera, refl_ray, refl_vec2};
+use refl_core::{
+    Camera, Error, HiZ, HiZLayout, HiZOptions, HiZTexel, Miss, Ray, RowRange, Thickness, Trace,
+};
+
+/// Where one pyramid level lives in the buffer: texels `offset` to
+/// `offset + width * height - 1`, row by row, row stride `width`.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct refl_hiz_level_info {
+    /// Index (in `refl_vec2` texels) of the level's first texel.
+    pub offset: usize,
+    /// Width in texels: `max(1, image_width >> level)`.
+    pub width: u32,
+    /// Height in texels: `max(1, image_height >> level)`.
+    pub height: u32,
+}
+
+/// A built Hi-Z pyramid with the camera of its depth image.
+#[repr(C)]
+#[derive(Clone, Copy, Debug)]
+pub struct refl_hiz {
+    /// The pyramid built by `refl_hiz_build` (texel `x` = closest, `y` =
+    /// farthest linear depth).
+    pub data: *const refl_vec2,
+    /// Number of texels readable from `data`, at least `refl_hiz_len`'s.
+    pub len: usize,
+    /// The camera of the depth image the pyramid was built from (validated
+    /// on every call); its size is the pyramid's level-0 size.
+    pub camera: refl_camera,
+    /// Convention of the depth image, a `refl_depth_convention`; used to
+    /// decode back-face images.
+    pub convention: u32,
+}
+
+/// Settings of the Hi-Z traversal. `refl_hiz_default_options` gives the
+/// defaults: start level 2, stop level 0, 1024 iterations, 4 prologue steps.
+/// Every setting returns the same first hit; they trade iterations for
+/// fetches.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct refl_hiz_options {
+    /// Level the hierarchical walk starts at after the prologue; clamped to
+    /// the last level and raised to `stop_level` if below it.
+    pub start_level: u32,
+    /// Finest level of the hierarchical walk: 0 resolves hits in the
+    /// hierarchy; L > 0 resolves a level-L cell by unit steps through its
+    /// pixels (still exact). Clamped to the last level.
+    pub stop_level: u32,
+    /// Cap on hierarchical loop iterations; reaching it gives
+    /// `REFL_MISS_OUT_OF_STEPS`.
+    pub max_iterations: u32,
+    /// One-pixel steps before the hierarchy; `UINT32_MAX` gives plain
+    /// per-pixel stepping.
+    pub prologue_steps: u32,
+}
+
+impl From<refl_hiz_options> for HiZOptions {
+    fn from(o: refl_hiz_options) -> Self {
+        Self {
+            start_level: o.start_level,
+            stop_level: o.stop_level,
+            max_iterations: o.max_iterations,
+            prologue_steps: o.prologue_steps,
+        }
+    }
+}
+
+impl From<HiZOptions> for refl_hiz_options {
+    fn from(o: HiZOptions) -> Self {
+        Self {
+            start_level: o.start_level,
+            stop_level: o.stop_level,
+            max_iterations: o.max_iterations,
+            prologue_steps: o.prologue_steps,
+        }
+    }
+}
+
+/// Size query: the number of `refl_vec2` texels of the Hi-Z pyramid of a
+/// `width x height` image (all levels) into `*out_len`, and its level count
+/// (the last level is 1 x 1) into `*out_levels`.
+///
+/// Returns `REFL_STATUS_NULL_POINTER` if an output is NULL,
+/// `REFL_STATUS_INVALID_ARGUMENT` for a zero size or a count that does not
+/// fit in `size_t`.
+///
+/// # Safety
+/// `out_len` and `out_levels` must be NULL or writable.
+#[no_mangle]
+pub unsafe extern "C" fn refl_hiz_len(
+    out_len: *mut usize,
+    out_levels: *mut u32,
+    width: u32,
+    height: u32,
+) -> refl_status {
+    guard(|| {
+        let (ol, oc) = (Out::new(out_len)?, Out::new(out_levels)?);
+        let l = HiZLayout::try_new(width, height)?;
+        // SAFETY: caller contract.
+        unsafe {
+            ol.write(l.len());
+            oc.write(l.level_count());
+        }
+        Ok(())
+    })
+}
+
+/// Layout query: where level `level` of the pyramid of a `width x height`
+/// image lives in the buffer.
+///
+/// Returns `REFL_STATUS_NULL_POINTER` if `out` is NULL,
+/// `REFL_STATUS_INVALID_ARGUMENT` for a zero or overflowing size or a
+/// `level` not below the level count.
+///
+/// # Safety
+/// `out` must be NULL or writable.
+#[no_mangle]
+pub unsafe extern "C" fn refl_hiz_level(
+    out: *mut refl_hiz_level_info,
+    width: u32,
+    height: u32,
+    level: u32,
+) -> refl_status {
+    guard(|| {
+        let out = Out::new(out)?;
+        let l = HiZLayout::try_new(width, height)?
+            .level(level)
+            .ok_or(Error::InvalidArgument)?;
+        // SAFETY: caller contract.
+        unsafe {
+            out.write(refl_hiz_level_info {
+                offset: l.offset,
+                width: l.width,
+                height: l.height,
+            })
+        };
+        Ok(())
+    })
+}
+
+/// The default traversal options into `*out`.
+///
+/// Returns `REFL_STATUS_NULL_POINTER` if `out` is NULL.
+///
+/// # Safety
+/// `out` must be NULL or writable.
+#[no_mangle]
+pub unsafe extern "C" fn refl_hiz_default_options(out: *mut refl_hiz_options) -> refl_status {
+    guard(|| {
+        let out = Out::new(out)?;
+        // SAFETY: caller contract.
+        unsafe { out.write(HiZOptions::default().into()) };
+        Ok(())
+    })
+}
+
+/// Checks a pyramid buffer pointer and returns its byte length for
+/// `count` texels.
+fn check_buffer(p: *const refl_vec2, count: usize) -> Result<usize, Error> {
+    if p.is_null() {
+        return Err(Error::NullPointer);
+    }
+    if !p.is_aligned() {
+        return Err(Error::InvalidArgument);
+    }
+    byte_len::<refl_vec2>(p as usize, count)
+}
+
+/// `InvalidArgument` if the depth image's buffer overlaps the pyramid
+/// bytes `[dst, dst + dst_bytes)`.
+fn check_no_overlap(img: &refl_depth_image, dst: usize, dst_bytes: usize) -> Result<(), Error> {
+    let src = img.depth.data as usize;
+    let src_bytes = byte_len::<f32>(src, img.depth.len)?;
+    if overlaps(src, src_bytes, dst, dst_bytes) {
+        return Err(Error::InvalidArgument);
+    }
+    Ok(())
+}
+
+/// Builds the whole Hi-Z pyramid of `*image` into `dst` (seed 004
+/// Sec. 4.4.1): level 0 is the image's linear depth (NaN, or a depth that
+/// decodes to <= 0, is "no surface" and stored as NaN), each coarser texel
+/// the min (`x`) and max (`y`) of the 2x2 texels below, the last column and
+/// row also folding an odd leftover column/row, so every texel bounds all
+/// texels under it. NaN is ignored by min/max.
+///
+/// Returns `REFL_STATUS_NULL_POINTER` if `dst`, `image` or
+/// `image->depth.data` is NULL; `REFL_STATUS_INSUFFICIENT_SIZE` if
+/// `dst_len` is below `refl_hiz_len`'s count or the image's `len` is too
+/// small; `REFL_STATUS_INVALID_ARGUMENT` for an unknown convention, a
+/// misaligned pointer, a bad image size or stride, an image whose size
+/// differs from the camera's, or `dst` overlapping the depth image; the
+/// camera's status if it is invalid. Nothing is written on error.
+///
+/// # Safety
+/// `dst` must be NULL or writable for `dst_len` texels; `image` NULL or
+/// readable, its `depth.data` readable for `depth.len` floats and not
+/// written during the call.
+#[no_mangle]
+pub unsafe extern "C" fn refl_hiz_build(
+    dst: *mut refl_vec2,
+    dst_len: usize,
+    image: *const refl_depth_image,
+) -> refl_status {
+    guard(|| {
+        let bytes = check_buffer(dst.cast_const(), dst_len)?;
+        // SAFETY: caller contract.
+        let img_c = unsafe { read(image) }?;
+        // SAFETY: caller contract.
+        let img = unsafe { depth_image(&img_c) }?;
+        check_no_overlap(&img_c, dst as usize, bytes)?;
+        let layout = HiZLayout::try_new(img.width(), img.height())?;
+        if dst_len < layout.len() {
+            return Err(Error::InsufficientSize);
+        }
+        // SAFETY: non-null, aligned, writable for dst_len >= layout.len()
+        // texels (caller contract), size fits isize (byte_len), disjoint
+        // from the depth image (checked). refl_vec2 is [f32; 2] (types.rs).
+        let s = unsafe { core::slice::from_raw_parts_mut(dst.cast::<HiZTexel>(), layout.len()) };
+        refl_core::try_build_hiz(s, &img)
+    })
+}
+
+/// Builds rows `[row_start, row_end)` of level `level` of the pyramid in
+/// `dst`, for hosts that split the build across threads: build level 0
+/// (from `*image`) completely, then level 1 (from level 0 in `dst`), and so
+/// on; the row bands of one level may run concurrently on different
+/// threads. Only the rows written and, for `level > 0`, level `level - 1`
+/// (read) are touched. The result equals `refl_hiz_build`'s.
+///
+/// Returns as `refl_hiz_build`, plus `REFL_STATUS_INVALID_ARGUMENT` if
+/// `level` is not below the level count or the rows are empty, reversed or
+/// beyond the level's height.
+///
+/// # Safety
+/// As `refl_hiz_build`; in addition no other thread may write the rows
+/// this call writes or the level it reads during the call.
+#[no_mangle]
+pub unsafe extern "C" fn refl_hiz_build_rows(
+    dst: *mut refl_vec2,
+    dst_len: usize,
+    image: *const refl_depth_image,
+    level: u32,
+    row_start: u32,
+    row_end: u32,
+) -> refl_status {
+    guard(|| {
+        let bytes = check_buffer(dst.cast_const(), dst_len)?;
+        // SAFETY: caller contract.
+        let img_c = unsafe { read(image) }?;
+        // SAFETY: caller contract.
+        let img = unsafe { depth_image(&img_c) }?;
+        check_no_overlap(&img_c, dst as usize, bytes)?;
+        let layout = HiZLayout::try_new(img.width(), img.height())?;
+        let lv = layout.level(level).ok_or(Error::InvalidArgument)?;
+        let rows = RowRange::try_new(row_start, row_end, lv.height)?;
+        if dst_len < layout.len() {
+            return Err(Error::InsufficientSize);
+        }
+        let band = layout
+            .rows_range(level, rows)
+            .ok_or(Error::InvalidArgument)?;
+        let base = dst.cast::<HiZTexel>();
+        // SAFETY: `band` lies within the first layout.len() <= dst_len
+        // texels, writable by contract and not touched by other threads.
+        let out = unsafe { core::slice::from_raw_parts_mut(base.add(band.start), band.len()) };
+        if level == 0 {
+            return refl_core::try_build_hiz_level0_rows(out, &img, rows);
+        }
+        let f = layout.level(level - 1).ok_or(Error::InvalidArgument)?;
+        // SAFETY: level `level - 1` lies before level `level` in the buffer
+        // (disjoint from `out`), within dst_len, and is only read by any
+        // thread during this phase (contract).
+        let finer =
+            unsafe { core::slice::from_raw_parts(base.add(f.offset).cast_const(), f.len()) };
+        refl_core::try_build_hiz_level_rows(out, finer, &layout, level, rows)
+    })
+}
+
+/// Reads a pyramid descriptor, a thickness and options.
+///
+/// # Safety
+/// As `refl_hiz_trace_ray`.
+unsafe fn trace_inputs<'a>(
+    hiz: *const refl_hiz,
+    thickness: *const refl_thickness,
+    options: *const refl_hiz_options,
+) -> Result<(HiZ<'a>, Thickness<'a>, HiZOptions), Error> {
+    // SAFETY: caller contract.
+    let (h, th_c, opts) = unsafe { (read(hiz)?, read(thickness)?, read(options)?) };
+    check_buffer(h.data, h.len)?;
+    let conv = convention(h.convention)?;
+    let cam = Camera::try_from(&h.camera)?;
+    // SAFETY: non-null, aligned, readable for `len` texels (contract), size
+    // fits isize (check_buffer); refl_vec2 is [f32; 2].
+    let data = unsafe { core::slice::from_raw_parts(h.data.cast::<HiZTexel>(), h.len) };
+    let hz = HiZ::try_new(data, cam, conv)?;
+    // SAFETY: caller contract.
+    let th = unsafe { crate::trace::thickness(&th_c) }?;
+    Ok((hz, th, opts.into()))
+}
+
+/// Traces one ray against a Hi-Z pyramid (seed 004 Sec. 4.4.3 with the
+/// extensions of Sec. 4.6.6 travel behind surfaces, 4.6.7 rays toward the
+/// camera and 4.7.1 a linear prologue; `refl_core::hiz` documents the
+/// algorithm): the ray `ray.origin + t * ray.dir`, `t` in `[0, t_max]`, is
+/// clipped to the camera's frustum and walked in screen space over the
+/// pyramid; a texel is hit where the ray's linear depth lies between its
+/// front depth and front + thickness (or its back-face depth). The first
+/// hit agrees with `refl_step_ray` (per-pixel stepping) within a pixel.
+/// Writes the hit or the miss reason to `*out`.
+///
+/// `ray.dir` must be unit length (within 1e-3); `t_max` > 0, +infinity
+/// allowed.
+///
+/// Returns `REFL_STATUS_NULL_POINTER` if `out`, `hiz`, `hiz->data`,
+/// `thickness` or `options` is NULL; `REFL_STATUS_INVALID_ARGUMENT` for a
+/// non-finite or non-unit ray, a NaN or non-positive `t_max`, an unknown
+/// convention, a misaligned pointer, a NaN or negative constant thickness,
+/// or a back-face image whose size differs from the camera's;
+/// `REFL_STATUS_INSUFFICIENT_SIZE` if `hiz->len` is below `refl_hiz_len`'s
+/// count for the camera's size or a back-face image's `len` is too small;
+/// the camera's status if it is invalid.
+///
+/// # Safety
+/// `out` must be NULL or writable; `hiz`, `thickness` and `options` NULL
+/// or readable; `hiz->data` readable for `hiz->len` texels and the
+/// back-face image's `data` for its `len` floats, not written during the
+/// call.
+#[no_mangle]
+pub unsafe extern "C" fn refl_hiz_trace_ray(
+    out: *mut refl_trace_result,
+    hiz: *const refl_hiz,
+    thickness: *const refl_thickness,
+    ray: refl_ray,
+    t_max: f32,
+    options: *const refl_hiz_options,
+) -> refl_status {
+    guard(|| {
+        let out = Out::new(out)?;
+        // SAFETY: caller contract.
+        let (hz, th, opts) = unsafe { trace_inputs(hiz, thickness, options) }?;
+        let ray = Ray {
+            origin: ray.origin.into(),
+            dir: ray.dir.into(),
+        };
+        let r = refl_core::try_trace_hiz(&hz, th, ray, t_max, &opts)?;
+        // SAFETY: caller contract.
+        unsafe { out.write(r.into()) };
+        Ok(())
+    })
+}
+
+/// Reads `count` caller values: `NullPointer` if `p` is NULL,
+/// `InvalidArgument` if misaligned or impossibly long.
+///
+/// # Safety
+/// A non-null, aligned `p` must be readable for `count` values of `T`.
+unsafe fn read_slice<T: Copy>(p: *const T, count: usize) -> Result<Vec<T>, Error> {
+    if p.is_null() {
+        return Err(Error::NullPointer);
+    }
+    if !p.is_aligned() {
+        return Err(Error::InvalidArgument);
+    }
+    byte_len::<T>(p as usize, count)?;
+    // SAFETY: non-null, aligned, size fits isize (checked); readability is
+    // the caller's contract. Copied at once.
+    Ok(unsafe { core::slice::from_raw_parts(p, count) }.to_vec())
+}
+
+/// Traces `ray_count` rays as `refl_hiz_trace_ray` would, writing result
+/// `i` to `out[i]`. `t_max` holds one value for every ray
+/// (`t_max_count == 1`) or one per ray (`t_max_count >= ray_count`).
+///
+/// Every input is validated before anything is written: on any error `out`
+/// is untouched. Elements of `out` past `ray_count` are never written.
+/// Rays are independent: split a batch into chunks and call this from
+/// several threads.
+///
+/// Returns `REFL_STATUS_NULL_POINTER` if `out`, `rays`, `t_max`, `hiz`,
+/// `hiz->data`, `thickness` or `options` is NULL;
+/// `REFL_STATUS_INSUFFICIENT_SIZE` if `out_len < ray_count` or
+/// `t_max_count` is neither 1 nor at least `ray_count`;
+/// `REFL_STATUS_INVALID_ARGUMENT` if `t_max_count` is 0, or for any ray,
+/// `t_max`, pyramid, thickness or option rejected as by
+/// `refl_hiz_trace_ray`.
+///
+/// # Safety
+/// `out` must be NULL or writable for `out_len` results; `rays` NULL or
+/// readable for `ray_count` rays; `t_max` NULL or readable for
+/// `t_max_count` floats; the rest as `refl_hiz_trace_ray`.
+#[no_mangle]
+pub unsafe extern "C" fn refl_hiz_trace_rays(
+    out: *mut refl_trace_result,
+    out_len: usize,
+    rays: *const refl_ray,
+    ray_count: usize,
+    t_max: *const f32,
+    t_max_count: usize,
+    hiz: *const refl_hiz,
+    thickness: *const refl_thickness,
+    options: *const refl_hiz_options,
+) -> refl_status {
+    guard(|| {
+        if out.is_null() || rays.is_null() || t_max.is_null() {
+            return Err(Error::NullPointer);
+        }
+        // SAFETY: caller contract.
+        let (hz, th, opts) = unsafe { trace_inputs(hiz, thickness, options) }?;
+        if !out.is_aligned() || t_max_count == 0 {
+            return Err(Error::InvalidArgument);
+        }
+        if out_len < ray_count || (t_max_count != 1 && t_max_count < ray_count) {
+            return Err(Error::InsufficientSize);
+        }
+        byte_len::<refl_trace_result>(out as usize, ray_count)?;
+        // SAFETY: caller contract; copied before any output is written, so
+        // `out` may alias the inputs.
+        let rays_c = unsafe { read_slice(rays, ray_count) }?;
+        // SAFETY: caller contract.
+        let tms = unsafe { read_slice(t_max, t_max_count.min(ray_count).max(1)) }?;
+        let rays: Vec<Ray> = rays_c
+            .iter()
+            .map(|r| Ray {
+                origin: r.origin.into(),
+                dir: r.dir.into(),
+            })
+            .collect();
+        let mut traces = vec![
+            Trace::Miss {
+                reason: Miss::OutOfSteps,
+                work: Default::default(),
+            };
+            ray_count
+        ];
+        refl_core::try_trace_hiz_rays(&mut traces, &hz, th, &rays, &tms, &opts)?;
+        for (i, t) in traces.into_iter().enumerate() {
+            // SAFETY: `out` is non-null, aligned and writable for
+            // `out_len >= ray_count` results (caller contract).
+            unsafe { out.add(i).write(t.into()) };
+        }
+        Ok(())
+    })
+}

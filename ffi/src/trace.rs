@@ -1,0 +1,414 @@
+//! Ray / depth-image intersection: the C types shared by the depth-image
+//! kernels (a depth image with its camera, surface thickness, the result of
+//! one traced ray) and the per-pixel stepping exports (seed 003 Sec. 3.4).
+//!
+//! Results follow refl-core's `Trace`: a hit carries its sub-pixel position,
+//! ray parameter, depths and work counters; a miss says why
+//! (`refl_miss`), never a sentinel NaN.
+
+use crate::image::refl_image_f32;
+use crate::ptr::{byte_len, read, Out};
+use crate::status::{guard, refl_status};
+use crate::types::{convention, refl_camera, refl_ray, refl_vec2};
+use refl_core::{Camera, DepthImage, Error, Miss, Ray, StepOptions, Thickness, Trace};
+
+/// A depth image with the camera that rendered it and its convention.
+#[repr(C)]
+#[derive(Clone, Copy, Debug)]
+pub struct refl_depth_image {
+    /// The stored depths; width and height must equal the camera's. Texel
+    /// (x, y) holds the depth seen through pixel center (x + 0.5, y + 0.5).
+    /// A NaN texel, or one at or beyond the far plane, holds no surface.
+    pub depth: refl_image_f32,
+    /// The camera that rendered the image (validated on every call).
+    pub camera: refl_camera,
+    /// Convention of the stored depths, a `refl_depth_convention`.
+    pub convention: u32,
+}
+
+/// How far behind the front-most surface a ray may pass and still hit it.
+#[repr(C)]
+#[derive(Clone, Copy, Debug)]
+pub struct refl_thickness {
+    /// Thickness of every surface in linear depth (world units along the
+    /// view axis), >= 0, may be +infinity (everything behind a surface is
+    /// solid). Used when `back_faces.data` is NULL, ignored otherwise.
+    pub constant: f32,
+    /// A back-face depth image (same size, camera and convention as the
+    /// front image): the ray hits where its depth lies between the two. Set
+    /// `data` to NULL to use `constant` instead (the other fields are then
+    /// ignored).
+    pub back_faces: refl_image_f32,
+}
+
+/// Why a traced ray found no surface; `REFL_MISS_NONE` for a hit.
+#[repr(u32)]
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub enum refl_miss {
+    /// The ray hit the depth image.
+    None = 0,
+    /// The projected ray left the image rectangle (or, coming toward the
+    /// camera, the near plane) before hitting anything.
+    LeftImage = 1,
+    /// The walk ended while the ray was behind geometry deeper than its
+    /// thickness: what it hits is hidden from this image.
+    BehindGeometry = 2,
+    /// The step or iteration cap was reached.
+    OutOfSteps = 3,
+    /// The ray ended (`t_max`, the far plane, or its vanishing point under
+    /// an infinite far plane) in front of every surface.
+    EndOfRay = 4,
+    /// Nothing of the ray projects into the view (entirely behind the near
+    /// plane, beyond the far plane, or outside the image's frustum).
+    DegenerateProjection = 5,
+}
+
+impl From<Miss> for refl_miss {
+    fn from(m: Miss) -> Self {
+        match m {
+            Miss::LeftImage => Self::LeftImage,
+            Miss::BehindGeometry => Self::BehindGeometry,
+            Miss::OutOfSteps => Self::OutOfSteps,
+            Miss::EndOfRay => Self::EndOfRay,
+            Miss::DegenerateProjection => Self::DegenerateProjection,
+        }
+    }
+}
+
+/// The result of tracing one ray against a depth image.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct refl_trace_result {
+    /// `REFL_MISS_NONE` (0) for a hit, otherwise the `refl_miss` reason.
+    pub miss: u32,
+    /// Sub-pixel position of the hit in the depth image (pixels, origin
+    /// top-left); the texel hit is (floor(x), floor(y)). 0 on a miss.
+    pub pixel: refl_vec2,
+    /// Ray parameter of the hit (world distance from the origin); the point
+    /// origin + t * dir projects to `pixel` up to rounding. 0 on a miss.
+    pub t: f32,
+    /// Linear depth of the hit point on the ray. 0 on a miss.
+    pub depth: f32,
+    /// Linear depth stored in the image at the texel hit. 0 on a miss.
+    pub surface_depth: f32,
+    /// Pixel (or cell) steps along the projected ray, hit or miss.
+    pub steps: u32,
+    /// Depth texels read (back-face and pyramid texels included).
+    pub fetches: u32,
+    /// Loop iterations of a hierarchical traversal (0 for stepping).
+    pub iterations: u32,
+}
+
+impl From<Trace> for refl_trace_result {
+    fn from(t: Trace) -> Self {
+        let w = t.work();
+        let base = Self {
+            steps: w.steps,
+            fetches: w.fetches,
+            iterations: w.iterations,
+            ..Self::default()
+        };
+        match t {
+            Trace::Hit(h) => Self {
+                miss: refl_miss::None as u32,
+                pixel: h.pixel.into(),
+                t: h.t,
+                depth: h.depth,
+                surface_depth: h.surface_depth,
+                ..base
+            },
+            Trace::Miss { reason, .. } => Self {
+                miss: refl_miss::from(reason) as u32,
+                ..base
+            },
+        }
+    }
+}
+
+/// Options of the per-pixel stepping kernel (`refl_step_ray`). The
+/// defaults are `stride = 1`, `max_steps = UINT32_MAX`.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct refl_step_options {
+    /// Texels per coarse step, >= 1. 1 tests every texel the ray's
+    /// projection touches; larger strides sample every `stride`-th texel and
+    /// refine the last coarse interval texel by texel once the ray reaches
+    /// behind a surface.
+    pub stride: u32,
+    /// The most steps (coarse plus refinement) spent on one ray; reaching it
+    /// gives `REFL_MISS_OUT_OF_STEPS`. 0 allows none.
+    pub max_steps: u32,
+}
+
+impl From<refl_step_options> for StepOptions {
+    fn from(o: refl_step_options) -> Self {
+        Self {
+            stride: o.stride,
+            max_steps: o.max_steps,
+        }
+    }
+}
+
+/// A refl-core depth image from its C descriptor: the camera, the
+/// convention and the depth view are validated.
+///
+/// # Safety
+/// `d.depth.data` must be NULL or readable for `d.depth.len` floats for
+/// `'a`, and not be written meanwhile.
+pub(crate) unsafe fn depth_image<'a>(d: &refl_depth_image) -> Result<DepthImage<'a>, Error> {
+    // SAFETY: caller contract.
+    let view = unsafe { d.depth.view() }?;
+    let conv = convention(d.convention)?;
+    let cam = Camera::try_from(&d.camera)?;
+    DepthImage::try_new(view, cam, conv)
+}
+
+/// A refl-core thickness from its C descriptor (validated by the kernels:
+/// a negative or NaN constant, a back-face image of another size).
+///
+/// # Safety
+/// `t.back_faces.data` must be NULL or readable for `t.back_faces.len`
+/// floats for `'a`, and not be written meanwhile.
+pub(crate) unsafe fn thickness<'a>(t: &refl_thickness) -> Result<Thickness<'a>, Error> {
+    if t.back_faces.data.is_null() {
+        Ok(Thickness::Constant(t.constant))
+    } else {
+        // SAFETY: caller contract.
+        Ok(Thickness::BackFaces(unsafe { t.back_faces.view() }?))
+    }
+}
+
+/// Reads a caller array of `count` values: `NullPointer` if `p` is NULL,
+/// `InvalidArgument` if misaligned or impossibly long.
+///
+/// # Safety
+/// A non-null, aligned `p` must be readable for `count` values of `T`.
+unsafe fn read_array<T: Copy>(p: *const T, count: usize) -> Result<Vec<T>, Error> {
+    if p.is_null() {
+        return Err(Error::NullPointer);
+    }
+    if !p.is_aligned() {
+        return Err(Error::InvalidArgument);
+    }
+    byte_len::<T>(p as usize, count)?;
+    // SAFETY: non-null, aligned, length fits isize (checked above);
+    // readability is the caller's contract. The slice is copied at once.
+    Ok(unsafe { core::slice::from_raw_parts(p, count) }.to_vec())
+}
+
+/// Reads the three by-pointer inputs shared by the stepping exports.
+///
+/// # Safety
+/// As `refl_step_ray`.
+unsafe fn step_inputs<'a>(
+    image: *const refl_depth_image,
+    thickness: *const refl_thickness,
+    options: *const refl_step_options,
+) -> Result<(DepthImage<'a>, Thickness<'a>, StepOptions), Error> {
+    // SAFETY: caller contract.
+    let (img_c, th_c, opts) = unsafe { (read(image)?, read(thickness)?, read(options)?) };
+    // SAFETY: caller contract.
+    let img = unsafe { depth_image(&img_c) }?;
+    // SAFETY: caller contract.
+    let th = unsafe { self::thickness(&th_c) }?;
+    Ok((img, th, opts.into()))
+}
+
+/// Traces one ray against a depth image by per-pixel stepping along its
+/// projection (seed 003 Sec. 3.4; `refl_core::step` documents the
+/// algorithm): the ray `ray.origin + t * ray.dir`, `t` in `[0, t_max]`, is
+/// clipped to the camera's frustum, projected, and walked texel by texel
+/// from its near to its far end; a texel is hit where the ray's linear
+/// depth lies between its front depth and front + thickness (or its
+/// back-face depth). A ray through the camera's eye (a planar reflector's
+/// ray) is resolved with one lookup. Writes the hit or the miss reason to
+/// `*out`.
+///
+/// `ray.dir` must be unit length (within 1e-3); `t_max` > 0, +infinity
+/// allowed (up to the far plane).
+///
+/// Returns `REFL_STATUS_NULL_POINTER` if `out`, `image`, `image->depth.data`,
+/// `thickness` or `options` is NULL; `REFL_STATUS_INVALID_ARGUMENT` for a
+/// non-finite or non-unit ray, a NaN or non-positive `t_max`, an unknown
+/// convention, a misaligned pointer, a zero or overflowing image size,
+/// `stride < width`, an image or back-face image whose size differs from
+/// the camera's, a NaN or negative constant thickness, or `stride == 0`;
+/// `REFL_STATUS_INSUFFICIENT_SIZE` if an image's `len` is too small; the
+/// camera's status if it is invalid.
+///
+/// # Safety
+/// `out` must be NULL or writable; `image`, `thickness` and `options` NULL
+/// or readable; the images' `data` readable for `len` floats and not
+/// written during the call.
+#[no_mangle]
+pub unsafe extern "C" fn refl_step_ray(
+    out: *mut refl_trace_result,
+    image: *const refl_depth_image,
+    thickness: *const refl_thickness,
+    ray: refl_ray,
+    t_max: f32,
+    options: *const refl_step_options,
+) -> refl_status {
+    guard(|| {
+        let out = Out::new(out)?;
+        // SAFETY: caller contract.
+        let (img, th, opts) = unsafe { step_inputs(image, thickness, options) }?;
+        let ray = Ray {
+            origin: ray.origin.into(),
+            dir: ray.dir.into(),
+        };
+        let r = refl_core::try_step(&img, th, ray, t_max, opts)?;
+        // SAFETY: caller contract.
+        unsafe { out.write(r.into()) };
+        Ok(())
+    })
+}
+
+/// Traces `ray_count` rays as `refl_step_ray` would, writing result `i` to
+/// `out[i]`. `t_max` holds either one value for every ray
+/// (`t_max_count == 1`) or one per ray (`t_max_count >= ray_count`).
+///
+/// Every input is validated before anything is written: on any error
+/// `out` is untouched. Elements of `out` past `ray_count` are never
+/// written. Rays are independent: a host splits a large batch into chunks
+/// (e.g. rows of a reflection buffer) and calls this from its own threads.
+///
+/// Returns `REFL_STATUS_NULL_POINTER` if `out`, `rays`, `t_max`, `image`,
+/// `image->depth.data`, `thickness` or `options` is NULL;
+/// `REFL_STATUS_INSUFFICIENT_SIZE` if `out_len < ray_count` or `t_max_count`
+/// is neither 1 nor at least `ray_count`; `REFL_STATUS_INVALID_ARGUMENT` if
+/// `t_max_count` is 0, or for any ray, `t_max`, image, thickness or option
+/// rejected as by `refl_step_ray`.
+///
+/// # Safety
+/// `out` must be NULL or writable for `out_len` results; `rays` NULL or
+/// readable for `ray_count` rays; `t_max` NULL or readable for
+/// `t_max_count` floats; the rest as `refl_step_ray`.
+#[no_mangle]
+pub unsafe extern "C" fn refl_step_rays(
+    out: *mut refl_trace_result,
+    out_len: usize,
+    rays: *const refl_ray,
+    ray_count: usize,
+    t_max: *const f32,
+    t_max_count: usize,
+    image: *const refl_depth_image,
+    thickness: *const refl_thickness,
+    options: *const refl_step_options,
+) -> refl_status {
+    guard(|| {
+        if out.is_null() || rays.is_null() || t_max.is_null() {
+            return Err(Error::NullPointer);
+        }
+        // SAFETY: caller contract.
+        let (img, th, opts) = unsafe { step_inputs(image, thickness, options) }?;
+        if !out.is_aligned() {
+            return Err(Error::InvalidArgument);
+        }
+        if t_max_count == 0 {
+            return Err(Error::InvalidArgument);
+        }
+        if out_len < ray_count || (t_max_count != 1 && t_max_count < ray_count) {
+            return Err(Error::InsufficientSize);
+        }
+        byte_len::<refl_trace_result>(out as usize, ray_count)?;
+        // SAFETY: caller contract; copied before any output is written, so
+        // `out` may alias the inputs.
+        let rays_c = unsafe { read_array(rays, ray_count) }?;
+        // SAFETY: caller contract.
+        let tms = unsafe { read_array(t_max, t_max_count.min(ray_count).max(1)) }?;
+        let rays: Vec<Ray> = rays_c
+            .iter()
+            .map(|r| Ray {
+                origin: r.origin.into(),
+                dir: r.dir.into(),
+            })
+            .collect();
+        let mut traces = vec![
+            Trace::Miss {
+                reason: Miss::OutOfSteps,
+                work: Default::default(),
+            };
+            ray_count
+        ];
+        refl_core::try_step_rays(&mut traces, &rays, &tms, &img, th, opts)?;
+        for (i, t) in traces.into_iter().enumerate() {
+            // SAFETY: `out` is non-null, aligned and writable for
+            // `out_len >= ray_count` results (caller contract).
+            unsafe { out.add(i).write(t.into()) };
+        }
+        Ok(())
+    })
+}
+
+/// Refines a hit of `refl_step_ray` / `refl_hiz_trace_ray` to sub-texel
+/// accuracy (`refl_core::trace::refine_hit`): the ray is intersected with
+/// the plane through the hit texel's center point and its coplanar (or
+/// continuous) neighbors, never across a silhouette; where that plane is
+/// met outside the 3x3 texels around the texel, the fit moves there (up to
+/// 4 fits). On a surface seen at a grazing angle this moves the hit from
+/// the first texel plate the ray meets to the surface itself. The refined
+/// `pixel`, `t` and `depth` replace the hit's if the point lies on the ray
+/// within `[0, t_max]`; otherwise, and for a miss (`hit->miss != 0`),
+/// `*out` is `*hit`. `fetches` counts the extra texels read.
+///
+/// Returns `REFL_STATUS_NULL_POINTER` if `out`, `image`,
+/// `image->depth.data` or `hit` is NULL; `REFL_STATUS_INVALID_ARGUMENT` for
+/// a non-finite or non-unit ray, a NaN or non-positive `t_max`, a hit with
+/// an unknown miss value or non-finite fields, or an invalid image (as
+/// `refl_step_ray`); `REFL_STATUS_INSUFFICIENT_SIZE` for a short image.
+///
+/// # Safety
+/// `out` NULL or writable; `image` and `hit` NULL or readable; the image's
+/// `data` readable for `len` floats and not written during the call.
+#[no_mangle]
+pub unsafe extern "C" fn refl_refine_hit(
+    out: *mut refl_trace_result,
+    image: *const refl_depth_image,
+    ray: refl_ray,
+    t_max: f32,
+    hit: *const refl_trace_result,
+) -> refl_status {
+    guard(|| {
+        let out = Out::new(out)?;
+        // SAFETY: caller contract.
+        let (img_c, h) = unsafe { (read(image)?, read(hit)?) };
+        // SAFETY: caller contract.
+        let img = unsafe { depth_image(&img_c) }?;
+        let ray = Ray {
+            origin: ray.origin.into(),
+            dir: ray.dir.into(),
+        };
+        refl_core::trace::validate_ray(&ray, t_max)?;
+        if h.miss > refl_miss::DegenerateProjection as u32
+            || !(h.pixel.x.is_finite()
+                && h.pixel.y.is_finite()
+                && h.t.is_finite()
+                && h.depth.is_finite()
+                && h.surface_depth.is_finite())
+        {
+            return Err(Error::InvalidArgument);
+        }
+        let result = if h.miss == refl_miss::None as u32 {
+            let core_hit = refl_core::DepthHit {
+                pixel: refl_core::glam::Vec2::new(h.pixel.x, h.pixel.y),
+                t: h.t,
+                depth: h.depth,
+                surface_depth: h.surface_depth,
+                work: refl_core::Work {
+                    steps: h.steps,
+                    fetches: h.fetches,
+                    iterations: h.iterations,
+                },
+            };
+            refl_trace_result::from(refl_core::Trace::Hit(refl_core::trace::refine_hit(
+                &img, &ray, t_max, &core_hit,
+            )))
+        } else {
+            h
+        };
+        // SAFETY: caller contract.
+        unsafe { out.write(result) };
+        Ok(())
+    })
+}

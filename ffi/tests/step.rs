@@ -1,0 +1,489 @@
+//! refl_step_ray / refl_step_rays: results equal refl-core's, every error
+//! path returns its documented status and leaves outputs untouched.
+
+use core::mem::MaybeUninit;
+use refl::*;
+use refl_core::glam::{Vec2, Vec3};
+use refl_core::{try_step, Camera, DepthConvention, DepthImage, ImageView, Ray, Thickness, Trace};
+
+const W: u32 = 48;
+const H: u32 = 32;
+
+fn camera() -> Camera {
+    Camera::try_look_at(
+        Vec3::new(0.5, 1.5, 4.0),
+        Vec3::new(0.0, 0.5, -5.0),
+        Vec3::Y,
+        1.0,
+        0.1,
+        100.0,
+        W,
+        H,
+    )
+    .unwrap()
+}
+
+/// A wall at depth 8 with a box at depth 3 (thickness 1 in the back-face
+/// image) in the middle, and a hole of NaN texels.
+fn images(cam: &Camera, conv: DepthConvention) -> (Vec<f32>, Vec<f32>) {
+    let mut front = vec![cam.encode_depth(8.0, conv); (W * H) as usize];
+    let mut back = vec![cam.encode_depth(9.0, conv); (W * H) as usize];
+    for y in 10..20 {
+        for x in 15..30 {
+            front[(y * W + x) as usize] = cam.encode_depth(3.0, conv);
+            back[(y * W + x) as usize] = cam.encode_depth(4.0, conv);
+        }
+    }
+    for x in 40..44 {
+        front[(5 * W + x) as usize] = f32::NAN;
+    }
+    (front, back)
+}
+
+fn image_c(data: &[f32]) -> refl_image_f32 {
+    refl_image_f32 {
+        data: data.as_ptr(),
+        len: data.len(),
+        width: W,
+        height: H,
+        stride: W,
+    }
+}
+
+fn depth_image_c(cam: &Camera, data: &[f32], conv: DepthConvention) -> refl_depth_image {
+    refl_depth_image {
+        depth: image_c(data),
+        camera: cam.into(),
+        convention: conv as u32,
+    }
+}
+
+fn ray_c(r: &Ray) -> refl_ray {
+    (*r).into()
+}
+
+/// Rays covering hits (wall, box, back faces), misses of every kind and
+/// the planar case.
+fn rays(cam: &Camera) -> Vec<(Ray, f32)> {
+    let at = |x: f32, y: f32, z: f32| cam.unproject(Vec2::new(x, y), z, DepthConvention::Linear);
+    let between = |a: Vec3, b: Vec3| Ray {
+        origin: a,
+        dir: (b - a).normalize(),
+    };
+    vec![
+        (
+            between(at(2.5, 2.5, 1.0), at(40.5, 25.5, 9.0)),
+            f32::INFINITY,
+        ),
+        (
+            between(at(5.5, 15.5, 2.0), at(25.5, 15.5, 3.5)),
+            f32::INFINITY,
+        ),
+        (cam.primary_ray(Vec2::new(20.5, 12.5)), f32::INFINITY),
+        (cam.primary_ray(Vec2::new(41.5, 5.5)), f32::INFINITY),
+        (
+            between(at(5.5, 15.5, 2.0), at(60.0, 15.5, 2.0)),
+            f32::INFINITY,
+        ),
+        (between(at(5.5, 15.5, 2.0), at(40.5, 25.5, 9.0)), 0.5),
+        (
+            between(at(40.5, 15.5, 7.0), at(20.5, 15.5, 3.5)),
+            f32::INFINITY,
+        ),
+        (between(at(20.5, 15.5, 5.0), at(2.5, 15.5, 5.0)), 0.3),
+        (
+            between(at(20.5, 15.5, -5.0), at(20.5, 15.5, -9.0)),
+            f32::INFINITY,
+        ),
+    ]
+}
+
+fn default_options() -> refl_step_options {
+    refl_step_options {
+        stride: 1,
+        max_steps: u32::MAX,
+    }
+}
+
+fn call_one(
+    img: &refl_depth_image,
+    th: &refl_thickness,
+    ray: refl_ray,
+    t_max: f32,
+    opts: &refl_step_options,
+) -> (refl_status, refl_trace_result) {
+    let mut out = MaybeUninit::<refl_trace_result>::uninit();
+    let s = unsafe { refl_step_ray(out.as_mut_ptr(), img, th, ray, t_max, opts) };
+    // Only read on success.
+    let r = if s == refl_status::Ok {
+        unsafe { out.assume_init() }
+    } else {
+        refl_trace_result::default()
+    };
+    (s, r)
+}
+
+fn expect_same(c: &refl_trace_result, t: &Trace) {
+    assert_eq!(*c, refl_trace_result::from(*t));
+    match t {
+        Trace::Hit(h) => {
+            assert_eq!(c.miss, refl_miss::None as u32);
+            assert_eq!((c.pixel.x, c.pixel.y), (h.pixel.x, h.pixel.y));
+            assert_eq!(
+                (c.t, c.depth, c.surface_depth),
+                (h.t, h.depth, h.surface_depth)
+            );
+        }
+        Trace::Miss { reason, work } => {
+            assert_eq!(c.miss, refl_miss::from(*reason) as u32);
+            assert_ne!(c.miss, 0);
+            assert_eq!((c.steps, c.fetches), (work.steps, work.fetches));
+            assert_eq!((c.t, c.depth), (0.0, 0.0));
+        }
+    }
+}
+
+#[test]
+fn step_ray_matches_core_in_every_convention() {
+    let cam = camera();
+    let mut reasons = std::collections::HashSet::new();
+    for conv in DepthConvention::ALL {
+        let (front, back) = images(&cam, conv);
+        let img = depth_image_c(&cam, &front, conv);
+        let core_img =
+            DepthImage::try_new(ImageView::try_new(&front, W, H, W).unwrap(), cam, conv).unwrap();
+        let back_view = ImageView::try_new(&back, W, H, W).unwrap();
+        for (stride, back_faces) in [(1, false), (4, true), (8, false)] {
+            let opts = refl_step_options {
+                stride,
+                max_steps: 1000,
+            };
+            let th = refl_thickness {
+                constant: 0.5,
+                back_faces: if back_faces {
+                    image_c(&back)
+                } else {
+                    refl_image_f32 {
+                        data: core::ptr::null(),
+                        len: 0,
+                        width: 0,
+                        height: 0,
+                        stride: 0,
+                    }
+                },
+            };
+            let core_th = if back_faces {
+                Thickness::BackFaces(back_view)
+            } else {
+                Thickness::Constant(0.5)
+            };
+            for (r, tm) in rays(&cam) {
+                let (s, c) = call_one(&img, &th, ray_c(&r), tm, &opts);
+                assert_eq!(s, refl_status::Ok);
+                let t = try_step(&core_img, core_th, r, tm, opts.into()).unwrap();
+                expect_same(&c, &t);
+                reasons.insert(c.miss);
+            }
+        }
+    }
+    // Hits and four miss reasons were exercised.
+    assert_eq!(reasons.len(), 5, "{reasons:?}");
+    let planar = rays(&camera())[2].0;
+    let (front, _) = images(&cam, DepthConvention::ReversedZ);
+    let img = depth_image_c(&cam, &front, DepthConvention::ReversedZ);
+    let th = refl_thickness {
+        constant: 1.0,
+        back_faces: refl_image_f32 {
+            data: core::ptr::null(),
+            len: 0,
+            width: 0,
+            height: 0,
+            stride: 0,
+        },
+    };
+    let (_, c) = call_one(&img, &th, ray_c(&planar), f32::INFINITY, &default_options());
+    assert_eq!((c.miss, c.steps, c.fetches), (0, 1, 1));
+    assert!((c.surface_depth - 3.0).abs() < 1e-4);
+}
+
+fn untouched_one(
+    want: refl_status,
+    img: *const refl_depth_image,
+    th: *const refl_thickness,
+    ray: refl_ray,
+    t_max: f32,
+    opts: *const refl_step_options,
+) {
+    let mut out = [0xA5u8; core::mem::size_of::<refl_trace_result>() + 8];
+    let p = out.as_mut_ptr().cast::<refl_trace_result>();
+    // `out` is a byte array: align the pointer as the type needs.
+    let off = p.align_offset(core::mem::align_of::<refl_trace_result>());
+    let p = unsafe { out.as_mut_ptr().add(off) }.cast::<refl_trace_result>();
+    let s = unsafe { refl_step_ray(p, img, th, ray, t_max, opts) };
+    assert_eq!(s, want);
+    assert!(out.iter().all(|b| *b == 0xA5), "output written on error");
+    assert_eq!(
+        unsafe { refl_step_ray(core::ptr::null_mut(), img, th, ray, t_max, opts) },
+        refl_status::NullPointer
+    );
+}
+
+#[test]
+fn step_ray_errors_leave_the_output_untouched() {
+    let cam = camera();
+    let conv = DepthConvention::ZeroToOne;
+    let (front, back) = images(&cam, conv);
+    let img = depth_image_c(&cam, &front, conv);
+    let null_view = refl_image_f32 {
+        data: core::ptr::null(),
+        len: 0,
+        width: 0,
+        height: 0,
+        stride: 0,
+    };
+    let th = refl_thickness {
+        constant: 0.5,
+        back_faces: null_view,
+    };
+    let opts = default_options();
+    let good = ray_c(&rays(&cam)[0].0);
+    use core::ptr::null;
+    use refl_status::*;
+    untouched_one(NullPointer, null(), &th, good, 1.0, &opts);
+    untouched_one(NullPointer, &img, null(), good, 1.0, &opts);
+    untouched_one(NullPointer, &img, &th, good, 1.0, null());
+    let no_data = refl_depth_image {
+        depth: null_view,
+        ..img
+    };
+    untouched_one(NullPointer, &no_data, &th, good, 1.0, &opts);
+    for bad in [3u32, 7, u32::MAX] {
+        let i = refl_depth_image {
+            convention: bad,
+            ..img
+        };
+        untouched_one(InvalidArgument, &i, &th, good, 1.0, &opts);
+    }
+    let mut nan = good;
+    nan.origin.x = f32::NAN;
+    untouched_one(InvalidArgument, &img, &th, nan, 1.0, &opts);
+    let mut inf = good;
+    inf.dir.y = f32::INFINITY;
+    untouched_one(InvalidArgument, &img, &th, inf, 1.0, &opts);
+    let mut long = good;
+    long.dir.x *= 3.0;
+    untouched_one(InvalidArgument, &img, &th, long, 1.0, &opts);
+    for t in [f32::NAN, 0.0, -1.0] {
+        untouched_one(InvalidArgument, &img, &th, good, t, &opts);
+    }
+    let zero_stride = refl_step_options { stride: 0, ..opts };
+    untouched_one(InvalidArgument, &img, &th, good, 1.0, &zero_stride);
+    for c in [f32::NAN, -1.0] {
+        let t = refl_thickness { constant: c, ..th };
+        untouched_one(InvalidArgument, &img, &t, good, 1.0, &opts);
+    }
+    // Back-face image of the wrong size, and too short.
+    let small = refl_thickness {
+        back_faces: refl_image_f32 {
+            width: W - 1,
+            ..image_c(&back)
+        },
+        ..th
+    };
+    untouched_one(InvalidArgument, &img, &small, good, 1.0, &opts);
+    let short_back = refl_thickness {
+        back_faces: refl_image_f32 {
+            len: back.len() - 1,
+            ..image_c(&back)
+        },
+        ..th
+    };
+    untouched_one(InsufficientSize, &img, &short_back, good, 1.0, &opts);
+    let short = refl_depth_image {
+        depth: refl_image_f32 {
+            len: front.len() - 1,
+            ..img.depth
+        },
+        ..img
+    };
+    untouched_one(InsufficientSize, &short, &th, good, 1.0, &opts);
+    // Image size differs from the camera's; invalid camera.
+    let mismatch = refl_depth_image {
+        depth: refl_image_f32 {
+            height: H - 1,
+            ..img.depth
+        },
+        ..img
+    };
+    untouched_one(InvalidArgument, &mismatch, &th, good, 1.0, &opts);
+    let mut bad_cam = img;
+    bad_cam.camera.fov_y = f32::NAN;
+    untouched_one(InvalidArgument, &bad_cam, &th, good, 1.0, &opts);
+}
+
+#[test]
+fn step_rays_matches_step_ray_and_writes_only_on_success() {
+    let cam = camera();
+    let conv = DepthConvention::ReversedZ;
+    let (front, _) = images(&cam, conv);
+    let img = depth_image_c(&cam, &front, conv);
+    let th = refl_thickness {
+        constant: 0.5,
+        back_faces: refl_image_f32 {
+            data: core::ptr::null(),
+            len: 0,
+            width: 0,
+            height: 0,
+            stride: 0,
+        },
+    };
+    let opts = refl_step_options {
+        stride: 4,
+        max_steps: 500,
+    };
+    let (rs, tms): (Vec<Ray>, Vec<f32>) = rays(&cam).into_iter().unzip();
+    let rc: Vec<refl_ray> = rs.iter().map(ray_c).collect();
+    let n = rc.len();
+    let sentinel = refl_trace_result {
+        miss: 77,
+        ..Default::default()
+    };
+    let mut out = vec![sentinel; n + 1];
+    let call = |out: &mut [refl_trace_result], out_len: usize, rays: &[refl_ray], t: &[f32]| unsafe {
+        refl_step_rays(
+            out.as_mut_ptr(),
+            out_len,
+            rays.as_ptr(),
+            rays.len(),
+            t.as_ptr(),
+            t.len(),
+            &img,
+            &th,
+            &opts,
+        )
+    };
+    assert_eq!(call(&mut out, n + 1, &rc, &tms), refl_status::Ok);
+    for i in 0..n {
+        let (s, one) = call_one(&img, &th, rc[i], tms[i], &opts);
+        assert_eq!(s, refl_status::Ok);
+        assert_eq!(out[i], one);
+    }
+    assert_eq!(out[n], sentinel);
+    // One t_max for every ray.
+    assert_eq!(call(&mut out, n, &rc, &[2.0]), refl_status::Ok);
+    assert_eq!(out[1], call_one(&img, &th, rc[1], 2.0, &opts).1);
+    // Errors leave `out` alone.
+    let mut out = vec![sentinel; n];
+    assert_eq!(
+        call(&mut out, n - 1, &rc, &tms),
+        refl_status::InsufficientSize
+    );
+    assert_eq!(
+        call(&mut out, n, &rc, &tms[..n - 1]),
+        refl_status::InsufficientSize
+    );
+    assert_eq!(call(&mut out, n, &rc, &[]), refl_status::InvalidArgument);
+    let mut bad = rc.clone();
+    bad[n - 1].dir.z = f32::NAN;
+    assert_eq!(call(&mut out, n, &bad, &tms), refl_status::InvalidArgument);
+    let mut bad_t = tms.clone();
+    bad_t[3] = -1.0;
+    assert_eq!(call(&mut out, n, &rc, &bad_t), refl_status::InvalidArgument);
+    assert!(out.iter().all(|o| *o == sentinel));
+    let s = unsafe {
+        refl_step_rays(
+            out.as_mut_ptr(),
+            n,
+            core::ptr::null(),
+            n,
+            tms.as_ptr(),
+            n,
+            &img,
+            &th,
+            &opts,
+        )
+    };
+    assert_eq!(s, refl_status::NullPointer);
+    let s = unsafe {
+        refl_step_rays(
+            core::ptr::null_mut(),
+            n,
+            rc.as_ptr(),
+            n,
+            tms.as_ptr(),
+            n,
+            &img,
+            &th,
+            &opts,
+        )
+    };
+    assert_eq!(s, refl_status::NullPointer);
+    assert!(out.iter().all(|o| *o == sentinel));
+}
+
+/// `refl_refine_hit` equals `refl_core::trace::refine_hit` on every hit
+/// of the ray set, passes misses through, and leaves `out` untouched on
+/// error.
+#[test]
+fn refine_hit_matches_core() {
+    let cam = camera();
+    for conv in DepthConvention::ALL {
+        let (front, _) = images(&cam, conv);
+        let img_c = depth_image_c(&cam, &front, conv);
+        let view = ImageView::try_new(&front, cam.width(), cam.height(), cam.width()).unwrap();
+        let img = DepthImage::try_new(view, cam, conv).unwrap();
+        let th = refl_thickness {
+            constant: 0.5,
+            back_faces: refl_image_f32 {
+                data: core::ptr::null(),
+                len: 0,
+                width: 0,
+                height: 0,
+                stride: 0,
+            },
+        };
+        let mut refined = 0;
+        for (ray, t_max) in rays(&cam) {
+            let (s, hit) = call_one(&img_c, &th, ray_c(&ray), t_max, &default_options());
+            assert_eq!(s, refl_status::Ok);
+            let mut out = MaybeUninit::<refl_trace_result>::uninit();
+            let s = unsafe { refl_refine_hit(out.as_mut_ptr(), &img_c, ray_c(&ray), t_max, &hit) };
+            assert_eq!(s, refl_status::Ok);
+            let out = unsafe { out.assume_init() };
+            let core = try_step(
+                &img,
+                Thickness::Constant(0.5),
+                ray,
+                t_max,
+                Default::default(),
+            )
+            .unwrap();
+            match core {
+                Trace::Hit(h) => {
+                    let r = refl_core::trace::refine_hit(&img, &ray, t_max, &h);
+                    expect_same(&out, &Trace::Hit(r));
+                    refined += usize::from(r.t != h.t);
+                }
+                Trace::Miss { .. } => assert_eq!(out, hit),
+            }
+        }
+        assert!(refined > 0, "{conv:?}: nothing refined");
+        // Errors leave the output untouched.
+        let sentinel = refl_trace_result {
+            miss: 77,
+            ..Default::default()
+        };
+        let mut out = sentinel;
+        let bad = refl_trace_result {
+            t: f32::NAN,
+            ..Default::default()
+        };
+        let (ray, t_max) = rays(&cam)[0];
+        let s = unsafe { refl_refine_hit(&mut out, &img_c, ray_c(&ray), t_max, &bad) };
+        assert_eq!(s, refl_status::InvalidArgument);
+        assert_eq!(out, sentinel);
+        let s = unsafe { refl_refine_hit(&mut out, core::ptr::null(), ray_c(&ray), t_max, &bad) };
+        assert_eq!(s, refl_status::NullPointer);
+        assert_eq!(out, sentinel);
+    }
+}
