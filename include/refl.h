@@ -69,6 +69,20 @@
 #define REFL_EPIPOLAR_FLAG_ABRUPT_REJECTED 4
 
 /**
+ * AIP flag: a splatted point of the entry's object landed above-left of
+ * the pixel center; the next three bits (`<< 1`: above-right, `<< 2`:
+ * below-left, `<< 3`: below-right) the other sides.
+ */
+#define REFL_EPIPOLAR_FLAG_SURROUND_UP_LEFT 16
+
+/**
+ * AIP flags: all four surround bits. With the depth guard on, a pixel is
+ * resolved by one ray/object test only when all four are set (the
+ * object's points surround the pixel center).
+ */
+#define REFL_EPIPOLAR_FLAG_SURROUNDED 240
+
+/**
  * Major version of the header this library was built with; compare with
  * `refl_version_number()` at run time to detect a header/library mismatch.
  */
@@ -488,7 +502,7 @@ typedef struct refl_epipolar_params {
      */
     float guard_margin;
     /**
-     * Guard window radius (default 2, at most
+     * Guard window radius (default 3, at most
      * `REFL_EPIPOLAR_MAX_SPLAT_RADIUS`, 0 off): after the splat each
      * pixel's `t_other` is lowered to the `t` of the entries within this
      * many pixels that hold another object.

@@ -125,7 +125,8 @@ pub struct AipEntry {
     /// which only makes the guard stricter); `+inf` when none.
     pub t_other: f32,
     /// Bit set of [`AipEntry::NO_REPROJECTION`],
-    /// [`AipEntry::OCCLUSION_REJECTED`], [`AipEntry::ABRUPT_REJECTED`].
+    /// [`AipEntry::OCCLUSION_REJECTED`], [`AipEntry::ABRUPT_REJECTED`] and
+    /// the four [`AipEntry::SURROUNDED`] bits.
     pub flags: u32,
 }
 
@@ -139,6 +140,17 @@ impl AipEntry {
     /// A point whose splat covers this pixel was discarded by the
     /// abrupt-motion test (Sec. 4.3.1).
     pub const ABRUPT_REJECTED: u32 = 4;
+    /// First of the four surround bits (our addition to Alg. 1, used by
+    /// [`Params::depth_guard`]): bit `SURROUND_UP_LEFT << q` is set when a
+    /// splatted point of `object` landed in quadrant `q` around the pixel
+    /// center (`q = (dx >= 0) + 2 (dy >= 0)` for the point's offset
+    /// `(dx, dy)` from the center). The bits restart when a closer object
+    /// overwrites the entry.
+    pub const SURROUND_UP_LEFT: u32 = 16;
+    /// All four surround bits: points of `object` landed on every side of
+    /// the pixel center, so the center lies inside their hull (no
+    /// silhouette of `object` passes between them and the center).
+    pub const SURROUNDED: u32 = 0xF0;
 
     /// The initial entry of Alg. 1: no object, `t = inf`, `cnt = 0`.
     pub const EMPTY: AipEntry = AipEntry {
@@ -179,6 +191,16 @@ pub struct Params {
     /// nearer and outnumber the others in the 3x3 neighborhood) and the
     /// ray, which hits the larger one behind the silhouette, is accepted:
     /// a visibility error, even under pure rotation.
+    ///
+    /// With the guard on, a prediction is also only trusted where the
+    /// object's splatted points surround the pixel center
+    /// ([`AipEntry::SURROUNDED`]). The splat spreads an object one pixel
+    /// beyond its silhouette; a pixel just outside it (all the object's
+    /// points on one side of its center) may show a surface the last frame
+    /// never sampled: where a sphere passes through the edge of a wall, a
+    /// 1-pixel sliver of the wall grows out from behind the sphere, none of
+    /// the wall's points land near it, and the ray meets the sphere inside
+    /// the wall behind the sliver. Such pixels take full traversal.
     pub depth_guard: bool,
     /// Relative margin of the depth guard (default 0.01, in `[0, 1)`):
     /// the one-object test accepts only hits nearer than
@@ -190,14 +212,22 @@ pub struct Params {
     /// just across the curve accepts the predicted object a few millimeters
     /// behind the other one. Such pixels take full traversal instead.
     pub guard_margin: f32,
-    /// Guard window radius `g` (default 2, at most [`MAX_SPLAT_RADIUS`];
+    /// Guard window radius `g` (default 3, at most [`MAX_SPLAT_RADIUS`];
     /// 0 turns it off; used with [`Params::depth_guard`]): after the splat,
     /// [`AipEntry::t_other`] of each pixel is lowered to the distance `t` of
     /// every entry within `g` pixels (Chebyshev) that holds another object.
-    /// A 1-pixel sliver of an object growing out from behind another where
-    /// the two meet (a sphere through the edge of a wall) can miss every
-    /// 3x3 splat of its own points by a pixel, and the splat order decides
-    /// which guards an entry sees; the window is order-independent.
+    /// A sub-pixel sliver of an object growing out from behind another
+    /// where the two meet can miss every splat of its own points, and the
+    /// splat order decides which guards an entry sees; the window is
+    /// order-independent. Where two surfaces touch almost tangentially (a
+    /// sphere through the edge of a doorway wall, the wall's corner edge
+    /// grazing the sphere) the visible part of the wall is a cusp that
+    /// narrows below a pixel: its nearest sampled points can lie 3 pixels
+    /// from a pixel center that the cusp now covers, at almost the
+    /// sphere's distance. With `g = 3` and the margin, such a pixel's
+    /// one-object test of the sphere is bounded below the wall and the pixel
+    /// takes full traversal (the Embree walkthrough of `cpp_tests` had 7
+    /// visibility errors there with `g = 2`, none with `g = 3`).
     pub guard_window: u32,
     /// The view-frustum check of Sec. 4.1 (default on). Off, reprojection
     /// also runs when the new eye left the previous view pyramid (moving
@@ -232,7 +262,7 @@ impl Default for Params {
             splat_radius: 1,
             depth_guard: true,
             guard_margin: 0.01,
-            guard_window: 2,
+            guard_window: 3,
             frustum_check: true,
             occlusion_check: true,
             resample_period: 9,
@@ -869,7 +899,7 @@ impl Splat<'_> {
                 // another object (the depth guard): something is there at
                 // distance t.
                 let object = entry.object;
-                self.for_each(x, y, |a| {
+                self.for_each(x, y, |a, _, _| {
                     a.flags |= AipEntry::OCCLUSION_REJECTED;
                     if a.object != object {
                         a.t_other = a.t_other.min(t);
@@ -880,25 +910,32 @@ impl Splat<'_> {
         }
         stats.splatted += 1;
         let object = entry.object;
-        self.for_each(x, y, |a| {
+        self.for_each(x, y, |a, ix, iy| {
+            // Side of the pixel center the point landed on.
+            let side = AipEntry::SURROUND_UP_LEFT
+                << (u32::from(px.x >= ix as f32 + 0.5) + 2 * u32::from(px.y >= iy as f32 + 0.5));
             if a.object == INVALID_OBJECT {
                 // First assignment.
                 a.object = object;
                 a.t = t;
                 a.cnt = 1;
+                a.flags |= side;
             } else if a.t >= t {
                 if a.object == object {
                     a.cnt += 1;
+                    a.flags |= side;
                 } else {
                     // Rewrite by the closer object; the old one's nearest
                     // point becomes the guard.
                     a.t_other = a.t_other.min(a.t);
                     a.object = object;
                     a.cnt = 1;
+                    a.flags = (a.flags & !AipEntry::SURROUNDED) | side;
                 }
                 a.t = t;
             } else if a.object == object {
                 a.cnt += 1;
+                a.flags |= side;
             } else {
                 a.t_other = a.t_other.min(t);
             }
@@ -906,17 +943,17 @@ impl Splat<'_> {
     }
 
     fn flag(&mut self, x: i64, y: i64, bit: u32) {
-        self.for_each(x, y, |a| a.flags |= bit);
+        self.for_each(x, y, |a, _, _| a.flags |= bit);
     }
 
     #[inline]
-    fn for_each(&mut self, x: i64, y: i64, mut f: impl FnMut(&mut AipEntry)) {
+    fn for_each(&mut self, x: i64, y: i64, mut f: impl FnMut(&mut AipEntry, i64, i64)) {
         let r = self.radius;
         let (w, h) = (self.width as i64, self.height as i64);
         for iy in (y - r).max(0)..=(y + r).min(h - 1) {
             let row = iy as usize * w as usize;
             for ix in (x - r).max(0)..=(x + r).min(w - 1) {
-                f(&mut self.aip[row + ix as usize]);
+                f(&mut self.aip[row + ix as usize], ix, iy);
             }
         }
     }
@@ -1006,9 +1043,11 @@ fn gcd(mut a: u32, mut b: u32) -> u32 {
 /// 3. a point near the pixel was dropped by the abrupt-motion test: full
 ///    traversal ([`Reason::Abrupt`]);
 /// 4. `cnt >= m_cnt`: test `aip.object` only, on `[0, tmax)` with `tmax`
-///    the depth guard ([`Reason::Reprojected`]); a background prediction
-///    with another object's point in its splat (finite `t_other`) takes
-///    full traversal instead when the guard is on;
+///    the depth guard ([`Reason::Reprojected`]); when the guard is on, a
+///    background prediction with another object's point in its splat
+///    (finite `t_other`) and any prediction whose points do not surround
+///    the pixel center ([`AipEntry::SURROUNDED`]) take full traversal
+///    instead;
 /// 5. otherwise full traversal ([`Reason::Failed`]).
 ///
 /// With [`Params::shift_origin`], a full traversal of a pixel whose entry
@@ -1064,6 +1103,11 @@ pub fn decide(aip: &AipEntry, x: u32, y: u32, frame: u32, params: &Params) -> De
         // depth guard, any other object's point in the splat sends the pixel
         // to full traversal.
         if aip.object == BACKGROUND_OBJECT && params.depth_guard && aip.t_other.is_finite() {
+            return traverse(Reason::Failed);
+        }
+        // Just outside the object's silhouette (its points on one side of
+        // the center only) the pixel may show a surface never sampled.
+        if params.depth_guard && aip.flags & AipEntry::SURROUNDED != AipEntry::SURROUNDED {
             return traverse(Reason::Failed);
         }
         return Decision {

@@ -247,7 +247,9 @@ fn pure_rotation_has_no_epipoles_and_no_occlusion_error() {
     let scene = occluder_scene();
     let o = run_pair(&scene, &c0, &c1, &Params::default());
     assert_eq!(o.errors, 0);
-    assert!(o.resolved as f64 > 0.6 * o.pixels as f64, "{o:?}");
+    // 1/9 resampled; the guard window (3 px around every silhouette of a
+    // nearer object) and the surround test take about 30% more.
+    assert!(o.resolved as f64 > 0.55 * o.pixels as f64, "{o:?}");
 }
 
 // ---------------------------------------------------------------------------
@@ -441,24 +443,39 @@ fn reproject_brute(pos: &[PosEntry], c0: &Camera, c1: &Camera, p: &Params) -> Ve
             for iy in (cy - r).max(0)..=(cy + r).min(h as i64 - 1) {
                 for ix in (cx - r).max(0)..=(cx + r).min(w as i64 - 1) {
                     let a = &mut aip[(iy * w as i64 + ix) as usize];
+                    // Surround bit: which side of the center (f64).
+                    let (ox, oy) = (
+                        f64::from(px.x) - (ix as f64 + 0.5),
+                        f64::from(px.y) - (iy as f64 + 0.5),
+                    );
+                    let side = match (ox >= 0.0, oy >= 0.0) {
+                        (false, false) => 16,
+                        (true, false) => 32,
+                        (false, true) => 64,
+                        (true, true) => 128,
+                    };
                     if a.object == INVALID_OBJECT {
                         *a = AipEntry {
                             object: entry.object,
                             t,
                             cnt: 1,
+                            flags: a.flags | side,
                             ..*a
                         };
                     } else if a.t >= t {
                         if a.object == entry.object {
                             a.cnt += 1;
+                            a.flags |= side;
                         } else {
                             a.t_other = a.t_other.min(a.t);
                             a.object = entry.object;
                             a.cnt = 1;
+                            a.flags = (a.flags & 0xF) | side;
                         }
                         a.t = t;
                     } else if a.object == entry.object {
                         a.cnt += 1;
+                        a.flags |= side;
                     } else {
                         a.t_other = a.t_other.min(t);
                     }
@@ -558,7 +575,25 @@ fn splat_counts_and_closer_object_overwrite() {
             }
         }
     }
-    // m_cnt decides: 2 points of object 3.
+    // m_cnt decides: 2 points of object 3 (without the depth guard: all
+    // points landed on one side of the center, which the guard refuses).
+    let d = decide(
+        &aip[4 * 9 + 4],
+        4,
+        4,
+        1,
+        &Params {
+            m_cnt: 2,
+            resample_period: 0,
+            depth_guard: false,
+            ..params
+        },
+    );
+    assert_eq!((d.object, d.reason), (3, Reason::Reprojected));
+    assert_ne!(
+        aip[4 * 9 + 4].flags & AipEntry::SURROUNDED,
+        AipEntry::SURROUNDED
+    );
     let d = decide(
         &aip[4 * 9 + 4],
         4,
@@ -570,7 +605,7 @@ fn splat_counts_and_closer_object_overwrite() {
             ..params
         },
     );
-    assert_eq!((d.object, d.reason), (3, Reason::Reprojected));
+    assert_eq!((d.object, d.reason), (INVALID_OBJECT, Reason::Failed));
     let d = decide(
         &aip[4 * 9 + 4],
         4,
@@ -579,6 +614,7 @@ fn splat_counts_and_closer_object_overwrite() {
         &Params {
             m_cnt: 3,
             resample_period: 0,
+            depth_guard: false,
             ..params
         },
     );
@@ -701,7 +737,7 @@ fn regular_resampling_slots_are_disjoint_and_cover_the_image() {
         t: 2.0,
         cnt: 9,
         t_other: f32::INFINITY,
-        flags: 0,
+        flags: AipEntry::SURROUNDED,
     };
     let p = Params::default();
     let mut resampled = 0;
@@ -921,7 +957,7 @@ fn depth_guard_margin_and_background_guard() {
         t: 9.0,
         cnt: 9,
         t_other: 10.0,
-        flags: 0,
+        flags: AipEntry::SURROUNDED,
     };
     // The one-object interval ends a relative margin before the nearest
     // point of another object.
@@ -963,5 +999,67 @@ fn depth_guard_margin_and_background_guard() {
             ..p
         };
         assert!(bad.validate().is_err(), "{m}");
+    }
+}
+
+#[test]
+fn predictions_must_surround_the_pixel_center() {
+    // Pure rotation (same camera): object 1 covers an L (x < 4 or y < 4)
+    // of a 12 x 12 image, nothing elsewhere. Pixel (4, 4), in the concave
+    // corner, gets 5 points (cnt = m_cnt) but all on its upper and left
+    // sides, none below-right: its center is outside the object. Interior pixels are
+    // surrounded.
+    let (w, h) = (12u32, 12u32);
+    let cam = camera(Vec3::ZERO, Vec3::new(0.0, 0.0, -1.0), w, h);
+    let mut pos = vec![PosEntry::INVALID; (w * h) as usize];
+    for y in 0..h {
+        for x in 0..w {
+            if x < 4 || y < 4 {
+                let ray = cam.primary_ray(Vec2::new(x as f32 + 0.5, y as f32 + 0.5));
+                pos[(y * w + x) as usize] = PosEntry::hit(ray.origin, ray.dir, 5.0, 1);
+            }
+        }
+    }
+    let params = Params {
+        resample_period: 0,
+        abrupt_frames: 0,
+        ..Params::default()
+    };
+    let mut aip = vec![AipEntry::EMPTY; (w * h) as usize];
+    let mut scratch = vec![0.0; scratch_len(w, h).unwrap()];
+    try_reproject(&mut aip, &mut scratch, &pos, &cam, &cam, &params).unwrap();
+    let corner = aip[(4 * w + 4) as usize];
+    assert_eq!((corner.object, corner.cnt), (1, 5));
+    // Below-left (64) and above-right (32) are reached, below-right not.
+    assert_eq!(corner.flags & AipEntry::SURROUNDED, 16 | 32 | 64);
+    let d = decide(&corner, 4, 4, 0, &params);
+    assert_eq!((d.object, d.reason), (INVALID_OBJECT, Reason::Failed));
+    let unguarded = Params {
+        depth_guard: false,
+        ..params
+    };
+    assert_eq!(
+        decide(&corner, 4, 4, 0, &unguarded).reason,
+        Reason::Reprojected
+    );
+    // Interior pixels: every side reached, one test of object 1.
+    for (x, y) in [(1u32, 1u32), (2, 6), (6, 2), (10, 1), (1, 10)] {
+        let a = aip[(y * w + x) as usize];
+        assert_eq!(
+            a.flags & AipEntry::SURROUNDED,
+            AipEntry::SURROUNDED,
+            "({x}, {y})"
+        );
+        let d = decide(&a, x, y, 0, &params);
+        assert_eq!((d.object, d.reason), (1, Reason::Reprojected), "({x}, {y})");
+    }
+    // Every one-object decision is a pixel whose own ray sees object 1.
+    for y in 0..h {
+        for x in 0..w {
+            let d = decide(&aip[(y * w + x) as usize], x, y, 0, &params);
+            if d.reason == Reason::Reprojected {
+                assert!(x < 4 || y < 4, "({x}, {y}) predicted outside the object");
+            }
+        }
     }
 }

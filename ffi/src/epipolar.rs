@@ -37,6 +37,14 @@ pub const REFL_EPIPOLAR_FLAG_OCCLUSION_REJECTED: u32 = 2;
 /// AIP flag: a point whose splat covers the pixel was discarded by the
 /// abrupt-motion test (Sec. 4.3.1).
 pub const REFL_EPIPOLAR_FLAG_ABRUPT_REJECTED: u32 = 4;
+/// AIP flag: a splatted point of the entry's object landed above-left of
+/// the pixel center; the next three bits (`<< 1`: above-right, `<< 2`:
+/// below-left, `<< 3`: below-right) the other sides.
+pub const REFL_EPIPOLAR_FLAG_SURROUND_UP_LEFT: u32 = 16;
+/// AIP flags: all four surround bits. With the depth guard on, a pixel is
+/// resolved by one ray/object test only when all four are set (the
+/// object's points surround the pixel center).
+pub const REFL_EPIPOLAR_FLAG_SURROUNDED: u32 = 0xF0;
 
 /// One entry of the POS buffer (seed 002 Sec. 3.1): what the ray of one
 /// pixel of the previous frame hit. Layout-identical to
@@ -95,7 +103,7 @@ pub struct refl_epipolar_params {
     /// Relative margin of the depth guard, in [0, 1); default 0.01: the
     /// one-object test accepts hits nearer than `t_other * (1 - margin)`.
     pub guard_margin: f32,
-    /// Guard window radius (default 2, at most
+    /// Guard window radius (default 3, at most
     /// `REFL_EPIPOLAR_MAX_SPLAT_RADIUS`, 0 off): after the splat each
     /// pixel's `t_other` is lowered to the `t` of the entries within this
     /// many pixels that hold another object.
@@ -181,6 +189,8 @@ const _: () = {
     assert!(REFL_EPIPOLAR_FLAG_NO_REPROJECTION == AipEntry::NO_REPROJECTION);
     assert!(REFL_EPIPOLAR_FLAG_OCCLUSION_REJECTED == AipEntry::OCCLUSION_REJECTED);
     assert!(REFL_EPIPOLAR_FLAG_ABRUPT_REJECTED == AipEntry::ABRUPT_REJECTED);
+    assert!(REFL_EPIPOLAR_FLAG_SURROUND_UP_LEFT == AipEntry::SURROUND_UP_LEFT);
+    assert!(REFL_EPIPOLAR_FLAG_SURROUNDED == AipEntry::SURROUNDED);
     assert!(size_of::<refl_epipolar_pos_entry>() == size_of::<PosEntry>());
     assert!(align_of::<refl_epipolar_pos_entry>() == align_of::<PosEntry>());
     assert!(size_of::<refl_epipolar_aip_entry>() == size_of::<AipEntry>());
