@@ -20,8 +20,9 @@
 //! * occlusion error (Sec. 4.2): points are reprojected in the
 //!   occlusion-compatible order of the two [`Epipole`]s (four quadrants of
 //!   the previous image, see [`Quadrants`]) and a point whose distance from
-//!   the new epipole breaks that order (per-row and per-column min/max
-//!   records) is discarded;
+//!   the new epipole breaks that order on its epipolar line (records per
+//!   angular bin of the lines, [`line_bins`]) behind a point nearer the
+//!   camera ([`OCCLUDER_GAP`]) is discarded;
 //! * undersampling (Sec. 4.3): regular resampling ([`resample_slot`]) and
 //!   the abrupt-motion test (Sec. 4.3.1, [`Params::abrupt_frames`]);
 //! * background (Sec. 5.2): empty pixels store a point of a camera-centered
@@ -32,8 +33,8 @@
 //!
 //! The method is conservative but not a proof: exactness rests on the
 //! samples of the last frame (an object thinner than a pixel that was missed
-//! can stay missed until regular resampling finds it, and the per-row and
-//! per-column occlusion records approximate the epipolar lines). Hosts
+//! can stay missed until regular resampling finds it, and the angular bins
+//! of the occlusion records approximate the epipolar lines). Hosts
 //! should measure visibility against full traversal, as the root package's
 //! report does.
 //!
@@ -577,8 +578,8 @@ impl Quadrants {
 }
 
 /// Floats of occlusion-check scratch for a `width x height` new image:
-/// per-column and per-row records on both sides of the epipole, over the
-/// image extended by [`MAX_SPLAT_RADIUS`] on each side.
+/// `(distance, t)` records of `w + h + 4 MAX_SPLAT_RADIUS` angular bins of
+/// the epipolar lines ([`line_bins`]), about one bin per border pixel.
 ///
 /// # Errors
 /// [`Error::InvalidArgument`] for a zero size or an overflowing count.
@@ -645,12 +646,17 @@ pub fn frustum_contains(previous: &Camera, eye: Vec3) -> bool {
 ///   [`Params::abrupt_frames`] `= N > 0` a point at signed distance `t` is
 ///   discarded if the eye moved more than `t / 2 / N`; with
 ///   [`Params::occlusion_check`] the points are visited in the epipolar
-///   order of [`Quadrants`] and one is discarded unless both its vertical
-///   distance from the new epipole's row and its horizontal distance from
-///   its column are at least (moving forward; at most when the order
-///   reverses) the extreme already recorded for its column and row on that
-///   side of the epipole; records restart with each quadrant (an epipolar
-///   line never leaves its quadrant).
+///   order of [`Quadrants`]; each angular bin of the epipolar lines through
+///   the new epipole ([`line_bins`]) records the distance from the epipole
+///   and the signed distance `t` of the last point kept on it, and a point
+///   is discarded when its distance from the epipole is below (moving
+///   forward; above when the order reverses) the record of its bin or an
+///   adjacent one while that record is nearer the camera by more than
+///   [`OCCLUDER_GAP`] `* t` (it fell behind a nearer point on its line: it
+///   is occluded). Without the depth test, points of neighboring lines of
+///   one surface, visited row by row rather than strictly by distance,
+///   would discard each other. Records restart with each quadrant (an
+///   epipolar line never leaves its quadrant).
 /// * Surviving points splat into the `(2r+1)^2` neighborhood exactly as
 ///   Alg. 1: an empty entry takes the point; a point not farther than the
 ///   entry's `t` lowers `t` and increments `cnt` for the same object or
@@ -713,7 +719,7 @@ pub fn try_reproject(
     };
     match (params.occlusion_check, epipoles) {
         (true, Some(e)) => {
-            let mut records = Records::new(scratch, w, h, e.current.pixel, e.increasing());
+            let mut records = LineRecords::new(scratch, w, h, e.current.pixel, e.increasing());
             let quads = Quadrants::new(w, h, e.previous.pixel, e.outward());
             for qi in 0..4 {
                 let q = quads.get(qi);
@@ -781,18 +787,75 @@ fn guard_window(aip: &mut [AipEntry], w: u32, h: u32, g: u32) {
     }
 }
 
-/// Per-column and per-row distance records of the occlusion check.
-struct Records<'a> {
-    /// Columns `[-R, w + R)`, two sides each (above, below), then rows
-    /// `[-R, h + R)`, two sides each (left, right).
+/// Relative depth gap of the occlusion check: a point that breaks the
+/// epipolar order is discarded only when the recorded point it fell behind
+/// is nearer the camera by more than this fraction of the point's distance.
+pub const OCCLUDER_GAP: f32 = 0.02;
+
+/// Angular bins of the epipolar lines through the new epipole (seed 002
+/// Sec. 4.2): `(axis, theta0, bins per radian, full circle)` for `len`
+/// bins over a `width x height` image padded by [`MAX_SPLAT_RADIUS`] + 1.
+/// An epipole inside the padded image takes the full circle from the +x
+/// axis; one outside it takes the angular range the padded image covers
+/// around the bisector of that range (an epipole at infinity gives a tiny
+/// range of almost parallel lines, resolved in f32 because the angle is
+/// measured from the bisector).
+pub fn line_bins(width: u32, height: u32, epipole: Vec2, len: usize) -> (Vec2, f32, f32, bool) {
+    let p = f64::from(MAX_SPLAT_RADIUS) + 1.0;
+    let (w, h) = (f64::from(width), f64::from(height));
+    let e = epipole.as_dvec2();
+    let inside = e.x > -p && e.x < w + p && e.y > -p && e.y < h + p;
+    let (axis, theta0, theta1) = if inside {
+        (
+            glam::DVec2::X,
+            -core::f64::consts::PI,
+            core::f64::consts::PI,
+        )
+    } else {
+        let u0 = (glam::DVec2::new(w * 0.5, h * 0.5) - e).normalize();
+        let (mut lo, mut hi) = (f64::INFINITY, f64::NEG_INFINITY);
+        for c in [
+            glam::DVec2::new(-p, -p),
+            glam::DVec2::new(w + p, -p),
+            glam::DVec2::new(-p, h + p),
+            glam::DVec2::new(w + p, h + p),
+        ] {
+            let d = c - e;
+            let a = libm::atan2(u0.perp_dot(d), u0.dot(d));
+            lo = lo.min(a);
+            hi = hi.max(a);
+        }
+        let mid = 0.5 * (lo + hi);
+        let r = glam::DVec2::new(libm::cos(mid), libm::sin(mid));
+        let axis = glam::DVec2::new(u0.x * r.x - u0.y * r.y, u0.x * r.y + u0.y * r.x);
+        let half = 0.5 * (hi - lo) * 1.001 + 1e-9;
+        (axis, -half, half)
+    };
+    (
+        axis.as_vec2(),
+        theta0 as f32,
+        (len as f64 / (theta1 - theta0)) as f32,
+        inside,
+    )
+}
+
+/// Per-epipolar-line records of the occlusion check: for each angular bin
+/// ([`line_bins`]) the distance from the new epipole and the signed
+/// distance `t` of the last point kept there.
+struct LineRecords<'a> {
     data: &'a mut [f32],
-    width: u32,
-    height: u32,
     epipole: Vec2,
+    /// Unit axis angles are measured from.
+    axis: Vec2,
+    /// Angle of the first bin and bins per radian.
+    theta0: f32,
+    scale: f32,
+    /// The bins cover the full circle (epipole inside the padded image).
+    full: bool,
     increasing: bool,
 }
 
-impl<'a> Records<'a> {
+impl<'a> LineRecords<'a> {
     fn new(
         scratch: &'a mut [f32],
         width: u32,
@@ -802,11 +865,14 @@ impl<'a> Records<'a> {
     ) -> Self {
         let pad = 2 * MAX_SPLAT_RADIUS as usize;
         let len = 2 * (width as usize + pad) + 2 * (height as usize + pad);
-        Records {
+        let (axis, theta0, scale, full) = line_bins(width, height, epipole, len / 2);
+        LineRecords {
             data: &mut scratch[..len],
-            width,
-            height,
             epipole,
+            axis,
+            theta0,
+            scale,
+            full,
             increasing,
         }
     }
@@ -820,33 +886,45 @@ impl<'a> Records<'a> {
         self.data.fill(init);
     }
 
-    /// Checks the point at pixel position `p` (pixel `(col, row)`, within
-    /// the padded image) against the record of its column (vertical
-    /// distance from the epipole's row, on its side) and of its row
-    /// (horizontal distance from the epipole's column, on its side), and
-    /// records it there when both pass.
+    /// Checks the point at pixel position `p` and signed distance `t`
+    /// against the records of its bin and the two adjacent ones (the lines
+    /// its splat can reach): it fails when it breaks the distance order of
+    /// a record nearer the camera by more than [`OCCLUDER_GAP`]; on success
+    /// it becomes its bin's record.
     #[inline]
-    fn check(&mut self, p: Vec2, col: i64, row: i64) -> bool {
-        let pad = i64::from(MAX_SPLAT_RADIUS);
-        let cols = self.width as i64 + 2 * pad;
-        let (ci, ri) = (col + pad, row + pad);
-        if ci < 0 || ci >= cols || ri < 0 || ri >= self.height as i64 + 2 * pad {
-            return false;
-        }
-        let dx = p.x - self.epipole.x;
-        let dy = p.y - self.epipole.y;
-        let c_idx = (2 * ci + i64::from(dy >= 0.0)) as usize;
-        let r_idx = (2 * cols + 2 * ri + i64::from(dx >= 0.0)) as usize;
-        let (ady, adx) = (dy.abs(), dx.abs());
-        let (cr, rr) = (self.data[c_idx], self.data[r_idx]);
-        let ok = if self.increasing {
-            ady >= cr && adx >= rr
+    fn check(&mut self, p: Vec2, t: f32) -> bool {
+        let d = p - self.epipole;
+        let a = self.axis.dot(d);
+        let b = self.axis.perp_dot(d);
+        let theta = libm::atan2f(b, a);
+        let n = (self.data.len() / 2) as i64;
+        let bin = libm::floorf((theta - self.theta0) * self.scale);
+        let bin = if bin > 0.0 {
+            (bin as i64).min(n - 1)
         } else {
-            ady <= cr && adx <= rr
+            0
         };
+        let dist = a * a + b * b;
+        let mut ok = true;
+        for k in bin - 1..=bin + 1 {
+            let k = if self.full {
+                k.rem_euclid(n)
+            } else if k < 0 || k >= n {
+                continue;
+            } else {
+                k
+            };
+            let r = self.data[2 * k as usize];
+            let order = if self.increasing {
+                dist >= r
+            } else {
+                dist <= r
+            };
+            ok &= order || !(self.data[2 * k as usize + 1] < t * (1.0 - OCCLUDER_GAP));
+        }
         if ok {
-            self.data[c_idx] = ady;
-            self.data[r_idx] = adx;
+            self.data[2 * bin as usize] = dist;
+            self.data[2 * bin as usize + 1] = t;
         }
         ok
     }
@@ -867,7 +945,7 @@ impl Splat<'_> {
     fn point(
         &mut self,
         entry: &PosEntry,
-        records: Option<&mut Records<'_>>,
+        records: Option<&mut LineRecords<'_>>,
         stats: &mut ReprojectStats,
     ) {
         if entry.object == INVALID_OBJECT {
@@ -893,7 +971,7 @@ impl Splat<'_> {
             return;
         }
         if let Some(rec) = records {
-            if !rec.check(px, x, y) {
+            if !rec.check(px, t) {
                 stats.occlusion_rejected += 1;
                 // The discarded point still bounds the one-object test of
                 // another object (the depth guard): something is there at

@@ -7,9 +7,9 @@
 
 use glam::{DVec3, Vec2, Vec3};
 use refl_core::epipolar::{
-    decide, frustum_contains, resample_slot, scratch_len, try_decide_rows, try_reproject, AipEntry,
-    Decision, Epipole, Epipoles, Params, PosEntry, Quadrants, Reason, Reprojector,
-    BACKGROUND_OBJECT, INVALID_OBJECT,
+    decide, frustum_contains, line_bins, resample_slot, scratch_len, try_decide_rows,
+    try_reproject, AipEntry, Decision, Epipole, Epipoles, Params, PosEntry, Quadrants, Reason,
+    Reprojector, BACKGROUND_OBJECT, INVALID_OBJECT, OCCLUDER_GAP,
 };
 use refl_core::{Camera, Error, RowRange};
 
@@ -382,9 +382,11 @@ fn reproject_brute(pos: &[PosEntry], c0: &Camera, c1: &Camera, p: &Params) -> Ve
     let order = order_by_sort(w, h, e.previous.pixel, e.outward());
     let r = p.splat_radius as i64;
     let proj = Reprojector::new(c1);
+    let bins = scratch_len(w, h).unwrap() / 2;
+    let (axis, theta0, scale, full) = line_bins(w, h, e.current.pixel, bins);
     for quad in order {
-        // Kept points of this quadrant: (column, row, |dy|, |dx|, below, right).
-        let mut kept: Vec<(i64, i64, f32, f32, bool, bool)> = Vec::new();
+        // Kept points of this quadrant, in order: (bin, distance^2, t).
+        let mut kept: Vec<(i64, f32, f32)> = Vec::new();
         for (x, y) in quad {
             let entry = pos[(y * w + x) as usize];
             if entry.object == INVALID_OBJECT {
@@ -408,23 +410,26 @@ fn reproject_brute(pos: &[PosEntry], c0: &Camera, c1: &Camera, p: &Params) -> Ve
                 flag(&mut aip, AipEntry::ABRUPT_REJECTED);
                 continue;
             }
-            let dy = px.y - e.current.pixel.y;
-            let dx = px.x - e.current.pixel.x;
-            let (below, right) = (dy >= 0.0, dx >= 0.0);
-            let ok = kept.iter().all(|&(kx, ky, kdy, kdx, kb, kr)| {
-                let col_ok = !(kx == cx && kb == below)
-                    || if e.increasing() {
-                        dy.abs() >= kdy
-                    } else {
-                        dy.abs() <= kdy
-                    };
-                let row_ok = !(ky == cy && kr == right)
-                    || if e.increasing() {
-                        dx.abs() >= kdx
-                    } else {
-                        dx.abs() <= kdx
-                    };
-                col_ok && row_ok
+            let d = px - e.current.pixel;
+            let (a, b) = (axis.dot(d), axis.perp_dot(d));
+            let bin = ((libm::atan2f(b, a) - theta0) * scale)
+                .floor()
+                .clamp(0.0, (bins - 1) as f32) as i64;
+            let dist = a * a + b * b;
+            // Every adjacent bin's last kept point, found by scanning.
+            let ok = (bin - 1..=bin + 1).all(|k| {
+                let k = if full { k.rem_euclid(bins as i64) } else { k };
+                match kept.iter().rev().find(|p| p.0 == k) {
+                    None => true,
+                    Some(&(_, kd, kt)) => {
+                        let in_order = if e.increasing() {
+                            dist >= kd
+                        } else {
+                            dist <= kd
+                        };
+                        in_order || kt >= t * (1.0 - OCCLUDER_GAP)
+                    }
+                }
             });
             if !ok {
                 // Flag, and the discarded point guards other objects.
@@ -439,7 +444,7 @@ fn reproject_brute(pos: &[PosEntry], c0: &Camera, c1: &Camera, p: &Params) -> Ve
                 }
                 continue;
             }
-            kept.push((cx, cy, dy.abs(), dx.abs(), below, right));
+            kept.push((bin, dist, t));
             for iy in (cy - r).max(0)..=(cy + r).min(h as i64 - 1) {
                 for ix in (cx - r).max(0)..=(cx + r).min(w as i64 - 1) {
                     let a = &mut aip[(iy * w as i64 + ix) as usize];
