@@ -107,6 +107,10 @@ impl LayeredScene {
                 continue;
             }
             let t_max = best.map_or(f32::INFINITY, |(_, h)| h.t);
+            if !(t_max > 0.0) {
+                // A hit at the ray's origin: nothing can be nearer.
+                break;
+            }
             let tr = o.map().trace(ray, t_max, params)?;
             fetches += tr.work().fetches;
             if let Some(h) = tr.hit() {
