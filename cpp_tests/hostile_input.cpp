@@ -623,6 +623,193 @@ void image_functions() {
     }
 }
 
+// Seed 002 (reprojected ray casting): params, scratch size, reprojection,
+// decisions per row range.
+void epipolar_functions() {
+    const refl_camera g = good_camera();  // 64 x 48
+    const uint32_t w = g.width, h = g.height;
+    const size_t n = size_t(w) * h;
+
+    const refl_epipolar_params p =
+        expect_ok<refl_epipolar_params>("epipolar_params_default", [](refl_epipolar_params* o) {
+            return refl_epipolar_params_default(o);
+        });
+    CHECK(p.m_cnt == 5 && p.splat_radius == 1 && p.resample_period == 9);
+    CHECK_STATUS(refl_epipolar_params_default(nullptr), REFL_STATUS_NULL_POINTER);
+
+    const size_t sl = expect_ok<size_t>("epipolar_scratch_len",
+                                        [&](size_t* o) { return refl_epipolar_scratch_len(o, w, h); });
+    CHECK(sl >= 2 * size_t(w + h));
+    const uint32_t bad_sizes[][2] = {{0, 1}, {1, 0}, {0, 0}};
+    for (const auto& s : bad_sizes)
+        expect<size_t>("epipolar_scratch_len bad", REFL_STATUS_INVALID_ARGUMENT,
+                       [&](size_t* o) { return refl_epipolar_scratch_len(o, s[0], s[1]); });
+
+    // POS: every pixel a point 5 units along its ray, object 0.
+    std::vector<refl_epipolar_pos_entry> pos(n);
+    for (uint32_t y = 0; y < h; ++y)
+        for (uint32_t x = 0; x < w; ++x) {
+            refl_ray r{};
+            REQUIRE(refl_camera_primary_ray(&r, &g, v2(float(x) + 0.5f, float(y) + 0.5f)) == REFL_STATUS_OK);
+            refl_epipolar_pos_entry& e = pos[size_t(y) * w + x];
+            e.point[0] = r.origin.x + 5.0f * r.dir.x;
+            e.point[1] = r.origin.y + 5.0f * r.dir.y;
+            e.point[2] = r.origin.z + 5.0f * r.dir.z;
+            e.object = 0;
+            e.t = 5.0f;
+        }
+    refl_camera g2 = g;  // moved slightly forward
+    g2.view.m[14] += 0.01f;
+    const refl_epipolar_aip_entry sentinel{7u, 3.0f, 9u, 4.0f, 0u};
+    struct AipCase {
+        std::vector<refl_epipolar_aip_entry> aip;
+        std::vector<float> scratch;
+        refl_epipolar_stats stats;
+        AipCase(size_t n, size_t sl, refl_epipolar_aip_entry s) : aip(n, s), scratch(sl, -1.0f), stats{} {
+            stats.points = 77;
+        }
+    };
+    auto reproject = [&](const char* what, refl_status want, auto call) {
+        AipCase c(n + 1, sl + 1, sentinel);
+        const uint32_t got = call(c);
+        ++check::checks();
+        bool untouched = c.stats.points == 77;
+        for (const auto& a : c.aip)
+            untouched = untouched && a.object == 7u && a.cnt == 9u && a.t == 3.0f && a.flags == 0u;
+        if (got != static_cast<uint32_t>(want) || !untouched)
+            check::fail(__FILE__, __LINE__,
+                        std::string("epipolar_reproject ") + what + ": got " + check::status_name(got) +
+                            ", expected " + check::status_name(want) + (untouched ? "" : ", and aip was written"));
+    };
+    auto rep = [&](size_t aip_len, size_t scratch_len, const refl_epipolar_pos_entry* pp, size_t pos_len,
+                   const refl_camera* prev, const refl_camera* cur, const refl_epipolar_params* par) {
+        return [=](AipCase& c) {
+            return refl_epipolar_reproject(c.aip.data(), aip_len, c.scratch.data(), scratch_len, &c.stats, pp,
+                                           pos_len, prev, cur, par);
+        };
+    };
+    {
+        AipCase c(n, sl, sentinel);
+        CHECK_STATUS(refl_epipolar_reproject(c.aip.data(), n, c.scratch.data(), sl, &c.stats, pos.data(), n, &g,
+                                             &g2, &p),
+                     REFL_STATUS_OK);
+        CHECK(c.stats.points == n && c.stats.splatted > 0);
+    }
+    reproject("NULL pos", REFL_STATUS_NULL_POINTER, rep(n, sl, nullptr, n, &g, &g2, &p));
+    reproject("NULL previous", REFL_STATUS_NULL_POINTER, rep(n, sl, pos.data(), n, nullptr, &g2, &p));
+    reproject("NULL current", REFL_STATUS_NULL_POINTER, rep(n, sl, pos.data(), n, &g, nullptr, &p));
+    reproject("NULL params", REFL_STATUS_NULL_POINTER, rep(n, sl, pos.data(), n, &g, &g2, nullptr));
+    reproject("NULL aip", REFL_STATUS_NULL_POINTER, [&](AipCase& c) {
+        return refl_epipolar_reproject(nullptr, n, c.scratch.data(), sl, &c.stats, pos.data(), n, &g, &g2, &p);
+    });
+    reproject("NULL scratch", REFL_STATUS_NULL_POINTER, [&](AipCase& c) {
+        return refl_epipolar_reproject(c.aip.data(), n, nullptr, sl, &c.stats, pos.data(), n, &g, &g2, &p);
+    });
+    reproject("NULL stats", REFL_STATUS_NULL_POINTER, [&](AipCase& c) {
+        return refl_epipolar_reproject(c.aip.data(), n, c.scratch.data(), sl, nullptr, pos.data(), n, &g, &g2, &p);
+    });
+    reproject("short aip", REFL_STATUS_INSUFFICIENT_SIZE, rep(n - 1, sl, pos.data(), n, &g, &g2, &p));
+    reproject("aip len 0", REFL_STATUS_INSUFFICIENT_SIZE, rep(0, sl, pos.data(), n, &g, &g2, &p));
+    reproject("short scratch", REFL_STATUS_INSUFFICIENT_SIZE, rep(n, sl - 1, pos.data(), n, &g, &g2, &p));
+    reproject("short pos", REFL_STATUS_INSUFFICIENT_SIZE, rep(n, sl, pos.data(), n - 1, &g, &g2, &p));
+    reproject("aip len SIZE_MAX", REFL_STATUS_INVALID_ARGUMENT, rep(SIZE_MAX, sl, pos.data(), n, &g, &g2, &p));
+    for (const BadCamera& b : bad_cameras()) {
+        reproject(b.name, b.status, rep(n, sl, pos.data(), n, &b.cam, &g2, &p));
+        reproject(b.name, b.status, rep(n, sl, pos.data(), n, &g, &b.cam, &p));
+    }
+    refl_camera other_size = g;
+    other_size.width = w + 1;
+    reproject("camera sizes differ", REFL_STATUS_INVALID_ARGUMENT,
+              rep(n + 1, sl + 1, pos.data(), n, &g, &other_size, &p));
+    std::vector<refl_epipolar_params> bad_params;
+    auto bad_param = [&](auto edit) {
+        refl_epipolar_params q = p;
+        edit(q);
+        bad_params.push_back(q);
+    };
+    bad_param([](refl_epipolar_params& q) { q.m_cnt = 0; });
+    bad_param([](refl_epipolar_params& q) { q.splat_radius = REFL_EPIPOLAR_MAX_SPLAT_RADIUS + 1; });
+    bad_param([](refl_epipolar_params& q) { q.splat_radius = kMax; });
+    bad_param([](refl_epipolar_params& q) { q.depth_guard = 2; });
+    bad_param([](refl_epipolar_params& q) { q.frustum_check = kMax; });
+    bad_param([](refl_epipolar_params& q) { q.occlusion_check = 0x80000000u; });
+    bad_param([](refl_epipolar_params& q) { q.shift_origin = 3; });
+    bad_param([](refl_epipolar_params& q) { q.shift_epsilon = kNaN; });
+    bad_param([](refl_epipolar_params& q) { q.shift_epsilon = kInf; });
+    bad_param([](refl_epipolar_params& q) { q.shift_epsilon = -1.0f; });
+    bad_param([](refl_epipolar_params& q) { q.guard_margin = kNaN; });
+    bad_param([](refl_epipolar_params& q) { q.guard_window = REFL_EPIPOLAR_MAX_SPLAT_RADIUS + 1; });
+    bad_param([](refl_epipolar_params& q) { q.guard_margin = 1.0f; });
+    bad_param([](refl_epipolar_params& q) { q.guard_margin = -0.5f; });
+    for (const auto& q : bad_params)
+        reproject("bad params", REFL_STATUS_INVALID_ARGUMENT, rep(n, sl, pos.data(), n, &g, &g2, &q));
+    reproject("scratch overlaps aip", REFL_STATUS_INVALID_ARGUMENT, [&](AipCase& c) {
+        return refl_epipolar_reproject(c.aip.data(), n, reinterpret_cast<float*>(c.aip.data()), sl, &c.stats,
+                                       pos.data(), n, &g, &g2, &p);
+    });
+    reproject("misaligned scratch", REFL_STATUS_INVALID_ARGUMENT, [&](AipCase& c) {
+        return refl_epipolar_reproject(
+            c.aip.data(), n, reinterpret_cast<float*>(reinterpret_cast<unsigned char*>(c.scratch.data()) + 1),
+            sl, &c.stats, pos.data(), n, &g, &g2, &p);
+    });
+    // NaN points are dropped (behind/outside), never undefined.
+    {
+        std::vector<refl_epipolar_pos_entry> nan_pos = pos;
+        for (auto& e : nan_pos) e.point[0] = kNaN;
+        AipCase c(n, sl, sentinel);
+        CHECK_STATUS(refl_epipolar_reproject(c.aip.data(), n, c.scratch.data(), sl, &c.stats, nan_pos.data(), n,
+                                             &g, &g2, &p),
+                     REFL_STATUS_OK);
+        CHECK(c.stats.splatted == 0);
+    }
+
+    // refl_epipolar_decide_rows
+    std::vector<refl_epipolar_aip_entry> aip(n, refl_epipolar_aip_entry{REFL_EPIPOLAR_INVALID_OBJECT, kInf, 0u, kInf,
+                                                                        REFL_EPIPOLAR_FLAG_NO_REPROJECTION});
+    const refl_epipolar_decision dsent{12345u, -1.0f, -2.0f, 99u};
+    auto decide = [&](const char* what, refl_status want, auto call) {
+        std::vector<refl_epipolar_decision> out(n + 1, dsent);
+        const uint32_t got = call(out.data());
+        ++check::checks();
+        bool untouched = true;
+        for (const auto& d : out) untouched = untouched && d.object == 12345u && d.reason == 99u;
+        if (got != static_cast<uint32_t>(want) || !untouched)
+            check::fail(__FILE__, __LINE__,
+                        std::string("epipolar_decide_rows ") + what + ": got " + check::status_name(got) +
+                            ", expected " + check::status_name(want) + (untouched ? "" : ", and out was written"));
+    };
+    auto dec = [&](size_t out_len, const refl_epipolar_aip_entry* a, size_t aip_len, uint32_t width, uint32_t b,
+                   uint32_t e, const refl_epipolar_params* par) {
+        return [=](refl_epipolar_decision* o) {
+            return refl_epipolar_decide_rows(o, out_len, a, aip_len, width, b, e, 0, par);
+        };
+    };
+    {
+        std::vector<refl_epipolar_decision> out(n, dsent);
+        CHECK_STATUS(refl_epipolar_decide_rows(out.data(), n, aip.data(), n, w, 1, 3, 0, &p), REFL_STATUS_OK);
+        CHECK(out[0].reason == 99u && out[w].reason == REFL_EPIPOLAR_REASON_UNAVAILABLE &&
+              out[3 * w].reason == 99u);
+    }
+    decide("NULL out", REFL_STATUS_NULL_POINTER,
+           [&](refl_epipolar_decision*) { return dec(n, aip.data(), n, w, 0, h, &p)(nullptr); });
+    decide("NULL aip", REFL_STATUS_NULL_POINTER, dec(n, nullptr, n, w, 0, h, &p));
+    decide("NULL params", REFL_STATUS_NULL_POINTER, dec(n, aip.data(), n, w, 0, h, nullptr));
+    decide("short out", REFL_STATUS_INSUFFICIENT_SIZE, dec(n - 1, aip.data(), n, w, 0, h, &p));
+    decide("short aip", REFL_STATUS_INSUFFICIENT_SIZE, dec(n, aip.data(), n - 1, w, 0, h, &p));
+    decide("rows beyond aip", REFL_STATUS_INSUFFICIENT_SIZE, dec(n, aip.data(), n, w, 0, h + 1, &p));
+    decide("width 0", REFL_STATUS_INVALID_ARGUMENT, dec(n, aip.data(), n, 0, 0, h, &p));
+    const uint32_t bad_rows[][2] = {{0, 0}, {3, 3}, {4, 2}, {kMax, kMax}};
+    for (const auto& r : bad_rows)
+        decide("rows", REFL_STATUS_INVALID_ARGUMENT, dec(n, aip.data(), n, w, r[0], r[1], &p));
+    decide("width * rows overflow", sizeof(size_t) == 8 ? REFL_STATUS_INSUFFICIENT_SIZE : REFL_STATUS_INVALID_ARGUMENT,
+           dec(n, aip.data(), n, kMax, 0, kMax, &p));
+    for (const auto& q : bad_params) decide("bad params", REFL_STATUS_INVALID_ARGUMENT, dec(n, aip.data(), n, w, 0, h, &q));
+    decide("out overlaps aip", REFL_STATUS_INVALID_ARGUMENT, [&](refl_epipolar_decision*) {
+        return refl_epipolar_decide_rows(reinterpret_cast<refl_epipolar_decision*>(aip.data()), n, aip.data(), n, w,
+                                         0, h, 0, &p);
+    });
+}
+
 // Layered depth cube maps (seed 001): size query, column rays, filling,
 // tracing, PRR classification.
 void layered_functions() {
@@ -1714,6 +1901,7 @@ int main() {
     camera_functions();
     plane_functions();
     image_functions();
+    epipolar_functions();
     step_functions();
     layered_functions();
     refine_functions();

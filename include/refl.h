@@ -32,6 +32,57 @@
 
 
 /**
+ * Object id meaning "no object": an unused POS entry (never reprojected)
+ * or an AIP entry no point reached; in a decision, "full traversal".
+ */
+#define REFL_EPIPOLAR_INVALID_OBJECT 4294967295
+
+/**
+ * Object id of the background sphere (seed 002 Sec. 5.2): store it in the
+ * POS entry of a pixel whose ray hit nothing, with the point at a fixed
+ * distance (larger than any scene distance) along the ray. A decision to
+ * test this object means the pixel is background.
+ */
+#define REFL_EPIPOLAR_BACKGROUND_OBJECT 4294967294
+
+/**
+ * Largest splat radius (`refl_epipolar_params.splat_radius`): 7x7.
+ */
+#define REFL_EPIPOLAR_MAX_SPLAT_RADIUS 3
+
+/**
+ * AIP flag: no reprojection ran this frame (first frame, or the
+ * view-frustum check failed); every pixel takes full traversal.
+ */
+#define REFL_EPIPOLAR_FLAG_NO_REPROJECTION 1
+
+/**
+ * AIP flag: a point whose splat covers the pixel was discarded by the
+ * occlusion check (Sec. 4.2).
+ */
+#define REFL_EPIPOLAR_FLAG_OCCLUSION_REJECTED 2
+
+/**
+ * AIP flag: a point whose splat covers the pixel was discarded by the
+ * abrupt-motion test (Sec. 4.3.1).
+ */
+#define REFL_EPIPOLAR_FLAG_ABRUPT_REJECTED 4
+
+/**
+ * AIP flag: a splatted point of the entry's object landed above-left of
+ * the pixel center; the next three bits (`<< 1`: above-right, `<< 2`:
+ * below-left, `<< 3`: below-right) the other sides.
+ */
+#define REFL_EPIPOLAR_FLAG_SURROUND_UP_LEFT 16
+
+/**
+ * AIP flags: all four surround bits. With the depth guard on, a pixel is
+ * resolved by one ray/object test only when all four are set (the
+ * object's points surround the pixel center).
+ */
+#define REFL_EPIPOLAR_FLAG_SURROUNDED 240
+
+/**
  * Major version of the header this library was built with; compare with
  * `refl_version_number()` at run time to detect a header/library mismatch.
  */
@@ -367,6 +418,44 @@ typedef uint32_t refl_tcrr_fresnel;
 #endif // __cplusplus
 
 /**
+ * Why a pixel takes the path its decision names (seed 002 Fig. 6).
+ */
+enum refl_epipolar_reason
+#if defined(__cplusplus) || __STDC_VERSION__ >= 202311L
+  : uint32_t
+#endif // defined(__cplusplus) || __STDC_VERSION__ >= 202311L
+ {
+    /**
+     * Reprojection predicts the object: one ray/object test.
+     */
+    REFL_EPIPOLAR_REASON_REPROJECTED = 0,
+    /**
+     * Too few points reached the pixel: full traversal.
+     */
+    REFL_EPIPOLAR_REASON_FAILED = 1,
+    /**
+     * Regular resampling picked the pixel this frame: full traversal.
+     */
+    REFL_EPIPOLAR_REASON_RESAMPLED = 2,
+    /**
+     * A point near the pixel was discarded for abrupt motion: full
+     * traversal.
+     */
+    REFL_EPIPOLAR_REASON_ABRUPT = 3,
+    /**
+     * No reprojection this frame: full traversal.
+     */
+    REFL_EPIPOLAR_REASON_UNAVAILABLE = 4,
+};
+#ifndef __cplusplus
+#if __STDC_VERSION__ >= 202311L
+typedef enum refl_epipolar_reason refl_epipolar_reason;
+#else
+typedef uint32_t refl_epipolar_reason;
+#endif // __STDC_VERSION__ >= 202311L
+#endif // __cplusplus
+
+/**
  * A 4x4 float matrix, column-major: element (row r, column c) is
  * `m[4 * c + r]`, the layout of OpenGL and glam. Points are column vectors
  * multiplied on the right (`p' = M p`).
@@ -490,6 +579,185 @@ typedef struct refl_projection {
      */
     bool valid;
 } refl_projection;
+
+/**
+ * Parameters of the reprojection and rendering phases
+ * (`refl_epipolar_params_default` gives the defaults). Booleans are
+ * `uint32_t` 0 or 1; any other value is `REFL_STATUS_INVALID_ARGUMENT`.
+ */
+typedef struct refl_epipolar_params {
+    /**
+     * `m_cnt` of Sec. 3.3: a pixel is resolved by one ray/object test when
+     * at least this many points of its object reached it. >= 1; default 5.
+     */
+    uint32_t m_cnt;
+    /**
+     * Splat radius r: a (2r+1)^2 kernel; 1 (3x3, the paper's) by default;
+     * at most `REFL_EPIPOLAR_MAX_SPLAT_RADIUS`.
+     */
+    uint32_t splat_radius;
+    /**
+     * Depth guard (default 1): the one-object test only accepts a hit
+     * nearer than `refl_epipolar_aip_entry.t_other`.
+     */
+    uint32_t depth_guard;
+    /**
+     * Relative margin of the depth guard, in [0, 1); default 0.01: the
+     * one-object test accepts hits nearer than `t_other * (1 - margin)`.
+     */
+    float guard_margin;
+    /**
+     * Guard window radius (default 3, at most
+     * `REFL_EPIPOLAR_MAX_SPLAT_RADIUS`, 0 off): after the splat each
+     * pixel's `t_other` is lowered to the `t` of the entries within this
+     * many pixels that hold another object.
+     */
+    uint32_t guard_window;
+    /**
+     * View-frustum check of Sec. 4.1 (default 1).
+     */
+    uint32_t frustum_check;
+    /**
+     * Epipolar ordering and occlusion check of Sec. 4.2 (default 1).
+     */
+    uint32_t occlusion_check;
+    /**
+     * N of regular resampling (Sec. 4.3); 0 turns it off. Default 9.
+     */
+    uint32_t resample_period;
+    /**
+     * N of the abrupt-motion test (Sec. 4.3.1); 0 turns it off. Default 9.
+     */
+    uint32_t abrupt_frames;
+    /**
+     * Shifted ray origin of Sec. 5.3 for fallback rays (default 0).
+     */
+    uint32_t shift_origin;
+    /**
+     * The epsilon of Sec. 5.3, world units, finite and >= 0.
+     */
+    float shift_epsilon;
+} refl_epipolar_params;
+
+/**
+ * One entry of the AIP buffer (seed 002 Sec. 3.1, Alg. 1), written by
+ * `refl_epipolar_reproject`. Before the first frame (no POS yet) fill it
+ * with `{REFL_EPIPOLAR_INVALID_OBJECT, INFINITY, 0, INFINITY,
+ * REFL_EPIPOLAR_FLAG_NO_REPROJECTION}`. Layout-identical to
+ * `refl_core::epipolar::AipEntry`.
+ */
+typedef struct refl_epipolar_aip_entry {
+    /**
+     * Object reprojected to the pixel, or `REFL_EPIPOLAR_INVALID_OBJECT`.
+     */
+    uint32_t object;
+    /**
+     * Smallest signed distance from the new eye of the points splatted
+     * here; +infinity when none.
+     */
+    float t;
+    /**
+     * Number of points of `object` splatted here (`cnt` of Alg. 1).
+     */
+    uint32_t cnt;
+    /**
+     * Depth guard: the smallest signed distance of a point of another
+     * object splatted here; +infinity when none.
+     */
+    float t_other;
+    /**
+     * Bit set of `REFL_EPIPOLAR_FLAG_*`.
+     */
+    uint32_t flags;
+} refl_epipolar_aip_entry;
+
+/**
+ * Counts of one reprojection phase.
+ */
+typedef struct refl_epipolar_stats {
+    /**
+     * POS entries holding a point.
+     */
+    uint32_t points;
+    /**
+     * Points splatted into the AIP.
+     */
+    uint32_t splatted;
+    /**
+     * Points at or behind the new eye plane (dropped).
+     */
+    uint32_t behind;
+    /**
+     * Points whose splat misses the new image.
+     */
+    uint32_t outside;
+    /**
+     * Points discarded by the occlusion check.
+     */
+    uint32_t occlusion_rejected;
+    /**
+     * Points discarded by the abrupt-motion test.
+     */
+    uint32_t abrupt_rejected;
+    /**
+     * 1 if the view-frustum check failed and nothing was reprojected.
+     */
+    uint32_t frustum_failed;
+    /**
+     * 1 if the eyes coincide (pure rotation; no occlusion check needed).
+     */
+    uint32_t no_baseline;
+} refl_epipolar_stats;
+
+/**
+ * One entry of the POS buffer (seed 002 Sec. 3.1): what the ray of one
+ * pixel of the previous frame hit. Layout-identical to
+ * `refl_core::epipolar::PosEntry`.
+ */
+typedef struct refl_epipolar_pos_entry {
+    /**
+     * World-space hit point (`eye + t * unit direction`).
+     */
+    float point[3];
+    /**
+     * Object id of the hit (the host's numbering, below
+     * `REFL_EPIPOLAR_BACKGROUND_OBJECT`); `REFL_EPIPOLAR_BACKGROUND_OBJECT`
+     * for a background-sphere point; `REFL_EPIPOLAR_INVALID_OBJECT` for
+     * "nothing stored" (skipped).
+     */
+    uint32_t object;
+    /**
+     * Signed distance from the eye to `point` along the ray.
+     */
+    float t;
+} refl_epipolar_pos_entry;
+
+/**
+ * The rendering-phase decision for one pixel (seed 002 Alg. 2).
+ */
+typedef struct refl_epipolar_decision {
+    /**
+     * The one object to test, or `REFL_EPIPOLAR_INVALID_OBJECT` for full
+     * traversal; `REFL_EPIPOLAR_BACKGROUND_OBJECT` means background. When
+     * the test of a scene object finds no hit in `[0, tmax)`, fall back
+     * to full traversal from `tmin`.
+     */
+    uint32_t object;
+    /**
+     * End of the interval of the one-object test (the depth guard, or
+     * +infinity).
+     */
+    float tmax;
+    /**
+     * Ray distance at which a full traversal of this pixel may start
+     * (0, or with `shift_origin` the AIP distance minus epsilon).
+     */
+    float tmin;
+    /**
+     * A `refl_epipolar_reason` value.
+     */
+    uint32_t reason;
+} refl_epipolar_decision;
 
 /**
  * Where one pyramid level lives in the buffer: texels `offset` to
@@ -1903,6 +2171,101 @@ refl_status refl_apply_reprojection(struct refl_projection *out,
                                     const struct refl_mat4 *matrix,
                                     struct refl_vec2 pixel,
                                     float depth);
+
+/**
+ * Writes to `*out` the default parameters (m_cnt 5, 3x3 splat, depth
+ * guard, view-frustum and occlusion checks on, N = 9 for resampling and
+ * the abrupt-motion test, no shifted origin, epsilon 1e-3).
+ *
+ * Returns `REFL_STATUS_NULL_POINTER` if `out` is NULL.
+ *
+ * # Safety
+ * `out` must be NULL or point to a writable `refl_epipolar_params`.
+ */
+refl_status refl_epipolar_params_default(struct refl_epipolar_params *out);
+
+/**
+ * Writes to `*out_len` the number of floats of occlusion-check scratch
+ * `refl_epipolar_reproject` needs for a `width x height` image. The POS
+ * and AIP buffers hold `width * height` entries each.
+ *
+ * Returns `REFL_STATUS_NULL_POINTER` if `out_len` is NULL;
+ * `REFL_STATUS_INVALID_ARGUMENT` for a zero size or a count that does not
+ * fit in `size_t`.
+ *
+ * # Safety
+ * `out_len` must be NULL or point to a writable `size_t`.
+ */
+refl_status refl_epipolar_scratch_len(size_t *out_len, uint32_t width, uint32_t height);
+
+/**
+ * The reprojection phase (seed 002 Alg. 1 with Secs. 4.1, 4.2, 4.3.1):
+ * fills `aip` (`current`'s `width * height` pixels, row-major) from `pos`
+ * (`previous`'s pixels, row-major) and writes the counts to `*out_stats`.
+ * If the view-frustum check is on and `current`'s eye is outside
+ * `previous`'s view pyramid, every AIP entry gets
+ * `REFL_EPIPOLAR_FLAG_NO_REPROJECTION`. The pass is sequential (the
+ * epipolar order is); `refl_epipolar_decide_rows` then runs per row band.
+ *
+ * Returns `REFL_STATUS_NULL_POINTER` if any pointer is NULL;
+ * `REFL_STATUS_INVALID_ARGUMENT` for invalid params (a boolean not 0/1,
+ * `m_cnt == 0`, a splat radius above the maximum, a bad epsilon), cameras
+ * of different sizes, a misaligned pointer or overlapping buffers;
+ * `REFL_STATUS_INSUFFICIENT_SIZE` if `aip_len` or `pos_len` is below
+ * `width * height` or `scratch_len` below `refl_epipolar_scratch_len`;
+ * a camera's status if it is invalid. On error nothing is written.
+ *
+ * # Safety
+ * `aip` must be writable for `aip_len` entries, `scratch` for
+ * `scratch_len` floats, `pos` readable for `pos_len` entries, the other
+ * pointers NULL or valid for one value, for the duration of the call,
+ * with no other thread accessing them.
+ */
+refl_status refl_epipolar_reproject(struct refl_epipolar_aip_entry *aip,
+                                    size_t aip_len,
+                                    float *scratch,
+                                    size_t scratch_len,
+                                    struct refl_epipolar_stats *out_stats,
+                                    const struct refl_epipolar_pos_entry *pos,
+                                    size_t pos_len,
+                                    const struct refl_camera *previous,
+                                    const struct refl_camera *current,
+                                    const struct refl_epipolar_params *params);
+
+/**
+ * The rendering-phase decisions (seed 002 Alg. 2) of rows
+ * `[row_begin, row_end)` of frame `frame` of a `width`-wide image:
+ * `out[y * width + x]` from `aip[y * width + x]` (other entries are not
+ * touched). Hosts split the image into row bands (`refl_row_band`) and
+ * decide and trace them on their own threads.
+ *
+ * Per pixel: no reprojection -> full traversal (`UNAVAILABLE`); the
+ * pixel's regular-resampling slot is `frame mod N` -> full traversal
+ * (`RESAMPLED`); an abrupt-motion flag -> full traversal (`ABRUPT`);
+ * `cnt >= m_cnt` -> test `object` on `[0, tmax)` (`REPROJECTED`), and
+ * if that misses, full traversal from `tmin`; else full traversal
+ * (`FAILED`).
+ *
+ * Returns `REFL_STATUS_NULL_POINTER` if a pointer is NULL;
+ * `REFL_STATUS_INVALID_ARGUMENT` for invalid params, a zero width, an
+ * empty or reversed row range, a misaligned pointer or overlapping
+ * buffers; `REFL_STATUS_INSUFFICIENT_SIZE` if `out_len` or `aip_len` is
+ * below `row_end * width`. On error nothing is written.
+ *
+ * # Safety
+ * `out` must be writable for `out_len` entries and `aip` readable for
+ * `aip_len` entries, `params` NULL or readable, for the duration of the
+ * call; no other thread may write the rows of `out` in the range.
+ */
+refl_status refl_epipolar_decide_rows(struct refl_epipolar_decision *out,
+                                      size_t out_len,
+                                      const struct refl_epipolar_aip_entry *aip,
+                                      size_t aip_len,
+                                      uint32_t width,
+                                      uint32_t row_begin,
+                                      uint32_t row_end,
+                                      uint32_t frame,
+                                      const struct refl_epipolar_params *params);
 
 /**
  * Size query: the number of `refl_vec2` texels of the Hi-Z pyramid of a

@@ -133,10 +133,15 @@ impl Sizes {
 pub const BUILT_IN_SCENES: [&str; 3] = ["room", "concave", "walkthrough"];
 
 /// Every method name the report knows, in report order.
-pub const METHODS: [&str; 8] = [
+pub const METHODS: [&str; 11] = [
     "reference",
     "envmap",
     "planar-mirror",
+    // Primary visibility along the walkthrough path (seed 002), run once
+    // per scene after its frames: see [`crate::epipolar`].
+    "epipolar",
+    "orsa",
+    "irsa",
     "step",
     "hiz",
     "layered",
@@ -727,6 +732,7 @@ pub fn run(opts: &Options) -> Result<PathBuf, String> {
         );
         for (method_name, why) in methods
             .iter()
+            .filter(|m| !crate::epipolar::is_path_method(m))
             .filter_map(|m| settings(m, &sizes, needs).err().map(|why| (m, why)))
         {
             let _ = writeln!(notes, "  - `{method_name}` skipped: {why}");
@@ -769,7 +775,10 @@ pub fn run(opts: &Options) -> Result<PathBuf, String> {
                 frame_needs.glossy_pixels, frame_needs.planar_mirror_pixels
             );
 
-            for method_name in &methods {
+            for method_name in methods
+                .iter()
+                .filter(|m| !crate::epipolar::is_path_method(m))
+            {
                 let Ok(runs_of) = settings(method_name, &sizes, needs) else {
                     continue;
                 };
@@ -965,6 +974,25 @@ pub fn run(opts: &Options) -> Result<PathBuf, String> {
             )?;
             rows.extend(tcrr_rows);
             notes.push_str(&note);
+        }
+        // Seed 002 on the walkthrough: ORSA, the method, IRSA along the path.
+        if label == "walkthrough" && methods.iter().any(|m| crate::epipolar::is_path_method(m)) {
+            bar.set_message(format!("{label}: epipolar walkthrough"));
+            let path = crate::epipolar::run(
+                &scene,
+                &tracer,
+                &crate::epipolar::PathSizes::new(opts.quick),
+                sizes.runs,
+                &pool,
+                threads,
+                Some(&images),
+            )?;
+            notes.push_str(&path.notes);
+            rows.extend(
+                path.rows
+                    .into_iter()
+                    .filter(|r| methods.contains(&r.method.as_str())),
+            );
         }
     }
     bar.finish_and_clear();

@@ -21,6 +21,8 @@
 #![deny(unsafe_code)]
 
 pub mod camera;
+#[cfg(feature = "epipolar")]
+pub mod epipolar;
 pub mod error;
 #[cfg(feature = "hiz")]
 pub mod hiz;

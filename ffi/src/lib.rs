@@ -32,6 +32,7 @@
 #![warn(clippy::undocumented_unsafe_blocks)]
 
 mod camera;
+mod epipolar;
 mod hiz;
 mod image;
 mod layered;
@@ -43,6 +44,7 @@ mod trace;
 mod types;
 
 pub use camera::*;
+pub use epipolar::*;
 pub use hiz::*;
 pub use image::*;
 pub use layered::*;

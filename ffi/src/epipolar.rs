@@ -1,0 +1,482 @@
+//! Reprojected ray casting exports (seed 002, Havran, Bittner, Seidel:
+//! "Exploiting Temporal Coherence in Ray Casted Walkthroughs"): the POS and
+//! AIP buffers, the reprojection phase (Alg. 1 with the view-frustum check
+//! of Sec. 4.1, the epipolar occlusion check of Sec. 4.2 and the
+//! abrupt-motion test of Sec. 4.3.1) and the per-pixel decision of the
+//! rendering phase (Alg. 2: "test object O only" or "full traversal from
+//! t"). The host traces; refl decides. See `refl_core::epipolar`.
+
+use crate::ptr::{byte_len, overlaps, read, Out};
+use crate::status::{guard, refl_status};
+use crate::types::refl_camera;
+use refl_core::epipolar::{
+    decide, scratch_len, try_reproject, AipEntry, Decision, Params, PosEntry, Reason,
+    ReprojectStats, BACKGROUND_OBJECT, INVALID_OBJECT, MAX_SPLAT_RADIUS,
+};
+use refl_core::{Camera, Error, RowRange};
+
+/// Object id meaning "no object": an unused POS entry (never reprojected)
+/// or an AIP entry no point reached; in a decision, "full traversal".
+pub const REFL_EPIPOLAR_INVALID_OBJECT: u32 = 0xFFFF_FFFF;
+
+/// Object id of the background sphere (seed 002 Sec. 5.2): store it in the
+/// POS entry of a pixel whose ray hit nothing, with the point at a fixed
+/// distance (larger than any scene distance) along the ray. A decision to
+/// test this object means the pixel is background.
+pub const REFL_EPIPOLAR_BACKGROUND_OBJECT: u32 = 0xFFFF_FFFE;
+
+/// Largest splat radius (`refl_epipolar_params.splat_radius`): 7x7.
+pub const REFL_EPIPOLAR_MAX_SPLAT_RADIUS: u32 = 3;
+
+/// AIP flag: no reprojection ran this frame (first frame, or the
+/// view-frustum check failed); every pixel takes full traversal.
+pub const REFL_EPIPOLAR_FLAG_NO_REPROJECTION: u32 = 1;
+/// AIP flag: a point whose splat covers the pixel was discarded by the
+/// occlusion check (Sec. 4.2).
+pub const REFL_EPIPOLAR_FLAG_OCCLUSION_REJECTED: u32 = 2;
+/// AIP flag: a point whose splat covers the pixel was discarded by the
+/// abrupt-motion test (Sec. 4.3.1).
+pub const REFL_EPIPOLAR_FLAG_ABRUPT_REJECTED: u32 = 4;
+/// AIP flag: a splatted point of the entry's object landed above-left of
+/// the pixel center; the next three bits (`<< 1`: above-right, `<< 2`:
+/// below-left, `<< 3`: below-right) the other sides.
+pub const REFL_EPIPOLAR_FLAG_SURROUND_UP_LEFT: u32 = 16;
+/// AIP flags: all four surround bits. With the depth guard on, a pixel is
+/// resolved by one ray/object test only when all four are set (the
+/// object's points surround the pixel center).
+pub const REFL_EPIPOLAR_FLAG_SURROUNDED: u32 = 0xF0;
+
+/// One entry of the POS buffer (seed 002 Sec. 3.1): what the ray of one
+/// pixel of the previous frame hit. Layout-identical to
+/// `refl_core::epipolar::PosEntry`.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct refl_epipolar_pos_entry {
+    /// World-space hit point (`eye + t * unit direction`).
+    pub point: [f32; 3],
+    /// Object id of the hit (the host's numbering, below
+    /// `REFL_EPIPOLAR_BACKGROUND_OBJECT`); `REFL_EPIPOLAR_BACKGROUND_OBJECT`
+    /// for a background-sphere point; `REFL_EPIPOLAR_INVALID_OBJECT` for
+    /// "nothing stored" (skipped).
+    pub object: u32,
+    /// Signed distance from the eye to `point` along the ray.
+    pub t: f32,
+}
+
+/// One entry of the AIP buffer (seed 002 Sec. 3.1, Alg. 1), written by
+/// `refl_epipolar_reproject`. Before the first frame (no POS yet) fill it
+/// with `{REFL_EPIPOLAR_INVALID_OBJECT, INFINITY, 0, INFINITY,
+/// REFL_EPIPOLAR_FLAG_NO_REPROJECTION}`. Layout-identical to
+/// `refl_core::epipolar::AipEntry`.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct refl_epipolar_aip_entry {
+    /// Object reprojected to the pixel, or `REFL_EPIPOLAR_INVALID_OBJECT`.
+    pub object: u32,
+    /// Smallest signed distance from the new eye of the points splatted
+    /// here; +infinity when none.
+    pub t: f32,
+    /// Number of points of `object` splatted here (`cnt` of Alg. 1).
+    pub cnt: u32,
+    /// Depth guard: the smallest signed distance of a point of another
+    /// object splatted here; +infinity when none.
+    pub t_other: f32,
+    /// Bit set of `REFL_EPIPOLAR_FLAG_*`.
+    pub flags: u32,
+}
+
+/// Parameters of the reprojection and rendering phases
+/// (`refl_epipolar_params_default` gives the defaults). Booleans are
+/// `uint32_t` 0 or 1; any other value is `REFL_STATUS_INVALID_ARGUMENT`.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct refl_epipolar_params {
+    /// `m_cnt` of Sec. 3.3: a pixel is resolved by one ray/object test when
+    /// at least this many points of its object reached it. >= 1; default 5.
+    pub m_cnt: u32,
+    /// Splat radius r: a (2r+1)^2 kernel; 1 (3x3, the paper's) by default;
+    /// at most `REFL_EPIPOLAR_MAX_SPLAT_RADIUS`.
+    pub splat_radius: u32,
+    /// Depth guard (default 1): the one-object test only accepts a hit
+    /// nearer than `refl_epipolar_aip_entry.t_other`.
+    pub depth_guard: u32,
+    /// Relative margin of the depth guard, in [0, 1); default 0.01: the
+    /// one-object test accepts hits nearer than `t_other * (1 - margin)`.
+    pub guard_margin: f32,
+    /// Guard window radius (default 3, at most
+    /// `REFL_EPIPOLAR_MAX_SPLAT_RADIUS`, 0 off): after the splat each
+    /// pixel's `t_other` is lowered to the `t` of the entries within this
+    /// many pixels that hold another object.
+    pub guard_window: u32,
+    /// View-frustum check of Sec. 4.1 (default 1).
+    pub frustum_check: u32,
+    /// Epipolar ordering and occlusion check of Sec. 4.2 (default 1).
+    pub occlusion_check: u32,
+    /// N of regular resampling (Sec. 4.3); 0 turns it off. Default 9.
+    pub resample_period: u32,
+    /// N of the abrupt-motion test (Sec. 4.3.1); 0 turns it off. Default 9.
+    pub abrupt_frames: u32,
+    /// Shifted ray origin of Sec. 5.3 for fallback rays (default 0).
+    pub shift_origin: u32,
+    /// The epsilon of Sec. 5.3, world units, finite and >= 0.
+    pub shift_epsilon: f32,
+}
+
+/// Counts of one reprojection phase.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct refl_epipolar_stats {
+    /// POS entries holding a point.
+    pub points: u32,
+    /// Points splatted into the AIP.
+    pub splatted: u32,
+    /// Points at or behind the new eye plane (dropped).
+    pub behind: u32,
+    /// Points whose splat misses the new image.
+    pub outside: u32,
+    /// Points discarded by the occlusion check.
+    pub occlusion_rejected: u32,
+    /// Points discarded by the abrupt-motion test.
+    pub abrupt_rejected: u32,
+    /// 1 if the view-frustum check failed and nothing was reprojected.
+    pub frustum_failed: u32,
+    /// 1 if the eyes coincide (pure rotation; no occlusion check needed).
+    pub no_baseline: u32,
+}
+
+/// Why a pixel takes the path its decision names (seed 002 Fig. 6).
+#[repr(u32)]
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub enum refl_epipolar_reason {
+    /// Reprojection predicts the object: one ray/object test.
+    Reprojected = 0,
+    /// Too few points reached the pixel: full traversal.
+    Failed = 1,
+    /// Regular resampling picked the pixel this frame: full traversal.
+    Resampled = 2,
+    /// A point near the pixel was discarded for abrupt motion: full
+    /// traversal.
+    Abrupt = 3,
+    /// No reprojection this frame: full traversal.
+    Unavailable = 4,
+}
+
+/// The rendering-phase decision for one pixel (seed 002 Alg. 2).
+#[repr(C)]
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct refl_epipolar_decision {
+    /// The one object to test, or `REFL_EPIPOLAR_INVALID_OBJECT` for full
+    /// traversal; `REFL_EPIPOLAR_BACKGROUND_OBJECT` means background. When
+    /// the test of a scene object finds no hit in `[0, tmax)`, fall back
+    /// to full traversal from `tmin`.
+    pub object: u32,
+    /// End of the interval of the one-object test (the depth guard, or
+    /// +infinity).
+    pub tmax: f32,
+    /// Ray distance at which a full traversal of this pixel may start
+    /// (0, or with `shift_origin` the AIP distance minus epsilon).
+    pub tmin: f32,
+    /// A `refl_epipolar_reason` value.
+    pub reason: u32,
+}
+
+const _: () = {
+    use core::mem::{align_of, size_of};
+    // The C constants are literals (cbindgen); they equal the core's.
+    assert!(REFL_EPIPOLAR_INVALID_OBJECT == INVALID_OBJECT);
+    assert!(REFL_EPIPOLAR_BACKGROUND_OBJECT == BACKGROUND_OBJECT);
+    assert!(REFL_EPIPOLAR_MAX_SPLAT_RADIUS == MAX_SPLAT_RADIUS);
+    assert!(REFL_EPIPOLAR_FLAG_NO_REPROJECTION == AipEntry::NO_REPROJECTION);
+    assert!(REFL_EPIPOLAR_FLAG_OCCLUSION_REJECTED == AipEntry::OCCLUSION_REJECTED);
+    assert!(REFL_EPIPOLAR_FLAG_ABRUPT_REJECTED == AipEntry::ABRUPT_REJECTED);
+    assert!(REFL_EPIPOLAR_FLAG_SURROUND_UP_LEFT == AipEntry::SURROUND_UP_LEFT);
+    assert!(REFL_EPIPOLAR_FLAG_SURROUNDED == AipEntry::SURROUNDED);
+    assert!(size_of::<refl_epipolar_pos_entry>() == size_of::<PosEntry>());
+    assert!(align_of::<refl_epipolar_pos_entry>() == align_of::<PosEntry>());
+    assert!(size_of::<refl_epipolar_aip_entry>() == size_of::<AipEntry>());
+    assert!(align_of::<refl_epipolar_aip_entry>() == align_of::<AipEntry>());
+};
+
+fn flag(v: u32) -> Result<bool, Error> {
+    match v {
+        0 => Ok(false),
+        1 => Ok(true),
+        _ => Err(Error::InvalidArgument),
+    }
+}
+
+impl TryFrom<&refl_epipolar_params> for Params {
+    type Error = Error;
+    /// Validates booleans and ranges (`Params::validate`).
+    fn try_from(p: &refl_epipolar_params) -> Result<Self, Error> {
+        let params = Params {
+            m_cnt: p.m_cnt,
+            splat_radius: p.splat_radius,
+            depth_guard: flag(p.depth_guard)?,
+            guard_margin: p.guard_margin,
+            guard_window: p.guard_window,
+            frustum_check: flag(p.frustum_check)?,
+            occlusion_check: flag(p.occlusion_check)?,
+            resample_period: p.resample_period,
+            abrupt_frames: p.abrupt_frames,
+            shift_origin: flag(p.shift_origin)?,
+            shift_epsilon: p.shift_epsilon,
+        };
+        params.validate()?;
+        Ok(params)
+    }
+}
+
+impl From<&Params> for refl_epipolar_params {
+    fn from(p: &Params) -> Self {
+        Self {
+            m_cnt: p.m_cnt,
+            splat_radius: p.splat_radius,
+            depth_guard: u32::from(p.depth_guard),
+            guard_margin: p.guard_margin,
+            guard_window: p.guard_window,
+            frustum_check: u32::from(p.frustum_check),
+            occlusion_check: u32::from(p.occlusion_check),
+            resample_period: p.resample_period,
+            abrupt_frames: p.abrupt_frames,
+            shift_origin: u32::from(p.shift_origin),
+            shift_epsilon: p.shift_epsilon,
+        }
+    }
+}
+
+impl From<&Decision> for refl_epipolar_decision {
+    fn from(d: &Decision) -> Self {
+        Self {
+            object: d.object,
+            tmax: d.tmax,
+            tmin: d.tmin,
+            reason: match d.reason {
+                Reason::Reprojected => refl_epipolar_reason::Reprojected,
+                Reason::Failed => refl_epipolar_reason::Failed,
+                Reason::Resampled => refl_epipolar_reason::Resampled,
+                Reason::Abrupt => refl_epipolar_reason::Abrupt,
+                Reason::Unavailable => refl_epipolar_reason::Unavailable,
+            } as u32,
+        }
+    }
+}
+
+/// Checks a caller buffer of `len` elements of `T`: non-null, aligned,
+/// addressable; returns its byte range.
+fn buffer<T>(p: *const T, len: usize) -> Result<(usize, usize), Error> {
+    if p.is_null() {
+        return Err(Error::NullPointer);
+    }
+    if !p.is_aligned() {
+        return Err(Error::InvalidArgument);
+    }
+    Ok((p as usize, byte_len::<T>(p as usize, len)?))
+}
+
+/// Writes to `*out` the default parameters (m_cnt 5, 3x3 splat, depth
+/// guard, view-frustum and occlusion checks on, N = 9 for resampling and
+/// the abrupt-motion test, no shifted origin, epsilon 1e-3).
+///
+/// Returns `REFL_STATUS_NULL_POINTER` if `out` is NULL.
+///
+/// # Safety
+/// `out` must be NULL or point to a writable `refl_epipolar_params`.
+#[no_mangle]
+pub unsafe extern "C" fn refl_epipolar_params_default(
+    out: *mut refl_epipolar_params,
+) -> refl_status {
+    guard(|| {
+        let out = Out::new(out)?;
+        // SAFETY: caller contract.
+        unsafe { out.write((&Params::default()).into()) };
+        Ok(())
+    })
+}
+
+/// Writes to `*out_len` the number of floats of occlusion-check scratch
+/// `refl_epipolar_reproject` needs for a `width x height` image. The POS
+/// and AIP buffers hold `width * height` entries each.
+///
+/// Returns `REFL_STATUS_NULL_POINTER` if `out_len` is NULL;
+/// `REFL_STATUS_INVALID_ARGUMENT` for a zero size or a count that does not
+/// fit in `size_t`.
+///
+/// # Safety
+/// `out_len` must be NULL or point to a writable `size_t`.
+#[no_mangle]
+pub unsafe extern "C" fn refl_epipolar_scratch_len(
+    out_len: *mut usize,
+    width: u32,
+    height: u32,
+) -> refl_status {
+    guard(|| {
+        let out = Out::new(out_len)?;
+        let n = scratch_len(width, height)?;
+        // SAFETY: caller contract.
+        unsafe { out.write(n) };
+        Ok(())
+    })
+}
+
+/// The reprojection phase (seed 002 Alg. 1 with Secs. 4.1, 4.2, 4.3.1):
+/// fills `aip` (`current`'s `width * height` pixels, row-major) from `pos`
+/// (`previous`'s pixels, row-major) and writes the counts to `*out_stats`.
+/// If the view-frustum check is on and `current`'s eye is outside
+/// `previous`'s view pyramid, every AIP entry gets
+/// `REFL_EPIPOLAR_FLAG_NO_REPROJECTION`. The pass is sequential (the
+/// epipolar order is); `refl_epipolar_decide_rows` then runs per row band.
+///
+/// Returns `REFL_STATUS_NULL_POINTER` if any pointer is NULL;
+/// `REFL_STATUS_INVALID_ARGUMENT` for invalid params (a boolean not 0/1,
+/// `m_cnt == 0`, a splat radius above the maximum, a bad epsilon), cameras
+/// of different sizes, a misaligned pointer or overlapping buffers;
+/// `REFL_STATUS_INSUFFICIENT_SIZE` if `aip_len` or `pos_len` is below
+/// `width * height` or `scratch_len` below `refl_epipolar_scratch_len`;
+/// a camera's status if it is invalid. On error nothing is written.
+///
+/// # Safety
+/// `aip` must be writable for `aip_len` entries, `scratch` for
+/// `scratch_len` floats, `pos` readable for `pos_len` entries, the other
+/// pointers NULL or valid for one value, for the duration of the call,
+/// with no other thread accessing them.
+#[no_mangle]
+#[allow(clippy::too_many_arguments)]
+pub unsafe extern "C" fn refl_epipolar_reproject(
+    aip: *mut refl_epipolar_aip_entry,
+    aip_len: usize,
+    scratch: *mut f32,
+    scratch_len: usize,
+    out_stats: *mut refl_epipolar_stats,
+    pos: *const refl_epipolar_pos_entry,
+    pos_len: usize,
+    previous: *const refl_camera,
+    current: *const refl_camera,
+    params: *const refl_epipolar_params,
+) -> refl_status {
+    guard(|| {
+        if aip.is_null()
+            || scratch.is_null()
+            || pos.is_null()
+            || previous.is_null()
+            || current.is_null()
+            || params.is_null()
+        {
+            return Err(Error::NullPointer);
+        }
+        let out = Out::new(out_stats)?;
+        // SAFETY: caller contract.
+        let p = Params::try_from(&unsafe { read(params) }?)?;
+        // SAFETY: caller contract.
+        let prev = Camera::try_from(&unsafe { read(previous) }?)?;
+        // SAFETY: caller contract.
+        let cur = Camera::try_from(&unsafe { read(current) }?)?;
+        let a = buffer(aip.cast_const(), aip_len)?;
+        let s = buffer(scratch.cast_const(), scratch_len)?;
+        let q = buffer(pos, pos_len)?;
+        if overlaps(a.0, a.1, s.0, s.1)
+            || overlaps(a.0, a.1, q.0, q.1)
+            || overlaps(s.0, s.1, q.0, q.1)
+        {
+            return Err(Error::InvalidArgument);
+        }
+        // SAFETY: non-null, aligned, sizes checked by `buffer`; validity
+        // and exclusivity are the caller's contract; the three ranges are
+        // disjoint; the entry types are layout-identical (asserted above).
+        let (aip, scratch, pos) = unsafe {
+            (
+                core::slice::from_raw_parts_mut(aip.cast::<AipEntry>(), aip_len),
+                core::slice::from_raw_parts_mut(scratch, scratch_len),
+                core::slice::from_raw_parts(pos.cast::<PosEntry>(), pos_len),
+            )
+        };
+        let st: ReprojectStats = try_reproject(aip, scratch, pos, &prev, &cur, &p)?;
+        // SAFETY: caller contract.
+        unsafe {
+            out.write(refl_epipolar_stats {
+                points: st.points,
+                splatted: st.splatted,
+                behind: st.behind,
+                outside: st.outside,
+                occlusion_rejected: st.occlusion_rejected,
+                abrupt_rejected: st.abrupt_rejected,
+                frustum_failed: u32::from(st.frustum_failed),
+                no_baseline: u32::from(st.no_baseline),
+            })
+        };
+        Ok(())
+    })
+}
+
+/// The rendering-phase decisions (seed 002 Alg. 2) of rows
+/// `[row_begin, row_end)` of frame `frame` of a `width`-wide image:
+/// `out[y * width + x]` from `aip[y * width + x]` (other entries are not
+/// touched). Hosts split the image into row bands (`refl_row_band`) and
+/// decide and trace them on their own threads.
+///
+/// Per pixel: no reprojection -> full traversal (`UNAVAILABLE`); the
+/// pixel's regular-resampling slot is `frame mod N` -> full traversal
+/// (`RESAMPLED`); an abrupt-motion flag -> full traversal (`ABRUPT`);
+/// `cnt >= m_cnt` -> test `object` on `[0, tmax)` (`REPROJECTED`), and
+/// if that misses, full traversal from `tmin`; else full traversal
+/// (`FAILED`).
+///
+/// Returns `REFL_STATUS_NULL_POINTER` if a pointer is NULL;
+/// `REFL_STATUS_INVALID_ARGUMENT` for invalid params, a zero width, an
+/// empty or reversed row range, a misaligned pointer or overlapping
+/// buffers; `REFL_STATUS_INSUFFICIENT_SIZE` if `out_len` or `aip_len` is
+/// below `row_end * width`. On error nothing is written.
+///
+/// # Safety
+/// `out` must be writable for `out_len` entries and `aip` readable for
+/// `aip_len` entries, `params` NULL or readable, for the duration of the
+/// call; no other thread may write the rows of `out` in the range.
+#[no_mangle]
+#[allow(clippy::too_many_arguments)]
+pub unsafe extern "C" fn refl_epipolar_decide_rows(
+    out: *mut refl_epipolar_decision,
+    out_len: usize,
+    aip: *const refl_epipolar_aip_entry,
+    aip_len: usize,
+    width: u32,
+    row_begin: u32,
+    row_end: u32,
+    frame: u32,
+    params: *const refl_epipolar_params,
+) -> refl_status {
+    guard(|| {
+        if out.is_null() || aip.is_null() || params.is_null() {
+            return Err(Error::NullPointer);
+        }
+        // SAFETY: caller contract.
+        let p = Params::try_from(&unsafe { read(params) }?)?;
+        if width == 0 || row_end <= row_begin {
+            return Err(Error::InvalidArgument);
+        }
+        let rows = RowRange::try_new(row_begin, row_end, row_end)?;
+        let need = (row_end as usize)
+            .checked_mul(width as usize)
+            .ok_or(Error::InvalidArgument)?;
+        if out_len < need || aip_len < need {
+            return Err(Error::InsufficientSize);
+        }
+        // Only the first `need` entries are touched.
+        let o = buffer(out.cast_const(), need)?;
+        let a = buffer(aip, need)?;
+        if overlaps(o.0, o.1, a.0, a.1) {
+            return Err(Error::InvalidArgument);
+        }
+        // SAFETY: checked above; the ranges are disjoint; layouts match.
+        let aip = unsafe { core::slice::from_raw_parts(aip.cast::<AipEntry>(), need) };
+        // SAFETY: checked above; exclusive by contract.
+        let out = unsafe { core::slice::from_raw_parts_mut(out, need) };
+        for y in rows.rows() {
+            let row = y as usize * width as usize;
+            for x in 0..width {
+                let i = row + x as usize;
+                out[i] = (&decide(&aip[i], x, y, frame, &p)).into();
+            }
+        }
+        Ok(())
+    })
+}

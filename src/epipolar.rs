@@ -1,0 +1,906 @@
+//! Reprojected ray casting of a walkthrough (seed 002) with the obvhs
+//! tracer: primary visibility along a dense stretch of a scene's camera
+//! path, rendered three ways in the same run with the same threads:
+//!
+//! * `orsa`: the ordinary ray shooting algorithm, full traversal of the
+//!   scene BVH for every pixel (the ground truth of visibility);
+//! * `epipolar`: refl-core's [`refl_core::epipolar`] decisions, with one
+//!   ray/object test (a per-object BVH, [`ObjectTracers`]) where the
+//!   reprojection predicts the object and full traversal elsewhere;
+//! * `irsa`: the ideal ray shooting algorithm of Sec. 6: the object ORSA
+//!   found is tested alone (the limit of any predictor).
+//!
+//! Every frame of the method is compared with ORSA pixel by pixel
+//! (primitive id and distance): a visibility error is any difference, and
+//! each one is listed.
+
+use crate::gbuffer::pixel_center;
+use crate::render::timed;
+use crate::report_out::{self, Row};
+use crate::scene::Scene;
+use crate::tracer::{Hit, Tracer};
+use glam::Vec3;
+use rayon::prelude::*;
+use refl_core::epipolar::{
+    decide, scratch_len, try_reproject, AipEntry, Decision, Params, PosEntry, Reason,
+    BACKGROUND_OBJECT,
+};
+use refl_core::Camera;
+use std::fmt::Write as _;
+use std::path::Path;
+
+/// The method names this module reports (rows of `summary.csv`).
+pub const METHODS: [&str; 3] = ["epipolar", "orsa", "irsa"];
+
+/// One BVH per scene object, for "test object O only" (seed 002 Alg. 2):
+/// the same obvhs CWBVH and triangle test as [`Tracer`], over the object's
+/// primitives, reporting scene primitive ids.
+pub struct ObjectTracers {
+    tracers: Vec<(Tracer, u32)>,
+}
+
+impl ObjectTracers {
+    /// Builds one tracer per object of `scene`.
+    pub fn new(scene: &Scene) -> ObjectTracers {
+        let tracers = scene
+            .objects
+            .par_iter()
+            .map(|o| {
+                let r = o.tris.start as usize..o.tris.end as usize;
+                let sub = Scene {
+                    name: o.name.clone(),
+                    tris: scene.tris[r.clone()].to_vec(),
+                    normals: scene.normals[r].to_vec(),
+                    tri_object: Vec::new(),
+                    objects: Vec::new(),
+                    materials: Vec::new(),
+                    lights: Vec::new(),
+                    ambient: glam::Vec3::ZERO,
+                    camera_path: Vec::new(),
+                    near: scene.near,
+                    far: scene.far,
+                };
+                (Tracer::new(&sub), o.tris.start)
+            })
+            .collect();
+        ObjectTracers { tracers }
+    }
+
+    /// The closest hit of the ray with object `object` in `[tmin, tmax)`,
+    /// with its scene primitive id; `None` for a miss or an unknown object.
+    pub fn trace(
+        &self,
+        object: u32,
+        origin: glam::Vec3,
+        dir: glam::Vec3,
+        tmin: f32,
+        tmax: f32,
+    ) -> Option<Hit> {
+        let (t, start) = self.tracers.get(object as usize)?;
+        t.trace(origin, dir, tmin, tmax).map(|h| Hit {
+            prim: h.prim + start,
+            ..h
+        })
+    }
+}
+
+/// Which path a pixel took in the method.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum PixelPath {
+    /// One ray/object test succeeded (`c_R`).
+    Resolved,
+    /// Reprojection failed: too few points, or the one-object test missed
+    /// (`c_E`).
+    Failed,
+    /// As `Failed`, near points dropped by the abrupt-motion test (`c_E`).
+    Abrupt,
+    /// Regular resampling (`c_O`).
+    Resampled,
+    /// No reprojection this frame (first frame, view-frustum check).
+    Unavailable,
+}
+
+/// Per-pixel outcome of one method frame.
+type PixelOut = (Option<Hit>, PixelPath);
+
+/// A named parameter setting of the method.
+#[derive(Clone, Debug)]
+pub struct Variant {
+    /// The `setting` column.
+    pub setting: String,
+    /// The parameters.
+    pub params: Params,
+}
+
+/// The settings swept for error against run time: the default (m_cnt = 5,
+/// N = 9, 3x3 splat, occlusion check, depth guard), then one change at a
+/// time.
+pub fn variants() -> Vec<Variant> {
+    let d = Params::default();
+    let v = |setting: &str, params: Params| Variant {
+        setting: setting.to_string(),
+        params,
+    };
+    vec![
+        v("default", d),
+        v("m_cnt=3", Params { m_cnt: 3, ..d }),
+        v("m_cnt=7", Params { m_cnt: 7, ..d }),
+        v(
+            "N=4",
+            Params {
+                resample_period: 4,
+                abrupt_frames: 4,
+                ..d
+            },
+        ),
+        v(
+            "N=16",
+            Params {
+                resample_period: 16,
+                abrupt_frames: 16,
+                ..d
+            },
+        ),
+        v(
+            "resampling=off",
+            Params {
+                resample_period: 0,
+                ..d
+            },
+        ),
+        v(
+            "splat=1x1;m_cnt=1",
+            Params {
+                splat_radius: 0,
+                m_cnt: 1,
+                ..d
+            },
+        ),
+        v(
+            "splat=5x5;m_cnt=13",
+            Params {
+                splat_radius: 2,
+                m_cnt: 13,
+                ..d
+            },
+        ),
+        v(
+            "occlusion_check=off",
+            Params {
+                occlusion_check: false,
+                ..d
+            },
+        ),
+        v(
+            "depth_guard=off",
+            Params {
+                depth_guard: false,
+                ..d
+            },
+        ),
+        v(
+            "guard_margin=0",
+            Params {
+                guard_margin: 0.0,
+                ..d
+            },
+        ),
+        v(
+            "guard_window=0",
+            Params {
+                guard_window: 0,
+                ..d
+            },
+        ),
+        v(
+            "shift_origin=on",
+            Params {
+                shift_origin: true,
+                ..d
+            },
+        ),
+    ]
+}
+
+/// Sizes of a walkthrough run.
+#[derive(Clone, Copy, Debug)]
+pub struct PathSizes {
+    /// Image width.
+    pub width: u32,
+    /// Image height.
+    pub height: u32,
+    /// Frames rendered.
+    pub frames: usize,
+    /// Eye movement per frame, world units (walking speed / frame rate).
+    pub step: f32,
+    /// Where on the path (0..1) the stretch starts.
+    pub start: f32,
+    /// Where the camera looks.
+    pub gaze: Gaze,
+}
+
+/// Where the walkthrough camera looks.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Gaze {
+    /// Along the direction of motion (the tangent of the eye path, tilted
+    /// down like the stored poses): a walker looking where they go, the
+    /// walkthrough of seed 002 Sec. 4.1 ("the camera is typically moving
+    /// forward or rotates").
+    AlongPath,
+    /// The scene's stored targets (the walkthrough scene looks 3 m ahead
+    /// along its route, so around corners it walks sideways, up to 54
+    /// degrees off its view axis: the new eye leaves the previous view
+    /// pyramid and the view-frustum check of Sec. 4.1 turns reprojection
+    /// off for the frame).
+    Stored,
+}
+
+impl PathSizes {
+    /// Quick (tests, `--quick`) or default sizes.
+    pub fn new(quick: bool) -> Self {
+        if quick {
+            PathSizes {
+                width: 256,
+                height: 192,
+                frames: 10,
+                step: 0.05,
+                start: 0.3,
+                gaze: Gaze::AlongPath,
+            }
+        } else {
+            PathSizes {
+                width: 512,
+                height: 384,
+                frames: 48,
+                step: 0.05,
+                start: 0.3,
+                gaze: Gaze::AlongPath,
+            }
+        }
+    }
+}
+
+/// The cameras of `frames` frames along the scene's path from `start`, the
+/// eye advancing about `step` per frame (arc length of the eye spline),
+/// looking as `sizes.gaze` says.
+pub fn path_cameras(scene: &Scene, sizes: &PathSizes) -> Result<Vec<Camera>, String> {
+    // Arc length of the eye spline, sampled finely.
+    let samples = 4000;
+    let eye = |s: f32| scene.pose_at(s).map(|p| p.eye);
+    let mut arc = vec![0.0f32; samples + 1];
+    for i in 1..=samples {
+        let (a, b) = (
+            eye((i - 1) as f32 / samples as f32),
+            eye(i as f32 / samples as f32),
+        );
+        let (Some(a), Some(b)) = (a, b) else {
+            return Err(format!("{}: empty camera path", scene.name));
+        };
+        arc[i] = arc[i - 1] + (b - a).length();
+    }
+    let s_at = |len: f32| {
+        let i = arc.partition_point(|&l| l < len).min(samples);
+        i as f32 / samples as f32
+    };
+    let start_len = arc[(sizes.start.clamp(0.0, 1.0) * samples as f32) as usize];
+    (0..sizes.frames)
+        .map(|k| {
+            let len = start_len + k as f32 * sizes.step;
+            let s = s_at(len);
+            let mut pose = scene.pose_at(s).ok_or("empty camera path".to_string())?;
+            if sizes.gaze == Gaze::AlongPath {
+                // Tangent of the eye path over +-10 cm of arc length,
+                // horizontal, with the stored pose's downward tilt.
+                let (a, b) = (eye(s_at(len - 0.1)), eye(s_at(len + 0.1)));
+                let (Some(a), Some(b)) = (a, b) else {
+                    return Err(format!("{}: empty camera path", scene.name));
+                };
+                let stored = pose.target - pose.eye;
+                let flat = Vec3::new(b.x - a.x, 0.0, b.z - a.z).normalize_or_zero();
+                if flat != Vec3::ZERO {
+                    let horizontal = Vec3::new(stored.x, 0.0, stored.z).length();
+                    pose.target = pose.eye + flat * horizontal + Vec3::Y * stored.y;
+                }
+            }
+            pose.camera(scene.near, scene.far, sizes.width, sizes.height)
+                .map_err(|e| format!("{}: camera: {e}", scene.name))
+        })
+        .collect()
+}
+
+fn ray_of(camera: &Camera, i: usize) -> refl_core::Ray {
+    let w = camera.width() as usize;
+    camera.primary_ray(pixel_center((i % w) as u32, (i / w) as u32))
+}
+
+/// ORSA: full traversal for every pixel.
+fn orsa(tracer: &Tracer, camera: &Camera, pool: &rayon::ThreadPool) -> Vec<Option<Hit>> {
+    let n = camera.width() as usize * camera.height() as usize;
+    pool.install(|| {
+        (0..n)
+            .into_par_iter()
+            .with_min_len(camera.width() as usize)
+            .map(|i| {
+                let r = ray_of(camera, i);
+                tracer.trace(r.origin, r.dir, 0.0, f32::INFINITY)
+            })
+            .collect()
+    })
+}
+
+/// IRSA: the object ORSA found, tested alone.
+fn irsa(
+    scene: &Scene,
+    objects: &ObjectTracers,
+    camera: &Camera,
+    truth: &[Option<Hit>],
+    pool: &rayon::ThreadPool,
+) -> Vec<Option<Hit>> {
+    pool.install(|| {
+        truth
+            .par_iter()
+            .enumerate()
+            .with_min_len(camera.width() as usize)
+            .map(|(i, h)| {
+                let h = h.as_ref()?;
+                let r = ray_of(camera, i);
+                objects.trace(
+                    scene.tri_object[h.prim as usize],
+                    r.origin,
+                    r.dir,
+                    0.0,
+                    f32::INFINITY,
+                )
+            })
+            .collect()
+    })
+}
+
+/// One pixel of the method (Alg. 2 with the host's tracers).
+#[inline]
+fn method_pixel(
+    scene_tracer: &Tracer,
+    objects: &ObjectTracers,
+    r: &refl_core::Ray,
+    d: &Decision,
+) -> PixelOut {
+    let full = |tmin: f32| scene_tracer.trace(r.origin, r.dir, tmin, f32::INFINITY);
+    match d.reason {
+        Reason::Reprojected if d.object == BACKGROUND_OBJECT => (None, PixelPath::Resolved),
+        Reason::Reprojected => match objects.trace(d.object, r.origin, r.dir, 0.0, d.tmax) {
+            Some(h) => (Some(h), PixelPath::Resolved),
+            None => (full(d.tmin), PixelPath::Failed),
+        },
+        Reason::Failed => (full(d.tmin), PixelPath::Failed),
+        Reason::Abrupt => (full(d.tmin), PixelPath::Abrupt),
+        Reason::Resampled => (full(d.tmin), PixelPath::Resampled),
+        Reason::Unavailable => (full(d.tmin), PixelPath::Unavailable),
+    }
+}
+
+/// Method state carried between frames: POS of the last frame, AIP and
+/// scratch (all caller memory of refl-core).
+struct State {
+    pos: Vec<PosEntry>,
+    aip: Vec<AipEntry>,
+    scratch: Vec<f32>,
+    previous: Option<Camera>,
+}
+
+/// One method frame: reprojection (serial: the epipolar order is
+/// sequential), decisions and tracing (parallel), POS for the next frame.
+#[allow(clippy::too_many_arguments)]
+fn method_frame(
+    scene: &Scene,
+    tracer: &Tracer,
+    objects: &ObjectTracers,
+    camera: &Camera,
+    frame: u32,
+    params: &Params,
+    state: &mut State,
+    pool: &rayon::ThreadPool,
+) -> Result<Vec<PixelOut>, String> {
+    let w = camera.width() as usize;
+    match &state.previous {
+        Some(prev) => {
+            try_reproject(
+                &mut state.aip,
+                &mut state.scratch,
+                &state.pos,
+                prev,
+                camera,
+                params,
+            )
+            .map_err(|e| format!("reproject: {e}"))?;
+        }
+        None => state.aip.fill(AipEntry::UNAVAILABLE),
+    }
+    let radius = background_radius(scene);
+    let aip = &state.aip;
+    // Decide, trace and store the POS entry of the next frame in one pass
+    // (one primary ray per pixel).
+    let out: Vec<PixelOut> = pool.install(|| {
+        state
+            .pos
+            .par_iter_mut()
+            .enumerate()
+            .with_min_len(w)
+            .map(|(i, p)| {
+                let d = decide(&aip[i], (i % w) as u32, (i / w) as u32, frame, params);
+                let r = ray_of(camera, i);
+                let out = method_pixel(tracer, objects, &r, &d);
+                *p = match out.0 {
+                    Some(h) => {
+                        PosEntry::hit(r.origin, r.dir, h.t, scene.tri_object[h.prim as usize])
+                    }
+                    None => PosEntry::background(r.origin, r.dir, radius),
+                };
+                out
+            })
+            .collect()
+    });
+    state.previous = Some(*camera);
+    Ok(out)
+}
+
+/// Radius of the camera-centered background sphere (seed 002 Sec. 5.2):
+/// four scene diameters, beyond any hit from a camera inside the scene.
+pub fn background_radius(scene: &Scene) -> f32 {
+    scene.diameter().max(1.0) * 4.0
+}
+
+/// One visibility mismatch against ORSA.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Mismatch {
+    /// Frame index.
+    pub frame: usize,
+    /// Pixel.
+    pub pixel: (u32, u32),
+    /// ORSA's hit `(prim, t)`.
+    pub orsa: Option<(u32, f32)>,
+    /// The method's hit.
+    pub method: Option<(u32, f32)>,
+    /// The path the pixel took.
+    pub path: PixelPath,
+}
+
+/// How a method's hit compares with ORSA's on the same ray.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Agreement {
+    /// Both miss, or both hit the same object at the same distance (to
+    /// [`SAME_T`] relative). Within one object the primitive may differ: a
+    /// ray through an edge shared by two triangles of the object hits both
+    /// at one distance, and which one a traversal reports depends on the
+    /// order it visits them (a per-object BVH and the scene BVH differ).
+    Same,
+    /// Different objects at the same distance (to [`SAME_T`] relative): the
+    /// ray hits the line where two objects touch (a pillar on the floor).
+    /// The visible point is the same; counted and listed, not an error.
+    Tie,
+    /// A visibility error: one misses and the other hits, or the distances
+    /// differ.
+    Error,
+}
+
+/// Relative distance tolerance of [`agreement`]: far above the f32
+/// rounding of one triangle test (about `1e-7` relative), far below any
+/// distance between two surfaces of the scenes (millimeters at meters).
+pub const SAME_T: f32 = 1e-4;
+
+/// Compares the hits `a` (the method) and `b` (ORSA) of one ray.
+pub fn agreement(scene: &Scene, a: &Option<Hit>, b: &Option<Hit>) -> Agreement {
+    match (a, b) {
+        (None, None) => Agreement::Same,
+        (Some(a), Some(b)) => {
+            if (a.t - b.t).abs() > SAME_T * a.t.abs().max(b.t.abs()).max(1e-6) {
+                Agreement::Error
+            } else if a.prim == b.prim
+                || scene.tri_object[a.prim as usize] == scene.tri_object[b.prim as usize]
+            {
+                Agreement::Same
+            } else {
+                Agreement::Tie
+            }
+        }
+        _ => Agreement::Error,
+    }
+}
+
+/// Totals of one setting over the path.
+#[derive(Clone, Debug, Default)]
+pub struct Totals {
+    /// Pixels over all frames.
+    pub pixels: usize,
+    /// Pixels resolved by one ray/object test.
+    pub resolved: usize,
+    /// Fallbacks from failed reprojection (including missed one-object
+    /// tests and abrupt-motion drops).
+    pub failed: usize,
+    /// Of `failed`, pixels flagged by the abrupt-motion test.
+    pub abrupt: usize,
+    /// Regular resampling.
+    pub resampled: usize,
+    /// No reprojection (first frame, view-frustum check).
+    pub unavailable: usize,
+    /// Visibility errors against ORSA ([`Agreement::Error`]).
+    pub mismatches: Vec<Mismatch>,
+    /// Ties with ORSA ([`Agreement::Tie`]): same point, another object.
+    pub ties: Vec<Mismatch>,
+    /// Method time per frame, ms.
+    pub times: Vec<f64>,
+}
+
+/// Everything a walkthrough run measured.
+pub struct PathReport {
+    /// Report rows (`orsa`, `irsa`, one `epipolar` row per setting).
+    pub rows: Vec<Row>,
+    /// Totals per setting (same order as [`variants`]).
+    pub totals: Vec<(String, Totals)>,
+    /// Markdown notes for `summary.md`.
+    pub notes: String,
+}
+
+/// Renders the walkthrough stretch with ORSA, IRSA and every setting of
+/// the method, and writes the path images (which pixels took which path)
+/// into `images` (when given).
+pub fn run(
+    scene: &Scene,
+    tracer: &Tracer,
+    sizes: &PathSizes,
+    runs: usize,
+    pool: &rayon::ThreadPool,
+    threads: usize,
+    images: Option<&Path>,
+) -> Result<PathReport, String> {
+    let cams = path_cameras(scene, sizes)?;
+    // Sec. 4.1 on the other gaze: how many frames would fail the
+    // view-frustum check (and be rendered by ORSA alone).
+    let other_gaze = match sizes.gaze {
+        Gaze::AlongPath => Gaze::Stored,
+        Gaze::Stored => Gaze::AlongPath,
+    };
+    let frustum_fails = |cams: &[Camera]| {
+        cams.windows(2)
+            .filter(|w| !refl_core::epipolar::frustum_contains(&w[0], w[1].eye()))
+            .count()
+    };
+    let other = path_cameras(
+        scene,
+        &PathSizes {
+            gaze: other_gaze,
+            ..*sizes
+        },
+    )?;
+    let (fails, other_fails) = (frustum_fails(&cams), frustum_fails(&other));
+    let build = timed(|| ObjectTracers::new(scene));
+    let objects = build.value;
+    let median = |mut v: Vec<f64>| {
+        v.sort_by(f64::total_cmp);
+        v[v.len() / 2]
+    };
+    // ORSA and IRSA per frame (median of `runs`).
+    let mut truth = Vec::with_capacity(cams.len());
+    let (mut orsa_ms, mut irsa_ms) = (Vec::new(), Vec::new());
+    // IRSA against ORSA: errors and ties (pixels listed in the notes).
+    let (mut irsa_errors, mut irsa_ties) = (Vec::new(), 0usize);
+    for (f, cam) in cams.iter().enumerate() {
+        let mut t = Vec::new();
+        let mut hits = None;
+        for _ in 0..runs.max(1) {
+            let r = timed(|| orsa(tracer, cam, pool));
+            t.push(r.ms);
+            hits.get_or_insert(r.value);
+        }
+        orsa_ms.push(median(t));
+        let hits = hits.expect("runs >= 1");
+        let mut t = Vec::new();
+        for rep in 0..runs.max(1) {
+            let r = timed(|| irsa(scene, &objects, cam, &hits, pool));
+            t.push(r.ms);
+            if rep > 0 {
+                continue;
+            }
+            for (i, (a, b)) in r.value.iter().zip(&hits).enumerate() {
+                match agreement(scene, a, b) {
+                    Agreement::Same => {}
+                    Agreement::Tie => irsa_ties += 1,
+                    Agreement::Error => irsa_errors.push(Mismatch {
+                        frame: f,
+                        pixel: (
+                            (i % sizes.width as usize) as u32,
+                            (i / sizes.width as usize) as u32,
+                        ),
+                        orsa: b.map(|h| (h.prim, h.t)),
+                        method: a.map(|h| (h.prim, h.t)),
+                        path: PixelPath::Resolved,
+                    }),
+                }
+            }
+        }
+        irsa_ms.push(median(t));
+        truth.push(hits);
+    }
+    let n = sizes.width as usize * sizes.height as usize;
+    let mut totals = Vec::new();
+    for v in variants() {
+        // Each repetition replays the whole path (the method has state).
+        let mut tot = Totals::default();
+        let mut frame_times = vec![Vec::new(); cams.len()];
+        for rep in 0..runs.max(1) {
+            let mut state = State {
+                pos: vec![PosEntry::INVALID; n],
+                aip: vec![AipEntry::UNAVAILABLE; n],
+                scratch: vec![
+                    0.0;
+                    scratch_len(sizes.width, sizes.height).map_err(|e| e.to_string())?
+                ],
+                previous: None,
+            };
+            for (f, cam) in cams.iter().enumerate() {
+                let r = timed(|| {
+                    method_frame(
+                        scene, tracer, &objects, cam, f as u32, &v.params, &mut state, pool,
+                    )
+                });
+                frame_times[f].push(r.ms);
+                let out = r.value?;
+                if rep > 0 {
+                    continue;
+                }
+                for (i, ((hit, path), t)) in out.iter().zip(&truth[f]).enumerate() {
+                    tot.pixels += 1;
+                    match path {
+                        PixelPath::Resolved => tot.resolved += 1,
+                        PixelPath::Failed => tot.failed += 1,
+                        PixelPath::Abrupt => {
+                            tot.failed += 1;
+                            tot.abrupt += 1
+                        }
+                        PixelPath::Resampled => tot.resampled += 1,
+                        PixelPath::Unavailable => tot.unavailable += 1,
+                    }
+                    let agree = agreement(scene, hit, t);
+                    if agree != Agreement::Same {
+                        let m = Mismatch {
+                            frame: f,
+                            pixel: (
+                                (i % sizes.width as usize) as u32,
+                                (i / sizes.width as usize) as u32,
+                            ),
+                            orsa: t.map(|h| (h.prim, h.t)),
+                            method: hit.map(|h| (h.prim, h.t)),
+                            path: *path,
+                        };
+                        if agree == Agreement::Tie {
+                            tot.ties.push(m);
+                        } else {
+                            tot.mismatches.push(m);
+                        }
+                    }
+                }
+                if f == cams.len() / 2 {
+                    if let Some(dir) = images {
+                        let stem = v.setting.replace(['=', ';', '/', ' ', '(', ')'], "-");
+                        save_path_image(
+                            &dir.join(format!("{}_epipolar_{stem}_paths.png", scene.name)),
+                            scene,
+                            sizes,
+                            &out,
+                            &truth[f],
+                        )?;
+                    }
+                }
+            }
+        }
+        tot.times = frame_times.into_iter().map(median).collect();
+        totals.push((v.setting.clone(), tot));
+    }
+
+    // Rows: frame 0 has no reprojection; time and shares are over frames
+    // 1.. (the steady state), mismatches over every frame.
+    let frames = cams.len();
+    let steady = |v: &[f64]| {
+        if v.len() > 1 {
+            v[1..].iter().sum::<f64>() / (v.len() - 1) as f64
+        } else {
+            v.iter().sum::<f64>()
+        }
+    };
+    let (o_ms, i_ms) = (steady(&orsa_ms), steady(&irsa_ms));
+    let mut rows = Vec::new();
+    let base = |method: &str, setting: &str, ms: f64| Row {
+        scene: scene.name.clone(),
+        method: method.into(),
+        setting: setting.into(),
+        threads,
+        time_ms: ms,
+        reference_ms: o_ms,
+        speedup: if ms > 0.0 { o_ms / ms } else { f64::INFINITY },
+        coverage: 1.0,
+        mean_abs_255: 0.0,
+        psnr_db: f64::INFINITY,
+        share_over_8: 0.0,
+        extra: Vec::new(),
+    };
+    let mut orsa_row = base("orsa", "full_traversal", o_ms);
+    orsa_row.extra = vec![
+        ("frames".into(), frames.to_string()),
+        ("irsa_ms".into(), format!("{i_ms:.4}")),
+    ];
+    rows.push(orsa_row);
+    let mut irsa_row = base("irsa", "known_object", i_ms);
+    irsa_row.extra = vec![
+        ("frames".into(), frames.to_string()),
+        ("visibility_errors".into(), irsa_errors.len().to_string()),
+        ("ties".into(), irsa_ties.to_string()),
+        ("irsa_ms".into(), format!("{i_ms:.4}")),
+    ];
+    rows.push(irsa_row);
+    let mut notes = String::new();
+    let _ = writeln!(
+        notes,
+        "- `{}` walkthrough (seed 002): {frames} frames at {}x{}, eye step {} per frame from path position {}; \
+         per-object BVHs built in {:.1} ms; ORSA {o_ms:.2} ms/frame, IRSA {i_ms:.2} ms/frame (frames 1..); \
+         IRSA visibility errors against ORSA: {}, ties (same point, another object): {irsa_ties}; camera gaze {:?}: {fails} of {} frame \
+         pairs fail the view-frustum check (Sec. 4.1), with gaze {other_gaze:?} {other_fails} would",
+        scene.name,
+        sizes.width,
+        sizes.height,
+        sizes.step,
+        sizes.start,
+        build.ms,
+        irsa_errors.len(),
+        sizes.gaze,
+        frames.saturating_sub(1)
+    );
+    for m in irsa_errors.iter().take(20) {
+        let _ = writeln!(
+            notes,
+            "  - IRSA frame {} pixel {:?}: ORSA {:?}, IRSA {:?}",
+            m.frame, m.pixel, m.orsa, m.method
+        );
+    }
+    // Every mismatch and tie of every setting, one CSV line each.
+    let mut csv =
+        String::from("setting,kind,frame,x,y,path,orsa_prim,orsa_t,method_prim,method_t\n");
+    let fmt_hit = |h: Option<(u32, f32)>| match h {
+        Some((p, t)) => format!("{p},{t}"),
+        None => ",".to_string(),
+    };
+    let irsa_list = irsa_errors.iter().map(|m| ("irsa", "error", m));
+    let method_lists = totals.iter().flat_map(|(setting, t)| {
+        t.mismatches
+            .iter()
+            .map(move |m| (setting.as_str(), "error", m))
+            .chain(t.ties.iter().map(move |m| (setting.as_str(), "tie", m)))
+    });
+    for (setting, kind, m) in irsa_list.chain(method_lists) {
+        let _ = writeln!(
+            csv,
+            "{setting},{kind},{},{},{},{:?},{},{}",
+            m.frame,
+            m.pixel.0,
+            m.pixel.1,
+            m.path,
+            fmt_hit(m.orsa),
+            fmt_hit(m.method)
+        );
+    }
+    if let Some(dir) = images {
+        let file = dir.join(format!("{}_epipolar_mismatches.csv", scene.name));
+        std::fs::write(&file, csv).map_err(|e| format!("{}: {e}", file.display()))?;
+        let _ = writeln!(
+            notes,
+            "  - every visibility error and tie: `images/{}`",
+            file.file_name()
+                .map_or(String::new(), |f| f.to_string_lossy().into_owned())
+        );
+    }
+    for (setting, t) in &totals {
+        // Shares over the frames that had a reprojection (frame 0 and
+        // frames failing the view-frustum check are all ORSA).
+        let steady_px = (t.pixels - t.unavailable).max(1) as f64;
+        let share = |c: usize| c as f64 / steady_px;
+        let ms = steady(&t.times);
+        // Visibility error as image error: share of mismatched pixels.
+        let err_share = t.mismatches.len() as f64 / t.pixels.max(1) as f64;
+        let mut row = base("epipolar", setting, ms);
+        row.mean_abs_255 = 255.0 * err_share;
+        row.share_over_8 = err_share;
+        row.psnr_db = if t.mismatches.is_empty() {
+            f64::INFINITY
+        } else {
+            0.0
+        };
+        row.extra = vec![
+            ("frames".into(), frames.to_string()),
+            ("c_R".into(), format!("{:.4}", share(t.resolved))),
+            ("c_E".into(), format!("{:.4}", share(t.failed))),
+            ("c_O".into(), format!("{:.4}", share(t.resampled))),
+            ("c_abrupt".into(), format!("{:.4}", share(t.abrupt))),
+            (
+                "c_unavailable".into(),
+                format!(
+                    "{:.4}",
+                    t.unavailable.saturating_sub(n) as f64 / (t.pixels - n).max(1) as f64
+                ),
+            ),
+            ("visibility_errors".into(), t.mismatches.len().to_string()),
+            ("ties".into(), t.ties.len().to_string()),
+            ("irsa_ms".into(), format!("{i_ms:.4}")),
+            (
+                "vs_irsa".into(),
+                format!("{:.4}", if ms > 0.0 { i_ms / ms } else { 0.0 }),
+            ),
+        ];
+        rows.push(row);
+        let _ = writeln!(
+            notes,
+            "  - `epipolar` {setting}: c_R {:.1}%, c_E {:.1}%, c_O {:.1}% (of frames with reprojection; \
+             {} of {} frames without), {:.2} ms/frame ({:.2}x ORSA, {:.2}x IRSA time), \
+             {} visibility errors, {} ties",
+            100.0 * share(t.resolved),
+            100.0 * share(t.failed),
+            100.0 * share(t.resampled),
+            t.unavailable / n,
+            frames,
+            ms,
+            if ms > 0.0 { o_ms / ms } else { 0.0 },
+            if i_ms > 0.0 { ms / i_ms } else { 0.0 },
+            t.mismatches.len(),
+            t.ties.len()
+        );
+        for m in t.mismatches.iter().take(20) {
+            let _ = writeln!(
+                notes,
+                "    - frame {} pixel {:?}: ORSA {:?}, method {:?} ({:?})",
+                m.frame, m.pixel, m.orsa, m.method, m.path
+            );
+        }
+        if t.mismatches.len() > 20 {
+            let _ = writeln!(notes, "    - ... {} more", t.mismatches.len() - 20);
+        }
+    }
+    Ok(PathReport {
+        rows,
+        totals,
+        notes,
+    })
+}
+
+/// The path image of one frame (seed 002 Fig. 6b colors): red one
+/// ray/object test, green failed reprojection, white regular resampling,
+/// blue abrupt motion, gray no reprojection; a visibility mismatch is
+/// magenta, background pixels resolved by the background sphere dark red.
+fn save_path_image(
+    path: &Path,
+    scene: &Scene,
+    sizes: &PathSizes,
+    out: &[PixelOut],
+    truth: &[Option<Hit>],
+) -> Result<(), String> {
+    let px: Vec<[u8; 3]> = out
+        .iter()
+        .zip(truth)
+        .map(|((hit, p), t)| {
+            if agreement(scene, hit, t) == Agreement::Error {
+                return [255, 0, 255];
+            }
+            match p {
+                PixelPath::Resolved if hit.is_none() => [110, 0, 0],
+                PixelPath::Resolved => [220, 30, 30],
+                PixelPath::Failed => [30, 180, 30],
+                PixelPath::Abrupt => [40, 60, 230],
+                PixelPath::Resampled => [255, 255, 255],
+                PixelPath::Unavailable => [128, 128, 128],
+            }
+        })
+        .collect();
+    report_out::save_png(path, sizes.width, sizes.height, &px)
+        .map_err(|e| format!("{}: {e}", path.display()))
+}
+
+/// `true` for a method name of this module.
+pub fn is_path_method(name: &str) -> bool {
+    METHODS.contains(&name)
+}
