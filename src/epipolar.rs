@@ -15,7 +15,7 @@
 //! each one is listed.
 
 use crate::gbuffer::pixel_center;
-use crate::render::timed;
+use crate::render::{median, timed};
 use crate::report_out::{self, Row};
 use crate::scene::Scene;
 use crate::tracer::{Hit, Tracer};
@@ -574,10 +574,6 @@ pub fn run(
     let (fails, other_fails) = (frustum_fails(&cams), frustum_fails(&other));
     let build = timed(|| ObjectTracers::new(scene));
     let objects = build.value;
-    let median = |mut v: Vec<f64>| {
-        v.sort_by(f64::total_cmp);
-        v[v.len() / 2]
-    };
     // ORSA and IRSA per frame (median of `runs`).
     let mut truth = Vec::with_capacity(cams.len());
     let (mut orsa_ms, mut irsa_ms) = (Vec::new(), Vec::new());

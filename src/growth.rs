@@ -10,7 +10,7 @@
 
 use crate::gbuffer::GBuffer;
 use crate::layered_render::LayeredScene;
-use crate::render::timed;
+use crate::render::{median, timed};
 use crate::scene::Scene;
 use crate::screen::{self, ScreenMethod};
 use crate::shade::Shader;
@@ -56,10 +56,6 @@ pub fn measure(
     runs: usize,
     pool: &rayon::ThreadPool,
 ) -> Result<Vec<GrowthRow>, String> {
-    let median = |mut v: Vec<f64>| {
-        v.sort_by(f64::total_cmp);
-        v[v.len() / 2]
-    };
     let mut rows = Vec::new();
     for &n in sizes {
         let scene = Scene::room(n);

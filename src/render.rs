@@ -104,6 +104,15 @@ pub struct Timed<T> {
     pub ms: f64,
 }
 
+/// The median of timings `v` (the upper one of an even count).
+///
+/// # Panics
+/// If `v` is empty.
+pub fn median(mut v: Vec<f64>) -> f64 {
+    v.sort_by(f64::total_cmp);
+    v[v.len() / 2]
+}
+
 /// Runs `f` and measures it.
 pub fn timed<T>(f: impl FnOnce() -> T) -> Timed<T> {
     let start = Instant::now();

@@ -20,7 +20,10 @@ use crate::scene::Scene;
 use crate::screen::{self, RayStats, ScreenMethod};
 use crate::shade::Shader;
 use crate::tracer::Tracer;
-use crate::{gbuffer::GBuffer, render::timed};
+use crate::{
+    gbuffer::GBuffer,
+    render::{median, timed},
+};
 use glam::Vec3;
 use indicatif::{ProgressBar, ProgressStyle};
 use refl_core::hiz::HiZOptions;
@@ -407,11 +410,6 @@ fn load_scene(name: &str, opts: &Options, sizes: &Sizes) -> Result<Scene, String
             "unknown scene '{other}' (room, concave, walkthrough or a .obj path)"
         )),
     }
-}
-
-fn median(mut v: Vec<f64>) -> f64 {
-    v.sort_by(f64::total_cmp);
-    v[v.len() / 2]
 }
 
 /// Sums over the frames of one scene x method x setting; a row is made

@@ -576,14 +576,16 @@ impl ScreenFrame {
     ) -> Self {
         let rays = reflection_rays(scene, tracer, shader, g, pool);
         let time = |p: &rayon::ThreadPool| {
-            let mut ms: Vec<f64> = (0..runs.max(1))
-                .map(|_| {
-                    crate::render::timed(|| trace_reference(tracer, &rays.ray, shader.epsilon, p))
+            crate::render::median(
+                (0..runs.max(1))
+                    .map(|_| {
+                        crate::render::timed(|| {
+                            trace_reference(tracer, &rays.ray, shader.epsilon, p)
+                        })
                         .ms
-                })
-                .collect();
-            ms.sort_by(f64::total_cmp);
-            ms[ms.len() / 2]
+                    })
+                    .collect(),
+            )
         };
         let (obvhs_ms, obvhs_ms_1t) = (time(pool), time(pool_1t));
         Self {
