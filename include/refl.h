@@ -2185,9 +2185,11 @@ refl_status refl_apply_reprojection(struct refl_projection *out,
 refl_status refl_epipolar_params_default(struct refl_epipolar_params *out);
 
 /**
- * Writes to `*out_len` the number of floats of occlusion-check scratch
- * `refl_epipolar_reproject` needs for a `width x height` image. The POS
- * and AIP buffers hold `width * height` entries each.
+ * Writes to `*out_len` the number of floats of scratch
+ * `refl_epipolar_reproject` needs for a `width x height` image (the
+ * occlusion check's epipolar-line records, then the guard window's ring of
+ * row summaries; the larger of the two). The POS and AIP buffers hold
+ * `width * height` entries each.
  *
  * Returns `REFL_STATUS_NULL_POINTER` if `out_len` is NULL;
  * `REFL_STATUS_INVALID_ARGUMENT` for a zero size or a count that does not

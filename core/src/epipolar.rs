@@ -40,7 +40,7 @@
 //!
 //! All buffers belong to the caller: `POS` ([`PosEntry`], one per pixel of
 //! the previous frame), `AIP` ([`AipEntry`], one per pixel of the new
-//! frame) and the occlusion-check scratch ([`scratch_len`] floats).
+//! frame) and the reprojection scratch ([`scratch_len`] floats).
 
 use crate::{Camera, Error, RowRange};
 use glam::{DVec3, Vec2, Vec3};
@@ -577,9 +577,13 @@ impl Quadrants {
     }
 }
 
-/// Floats of occlusion-check scratch for a `width x height` new image:
-/// `(distance, t)` records of `w + h + 4 MAX_SPLAT_RADIUS` angular bins of
-/// the epipolar lines ([`line_bins`]), about one bin per border pixel.
+/// Floats of reprojection scratch for a `width x height` new image, the
+/// larger of two uses (one after the other):
+/// * the occlusion check's `(distance, t)` records of
+///   `w + h + 4 MAX_SPLAT_RADIUS` angular bins of the epipolar lines
+///   ([`line_bins`]), about one bin per border pixel;
+/// * the guard window's ring of `2 MAX_SPLAT_RADIUS + 1` rows of
+///   row-window summaries, 3 floats per pixel ([`Params::guard_window`]).
 ///
 /// # Errors
 /// [`Error::InvalidArgument`] for a zero size or an overflowing count.
@@ -588,9 +592,25 @@ pub fn scratch_len(width: u32, height: u32) -> Result<usize, Error> {
         return Err(Error::InvalidArgument);
     }
     let pad = 2 * u64::from(MAX_SPLAT_RADIUS);
-    let n = 2 * (u64::from(width) + pad) + 2 * (u64::from(height) + pad);
-    usize::try_from(n).map_err(|_| Error::InvalidArgument)
+    let lines = 2 * (u64::from(width) + pad) + 2 * (u64::from(height) + pad);
+    let ring = GUARD_RING_ROWS * GUARD_SUMMARY_FLOATS * u64::from(width);
+    usize::try_from(lines.max(ring)).map_err(|_| Error::InvalidArgument)
 }
+
+/// Angular bins of the occlusion check's epipolar-line records for a
+/// `width x height` image: `w + h + 4 MAX_SPLAT_RADIUS`, about one per
+/// border pixel of the padded image (each bin takes 2 floats of
+/// [`scratch_len`]).
+pub fn line_bin_count(width: u32, height: u32) -> usize {
+    let pad = 2 * MAX_SPLAT_RADIUS as usize;
+    width as usize + pad + height as usize + pad
+}
+
+/// Rows of row-window summaries the guard window keeps at once.
+const GUARD_RING_ROWS: u64 = 2 * MAX_SPLAT_RADIUS as u64 + 1;
+/// Floats per guard summary: nearest `t`, its object (bits), nearest `t`
+/// of any other object.
+const GUARD_SUMMARY_FLOATS: u64 = 3;
 
 /// Counts of one reprojection phase.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
@@ -755,34 +775,137 @@ pub fn try_reproject(
         }
     }
     if params.depth_guard && params.guard_window > 0 {
-        guard_window(ctx.aip, w, h, params.guard_window);
+        guard_window(ctx.aip, scratch, w, h, params.guard_window);
     }
     Ok(stats)
+}
+
+/// Nearest entries of a set of AIP entries, for the guard window: the
+/// nearest `t` (`t1`) and its object (`o1`), and the nearest `t` of any
+/// entry holding another object than `o1` (`t2`). The minimum over "another
+/// object than mine" of a set is then `t1` if `o1` is not mine, else `t2`;
+/// and summaries merge associatively, so a `(2g+1)^2` window is a vertical
+/// merge of `2g+1` horizontal ones (`2 (2g+1)` merges per pixel instead of
+/// `(2g+1)^2` reads). `min` is exact, so the result is bit-identical to the
+/// direct scan.
+#[derive(Clone, Copy)]
+struct Nearest2 {
+    t1: f32,
+    o1: u32,
+    t2: f32,
+}
+
+impl Nearest2 {
+    /// The summary of the empty set.
+    const EMPTY: Nearest2 = Nearest2 {
+        t1: f32::INFINITY,
+        o1: INVALID_OBJECT,
+        t2: f32::INFINITY,
+    };
+
+    #[inline]
+    fn of(a: &AipEntry) -> Nearest2 {
+        if a.object == INVALID_OBJECT {
+            Nearest2::EMPTY
+        } else {
+            Nearest2 {
+                t1: a.t,
+                o1: a.object,
+                t2: f32::INFINITY,
+            }
+        }
+    }
+
+    #[inline]
+    fn merge(self, o: Nearest2) -> Nearest2 {
+        let (a, b) = if self.t1 <= o.t1 {
+            (self, o)
+        } else {
+            (o, self)
+        };
+        // b's nearest of an object other than a.o1.
+        let other = if b.o1 != a.o1 { b.t1 } else { b.t2 };
+        Nearest2 {
+            t1: a.t1,
+            o1: a.o1,
+            t2: a.t2.min(other),
+        }
+    }
+
+    /// Nearest `t` of the set's entries holding another object than
+    /// `object`.
+    #[inline]
+    fn other_than(&self, object: u32) -> f32 {
+        if self.o1 != object {
+            self.t1
+        } else {
+            self.t2
+        }
+    }
+
+    #[inline]
+    fn store(&self, out: &mut [f32]) {
+        // The object id travels bit for bit through the f32 scratch
+        // (`from_bits`/`to_bits` are transmutes; no arithmetic touches it).
+        out[0] = self.t1;
+        out[1] = f32::from_bits(self.o1);
+        out[2] = self.t2;
+    }
+
+    #[inline]
+    fn load(s: &[f32]) -> Nearest2 {
+        Nearest2 {
+            t1: s[0],
+            o1: s[1].to_bits(),
+            t2: s[2],
+        }
+    }
 }
 
 /// The guard window of [`Params::guard_window`]: lowers `t_other` of every
 /// entry to the `t` of the entries within `g` pixels holding another
 /// object. Reads only `object` and `t`, which it does not change, so it
-/// works in place and in any order.
-fn guard_window(aip: &mut [AipEntry], w: u32, h: u32, g: u32) {
+/// works in place. Separable ([`Nearest2`]): `scratch` holds a ring of
+/// `2g + 1` rows of horizontal window summaries (at least
+/// `(2g + 1) * 3 * w` floats, which [`scratch_len`] covers).
+fn guard_window(aip: &mut [AipEntry], scratch: &mut [f32], w: u32, h: u32, g: u32) {
     let (w, h, g) = (w as usize, h as usize, g as usize);
+    let ring_rows = 2 * g + 1;
+    let stride = GUARD_SUMMARY_FLOATS as usize * w;
+    let ring = &mut scratch[..ring_rows * stride];
+    // Horizontal summaries of row `y` into ring slot `y % ring_rows`.
+    let summarize = |aip: &[AipEntry], ring: &mut [f32], y: usize| {
+        let row = &aip[y * w..][..w];
+        let out = &mut ring[(y % ring_rows) * stride..][..stride];
+        for x in 0..w {
+            let (x0, x1) = (x.saturating_sub(g), (x + g).min(w - 1));
+            let mut s = Nearest2::EMPTY;
+            for a in &row[x0..=x1] {
+                s = s.merge(Nearest2::of(a));
+            }
+            s.store(&mut out[3 * x..3 * x + 3]);
+        }
+    };
+    for y in 0..g.min(h) {
+        summarize(aip, ring, y);
+    }
     for y in 0..h {
+        if y + g < h {
+            summarize(aip, ring, y + g);
+        }
         let (y0, y1) = (y.saturating_sub(g), (y + g).min(h - 1));
         for x in 0..w {
             let object = aip[y * w + x].object;
             if object == INVALID_OBJECT {
                 continue;
             }
-            let (x0, x1) = (x.saturating_sub(g), (x + g).min(w - 1));
-            let mut guard = aip[y * w + x].t_other;
+            let mut s = Nearest2::EMPTY;
             for ny in y0..=y1 {
-                for n in &aip[ny * w + x0..=ny * w + x1] {
-                    if n.object != object && n.object != INVALID_OBJECT {
-                        guard = guard.min(n.t);
-                    }
-                }
+                let at = (ny % ring_rows) * stride + 3 * x;
+                s = s.merge(Nearest2::load(&ring[at..at + 3]));
             }
-            aip[y * w + x].t_other = guard;
+            let a = &mut aip[y * w + x];
+            a.t_other = a.t_other.min(s.other_than(object));
         }
     }
 }
@@ -863,8 +986,7 @@ impl<'a> LineRecords<'a> {
         epipole: Vec2,
         increasing: bool,
     ) -> Self {
-        let pad = 2 * MAX_SPLAT_RADIUS as usize;
-        let len = 2 * (width as usize + pad) + 2 * (height as usize + pad);
+        let len = 2 * line_bin_count(width, height);
         let (axis, theta0, scale, full) = line_bins(width, height, epipole, len / 2);
         LineRecords {
             data: &mut scratch[..len],

@@ -7,9 +7,9 @@
 
 use glam::{DVec3, Vec2, Vec3};
 use refl_core::epipolar::{
-    decide, frustum_contains, line_bins, resample_slot, scratch_len, try_decide_rows,
-    try_reproject, AipEntry, Decision, Epipole, Epipoles, Params, PosEntry, Quadrants, Reason,
-    Reprojector, BACKGROUND_OBJECT, INVALID_OBJECT, OCCLUDER_GAP,
+    decide, frustum_contains, line_bin_count, line_bins, resample_slot, scratch_len,
+    try_decide_rows, try_reproject, AipEntry, Decision, Epipole, Epipoles, Params, PosEntry,
+    Quadrants, Reason, Reprojector, BACKGROUND_OBJECT, INVALID_OBJECT, OCCLUDER_GAP,
 };
 use refl_core::{Camera, Error, RowRange};
 
@@ -382,7 +382,7 @@ fn reproject_brute(pos: &[PosEntry], c0: &Camera, c1: &Camera, p: &Params) -> Ve
     let order = order_by_sort(w, h, e.previous.pixel, e.outward());
     let r = p.splat_radius as i64;
     let proj = Reprojector::new(c1);
-    let bins = scratch_len(w, h).unwrap() / 2;
+    let bins = line_bin_count(w, h);
     let (axis, theta0, scale, full) = line_bins(w, h, e.current.pixel, bins);
     for quad in order {
         // Kept points of this quadrant, in order: (bin, distance^2, t).
