@@ -253,7 +253,7 @@ pub fn normal_bin(n: Vec3, theta_bins: u32, phi_bins: u32) -> u32 {
 ///   untouched: every pixel is checked before any is written).
 pub fn try_assign_clusters(
     ids: &mut ImageViewMut<'_, u32>,
-    normals: &ImageView<'_, Vec3>,
+    normals: &ImageView<'_, [f32; 3]>,
     objects: &ImageView<'_, u32>,
     layout: &[ObjectBins],
 ) -> Result<(), Error> {
@@ -277,7 +277,7 @@ pub fn try_assign_clusters(
         for x in 0..w {
             let id = objects.get(x, y).unwrap_or(NO_OBJECT);
             if bins_of(id).is_some() {
-                let n = normals.get(x, y).unwrap_or(Vec3::NAN);
+                let n = normals.get(x, y).map_or(Vec3::NAN, Vec3::from_array);
                 if !(n.is_finite() && n.length_squared() > 0.0) {
                     return Err(Error::InvalidArgument);
                 }
@@ -289,7 +289,7 @@ pub fn try_assign_clusters(
             let id = objects.get(x, y).unwrap_or(NO_OBJECT);
             let c = match bins_of(id) {
                 Some(b) => {
-                    let n = normals.get(x, y).unwrap_or(Vec3::Y).normalize();
+                    let n = normals.get(x, y).map_or(Vec3::Y, Vec3::from_array).normalize();
                     b.first + normal_bin(n, b.theta_bins, b.phi_bins)
                 }
                 None => NO_CLUSTER,
@@ -376,10 +376,10 @@ pub fn try_cluster_ranges(
 /// and unit world normal, same size.
 #[derive(Clone, Copy, Debug)]
 pub struct ClusterInput<'a> {
-    /// Reflector surface point per pixel.
-    pub positions: ImageView<'a, Vec3>,
+    /// Reflector surface point per pixel (x, y, z).
+    pub positions: ImageView<'a, [f32; 3]>,
     /// Unit shading normal per pixel, facing the viewer.
-    pub normals: ImageView<'a, Vec3>,
+    pub normals: ImageView<'a, [f32; 3]>,
 }
 
 impl ClusterInput<'_> {
@@ -389,7 +389,10 @@ impl ClusterInput<'_> {
             return None;
         }
         let (x, y) = (index % w, index / w);
-        Some((self.positions.get(x, y)?, self.normals.get(x, y)?))
+        Some((
+            Vec3::from_array(self.positions.get(x, y)?),
+            Vec3::from_array(self.normals.get(x, y)?),
+        ))
     }
 
     fn validate(&self, pixels: &[u32]) -> Result<(), Error> {
@@ -1079,12 +1082,12 @@ fn lobe_dir(lobe: &Lobe, axis: Vec3, k: u32, rot: Vec2) -> Vec3 {
 /// The color at a hit: bilinear between the 2x2 texel centers around
 /// `pixel`, using only texels whose depth continues the hit texel's surface
 /// (within [`REFINE_CONTINUITY`] relative), renormalized.
-fn sample_color(depth: &DepthImage<'_>, color: &ImageView<'_, Vec3>, pixel: Vec2) -> Vec3 {
+fn sample_color(depth: &DepthImage<'_>, color: &ImageView<'_, [f32; 3]>, pixel: Vec2) -> Vec3 {
     let (w, h) = (depth.width(), depth.height());
     let hx = (pixel.x as u32).min(w - 1);
     let hy = (pixel.y as u32).min(h - 1);
     let z0 = depth.linear_at(hx, hy).unwrap_or(f32::NAN);
-    let base = color.get(hx, hy).unwrap_or(Vec3::ZERO);
+    let base = color.get(hx, hy).map_or(Vec3::ZERO, Vec3::from_array);
     if !(z0 > 0.0 && z0.is_finite()) {
         return base;
     }
@@ -1110,7 +1113,7 @@ fn sample_color(depth: &DepthImage<'_>, color: &ImageView<'_, Vec3>, pixel: Vec2
             continue;
         }
         if let Some(c) = color.get(x, y) {
-            sum += c * wt;
+            sum += Vec3::from_array(c) * wt;
             wsum += wt;
         }
     }
@@ -1167,7 +1170,7 @@ pub fn try_finalize_cluster(
     eye: Vec3,
     cam: &ClusterCamera,
     depth: &DepthImage<'_>,
-    color: &ImageView<'_, Vec3>,
+    color: &ImageView<'_, [f32; 3]>,
     params: &FinalizeParams<'_>,
 ) -> Result<u32, Error> {
     if out.len() < pixels.len() {

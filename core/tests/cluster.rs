@@ -38,6 +38,10 @@ struct Frame {
     objects: Vec<u32>,
 }
 
+fn arr(v: &[Vec3]) -> Vec<[f32; 3]> {
+    v.iter().map(|p| p.to_array()).collect()
+}
+
 enum Reflector {
     /// y = 0 facing +Y.
     Floor,
@@ -83,10 +87,15 @@ fn gbuffer(cam: &Camera, refl: &Reflector) -> Frame {
     f
 }
 
-fn input(f: &Frame) -> ClusterInput<'_> {
+/// The core reads `[f32; 3]` texels; the copies live for the test run.
+fn input(f: &Frame) -> ClusterInput<'static> {
+    let (p, n): (&'static [[f32; 3]], &'static [[f32; 3]]) = (
+        Box::leak(arr(&f.positions).into_boxed_slice()),
+        Box::leak(arr(&f.normals).into_boxed_slice()),
+    );
     ClusterInput {
-        positions: ImageView::try_new(&f.positions, W, H, W).unwrap(),
-        normals: ImageView::try_new(&f.normals, W, H, W).unwrap(),
+        positions: ImageView::try_new(p, W, H, W).unwrap(),
+        normals: ImageView::try_new(n, W, H, W).unwrap(),
     }
 }
 
@@ -223,7 +232,8 @@ fn assign_count_and_ranges_agree_with_brute_force() {
     let cam = eye_camera();
     let f = gbuffer(&cam, &Reflector::Sphere(DVec3::new(0.0, 0.8, -1.0), 1.2));
     let objects = ImageView::try_new(&f.objects, W, H, W).unwrap();
-    let normals = ImageView::try_new(&f.normals, W, H, W).unwrap();
+    let normals_flat = arr(&f.normals);
+    let normals = ImageView::try_new(&normals_flat, W, H, W).unwrap();
     // Counting in two bands adds up.
     let mut c1 = [0u32; 1];
     let mut c2 = [0u32; 1];
@@ -294,7 +304,8 @@ fn assign_count_and_ranges_agree_with_brute_force() {
     let mut bad_normals = f.normals.clone();
     let first = pixels_of(&f)[0] as usize;
     bad_normals[first] = Vec3::NAN;
-    let bn = ImageView::try_new(&bad_normals, W, H, W).unwrap();
+    let bad_flat = arr(&bad_normals);
+    let bn = ImageView::try_new(&bad_flat, W, H, W).unwrap();
     let mut ids2 = vec![3u32; (W * H) as usize];
     let mut v2 = ImageViewMut::try_new(&mut ids2, W, H, W).unwrap();
     assert_eq!(
@@ -445,7 +456,8 @@ fn curved_cluster_follows_eq1_and_holds_every_ray() {
     let cam = eye_camera();
     let f = gbuffer(&cam, &Reflector::Sphere(DVec3::new(0.0, 0.8, -1.0), 1.2));
     let objects = ImageView::try_new(&f.objects, W, H, W).unwrap();
-    let normals = ImageView::try_new(&f.normals, W, H, W).unwrap();
+    let normals_flat = arr(&f.normals);
+    let normals = ImageView::try_new(&normals_flat, W, H, W).unwrap();
     let visible = f.objects.iter().filter(|&&o| o == 0).count() as u32;
     let params = ClusterParams {
         gain: 6.0,
@@ -576,9 +588,10 @@ fn degenerate_clusters_have_defined_outcomes() {
                 nor.push(((e - q).normalize() + Vec3::Y).normalize());
             }
         }
+        let (pos_flat, nor_flat) = (arr(&pos), arr(&nor));
         let inp = ClusterInput {
-            positions: ImageView::try_new(&pos, 3, 3, 3).unwrap(),
-            normals: ImageView::try_new(&nor, 3, 3, 3).unwrap(),
+            positions: ImageView::try_new(&pos_flat, 3, 3, 3).unwrap(),
+            normals: ImageView::try_new(&nor_flat, 3, 3, 3).unwrap(),
         };
         let all: Vec<u32> = (0..9).collect();
         let cc = camera_of(try_cluster_camera(&inp, &all, e, &p).unwrap());
@@ -628,9 +641,10 @@ fn degenerate_clusters_have_defined_outcomes() {
         let nor: Vec<Vec3> = (0..4)
             .map(|i| Vec3::new(if i % 2 == 0 { 1.0 } else { -1.0 }, 0.2, 0.0).normalize())
             .collect();
+        let (pos_flat, nor_flat) = (arr(&pos), arr(&nor));
         let inp = ClusterInput {
-            positions: ImageView::try_new(&pos, 4, 1, 4).unwrap(),
-            normals: ImageView::try_new(&nor, 4, 1, 4).unwrap(),
+            positions: ImageView::try_new(&pos_flat, 4, 1, 4).unwrap(),
+            normals: ImageView::try_new(&nor_flat, 4, 1, 4).unwrap(),
         };
         assert_eq!(
             try_cluster_camera(&inp, &[0, 1, 2, 3], e, &p).unwrap(),
@@ -721,13 +735,13 @@ fn walls(o: DVec3, d: DVec3) -> Option<(f64, DVec3)> {
 
 /// The depth and color image of the walls through `cam`, per texel center
 /// in f64, keeping only what lies above the clip plane (here: y > 0).
-fn render_walls(cam: &Camera, conv: DepthConvention) -> (Vec<f32>, Vec<Vec3>) {
+fn render_walls(cam: &Camera, conv: DepthConvention) -> (Vec<f32>, Vec<[f32; 3]>) {
     let (w, h) = (cam.width(), cam.height());
     let mut depth = vec![cam.encode_depth(f32::INFINITY, conv); (w * h) as usize];
     if conv == DepthConvention::Linear {
         depth.fill(f32::INFINITY);
     }
-    let mut color = vec![Vec3::ZERO; (w * h) as usize];
+    let mut color = vec![[0.0f32; 3]; (w * h) as usize];
     for y in 0..h {
         for x in 0..w {
             let r = cam.primary_ray(Vec2::new(x as f32 + 0.5, y as f32 + 0.5));
@@ -738,7 +752,7 @@ fn render_walls(cam: &Camera, conv: DepthConvention) -> (Vec<f32>, Vec<Vec3>) {
             if let Some((_, p)) = walls(o2, d) {
                 let z = cam.linear_depth(p.as_vec3());
                 depth[(y * w + x) as usize] = cam.encode_depth(z, conv);
-                color[(y * w + x) as usize] = wall_color(p);
+                color[(y * w + x) as usize] = wall_color(p).to_array();
             }
         }
     }
@@ -967,7 +981,7 @@ fn glossy_finalization_weights_and_hostile_input() {
         e(&mut out, &base, eye, &input(&nan)),
         Err(Error::InvalidArgument)
     );
-    let small = vec![Vec3::ZERO; 4];
+    let small = vec![[0.0f32; 3]; 4];
     let sv = ImageView::try_new(&small, 2, 2, 2).unwrap();
     assert_eq!(
         try_finalize_cluster(&mut out, &input(&f), &pixels, eye, &cc, &di, &sv, &base),
