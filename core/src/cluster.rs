@@ -289,7 +289,10 @@ pub fn try_assign_clusters(
             let id = objects.get(x, y).unwrap_or(NO_OBJECT);
             let c = match bins_of(id) {
                 Some(b) => {
-                    let n = normals.get(x, y).map_or(Vec3::Y, Vec3::from_array).normalize();
+                    let n = normals
+                        .get(x, y)
+                        .map_or(Vec3::Y, Vec3::from_array)
+                        .normalize();
                     b.first + normal_bin(n, b.theta_bins, b.phi_bins)
                 }
                 None => NO_CLUSTER,
@@ -1154,7 +1157,8 @@ fn validate_thickness(depth: &DepthImage<'_>, t: &Thickness<'_>) -> Result<(), E
 /// # Errors
 /// * [`Error::InsufficientSize`]: `out.len() < pixels.len()`.
 /// * [`Error::InvalidArgument`]: a non-finite `eye`, an invalid lobe,
-///   thickness or stride, a `color` image of another size than `depth`, or
+///   thickness or stride, a camera whose centroid, unit normal or far
+///   distance is not finite (or not positive), a `color` image of another size than `depth`, or
 ///   a listed pixel outside the input or with a non-finite position or a
 ///   non-unit normal (as [`try_cluster_camera`]).
 ///
@@ -1186,6 +1190,14 @@ pub fn try_finalize_cluster(
     }
     input.validate(pixels)?;
     let (pc, nc, d_far) = (cam.centroid, cam.normal, cam.far_distance);
+    if !(pc.is_finite()
+        && nc.is_finite()
+        && (nc.length_squared() - 1.0).abs() <= 1e-3
+        && d_far > 0.0
+        && d_far.is_finite())
+    {
+        return Err(Error::InvalidArgument);
+    }
     let mut fallbacks = 0u32;
     for (o, &p) in out.iter_mut().zip(pixels) {
         let (pos, n) = input.at(p).unwrap_or((Vec3::ZERO, Vec3::Y));
