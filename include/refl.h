@@ -456,6 +456,44 @@ typedef uint32_t refl_epipolar_reason;
 #endif // __cplusplus
 
 /**
+ * Why a cluster gets no camera (its pixels fall back to the environment);
+ * `REFL_CLUSTER_FALLBACK_NONE` when it has one.
+ */
+enum refl_cluster_fallback
+#if defined(__cplusplus) || __STDC_VERSION__ >= 202311L
+  : uint32_t
+#endif // defined(__cplusplus) || __STDC_VERSION__ >= 202311L
+ {
+    /**
+     * The cluster has a camera.
+     */
+    REFL_CLUSTER_FALLBACK_NONE = 0,
+    /**
+     * Fewer than `min_pixels` pixels (one-pixel clusters among them).
+     */
+    REFL_CLUSTER_FALLBACK_TOO_FEW_PIXELS = 1,
+    /**
+     * The normals cancel out or their mean faces away from the eye.
+     */
+    REFL_CLUSTER_FALLBACK_FACES_AWAY = 2,
+    /**
+     * No reflected ray reaches the far plane.
+     */
+    REFL_CLUSTER_FALLBACK_NO_RAYS = 3,
+    /**
+     * The rays span more than a pinhole frustum holds.
+     */
+    REFL_CLUSTER_FALLBACK_TOO_WIDE = 4,
+};
+#ifndef __cplusplus
+#if __STDC_VERSION__ >= 202311L
+typedef enum refl_cluster_fallback refl_cluster_fallback;
+#else
+typedef uint32_t refl_cluster_fallback;
+#endif // __STDC_VERSION__ >= 202311L
+#endif // __cplusplus
+
+/**
  * A 4x4 float matrix, column-major: element (row r, column c) is
  * `m[4 * c + r]`, the layout of OpenGL and glam. Points are column vectors
  * multiplied on the right (`p' = M p`).
@@ -2541,13 +2579,13 @@ refl_status refl_cluster_ranges(uint32_t *out_total,
  * # Safety
  * `out` NULL or writable; inputs readable for their lengths.
  */
-refl_status refl_cluster_camera(struct refl_cluster_camera *out,
-                                struct refl_image_vec3 positions,
-                                struct refl_image_vec3 normals,
-                                const uint32_t *pixels,
-                                size_t pixel_count,
-                                struct refl_vec3 eye,
-                                const struct refl_cluster_camera_params *params);
+refl_status refl_cluster_build_camera(struct refl_cluster_camera *out,
+                                      struct refl_image_vec3 positions,
+                                      struct refl_image_vec3 normals,
+                                      const uint32_t *pixels,
+                                      size_t pixel_count,
+                                      struct refl_vec3 eye,
+                                      const struct refl_cluster_camera_params *params);
 
 /**
  * Writes to `*out` the half-angle (radians) of the Phong lobe cos^n that

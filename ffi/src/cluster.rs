@@ -4,7 +4,7 @@
 //!
 //! Pipeline per frame: `refl_cluster_count_objects` (per row band),
 //! `refl_cluster_bin_layout`, `refl_cluster_assign` (per row band),
-//! `refl_cluster_ranges`; then per non-empty cluster `refl_cluster_camera`,
+//! `refl_cluster_ranges`; then per non-empty cluster `refl_cluster_build_camera`,
 //! the host renders depth and color through the camera (geometry strictly
 //! in front of the clip plane only), and `refl_cluster_finalize`.
 //!
@@ -385,7 +385,7 @@ pub unsafe extern "C" fn refl_cluster_ranges(
 /// # Safety
 /// `out` NULL or writable; inputs readable for their lengths.
 #[no_mangle]
-pub unsafe extern "C" fn refl_cluster_camera(
+pub unsafe extern "C" fn refl_cluster_build_camera(
     out: *mut refl_cluster_camera,
     positions: refl_image_vec3,
     normals: refl_image_vec3,

@@ -211,7 +211,7 @@ fn abi_pipeline_equals_core() {
         }
         let mut out = core::mem::MaybeUninit::<refl_cluster_camera>::uninit();
         let st = unsafe {
-            refl_cluster_camera(
+            refl_cluster_build_camera(
                 out.as_mut_ptr(),
                 vec3_img(&f.pos, W, H),
                 vec3_img(&f.nor, W, H),
@@ -462,7 +462,7 @@ fn abi_errors_leave_outputs_untouched() {
     let cp = refl_cluster_camera_params::from(CameraParams::default());
     let mut out = core::mem::MaybeUninit::<refl_cluster_camera>::zeroed();
     let st = unsafe {
-        refl_cluster_camera(
+        refl_cluster_build_camera(
             out.as_mut_ptr(),
             vec3_img(&pos, W, H),
             vec3_img(&f.nor, W, H),
