@@ -216,14 +216,41 @@ pub fn rasterize(
     options: &RasterOptions,
     pool: &rayon::ThreadPool,
 ) -> VisBuffer {
+    let mut out = VisBuffer {
+        width: 0,
+        height: 0,
+        prim: Vec::new(),
+        depth: Vec::new(),
+        stats: RasterStats::default(),
+    };
+    rasterize_into(&mut out, scene, camera, options, pool);
+    out
+}
+
+/// [`rasterize`] into `out`, reusing its buffers (no allocation once they
+/// are large enough): what a renderer drawing one depth image after another
+/// does with one render target.
+pub fn rasterize_into(
+    out: &mut VisBuffer,
+    scene: &Scene,
+    camera: &Camera,
+    options: &RasterOptions,
+    pool: &rayon::ThreadPool,
+) {
     let (w, h) = (camera.width(), camera.height());
     let full = PixelRect::full(w, h);
     let scissor = options.scissor.map_or(full, |s| s.intersect(&full));
     let mut stats = RasterStats::default();
-    let mut prim = vec![NONE; (w as usize) * (h as usize)];
-    let mut inv_depth = vec![0.0f32; prim.len()];
+    let n = (w as usize) * (h as usize);
+    let mut prim = std::mem::take(&mut out.prim);
+    prim.clear();
+    prim.resize(n, NONE);
+    // The depth buffer holds 1 / z while rasterizing.
+    let mut inv_depth = std::mem::take(&mut out.depth);
+    inv_depth.clear();
+    inv_depth.resize(n, 0.0);
     if scissor.is_empty() {
-        return finish(w, h, prim, inv_depth, stats);
+        return finish(out, w, h, prim, inv_depth, stats);
     }
 
     // 1. Object culling, then chunks of visible triangles.
@@ -287,22 +314,27 @@ pub fn rasterize(
                 }
             });
     });
-    finish(w, h, prim, inv_depth, stats)
+    finish(out, w, h, prim, inv_depth, stats)
 }
 
-fn finish(w: u32, h: u32, prim: Vec<u32>, inv_depth: Vec<f32>, stats: RasterStats) -> VisBuffer {
-    let depth = prim
-        .iter()
-        .zip(&inv_depth)
-        .map(|(&p, &iz)| if p == NONE { f32::INFINITY } else { 1.0 / iz })
-        .collect();
-    VisBuffer {
+fn finish(
+    out: &mut VisBuffer,
+    w: u32,
+    h: u32,
+    prim: Vec<u32>,
+    mut depth: Vec<f32>,
+    stats: RasterStats,
+) {
+    for (d, &p) in depth.iter_mut().zip(&prim) {
+        *d = if p == NONE { f32::INFINITY } else { 1.0 / *d };
+    }
+    *out = VisBuffer {
         width: w,
         height: h,
         prim,
         depth,
         stats,
-    }
+    };
 }
 
 /// The view frustum narrowed to a scissor rectangle, in view space (depth

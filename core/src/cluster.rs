@@ -652,14 +652,20 @@ fn cone_octagon(r: Vec3, alpha: f32) -> [Vec3; 8] {
 ///    near one.
 /// 4. The image frame holds the near and far endpoints seen from `e_c`
 ///    (glossy cones widened, Sec. 3.5 item 1). [`Camera`] is a symmetric
-///    pinhole, so instead of the seed's box on the image plane the frame
-///    is the smallest symmetric frustum around the mean direction from
-///    `e_c` to the endpoints that holds them all, its rows aligned with the
-///    output image's rows. Near endpoints below the clip plane are replaced
-///    by the ray's crossing of it (the depth image holds nothing below).
+///    pinhole, so the frame is the smallest symmetric frustum that holds
+///    every endpoint, in the cheaper (fewer texels) of two orientations:
+///    (A) around the mean direction from `e_c` to the endpoints, rows
+///    aligned with the output image's rows (ideal for planar clusters: the
+///    mirrored view); (B) looking along `n_c` through the image plane, the
+///    seed's image plane made symmetric about the eye's foot point, which
+///    holds any frame however wide (clusters whose eye lies close to the
+///    plane). Near endpoints below the clip plane are replaced by the ray's
+///    crossing of it (the depth image holds nothing below).
 /// 5. The texel size (in tangent units) is the mean distance between the
-///    projections of horizontally adjacent cluster pixels (if none are
-///    adjacent: the frame's area per pixel), divided by
+///    projections of horizontally adjacent cluster pixels' points, or of
+///    their mirror rays' far endpoints if those are closer (diverging rays
+///    of convex clusters), (if no pixels are adjacent: the frame's area per
+///    pixel), divided by
 ///    [`CameraParams::resolution_scale`]; at most
 ///    [`CameraParams::max_resolution`] texels a side.
 ///
@@ -681,7 +687,8 @@ fn cone_octagon(r: Vec3, alpha: f32) -> [Vec3; 8] {
 /// * otherwise `f` is clamped to `[1 / max_f, max_f]`;
 /// * pixels whose reflected ray does not rise above the image plane are
 ///   left out of steps 3-5; if none remain: [`ClusterFallback::NoRays`];
-/// * endpoints beyond a half field of view of `atan(`[`MAX_TAN`]`)`:
+/// * endpoints beyond a half field of view of `atan(`[`MAX_TAN`]`)` in
+///   orientation A and of `atan(`[`MAX_TAN_PLANE`]`)` in B:
 ///   [`ClusterFallback::TooWide`].
 ///
 /// # Errors
@@ -829,9 +836,11 @@ pub fn try_cluster_camera(
             }
             if alpha > 0.0 {
                 for d in cone_octagon(r, alpha) {
-                    // A cone direction that does not reach the far plane is
-                    // bounded by its point at distance D instead.
-                    visit_point(far_point(d).unwrap_or(pos + d * d_far));
+                    // A cone direction that does not rise above the image
+                    // plane sees nothing the depth image keeps.
+                    if let Some(q) = far_point(d) {
+                        visit_point(q);
+                    }
                 }
             }
         }
@@ -864,52 +873,52 @@ pub fn try_cluster_camera(
     } else {
         u
     };
-    let probe = Camera::try_look_at(e_c, e_c + axis, up, 1.0, 1.0, 2.0, 1, 1)
-        .map_err(|_| Error::DegenerateGeometry)?;
-    let (mut tx, mut ty, mut zmin, mut zmax) = (0.0f32, 0.0f32, f32::INFINITY, 0.0f32);
-    let mut behind = false;
-    visit(&mut |q: Vec3| {
-        let c = probe.world_to_view(q);
-        let z = -c.z;
-        if !(z > 0.0) {
-            behind = true;
-            return;
+    // Two orientations: (A) around the mean direction, rows along the
+    // output's rows; (B) looking along the mean normal through the image
+    // plane, the frame centered on the eye's foot point (the seed's image
+    // plane, made symmetric): B holds any frame, however wide, and suits
+    // clusters whose eye is close to the plane. The one with fewer texels
+    // wins.
+    let up_b = {
+        let t = up - nc * up.dot(nc);
+        if t.length_squared() > 1e-6 {
+            t.normalize()
+        } else {
+            v
         }
-        tx = tx.max((c.x / z).abs());
-        ty = ty.max((c.y / z).abs());
-        zmin = zmin.min(z);
-        zmax = zmax.max(z);
-    });
-    if behind || !(tx <= MAX_TAN && ty <= MAX_TAN) {
-        return Ok(ClusterView::Fallback(ClusterFallback::TooWide));
-    }
-    // Step 5: the texel size, in tangent units, from the projections of
-    // horizontally adjacent cluster pixels (else the frame area per pixel).
-    let tangent = |q: Vec3| {
-        let c = probe.world_to_view(q);
-        Vec2::new(c.x, c.y) / (-c.z)
     };
-    let mut spacing = (0.0f64, 0u32);
-    for pair in pixels.windows(2) {
-        let (a, b) = (pair[0], pair[1]);
-        if a + 1 != b || b % width == 0 {
-            continue;
+    let fa = fit(&visit, input, pixels, eye, e_c, up, axis, MAX_TAN, params)?;
+    let fb = fit(
+        &visit,
+        input,
+        pixels,
+        eye,
+        e_c,
+        up_b,
+        nc,
+        MAX_TAN_PLANE,
+        params,
+    )?;
+    let chosen = match (fa, fb) {
+        (Some(a), Some(b)) => {
+            if a.texels() <= b.texels() {
+                a
+            } else {
+                b
+            }
         }
-        let (Some((pa, _)), Some((pb, _))) = (input.at(a), input.at(b)) else {
-            continue;
-        };
-        let d = (tangent(pb) - tangent(pa)).length();
-        if d.is_finite() {
-            spacing.0 += f64::from(d);
-            spacing.1 += 1;
-        }
-    }
-    let texel = if spacing.1 > 0 && spacing.0 > 0.0 {
-        (spacing.0 / f64::from(spacing.1)) as f32
-    } else {
-        libm::sqrtf((2.0 * tx).max(1e-30) * (2.0 * ty).max(1e-30) / pixels.len() as f32)
+        (Some(a), None) => a,
+        (None, Some(b)) => b,
+        (None, None) => return Ok(ClusterView::Fallback(ClusterFallback::TooWide)),
     };
-    let texel = (texel / params.resolution_scale).max(1e-30);
+    let Fit {
+        probe,
+        tx,
+        ty,
+        zmin,
+        zmax,
+        texel,
+    } = chosen;
     // A frame of one direction grows to one texel.
     let (tx, ty) = (tx.max(0.5 * texel), ty.max(0.5 * texel));
     let max_res = params.max_resolution as f32;
@@ -936,6 +945,128 @@ pub fn try_cluster_camera(
         planar,
         far_distance: d_far,
         pixels_used: used,
+    }))
+}
+
+/// Calls its argument with every ray endpoint a cluster frame must hold.
+type Visitor<'a> = dyn Fn(&mut dyn FnMut(Vec3)) + 'a;
+
+/// A candidate frustum: orientation, tangent half-extents, depth range of
+/// the endpoints and texel size (tangent units).
+#[derive(Clone, Copy, Debug)]
+struct Fit {
+    probe: Camera,
+    tx: f32,
+    ty: f32,
+    zmin: f32,
+    zmax: f32,
+    texel: f32,
+}
+
+impl Fit {
+    fn texels(&self) -> f32 {
+        let t = self.texel.max(1e-30);
+        (2.0 * self.tx / t).max(1.0) * (2.0 * self.ty / t).max(1.0)
+    }
+}
+
+/// Widest half field of view (tangent) of a frustum looking along the
+/// cluster normal (orientation B of [`try_cluster_camera`]).
+pub const MAX_TAN_PLANE: f32 = 1000.0;
+
+/// The frustum from `e_c` along `axis` (with `up`) holding every endpoint
+/// `visit` yields, and the texel size of step 5: the mean distance between
+/// the projections of horizontally adjacent cluster pixels' points and that
+/// of their mirror rays' far endpoints, the smaller of the two (the far
+/// endpoints of a convex cluster spread faster), divided by the resolution
+/// scale. `None` if an endpoint is behind the eye or beyond `max_tan`.
+#[allow(clippy::too_many_arguments)]
+fn fit(
+    visit: &Visitor<'_>,
+    input: &ClusterInput<'_>,
+    pixels: &[u32],
+    eye: Vec3,
+    e_c: Vec3,
+    up: Vec3,
+    axis: Vec3,
+    max_tan: f32,
+    params: &CameraParams,
+) -> Result<Option<Fit>, Error> {
+    let up = if up.cross(axis).length_squared() > 1e-8 {
+        up
+    } else {
+        axis.any_orthonormal_vector()
+    };
+    let probe = Camera::try_look_at(e_c, e_c + axis, up, 1.0, 1.0, 2.0, 1, 1)
+        .map_err(|_| Error::DegenerateGeometry)?;
+    let (mut tx, mut ty, mut zmin, mut zmax) = (0.0f32, 0.0f32, f32::INFINITY, 0.0f32);
+    let mut behind = false;
+    visit(&mut |q: Vec3| {
+        let c = probe.world_to_view(q);
+        let z = -c.z;
+        if !(z > 0.0) {
+            behind = true;
+            return;
+        }
+        tx = tx.max((c.x / z).abs());
+        ty = ty.max((c.y / z).abs());
+        zmin = zmin.min(z);
+        zmax = zmax.max(z);
+    });
+    if behind || !(tx <= max_tan && ty <= max_tan) || !(zmin <= zmax) {
+        return Ok(None);
+    }
+    let tangent = |q: Vec3| {
+        let c = probe.world_to_view(q);
+        Vec2::new(c.x, c.y) / (-c.z)
+    };
+    let width = input.positions.width();
+    let far_end = |pos: Vec3, n: Vec3| -> Option<Vec3> {
+        let r = reflected(eye, pos, n)?;
+        (r.dot(axis) > 1e-6).then_some(pos + r * params.far_distance)
+    };
+    let (mut near_sp, mut far_sp) = ((0.0f64, 0u32), (0.0f64, 0u32));
+    for pair in pixels.windows(2) {
+        let (a, b) = (pair[0], pair[1]);
+        if a + 1 != b || b % width == 0 {
+            continue;
+        }
+        let (Some((pa, na)), Some((pb, nb))) = (input.at(a), input.at(b)) else {
+            continue;
+        };
+        let d = (tangent(pb) - tangent(pa)).length();
+        if d.is_finite() && d > 0.0 {
+            near_sp.0 += f64::from(d);
+            near_sp.1 += 1;
+        }
+        if let (Some(qa), Some(qb)) = (far_end(pa, na), far_end(pb, nb)) {
+            let (ta, tb) = (tangent(qa), tangent(qb));
+            let d = (tb - ta).length();
+            if d.is_finite()
+                && d > 0.0
+                && (probe.world_to_view(qa).z < 0.0)
+                && (probe.world_to_view(qb).z < 0.0)
+            {
+                far_sp.0 += f64::from(d);
+                far_sp.1 += 1;
+            }
+        }
+    }
+    let mean = |s: (f64, u32)| (s.1 > 0).then(|| (s.0 / f64::from(s.1)) as f32);
+    let texel = match (mean(near_sp), mean(far_sp)) {
+        (Some(a), Some(b)) => a.min(b),
+        (Some(a), None) | (None, Some(a)) => a,
+        (None, None) => {
+            libm::sqrtf((2.0 * tx).max(1e-30) * (2.0 * ty).max(1e-30) / pixels.len() as f32)
+        }
+    };
+    Ok(Some(Fit {
+        probe,
+        tx,
+        ty,
+        zmin,
+        zmax,
+        texel: (texel / params.resolution_scale).max(1e-30),
     }))
 }
 
