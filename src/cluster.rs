@@ -12,7 +12,9 @@
 //!    diameter, glossy clusters widen their frame by the lobe's 95 % angle.
 //! 3. **Depth images** (Sec. 3.1 step 3b), one cluster at a time into one
 //!    reused visibility buffer and color buffer: the scene rasterized with
-//!    the CPU rasterizer ([`rasterize_into`], object-level frustum culling)
+//!    the CPU rasterizer ([`rasterize_into_culled`]: object-level frustum and
+//!    clip-plane culling, then the same per 4096-triangle chunk, with chunk
+//!    bounds computed once per frame)
 //!    through the cluster camera, keeping only what lies in front of the
 //!    cluster's clip plane (a planar cluster also skips its own object);
 //!    every covered texel is shaded (the direct term of its surface, as the
@@ -28,7 +30,7 @@
 //! a cluster but that are not captured by the cluster depth image").
 
 use crate::gbuffer::GBuffer;
-use crate::raster::{rasterize_into, RasterOptions, VisBuffer};
+use crate::raster::{rasterize_into_culled, ChunkBounds, RasterOptions, VisBuffer};
 use crate::render::{self, compare, composite, direct_image, median, timed, ReflectionImage};
 use crate::scene::{phong_exponent, Scene, NONE};
 use crate::shade::{env_map, reflection_dir, Shader};
@@ -343,6 +345,11 @@ pub fn run(
     let mut shades: Vec<ClusterShade> = Vec::new();
     let thickness = Thickness::Constant(scene.diameter() * crate::screen::THICKNESS_OF_DIAMETER);
     let (mut cameras, mut planar, mut texels, mut tris) = (0usize, 0usize, 0u64, 0usize);
+    // Chunk bounds once per frame (a dynamic scene's triangles moved),
+    // charged to the depth images.
+    let tb = Instant::now();
+    let chunk_bounds = ChunkBounds::new(scene, pool);
+    stages.depth_images += tb.elapsed().as_secs_f64() * 1e3;
     for (c, view) in &views {
         let px = pixels_of(*c);
         let t2 = Instant::now();
@@ -373,7 +380,7 @@ pub fn run(
             exclude_object: cc.planar.then(|| object_of(*c)),
             scissor: None,
         };
-        rasterize_into(&mut vis, scene, &cam, &options, pool);
+        rasterize_into_culled(&mut vis, scene, &cam, &options, &chunk_bounds, pool);
         tris += vis.stats.triangles_rasterized;
         let (dw, dh) = (cam.width(), cam.height());
         texels += u64::from(dw) * u64::from(dh);

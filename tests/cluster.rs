@@ -118,3 +118,67 @@ fn room_reflections_match_the_reference_with_few_disocclusions() {
     }
     assert!(last_clusters > 3, "{last_clusters}");
 }
+
+#[test]
+fn chunk_culling_changes_no_pixel() {
+    // Rasterizing through each cluster camera with chunk culling gives the
+    // same visibility buffer as without (culling is conservative).
+    use refl_app::raster::{
+        rasterize, rasterize_into_culled, ChunkBounds, RasterOptions, VisBuffer,
+    };
+    use refl_core::cluster::{try_cluster_camera, CameraParams, ClusterInput, ClusterView};
+    use refl_core::{ImageView, Plane};
+    let pool = pool();
+    let scene = Scene::room(60_000);
+    let tracer = Tracer::new(&scene);
+    let cam = scene.camera(0, 96, 72).unwrap();
+    let g = GBuffer::render(&scene, &tracer, &cam, &pool);
+    let (w, h) = (g.width(), g.height());
+    let pos: Vec<[f32; 3]> = g.position.iter().map(|p| p.to_array()).collect();
+    let nor: Vec<[f32; 3]> = g
+        .normal
+        .iter()
+        .map(|n| n.normalize_or(glam::Vec3::Y).to_array())
+        .collect();
+    let input = ClusterInput {
+        positions: ImageView::try_new(&pos, w, h, w).unwrap(),
+        normals: ImageView::try_new(&nor, w, h, w).unwrap(),
+    };
+    let bounds = ChunkBounds::new(&scene, &pool);
+    assert!(bounds.chunks.len() > scene.objects.len());
+    let mut vis = VisBuffer {
+        width: 0,
+        height: 0,
+        prim: Vec::new(),
+        depth: Vec::new(),
+        stats: Default::default(),
+    };
+    let mut compared = 0;
+    for object in 0..scene.objects.len() as u32 {
+        let px: Vec<u32> = (0..g.len() as u32)
+            .filter(|&i| g.is_reflective(i as usize) && g.object[i as usize] == object)
+            .collect();
+        if px.len() < 4 {
+            continue;
+        }
+        let cp = CameraParams {
+            far_distance: scene.diameter(),
+            ..CameraParams::default()
+        };
+        let Ok(ClusterView::Camera(cc)) = try_cluster_camera(&input, &px, g.camera.eye(), &cp)
+        else {
+            continue;
+        };
+        let options = RasterOptions {
+            clip_plane: Some(Plane::try_from_point_normal(cc.clip.point, cc.clip.normal).unwrap()),
+            exclude_object: None,
+            scissor: None,
+        };
+        let plain = rasterize(&scene, &cc.camera, &options, &pool);
+        rasterize_into_culled(&mut vis, &scene, &cc.camera, &options, &bounds, &pool);
+        assert_eq!(plain.prim, vis.prim, "object {object}");
+        assert!(vis.stats.triangles_rasterized <= plain.stats.triangles_rasterized);
+        compared += 1;
+    }
+    assert!(compared >= 2, "{compared}");
+}
