@@ -159,6 +159,9 @@ pub struct ClusterFrame {
     pub triangles_rasterized: usize,
     /// Time per stage.
     pub stages: StageMs,
+    /// Of the depth images, the ms spent shading their texels (the color
+    /// pass; the rest is rasterization and chunk bounds).
+    pub color_ms: f64,
     /// With diagnostics: pixels whose ray-traced mirror hit is not in their
     /// cluster's depth image.
     pub disoccluded: Option<Vec<bool>>,
@@ -345,6 +348,7 @@ pub fn run(
     let mut shades: Vec<ClusterShade> = Vec::new();
     let thickness = Thickness::Constant(scene.diameter() * crate::screen::THICKNESS_OF_DIAMETER);
     let (mut cameras, mut planar, mut texels, mut tris) = (0usize, 0usize, 0u64, 0usize);
+    let mut color_ms = 0.0f64;
     // Chunk bounds once per frame (a dynamic scene's triangles moved),
     // charged to the depth images.
     let tb = Instant::now();
@@ -384,6 +388,7 @@ pub fn run(
         tris += vis.stats.triangles_rasterized;
         let (dw, dh) = (cam.width(), cam.height());
         texels += u64::from(dw) * u64::from(dh);
+        let tc = Instant::now();
         color.clear();
         color.resize(vis.prim.len(), [0.0; 3]);
         pool.install(|| {
@@ -406,6 +411,7 @@ pub fn run(
                 });
         });
         let t3 = Instant::now();
+        color_ms += (t3 - tc).as_secs_f64() * 1e3;
         stages.depth_images += (t3 - t2).as_secs_f64() * 1e3;
 
         // 4. Intersection.
@@ -461,6 +467,7 @@ pub fn run(
         texels,
         triangles_rasterized: tris,
         stages,
+        color_ms,
         disoccluded,
         reference_hit,
     })
@@ -574,6 +581,8 @@ pub struct ClusterGrowthRow {
     pub reference_ms: f64,
     /// The cluster method's stages.
     pub stages: StageMs,
+    /// Of the depth images, the texel shading (median).
+    pub color_ms: f64,
     /// Non-empty clusters.
     pub clusters: usize,
     /// Mean absolute difference on 0..255 against the ray-traced
@@ -625,10 +634,12 @@ pub fn growth(
         );
         let truth = render::reference(&shader, &g, 64, pool);
         let mut stage_runs = Vec::new();
+        let mut color_runs = Vec::new();
         let mut frame = None;
         for k in 0..runs.max(1) {
             let f = run(&shader, &g, settings, pool, k == 0).map_err(|e| e.to_string())?;
             stage_runs.push(f.stages);
+            color_runs.push(f.color_ms);
             if k == 0 {
                 frame = Some(f);
             }
@@ -646,6 +657,7 @@ pub fn growth(
             bvh_build_ms: median(builds),
             reference_ms,
             stages: StageMs::median_of(&stage_runs),
+            color_ms: median(color_runs),
             clusters: f.clusters,
             mad: err.mean_abs,
             disocclusion: f.disocclusion_share(),
@@ -671,6 +683,7 @@ pub fn write_growth_csv(path: &Path, rows: &[ClusterGrowthRow]) -> io::Result<()
         "clustering_ms",
         "cameras_ms",
         "depth_images_ms",
+        "depth_color_ms",
         "intersection_ms",
         "ratio_with_build",
         "dominant_stage",
@@ -690,6 +703,7 @@ pub fn write_growth_csv(path: &Path, rows: &[ClusterGrowthRow]) -> io::Result<()
             format!("{:.3}", r.stages.clustering),
             format!("{:.3}", r.stages.cameras),
             format!("{:.3}", r.stages.depth_images),
+            format!("{:.3}", r.color_ms),
             format!("{:.3}", r.stages.intersection),
             format!("{:.3}", r.ratio_with_build()),
             r.stages.dominant().to_owned(),
@@ -706,14 +720,14 @@ pub fn write_growth_csv(path: &Path, rows: &[ClusterGrowthRow]) -> io::Result<()
 pub fn growth_markdown(rows: &[ClusterGrowthRow]) -> String {
     let mut s = String::from(
         "| triangles | BVH build ms | obvhs reflections ms | cluster ms (clustering / cameras / depth images / \
-         intersection) | (build+obvhs)/cluster | dominant stage | clusters | MAD /255 | disocclusion | fallback |\n\
-         |---|---|---|---|---|---|---|---|---|---|\n",
+         intersection) | of the depth images: texel shading ms | (build+obvhs)/cluster | dominant stage | clusters | \
+         MAD /255 | disocclusion | fallback |\n|---|---|---|---|---|---|---|---|---|---|---|\n",
     );
     for r in rows {
         let st = &r.stages;
         let _ = writeln!(
             s,
-            "| {} | {:.1} | {:.1} | {:.1} ({:.1} / {:.1} / {:.1} / {:.1}) | {:.2} | {} | {} | {:.2} | {:.2} % | {:.2} % |",
+            "| {} | {:.1} | {:.1} | {:.1} ({:.1} / {:.1} / {:.1} / {:.1}) | {:.1} | {:.2} | {} | {} | {:.2} | {:.2} % | {:.2} % |",
             r.triangles,
             r.bvh_build_ms,
             r.reference_ms,
@@ -722,6 +736,7 @@ pub fn growth_markdown(rows: &[ClusterGrowthRow]) -> String {
             st.cameras,
             st.depth_images,
             st.intersection,
+            r.color_ms,
             r.ratio_with_build(),
             st.dominant(),
             r.clusters,
