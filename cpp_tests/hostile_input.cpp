@@ -1894,6 +1894,297 @@ void tcrr_functions() {
     }
 }
 
+// Seed 003 clusters: parameter defaults, bins, per-band counts and ids,
+// ranges, cluster cameras, lobe angles and finalization; every error leaves
+// every output byte untouched.
+void cluster_functions() {
+    const uint32_t W = 16, H = 12;
+    const size_t N = size_t(W) * H;
+    std::vector<refl_vec3> pos(N), nrm(N, v3(0, 1, 0));
+    std::vector<uint32_t> obj(N, 0);
+    for (uint32_t y = 0; y < H; ++y)
+        for (uint32_t x = 0; x < W; ++x) pos[y * W + x] = v3(0.1f * float(x) - 0.8f, 0.0f, 0.1f * float(y) - 1.5f);
+    const refl_vec3 eye = v3(0.0f, 2.0f, 3.0f);
+    const refl_image_vec3 pv{pos.data(), N, W, H, W}, nv{nrm.data(), N, W, H, W};
+    const refl_image_u32 ov{obj.data(), N, W, H, W};
+    const refl_row_range all{0, H};
+    // Generic "status and untouched bytes" check over raw regions.
+    struct Region {
+        void* p;
+        size_t bytes;
+    };
+    auto intact = [](const char* what, refl_status want, std::initializer_list<Region> regions, auto f) {
+        for (const Region& r : regions) std::memset(r.p, 0x5A, r.bytes);
+        const uint32_t got = f();
+        ++check::checks();
+        bool same = true;
+        for (const Region& r : regions)
+            for (size_t i = 0; i < r.bytes; ++i) same = same && static_cast<unsigned char*>(r.p)[i] == 0x5A;
+        if (got != static_cast<uint32_t>(want) || !same)
+            check::fail(__FILE__, __LINE__,
+                        std::string(what) + ": got " + check::status_name(got) + ", expected " +
+                            check::status_name(want) + (same ? "" : ", and the output was written"));
+    };
+
+    // Defaults and bins.
+    const refl_cluster_params cp = expect_ok<refl_cluster_params>(
+        "cluster params default", [](refl_cluster_params* o) { return refl_cluster_params_default(o); });
+    CHECK(cp.max_theta_bins == 13 && cp.max_phi_bins == 8 && cp.gain == 1.0f);
+    CHECK_STATUS(refl_cluster_params_default(nullptr), REFL_STATUS_NULL_POINTER);
+    refl_cluster_camera_params kp = expect_ok<refl_cluster_camera_params>(
+        "cluster camera params default",
+        [](refl_cluster_camera_params* o) { return refl_cluster_camera_params_default(o); });
+    CHECK_STATUS(refl_cluster_camera_params_default(nullptr), REFL_STATUS_NULL_POINTER);
+    kp.far_distance = 20.0f;
+    const uint32_t bmax = expect_ok<uint32_t>("bins max", [&](uint32_t* o) { return refl_cluster_bins_max(o, 1, &cp); });
+    CHECK_EQ(bmax, 104u);
+    expect<uint32_t>("bins max overflow", REFL_STATUS_INVALID_ARGUMENT,
+                     [&](uint32_t* o) { return refl_cluster_bins_max(o, kMax, &cp); });
+    expect<uint32_t>("bins max NULL params", REFL_STATUS_NULL_POINTER,
+                     [&](uint32_t* o) { return refl_cluster_bins_max(o, 1, nullptr); }, false);
+    for (float g : {kNaN, kInf, 0.0f, -1.0f}) {
+        refl_cluster_params b = cp;
+        b.gain = g;
+        expect<uint32_t>("bins max gain", REFL_STATUS_INVALID_ARGUMENT,
+                         [&](uint32_t* o) { return refl_cluster_bins_max(o, 1, &b); }, false);
+    }
+    for (uint32_t t : {0u, 1025u, kMax}) {
+        refl_cluster_params b = cp;
+        b.max_theta_bins = t;
+        expect<uint32_t>("bins max theta", REFL_STATUS_INVALID_ARGUMENT,
+                         [&](uint32_t* o) { return refl_cluster_bins_max(o, 1, &b); }, false);
+    }
+
+    // Counts.
+    std::vector<uint32_t> counts(1, 0);
+    CHECK_STATUS(refl_cluster_count_objects(counts.data(), 1, ov, all), REFL_STATUS_OK);
+    CHECK_EQ(counts[0], uint32_t(N));
+    std::vector<uint32_t> cbuf(2);
+    const Region cr{cbuf.data(), cbuf.size() * 4};
+    intact("count NULL counts", REFL_STATUS_NULL_POINTER, {cr},
+           [&] { return refl_cluster_count_objects(nullptr, 2, ov, all); });
+    intact("count NULL objects", REFL_STATUS_NULL_POINTER, {cr},
+           [&] { return refl_cluster_count_objects(cbuf.data(), 2, {nullptr, N, W, H, W}, all); });
+    intact("count short objects", REFL_STATUS_INSUFFICIENT_SIZE, {cr},
+           [&] { return refl_cluster_count_objects(cbuf.data(), 2, {obj.data(), N - 1, W, H, W}, all); });
+    for (refl_row_range r : {refl_row_range{0, H + 1}, refl_row_range{3, 3}, refl_row_range{4, 2}})
+        intact("count rows", REFL_STATUS_INVALID_ARGUMENT, {cr},
+               [&] { return refl_cluster_count_objects(cbuf.data(), 2, ov, r); });
+    intact("count misaligned", REFL_STATUS_INVALID_ARGUMENT, {cr}, [&] {
+        return refl_cluster_count_objects(
+            reinterpret_cast<uint32_t*>(reinterpret_cast<unsigned char*>(cbuf.data()) + 1), 1, ov, all);
+    });
+    intact("count overflow", REFL_STATUS_INSUFFICIENT_SIZE, {cr}, [&] {
+        uint32_t big[1] = {kMax - 3};
+        const uint32_t st = refl_cluster_count_objects(big, 1, ov, all);
+        CHECK(big[0] == kMax - 3);
+        return st;
+    });
+
+    // Layout.
+    refl_object_bins layout[1];
+    uint32_t total = 0;
+    CHECK_STATUS(refl_cluster_bin_layout(&total, layout, 1, counts.data(), 1, N, &cp), REFL_STATUS_OK);
+    CHECK(total >= 1 && total <= bmax);
+    std::vector<refl_object_bins> lbuf(2);
+    uint32_t tbuf = 0;
+    const Region lr{lbuf.data(), lbuf.size() * sizeof(refl_object_bins)}, tr{&tbuf, 4};
+    intact("layout NULL total", REFL_STATUS_NULL_POINTER, {lr},
+           [&] { return refl_cluster_bin_layout(nullptr, lbuf.data(), 2, counts.data(), 1, N, &cp); });
+    intact("layout NULL out", REFL_STATUS_NULL_POINTER, {tr},
+           [&] { return refl_cluster_bin_layout(&tbuf, nullptr, 2, counts.data(), 1, N, &cp); });
+    intact("layout NULL counts", REFL_STATUS_NULL_POINTER, {lr, tr},
+           [&] { return refl_cluster_bin_layout(&tbuf, lbuf.data(), 2, nullptr, 1, N, &cp); });
+    intact("layout NULL params", REFL_STATUS_NULL_POINTER, {lr, tr},
+           [&] { return refl_cluster_bin_layout(&tbuf, lbuf.data(), 2, counts.data(), 1, N, nullptr); });
+    intact("layout short out", REFL_STATUS_INSUFFICIENT_SIZE, {lr, tr},
+           [&] { return refl_cluster_bin_layout(&tbuf, lbuf.data(), 0, counts.data(), 1, N, &cp); });
+    intact("layout zero frame", REFL_STATUS_INVALID_ARGUMENT, {lr, tr},
+           [&] { return refl_cluster_bin_layout(&tbuf, lbuf.data(), 2, counts.data(), 1, 0, &cp); });
+    intact("layout counts above frame", REFL_STATUS_INVALID_ARGUMENT, {lr, tr},
+           [&] { return refl_cluster_bin_layout(&tbuf, lbuf.data(), 2, counts.data(), 1, N - 1, &cp); });
+
+    // Ids per band.
+    std::vector<uint32_t> ids(N, 7);
+    const refl_image_u32_mut im{ids.data(), N, W, H, W};
+    CHECK_STATUS(refl_cluster_assign(im, refl_row_range{0, 5}, nv, ov, layout, 1), REFL_STATUS_OK);
+    CHECK_STATUS(refl_cluster_assign(im, refl_row_range{5, H}, nv, ov, layout, 1), REFL_STATUS_OK);
+    for (uint32_t v : ids) CHECK(v < total);
+    std::vector<uint32_t> ibuf(N);
+    const refl_image_u32_mut ib{ibuf.data(), N, W, H, W};
+    const Region ir{ibuf.data(), N * 4};
+    std::vector<refl_vec3> bad_n = nrm;
+    bad_n[N / 2] = v3(kNaN, 1, 0);
+    intact("assign NaN normal", REFL_STATUS_INVALID_ARGUMENT, {ir},
+           [&] { return refl_cluster_assign(ib, all, {bad_n.data(), N, W, H, W}, ov, layout, 1); });
+    bad_n[N / 2] = v3(0, 0, 0);
+    intact("assign zero normal", REFL_STATUS_INVALID_ARGUMENT, {ir},
+           [&] { return refl_cluster_assign(ib, all, {bad_n.data(), N, W, H, W}, ov, layout, 1); });
+    intact("assign NULL layout", REFL_STATUS_NULL_POINTER, {ir},
+           [&] { return refl_cluster_assign(ib, all, nv, ov, nullptr, 1); });
+    intact("assign NULL ids", REFL_STATUS_NULL_POINTER, {ir},
+           [&] { return refl_cluster_assign({nullptr, N, W, H, W}, all, nv, ov, layout, 1); });
+    intact("assign NULL normals", REFL_STATUS_NULL_POINTER, {ir},
+           [&] { return refl_cluster_assign(ib, all, {nullptr, N, W, H, W}, ov, layout, 1); });
+    intact("assign size mismatch", REFL_STATUS_INVALID_ARGUMENT, {ir},
+           [&] { return refl_cluster_assign(ib, all, {nrm.data(), N, W - 1, H, W}, ov, layout, 1); });
+    intact("assign short ids", REFL_STATUS_INSUFFICIENT_SIZE, {ir},
+           [&] { return refl_cluster_assign({ibuf.data(), N - 1, W, H, W}, all, nv, ov, layout, 1); });
+    for (refl_row_range r : {refl_row_range{0, H + 1}, refl_row_range{2, 2}, refl_row_range{kMax, kMax}})
+        intact("assign rows", REFL_STATUS_INVALID_ARGUMENT, {ir},
+               [&] { return refl_cluster_assign(ib, r, nv, ov, layout, 1); });
+    intact("assign ids alias normals", REFL_STATUS_INVALID_ARGUMENT, {ir}, [&] {
+        return refl_cluster_assign(ib, all, {reinterpret_cast<const refl_vec3*>(ibuf.data()), N / 3, W, H / 3 - 1, W},
+                                   {ov.data, N, W, H / 3 - 1, W}, layout, 1);
+    });
+
+    // Ranges.
+    std::vector<uint32_t> offsets(total + 1), order(N);
+    uint32_t clustered = 0;
+    CHECK_STATUS(refl_cluster_ranges(&clustered, offsets.data(), offsets.size(), order.data(), N,
+                                     {ids.data(), N, W, H, W}, total),
+                 REFL_STATUS_OK);
+    CHECK_EQ(clustered, uint32_t(N));
+    std::vector<uint32_t> obuf(total + 1), rbuf(N);
+    uint32_t cbuf2 = 0;
+    const Region orr{obuf.data(), obuf.size() * 4}, rr{rbuf.data(), N * 4}, c2{&cbuf2, 4};
+    const refl_image_u32 iv{ids.data(), N, W, H, W};
+    intact("ranges short offsets", REFL_STATUS_INSUFFICIENT_SIZE, {orr, rr, c2},
+           [&] { return refl_cluster_ranges(&cbuf2, obuf.data(), total, rbuf.data(), N, iv, total); });
+    intact("ranges short order", REFL_STATUS_INSUFFICIENT_SIZE, {orr, rr, c2},
+           [&] { return refl_cluster_ranges(&cbuf2, obuf.data(), total + 1, rbuf.data(), N - 1, iv, total); });
+    intact("ranges id beyond clusters", REFL_STATUS_INVALID_ARGUMENT, {orr, rr, c2}, [&] {
+        return refl_cluster_ranges(&cbuf2, obuf.data(), 1, rbuf.data(), N, iv, 0);
+    });
+    intact("ranges NULL total", REFL_STATUS_NULL_POINTER, {orr, rr},
+           [&] { return refl_cluster_ranges(nullptr, obuf.data(), total + 1, rbuf.data(), N, iv, total); });
+    intact("ranges NULL offsets", REFL_STATUS_NULL_POINTER, {rr, c2},
+           [&] { return refl_cluster_ranges(&cbuf2, nullptr, total + 1, rbuf.data(), N, iv, total); });
+    intact("ranges NULL ids", REFL_STATUS_NULL_POINTER, {orr, rr, c2}, [&] {
+        return refl_cluster_ranges(&cbuf2, obuf.data(), total + 1, rbuf.data(), N, {nullptr, N, W, H, W}, total);
+    });
+    intact("ranges aliasing", REFL_STATUS_INVALID_ARGUMENT, {rr, c2},
+           [&] { return refl_cluster_ranges(&cbuf2, rbuf.data(), total + 1, rbuf.data(), N, iv, total); });
+
+    // A camera for the largest cluster (the floor is planar).
+    size_t best = 0;
+    for (size_t c = 0; c < total; ++c)
+        if (offsets[c + 1] - offsets[c] > offsets[best + 1] - offsets[best]) best = c;
+    const uint32_t* px = order.data() + offsets[best];
+    const size_t pc = offsets[best + 1] - offsets[best];
+    const refl_cluster_camera cam = expect_ok<refl_cluster_camera>("cluster camera", [&](refl_cluster_camera* o) {
+        return refl_cluster_build_camera(o, pv, nv, px, pc, eye, &kp);
+    });
+    CHECK(cam.fallback == REFL_CLUSTER_FALLBACK_NONE && cam.planar && cam.f == 1.0f);
+    CHECK(cam.eye0.x == 0.0f && cam.eye0.y == -2.0f && cam.eye0.z == 3.0f);
+    const refl_cluster_camera one = expect_ok<refl_cluster_camera>(
+        "cluster camera one pixel", [&](refl_cluster_camera* o) { return refl_cluster_build_camera(o, pv, nv, px, 1, eye, &kp); });
+    CHECK(one.fallback == REFL_CLUSTER_FALLBACK_TOO_FEW_PIXELS);
+    auto camera_call = [&](const char* what, refl_status want, refl_image_vec3 p, refl_image_vec3 n, const uint32_t* x,
+                           size_t count, refl_vec3 e, const refl_cluster_camera_params* k) {
+        expect<refl_cluster_camera>(what, want,
+                                    [=](refl_cluster_camera* o) { return refl_cluster_build_camera(o, p, n, x, count, e, k); });
+    };
+    for (const refl_vec3& b : kBadVec3) camera_call("camera eye", REFL_STATUS_INVALID_ARGUMENT, pv, nv, px, pc, b, &kp);
+    std::vector<refl_vec3> bad_p = pos;
+    bad_p[px[0]] = v3(kNaN, 0, 0);
+    camera_call("camera NaN position", REFL_STATUS_INVALID_ARGUMENT, {bad_p.data(), N, W, H, W}, nv, px, pc, eye, &kp);
+    bad_n = nrm;
+    bad_n[px[1]] = v3(0, 2, 0);
+    camera_call("camera non-unit normal", REFL_STATUS_INVALID_ARGUMENT, pv, {bad_n.data(), N, W, H, W}, px, pc, eye,
+                &kp);
+    const uint32_t outside[] = {uint32_t(N), 0, 1, 2};
+    camera_call("camera pixel outside", REFL_STATUS_INVALID_ARGUMENT, pv, nv, outside, 4, eye, &kp);
+    camera_call("camera NULL pixels", REFL_STATUS_NULL_POINTER, pv, nv, nullptr, pc, eye, &kp);
+    camera_call("camera NULL params", REFL_STATUS_NULL_POINTER, pv, nv, px, pc, eye, nullptr);
+    camera_call("camera NULL positions", REFL_STATUS_NULL_POINTER, {nullptr, N, W, H, W}, nv, px, pc, eye, &kp);
+    camera_call("camera size mismatch", REFL_STATUS_INVALID_ARGUMENT, pv, {nrm.data(), N, W, H - 1, W}, px, pc, eye,
+                &kp);
+    for (int k = 0; k < 6; ++k) {
+        refl_cluster_camera_params b = kp;
+        if (k == 0) b.far_distance = kInf;
+        if (k == 1) b.far_distance = 0.0f;
+        if (k == 2) b.cone_half_angle = kNaN;
+        if (k == 3) b.resolution_scale = -1.0f;
+        if (k == 4) b.min_pixels = 1;
+        if (k == 5) b.max_f = 0.5f;
+        camera_call("camera params", REFL_STATUS_INVALID_ARGUMENT, pv, nv, px, pc, eye, &b);
+    }
+
+    // Lobe angle.
+    const float a = expect_ok<float>("lobe angle", [](float* o) { return refl_lobe_angle(o, 40.0f, 0.95f); });
+    CHECK(a > 0.0f && a < 1.0f);
+    for (float e : {kNaN, -1.0f, kInf})
+        expect<float>("lobe angle exponent", REFL_STATUS_INVALID_ARGUMENT,
+                      [=](float* o) { return refl_lobe_angle(o, e, 0.5f); });
+    for (float e : {kNaN, 0.0f, 1.0f})
+        expect<float>("lobe angle energy", REFL_STATUS_INVALID_ARGUMENT,
+                      [=](float* o) { return refl_lobe_angle(o, 10.0f, e); }, false);
+
+    // Finalize against a flat depth image of the cluster camera.
+    const uint32_t dw = cam.camera.width, dh = cam.camera.height;
+    const size_t dn = size_t(dw) * dh;
+    std::vector<float> depth(dn, 0.5f * cam.camera.z_far);
+    std::vector<refl_vec3> color(dn, v3(0.2f, 0.4f, 0.6f));
+    const refl_image_f32 none{nullptr, 0, 0, 0, 0};
+    const refl_depth_image di{{depth.data(), dn, dw, dh, dw}, cam.camera, REFL_DEPTH_CONVENTION_LINEAR};
+    const refl_image_vec3 cv{color.data(), dn, dw, dh, dw};
+    const refl_cluster_finalize_params fp{{kInf, none}, {1, kMax}, false, {1, 0.0f, 0.0f}, false, 0};
+    std::vector<refl_cluster_shade> shades(pc);
+    uint32_t fell = 0;
+    CHECK_STATUS(refl_cluster_finalize(&fell, shades.data(), pc, pv, nv, px, pc, eye, &cam, &di, cv, &fp),
+                 REFL_STATUS_OK);
+    for (const refl_cluster_shade& s : shades) CHECK(s.rays == 1 && s.steps == 1 && s.fetches == 1);
+    std::vector<refl_cluster_shade> sbuf(pc);
+    uint32_t fbuf = 0;
+    const Region sr{sbuf.data(), pc * sizeof(refl_cluster_shade)}, fr{&fbuf, 4};
+    auto fin = [&](const char* what, refl_status want, size_t out_len, refl_vec3 e, const refl_cluster_camera* c,
+                   const refl_depth_image* d, refl_image_vec3 col, const refl_cluster_finalize_params* p) {
+        intact(what, want, {sr, fr},
+               [&] { return refl_cluster_finalize(&fbuf, sbuf.data(), out_len, pv, nv, px, pc, e, c, d, col, p); });
+    };
+    fin("finalize short out", REFL_STATUS_INSUFFICIENT_SIZE, pc - 1, eye, &cam, &di, cv, &fp);
+    for (const refl_vec3& b : kBadVec3) fin("finalize eye", REFL_STATUS_INVALID_ARGUMENT, pc, b, &cam, &di, cv, &fp);
+    fin("finalize NULL camera", REFL_STATUS_NULL_POINTER, pc, eye, nullptr, &di, cv, &fp);
+    fin("finalize NULL depth", REFL_STATUS_NULL_POINTER, pc, eye, &cam, nullptr, cv, &fp);
+    fin("finalize NULL params", REFL_STATUS_NULL_POINTER, pc, eye, &cam, &di, cv, nullptr);
+    fin("finalize fallback record", REFL_STATUS_INVALID_ARGUMENT, pc, eye, &one, &di, cv, &fp);
+    refl_cluster_camera bc = cam;
+    bc.normal = v3(kNaN, 1, 0);
+    fin("finalize NaN camera normal", REFL_STATUS_INVALID_ARGUMENT, pc, eye, &bc, &di, cv, &fp);
+    bc = cam;
+    bc.far_distance = -1.0f;
+    fin("finalize negative far", REFL_STATUS_INVALID_ARGUMENT, pc, eye, &bc, &di, cv, &fp);
+    for (const BadCamera& b : bad_cameras()) {
+        bc = cam;
+        bc.camera = b.cam;
+        fin(b.name, b.status, pc, eye, &bc, &di, cv, &fp);
+    }
+    for (uint32_t c : kBadConventions) {
+        refl_depth_image bd = di;
+        bd.convention = c;
+        fin("finalize convention", REFL_STATUS_INVALID_ARGUMENT, pc, eye, &cam, &bd, cv, &fp);
+    }
+    fin("finalize color size", REFL_STATUS_INVALID_ARGUMENT, pc, eye, &cam, &di, {color.data(), dn, dw, 1, dw}, &fp);
+    fin("finalize short color", REFL_STATUS_INSUFFICIENT_SIZE, pc, eye, &cam, &di, {color.data(), dn - 1, dw, dh, dw},
+        &fp);
+    fin("finalize NULL color", REFL_STATUS_NULL_POINTER, pc, eye, &cam, &di, {nullptr, dn, dw, dh, dw}, &fp);
+    for (int k = 0; k < 6; ++k) {
+        refl_cluster_finalize_params b = fp;
+        if (k == 0) b.lobe.rays = 0;
+        if (k == 1) b.lobe = {65, 1.0f, 0.5f};
+        if (k == 2) b.lobe = {8, kNaN, 0.5f};
+        if (k == 3) b.lobe = {8, 10.0f, 2.0f};
+        if (k == 4) b.step.stride = 0;
+        if (k == 5) b.thickness.constant = kNaN;
+        fin("finalize params", REFL_STATUS_INVALID_ARGUMENT, pc, eye, &cam, &di, cv, &b);
+    }
+    CHECK_STATUS(refl_cluster_finalize(nullptr, sbuf.data(), pc, pv, nv, px, pc, eye, &cam, &di, cv, &fp),
+                 REFL_STATUS_NULL_POINTER);
+    intact("finalize NULL out", REFL_STATUS_NULL_POINTER, {fr},
+           [&] { return refl_cluster_finalize(&fbuf, nullptr, pc, pv, nv, px, pc, eye, &cam, &di, cv, &fp); });
+}
+
 }  // namespace
 
 int main() {
@@ -1907,5 +2198,6 @@ int main() {
     refine_functions();
     hiz_functions();
     tcrr_functions();
+    cluster_functions();
     return check::finish("hostile_input");
 }

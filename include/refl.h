@@ -456,6 +456,44 @@ typedef uint32_t refl_epipolar_reason;
 #endif // __cplusplus
 
 /**
+ * Why a cluster gets no camera (its pixels fall back to the environment);
+ * `REFL_CLUSTER_FALLBACK_NONE` when it has one.
+ */
+enum refl_cluster_fallback
+#if defined(__cplusplus) || __STDC_VERSION__ >= 202311L
+  : uint32_t
+#endif // defined(__cplusplus) || __STDC_VERSION__ >= 202311L
+ {
+    /**
+     * The cluster has a camera.
+     */
+    REFL_CLUSTER_FALLBACK_NONE = 0,
+    /**
+     * Fewer than `min_pixels` pixels (one-pixel clusters among them).
+     */
+    REFL_CLUSTER_FALLBACK_TOO_FEW_PIXELS = 1,
+    /**
+     * The normals cancel out or their mean faces away from the eye.
+     */
+    REFL_CLUSTER_FALLBACK_FACES_AWAY = 2,
+    /**
+     * No reflected ray reaches the far plane.
+     */
+    REFL_CLUSTER_FALLBACK_NO_RAYS = 3,
+    /**
+     * The rays span more than a pinhole frustum holds.
+     */
+    REFL_CLUSTER_FALLBACK_TOO_WIDE = 4,
+};
+#ifndef __cplusplus
+#if __STDC_VERSION__ >= 202311L
+typedef enum refl_cluster_fallback refl_cluster_fallback;
+#else
+typedef uint32_t refl_cluster_fallback;
+#endif // __STDC_VERSION__ >= 202311L
+#endif // __cplusplus
+
+/**
  * A 4x4 float matrix, column-major: element (row r, column c) is
  * `m[4 * c + r]`, the layout of OpenGL and glam. Points are column vectors
  * multiplied on the right (`p' = M p`).
@@ -579,6 +617,424 @@ typedef struct refl_projection {
      */
     bool valid;
 } refl_projection;
+
+/**
+ * Clustering parameters (seed 003 Sec. 3.2). Defaults:
+ * `refl_cluster_params_default`.
+ */
+typedef struct refl_cluster_params {
+    /**
+     * Azimuth bins of an object covering the whole frame alone (seed: 13),
+     * 1..=1024.
+     */
+    uint32_t max_theta_bins;
+    /**
+     * Polar bins of an object covering the whole frame alone (seed: 8),
+     * 1..=1024.
+     */
+    uint32_t max_phi_bins;
+    /**
+     * Multiplier of the seed's modulation a_R / n_v (seed: 1), finite and
+     * > 0: larger gives more, smaller clusters.
+     */
+    float gain;
+} refl_cluster_params;
+
+/**
+ * Cluster camera parameters (seed 003 Sec. 3.3, 3.5). Defaults:
+ * `refl_cluster_camera_params_default`.
+ */
+typedef struct refl_cluster_camera_params {
+    /**
+     * D: distance from the image plane to the far plane (the scene
+     * diameter for mirrors, nearer for glossy clusters), finite and > 0.
+     */
+    float far_distance;
+    /**
+     * Half-angle (radians, [0, 1.5)) of the glossy cone the frame must hold;
+     * 0 for mirrors.
+     */
+    float cone_half_angle;
+    /**
+     * Multiplier of the resolution from the cluster's pixel spacing,
+     * finite and > 0.
+     */
+    float resolution_scale;
+    /**
+     * Largest depth-image width or height, > 0.
+     */
+    uint32_t max_resolution;
+    /**
+     * Clusters with fewer pixels fall back, >= 2.
+     */
+    uint32_t min_pixels;
+    /**
+     * Upper bound of f (Eq. 1), >= 1; also f when d_F <= d_n.
+     */
+    float max_f;
+} refl_cluster_camera_params;
+
+/**
+ * A read-only image of `uint32_t` texels (e.g. ids, masks, counts).
+ */
+typedef struct refl_image_u32 {
+    /**
+     * Texel (0, 0); texel (x, y) is `data[y * stride + x]`.
+     */
+    const uint32_t *data;
+    /**
+     * Number of texels readable from `data` on (the buffer length).
+     */
+    size_t len;
+    /**
+     * Width in texels, > 0.
+     */
+    uint32_t width;
+    /**
+     * Height in texels, > 0.
+     */
+    uint32_t height;
+    /**
+     * Row stride in texels, >= `width`.
+     */
+    uint32_t stride;
+} refl_image_u32;
+
+/**
+ * A half-open range of image rows `[begin, end)`.
+ */
+typedef struct refl_row_range {
+    /**
+     * First row.
+     */
+    uint32_t begin;
+    /**
+     * One past the last row; equal to `begin` for an empty band.
+     */
+    uint32_t end;
+} refl_row_range;
+
+/**
+ * The bins of one reflective object in the current frame.
+ */
+typedef struct refl_object_bins {
+    /**
+     * Azimuth bins (0 if the object is not visible).
+     */
+    uint32_t theta_bins;
+    /**
+     * Polar bins (0 if the object is not visible).
+     */
+    uint32_t phi_bins;
+    /**
+     * Cluster id of the object's first bin.
+     */
+    uint32_t first;
+} refl_object_bins;
+
+/**
+ * A writable image of `uint32_t` texels.
+ */
+typedef struct refl_image_u32_mut {
+    /**
+     * Texel (0, 0); texel (x, y) is `data[y * stride + x]`.
+     */
+    uint32_t *data;
+    /**
+     * Number of texels writable from `data` on (the buffer length).
+     */
+    size_t len;
+    /**
+     * Width in texels, > 0.
+     */
+    uint32_t width;
+    /**
+     * Height in texels, > 0.
+     */
+    uint32_t height;
+    /**
+     * Row stride in texels, >= `width`.
+     */
+    uint32_t stride;
+} refl_image_u32_mut;
+
+/**
+ * A read-only image of three-float texels (e.g. positions or normals).
+ */
+typedef struct refl_image_vec3 {
+    /**
+     * Texel (0, 0); texel (x, y) is `data[y * stride + x]`.
+     */
+    const struct refl_vec3 *data;
+    /**
+     * Number of texels readable from `data` on (the buffer length).
+     */
+    size_t len;
+    /**
+     * Width in texels, > 0.
+     */
+    uint32_t width;
+    /**
+     * Height in texels, > 0.
+     */
+    uint32_t height;
+    /**
+     * Row stride in texels, >= `width`.
+     */
+    uint32_t stride;
+} refl_image_vec3;
+
+/**
+ * An oriented plane `dot(normal, p) + d = 0`.
+ *
+ * Planes produced by refl have a unit normal. A plane you fill yourself
+ * may have any finite non-zero normal; refl then uses the equivalent
+ * `(normal / |normal|, d / |normal|)`.
+ */
+typedef struct refl_plane {
+    /**
+     * Normal (a, b, c); points to the plane's front side.
+     */
+    struct refl_vec3 normal;
+    /**
+     * Offset d of `a x + b y + c z + d = 0`.
+     */
+    float d;
+} refl_plane;
+
+/**
+ * A cluster camera (seed 003 Sec. 3.3), or a fallback reason.
+ */
+typedef struct refl_cluster_camera {
+    /**
+     * `REFL_CLUSTER_FALLBACK_NONE` (0) if the fields below describe a
+     * camera, else the `refl_cluster_fallback` reason (other fields 0).
+     */
+    uint32_t fallback;
+    /**
+     * The camera to render the cluster depth image with.
+     */
+    struct refl_camera camera;
+    /**
+     * Render only geometry strictly on the positive side of this plane
+     * (unit normal).
+     */
+    struct refl_plane clip;
+    /**
+     * Centroid P_c of the cluster's surface points.
+     */
+    struct refl_vec3 centroid;
+    /**
+     * Unit mean normal n_c, toward the eye.
+     */
+    struct refl_vec3 normal;
+    /**
+     * The mirrored eye e_0.
+     */
+    struct refl_vec3 eye0;
+    /**
+     * f of Eq. 1 after its guards (1 exactly for planar clusters).
+     */
+    float f;
+    /**
+     * Eq. 1's diagonals d_n, d_f, d_F.
+     */
+    float diagonals[3];
+    /**
+     * Every pixel on the image plane with the mean normal: the camera
+     * eye is e_0 exactly.
+     */
+    bool planar;
+    /**
+     * D, the far plane's distance from the image plane.
+     */
+    float far_distance;
+    /**
+     * Pixels whose reflected ray reaches the far plane.
+     */
+    uint32_t pixels_used;
+} refl_cluster_camera;
+
+/**
+ * The reflection of one cluster pixel (`refl_cluster_finalize`).
+ */
+typedef struct refl_cluster_shade {
+    /**
+     * Sum of hit colors times their weights over the traced rays; the
+     * reflection is rgb + env_weight * env(env_dir) + (1 - hit_weight -
+     * env_weight) * diffuse.
+     */
+    struct refl_vec3 rgb;
+    /**
+     * Sum of hit weights over the traced rays.
+     */
+    float hit_weight;
+    /**
+     * Share of the traced rays that fell back to the environment.
+     */
+    float env_weight;
+    /**
+     * Mean direction of the rays that fell back (the mirror direction if
+     * none did).
+     */
+    struct refl_vec3 env_dir;
+    /**
+     * The pixel's mirror direction.
+     */
+    struct refl_vec3 mirror_dir;
+    /**
+     * Rays traced.
+     */
+    uint32_t rays;
+    /**
+     * Rays that hit.
+     */
+    uint32_t hits;
+    /**
+     * Depth texels read over all rays.
+     */
+    uint32_t fetches;
+    /**
+     * Steps over all rays.
+     */
+    uint32_t steps;
+} refl_cluster_shade;
+
+/**
+ * A read-only image of `float` texels (e.g. a depth buffer).
+ */
+typedef struct refl_image_f32 {
+    /**
+     * Texel (0, 0); texel (x, y) is `data[y * stride + x]`.
+     */
+    const float *data;
+    /**
+     * Number of texels readable from `data` on (the buffer length).
+     */
+    size_t len;
+    /**
+     * Width in texels, > 0.
+     */
+    uint32_t width;
+    /**
+     * Height in texels, > 0.
+     */
+    uint32_t height;
+    /**
+     * Row stride in texels, >= `width`.
+     */
+    uint32_t stride;
+} refl_image_f32;
+
+/**
+ * A depth image with the camera that rendered it and its convention.
+ */
+typedef struct refl_depth_image {
+    /**
+     * The stored depths; width and height must equal the camera's. Texel
+     * (x, y) holds the depth seen through pixel center (x + 0.5, y + 0.5).
+     * A NaN texel, or one at or beyond the far plane, holds no surface.
+     */
+    struct refl_image_f32 depth;
+    /**
+     * The camera that rendered the image (validated on every call).
+     */
+    struct refl_camera camera;
+    /**
+     * Convention of the stored depths, a `refl_depth_convention`.
+     */
+    uint32_t convention;
+} refl_depth_image;
+
+/**
+ * How far behind the front-most surface a ray may pass and still hit it.
+ */
+typedef struct refl_thickness {
+    /**
+     * Thickness of every surface in linear depth (world units along the
+     * view axis), >= 0, may be +infinity (everything behind a surface is
+     * solid). Used when `back_faces.data` is NULL, ignored otherwise.
+     */
+    float constant;
+    /**
+     * A back-face depth image (same size, camera and convention as the
+     * front image): the ray hits where its depth lies between the two. Set
+     * `data` to NULL to use `constant` instead (the other fields are then
+     * ignored).
+     */
+    struct refl_image_f32 back_faces;
+} refl_thickness;
+
+/**
+ * Options of the per-pixel stepping kernel (`refl_step_ray`). The
+ * defaults are `stride = 1`, `max_steps = UINT32_MAX`.
+ */
+typedef struct refl_step_options {
+    /**
+     * Texels per coarse step, >= 1. 1 tests every texel the ray's
+     * projection touches; larger strides sample every `stride`-th texel and
+     * refine the last coarse interval texel by texel once the ray reaches
+     * behind a surface.
+     */
+    uint32_t stride;
+    /**
+     * The most steps (coarse plus refinement) spent on one ray; reaching it
+     * gives `REFL_MISS_OUT_OF_STEPS`. 0 allows none.
+     */
+    uint32_t max_steps;
+} refl_step_options;
+
+/**
+ * The reflected rays per pixel (seed 003 Sec. 3.5): one mirror ray, or a
+ * truncated Phong lobe.
+ */
+typedef struct refl_lobe {
+    /**
+     * Rays per pixel: 1 = the mirror ray only; 2..=64 sample the lobe.
+     */
+    uint32_t rays;
+    /**
+     * Phong exponent n of cos^n around the mirror direction (finite,
+     * >= 0; ignored for one ray).
+     */
+    float exponent;
+    /**
+     * Truncation half-angle in radians, (0, 1.5) (ignored for one ray);
+     * `refl_lobe_angle` gives the angle holding a share of the energy.
+     */
+    float max_angle;
+} refl_lobe;
+
+/**
+ * Per-pixel finalization parameters (`refl_cluster_finalize`).
+ */
+typedef struct refl_cluster_finalize_params {
+    /**
+     * Surface thickness of the depth image.
+     */
+    struct refl_thickness thickness;
+    /**
+     * Stepping options (`stride >= 1`).
+     */
+    struct refl_step_options step;
+    /**
+     * Refine hits to sub-texel accuracy.
+     */
+    bool refine;
+    /**
+     * The rays per pixel.
+     */
+    struct refl_lobe lobe;
+    /**
+     * Glossy fade: a hit's weight falls from 1 on the image plane to 0 at
+     * the far plane (the missing weight is the host's diffuse color).
+     */
+    bool fade;
+    /**
+     * Rotates each pixel's lobe samples.
+     */
+    uint32_t seed;
+} refl_cluster_finalize_params;
 
 /**
  * Parameters of the reprojection and rendering phases
@@ -809,52 +1265,6 @@ typedef struct refl_hiz_options {
 } refl_hiz_options;
 
 /**
- * A read-only image of `float` texels (e.g. a depth buffer).
- */
-typedef struct refl_image_f32 {
-    /**
-     * Texel (0, 0); texel (x, y) is `data[y * stride + x]`.
-     */
-    const float *data;
-    /**
-     * Number of texels readable from `data` on (the buffer length).
-     */
-    size_t len;
-    /**
-     * Width in texels, > 0.
-     */
-    uint32_t width;
-    /**
-     * Height in texels, > 0.
-     */
-    uint32_t height;
-    /**
-     * Row stride in texels, >= `width`.
-     */
-    uint32_t stride;
-} refl_image_f32;
-
-/**
- * A depth image with the camera that rendered it and its convention.
- */
-typedef struct refl_depth_image {
-    /**
-     * The stored depths; width and height must equal the camera's. Texel
-     * (x, y) holds the depth seen through pixel center (x + 0.5, y + 0.5).
-     * A NaN texel, or one at or beyond the far plane, holds no surface.
-     */
-    struct refl_image_f32 depth;
-    /**
-     * The camera that rendered the image (validated on every call).
-     */
-    struct refl_camera camera;
-    /**
-     * Convention of the stored depths, a `refl_depth_convention`.
-     */
-    uint32_t convention;
-} refl_depth_image;
-
-/**
  * The result of tracing one ray against a depth image.
  */
 typedef struct refl_trace_result {
@@ -918,39 +1328,6 @@ typedef struct refl_hiz {
      */
     uint32_t convention;
 } refl_hiz;
-
-/**
- * How far behind the front-most surface a ray may pass and still hit it.
- */
-typedef struct refl_thickness {
-    /**
-     * Thickness of every surface in linear depth (world units along the
-     * view axis), >= 0, may be +infinity (everything behind a surface is
-     * solid). Used when `back_faces.data` is NULL, ignored otherwise.
-     */
-    float constant;
-    /**
-     * A back-face depth image (same size, camera and convention as the
-     * front image): the ray hits where its depth lies between the two. Set
-     * `data` to NULL to use `constant` instead (the other fields are then
-     * ignored).
-     */
-    struct refl_image_f32 back_faces;
-} refl_thickness;
-
-/**
- * A half-open range of image rows `[begin, end)`.
- */
-typedef struct refl_row_range {
-    /**
-     * First row.
-     */
-    uint32_t begin;
-    /**
-     * One past the last row; equal to `begin` for an empty band.
-     */
-    uint32_t end;
-} refl_row_range;
 
 /**
  * A writable image of `float` texels.
@@ -1265,24 +1642,6 @@ typedef struct refl_layered_map {
 } refl_layered_map;
 
 /**
- * An oriented plane `dot(normal, p) + d = 0`.
- *
- * Planes produced by refl have a unit normal. A plane you fill yourself
- * may have any finite non-zero normal; refl then uses the equivalent
- * `(normal / |normal|, d / |normal|)`.
- */
-typedef struct refl_plane {
-    /**
-     * Normal (a, b, c); points to the plane's front side.
-     */
-    struct refl_vec3 normal;
-    /**
-     * Offset d of `a x + b y + c z + d = 0`.
-     */
-    float d;
-} refl_plane;
-
-/**
  * Settings of the TCRR passes (refl-core `TcrrParams`); fill with
  * `refl_tcrr_default_params`.
  */
@@ -1366,32 +1725,6 @@ typedef struct refl_image_tcrr_surfel_mut {
      */
     uint32_t stride;
 } refl_image_tcrr_surfel_mut;
-
-/**
- * A read-only image of three-float texels (e.g. positions or normals).
- */
-typedef struct refl_image_vec3 {
-    /**
-     * Texel (0, 0); texel (x, y) is `data[y * stride + x]`.
-     */
-    const struct refl_vec3 *data;
-    /**
-     * Number of texels readable from `data` on (the buffer length).
-     */
-    size_t len;
-    /**
-     * Width in texels, > 0.
-     */
-    uint32_t width;
-    /**
-     * Height in texels, > 0.
-     */
-    uint32_t height;
-    /**
-     * Row stride in texels, >= `width`.
-     */
-    uint32_t stride;
-} refl_image_vec3;
 
 /**
  * A read-only image of `refl_tcrr_surfel` texels.
@@ -1672,25 +2005,6 @@ typedef struct refl_image_u8 {
 } refl_image_u8;
 
 /**
- * Options of the per-pixel stepping kernel (`refl_step_ray`). The
- * defaults are `stride = 1`, `max_steps = UINT32_MAX`.
- */
-typedef struct refl_step_options {
-    /**
-     * Texels per coarse step, >= 1. 1 tests every texel the ray's
-     * projection touches; larger strides sample every `stride`-th texel and
-     * refine the last coarse interval texel by texel once the ray reaches
-     * behind a surface.
-     */
-    uint32_t stride;
-    /**
-     * The most steps (coarse plus refinement) spent on one ray; reaching it
-     * gives `REFL_MISS_OUT_OF_STEPS`. 0 allows none.
-     */
-    uint32_t max_steps;
-} refl_step_options;
-
-/**
  * A 4-component float vector (a four-channel texel).
  */
 typedef struct refl_vec4 {
@@ -1837,58 +2151,6 @@ typedef struct refl_image_rgba8_mut {
      */
     uint32_t stride;
 } refl_image_rgba8_mut;
-
-/**
- * A read-only image of `uint32_t` texels (e.g. ids, masks, counts).
- */
-typedef struct refl_image_u32 {
-    /**
-     * Texel (0, 0); texel (x, y) is `data[y * stride + x]`.
-     */
-    const uint32_t *data;
-    /**
-     * Number of texels readable from `data` on (the buffer length).
-     */
-    size_t len;
-    /**
-     * Width in texels, > 0.
-     */
-    uint32_t width;
-    /**
-     * Height in texels, > 0.
-     */
-    uint32_t height;
-    /**
-     * Row stride in texels, >= `width`.
-     */
-    uint32_t stride;
-} refl_image_u32;
-
-/**
- * A writable image of `uint32_t` texels.
- */
-typedef struct refl_image_u32_mut {
-    /**
-     * Texel (0, 0); texel (x, y) is `data[y * stride + x]`.
-     */
-    uint32_t *data;
-    /**
-     * Number of texels writable from `data` on (the buffer length).
-     */
-    size_t len;
-    /**
-     * Width in texels, > 0.
-     */
-    uint32_t width;
-    /**
-     * Height in texels, > 0.
-     */
-    uint32_t height;
-    /**
-     * Row stride in texels, >= `width`.
-     */
-    uint32_t stride;
-} refl_image_u32_mut;
 
 #ifdef __cplusplus
 extern "C" {
@@ -2171,6 +2433,208 @@ refl_status refl_apply_reprojection(struct refl_projection *out,
                                     const struct refl_mat4 *matrix,
                                     struct refl_vec2 pixel,
                                     float depth);
+
+/**
+ * Writes the seed's clustering constants (13 x 8 bins, gain 1) to `*out`.
+ *
+ * Returns `REFL_STATUS_NULL_POINTER` if `out` is NULL.
+ *
+ * # Safety
+ * `out` must be NULL or writable.
+ */
+refl_status refl_cluster_params_default(struct refl_cluster_params *out);
+
+/**
+ * Writes the default cluster camera parameters (D = 100, mirror, 1x
+ * resolution, at most 2048 texels a side, clusters of at least 4 pixels,
+ * f <= 16) to `*out`.
+ *
+ * Returns `REFL_STATUS_NULL_POINTER` if `out` is NULL.
+ *
+ * # Safety
+ * `out` must be NULL or writable.
+ */
+refl_status refl_cluster_camera_params_default(struct refl_cluster_camera_params *out);
+
+/**
+ * Writes to `*out` the most clusters a frame with `objects` reflective
+ * objects can have (`objects * max_theta_bins * max_phi_bins`): size the
+ * `offsets` of `refl_cluster_ranges` one larger.
+ *
+ * Returns `REFL_STATUS_NULL_POINTER` if `out` or `params` is NULL;
+ * `REFL_STATUS_INVALID_ARGUMENT` for invalid params or a count that does
+ * not fit in `uint32_t`.
+ *
+ * # Safety
+ * `out` NULL or writable; `params` NULL or readable.
+ */
+refl_status refl_cluster_bins_max(uint32_t *out,
+                                  uint32_t objects,
+                                  const struct refl_cluster_params *params);
+
+/**
+ * Adds, for every pixel of `rows` whose object id is below `counts_len`,
+ * one to `counts[id]` (the screen share a_R of seed 003 Sec. 3.2). Call
+ * per row band with one `counts` array per band and add them up.
+ *
+ * Returns `REFL_STATUS_NULL_POINTER` if `counts` (with `counts_len > 0`)
+ * or `objects.data` is NULL; `REFL_STATUS_INVALID_ARGUMENT` for a bad
+ * image descriptor, a row range beyond the image, or `counts` overlapping
+ * the image; `REFL_STATUS_INSUFFICIENT_SIZE` if a count could overflow.
+ *
+ * # Safety
+ * `counts` NULL or readable and writable for `counts_len` values;
+ * `objects.data` readable for `objects.len` values.
+ */
+refl_status refl_cluster_count_objects(uint32_t *counts,
+                                       size_t counts_len,
+                                       struct refl_image_u32 objects,
+                                       struct refl_row_range rows);
+
+/**
+ * Per object, the bin resolution of seed 003 Sec. 3.2 (from its pixel
+ * count `counts[k]` over `frame_pixels` and the number of visible
+ * objects) and its first cluster id; writes `out[k]` for every object and
+ * the total number of cluster ids to `*out_total`.
+ *
+ * Returns `REFL_STATUS_NULL_POINTER` for a NULL output, `params`, or a
+ * NULL array with a non-zero length; `REFL_STATUS_INVALID_ARGUMENT` for
+ * invalid params, `frame_pixels == 0`, or counts summing above it;
+ * `REFL_STATUS_INSUFFICIENT_SIZE` if `out_len < counts_len`.
+ *
+ * # Safety
+ * `out_total` NULL or writable; `out` NULL or writable for `out_len`
+ * values; `counts` NULL or readable for `counts_len`; `params` NULL or
+ * readable.
+ */
+refl_status refl_cluster_bin_layout(uint32_t *out_total,
+                                    struct refl_object_bins *out,
+                                    size_t out_len,
+                                    const uint32_t *counts,
+                                    size_t counts_len,
+                                    uint64_t frame_pixels,
+                                    const struct refl_cluster_params *params);
+
+/**
+ * Writes the cluster id of every pixel in `rows` of `ids` (seed 003 Sec.
+ * 3.2 step 4): the object's first id plus the bin of the pixel's normal,
+ * `UINT32_MAX` for a pixel whose object has no bins or lies beyond
+ * `layout`. Only the band's rows of `ids` are touched, so threads may fill
+ * disjoint bands of one image at once.
+ *
+ * Returns `REFL_STATUS_NULL_POINTER` for a NULL image or `layout` with a
+ * non-zero length; `REFL_STATUS_INVALID_ARGUMENT` for bad descriptors,
+ * images of different sizes, a row range beyond the image, `ids`
+ * overlapping an input, or a clustered pixel with a non-finite or zero
+ * normal; `REFL_STATUS_INSUFFICIENT_SIZE` for a short image.
+ *
+ * # Safety
+ * `ids.data` writable for its band and not accessed meanwhile; the inputs
+ * readable for their `len`.
+ */
+refl_status refl_cluster_assign(struct refl_image_u32_mut ids,
+                                struct refl_row_range rows,
+                                struct refl_image_vec3 normals,
+                                struct refl_image_u32 objects,
+                                const struct refl_object_bins *layout,
+                                size_t layout_len);
+
+/**
+ * Counting sort of the pixels by cluster: `order[offsets[c] ..
+ * offsets[c + 1]]` are the pixel indices (y * width + x) of cluster `c`
+ * in raster order, for `c < clusters`; pixels with id `UINT32_MAX` are
+ * left out. Writes the number of clustered pixels to `*out_total`.
+ *
+ * Returns `REFL_STATUS_NULL_POINTER` for a NULL output or image;
+ * `REFL_STATUS_INVALID_ARGUMENT` for a bad descriptor, an id neither below
+ * `clusters` nor `UINT32_MAX`, or overlapping buffers;
+ * `REFL_STATUS_INSUFFICIENT_SIZE` if `offsets_len < clusters + 1` or
+ * `order_len` is below the clustered pixel count.
+ *
+ * # Safety
+ * Outputs writable for their lengths; `ids.data` readable.
+ */
+refl_status refl_cluster_ranges(uint32_t *out_total,
+                                uint32_t *offsets,
+                                size_t offsets_len,
+                                uint32_t *order,
+                                size_t order_len,
+                                struct refl_image_u32 ids,
+                                uint32_t clusters);
+
+/**
+ * The cluster camera of seed 003 Sec. 3.3 (Eq. 1) for the pixels
+ * `pixels[0 .. pixel_count]` (indices y * width + x into `positions` and
+ * `normals`, e.g. one range of `refl_cluster_ranges`) seen from `eye`.
+ * Writes a camera, or a fallback reason (`refl_cluster_fallback`), to
+ * `*out`. Planar clusters come out with f = 1 and the camera eye exactly
+ * at the mirrored eye.
+ *
+ * Returns `REFL_STATUS_NULL_POINTER` for a NULL `out`, `params`, image, or
+ * `pixels` with a non-zero count; `REFL_STATUS_INVALID_ARGUMENT` for
+ * invalid params, a non-finite eye, images of different sizes, a pixel
+ * outside the image, a non-finite position or a non-unit normal;
+ * `REFL_STATUS_DEGENERATE_GEOMETRY` if the camera is not representable.
+ *
+ * # Safety
+ * `out` NULL or writable; inputs readable for their lengths.
+ */
+refl_status refl_cluster_build_camera(struct refl_cluster_camera *out,
+                                      struct refl_image_vec3 positions,
+                                      struct refl_image_vec3 normals,
+                                      const uint32_t *pixels,
+                                      size_t pixel_count,
+                                      struct refl_vec3 eye,
+                                      const struct refl_cluster_camera_params *params);
+
+/**
+ * Writes to `*out` the half-angle (radians) of the Phong lobe cos^n that
+ * holds the share `energy` of its samples: acos((1 - energy)^(1 / (n + 1))).
+ *
+ * Returns `REFL_STATUS_NULL_POINTER` if `out` is NULL;
+ * `REFL_STATUS_INVALID_ARGUMENT` for a negative or non-finite exponent or
+ * an energy outside (0, 1).
+ *
+ * # Safety
+ * `out` NULL or writable.
+ */
+refl_status refl_lobe_angle(float *out, float exponent, float energy);
+
+/**
+ * Finalizes the reflection of the pixels `pixels[0 .. pixel_count]` of one
+ * cluster (seed 003 Sec. 3.4, 3.5): each pixel's mirror ray (or lobe
+ * samples) is stepped through the cluster depth image `depth` (rendered
+ * through `camera->camera`) up to the far plane; hits take the bilinear
+ * color of `color` over the texels of the hit surface, misses are
+ * reported for the host's environment lookup. Writes `out[k]` for
+ * `pixels[k]` and the number of pixels with at least one missed ray to
+ * `*out_fallbacks`.
+ *
+ * Returns `REFL_STATUS_NULL_POINTER` for a NULL pointer argument (or
+ * `pixels` with a non-zero count); `REFL_STATUS_INVALID_ARGUMENT` for a
+ * fallback camera record, an invalid camera, lobe, thickness or stride, a
+ * color image of another size than the depth image, a non-finite eye, a
+ * listed pixel outside the input or with a non-finite position or
+ * non-unit normal, an unknown convention, or `out` overlapping an input;
+ * `REFL_STATUS_INSUFFICIENT_SIZE` if `out_len < pixel_count` or an image
+ * is short.
+ *
+ * # Safety
+ * Outputs writable for their lengths; every input readable for its length
+ * and not written during the call.
+ */
+refl_status refl_cluster_finalize(uint32_t *out_fallbacks,
+                                  struct refl_cluster_shade *out,
+                                  size_t out_len,
+                                  struct refl_image_vec3 positions,
+                                  struct refl_image_vec3 normals,
+                                  const uint32_t *pixels,
+                                  size_t pixel_count,
+                                  struct refl_vec3 eye,
+                                  const struct refl_cluster_camera *camera,
+                                  const struct refl_depth_image *depth,
+                                  struct refl_image_vec3 color,
+                                  const struct refl_cluster_finalize_params *params);
 
 /**
  * Writes to `*out` the default parameters (m_cnt 5, 3x3 splat, depth

@@ -33,7 +33,7 @@
 //! Shading then reconstructs the exact hit of a pixel by intersecting the
 //! camera's primary ray with the stored primitive ([`VisBuffer::hit`]).
 
-use crate::scene::{Scene, NONE};
+use crate::scene::{Aabb, Scene, NONE};
 use crate::tracer::{ray_triangle_plane, Hit};
 use glam::{DVec2, Vec2, Vec3};
 use rayon::prelude::*;
@@ -216,14 +216,106 @@ pub fn rasterize(
     options: &RasterOptions,
     pool: &rayon::ThreadPool,
 ) -> VisBuffer {
+    let mut out = VisBuffer {
+        width: 0,
+        height: 0,
+        prim: Vec::new(),
+        depth: Vec::new(),
+        stats: RasterStats::default(),
+    };
+    rasterize_into(&mut out, scene, camera, options, pool);
+    out
+}
+
+/// Bounding boxes of every object's [`SETUP_CHUNK`]-triangle chunks (the
+/// rasterizer's work items), for culling below object level when one frame
+/// is drawn through many cameras (meshlet-style culling). Compute them once
+/// per frame: after the scene moved they are stale.
+#[derive(Clone, Debug, Default)]
+pub struct ChunkBounds {
+    /// `(first triangle, end triangle, bounds)` per chunk, objects in order.
+    pub chunks: Vec<(u32, u32, Aabb)>,
+}
+
+impl ChunkBounds {
+    /// The chunk bounds of `scene`, in parallel on `pool`.
+    pub fn new(scene: &Scene, pool: &rayon::ThreadPool) -> Self {
+        let mut ranges = Vec::new();
+        for object in &scene.objects {
+            let mut start = object.tris.start;
+            while start < object.tris.end {
+                let end = (start + SETUP_CHUNK as u32).min(object.tris.end);
+                ranges.push((start, end));
+                start = end;
+            }
+        }
+        let chunks = pool.install(|| {
+            ranges
+                .par_iter()
+                .map(|&(a, b)| {
+                    let mut bb = Aabb::EMPTY;
+                    for t in &scene.tris[a as usize..b as usize] {
+                        for &v in t {
+                            bb.grow(v);
+                        }
+                    }
+                    (a, b, bb)
+                })
+                .collect()
+        });
+        Self { chunks }
+    }
+}
+
+/// [`rasterize`] into `out`, reusing its buffers (no allocation once they
+/// are large enough): what a renderer drawing one depth image after another
+/// does with one render target.
+pub fn rasterize_into(
+    out: &mut VisBuffer,
+    scene: &Scene,
+    camera: &Camera,
+    options: &RasterOptions,
+    pool: &rayon::ThreadPool,
+) {
+    rasterize_chunks(out, scene, camera, options, None, pool);
+}
+
+/// [`rasterize_into`] that also culls the chunks of `bounds` (computed
+/// for this `scene`) against the frustum and the clip plane, after the
+/// object-level test.
+pub fn rasterize_into_culled(
+    out: &mut VisBuffer,
+    scene: &Scene,
+    camera: &Camera,
+    options: &RasterOptions,
+    bounds: &ChunkBounds,
+    pool: &rayon::ThreadPool,
+) {
+    rasterize_chunks(out, scene, camera, options, Some(bounds), pool);
+}
+
+fn rasterize_chunks(
+    out: &mut VisBuffer,
+    scene: &Scene,
+    camera: &Camera,
+    options: &RasterOptions,
+    bounds: Option<&ChunkBounds>,
+    pool: &rayon::ThreadPool,
+) {
     let (w, h) = (camera.width(), camera.height());
     let full = PixelRect::full(w, h);
     let scissor = options.scissor.map_or(full, |s| s.intersect(&full));
     let mut stats = RasterStats::default();
-    let mut prim = vec![NONE; (w as usize) * (h as usize)];
-    let mut inv_depth = vec![0.0f32; prim.len()];
+    let n = (w as usize) * (h as usize);
+    let mut prim = std::mem::take(&mut out.prim);
+    prim.clear();
+    prim.resize(n, NONE);
+    // The depth buffer holds 1 / z while rasterizing.
+    let mut inv_depth = std::mem::take(&mut out.depth);
+    inv_depth.clear();
+    inv_depth.resize(n, 0.0);
     if scissor.is_empty() {
-        return finish(w, h, prim, inv_depth, stats);
+        return finish(out, w, h, prim, inv_depth, stats);
     }
 
     // 1. Object culling, then chunks of visible triangles.
@@ -247,6 +339,27 @@ pub fn rasterize(
             chunks.push((start, end));
             start = end;
         }
+    }
+    if let Some(b) = bounds {
+        // Chunk culling: the same tests on each chunk's box (chunks are
+        // sorted by their first triangle, as `chunks` is).
+        let mut k = 0usize;
+        chunks.retain(|&(start, _)| {
+            while k < b.chunks.len() && b.chunks[k].0 < start {
+                k += 1;
+            }
+            let Some(&(s0, _, bb)) = b.chunks.get(k) else {
+                return true;
+            };
+            if s0 != start || bb.is_empty() {
+                return true;
+            }
+            let corners = bb.corners();
+            let behind = options
+                .clip_plane
+                .is_some_and(|plane| corners.iter().all(|&c| plane.signed_distance(c) <= 0.0));
+            !(behind || frustum.outside(camera, &corners))
+        });
     }
 
     // 2-3. Clip and set up triangles in parallel.
@@ -287,22 +400,27 @@ pub fn rasterize(
                 }
             });
     });
-    finish(w, h, prim, inv_depth, stats)
+    finish(out, w, h, prim, inv_depth, stats)
 }
 
-fn finish(w: u32, h: u32, prim: Vec<u32>, inv_depth: Vec<f32>, stats: RasterStats) -> VisBuffer {
-    let depth = prim
-        .iter()
-        .zip(&inv_depth)
-        .map(|(&p, &iz)| if p == NONE { f32::INFINITY } else { 1.0 / iz })
-        .collect();
-    VisBuffer {
+fn finish(
+    out: &mut VisBuffer,
+    w: u32,
+    h: u32,
+    prim: Vec<u32>,
+    mut depth: Vec<f32>,
+    stats: RasterStats,
+) {
+    for (d, &p) in depth.iter_mut().zip(&prim) {
+        *d = if p == NONE { f32::INFINITY } else { 1.0 / *d };
+    }
+    *out = VisBuffer {
         width: w,
         height: h,
         prim,
         depth,
         stats,
-    }
+    };
 }
 
 /// The view frustum narrowed to a scissor rectangle, in view space (depth

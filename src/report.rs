@@ -41,8 +41,9 @@ pub struct Options {
     /// file (repeatable; default: the three built-in scenes).
     #[arg(long)]
     pub scene: Vec<String>,
-    /// Methods: `reference`, `envmap`, `planar-mirror`, `step`, `hiz`,
-    /// `layered`, `tcrr`, `naive-warp` (repeatable; default: all).
+    /// Methods: `reference`, `envmap`, `planar-mirror`, `epipolar`, `orsa`,
+    /// `irsa`, `step`, `hiz`, `layered`, `cluster`, `tcrr`, `naive-warp`
+    /// (repeatable; default: all).
     #[arg(long)]
     pub method: Vec<String>,
     /// Output folder.
@@ -136,7 +137,7 @@ impl Sizes {
 pub const BUILT_IN_SCENES: [&str; 3] = ["room", "concave", "walkthrough"];
 
 /// Every method name the report knows, in report order.
-pub const METHODS: [&str; 11] = [
+pub const METHODS: [&str; 12] = [
     "reference",
     "envmap",
     "planar-mirror",
@@ -148,6 +149,8 @@ pub const METHODS: [&str; 11] = [
     "step",
     "hiz",
     "layered",
+    // Seed 003: normal-bin clusters, cluster cameras and depth images.
+    "cluster",
     "tcrr",
     "naive-warp",
 ];
@@ -207,6 +210,41 @@ enum Setting {
     /// Layered depth cube maps of the reflected objects: face resolution,
     /// layers.
     Layered(u32, u32),
+    /// Seed 003's clusters (crate::cluster).
+    Cluster(crate::cluster::ClusterSettings),
+}
+
+/// The cluster method's settings: the cluster-count knob (bin gain) and the
+/// depth-image resolution, the error-vs-time points of seed 003 Tables 3
+/// and 5, and 49 glossy rays (Sec. 3.5's upper end).
+fn cluster_settings(sizes: &Sizes) -> Vec<(Setting, String)> {
+    use crate::cluster::ClusterSettings;
+    let base = ClusterSettings::default();
+    let mut v: Vec<ClusterSettings> = if sizes.quick {
+        vec![ClusterSettings { gain: 16.0, ..base }, base]
+    } else {
+        let mut v: Vec<ClusterSettings> = [1.0, 16.0, 64.0, 256.0]
+            .into_iter()
+            .map(|gain| ClusterSettings { gain, ..base })
+            .collect();
+        v.push(ClusterSettings {
+            resolution_scale: 0.5,
+            ..base
+        });
+        v.push(ClusterSettings {
+            resolution_scale: 2.0,
+            ..base
+        });
+        v.push(ClusterSettings {
+            glossy_rays: 49,
+            ..base
+        });
+        v
+    };
+    v.dedup();
+    v.into_iter()
+        .map(|c| (Setting::Cluster(c), c.label()))
+        .collect()
 }
 
 /// The screen-space settings of `name` (`None` if `name` is not a
@@ -338,6 +376,13 @@ fn settings(
                 .collect())
         };
     }
+    if name == "cluster" {
+        return if needs.reflective_pixels == 0 {
+            Err("no reflective pixels in view")
+        } else {
+            Ok(cluster_settings(sizes))
+        };
+    }
     if let Some(screen) = screen_settings(name, sizes) {
         return if needs.reflective_pixels == 0 {
             Err("no reflective pixels in view")
@@ -430,6 +475,109 @@ struct Accum {
     max_abs: u8,
     /// Ray statistics and timings of a screen-space method.
     screen: Option<ScreenAccum>,
+    /// The cluster method's per-frame figures.
+    cluster: Option<ClusterAccum>,
+}
+
+/// Sums over frames of the cluster method (seed 003).
+#[derive(Clone, Debug, Default)]
+struct ClusterAccum {
+    frames: usize,
+    reflective: usize,
+    disoccluded: usize,
+    fallback: usize,
+    wrong_fallback: usize,
+    clusters: usize,
+    cameras: usize,
+    planar: usize,
+    texels: u64,
+    stages: crate::cluster::StageMs,
+}
+
+impl ClusterAccum {
+    fn of(f: &crate::cluster::ClusterFrame, stages: crate::cluster::StageMs) -> Self {
+        let n = f.reflective();
+        let count = |share: f64| (share * n as f64).round() as usize;
+        ClusterAccum {
+            frames: 1,
+            reflective: n,
+            disoccluded: count(f.disocclusion_share()),
+            fallback: count(f.fallback_share()),
+            wrong_fallback: count(f.wrong_fallback_share()),
+            clusters: f.clusters,
+            cameras: f.cameras,
+            planar: f.planar,
+            texels: f.texels,
+            stages,
+        }
+    }
+
+    fn add(&mut self, o: &ClusterAccum) {
+        self.frames += o.frames;
+        self.reflective += o.reflective;
+        self.disoccluded += o.disoccluded;
+        self.fallback += o.fallback;
+        self.wrong_fallback += o.wrong_fallback;
+        self.clusters += o.clusters;
+        self.cameras += o.cameras;
+        self.planar += o.planar;
+        self.texels += o.texels;
+        self.stages.clustering += o.stages.clustering;
+        self.stages.cameras += o.stages.cameras;
+        self.stages.depth_images += o.stages.depth_images;
+        self.stages.intersection += o.stages.intersection;
+    }
+
+    fn columns(&self) -> Vec<(String, String)> {
+        let f = self.frames.max(1) as f64;
+        let r = self.reflective.max(1) as f64;
+        vec![
+            (
+                "disocclusion_share".into(),
+                format!("{:.4}", self.disoccluded as f64 / r),
+            ),
+            (
+                "fallback_share".into(),
+                format!("{:.4}", self.fallback as f64 / r),
+            ),
+            (
+                "fallback_with_hit_share".into(),
+                format!("{:.4}", self.wrong_fallback as f64 / r),
+            ),
+            (
+                "clusters_per_frame".into(),
+                format!("{:.1}", self.clusters as f64 / f),
+            ),
+            (
+                "cameras_per_frame".into(),
+                format!("{:.1}", self.cameras as f64 / f),
+            ),
+            (
+                "planar_clusters_per_frame".into(),
+                format!("{:.1}", self.planar as f64 / f),
+            ),
+            (
+                "depth_texels_per_frame".into(),
+                format!("{:.0}", self.texels as f64 / f),
+            ),
+            (
+                "clustering_ms".into(),
+                format!("{:.3}", self.stages.clustering / f),
+            ),
+            (
+                "cameras_ms".into(),
+                format!("{:.3}", self.stages.cameras / f),
+            ),
+            (
+                "depth_images_ms".into(),
+                format!("{:.3}", self.stages.depth_images / f),
+            ),
+            (
+                "intersection_ms".into(),
+                format!("{:.3}", self.stages.intersection / f),
+            ),
+        ]
+    }
 }
 
 /// Sums over frames of a screen-space method's ray statistics and timings.
@@ -584,6 +732,9 @@ impl Accum {
                 ];
                 if let Some(sc) = &self.screen {
                     e.extend(sc.columns());
+                }
+                if let Some(c) = &self.cluster {
+                    e.extend(c.columns());
                 }
                 e
             },
@@ -783,12 +934,46 @@ pub fn run(opts: &Options) -> Result<PathBuf, String> {
                 bar.inc_length(runs_of.len() as u64);
                 for (setting_v, setting) in runs_of {
                     bar.set_message(format!("{label} pose {pose}: {method_name} {setting}"));
+                    let mut cluster_acc = None;
                     let (img, ms, screen_acc) = match setting_v {
                         Setting::Image(method) => {
                             let (img, ms) =
                                 median_run(sizes.runs, || method.run(&shader, g, &pool))
                                     .map_err(|e| e.to_string())?;
                             (img, ms, None)
+                        }
+                        Setting::Cluster(cs) => {
+                            // The first run also marks disocclusions (ray
+                            // traced, outside the stage timers).
+                            let mut stage_runs = Vec::new();
+                            let mut first = None;
+                            for k in 0..sizes.runs.max(1) {
+                                let f = crate::cluster::run(&shader, g, &cs, &pool, k == 0)
+                                    .map_err(|e| format!("{label}: cluster: {e}"))?;
+                                stage_runs.push(f.stages);
+                                first.get_or_insert(f);
+                            }
+                            let f = first.ok_or("cluster: no run")?;
+                            let stages = crate::cluster::StageMs::median_of(&stage_runs);
+                            let ms = median(stage_runs.iter().map(|s| s.total()).collect());
+                            if frame == 0 {
+                                let stem = format!(
+                                    "{label}_cluster_{}",
+                                    setting.replace(['=', ';', '/'], "-")
+                                );
+                                save(
+                                    &images.join(format!("{stem}_clusters.png")),
+                                    g,
+                                    &crate::cluster::cluster_image(g, &f, false),
+                                )?;
+                                save(
+                                    &images.join(format!("{stem}_disocclusion.png")),
+                                    g,
+                                    &crate::cluster::cluster_image(g, &f, true),
+                                )?;
+                            }
+                            cluster_acc = Some(ClusterAccum::of(&f, stages));
+                            (f.image, ms, None)
                         }
                         Setting::Screen(kernel, conv, refine) => {
                             let sf = screen_frame.get_or_insert_with(|| {
@@ -946,6 +1131,13 @@ pub fn run(opts: &Options) -> Result<PathBuf, String> {
                             .get_or_insert_with(ScreenAccum::default)
                             .add(&acc);
                     }
+                    if let Some(acc) = cluster_acc {
+                        accums[i]
+                            .1
+                            .cluster
+                            .get_or_insert_with(ClusterAccum::default)
+                            .add(&acc);
+                    }
                     bar.inc(1);
                 }
             }
@@ -1004,7 +1196,41 @@ pub fn run(opts: &Options) -> Result<PathBuf, String> {
     } else {
         opts.growth.iter().copied().filter(|&n| n > 0).collect()
     };
-    let growth_md = if growth_sizes.is_empty() {
+    // The depth-image kernels' growth table runs when one of them is
+    // selected; the cluster method has its own (seed 003 Tables 3..7: the
+    // pipeline against ray tracing with a BVH rebuild per frame).
+    let kernel_growth = methods
+        .iter()
+        .any(|m| matches!(*m, "reference" | "step" | "hiz" | "layered"));
+    let cluster_growth_md = if growth_sizes.is_empty() || !methods.contains(&"cluster") {
+        String::new()
+    } else {
+        bar.set_message("cluster cost growth");
+        let settings = crate::cluster::ClusterSettings::default();
+        let rows = crate::cluster::growth(
+            &growth_sizes,
+            sizes.width,
+            sizes.height,
+            sizes.runs,
+            &settings,
+            &pool,
+        )?;
+        let path = out.join("growth_cluster.csv");
+        crate::cluster::write_growth_csv(&path, &rows)
+            .map_err(|e| format!("{}: {e}", path.display()))?;
+        let table = crate::cluster::growth_markdown(&rows);
+        print!("{table}");
+        format!(
+            "\n## Cluster method against ray tracing with a BVH rebuild (room, camera pose 0, {threads} thread(s), \
+             `{}`)\n\nOne frame: the BVH build a dynamic scene pays every frame plus the ray-traced reflection pass \
+             (obvhs, {} rays per glossy pixel), against the cluster pipeline's stages. Shadows are off in both, so \
+             that shading needs no BVH. Error against the reference at 64 glossy samples. Also in \
+             `growth_cluster.csv`.\n\n{table}",
+            settings.label(),
+            settings.glossy_rays
+        )
+    };
+    let growth_md = if growth_sizes.is_empty() || !kernel_growth {
         String::new()
     } else {
         bar.set_message("cost growth");
@@ -1029,7 +1255,7 @@ pub fn run(opts: &Options) -> Result<PathBuf, String> {
          pixels in the same run, same threads. Error is measured against the ground truth (the reference at {} \
          glossy samples per pixel) on the pixels each method handles, pooled over frames: mean absolute difference \
          on 0..255 of 8-bit sRGB composites, PSNR, share of pixels over 8/255. Images: the first frame.\n\n\
-         ## Scenes\n\n{notes}\n## Summary\n\n{}\n![error vs time](error_vs_time.png)\n{growth_md}",
+         ## Scenes\n\n{notes}\n## Summary\n\n{}\n![error vs time](error_vs_time.png)\n{growth_md}{cluster_growth_md}",
         if opts.quick { "Quick" } else { "Default" },
         sizes.frames,
         sizes.runs,

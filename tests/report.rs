@@ -90,6 +90,32 @@ fn quick_report_writes_summary_plot_and_images() {
         assert!(num(r, "key_interval") >= 1.0);
     }
 
+    // Seed 003 clusters: one row per setting, with the disocclusion,
+    // fallback and cluster-count columns and the per-stage times.
+    for set in ["gain=16;res=1;glossy_rays=8", "gain=64;res=1;glossy_rays=8"] {
+        let r = find("room", "cluster", set);
+        assert_eq!(num(r, "coverage"), 1.0, "{set}");
+        let (dis, fb) = (num(r, "disocclusion_share"), num(r, "fallback_share"));
+        assert!(
+            (0.0..=1.0).contains(&dis) && (0.0..=1.0).contains(&fb),
+            "{set}"
+        );
+        assert!(num(r, "clusters_per_frame") >= 1.0, "{set}");
+        let stages: f64 = [
+            "clustering_ms",
+            "cameras_ms",
+            "depth_images_ms",
+            "intersection_ms",
+        ]
+        .iter()
+        .map(|c| num(r, c))
+        .sum();
+        assert!(
+            stages > 0.0 && stages <= 1.5 * num(r, "time_ms") + 1.0,
+            "{set}"
+        );
+        assert!(num(r, "mean_abs_255") < 12.0, "{set}");
+    }
     // Concave: no planar mirror and no glossy surface, so planar-mirror is
     // skipped and the reference needs no sample-count sweep.
     assert!(rows
@@ -106,6 +132,8 @@ fn quick_report_writes_summary_plot_and_images() {
         "error_vs_time.png",
         "images/room_reference.png",
         "images/room_planar-mirror_resolution-1-2_diff.png",
+        "images/room_cluster_gain-64-res-1-glossy_rays-8_clusters.png",
+        "images/room_cluster_gain-64-res-1-glossy_rays-8_disocclusion.png",
     ] {
         let img = image::open(out.join(f)).unwrap_or_else(|e| panic!("{f}: {e}"));
         assert!(img.width() > 0 && img.height() > 0);

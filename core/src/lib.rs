@@ -21,6 +21,8 @@
 #![deny(unsafe_code)]
 
 pub mod camera;
+#[cfg(feature = "cluster")]
+pub mod cluster;
 #[cfg(feature = "epipolar")]
 pub mod epipolar;
 pub mod error;

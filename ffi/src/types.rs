@@ -290,3 +290,327 @@ const _: () = {
     // refl_status is a uint32_t on the wire.
     assert!(size_of::<crate::refl_status>() == 4);
 };
+
+// ---------------------------------------------------------------------------
+// Seed 003 clusters (`refl_core::cluster`).
+
+/// Clustering parameters (seed 003 Sec. 3.2). Defaults:
+/// `refl_cluster_params_default`.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct refl_cluster_params {
+    /// Azimuth bins of an object covering the whole frame alone (seed: 13),
+    /// 1..=1024.
+    pub max_theta_bins: u32,
+    /// Polar bins of an object covering the whole frame alone (seed: 8),
+    /// 1..=1024.
+    pub max_phi_bins: u32,
+    /// Multiplier of the seed's modulation a_R / n_v (seed: 1), finite and
+    /// > 0: larger gives more, smaller clusters.
+    pub gain: f32,
+}
+
+impl From<refl_core::cluster::ClusterParams> for refl_cluster_params {
+    fn from(p: refl_core::cluster::ClusterParams) -> Self {
+        Self {
+            max_theta_bins: p.max_theta_bins,
+            max_phi_bins: p.max_phi_bins,
+            gain: p.gain,
+        }
+    }
+}
+
+impl From<refl_cluster_params> for refl_core::cluster::ClusterParams {
+    fn from(p: refl_cluster_params) -> Self {
+        Self {
+            max_theta_bins: p.max_theta_bins,
+            max_phi_bins: p.max_phi_bins,
+            gain: p.gain,
+        }
+    }
+}
+
+/// The bins of one reflective object in the current frame.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct refl_object_bins {
+    /// Azimuth bins (0 if the object is not visible).
+    pub theta_bins: u32,
+    /// Polar bins (0 if the object is not visible).
+    pub phi_bins: u32,
+    /// Cluster id of the object's first bin.
+    pub first: u32,
+}
+
+impl From<refl_core::cluster::ObjectBins> for refl_object_bins {
+    fn from(b: refl_core::cluster::ObjectBins) -> Self {
+        Self {
+            theta_bins: b.theta_bins,
+            phi_bins: b.phi_bins,
+            first: b.first,
+        }
+    }
+}
+
+impl From<refl_object_bins> for refl_core::cluster::ObjectBins {
+    fn from(b: refl_object_bins) -> Self {
+        Self {
+            theta_bins: b.theta_bins,
+            phi_bins: b.phi_bins,
+            first: b.first,
+        }
+    }
+}
+
+/// Cluster camera parameters (seed 003 Sec. 3.3, 3.5). Defaults:
+/// `refl_cluster_camera_params_default`.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct refl_cluster_camera_params {
+    /// D: distance from the image plane to the far plane (the scene
+    /// diameter for mirrors, nearer for glossy clusters), finite and > 0.
+    pub far_distance: f32,
+    /// Half-angle (radians, [0, 1.5)) of the glossy cone the frame must hold;
+    /// 0 for mirrors.
+    pub cone_half_angle: f32,
+    /// Multiplier of the resolution from the cluster's pixel spacing,
+    /// finite and > 0.
+    pub resolution_scale: f32,
+    /// Largest depth-image width or height, > 0.
+    pub max_resolution: u32,
+    /// Clusters with fewer pixels fall back, >= 2.
+    pub min_pixels: u32,
+    /// Upper bound of f (Eq. 1), >= 1; also f when d_F <= d_n.
+    pub max_f: f32,
+}
+
+impl From<refl_core::cluster::CameraParams> for refl_cluster_camera_params {
+    fn from(p: refl_core::cluster::CameraParams) -> Self {
+        Self {
+            far_distance: p.far_distance,
+            cone_half_angle: p.cone_half_angle,
+            resolution_scale: p.resolution_scale,
+            max_resolution: p.max_resolution,
+            min_pixels: p.min_pixels,
+            max_f: p.max_f,
+        }
+    }
+}
+
+impl From<refl_cluster_camera_params> for refl_core::cluster::CameraParams {
+    fn from(p: refl_cluster_camera_params) -> Self {
+        Self {
+            far_distance: p.far_distance,
+            cone_half_angle: p.cone_half_angle,
+            resolution_scale: p.resolution_scale,
+            max_resolution: p.max_resolution,
+            min_pixels: p.min_pixels,
+            max_f: p.max_f,
+        }
+    }
+}
+
+/// Why a cluster gets no camera (its pixels fall back to the environment);
+/// `REFL_CLUSTER_FALLBACK_NONE` when it has one.
+#[repr(u32)]
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub enum refl_cluster_fallback {
+    /// The cluster has a camera.
+    None = 0,
+    /// Fewer than `min_pixels` pixels (one-pixel clusters among them).
+    TooFewPixels = 1,
+    /// The normals cancel out or their mean faces away from the eye.
+    FacesAway = 2,
+    /// No reflected ray reaches the far plane.
+    NoRays = 3,
+    /// The rays span more than a pinhole frustum holds.
+    TooWide = 4,
+}
+
+impl From<refl_core::cluster::ClusterFallback> for refl_cluster_fallback {
+    fn from(f: refl_core::cluster::ClusterFallback) -> Self {
+        use refl_core::cluster::ClusterFallback as F;
+        match f {
+            F::TooFewPixels => Self::TooFewPixels,
+            F::FacesAway => Self::FacesAway,
+            F::NoRays => Self::NoRays,
+            F::TooWide => Self::TooWide,
+        }
+    }
+}
+
+/// A cluster camera (seed 003 Sec. 3.3), or a fallback reason.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct refl_cluster_camera {
+    /// `REFL_CLUSTER_FALLBACK_NONE` (0) if the fields below describe a
+    /// camera, else the `refl_cluster_fallback` reason (other fields 0).
+    pub fallback: u32,
+    /// The camera to render the cluster depth image with.
+    pub camera: refl_camera,
+    /// Render only geometry strictly on the positive side of this plane
+    /// (unit normal).
+    pub clip: refl_plane,
+    /// Centroid P_c of the cluster's surface points.
+    pub centroid: refl_vec3,
+    /// Unit mean normal n_c, toward the eye.
+    pub normal: refl_vec3,
+    /// The mirrored eye e_0.
+    pub eye0: refl_vec3,
+    /// f of Eq. 1 after its guards (1 exactly for planar clusters).
+    pub f: f32,
+    /// Eq. 1's diagonals d_n, d_f, d_F.
+    pub diagonals: [f32; 3],
+    /// Every pixel on the image plane with the mean normal: the camera
+    /// eye is e_0 exactly.
+    pub planar: bool,
+    /// D, the far plane's distance from the image plane.
+    pub far_distance: f32,
+    /// Pixels whose reflected ray reaches the far plane.
+    pub pixels_used: u32,
+}
+
+impl refl_cluster_camera {
+    /// A camera result, or a fallback with zeroed fields.
+    pub fn from_view(v: &refl_core::cluster::ClusterView) -> Self {
+        use refl_core::cluster::ClusterView;
+        match v {
+            ClusterView::Camera(c) => Self {
+                fallback: refl_cluster_fallback::None as u32,
+                camera: (&c.camera).into(),
+                clip: refl_plane {
+                    normal: c.clip.normal.into(),
+                    d: -c.clip.normal.dot(c.clip.point),
+                },
+                centroid: c.centroid.into(),
+                normal: c.normal.into(),
+                eye0: c.eye0.into(),
+                f: c.f,
+                diagonals: c.diagonals,
+                planar: c.planar,
+                far_distance: c.far_distance,
+                pixels_used: c.pixels_used,
+            },
+            ClusterView::Fallback(r) => Self {
+                fallback: refl_cluster_fallback::from(*r) as u32,
+                camera: refl_camera {
+                    view: refl_mat4 { m: [0.0; 16] },
+                    fov_y: 0.0,
+                    z_near: 0.0,
+                    z_far: 0.0,
+                    width: 0,
+                    height: 0,
+                },
+                clip: refl_plane::default(),
+                centroid: refl_vec3::default(),
+                normal: refl_vec3::default(),
+                eye0: refl_vec3::default(),
+                f: 0.0,
+                diagonals: [0.0; 3],
+                planar: false,
+                far_distance: 0.0,
+                pixels_used: 0,
+            },
+        }
+    }
+}
+
+impl TryFrom<&refl_cluster_camera> for refl_core::cluster::ClusterCamera {
+    type Error = Error;
+    /// `InvalidArgument` for a fallback record or a non-unit clip normal;
+    /// the camera's own status if it is invalid. The remaining fields are
+    /// validated by `refl_cluster_finalize`.
+    fn try_from(c: &refl_cluster_camera) -> Result<Self, Error> {
+        if c.fallback != refl_cluster_fallback::None as u32 {
+            return Err(Error::InvalidArgument);
+        }
+        let camera = Camera::try_from(&c.camera)?;
+        let n = Vec3::from(c.clip.normal);
+        if !(n.is_finite() && c.clip.d.is_finite() && (n.length_squared() - 1.0).abs() <= 1e-3) {
+            return Err(Error::InvalidArgument);
+        }
+        Ok(Self {
+            camera,
+            clip: refl_core::cluster::ClipPlane {
+                point: -n * c.clip.d,
+                normal: n,
+            },
+            centroid: c.centroid.into(),
+            normal: c.normal.into(),
+            eye0: c.eye0.into(),
+            f: c.f,
+            diagonals: c.diagonals,
+            planar: c.planar,
+            far_distance: c.far_distance,
+            pixels_used: c.pixels_used,
+        })
+    }
+}
+
+/// The reflected rays per pixel (seed 003 Sec. 3.5): one mirror ray, or a
+/// truncated Phong lobe.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct refl_lobe {
+    /// Rays per pixel: 1 = the mirror ray only; 2..=64 sample the lobe.
+    pub rays: u32,
+    /// Phong exponent n of cos^n around the mirror direction (finite,
+    /// >= 0; ignored for one ray).
+    pub exponent: f32,
+    /// Truncation half-angle in radians, (0, 1.5) (ignored for one ray);
+    /// `refl_lobe_angle` gives the angle holding a share of the energy.
+    pub max_angle: f32,
+}
+
+impl From<refl_lobe> for refl_core::cluster::Lobe {
+    fn from(l: refl_lobe) -> Self {
+        Self {
+            rays: l.rays,
+            exponent: l.exponent,
+            max_angle: l.max_angle,
+        }
+    }
+}
+
+/// The reflection of one cluster pixel (`refl_cluster_finalize`).
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct refl_cluster_shade {
+    /// Sum of hit colors times their weights over the traced rays; the
+    /// reflection is rgb + env_weight * env(env_dir) + (1 - hit_weight -
+    /// env_weight) * diffuse.
+    pub rgb: refl_vec3,
+    /// Sum of hit weights over the traced rays.
+    pub hit_weight: f32,
+    /// Share of the traced rays that fell back to the environment.
+    pub env_weight: f32,
+    /// Mean direction of the rays that fell back (the mirror direction if
+    /// none did).
+    pub env_dir: refl_vec3,
+    /// The pixel's mirror direction.
+    pub mirror_dir: refl_vec3,
+    /// Rays traced.
+    pub rays: u32,
+    /// Rays that hit.
+    pub hits: u32,
+    /// Depth texels read over all rays.
+    pub fetches: u32,
+    /// Steps over all rays.
+    pub steps: u32,
+}
+
+impl From<&refl_core::cluster::ClusterShade> for refl_cluster_shade {
+    fn from(s: &refl_core::cluster::ClusterShade) -> Self {
+        Self {
+            rgb: s.rgb.into(),
+            hit_weight: s.hit_weight,
+            env_weight: s.env_weight,
+            env_dir: s.env_dir.into(),
+            mirror_dir: s.mirror_dir.into(),
+            rays: s.rays,
+            hits: s.hits,
+            fetches: s.fetches,
+            steps: s.steps,
+        }
+    }
+}

@@ -1,0 +1,551 @@
+//! Second-order feed-forward reflections (seed 003; `refl_core::cluster`
+//! documents the algorithm): normal-bin clustering, cluster cameras and the
+//! per-pixel finalization against a cluster's depth image.
+//!
+//! Pipeline per frame: `refl_cluster_count_objects` (per row band),
+//! `refl_cluster_bin_layout`, `refl_cluster_assign` (per row band),
+//! `refl_cluster_ranges`; then per non-empty cluster `refl_cluster_build_camera`,
+//! the host renders depth and color through the camera (geometry strictly
+//! in front of the clip plane only), and `refl_cluster_finalize`.
+//!
+//! Arrays are read into copies and results are computed before any output
+//! is written, so a failed call leaves every output untouched.
+
+use crate::image::{refl_image_u32, refl_image_u32_mut, refl_image_vec3, refl_row_range};
+use crate::ptr::{byte_len, overlaps, read, Out};
+use crate::status::{guard, refl_status};
+use crate::trace::{depth_image, refl_depth_image, refl_step_options, refl_thickness};
+use crate::types::{
+    refl_cluster_camera, refl_cluster_camera_params, refl_cluster_params, refl_cluster_shade,
+    refl_lobe, refl_object_bins, refl_vec3,
+};
+use refl_core::cluster::{
+    self, CameraParams, ClusterCamera, ClusterInput, ClusterParams, ClusterShade, FinalizeParams,
+    ObjectBins,
+};
+use refl_core::{Error, ImageView, ImageViewMut, RowRange, Thickness};
+
+/// Per-pixel finalization parameters (`refl_cluster_finalize`).
+#[repr(C)]
+#[derive(Clone, Copy, Debug)]
+pub struct refl_cluster_finalize_params {
+    /// Surface thickness of the depth image.
+    pub thickness: refl_thickness,
+    /// Stepping options (`stride >= 1`).
+    pub step: refl_step_options,
+    /// Refine hits to sub-texel accuracy.
+    pub refine: bool,
+    /// The rays per pixel.
+    pub lobe: refl_lobe,
+    /// Glossy fade: a hit's weight falls from 1 on the image plane to 0 at
+    /// the far plane (the missing weight is the host's diffuse color).
+    pub fade: bool,
+    /// Rotates each pixel's lobe samples.
+    pub seed: u32,
+}
+
+/// Reads a caller array into a copy (`NullPointer` for NULL with a
+/// non-zero count; an empty array may be NULL).
+///
+/// # Safety
+/// A non-null, aligned `p` must be readable for `count` values of `T`.
+unsafe fn copy_in<T: Copy>(p: *const T, count: usize) -> Result<Vec<T>, Error> {
+    if count == 0 {
+        return Ok(Vec::new());
+    }
+    if p.is_null() {
+        return Err(Error::NullPointer);
+    }
+    if !p.is_aligned() {
+        return Err(Error::InvalidArgument);
+    }
+    byte_len::<T>(p as usize, count)?;
+    // SAFETY: non-null, aligned, length fits isize (checked above);
+    // readability is the caller's contract. Copied at once.
+    Ok(unsafe { core::slice::from_raw_parts(p, count) }.to_vec())
+}
+
+/// Checks an output array: non-null, aligned, a possible length.
+fn check_out<T>(p: *mut T, count: usize) -> Result<(), Error> {
+    if p.is_null() {
+        return Err(Error::NullPointer);
+    }
+    if !p.is_aligned() {
+        return Err(Error::InvalidArgument);
+    }
+    byte_len::<T>(p as usize, count)?;
+    Ok(())
+}
+
+/// Copies `values` to the checked output array `p` (at least
+/// `values.len()` long).
+///
+/// # Safety
+/// `p` must have passed `check_out` for `values.len()` and be writable.
+unsafe fn copy_out<T: Copy>(p: *mut T, values: &[T]) {
+    if values.is_empty() {
+        return;
+    }
+    // SAFETY: caller contract.
+    unsafe { core::slice::from_raw_parts_mut(p, values.len()) }.copy_from_slice(values);
+}
+
+fn rows(r: refl_row_range, height: u32) -> Result<RowRange, Error> {
+    RowRange::try_new(r.begin, r.end, height)
+}
+
+/// Writes the seed's clustering constants (13 x 8 bins, gain 1) to `*out`.
+///
+/// Returns `REFL_STATUS_NULL_POINTER` if `out` is NULL.
+///
+/// # Safety
+/// `out` must be NULL or writable.
+#[no_mangle]
+pub unsafe extern "C" fn refl_cluster_params_default(out: *mut refl_cluster_params) -> refl_status {
+    guard(|| {
+        let out = Out::new(out)?;
+        // SAFETY: caller contract.
+        unsafe { out.write(ClusterParams::default().into()) };
+        Ok(())
+    })
+}
+
+/// Writes the default cluster camera parameters (D = 100, mirror, 1x
+/// resolution, at most 2048 texels a side, clusters of at least 4 pixels,
+/// f <= 16) to `*out`.
+///
+/// Returns `REFL_STATUS_NULL_POINTER` if `out` is NULL.
+///
+/// # Safety
+/// `out` must be NULL or writable.
+#[no_mangle]
+pub unsafe extern "C" fn refl_cluster_camera_params_default(
+    out: *mut refl_cluster_camera_params,
+) -> refl_status {
+    guard(|| {
+        let out = Out::new(out)?;
+        // SAFETY: caller contract.
+        unsafe { out.write(CameraParams::default().into()) };
+        Ok(())
+    })
+}
+
+/// Writes to `*out` the most clusters a frame with `objects` reflective
+/// objects can have (`objects * max_theta_bins * max_phi_bins`): size the
+/// `offsets` of `refl_cluster_ranges` one larger.
+///
+/// Returns `REFL_STATUS_NULL_POINTER` if `out` or `params` is NULL;
+/// `REFL_STATUS_INVALID_ARGUMENT` for invalid params or a count that does
+/// not fit in `uint32_t`.
+///
+/// # Safety
+/// `out` NULL or writable; `params` NULL or readable.
+#[no_mangle]
+pub unsafe extern "C" fn refl_cluster_bins_max(
+    out: *mut u32,
+    objects: u32,
+    params: *const refl_cluster_params,
+) -> refl_status {
+    guard(|| {
+        let out = Out::new(out)?;
+        // SAFETY: caller contract.
+        let p = ClusterParams::from(unsafe { read(params) }?);
+        let n = cluster::cluster_bins_max(objects, &p)?;
+        // SAFETY: caller contract.
+        unsafe { out.write(n) };
+        Ok(())
+    })
+}
+
+/// Adds, for every pixel of `rows` whose object id is below `counts_len`,
+/// one to `counts[id]` (the screen share a_R of seed 003 Sec. 3.2). Call
+/// per row band with one `counts` array per band and add them up.
+///
+/// Returns `REFL_STATUS_NULL_POINTER` if `counts` (with `counts_len > 0`)
+/// or `objects.data` is NULL; `REFL_STATUS_INVALID_ARGUMENT` for a bad
+/// image descriptor, a row range beyond the image, or `counts` overlapping
+/// the image; `REFL_STATUS_INSUFFICIENT_SIZE` if a count could overflow.
+///
+/// # Safety
+/// `counts` NULL or readable and writable for `counts_len` values;
+/// `objects.data` readable for `objects.len` values.
+#[no_mangle]
+pub unsafe extern "C" fn refl_cluster_count_objects(
+    counts: *mut u32,
+    counts_len: usize,
+    objects: refl_image_u32,
+    rows: refl_row_range,
+) -> refl_status {
+    guard(|| {
+        // SAFETY: caller contract.
+        let mut c = unsafe { copy_in(counts.cast_const(), counts_len) }?;
+        // SAFETY: caller contract.
+        let view = unsafe { objects.view() }?;
+        let r = self::rows(rows, view.height())?;
+        let c_bytes = counts_len * core::mem::size_of::<u32>();
+        let o_bytes = objects.len.saturating_mul(4);
+        if overlaps(counts as usize, c_bytes, objects.data as usize, o_bytes) {
+            return Err(Error::InvalidArgument);
+        }
+        cluster::try_count_objects(&mut c, &view, r)?;
+        // SAFETY: checked by copy_in (non-null, aligned, length) and
+        // writable by contract.
+        unsafe { copy_out(counts, &c) };
+        Ok(())
+    })
+}
+
+/// Per object, the bin resolution of seed 003 Sec. 3.2 (from its pixel
+/// count `counts[k]` over `frame_pixels` and the number of visible
+/// objects) and its first cluster id; writes `out[k]` for every object and
+/// the total number of cluster ids to `*out_total`.
+///
+/// Returns `REFL_STATUS_NULL_POINTER` for a NULL output, `params`, or a
+/// NULL array with a non-zero length; `REFL_STATUS_INVALID_ARGUMENT` for
+/// invalid params, `frame_pixels == 0`, or counts summing above it;
+/// `REFL_STATUS_INSUFFICIENT_SIZE` if `out_len < counts_len`.
+///
+/// # Safety
+/// `out_total` NULL or writable; `out` NULL or writable for `out_len`
+/// values; `counts` NULL or readable for `counts_len`; `params` NULL or
+/// readable.
+#[no_mangle]
+pub unsafe extern "C" fn refl_cluster_bin_layout(
+    out_total: *mut u32,
+    out: *mut refl_object_bins,
+    out_len: usize,
+    counts: *const u32,
+    counts_len: usize,
+    frame_pixels: u64,
+    params: *const refl_cluster_params,
+) -> refl_status {
+    guard(|| {
+        let total_out = Out::new(out_total)?;
+        check_out(out, out_len)?;
+        // SAFETY: caller contract.
+        let c = unsafe { copy_in(counts, counts_len) }?;
+        // SAFETY: caller contract.
+        let p = ClusterParams::from(unsafe { read(params) }?);
+        let mut bins = vec![ObjectBins::default(); out_len.min(counts_len)];
+        if out_len < counts_len {
+            return Err(Error::InsufficientSize);
+        }
+        let total = cluster::try_bin_layout(&mut bins, &c, frame_pixels, &p)?;
+        let flat: Vec<refl_object_bins> = bins.into_iter().map(Into::into).collect();
+        // SAFETY: checked by check_out; writable by contract.
+        unsafe {
+            copy_out(out, &flat);
+            total_out.write(total);
+        }
+        Ok(())
+    })
+}
+
+/// Writes the cluster id of every pixel in `rows` of `ids` (seed 003 Sec.
+/// 3.2 step 4): the object's first id plus the bin of the pixel's normal,
+/// `UINT32_MAX` for a pixel whose object has no bins or lies beyond
+/// `layout`. Only the band's rows of `ids` are touched, so threads may fill
+/// disjoint bands of one image at once.
+///
+/// Returns `REFL_STATUS_NULL_POINTER` for a NULL image or `layout` with a
+/// non-zero length; `REFL_STATUS_INVALID_ARGUMENT` for bad descriptors,
+/// images of different sizes, a row range beyond the image, `ids`
+/// overlapping an input, or a clustered pixel with a non-finite or zero
+/// normal; `REFL_STATUS_INSUFFICIENT_SIZE` for a short image.
+///
+/// # Safety
+/// `ids.data` writable for its band and not accessed meanwhile; the inputs
+/// readable for their `len`.
+#[no_mangle]
+pub unsafe extern "C" fn refl_cluster_assign(
+    ids: refl_image_u32_mut,
+    rows: refl_row_range,
+    normals: refl_image_vec3,
+    objects: refl_image_u32,
+    layout: *const refl_object_bins,
+    layout_len: usize,
+) -> refl_status {
+    guard(|| {
+        // SAFETY: caller contract.
+        let lay: Vec<ObjectBins> = unsafe { copy_in(layout, layout_len) }?
+            .into_iter()
+            .map(Into::into)
+            .collect();
+        // SAFETY: caller contract.
+        let (nv, ov) = unsafe { (normals.view()?, objects.view()?) };
+        // SAFETY: caller contract (validates the descriptor only).
+        unsafe { ids.as_const().view() }?;
+        let r = self::rows(rows, ids.height)?;
+        let ids_bytes = ids.len.saturating_mul(4);
+        if overlaps(
+            ids.data as usize,
+            ids_bytes,
+            normals.data as usize,
+            normals.len.saturating_mul(12),
+        ) || overlaps(
+            ids.data as usize,
+            ids_bytes,
+            objects.data as usize,
+            objects.len.saturating_mul(4),
+        ) {
+            return Err(Error::InvalidArgument);
+        }
+        // Into a local band first: the caller's band is written on success.
+        let (w, h) = (ids.width, ids.height);
+        let band_len = if r.is_empty() {
+            0
+        } else {
+            (r.len() as usize - 1) * ids.stride as usize + w as usize
+        };
+        let mut local = vec![0u32; band_len];
+        {
+            let mut v = ImageViewMut::try_band(&mut local, w, h, ids.stride, r)?;
+            cluster::try_assign_clusters(&mut v, &nv, &ov, &lay)?;
+        }
+        // SAFETY: caller contract; checked descriptor.
+        let mut out = unsafe { ids.band_mut(r) }?;
+        for y in r.rows() {
+            let src = &local[(y - r.start()) as usize * ids.stride as usize..][..w as usize];
+            if let Some(dst) = out.row_mut(y) {
+                dst.copy_from_slice(src);
+            }
+        }
+        Ok(())
+    })
+}
+
+/// Counting sort of the pixels by cluster: `order[offsets[c] ..
+/// offsets[c + 1]]` are the pixel indices (y * width + x) of cluster `c`
+/// in raster order, for `c < clusters`; pixels with id `UINT32_MAX` are
+/// left out. Writes the number of clustered pixels to `*out_total`.
+///
+/// Returns `REFL_STATUS_NULL_POINTER` for a NULL output or image;
+/// `REFL_STATUS_INVALID_ARGUMENT` for a bad descriptor, an id neither below
+/// `clusters` nor `UINT32_MAX`, or overlapping buffers;
+/// `REFL_STATUS_INSUFFICIENT_SIZE` if `offsets_len < clusters + 1` or
+/// `order_len` is below the clustered pixel count.
+///
+/// # Safety
+/// Outputs writable for their lengths; `ids.data` readable.
+#[no_mangle]
+pub unsafe extern "C" fn refl_cluster_ranges(
+    out_total: *mut u32,
+    offsets: *mut u32,
+    offsets_len: usize,
+    order: *mut u32,
+    order_len: usize,
+    ids: refl_image_u32,
+    clusters: u32,
+) -> refl_status {
+    guard(|| {
+        let total_out = Out::new(out_total)?;
+        check_out(offsets, offsets_len)?;
+        check_out(order, order_len)?;
+        // SAFETY: caller contract.
+        let view = unsafe { ids.view() }?;
+        let ids_bytes = ids.len.saturating_mul(4);
+        let (ob, rb) = (offsets_len * 4, order_len * 4);
+        if overlaps(offsets as usize, ob, order as usize, rb)
+            || overlaps(offsets as usize, ob, ids.data as usize, ids_bytes)
+            || overlaps(order as usize, rb, ids.data as usize, ids_bytes)
+        {
+            return Err(Error::InvalidArgument);
+        }
+        let need_offsets = (clusters as usize).saturating_add(1).min(offsets_len);
+        let mut off = vec![0u32; need_offsets];
+        let pixels = view.width() as usize * view.height() as usize;
+        let mut ord = vec![0u32; order_len.min(pixels)];
+        if offsets_len < clusters as usize + 1 {
+            return Err(Error::InsufficientSize);
+        }
+        let total = cluster::try_cluster_ranges(&mut off, &mut ord, &view, clusters)?;
+        // SAFETY: checked by check_out; writable by contract.
+        unsafe {
+            copy_out(offsets, &off);
+            copy_out(order, &ord[..total as usize]);
+            total_out.write(total);
+        }
+        Ok(())
+    })
+}
+
+/// The cluster camera of seed 003 Sec. 3.3 (Eq. 1) for the pixels
+/// `pixels[0 .. pixel_count]` (indices y * width + x into `positions` and
+/// `normals`, e.g. one range of `refl_cluster_ranges`) seen from `eye`.
+/// Writes a camera, or a fallback reason (`refl_cluster_fallback`), to
+/// `*out`. Planar clusters come out with f = 1 and the camera eye exactly
+/// at the mirrored eye.
+///
+/// Returns `REFL_STATUS_NULL_POINTER` for a NULL `out`, `params`, image, or
+/// `pixels` with a non-zero count; `REFL_STATUS_INVALID_ARGUMENT` for
+/// invalid params, a non-finite eye, images of different sizes, a pixel
+/// outside the image, a non-finite position or a non-unit normal;
+/// `REFL_STATUS_DEGENERATE_GEOMETRY` if the camera is not representable.
+///
+/// # Safety
+/// `out` NULL or writable; inputs readable for their lengths.
+#[no_mangle]
+pub unsafe extern "C" fn refl_cluster_build_camera(
+    out: *mut refl_cluster_camera,
+    positions: refl_image_vec3,
+    normals: refl_image_vec3,
+    pixels: *const u32,
+    pixel_count: usize,
+    eye: refl_vec3,
+    params: *const refl_cluster_camera_params,
+) -> refl_status {
+    guard(|| {
+        let out = Out::new(out)?;
+        // SAFETY: caller contract.
+        let px = unsafe { copy_in(pixels, pixel_count) }?;
+        // SAFETY: caller contract.
+        let p = CameraParams::from(unsafe { read(params) }?);
+        // SAFETY: caller contract.
+        let input = unsafe {
+            ClusterInput {
+                positions: positions.view()?,
+                normals: normals.view()?,
+            }
+        };
+        let v = cluster::try_cluster_camera(&input, &px, eye.into(), &p)?;
+        // SAFETY: caller contract.
+        unsafe { out.write(refl_cluster_camera::from_view(&v)) };
+        Ok(())
+    })
+}
+
+/// Writes to `*out` the half-angle (radians) of the Phong lobe cos^n that
+/// holds the share `energy` of its samples: acos((1 - energy)^(1 / (n + 1))).
+///
+/// Returns `REFL_STATUS_NULL_POINTER` if `out` is NULL;
+/// `REFL_STATUS_INVALID_ARGUMENT` for a negative or non-finite exponent or
+/// an energy outside (0, 1).
+///
+/// # Safety
+/// `out` NULL or writable.
+#[no_mangle]
+pub unsafe extern "C" fn refl_lobe_angle(out: *mut f32, exponent: f32, energy: f32) -> refl_status {
+    guard(|| {
+        let out = Out::new(out)?;
+        let a = cluster::lobe_angle(exponent, energy)?;
+        // SAFETY: caller contract.
+        unsafe { out.write(a) };
+        Ok(())
+    })
+}
+
+/// Finalizes the reflection of the pixels `pixels[0 .. pixel_count]` of one
+/// cluster (seed 003 Sec. 3.4, 3.5): each pixel's mirror ray (or lobe
+/// samples) is stepped through the cluster depth image `depth` (rendered
+/// through `camera->camera`) up to the far plane; hits take the bilinear
+/// color of `color` over the texels of the hit surface, misses are
+/// reported for the host's environment lookup. Writes `out[k]` for
+/// `pixels[k]` and the number of pixels with at least one missed ray to
+/// `*out_fallbacks`.
+///
+/// Returns `REFL_STATUS_NULL_POINTER` for a NULL pointer argument (or
+/// `pixels` with a non-zero count); `REFL_STATUS_INVALID_ARGUMENT` for a
+/// fallback camera record, an invalid camera, lobe, thickness or stride, a
+/// color image of another size than the depth image, a non-finite eye, a
+/// listed pixel outside the input or with a non-finite position or
+/// non-unit normal, an unknown convention, or `out` overlapping an input;
+/// `REFL_STATUS_INSUFFICIENT_SIZE` if `out_len < pixel_count` or an image
+/// is short.
+///
+/// # Safety
+/// Outputs writable for their lengths; every input readable for its length
+/// and not written during the call.
+#[no_mangle]
+#[allow(clippy::too_many_arguments)]
+pub unsafe extern "C" fn refl_cluster_finalize(
+    out_fallbacks: *mut u32,
+    out: *mut refl_cluster_shade,
+    out_len: usize,
+    positions: refl_image_vec3,
+    normals: refl_image_vec3,
+    pixels: *const u32,
+    pixel_count: usize,
+    eye: refl_vec3,
+    camera: *const refl_cluster_camera,
+    depth: *const refl_depth_image,
+    color: refl_image_vec3,
+    params: *const refl_cluster_finalize_params,
+) -> refl_status {
+    guard(|| {
+        let fb_out = Out::new(out_fallbacks)?;
+        check_out(out, out_len)?;
+        // SAFETY: caller contract.
+        let px = unsafe { copy_in(pixels, pixel_count) }?;
+        // SAFETY: caller contract.
+        let (cam_c, depth_c, params_c) = unsafe { (read(camera)?, read(depth)?, read(params)?) };
+        let cam = ClusterCamera::try_from(&cam_c)?;
+        // SAFETY: caller contract.
+        let di = unsafe { depth_image(&depth_c) }?;
+        let thickness = if params_c.thickness.back_faces.data.is_null() {
+            Thickness::Constant(params_c.thickness.constant)
+        } else {
+            // SAFETY: caller contract.
+            Thickness::BackFaces(unsafe { params_c.thickness.back_faces.view() }?)
+        };
+        // SAFETY: caller contract.
+        let (input, cv) = unsafe {
+            (
+                ClusterInput {
+                    positions: positions.view()?,
+                    normals: normals.view()?,
+                },
+                color.view()?,
+            )
+        };
+        let out_bytes = out_len.saturating_mul(core::mem::size_of::<refl_cluster_shade>());
+        let inputs: [(usize, usize); 5] = [
+            (positions.data as usize, positions.len.saturating_mul(12)),
+            (normals.data as usize, normals.len.saturating_mul(12)),
+            (color.data as usize, color.len.saturating_mul(12)),
+            (
+                depth_c.depth.data as usize,
+                depth_c.depth.len.saturating_mul(4),
+            ),
+            (
+                params_c.thickness.back_faces.data as usize,
+                params_c.thickness.back_faces.len.saturating_mul(4),
+            ),
+        ];
+        if inputs
+            .iter()
+            .any(|&(a, l)| overlaps(out as usize, out_bytes, a, l))
+        {
+            return Err(Error::InvalidArgument);
+        }
+        let fp = FinalizeParams {
+            thickness,
+            step: params_c.step.into(),
+            refine: params_c.refine,
+            lobe: params_c.lobe.into(),
+            fade: params_c.fade,
+            seed: params_c.seed,
+        };
+        let mut shades = vec![ClusterShade::default(); px.len()];
+        if out_len < px.len() {
+            return Err(Error::InsufficientSize);
+        }
+        let cv: ImageView<'_, [f32; 3]> = cv;
+        let fell = cluster::try_finalize_cluster(
+            &mut shades,
+            &input,
+            &px,
+            eye.into(),
+            &cam,
+            &di,
+            &cv,
+            &fp,
+        )?;
+        let flat: Vec<refl_cluster_shade> = shades.iter().map(Into::into).collect();
+        // SAFETY: checked by check_out; writable by contract.
+        unsafe {
+            copy_out(out, &flat);
+            fb_out.write(fell);
+        }
+        Ok(())
+    })
+}

@@ -1,0 +1,483 @@
+//! The seed 003 cluster exports: the whole pipeline through the C ABI
+//! (count per band, layout, assign per band, ranges, cameras, finalize)
+//! equals refl-core's, and error statuses leave outputs untouched.
+
+use refl::*;
+use refl_core::cluster::{self, CameraParams, ClusterInput, ClusterParams, ClusterView};
+use refl_core::glam::{DVec3, Vec2, Vec3};
+use refl_core::{Camera, DepthConvention, DepthImage, ImageView, ImageViewMut, RowRange};
+
+const W: u32 = 40;
+const H: u32 = 30;
+
+struct Frame {
+    pos: Vec<[f32; 3]>,
+    nor: Vec<[f32; 3]>,
+    obj: Vec<u32>,
+    eye: Vec3,
+}
+
+/// A floor (object 0) and a sphere (object 1) seen by a camera, per pixel
+/// center in f64.
+fn frame() -> Frame {
+    let cam = Camera::try_look_at(
+        Vec3::new(0.0, 2.0, 5.0),
+        Vec3::new(0.0, 0.3, -1.0),
+        Vec3::Y,
+        1.0,
+        0.05,
+        100.0,
+        W,
+        H,
+    )
+    .unwrap();
+    let n = (W * H) as usize;
+    let mut f = Frame {
+        pos: vec![[0.0; 3]; n],
+        nor: vec![[0.0, 1.0, 0.0]; n],
+        obj: vec![u32::MAX; n],
+        eye: cam.eye(),
+    };
+    let c = DVec3::new(0.0, 1.3, -1.0);
+    for y in 0..H {
+        for x in 0..W {
+            let r = cam.primary_ray(Vec2::new(x as f32 + 0.5, y as f32 + 0.5));
+            let (o, d) = (r.origin.as_dvec3(), r.dir.as_dvec3());
+            let oc = o - c;
+            let b = oc.dot(d);
+            let disc = b * b - (oc.length_squared() - 1.69);
+            let i = (y * W + x) as usize;
+            if disc > 0.0 {
+                let p = o + d * (-b - disc.sqrt());
+                f.pos[i] = p.as_vec3().to_array();
+                f.nor[i] = (p - c).normalize().as_vec3().to_array();
+                f.obj[i] = 1;
+            } else if d.y < 0.0 {
+                let p = o + d * (-o.y / d.y);
+                f.pos[i] = p.as_vec3().to_array();
+                f.obj[i] = 0;
+            }
+        }
+    }
+    f
+}
+
+fn u32_img(d: &[u32]) -> refl_image_u32 {
+    refl_image_u32 {
+        data: d.as_ptr(),
+        len: d.len(),
+        width: W,
+        height: H,
+        stride: W,
+    }
+}
+
+fn vec3_img(d: &[[f32; 3]], w: u32, h: u32) -> refl_image_vec3 {
+    refl_image_vec3 {
+        data: d.as_ptr().cast(),
+        len: d.len(),
+        width: w,
+        height: h,
+        stride: w,
+    }
+}
+
+#[test]
+fn abi_pipeline_equals_core() {
+    let f = frame();
+    let mut params = core::mem::MaybeUninit::<refl_cluster_params>::uninit();
+    assert_eq!(
+        unsafe { refl_cluster_params_default(params.as_mut_ptr()) },
+        refl_status::Ok
+    );
+    let mut params = unsafe { params.assume_init() };
+    params.gain = 8.0;
+    let cp = ClusterParams::from(params);
+
+    // Counts in two bands.
+    let mut counts = [0u32; 2];
+    for (b, e) in [(0, 13), (13, H)] {
+        let st = unsafe {
+            refl_cluster_count_objects(
+                counts.as_mut_ptr(),
+                2,
+                u32_img(&f.obj),
+                refl_row_range { begin: b, end: e },
+            )
+        };
+        assert_eq!(st, refl_status::Ok);
+    }
+    let mut core_counts = [0u32; 2];
+    let ov = ImageView::try_new(&f.obj, W, H, W).unwrap();
+    cluster::try_count_objects(&mut core_counts, &ov, RowRange::try_all(H).unwrap()).unwrap();
+    assert_eq!(counts, core_counts);
+    assert!(counts[0] > 100 && counts[1] > 50, "{counts:?}");
+
+    let mut layout = [refl_object_bins::default(); 2];
+    let mut total = 0u32;
+    let st = unsafe {
+        refl_cluster_bin_layout(
+            &mut total,
+            layout.as_mut_ptr(),
+            2,
+            counts.as_ptr(),
+            2,
+            u64::from(W * H),
+            &params,
+        )
+    };
+    assert_eq!(st, refl_status::Ok);
+    let mut core_layout = [cluster::ObjectBins::default(); 2];
+    let core_total =
+        cluster::try_bin_layout(&mut core_layout, &counts, u64::from(W * H), &cp).unwrap();
+    assert_eq!(total, core_total);
+    for k in 0..2 {
+        assert_eq!(cluster::ObjectBins::from(layout[k]), core_layout[k]);
+    }
+    let mut max = 0u32;
+    assert_eq!(
+        unsafe { refl_cluster_bins_max(&mut max, 2, &params) },
+        refl_status::Ok
+    );
+    assert!(total <= max);
+
+    // Ids in two bands.
+    let mut ids = vec![0u32; (W * H) as usize];
+    for (b, e) in [(0, 7), (7, H)] {
+        let img = refl_image_u32_mut {
+            data: ids.as_mut_ptr(),
+            len: ids.len(),
+            width: W,
+            height: H,
+            stride: W,
+        };
+        let st = unsafe {
+            refl_cluster_assign(
+                img,
+                refl_row_range { begin: b, end: e },
+                vec3_img(&f.nor, W, H),
+                u32_img(&f.obj),
+                layout.as_ptr(),
+                2,
+            )
+        };
+        assert_eq!(st, refl_status::Ok);
+    }
+    let mut core_ids = vec![0u32; (W * H) as usize];
+    let nv = ImageView::try_new(&f.nor, W, H, W).unwrap();
+    cluster::try_assign_clusters(
+        &mut ImageViewMut::try_new(&mut core_ids, W, H, W).unwrap(),
+        &nv,
+        &ov,
+        &core_layout,
+    )
+    .unwrap();
+    assert_eq!(ids, core_ids);
+
+    let mut offsets = vec![0u32; total as usize + 1];
+    let mut order = vec![0u32; (W * H) as usize];
+    let mut clustered = 0u32;
+    let st = unsafe {
+        refl_cluster_ranges(
+            &mut clustered,
+            offsets.as_mut_ptr(),
+            offsets.len(),
+            order.as_mut_ptr(),
+            order.len(),
+            u32_img(&ids),
+            total,
+        )
+    };
+    assert_eq!(st, refl_status::Ok);
+    assert_eq!(clustered, counts[0] + counts[1]);
+
+    // Cameras and finalization of every non-empty cluster equal the core's.
+    let mut cam_params = core::mem::MaybeUninit::<refl_cluster_camera_params>::uninit();
+    assert_eq!(
+        unsafe { refl_cluster_camera_params_default(cam_params.as_mut_ptr()) },
+        refl_status::Ok
+    );
+    let mut cam_params = unsafe { cam_params.assume_init() };
+    cam_params.far_distance = 30.0;
+    let input = ClusterInput {
+        positions: ImageView::try_new(&f.pos, W, H, W).unwrap(),
+        normals: nv,
+    };
+    let mut cameras = 0;
+    for c in 0..total as usize {
+        let px = &order[offsets[c] as usize..offsets[c + 1] as usize];
+        if px.is_empty() {
+            continue;
+        }
+        let mut out = core::mem::MaybeUninit::<refl_cluster_camera>::uninit();
+        let st = unsafe {
+            refl_cluster_build_camera(
+                out.as_mut_ptr(),
+                vec3_img(&f.pos, W, H),
+                vec3_img(&f.nor, W, H),
+                px.as_ptr(),
+                px.len(),
+                f.eye.into(),
+                &cam_params,
+            )
+        };
+        assert_eq!(st, refl_status::Ok);
+        let out = unsafe { out.assume_init() };
+        let core_view =
+            cluster::try_cluster_camera(&input, px, f.eye, &CameraParams::from(cam_params))
+                .unwrap();
+        assert_eq!(out, refl_cluster_camera::from_view(&core_view));
+        let ClusterView::Camera(cc) = core_view else {
+            assert_ne!(out.fallback, 0);
+            continue;
+        };
+        cameras += 1;
+        // A flat depth image at half the far distance, colored by texel.
+        let (dw, dh) = (cc.camera.width(), cc.camera.height());
+        let depth = vec![cc.camera.far() * 0.5; (dw * dh) as usize];
+        let color: Vec<[f32; 3]> = (0..dw * dh)
+            .map(|i| [i as f32 / (dw * dh) as f32, 0.5, 0.25])
+            .collect();
+        let di_c = refl_depth_image {
+            depth: refl_image_f32 {
+                data: depth.as_ptr(),
+                len: depth.len(),
+                width: dw,
+                height: dh,
+                stride: dw,
+            },
+            camera: (&cc.camera).into(),
+            convention: DepthConvention::Linear as u32,
+        };
+        let fp = refl_cluster_finalize_params {
+            thickness: refl_thickness {
+                constant: f32::INFINITY,
+                back_faces: refl_image_f32 {
+                    data: core::ptr::null(),
+                    len: 0,
+                    width: 0,
+                    height: 0,
+                    stride: 0,
+                },
+            },
+            step: refl_step_options {
+                stride: 1,
+                max_steps: u32::MAX,
+            },
+            refine: false,
+            lobe: refl_lobe {
+                rays: 8,
+                exponent: 30.0,
+                max_angle: 0.4,
+            },
+            fade: false,
+            seed: 3,
+        };
+        let mut shades = vec![refl_cluster_shade::default(); px.len()];
+        let mut fell = 0u32;
+        let st = unsafe {
+            refl_cluster_finalize(
+                &mut fell,
+                shades.as_mut_ptr(),
+                shades.len(),
+                vec3_img(&f.pos, W, H),
+                vec3_img(&f.nor, W, H),
+                px.as_ptr(),
+                px.len(),
+                f.eye.into(),
+                &out,
+                &di_c,
+                vec3_img(&color, dw, dh),
+                &fp,
+            )
+        };
+        assert_eq!(st, refl_status::Ok);
+        let di = DepthImage::try_new(
+            ImageView::try_new(&depth, dw, dh, dw).unwrap(),
+            cc.camera,
+            DepthConvention::Linear,
+        )
+        .unwrap();
+        let cv = ImageView::try_new(&color, dw, dh, dw).unwrap();
+        let mut core_shades = vec![cluster::ClusterShade::default(); px.len()];
+        let core_fell = cluster::try_finalize_cluster(
+            &mut core_shades,
+            &input,
+            px,
+            f.eye,
+            &cc,
+            &di,
+            &cv,
+            &cluster::FinalizeParams {
+                thickness: refl_core::Thickness::Constant(f32::INFINITY),
+                step: refl_core::StepOptions::default(),
+                refine: false,
+                lobe: cluster::Lobe {
+                    rays: 8,
+                    exponent: 30.0,
+                    max_angle: 0.4,
+                },
+                fade: false,
+                seed: 3,
+            },
+        )
+        .unwrap();
+        assert_eq!(fell, core_fell);
+        for (a, b) in shades.iter().zip(&core_shades) {
+            assert_eq!(*a, refl_cluster_shade::from(b));
+        }
+        // Hostile: short output, NaN eye, fallback record: untouched.
+        let sentinel = refl_cluster_shade {
+            rays: 99,
+            ..Default::default()
+        };
+        let mut keep = vec![sentinel; px.len()];
+        let mut fell2 = 1234u32;
+        let call = |keep: &mut [refl_cluster_shade],
+                    len: usize,
+                    eye: Vec3,
+                    cam: &refl_cluster_camera,
+                    fell2: &mut u32| unsafe {
+            refl_cluster_finalize(
+                fell2,
+                keep.as_mut_ptr(),
+                len,
+                vec3_img(&f.pos, W, H),
+                vec3_img(&f.nor, W, H),
+                px.as_ptr(),
+                px.len(),
+                eye.into(),
+                cam,
+                &di_c,
+                vec3_img(&color, dw, dh),
+                &fp,
+            )
+        };
+        assert_eq!(
+            call(&mut keep, px.len() - 1, f.eye, &out, &mut fell2),
+            refl_status::InsufficientSize
+        );
+        assert_eq!(
+            call(&mut keep, px.len(), Vec3::NAN, &out, &mut fell2),
+            refl_status::InvalidArgument
+        );
+        let fallback = refl_cluster_camera { fallback: 1, ..out };
+        assert_eq!(
+            call(&mut keep, px.len(), f.eye, &fallback, &mut fell2),
+            refl_status::InvalidArgument
+        );
+        assert!(keep.iter().all(|s| *s == sentinel) && fell2 == 1234);
+    }
+    assert!(cameras >= 3, "{cameras}");
+}
+
+#[test]
+fn abi_errors_leave_outputs_untouched() {
+    let f = frame();
+    let params = refl_cluster_params {
+        max_theta_bins: 13,
+        max_phi_bins: 8,
+        gain: f32::NAN,
+    };
+    let mut max = 7u32;
+    assert_eq!(
+        unsafe { refl_cluster_bins_max(&mut max, 2, &params) },
+        refl_status::InvalidArgument
+    );
+    assert_eq!(
+        unsafe { refl_cluster_bins_max(core::ptr::null_mut(), 2, &params) },
+        refl_status::NullPointer
+    );
+    assert_eq!(max, 7);
+    // Counts: a row range beyond the image.
+    let mut counts = [5u32; 2];
+    let st = unsafe {
+        refl_cluster_count_objects(
+            counts.as_mut_ptr(),
+            2,
+            u32_img(&f.obj),
+            refl_row_range {
+                begin: 0,
+                end: H + 1,
+            },
+        )
+    };
+    assert_eq!(st, refl_status::InvalidArgument);
+    assert_eq!(counts, [5, 5]);
+    // Assign: a NaN normal on a clustered pixel.
+    let mut nor = f.nor.clone();
+    let first = f.obj.iter().position(|&o| o == 0).unwrap();
+    nor[first] = [f32::NAN, 1.0, 0.0];
+    let layout = [refl_object_bins {
+        theta_bins: 1,
+        phi_bins: 1,
+        first: 0,
+    }; 2];
+    let mut ids = vec![42u32; (W * H) as usize];
+    let img = refl_image_u32_mut {
+        data: ids.as_mut_ptr(),
+        len: ids.len(),
+        width: W,
+        height: H,
+        stride: W,
+    };
+    let st = unsafe {
+        refl_cluster_assign(
+            img,
+            refl_row_range { begin: 0, end: H },
+            vec3_img(&nor, W, H),
+            u32_img(&f.obj),
+            layout.as_ptr(),
+            2,
+        )
+    };
+    assert_eq!(st, refl_status::InvalidArgument);
+    assert!(ids.iter().all(|&v| v == 42));
+    // Ranges: too few offsets.
+    let mut offsets = [9u32; 1];
+    let mut order = vec![9u32; (W * H) as usize];
+    let mut total = 9u32;
+    let st = unsafe {
+        refl_cluster_ranges(
+            &mut total,
+            offsets.as_mut_ptr(),
+            1,
+            order.as_mut_ptr(),
+            order.len(),
+            u32_img(&f.obj),
+            2,
+        )
+    };
+    assert_eq!(st, refl_status::InsufficientSize);
+    assert!(total == 9 && offsets == [9] && order.iter().all(|&v| v == 9));
+    // Camera: NaN position.
+    let mut pos = f.pos.clone();
+    pos[first] = [f32::NAN; 3];
+    let px = [
+        first as u32,
+        first as u32 + 1,
+        first as u32 + 2,
+        first as u32 + 3,
+    ];
+    let cp = refl_cluster_camera_params::from(CameraParams::default());
+    let mut out = core::mem::MaybeUninit::<refl_cluster_camera>::zeroed();
+    let st = unsafe {
+        refl_cluster_build_camera(
+            out.as_mut_ptr(),
+            vec3_img(&pos, W, H),
+            vec3_img(&f.nor, W, H),
+            px.as_ptr(),
+            4,
+            f.eye.into(),
+            &cp,
+        )
+    };
+    assert_eq!(st, refl_status::InvalidArgument);
+    assert_eq!(unsafe { out.assume_init() }.camera.width, 0);
+    let mut a = 3.0f32;
+    assert_eq!(
+        unsafe { refl_lobe_angle(&mut a, -1.0, 0.5) },
+        refl_status::InvalidArgument
+    );
+    assert_eq!(a, 3.0);
+}

@@ -1,0 +1,749 @@
+//! Second-order feed-forward reflections (seed 003) as a whole renderer:
+//! the `cluster` method of `refl report`.
+//!
+//! Per frame, over a G-buffer (the seed's first pass, Sec. 3.1 step 1):
+//!
+//! 1. **Clustering** (Sec. 3.2): per reflective object its screen share,
+//!    the bin layout, the per-pixel cluster ids (parallel over row bands)
+//!    and the counting sort into per-cluster pixel lists
+//!    ([`refl_core::cluster`]).
+//! 2. **Cameras** (Sec. 3.3): one [`refl_core::cluster::try_cluster_camera`]
+//!    per non-empty cluster, in parallel; the far plane is at the scene
+//!    diameter, glossy clusters widen their frame by the lobe's 95 % angle.
+//! 3. **Depth images** (Sec. 3.1 step 3b), one cluster at a time into one
+//!    reused visibility buffer and color buffer: the scene rasterized with
+//!    the CPU rasterizer ([`rasterize_into_culled`]: object-level frustum and
+//!    clip-plane culling, then the same per 4096-triangle chunk, with chunk
+//!    bounds computed once per frame)
+//!    through the cluster camera, keeping only what lies in front of the
+//!    cluster's clip plane (a planar cluster also skips its own object);
+//!    every covered texel is shaded (the direct term of its surface, as the
+//!    reference shades a reflected hit).
+//! 4. **Intersection** (Sec. 3.4, 3.5): the cluster's pixels' mirror rays,
+//!    or 8..49 lobe samples for glossy pixels, stepped through the depth
+//!    image ([`refl_core::cluster::try_finalize_cluster`]); misses and
+//!    clusters without a camera fall back to the environment map.
+//!
+//! Diagnostics (not timed): the **disocclusion** mask marks pixels whose
+//! ray-traced mirror hit (obvhs) is not captured by their cluster's depth
+//! image (Sec. 4.1.1: "surfaces that should be visible in the reflection at
+//! a cluster but that are not captured by the cluster depth image").
+
+use crate::gbuffer::GBuffer;
+use crate::raster::{rasterize_into_culled, ChunkBounds, RasterOptions, VisBuffer};
+use crate::render::{self, compare, composite, direct_image, median, timed, ReflectionImage};
+use crate::scene::{phong_exponent, Scene, NONE};
+use crate::shade::{env_map, reflection_dir, Shader};
+use crate::tracer::Tracer;
+use glam::{Vec2, Vec3};
+use rayon::prelude::*;
+use refl_core::cluster::{
+    self, CameraParams, ClusterCamera, ClusterInput, ClusterParams, ClusterShade, ClusterView,
+    FinalizeParams, Lobe, ObjectBins, NO_CLUSTER, NO_OBJECT,
+};
+use refl_core::{
+    DepthConvention, DepthImage, Error, ImageView, ImageViewMut, Plane, RowRange, StepOptions,
+    Thickness,
+};
+use std::fmt::Write as _;
+use std::io;
+use std::path::Path;
+use std::time::Instant;
+
+/// Share of a glossy lobe's samples its cluster camera frame must hold.
+pub const LOBE_ENERGY: f32 = 0.95;
+
+/// Rows per clustering band (the unit of parallel work).
+const BAND_ROWS: u32 = 16;
+
+/// Pixels per finalization work item.
+const FINALIZE_CHUNK: usize = 256;
+
+/// One setting of the cluster method.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct ClusterSettings {
+    /// Gain of the bin modulation `a_R / n_v` (the cluster-count knob; 1 is
+    /// the seed's formula).
+    pub gain: f32,
+    /// Depth-image resolution relative to the cluster's pixel spacing (seed
+    /// Table 5 sweeps 1/2, 1, 2).
+    pub resolution_scale: f32,
+    /// Rays per glossy pixel (seed: 8..49); mirror pixels trace one.
+    pub glossy_rays: u32,
+}
+
+impl Default for ClusterSettings {
+    /// Gain 64, resolution 1x, 8 glossy rays.
+    fn default() -> Self {
+        Self {
+            gain: 64.0,
+            resolution_scale: 1.0,
+            glossy_rays: 8,
+        }
+    }
+}
+
+impl ClusterSettings {
+    /// The report's setting label.
+    pub fn label(&self) -> String {
+        format!(
+            "gain={};res={};glossy_rays={}",
+            self.gain, self.resolution_scale, self.glossy_rays
+        )
+    }
+}
+
+/// Milliseconds per stage of one frame.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct StageMs {
+    /// Clustering (step 2).
+    pub clustering: f64,
+    /// Camera construction (step 3a).
+    pub cameras: f64,
+    /// Depth (and color) images (step 3b).
+    pub depth_images: f64,
+    /// Ray / depth-image intersection and composite (step 3c).
+    pub intersection: f64,
+}
+
+impl StageMs {
+    /// The frame: the sum of the stages.
+    pub fn total(&self) -> f64 {
+        self.clustering + self.cameras + self.depth_images + self.intersection
+    }
+
+    /// The stage with the largest time.
+    pub fn dominant(&self) -> &'static str {
+        let v = [
+            (self.clustering, "clustering"),
+            (self.cameras, "cameras"),
+            (self.depth_images, "depth images"),
+            (self.intersection, "intersection"),
+        ];
+        v.iter()
+            .max_by(|a, b| a.0.total_cmp(&b.0))
+            .map_or("none", |x| x.1)
+    }
+
+    /// Per-field median of `runs`.
+    pub fn median_of(runs: &[StageMs]) -> StageMs {
+        let m = |f: fn(&StageMs) -> f64| median(runs.iter().map(f).collect());
+        StageMs {
+            clustering: m(|s| s.clustering),
+            cameras: m(|s| s.cameras),
+            depth_images: m(|s| s.depth_images),
+            intersection: m(|s| s.intersection),
+        }
+    }
+}
+
+/// One frame of the cluster method.
+#[derive(Clone, Debug)]
+pub struct ClusterFrame {
+    /// The reflection of every reflective pixel.
+    pub image: ReflectionImage,
+    /// Cluster id per pixel ([`NO_CLUSTER`] for non-reflective pixels).
+    pub cluster_of: Vec<u32>,
+    /// Pixels that used the environment (a missed ray, or a cluster
+    /// without camera).
+    pub fallback: Vec<bool>,
+    /// Non-empty clusters.
+    pub clusters: usize,
+    /// Clusters with a camera (a depth image rendered).
+    pub cameras: usize,
+    /// Clusters with a camera that are planar (`f = 1`, one lookup).
+    pub planar: usize,
+    /// Depth-image texels rendered over all clusters.
+    pub texels: u64,
+    /// Triangles sent to the rasterizer's bands over all clusters.
+    pub triangles_rasterized: usize,
+    /// Time per stage.
+    pub stages: StageMs,
+    /// Of the depth images, the ms spent shading their texels (the color
+    /// pass; the rest is rasterization and chunk bounds).
+    pub color_ms: f64,
+    /// With diagnostics: pixels whose ray-traced mirror hit is not in their
+    /// cluster's depth image.
+    pub disoccluded: Option<Vec<bool>>,
+    /// With diagnostics: pixels whose ray-traced mirror ray hits the scene
+    /// (elsewhere the environment is the right answer).
+    pub reference_hit: Option<Vec<bool>>,
+}
+
+impl ClusterFrame {
+    /// Reflective pixels.
+    pub fn reflective(&self) -> usize {
+        self.image.handled_count()
+    }
+
+    /// Share of the reflective pixels that fell back.
+    pub fn fallback_share(&self) -> f64 {
+        self.fallback.iter().filter(|&&f| f).count() as f64 / self.reflective().max(1) as f64
+    }
+
+    /// Share of the reflective pixels that fell back although their
+    /// ray-traced mirror ray hits the scene (0 without diagnostics): the
+    /// fallbacks that are errors.
+    pub fn wrong_fallback_share(&self) -> f64 {
+        self.reference_hit.as_ref().map_or(0.0, |r| {
+            r.iter()
+                .zip(&self.fallback)
+                .filter(|(&h, &f)| h && f)
+                .count() as f64
+                / self.reflective().max(1) as f64
+        })
+    }
+
+    /// Share of the reflective pixels with a disocclusion (0 without
+    /// diagnostics).
+    pub fn disocclusion_share(&self) -> f64 {
+        self.disoccluded.as_ref().map_or(0.0, |d| {
+            d.iter().filter(|&&x| x).count() as f64 / self.reflective().max(1) as f64
+        })
+    }
+}
+
+/// Renders the reflections of `g` with seed 003's method on `pool`; with
+/// `diagnose`, also the disocclusion mask (ray traced with `shader`'s
+/// tracer, outside the stage timers).
+///
+/// # Errors
+/// A refl-core error (invalid G-buffer data, e.g. a NaN normal).
+pub fn run(
+    shader: &Shader,
+    g: &GBuffer,
+    settings: &ClusterSettings,
+    pool: &rayon::ThreadPool,
+    diagnose: bool,
+) -> Result<ClusterFrame, Error> {
+    let scene = shader.scene;
+    let (w, h) = (g.width(), g.height());
+    let n = g.len();
+    let mut stages = StageMs::default();
+
+    // 1. Clustering.
+    let t0 = Instant::now();
+    let objects: Vec<u32> = (0..n)
+        .map(|i| {
+            if g.is_reflective(i) {
+                g.object[i]
+            } else {
+                NO_OBJECT
+            }
+        })
+        .collect();
+    let positions: Vec<[f32; 3]> = g.position.iter().map(|p| p.to_array()).collect();
+    let normals: Vec<[f32; 3]> = g
+        .normal
+        .iter()
+        .map(|v| v.normalize_or(Vec3::Y).to_array())
+        .collect();
+    let ov = ImageView::try_new(&objects, w, h, w)?;
+    let nv = ImageView::try_new(&normals, w, h, w)?;
+    let object_count = scene.objects.len();
+    let bands: Vec<RowRange> = (0..h.div_ceil(BAND_ROWS))
+        .map(|b| RowRange::try_new(b * BAND_ROWS, ((b + 1) * BAND_ROWS).min(h), h))
+        .collect::<Result<_, _>>()?;
+    let counts = pool.install(|| {
+        bands
+            .par_iter()
+            .map(|&r| {
+                let mut c = vec![0u32; object_count];
+                cluster::try_count_objects(&mut c, &ov, r).map(|()| c)
+            })
+            .try_reduce(
+                || vec![0u32; object_count],
+                |mut a, b| {
+                    for (x, y) in a.iter_mut().zip(b) {
+                        *x += y;
+                    }
+                    Ok(a)
+                },
+            )
+    })?;
+    let params = ClusterParams {
+        gain: settings.gain,
+        ..ClusterParams::default()
+    };
+    let mut layout = vec![ObjectBins::default(); object_count];
+    let bins = cluster::try_bin_layout(&mut layout, &counts, n as u64, &params)?;
+    let mut ids = vec![NO_CLUSTER; n];
+    pool.install(|| {
+        ids.par_chunks_mut((w * BAND_ROWS) as usize)
+            .zip(bands.par_iter())
+            .try_for_each(|(chunk, &r)| {
+                let mut v = ImageViewMut::try_band(chunk, w, h, w, r)?;
+                cluster::try_assign_clusters(&mut v, &nv, &ov, &layout)
+            })
+    })?;
+    let mut offsets = vec![0u32; bins as usize + 1];
+    let mut order = vec![0u32; n];
+    cluster::try_cluster_ranges(
+        &mut offsets,
+        &mut order,
+        &ImageView::try_new(&ids, w, h, w)?,
+        bins,
+    )?;
+    let nonempty: Vec<u32> = (0..bins)
+        .filter(|&c| offsets[c as usize + 1] > offsets[c as usize])
+        .collect();
+    stages.clustering = t0.elapsed().as_secs_f64() * 1e3;
+
+    // 2. Cameras.
+    let t1 = Instant::now();
+    let input = ClusterInput {
+        positions: ImageView::try_new(&positions, w, h, w)?,
+        normals: nv,
+    };
+    let eye = g.camera.eye();
+    let pixels_of = |c: u32| &order[offsets[c as usize] as usize..offsets[c as usize + 1] as usize];
+    let object_of = |c: u32| objects[pixels_of(c)[0] as usize];
+    let lobe_of = |c: u32| -> Result<(Lobe, f32), Error> {
+        let m = &scene.materials[scene.objects[object_of(c) as usize].material as usize];
+        if m.roughness > 0.0 && settings.glossy_rays > 1 {
+            let exponent = phong_exponent(m.roughness);
+            let angle = cluster::lobe_angle(exponent, LOBE_ENERGY)?;
+            Ok((
+                Lobe {
+                    rays: settings.glossy_rays,
+                    exponent,
+                    max_angle: angle,
+                },
+                angle,
+            ))
+        } else {
+            Ok((Lobe::MIRROR, 0.0))
+        }
+    };
+    let views: Vec<(u32, ClusterView)> = pool.install(|| {
+        nonempty
+            .par_iter()
+            .map(|&c| {
+                let (_, angle) = lobe_of(c)?;
+                let cp = CameraParams {
+                    far_distance: scene.diameter(),
+                    cone_half_angle: angle,
+                    resolution_scale: settings.resolution_scale,
+                    ..CameraParams::default()
+                };
+                cluster::try_cluster_camera(&input, pixels_of(c), eye, &cp).map(|v| (c, v))
+            })
+            .collect::<Result<_, _>>()
+    })?;
+    stages.cameras = t1.elapsed().as_secs_f64() * 1e3;
+
+    // 3 + 4, one cluster at a time, buffers reused.
+    let mut image = ReflectionImage::empty(w, h);
+    let mut fallback = vec![false; n];
+    let mut disoccluded = diagnose.then(|| vec![false; n]);
+    let mut reference_hit = diagnose.then(|| vec![false; n]);
+    let mut vis = VisBuffer {
+        width: 0,
+        height: 0,
+        prim: Vec::new(),
+        depth: Vec::new(),
+        stats: Default::default(),
+    };
+    let mut color: Vec<[f32; 3]> = Vec::new();
+    let mut shades: Vec<ClusterShade> = Vec::new();
+    let thickness = Thickness::Constant(scene.diameter() * crate::screen::THICKNESS_OF_DIAMETER);
+    let (mut cameras, mut planar, mut texels, mut tris) = (0usize, 0usize, 0u64, 0usize);
+    let mut color_ms = 0.0f64;
+    // Chunk bounds once per frame (a dynamic scene's triangles moved),
+    // charged to the depth images.
+    let tb = Instant::now();
+    let chunk_bounds = ChunkBounds::new(scene, pool);
+    stages.depth_images += tb.elapsed().as_secs_f64() * 1e3;
+    for (c, view) in &views {
+        let px = pixels_of(*c);
+        let t2 = Instant::now();
+        let ClusterView::Camera(cc) = view else {
+            // No camera: the environment in the mirror direction.
+            for &p in px {
+                let i = p as usize;
+                let v = -g.primary_ray(i).dir;
+                image.rgb[i] = env_map(reflection_dir(v, g.normal[i], g.geo_normal[i]));
+                image.handled[i] = true;
+                fallback[i] = true;
+            }
+            stages.intersection += t2.elapsed().as_secs_f64() * 1e3;
+            if let Some(r) = reference_hit.as_mut() {
+                for &p in px {
+                    r[p as usize] = reference_mirror_hit(shader, g, p as usize).is_some();
+                }
+            }
+            continue;
+        };
+        cameras += 1;
+        planar += usize::from(cc.planar);
+        // 3. Depth and color image.
+        let cam = cc.camera;
+        let clip = Plane::try_from_point_normal(cc.clip.point, cc.clip.normal)?;
+        let options = RasterOptions {
+            clip_plane: Some(clip),
+            exclude_object: cc.planar.then(|| object_of(*c)),
+            scissor: None,
+        };
+        rasterize_into_culled(&mut vis, scene, &cam, &options, &chunk_bounds, pool);
+        tris += vis.stats.triangles_rasterized;
+        let (dw, dh) = (cam.width(), cam.height());
+        texels += u64::from(dw) * u64::from(dh);
+        let tc = Instant::now();
+        color.clear();
+        color.resize(vis.prim.len(), [0.0; 3]);
+        pool.install(|| {
+            color
+                .par_chunks_mut(dw as usize)
+                .enumerate()
+                .for_each(|(y, row)| {
+                    for (x, out) in row.iter_mut().enumerate() {
+                        let i = y * dw as usize + x;
+                        if vis.prim[i] == NONE {
+                            continue;
+                        }
+                        let ray = cam.primary_ray(Vec2::new(x as f32 + 0.5, y as f32 + 0.5));
+                        if let Some(hit) = vis.hit(scene, &cam, i) {
+                            *out = shader
+                                .shade_reflection_hit(ray.origin, ray.dir, &hit)
+                                .to_array();
+                        }
+                    }
+                });
+        });
+        let t3 = Instant::now();
+        color_ms += (t3 - tc).as_secs_f64() * 1e3;
+        stages.depth_images += (t3 - t2).as_secs_f64() * 1e3;
+
+        // 4. Intersection.
+        let di = DepthImage::try_new(
+            ImageView::try_new(&vis.depth, dw, dh, dw)?,
+            cam,
+            DepthConvention::Linear,
+        )?;
+        let cv = ImageView::try_new(&color, dw, dh, dw)?;
+        let (lobe, _) = lobe_of(*c)?;
+        let fp = FinalizeParams {
+            thickness,
+            step: StepOptions::default(),
+            refine: true,
+            lobe,
+            fade: false,
+            seed: 0,
+        };
+        shades.clear();
+        shades.resize(px.len(), ClusterShade::default());
+        pool.install(|| {
+            shades
+                .par_chunks_mut(FINALIZE_CHUNK)
+                .zip(px.par_chunks(FINALIZE_CHUNK))
+                .try_for_each(|(out, chunk)| {
+                    cluster::try_finalize_cluster(out, &input, chunk, eye, cc, &di, &cv, &fp)
+                        .map(|_| ())
+                })
+        })?;
+        for (s, &p) in shades.iter().zip(px) {
+            let i = p as usize;
+            let mut rgb = s.rgb;
+            if s.env_weight > 0.0 {
+                rgb += env_map(s.env_dir) * s.env_weight;
+                fallback[i] = true;
+            }
+            image.rgb[i] = rgb;
+            image.handled[i] = true;
+        }
+        stages.intersection += t3.elapsed().as_secs_f64() * 1e3;
+
+        if let (Some(dis), Some(r)) = (disoccluded.as_mut(), reference_hit.as_mut()) {
+            mark_disocclusions(shader, g, cc, &vis, px, dis, r);
+        }
+    }
+    Ok(ClusterFrame {
+        image,
+        cluster_of: ids,
+        fallback,
+        clusters: nonempty.len(),
+        cameras,
+        planar,
+        texels,
+        triangles_rasterized: tris,
+        stages,
+        color_ms,
+        disoccluded,
+        reference_hit,
+    })
+}
+
+/// Marks the pixels `px` of a cluster whose ray-traced mirror hit is not
+/// captured by the cluster's depth image `vis` (rendered through
+/// `cc.camera`): the hit lies behind the clip plane, outside the image, or
+/// neither the texel it projects to nor one of its 8 neighbors holds its
+/// primitive or a surface within 1 % of its depth.
+fn mark_disocclusions(
+    shader: &Shader,
+    g: &GBuffer,
+    cc: &ClusterCamera,
+    vis: &VisBuffer,
+    px: &[u32],
+    dis: &mut [bool],
+    reference_hit: &mut [bool],
+) {
+    let cam = &cc.camera;
+    for &p in px {
+        let i = p as usize;
+        let Some((x, hit)) = reference_mirror_hit(shader, g, i) else {
+            continue;
+        };
+        reference_hit[i] = true;
+        let captured = cc.clip.signed_distance(x) > 0.0
+            && cam.project(x).is_some_and(|q| {
+                let (tx, ty) = (q.x.floor(), q.y.floor());
+                if !(tx >= 0.0 && ty >= 0.0 && tx < cam.width() as f32 && ty < cam.height() as f32)
+                {
+                    return false;
+                }
+                // The texel or a neighbor (the depth image samples texel
+                // centers, not the pixel's ray): resampling is not a
+                // disocclusion.
+                let (cx, cy) = (tx as i64, ty as i64);
+                (cy - 1..=cy + 1).any(|y| {
+                    (cx - 1..=cx + 1).any(|x| {
+                        if x < 0
+                            || y < 0
+                            || x >= i64::from(cam.width())
+                            || y >= i64::from(cam.height())
+                        {
+                            return false;
+                        }
+                        let t = y as usize * cam.width() as usize + x as usize;
+                        vis.prim[t] == hit.prim || (vis.depth[t] - q.z).abs() <= 0.01 * q.z
+                    })
+                })
+            });
+        dis[i] = !captured;
+    }
+}
+
+/// The ray-traced mirror hit of pixel `i` (point and hit), as the
+/// reference traces it.
+fn reference_mirror_hit(
+    shader: &Shader,
+    g: &GBuffer,
+    i: usize,
+) -> Option<(Vec3, crate::tracer::Hit)> {
+    let v = -g.primary_ray(i).dir;
+    let dir = reflection_dir(v, g.normal[i], g.geo_normal[i]);
+    let origin = g.position[i];
+    shader
+        .tracer
+        .trace(origin, dir, shader.epsilon, f32::INFINITY)
+        .map(|hit| (origin + dir * hit.t, hit))
+}
+
+/// A false-color picture of the clusters: each cluster its own hue
+/// (hashed id), diffuse pixels grey; disoccluded pixels red and fallback
+/// pixels blue on top when `marks` is set.
+pub fn cluster_image(g: &GBuffer, f: &ClusterFrame, marks: bool) -> Vec<Vec3> {
+    (0..g.len())
+        .map(|i| {
+            if marks && f.disoccluded.as_ref().is_some_and(|d| d[i]) {
+                return Vec3::new(1.0, 0.0, 0.0);
+            }
+            if marks && f.fallback[i] {
+                return Vec3::new(0.0, 0.2, 1.0);
+            }
+            let c = f.cluster_of[i];
+            if c == NO_CLUSTER {
+                return Vec3::splat(0.25);
+            }
+            let hsh = crate::shade::hash32(c.wrapping_add(0x9e37_79b9));
+            let ch = |s: u32| 0.25 + 0.75 * ((hsh >> s) & 0xff) as f32 / 255.0;
+            let col = Vec3::new(ch(0), ch(8), ch(16));
+            if marks {
+                col * 0.45
+            } else {
+                col
+            }
+        })
+        .collect()
+}
+
+/// One scene size of the cost-growth comparison (times in ms, one frame).
+#[derive(Clone, Debug, PartialEq)]
+pub struct ClusterGrowthRow {
+    /// Triangles in the scene.
+    pub triangles: usize,
+    /// Reflective pixels.
+    pub reflective: usize,
+    /// BVH build (obvhs), the per-frame cost of ray tracing a dynamic scene.
+    pub bvh_build_ms: f64,
+    /// The ray-traced reflection pass (obvhs, same rays per pixel, same
+    /// shading).
+    pub reference_ms: f64,
+    /// The cluster method's stages.
+    pub stages: StageMs,
+    /// Of the depth images, the texel shading (median).
+    pub color_ms: f64,
+    /// Non-empty clusters.
+    pub clusters: usize,
+    /// Mean absolute difference on 0..255 against the ray-traced
+    /// reflection (64 glossy samples) over the reflective pixels.
+    pub mad: f64,
+    /// Disocclusion share.
+    pub disocclusion: f64,
+    /// Fallback share.
+    pub fallback: f64,
+}
+
+impl ClusterGrowthRow {
+    /// `(build + reference) / cluster`: above 1 the cluster pipeline is
+    /// faster than ray tracing with a per-frame rebuild.
+    pub fn ratio_with_build(&self) -> f64 {
+        (self.bvh_build_ms + self.reference_ms) / self.stages.total()
+    }
+}
+
+/// Measures the room at each of `sizes` triangles (camera pose 0,
+/// `width x height`, median of `runs`) with shadows off (so that shading
+/// needs no BVH: the BVH is the reflection's visibility structure only).
+///
+/// # Errors
+/// A message for a refl-core error.
+pub fn growth(
+    sizes: &[usize],
+    width: u32,
+    height: u32,
+    runs: usize,
+    settings: &ClusterSettings,
+    pool: &rayon::ThreadPool,
+) -> Result<Vec<ClusterGrowthRow>, String> {
+    let mut rows = Vec::new();
+    for &n in sizes {
+        let scene = Scene::room(n);
+        let builds: Vec<f64> = (0..runs.max(1))
+            .map(|_| timed(|| Tracer::new(&scene)).ms)
+            .collect();
+        let tracer = Tracer::new(&scene);
+        let mut shader = Shader::new(&scene, &tracer);
+        shader.shadows = false;
+        let camera = scene.camera(0, width, height).map_err(|e| e.to_string())?;
+        let g = GBuffer::render(&scene, &tracer, &camera, pool);
+        let reference_ms = median(
+            (0..runs.max(1))
+                .map(|_| timed(|| render::reference(&shader, &g, settings.glossy_rays, pool)).ms)
+                .collect(),
+        );
+        let truth = render::reference(&shader, &g, 64, pool);
+        let mut stage_runs = Vec::new();
+        let mut color_runs = Vec::new();
+        let mut frame = None;
+        for k in 0..runs.max(1) {
+            let f = run(&shader, &g, settings, pool, k == 0).map_err(|e| e.to_string())?;
+            stage_runs.push(f.stages);
+            color_runs.push(f.color_ms);
+            if k == 0 {
+                frame = Some(f);
+            }
+        }
+        let f = frame.ok_or("no run")?;
+        let direct = direct_image(&shader, &g, pool);
+        let err = compare(
+            &composite(&g, &direct, &truth),
+            &composite(&g, &direct, &f.image),
+            &f.image.handled,
+        );
+        rows.push(ClusterGrowthRow {
+            triangles: scene.tri_count(),
+            reflective: f.reflective(),
+            bvh_build_ms: median(builds),
+            reference_ms,
+            stages: StageMs::median_of(&stage_runs),
+            color_ms: median(color_runs),
+            clusters: f.clusters,
+            mad: err.mean_abs,
+            disocclusion: f.disocclusion_share(),
+            fallback: f.fallback_share(),
+        });
+    }
+    Ok(rows)
+}
+
+/// Writes `rows` as CSV.
+///
+/// # Errors
+/// I/O errors.
+pub fn write_growth_csv(path: &Path, rows: &[ClusterGrowthRow]) -> io::Result<()> {
+    let mut w = csv::Writer::from_path(path)?;
+    w.write_record([
+        "triangles",
+        "reflective_pixels",
+        "bvh_build_ms",
+        "reference_ms",
+        "reference_with_build_ms",
+        "cluster_ms",
+        "clustering_ms",
+        "cameras_ms",
+        "depth_images_ms",
+        "depth_color_ms",
+        "intersection_ms",
+        "ratio_with_build",
+        "dominant_stage",
+        "clusters",
+        "mad_255",
+        "disocclusion",
+        "fallback",
+    ])?;
+    for r in rows {
+        w.write_record([
+            r.triangles.to_string(),
+            r.reflective.to_string(),
+            format!("{:.3}", r.bvh_build_ms),
+            format!("{:.3}", r.reference_ms),
+            format!("{:.3}", r.bvh_build_ms + r.reference_ms),
+            format!("{:.3}", r.stages.total()),
+            format!("{:.3}", r.stages.clustering),
+            format!("{:.3}", r.stages.cameras),
+            format!("{:.3}", r.stages.depth_images),
+            format!("{:.3}", r.color_ms),
+            format!("{:.3}", r.stages.intersection),
+            format!("{:.3}", r.ratio_with_build()),
+            r.stages.dominant().to_owned(),
+            r.clusters.to_string(),
+            format!("{:.3}", r.mad),
+            format!("{:.4}", r.disocclusion),
+            format!("{:.4}", r.fallback),
+        ])?;
+    }
+    w.flush()
+}
+
+/// The Markdown table of `rows`.
+pub fn growth_markdown(rows: &[ClusterGrowthRow]) -> String {
+    let mut s = String::from(
+        "| triangles | BVH build ms | obvhs reflections ms | cluster ms (clustering / cameras / depth images / \
+         intersection) | of the depth images: texel shading ms | (build+obvhs)/cluster | dominant stage | clusters | \
+         MAD /255 | disocclusion | fallback |\n|---|---|---|---|---|---|---|---|---|---|---|\n",
+    );
+    for r in rows {
+        let st = &r.stages;
+        let _ = writeln!(
+            s,
+            "| {} | {:.1} | {:.1} | {:.1} ({:.1} / {:.1} / {:.1} / {:.1}) | {:.1} | {:.2} | {} | {} | {:.2} | {:.2} % | {:.2} % |",
+            r.triangles,
+            r.bvh_build_ms,
+            r.reference_ms,
+            st.total(),
+            st.clustering,
+            st.cameras,
+            st.depth_images,
+            st.intersection,
+            r.color_ms,
+            r.ratio_with_build(),
+            st.dominant(),
+            r.clusters,
+            r.mad,
+            100.0 * r.disocclusion,
+            100.0 * r.fallback,
+        );
+    }
+    s
+}
