@@ -617,6 +617,33 @@ impl<'a> ReflectionBuffers<'a> {
         }
     }
 
+    /// [`ReflectionBuffers::surface`] and [`ReflectionBuffers::is_reflective`]
+    /// of one texel, with one surfel fetch where surfels are attached.
+    #[inline(always)]
+    pub(crate) fn surface_reflective(&self, x: u32, y: u32) -> Option<(Surf, bool)> {
+        match &self.surfels {
+            Some(v) => {
+                let s = v.get(x, y)?;
+                if s.flags & SURFEL_SURFACE == 0 {
+                    return None;
+                }
+                const REFLECTIVE: u32 = SURFEL_SPECULAR | SURFEL_DISTANCE;
+                Some((
+                    Surf {
+                        pos: Vec3::from_array(s.pos),
+                        normal: Vec3::from_array(s.normal),
+                        z: s.z,
+                    },
+                    s.flags & REFLECTIVE == REFLECTIVE,
+                ))
+            }
+            None => {
+                let surf = self.compute_surface(x, y)?;
+                Some((surf, self.is_reflective(x, y)))
+            }
+        }
+    }
+
     /// [`ReflectionBuffers::surface`] from the B.1 buffers.
     #[inline(always)]
     fn compute_surface(&self, x: u32, y: u32) -> Option<Surf> {

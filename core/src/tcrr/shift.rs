@@ -254,6 +254,28 @@ fn span(lo: f32, hi: f32, first: u32, end: u32) -> Option<(u32, u32)> {
     (a <= b).then_some((a as u32, b as u32))
 }
 
+/// The smallest of three finite values (no NaN handling).
+#[inline(always)]
+fn min3(a: f32, b: f32, c: f32) -> f32 {
+    let m = if b < a { b } else { a };
+    if c < m {
+        c
+    } else {
+        m
+    }
+}
+
+/// The largest of three finite values (no NaN handling).
+#[inline(always)]
+fn max3(a: f32, b: f32, c: f32) -> f32 {
+    let m = if b > a { b } else { a };
+    if c > m {
+        c
+    } else {
+        m
+    }
+}
+
 /// `floor(v)` for finite `|v| < 2^31` (exact there: a float of magnitude
 /// `>= 2^23` is already an integer), without a libm call; the inner loops
 /// of shifting and warping round every triangle and tap.
@@ -295,17 +317,19 @@ fn draw(
         stats.magnified += 1;
         return;
     }
+    // The vertices are finite here (a non-finite one gives a NaN or
+    // infinite area above), so plain comparisons order them.
     let Some((y_first, y_last)) = span(
-        a.p.y.min(b.p.y).min(c.p.y),
-        a.p.y.max(b.p.y).max(c.p.y),
+        min3(a.p.y, b.p.y, c.p.y),
+        max3(a.p.y, b.p.y, c.p.y),
         t.y0,
         t.y1,
     ) else {
         return;
     };
     let Some((x_first, x_last)) = span(
-        a.p.x.min(b.p.x).min(c.p.x),
-        a.p.x.max(b.p.x).max(c.p.x),
+        min3(a.p.x, b.p.x, c.p.x),
+        max3(a.p.x, b.p.x, c.p.x),
         0,
         t.width,
     ) else {

@@ -298,7 +298,13 @@ fn warp_pixel(
         (ix + 1.0, iy + 1.0, tx * ty),
     ] {
         if wt > 0.0 {
-            match texel(i, j) {
+            // The nearest texel was fetched above.
+            let tap = if (i, j) == (nx, ny) {
+                Some(Some((nearest, nd)))
+            } else {
+                texel(i, j)
+            };
+            match tap {
                 None => {}
                 Some(None) => return None,
                 Some(Some((c, d))) => {
