@@ -6,6 +6,9 @@
 //! the re-traced share and the mean absolute difference (0..255, final
 //! image, mirror pixels) against the ray-traced frame; `--images DIR`
 //! writes per-pixel error images (error x 16, re-traced pixels blue).
+//! Per frame it also prints an FNV-1a digest of the passes' outputs
+//! (offsets, intermediate image, warped color, mask) to compare kernel
+//! versions bit for bit.
 //!
 //! ```text
 //! cargo run --release --example tcrr_bench -- [--width 512] [--height 384]
