@@ -681,33 +681,18 @@ impl<'a> ReflectionBuffers<'a> {
 
     /// The reflected path length `s.d + s.r` of a texel with a positive
     /// specular factor, positive linear depth and non-negative reflected
-    /// distance (`+inf` allowed); `None` otherwise. With surfels attached
-    /// the linear depth comes from the surfel where it has a surface (the
-    /// same value [`ReflectionBuffers::surface`] decodes), saving the depth
-    /// fetch and decode.
+    /// distance (`+inf` allowed); `None` otherwise. Read from the specular,
+    /// depth and distance planes (12 bytes a texel), not the 32-byte
+    /// surfels: shifting reads it for every grid vertex's 4-neighbors, over
+    /// four rows at a time.
     #[inline(always)]
     pub(crate) fn path_length(&self, x: u32, y: u32) -> Option<f32> {
-        let z = match &self.surfels {
-            Some(v) => {
-                let s = v.get(x, y)?;
-                if s.flags & SURFEL_SPECULAR == 0 {
-                    return None;
-                }
-                if s.flags & SURFEL_SURFACE != 0 {
-                    s.z
-                } else {
-                    self.camera
-                        .decode_depth(self.depth.get(x, y)?, self.convention)
-                }
-            }
-            None => {
-                if !self.is_specular(x, y) {
-                    return None;
-                }
-                self.camera
-                    .decode_depth(self.depth.get(x, y)?, self.convention)
-            }
-        };
+        if !self.specular.get(x, y).is_some_and(|s| s > 0.0) {
+            return None;
+        }
+        let z = self
+            .camera
+            .decode_depth(self.depth.get(x, y)?, self.convention);
         let r = self.distance.get(x, y)?;
         (z > 0.0 && r >= 0.0).then_some(z + r)
     }
