@@ -6,6 +6,9 @@
 //! the re-traced share and the mean absolute difference (0..255, final
 //! image, mirror pixels) against the ray-traced frame; `--images DIR`
 //! writes per-pixel error images (error x 16, re-traced pixels blue).
+//! Per frame it also prints an FNV-1a digest of the passes' outputs
+//! (offsets, intermediate image, warped color, mask) to compare kernel
+//! versions bit for bit.
 //!
 //! ```text
 //! cargo run --release --example tcrr_bench -- [--width 512] [--height 384]
@@ -228,6 +231,21 @@ fn main() {
             t_list += ms(t);
         }
         let reps = a.reps as f64;
+        // FNV-1a over the bits of the passes' outputs: equal digests before
+        // and after a kernel change mean bit-identical results.
+        let mut digest = 0xcbf2_9ce4_8422_2325u64;
+        let mut eat = |bits: u32| {
+            digest = (digest ^ u64::from(bits)).wrapping_mul(0x0100_0000_01b3);
+        };
+        offsets.iter().flatten().for_each(|v| eat(v.to_bits()));
+        inter.iter().flatten().for_each(|v| eat(v.to_bits()));
+        idepth.iter().for_each(|v| eat(v.to_bits()));
+        coverage.iter().for_each(|&v| eat(u32::from(v)));
+        color.iter().flatten().for_each(|v| eat(v.to_bits()));
+        mask.iter().for_each(|&v| eat(u32::from(v)));
+        eprintln!(
+            "      digest of offsets, intermediate image, warped color and mask: {digest:016x}"
+        );
         let t = Clock::now();
         for &i in &list {
             color[i as usize] = trace_mirror(&shader, &g, i as usize).0.to_array();

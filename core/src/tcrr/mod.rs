@@ -617,6 +617,33 @@ impl<'a> ReflectionBuffers<'a> {
         }
     }
 
+    /// [`ReflectionBuffers::surface`] and [`ReflectionBuffers::is_reflective`]
+    /// of one texel, with one surfel fetch where surfels are attached.
+    #[inline(always)]
+    pub(crate) fn surface_reflective(&self, x: u32, y: u32) -> Option<(Surf, bool)> {
+        match &self.surfels {
+            Some(v) => {
+                let s = v.get(x, y)?;
+                if s.flags & SURFEL_SURFACE == 0 {
+                    return None;
+                }
+                const REFLECTIVE: u32 = SURFEL_SPECULAR | SURFEL_DISTANCE;
+                Some((
+                    Surf {
+                        pos: Vec3::from_array(s.pos),
+                        normal: Vec3::from_array(s.normal),
+                        z: s.z,
+                    },
+                    s.flags & REFLECTIVE == REFLECTIVE,
+                ))
+            }
+            None => {
+                let surf = self.compute_surface(x, y)?;
+                Some((surf, self.is_reflective(x, y)))
+            }
+        }
+    }
+
     /// [`ReflectionBuffers::surface`] from the B.1 buffers.
     #[inline(always)]
     fn compute_surface(&self, x: u32, y: u32) -> Option<Surf> {
@@ -650,6 +677,24 @@ impl<'a> ReflectionBuffers<'a> {
             Some(v) => v.get(x, y).is_some_and(|s| s.flags & SURFEL_SPECULAR != 0),
             None => self.specular.get(x, y).is_some_and(|s| s > 0.0),
         }
+    }
+
+    /// The reflected path length `s.d + s.r` of a texel with a positive
+    /// specular factor, positive linear depth and non-negative reflected
+    /// distance (`+inf` allowed); `None` otherwise. Read from the specular,
+    /// depth and distance planes (12 bytes a texel), not the 32-byte
+    /// surfels: shifting reads it for every grid vertex's 4-neighbors, over
+    /// four rows at a time.
+    #[inline(always)]
+    pub(crate) fn path_length(&self, x: u32, y: u32) -> Option<f32> {
+        if !self.specular.get(x, y).is_some_and(|s| s > 0.0) {
+            return None;
+        }
+        let z = self
+            .camera
+            .decode_depth(self.depth.get(x, y)?, self.convention);
+        let r = self.distance.get(x, y)?;
+        (z > 0.0 && r >= 0.0).then_some(z + r)
     }
 
     /// The reflective sample at texel `(x, y)`, if it is one.

@@ -166,8 +166,7 @@ fn candidate(b: &ReflectionBuffers<'_>, x: i64, y: i64, t: Target, eye: Vec3) ->
 #[inline(always)]
 fn texel(b: &ReflectionBuffers<'_>, x: i64, y: i64) -> Option<(Surf, bool)> {
     let (x, y) = (u32::try_from(x).ok()?, u32::try_from(y).ok()?);
-    let surf = b.surface(x, y)?;
-    Some((surf, b.is_reflective(x, y)))
+    b.surface_reflective(x, y)
 }
 
 /// Snaps a sub-pixel correction: clamped to one pixel, 0 within
@@ -287,31 +286,29 @@ fn match_pixel(
     let (sx, sy) = (i64::from(x), i64::from(y));
     // Alg. 2 lines 5-6: warm start from the previous offset.
     let mut c = (sx, sy);
-    let mut center = Cand {
-        surf: s.surf,
-        reflective: true,
-        d2: distance_squared(eye, s.surf.pos, s.surf.normal, t),
-    };
+    let mut center_surf = s.surf;
     if offset_is_valid(prev) {
         let (ox, oy) = (libm::roundf(prev[0]), libm::roundf(prev[1]));
         if ox.abs() < w as f32 && oy.abs() < h as f32 && (ox, oy) != (0.0, 0.0) {
             let start = (sx + ox as i64, sy + oy as i64);
-            if let Slot::Cand(
-                cand @ Cand {
-                    reflective: true, ..
-                },
-            ) = candidate(b, start.0, start.1, t, eye)
-            {
+            if let Some((surf, true)) = texel(b, start.0, start.1) {
                 c = start;
-                center = cand;
+                center_surf = surf;
             }
         }
     }
     if p.subpixel {
-        if let Some(r) = newton_path(b, c, center.surf, (sx, sy), target, t, eye, p) {
+        if let Some(r) = newton_path(b, c, center_surf, (sx, sy), target, t, eye, p) {
             return r;
         }
     }
+    // The start's distance is needed by the descent only (the fast path
+    // checks its own texel's).
+    let mut center = Cand {
+        surf: center_surf,
+        reflective: true,
+        d2: distance_squared(eye, center_surf.pos, center_surf.normal, t),
+    };
     let mut win = [Slot::Unknown; 9];
     win[slot_index(0, 0)] = Slot::Cand(center);
     let mut former = center.d2;

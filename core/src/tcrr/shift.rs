@@ -117,16 +117,7 @@ pub fn shift(
     };
     // Reflected path length s.d + s.r of a specular texel (cheap: no
     // back-projection).
-    let path = |x: u32, y: u32| -> Option<f32> {
-        if !buffers.is_specular(x, y) {
-            return None;
-        }
-        let z = buffers
-            .camera
-            .decode_depth(buffers.depth.get(x, y)?, buffers.convention);
-        let r = buffers.distance.get(x, y)?;
-        (z > 0.0 && r >= 0.0).then_some(z + r)
-    };
+    let path = |x: u32, y: u32| -> Option<f32> { buffers.path_length(x, y) };
     let tol = params.reflected_discontinuity;
     let continuous = |a: f32, b: f32| match (a.is_finite(), b.is_finite()) {
         (true, true) => (a - b).abs() <= tol * a.min(b),
@@ -169,11 +160,16 @@ pub fn shift(
         // next: computed once.
         let mut memo_top: Option<(u32, Option<Vertex>)> = None;
         let mut memo_bottom: Option<(u32, Option<Vertex>)> = None;
+        // Shifted positions of the cell's left corners, carried over from
+        // the right corners of the previous cell.
+        let (mut left_top, mut left_bottom) = (pos(0, y), pos(0, y + 1));
         for x in 0..w.saturating_sub(1) {
-            let (Some(pa), Some(pb), Some(pc)) = (pos(x, y), pos(x + 1, y), pos(x, y + 1)) else {
+            let (pb, pd) = (pos(x + 1, y), pos(x + 1, y + 1));
+            let (pa, pc) = (left_top, left_bottom);
+            (left_top, left_bottom) = (pb, pd);
+            let (Some(pa), Some(pb), Some(pc)) = (pa, pb, pc) else {
                 continue;
             };
-            let pd = pos(x + 1, y + 1);
             // Quick reject: the cell's shifted vertices all above or below
             // the band.
             let (mut lo, mut hi) = (pa.y.min(pb.y).min(pc.y), pa.y.max(pb.y).max(pc.y));
@@ -245,12 +241,63 @@ fn edge(a: Vec2, b: Vec2, p: Vec2) -> f32 {
 }
 
 /// First and last pixel index whose center `i + 0.5` lies in `[lo, hi]`,
-/// clamped to `[0, n)`; `None` if empty.
+/// clamped to `[first, end)`; `None` if empty.
+///
+/// The bounds are clamped to `[first - 1, end]` before rounding, which
+/// changes no result (the clamp to `[first, end)` follows) and keeps them
+/// in the range where [`floor_small`] is exact.
 #[inline]
 fn span(lo: f32, hi: f32, first: u32, end: u32) -> Option<(u32, u32)> {
-    let a = libm::ceilf(lo - 0.5).max(first as f32);
-    let b = libm::floorf(hi - 0.5).min(end as f32 - 1.0);
+    let (f, e) = (first as f32, end as f32);
+    let a = ceil_small((lo - 0.5).max(f - 1.0).min(e)).max(f);
+    let b = floor_small((hi - 0.5).max(f - 1.0).min(e)).min(e - 1.0);
     (a <= b).then_some((a as u32, b as u32))
+}
+
+/// The smallest of three finite values (no NaN handling).
+#[inline(always)]
+fn min3(a: f32, b: f32, c: f32) -> f32 {
+    let m = if b < a { b } else { a };
+    if c < m {
+        c
+    } else {
+        m
+    }
+}
+
+/// The largest of three finite values (no NaN handling).
+#[inline(always)]
+fn max3(a: f32, b: f32, c: f32) -> f32 {
+    let m = if b > a { b } else { a };
+    if c > m {
+        c
+    } else {
+        m
+    }
+}
+
+/// `floor(v)` for finite `|v| < 2^31` (exact there: a float of magnitude
+/// `>= 2^23` is already an integer), without a libm call; the inner loops
+/// of shifting and warping round every triangle and tap.
+#[inline(always)]
+pub(crate) fn floor_small(v: f32) -> f32 {
+    let t = v as i32 as f32;
+    if t > v {
+        t - 1.0
+    } else {
+        t
+    }
+}
+
+/// `ceil(v)` for finite `|v| < 2^31`, as [`floor_small`].
+#[inline(always)]
+fn ceil_small(v: f32) -> f32 {
+    let t = v as i32 as f32;
+    if t < v {
+        t + 1.0
+    } else {
+        t
+    }
 }
 
 fn draw(
@@ -270,17 +317,19 @@ fn draw(
         stats.magnified += 1;
         return;
     }
+    // The vertices are finite here (a non-finite one gives a NaN or
+    // infinite area above), so plain comparisons order them.
     let Some((y_first, y_last)) = span(
-        a.p.y.min(b.p.y).min(c.p.y),
-        a.p.y.max(b.p.y).max(c.p.y),
+        min3(a.p.y, b.p.y, c.p.y),
+        max3(a.p.y, b.p.y, c.p.y),
         t.y0,
         t.y1,
     ) else {
         return;
     };
     let Some((x_first, x_last)) = span(
-        a.p.x.min(b.p.x).min(c.p.x),
-        a.p.x.max(b.p.x).max(c.p.x),
+        min3(a.p.x, b.p.x, c.p.x),
+        max3(a.p.x, b.p.x, c.p.x),
         0,
         t.width,
     ) else {
@@ -295,8 +344,8 @@ fn draw(
     } else {
         COVERAGE_REUSE
     };
-    for y in y_first..=y_last {
-        for x in x_first..=x_last {
+    for y in y_first..y_last + 1 {
+        for x in x_first..x_last + 1 {
             let p = Vec2::new(x as f32 + 0.5, y as f32 + 0.5);
             let (wa, wb, wc) = (edge(b.p, c.p, p), edge(c.p, a.p, p), edge(a.p, b.p, p));
             if wa * sign < 0.0 || wb * sign < 0.0 || wc * sign < 0.0 {

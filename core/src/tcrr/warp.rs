@@ -245,7 +245,8 @@ fn warp_pixel(
     // Texel-space position: texel (i, j) has its center at (i + .5, j + .5).
     let (fx, fy) = (q.x - 0.5, q.y - 0.5);
     let snap = |f: f32| {
-        let i = libm::floorf(f);
+        // f lies in [-0.5, size - 0.5): floor_small is exact there.
+        let i = super::shift::floor_small(f);
         let t = f - i;
         if t < SNAP_PX {
             (i, 0.0)
@@ -297,7 +298,13 @@ fn warp_pixel(
         (ix + 1.0, iy + 1.0, tx * ty),
     ] {
         if wt > 0.0 {
-            match texel(i, j) {
+            // The nearest texel was fetched above.
+            let tap = if (i, j) == (nx, ny) {
+                Some(Some((nearest, nd)))
+            } else {
+                texel(i, j)
+            };
+            match tap {
                 None => {}
                 Some(None) => return None,
                 Some(Some((c, d))) => {
