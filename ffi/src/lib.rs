@@ -32,6 +32,7 @@
 #![warn(clippy::undocumented_unsafe_blocks)]
 
 mod camera;
+mod cone;
 mod epipolar;
 mod hiz;
 mod image;
@@ -44,6 +45,7 @@ mod trace;
 mod types;
 
 pub use camera::*;
+pub use cone::*;
 pub use epipolar::*;
 pub use hiz::*;
 pub use image::*;
