@@ -675,6 +675,11 @@ typedef struct refl_cone_options {
      * Relative depth tolerance of the cone sphere weight, `>= 0`.
      */
     float depth_tolerance;
+    /**
+     * Nonzero: divide by the accumulated coverage (a weighted mean of the
+     * samples); zero: the uncovered rest blends the fallback (the seed).
+     */
+    uint32_t normalize;
 } refl_cone_options;
 
 /**

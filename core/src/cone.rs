@@ -59,19 +59,31 @@
 //! * the visibility pyramid, likewise (or 1 without visibility weighting);
 //! * the Hi-Z cell under the center at both levels: the cone's sphere there
 //!   has center depth `z` (`1/z` interpolated linearly from `P1` to `P2`,
-//!   the perspective-correct depth of the axis) and depth radius `r z / f`
-//!   (`f` the focal length in pixels) plus [`ConeOptions::depth_tolerance`]
-//!   `* z`; its weight is `clamp((z + rz - closest) / rz, 0, 1)`: 0 when
-//!   the sphere lies entirely above (in front of) the cell's closest depth,
-//!   1 when its center is at or below it (the cone's axis has reached the
-//!   surface), linear in between; 0 for cells without foreground.
+//!   the perspective-correct depth of the axis, taken at the deeper of the
+//!   circle's two edges along the axis, so that the first circle, whose
+//!   front edge is the hit, reaches the hit surface) and depth radius
+//!   `r z / f` (`f` the focal length in pixels) plus
+//!   [`ConeOptions::depth_tolerance`] `* z`; its weight is
+//!   `clamp((z + rz - closest) / rz, 0, 1)`: 0 when the sphere lies entirely
+//!   above (in front of) the cell's closest depth, 1 when its center is at
+//!   or below it (the cone's axis has reached the surface), linear in
+//!   between; 0 for cells without foreground.
 //!
 //! The sample weight `a = visibility * sphere weight` is accumulated front
 //! to back in Listing 4.7's order, clipped so that the total `A <= 1`; the
 //! loop stops at `A = 1` or after [`ConeOptions::max_circles`]. The result
 //! is `fallback + sum a_k (c_k - fallback)`: every sample and the fallback
 //! enter as differences, so a uniformly colored scene with a fallback of the
-//! same color returns that color bit for bit, whatever the weights.
+//! same color returns that color bit for bit, whatever the weights. With
+//! [`ConeOptions::normalize`] the sum is divided by `A` (a weighted mean of
+//! the samples; the fallback then only answers cones with `A = 0`).
+//!
+//! Bias (measured by `refl report`): the circles march from the hit back
+//! toward the apex, where the axis lies in front of the surfaces, so after
+//! the first circle or two the sphere weights are 0; coverage then stays
+//! below 1 wherever the visibility of the first circle's cells is below 1
+//! (slanted surfaces at coarse levels, silhouettes), and the seed's rule
+//! gives the rest to the fallback.
 
 use crate::hiz::{try_trace_hiz, HiZ, HiZLayout, HiZOptions, HiZTexel};
 use crate::trace::Thickness;
@@ -883,10 +895,16 @@ pub struct ConeOptions {
     /// and f32 rounding or a neighboring texel must not put a narrow
     /// cone's sphere just in front of it).
     pub depth_tolerance: f32,
+    /// Divide the accumulated color by the accumulated coverage when it is
+    /// positive (a weighted mean of the samples), so the fallback only
+    /// takes cones no sample covered. Off (the seed's rule): the uncovered
+    /// rest `1 - A` blends the fallback.
+    pub normalize: bool,
 }
 
 impl Default for ConeOptions {
-    /// 8 circles, bias 0, visibility on, isotropic, 1% depth tolerance.
+    /// 8 circles, bias 0, visibility on, isotropic, 1% depth tolerance, no
+    /// normalization.
     fn default() -> Self {
         Self {
             max_circles: 8,
@@ -894,6 +912,7 @@ impl Default for ConeOptions {
             use_visibility: true,
             max_stretch: 1.0,
             depth_tolerance: 0.01,
+            normalize: false,
         }
     }
 }
@@ -1003,7 +1022,16 @@ pub fn try_cone_trace(
         } else {
             1.0
         };
-        let z = 1.0 / (q1 + (q2 - q1) * s);
+        // The axis depth over the circle's extent along the axis: the
+        // sphere is placed at the deeper of its two edges (the first
+        // circle's front edge is the hit itself).
+        let axis_depth = |s: f32| 1.0 / (q1 + (q2 - q1) * s.clamp(0.0, 1.0));
+        let ds = if length > 0.0 {
+            circle.radius / length
+        } else {
+            0.0
+        };
+        let z = axis_depth(s - ds).max(axis_depth(s + ds));
         let rz = circle.radius * z / pyramids.focal;
         let n = if stretch > 1.0 {
             (libm::ceilf(stretch) as u32).clamp(1, MAX_STRETCH_SAMPLES)
@@ -1046,6 +1074,11 @@ pub fn try_cone_trace(
         if coverage >= 1.0 {
             coverage = 1.0;
             break;
+        }
+    }
+    if options.normalize && coverage > 0.0 {
+        for a in &mut acc {
+            *a /= coverage;
         }
     }
     Ok(ConeResult {

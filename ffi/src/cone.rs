@@ -356,6 +356,7 @@ impl From<ConeOptions> for refl_cone_options {
             use_visibility: u32::from(o.use_visibility),
             max_stretch: o.max_stretch,
             depth_tolerance: o.depth_tolerance,
+            normalize: u32::from(o.normalize),
         }
     }
 }
@@ -368,6 +369,7 @@ impl From<refl_cone_options> for ConeOptions {
             use_visibility: o.use_visibility != 0,
             max_stretch: o.max_stretch,
             depth_tolerance: o.depth_tolerance,
+            normalize: o.normalize != 0,
         }
     }
 }

@@ -345,6 +345,9 @@ pub struct refl_cone_options {
     pub max_stretch: f32,
     /// Relative depth tolerance of the cone sphere weight, `>= 0`.
     pub depth_tolerance: f32,
+    /// Nonzero: divide by the accumulated coverage (a weighted mean of the
+    /// samples); zero: the uncovered rest blends the fallback (the seed).
+    pub normalize: u32,
 }
 
 /// A screen-space cone: apex at the reflection ray's start, axis to its
