@@ -669,6 +669,22 @@ pub fn report_rows(
         )
         .map_err(|e| e.to_string())?;
 
+        // Glossy pixels whose mirror ray's true hit is visible in the depth
+        // buffer: what screen space can answer at all (the rest is bias of
+        // every screen-space method, reported separately).
+        let rays = reflection_rays(scene, tracer, &shader, &g, pool);
+        let mut visible = vec![false; g.len()];
+        for k in 0..rays.len() {
+            let i = rays.pixel[k] as usize;
+            visible[i] = mask[i] && rays.visible[k];
+        }
+        let n_visible = visible.iter().filter(|&&v| v).count();
+        let _ = writeln!(
+            md,
+            "  - {n_visible} of them ({:.1}%) have a mirror ray whose true hit is visible on screen",
+            100.0 * n_visible as f64 / n_glossy as f64
+        );
+        let visible_err = |fin: &[Vec3]| compare(&truth_final, fin, &visible).mean_abs;
         let mut ref_points = Vec::new();
         for &spp in reference_counts(sizes.quick) {
             let (img, ms) = median_ms(sizes.runs, || {
@@ -686,7 +702,13 @@ pub fn report_rows(
                 truth_t.ms,
                 1.0,
                 &err,
-                vec![("glossy_pixels".into(), n_glossy.to_string())],
+                vec![
+                    ("glossy_pixels".into(), n_glossy.to_string()),
+                    (
+                        "mean_abs_255_visible".into(),
+                        format!("{:.4}", visible_err(&fin)),
+                    ),
+                ],
             ));
         }
 
@@ -704,7 +726,6 @@ pub fn report_rows(
         if settings.is_empty() {
             continue;
         }
-        let rays = reflection_rays(scene, tracer, &shader, &g, pool);
         let depth = DepthBuffer::new(&g, DepthConvention::ReversedZ, f32::INFINITY)
             .map_err(|e| e.to_string())?;
         let image = depth.image().map_err(|e| e.to_string())?;
@@ -740,6 +761,10 @@ pub fn report_rows(
             let eq = reference_ms_at_error(&ref_points, err.mean_abs);
             let mut extra = vec![
                 ("glossy_pixels".into(), n_glossy.to_string()),
+                (
+                    "mean_abs_255_visible".into(),
+                    format!("{:.4}", visible_err(&fin)),
+                ),
                 (
                     "bytes_per_pixel".into(),
                     format!("{:.2}", method.bytes_per_pixel(g.width(), g.height())),

@@ -746,7 +746,13 @@ pub fn run(opts: &Options) -> Result<PathBuf, String> {
         }
         // Layered maps are built once per scene and setting (static objects).
         let mut layered_maps: Vec<((u32, u32), crate::layered_render::LayeredScene)> = Vec::new();
-        for (frame, (pose, g, gbuffer_ms)) in frames.iter().enumerate() {
+        // No per-frame method to run (e.g. only the glossy study or the path
+        // methods): skip the frames' ground truth.
+        let per_frame = methods
+            .iter()
+            .filter(|m| !crate::epipolar::is_path_method(m))
+            .any(|m| settings(m, &sizes, needs).is_ok_and(|v| !v.is_empty()));
+        for (frame, (pose, g, gbuffer_ms)) in frames.iter().enumerate().filter(|_| per_frame) {
             // Rays and reference timings of the screen-space methods, made
             // when the first of them runs on this frame.
             let mut screen_frame: Option<screen::ScreenFrame> = None;
