@@ -760,6 +760,12 @@ typedef struct refl_cone {
      * stretch; 1 when unused.
      */
     float n_dot_v;
+    /**
+     * World distance from the apex to the hit (`refl_trace_result::t`) for
+     * the view-space cone size, or 0 for the seed's screen-space triangle;
+     * finite, >= 0.
+     */
+    float travel;
 } refl_cone;
 
 /**

@@ -57,6 +57,9 @@ pub enum GlossyMethod {
         options: ConeOptions,
         /// Fades of seed 004 Sec. 4.6.1 (blend toward the fallback).
         fades: Option<Fades>,
+        /// Size the cone from its world travel ([`Cone::travel`]) instead
+        /// of the seed's screen-space triangle.
+        view_space: bool,
     },
     /// `rays` Hi-Z traced rays per pixel in the cone, Phong-weighted.
     MultiRay {
@@ -270,7 +273,11 @@ pub fn run(
                         ..GlossyStats::default()
                     };
                     match method {
-                        GlossyMethod::Cone { options, fades } => {
+                        GlossyMethod::Cone {
+                            options,
+                            fades,
+                            view_space,
+                        } => {
                             let trace = refl_core::try_trace_hiz(
                                 &hz,
                                 th,
@@ -295,6 +302,7 @@ pub fn run(
                                 hit_depth: hit.depth,
                                 theta,
                                 n_dot_v: g.normal[i].dot(view),
+                                travel: if view_space { hit.t } else { 0.0 },
                             };
                             let r = refl_core::try_cone_trace(&pyr, &c, fb.to_array(), &options)?;
                             st.coverage_sum = f64::from(r.coverage);
@@ -422,65 +430,77 @@ pub struct StudySizes {
 }
 
 /// The cone settings of the study: 4, 8 and 16 circles with the seed's
-/// rule (the uncovered rest takes the fallback) and normalized
-/// ([`ConeOptions::normalize`]), plus visibility off, anisotropic stretch
-/// and fades at 8 circles. `--quick`: 4 and 16 circles, normalized.
+/// screen-space triangle and rule (the uncovered rest takes the fallback),
+/// the same normalized ([`ConeOptions::normalize`]), and normalized with the
+/// view-space cone size ([`Cone::travel`]); at 8 circles, normalized:
+/// visibility off, anisotropic stretch, fades. `--quick`: 4 and 16 circles,
+/// normalized.
 pub fn cone_settings(quick: bool) -> Vec<(GlossyMethod, String)> {
     let base = ConeOptions::default();
-    let cone = |options: ConeOptions, fades: Option<Fades>, s: String| {
-        (GlossyMethod::Cone { options, fades }, s)
+    let cone = |options: ConeOptions, fades: Option<Fades>, view_space: bool, s: String| {
+        (
+            GlossyMethod::Cone {
+                options,
+                fades,
+                view_space,
+            },
+            s,
+        )
+    };
+    let norm = |c: u32| ConeOptions {
+        max_circles: c,
+        normalize: true,
+        ..base
     };
     let mut v = Vec::new();
     if quick {
         for c in [4, 16] {
-            v.push(cone(
-                ConeOptions {
-                    max_circles: c,
-                    normalize: true,
-                    ..base
-                },
-                None,
-                format!("circles={c};normalize"),
-            ));
+            v.push(cone(norm(c), None, false, format!("circles={c};normalize")));
         }
         return v;
     }
-    for normalize in [false, true] {
-        for c in [4, 8, 16] {
-            v.push(cone(
-                ConeOptions {
-                    max_circles: c,
-                    normalize,
-                    ..base
-                },
-                None,
-                format!("circles={c}{}", if normalize { ";normalize" } else { "" }),
-            ));
-        }
+    for c in [4, 8, 16] {
+        v.push(cone(
+            ConeOptions {
+                max_circles: c,
+                ..base
+            },
+            None,
+            false,
+            format!("circles={c}"),
+        ));
     }
-    let n8 = ConeOptions {
-        max_circles: 8,
-        normalize: true,
-        ..base
-    };
+    for c in [4, 8, 16] {
+        v.push(cone(norm(c), None, false, format!("circles={c};normalize")));
+    }
+    for c in [4, 8, 16] {
+        v.push(cone(
+            norm(c),
+            None,
+            true,
+            format!("circles={c};normalize;view"),
+        ));
+    }
     v.push(cone(
         ConeOptions {
             use_visibility: false,
-            ..n8
+            ..norm(8)
         },
         None,
+        false,
         "circles=8;normalize;visibility=off".into(),
     ));
     v.push(cone(
         ConeOptions {
             max_stretch: 4.0,
-            ..n8
+            ..norm(8)
         },
         None,
+        false,
         "circles=8;normalize;stretch=4".into(),
     ));
     v.push(cone(
-        n8,
+        norm(8),
         Some(Fades {
             toward_camera: Some(refl_core::FadeRange {
                 start: 0.2,
@@ -492,6 +512,7 @@ pub fn cone_settings(quick: bool) -> Vec<(GlossyMethod, String)> {
             }),
             travel: None,
         }),
+        false,
         "circles=8;normalize;fades=camera+border".into(),
     ));
     v

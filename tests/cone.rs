@@ -59,6 +59,7 @@ fn cone(circles: u32, normalize: bool) -> GlossyMethod {
             ..ConeOptions::default()
         },
         fades: None,
+        view_space: false,
     }
 }
 
@@ -103,6 +104,7 @@ fn uniform_frame_reflects_its_color_exactly() {
                 }),
                 ..Default::default()
             }),
+            view_space: true,
         },
         GlossyMethod::MultiRay { rays: 8 },
     ] {

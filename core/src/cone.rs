@@ -42,6 +42,20 @@
 //! front", `<=` the children's mean. [`ConeOptions::use_visibility`] turns
 //! the weighting off (the report measures both).
 //!
+//! # Cone size
+//!
+//! The seed builds the isosceles triangle in screen space from the cone
+//! angle and the ray's screen length `l` (Sec. 4.4.5); a ray that travels
+//! mostly in depth has a short `l` and gets a far too narrow footprint.
+//! The seed's closing remark suggests the view-space alternative: "use the
+//! cone angle with the view-space Z distance to find the sphere size and
+//! then project this using perspective division into screen space". With
+//! [`Cone::travel`] `= t > 0` the triangle's half-angle becomes
+//! `atan(r / l)` with `r = f t tan(theta) / z_hit` the cone's radius at the
+//! hit projected at the hit's depth (`f` the focal length in pixels), so
+//! the first circles cover the projected footprint; `travel = 0` keeps the
+//! seed's triangle.
+//!
 //! # Cone trace
 //!
 //! The cone's apex is the reflection ray's start `P1` (pixel, linear depth)
@@ -113,6 +127,10 @@ pub const DEFAULT_SIGMA: f32 = 1.0;
 /// Half-width of the pre-convolution kernel in finer texels (the seed's
 /// 7x7 kernel has 3).
 pub const KERNEL_RADIUS: i64 = 3;
+
+/// Largest screen-triangle half-angle the view-space cone size
+/// ([`Cone::travel`]) produces (89 degrees).
+pub const MAX_VIEW_THETA: f32 = 1.553_343;
 
 /// Most circles [`try_cone_trace`] takes, whatever the options say.
 pub const MAX_CIRCLES: u32 = 64;
@@ -934,6 +952,10 @@ pub struct Cone {
     /// `dot(n, v)` of the reflector (normal and direction toward the eye),
     /// for the anisotropic stretch; use 1 when it is off.
     pub n_dot_v: f32,
+    /// World distance from the apex to the hit (e.g. [`crate::DepthHit::t`])
+    /// for the view-space cone size, or 0 for the seed's screen-space
+    /// triangle (module docs, "Cone size").
+    pub travel: f32,
 }
 
 /// What [`try_cone_trace`] returns.
@@ -975,6 +997,8 @@ pub fn try_cone_trace(
         && depths_ok
         && valid_theta(cone.theta)
         && !cone.n_dot_v.is_nan()
+        && cone.travel >= 0.0
+        && cone.travel.is_finite()
         && finite3(fallback)
         && options.level_bias.is_finite()
         && options.max_stretch >= 1.0
@@ -990,6 +1014,15 @@ pub fn try_cone_trace(
         return Err(Error::InvalidArgument);
     }
     let unit = if length > 0.0 { axis / length } else { Vec2::X };
+    // View-space cone size (module docs): the triangle's angle that makes
+    // the cone's width at the hit, `2 travel tan(theta)` projected at the
+    // hit's depth, the base of the screen triangle.
+    let theta = if cone.travel > 0.0 && length > 0.0 && cone.theta > 0.0 {
+        let r_px = pyramids.focal * cone.travel * libm::tanf(cone.theta) / cone.hit_depth;
+        libm::atanf(r_px / length).min(MAX_VIEW_THETA)
+    } else {
+        cone.theta
+    };
     let max = options.max_circles.min(MAX_CIRCLES);
     let stretch = if cone.n_dot_v > 0.0 {
         (1.0 / cone.n_dot_v).clamp(1.0, options.max_stretch)
@@ -1006,7 +1039,7 @@ pub fn try_cone_trace(
         center: 0.0,
         radius: 0.0,
     };
-    let mut iter = ConeCircles::try_new(length, cone.theta, max)?;
+    let mut iter = ConeCircles::try_new(length, theta, max)?;
     let mut first = true;
     loop {
         let circle = match iter.next() {

@@ -678,6 +678,7 @@ fn cone(apex: Vec2, hit: Vec2, za: f32, zh: f32, theta: f32) -> Cone {
         hit_depth: zh,
         theta,
         n_dot_v: 1.0,
+        travel: 0.0,
     }
 }
 
@@ -700,10 +701,12 @@ fn uniform_scene_reflects_its_color_exactly() {
                     max_stretch: 4.0,
                     level_bias: -1.0,
                     depth_tolerance: 0.0,
+                    normalize: true,
                 },
             ] {
                 let mut k = cone(apex, hit, 1.0 + rng.f() * 5.0, 2.0 + rng.f() * 5.0, theta);
                 k.n_dot_v = rng.f();
+                k.travel = rng.f() * 20.0;
                 let r = try_cone_trace(&p, &k, c, &opts).unwrap();
                 assert_eq!(r.color, c);
                 assert!((0.0..=1.0).contains(&r.coverage));
@@ -1287,4 +1290,51 @@ fn multiray_uniform_scene_and_bad_input() {
         )
         .is_err());
     }
+}
+
+#[test]
+fn view_space_size_widens_the_cone_for_rays_into_depth() {
+    // Vertical stripes of 2 pixels; a short screen axis that travels far in
+    // depth: the seed's screen triangle reads one stripe, the view-space
+    // size (travel) reads a wide footprint near the stripes' mean.
+    let fr = Frame::new(64, 64, 5.0, DepthConvention::Linear, |x, _| {
+        let v = ((x / 2) % 2) as f32;
+        [v, v, v]
+    });
+    let p = fr.pyramids();
+    let base = cone(Vec2::new(30.5, 12.0), Vec2::new(30.5, 8.0), 5.0, 5.0, 0.1);
+    let opts = ConeOptions {
+        max_circles: 1,
+        use_visibility: false,
+        ..ConeOptions::default()
+    };
+    let screen = try_cone_trace(&p, &base, [0.0; 3], &opts).unwrap();
+    let view = try_cone_trace(
+        &p,
+        &Cone {
+            travel: 6.0,
+            ..base
+        },
+        [0.0; 3],
+        &opts,
+    )
+    .unwrap();
+    // f = 64 / (2 tan 30deg) = 55.4 px; r = f 6 tan(0.1) / 5 = 6.7 px over
+    // a 4 px axis.
+    assert!((screen.color[0] - 0.5).abs() > 0.3, "{:?}", screen.color);
+    assert!((view.color[0] - 0.5).abs() < 0.15, "{:?}", view.color);
+    // travel = 0 is the seed's triangle exactly.
+    assert_eq!(
+        try_cone_trace(
+            &p,
+            &Cone {
+                travel: 0.0,
+                ..base
+            },
+            [0.0; 3],
+            &opts
+        )
+        .unwrap(),
+        screen
+    );
 }

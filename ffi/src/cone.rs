@@ -441,6 +441,7 @@ pub unsafe extern "C" fn refl_cone_trace(
             hit_depth: c.hit_depth,
             theta: c.theta,
             n_dot_v: c.n_dot_v,
+            travel: c.travel,
         };
         let r = refl_core::try_cone_trace(&pyr, &cone, texel(fallback), &o.into())?;
         // SAFETY: caller contract.

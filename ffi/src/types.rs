@@ -368,6 +368,10 @@ pub struct refl_cone {
     /// `dot(normal, toward_eye)` of the reflector, for the anisotropic
     /// stretch; 1 when unused.
     pub n_dot_v: f32,
+    /// World distance from the apex to the hit (`refl_trace_result::t`) for
+    /// the view-space cone size, or 0 for the seed's screen-space triangle;
+    /// finite, >= 0.
+    pub travel: f32,
 }
 
 /// What `refl_cone_trace` returns.

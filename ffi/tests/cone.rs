@@ -169,6 +169,7 @@ fn pyramids_and_trace_equal_core() {
             hit_depth: 8.0,
             theta: 0.1,
             n_dot_v: 0.7,
+            travel: 3.0,
         };
         let mut out = refl_cone_result::default();
         let fb = refl_vec3 {
@@ -190,6 +191,7 @@ fn pyramids_and_trace_equal_core() {
                 hit_depth: 8.0,
                 theta: 0.1,
                 n_dot_v: 0.7,
+                travel: 3.0,
             },
             [0.1, 0.2, 0.3],
             &ConeOptions::default(),
