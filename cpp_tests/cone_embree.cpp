@@ -319,7 +319,7 @@ int main() {
             ++hits;
             refl_projection ap{};
             REQUIRE(refl_camera_project(&ap, &cam_inf, ray.origin) == REFL_STATUS_OK);
-            const refl_cone c{{ap.x, ap.y}, ap.depth, tr.pixel, tr.depth, theta, float(cosv)};
+            const refl_cone c{{ap.x, ap.y}, ap.depth, tr.pixel, tr.depth, theta, float(cosv), 0.0f};
             refl_cone_result res{};
             REQUIRE(refl_cone_trace(&res, &pyr, &c, rv(fb), &co) == REFL_STATUS_OK);
             CHECK(std::isfinite(res.color.x) && std::isfinite(res.color.y) && std::isfinite(res.color.z));

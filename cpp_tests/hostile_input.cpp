@@ -1989,7 +1989,7 @@ void cone_functions() {
         expect_ok<refl_cone_options>("cone default options", [](refl_cone_options* o) { return refl_cone_default_options(o); });
     CHECK(opts.max_circles == 8 && opts.use_visibility == 1 && opts.max_stretch == 1.0f);
     CHECK_STATUS(refl_cone_default_options(nullptr), REFL_STATUS_NULL_POINTER);
-    const refl_cone cone{v2(10, 40), 2.0f, v2(30, 10), 3.0f, 0.2f, 0.8f};
+    const refl_cone cone{v2(10, 40), 2.0f, v2(30, 10), 3.0f, 0.2f, 0.8f, 4.0f};
     const refl_vec3 fb = v3(0.1f, 0.2f, 0.3f);
     const refl_cone_result r = expect_ok<refl_cone_result>(
         "cone trace", [&](refl_cone_result* o) { return refl_cone_trace(o, &pyr, &cone, fb, &opts); });
@@ -2025,6 +2025,11 @@ void cone_functions() {
         refl_cone c = cone;
         c.hit_depth = d;
         trace("cone trace bad depth", REFL_STATUS_INVALID_ARGUMENT, &pyr, &c, fb, &opts);
+    }
+    for (float t : {kNaN, -1.0f, kInf}) {
+        refl_cone c = cone;
+        c.travel = t;
+        trace("cone trace bad travel", REFL_STATUS_INVALID_ARGUMENT, &pyr, &c, fb, &opts);
     }
     {
         refl_cone_options o = opts;
