@@ -12,7 +12,8 @@
 //    mirror direction (inverse CDF cos t = xi^(1/(n+1)), Hammersley points
 //    under a per-pixel rotation), below-surface samples rejected, each
 //    traced with rtcIntersect1. Converged: 1024 samples, checked against
-//    512 (their difference must stay under 1/255 mean).
+//    512 (their mean difference / sqrt(3), the 1024-sample estimate's own
+//    noise, must stay under 1/255).
 //  * refl: Embree renders the primary view (linear depth, direct color);
 //    refl builds the Hi-Z (reversed-Z, infinite far), the color and
 //    visibility pyramids, traces each floor pixel's mirror ray with
@@ -46,11 +47,10 @@ using Clock = std::chrono::steady_clock;
 
 #ifdef REFL_SANITIZE
 constexpr uint32_t kW = 96, kH = 72;
-constexpr uint32_t kTruth = 256;
 #else
 constexpr uint32_t kW = 256, kH = 192;
-constexpr uint32_t kTruth = 1024;
 #endif
+constexpr uint32_t kTruth = 1024;
 constexpr double kRoughness = 0.35;
 constexpr float kInf = std::numeric_limits<float>::infinity();
 constexpr double kPi = 3.14159265358979323846;
@@ -262,7 +262,10 @@ int main() {
                 floor_px.size(), kRoughness, power);
     std::printf("converged reference %u spp: %.2f s; MAD to %u spp %.3f/255 (its own noise ~%.3f/255)\n", kTruth,
                 truth_s, kTruth / 2, noise, noise / std::sqrt(3.0));
-    CHECK(noise < 1.0);
+    // The difference of independent estimates at N and N/2 samples has
+    // variance 3 sigma_N^2: the converged reference's own noise is about
+    // MAD / sqrt(3), and must stay under 1/255.
+    CHECK(noise / std::sqrt(3.0) < 1.0);
 
     std::printf("%-22s %10s %10s\n", "method", "ms", "MAD/255");
     std::vector<std::pair<double, double>> ref_pts;
