@@ -2185,6 +2185,231 @@ void cluster_functions() {
            [&] { return refl_cluster_finalize(&fbuf, nullptr, pc, pv, nv, px, pc, eye, &cam, &di, cv, &fp); });
 }
 
+// Glossy cone tracing (seed 004 Sec. 4.4.2-4.4.5, 4.6.1, 4.6.8) and the
+// multi-ray alternative (seed 003 Sec. 3.5): angles, pyramid sizes and
+// builds, cone trace, fades, multi-ray.
+void cone_functions() {
+    const refl_camera g = good_camera();
+    const uint32_t w = g.width, h = g.height;
+    const size_t n = size_t(w) * h;
+
+    expect<float>("cone angle phong NaN", REFL_STATUS_INVALID_ARGUMENT,
+                  [](float* o) { return refl_cone_angle_from_phong(o, kNaN); });
+    expect<float>("cone angle phong -1", REFL_STATUS_INVALID_ARGUMENT,
+                  [](float* o) { return refl_cone_angle_from_phong(o, -1.0f); });
+    CHECK(expect_ok<float>("cone angle phong", [](float* o) { return refl_cone_angle_from_phong(o, kInf); }) == 0.0f);
+    for (float r : {kNaN, -0.1f, 1.5f, kInf})
+        expect<float>("cone angle roughness", REFL_STATUS_INVALID_ARGUMENT,
+                      [=](float* o) { return refl_cone_angle_from_roughness(o, r); });
+    CHECK(expect_ok<float>("cone angle roughness", [](float* o) { return refl_cone_angle_from_roughness(o, 0.5f); }) > 0.0f);
+
+    expect<size_t>("cone pyramid len zero", REFL_STATUS_INVALID_ARGUMENT,
+                   [=](size_t* o) { return refl_cone_pyramid_len(o, 0, h); });
+    expect<size_t>("cone pyramid len overflow", REFL_STATUS_INVALID_ARGUMENT,
+                   [](size_t* o) { return refl_cone_pyramid_len(o, kMax, kMax); });
+    const size_t len = expect_ok<size_t>("cone pyramid len", [=](size_t* o) { return refl_cone_pyramid_len(o, w, h); });
+    CHECK(len > n);
+
+    // Hi-Z of a flat depth image for the visibility build and traces.
+    std::vector<float> depth(n, 0.5f);
+    const refl_depth_image dimg{{depth.data(), n, w, h, w}, g, REFL_DEPTH_CONVENTION_ZERO_TO_ONE};
+    std::vector<refl_vec2> hz(len);
+    CHECK_STATUS(refl_hiz_build(hz.data(), len, &dimg), REFL_STATUS_OK);
+    const refl_hiz hiz{hz.data(), len, g, REFL_DEPTH_CONVENTION_ZERO_TO_ONE};
+
+    // Color pyramid builds: failures leave the destination untouched.
+    std::vector<refl_vec3> frame(n, v3(0.25f, 0.5f, 0.75f));
+    const refl_image_vec3 img{frame.data(), n, w, h, w};
+    auto color_build = [&](const char* what, refl_status want, auto call) {
+        std::vector<refl_vec3> dst(len, v3(-7, -7, -7));
+        CHECK_STATUS(call(dst.data()), want);
+        bool same = true;
+        for (const refl_vec3& t : dst) same = same && t.x == -7.0f && t.y == -7.0f && t.z == -7.0f;
+        if (want != REFL_STATUS_OK && !same) check::fail(__FILE__, __LINE__, std::string(what) + ": written");
+    };
+    color_build("cone color ok", REFL_STATUS_OK, [&](refl_vec3* d) { return refl_cone_build_color(d, len, &img, 1.0f); });
+    color_build("cone color NULL dst", REFL_STATUS_NULL_POINTER, [&](refl_vec3*) { return refl_cone_build_color(nullptr, len, &img, 1.0f); });
+    color_build("cone color NULL image", REFL_STATUS_NULL_POINTER, [&](refl_vec3* d) { return refl_cone_build_color(d, len, nullptr, 1.0f); });
+    color_build("cone color short", REFL_STATUS_INSUFFICIENT_SIZE, [&](refl_vec3* d) { return refl_cone_build_color(d, len - 1, &img, 1.0f); });
+    for (float sg : {kNaN, 0.0f, -1.0f, kInf})
+        color_build("cone color sigma", REFL_STATUS_INVALID_ARGUMENT, [&](refl_vec3* d) { return refl_cone_build_color(d, len, &img, sg); });
+    const refl_image_vec3 short_img{frame.data(), n - 1, w, h, w};
+    color_build("cone color short image", REFL_STATUS_INSUFFICIENT_SIZE, [&](refl_vec3* d) { return refl_cone_build_color(d, len, &short_img, 1.0f); });
+    std::vector<refl_vec3> nan_frame = frame;
+    nan_frame[n / 2] = v3(kNaN, 0, 0);
+    const refl_image_vec3 nan_img{nan_frame.data(), n, w, h, w};
+    color_build("cone color NaN texel", REFL_STATUS_INVALID_ARGUMENT, [&](refl_vec3* d) { return refl_cone_build_color(d, len, &nan_img, 1.0f); });
+    color_build("cone color rows ok", REFL_STATUS_OK, [&](refl_vec3* d) { return refl_cone_build_color_rows(d, len, &img, 0, 0, h, 1.0f); });
+    color_build("cone color rows NULL", REFL_STATUS_NULL_POINTER, [&](refl_vec3* d) { return refl_cone_build_color_rows(d, len, nullptr, 0, 0, h, 1.0f); });
+    color_build("cone color rows short", REFL_STATUS_INSUFFICIENT_SIZE, [&](refl_vec3* d) { return refl_cone_build_color_rows(d, len - 1, &img, 1, 0, 1, 1.0f); });
+    color_build("cone color rows level", REFL_STATUS_INVALID_ARGUMENT, [&](refl_vec3* d) { return refl_cone_build_color_rows(d, len, &img, 99, 0, 1, 1.0f); });
+    color_build("cone color rows reversed", REFL_STATUS_INVALID_ARGUMENT, [&](refl_vec3* d) { return refl_cone_build_color_rows(d, len, &img, 0, 3, 2, 1.0f); });
+    color_build("cone color rows NaN sigma", REFL_STATUS_INVALID_ARGUMENT, [&](refl_vec3* d) { return refl_cone_build_color_rows(d, len, &img, 1, 0, 1, kNaN); });
+
+    // Visibility pyramid builds.
+    auto vis_build = [&](const char* what, refl_status want, auto call) {
+        std::vector<float> dst(len, -7.0f);
+        CHECK_STATUS(call(dst.data()), want);
+        bool same = true;
+        for (float t : dst) same = same && t == -7.0f;
+        if (want != REFL_STATUS_OK && !same) check::fail(__FILE__, __LINE__, std::string(what) + ": written");
+    };
+    vis_build("cone vis ok", REFL_STATUS_OK, [&](float* d) { return refl_cone_build_visibility(d, len, &hiz); });
+    vis_build("cone vis NULL dst", REFL_STATUS_NULL_POINTER, [&](float*) { return refl_cone_build_visibility(nullptr, len, &hiz); });
+    vis_build("cone vis NULL hiz", REFL_STATUS_NULL_POINTER, [&](float* d) { return refl_cone_build_visibility(d, len, nullptr); });
+    vis_build("cone vis short", REFL_STATUS_INSUFFICIENT_SIZE, [&](float* d) { return refl_cone_build_visibility(d, len - 1, &hiz); });
+    const refl_hiz short_hiz{hz.data(), len - 1, g, REFL_DEPTH_CONVENTION_ZERO_TO_ONE};
+    vis_build("cone vis short hiz", REFL_STATUS_INSUFFICIENT_SIZE, [&](float* d) { return refl_cone_build_visibility(d, len, &short_hiz); });
+    for (uint32_t c : kBadConventions) {
+        const refl_hiz bad{hz.data(), len, g, c};
+        vis_build("cone vis convention", REFL_STATUS_INVALID_ARGUMENT, [&](float* d) { return refl_cone_build_visibility(d, len, &bad); });
+    }
+    vis_build("cone vis rows ok", REFL_STATUS_OK, [&](float* d) { return refl_cone_build_visibility_rows(d, len, &hiz, 0, 0, h); });
+    vis_build("cone vis rows NULL", REFL_STATUS_NULL_POINTER, [&](float* d) { return refl_cone_build_visibility_rows(d, len, nullptr, 0, 0, h); });
+    vis_build("cone vis rows short", REFL_STATUS_INSUFFICIENT_SIZE, [&](float* d) { return refl_cone_build_visibility_rows(d, len - 1, &hiz, 1, 0, 1); });
+    vis_build("cone vis rows level", REFL_STATUS_INVALID_ARGUMENT, [&](float* d) { return refl_cone_build_visibility_rows(d, len, &hiz, 99, 0, 1); });
+
+    // Cone trace.
+    std::vector<refl_vec3> color(len);
+    std::vector<float> vis(len);
+    CHECK_STATUS(refl_cone_build_color(color.data(), len, &img, 1.0f), REFL_STATUS_OK);
+    CHECK_STATUS(refl_cone_build_visibility(vis.data(), len, &hiz), REFL_STATUS_OK);
+    const refl_cone_pyramids pyr{hiz, color.data(), len, vis.data(), len};
+    const refl_cone_options opts =
+        expect_ok<refl_cone_options>("cone default options", [](refl_cone_options* o) { return refl_cone_default_options(o); });
+    CHECK(opts.max_circles == 8 && opts.use_visibility == 1 && opts.max_stretch == 1.0f);
+    CHECK_STATUS(refl_cone_default_options(nullptr), REFL_STATUS_NULL_POINTER);
+    const refl_cone cone{v2(10, 40), 2.0f, v2(30, 10), 3.0f, 0.2f, 0.8f, 4.0f};
+    const refl_vec3 fb = v3(0.1f, 0.2f, 0.3f);
+    const refl_cone_result r = expect_ok<refl_cone_result>(
+        "cone trace", [&](refl_cone_result* o) { return refl_cone_trace(o, &pyr, &cone, fb, &opts); });
+    CHECK(r.coverage >= 0.0f && r.coverage <= 1.0f && r.circles > 0);
+    auto trace = [&](const char* what, refl_status want, const refl_cone_pyramids* p, const refl_cone* c, refl_vec3 f,
+                     const refl_cone_options* o) {
+        expect<refl_cone_result>(what, want, [=](refl_cone_result* out) { return refl_cone_trace(out, p, c, f, o); });
+    };
+    trace("cone trace NULL pyramids", REFL_STATUS_NULL_POINTER, nullptr, &cone, fb, &opts);
+    trace("cone trace NULL cone", REFL_STATUS_NULL_POINTER, &pyr, nullptr, fb, &opts);
+    trace("cone trace NULL options", REFL_STATUS_NULL_POINTER, &pyr, &cone, fb, nullptr);
+    const refl_cone_pyramids null_color{hiz, nullptr, len, vis.data(), len};
+    trace("cone trace NULL color", REFL_STATUS_NULL_POINTER, &null_color, &cone, fb, &opts);
+    const refl_cone_pyramids short_color{hiz, color.data(), len - 1, vis.data(), len};
+    trace("cone trace short color", REFL_STATUS_INSUFFICIENT_SIZE, &short_color, &cone, fb, &opts);
+    const refl_cone_pyramids short_vis{hiz, color.data(), len, vis.data(), 3};
+    trace("cone trace short visibility", REFL_STATUS_INSUFFICIENT_SIZE, &short_vis, &cone, fb, &opts);
+    for (const refl_vec3& bad : kBadVec3) trace("cone trace bad fallback", REFL_STATUS_INVALID_ARGUMENT, &pyr, &cone, bad, &opts);
+    for (const refl_vec2& bad : kBadVec2) {
+        refl_cone c = cone;
+        c.apex = bad;
+        trace("cone trace bad apex", REFL_STATUS_INVALID_ARGUMENT, &pyr, &c, fb, &opts);
+        c = cone;
+        c.hit = bad;
+        trace("cone trace bad hit", REFL_STATUS_INVALID_ARGUMENT, &pyr, &c, fb, &opts);
+    }
+    for (float t : {kNaN, -0.1f, 1.5708f, kInf}) {
+        refl_cone c = cone;
+        c.theta = t;
+        trace("cone trace bad theta", REFL_STATUS_INVALID_ARGUMENT, &pyr, &c, fb, &opts);
+    }
+    for (float d : {kNaN, 0.0f, -1.0f, kInf}) {
+        refl_cone c = cone;
+        c.hit_depth = d;
+        trace("cone trace bad depth", REFL_STATUS_INVALID_ARGUMENT, &pyr, &c, fb, &opts);
+    }
+    for (float t : {kNaN, -1.0f, kInf}) {
+        refl_cone c = cone;
+        c.travel = t;
+        trace("cone trace bad travel", REFL_STATUS_INVALID_ARGUMENT, &pyr, &c, fb, &opts);
+    }
+    {
+        refl_cone_options o = opts;
+        o.max_stretch = 0.5f;
+        trace("cone trace bad stretch", REFL_STATUS_INVALID_ARGUMENT, &pyr, &cone, fb, &o);
+        o = opts;
+        o.level_bias = kNaN;
+        trace("cone trace bad bias", REFL_STATUS_INVALID_ARGUMENT, &pyr, &cone, fb, &o);
+        o = opts;
+        o.depth_tolerance = -1.0f;
+        trace("cone trace bad tolerance", REFL_STATUS_INVALID_ARGUMENT, &pyr, &cone, fb, &o);
+    }
+    for (const BadCamera& bc : bad_cameras()) {
+        refl_cone_pyramids p = pyr;
+        p.hiz.camera = bc.cam;
+        trace(bc.name, bc.status, &p, &cone, fb, &opts);
+    }
+
+    // Fades.
+    const refl_cone_fades fades{REFL_FADE_TOWARD_CAMERA | REFL_FADE_BORDER | REFL_FADE_TRAVEL, {0.0f, 0.5f}, {0.8f, 1.0f},
+                                {2.0f, 6.0f}};
+    CHECK(expect_ok<float>("cone fade", [&](float* o) {
+              return refl_cone_fade(o, &fades, v3(1, 0, 0), v3(0, 0, 1), v2(32, 24), w, h, 1.0f);
+          }) == 1.0f);
+    auto fade = [&](const char* what, refl_status want, const refl_cone_fades* f, refl_vec3 r3, refl_vec2 hp, uint32_t fw,
+                    float t) {
+        expect<float>(what, want, [=](float* o) { return refl_cone_fade(o, f, r3, v3(0, 0, 1), hp, fw, h, t); });
+    };
+    fade("cone fade NULL", REFL_STATUS_NULL_POINTER, nullptr, v3(1, 0, 0), v2(1, 1), w, 1.0f);
+    for (const refl_vec3& bad : kBadVec3) fade("cone fade bad dir", REFL_STATUS_INVALID_ARGUMENT, &fades, bad, v2(1, 1), w, 1.0f);
+    for (const refl_vec2& bad : kBadVec2) fade("cone fade bad hit", REFL_STATUS_INVALID_ARGUMENT, &fades, v3(1, 0, 0), bad, w, 1.0f);
+    fade("cone fade zero width", REFL_STATUS_INVALID_ARGUMENT, &fades, v3(1, 0, 0), v2(1, 1), 0, 1.0f);
+    fade("cone fade NaN t", REFL_STATUS_INVALID_ARGUMENT, &fades, v3(1, 0, 0), v2(1, 1), w, kNaN);
+    for (uint32_t bits : {8u, kMax}) {
+        refl_cone_fades f = fades;
+        f.enabled = bits;
+        fade("cone fade bits", REFL_STATUS_INVALID_ARGUMENT, &f, v3(1, 0, 0), v2(1, 1), w, 1.0f);
+    }
+    {
+        refl_cone_fades f = fades;
+        f.border = {1.0f, 1.0f};
+        fade("cone fade empty range", REFL_STATUS_INVALID_ARGUMENT, &f, v3(1, 0, 0), v2(1, 1), w, 1.0f);
+        f = fades;
+        f.travel = {kNaN, 1.0f};
+        fade("cone fade NaN range", REFL_STATUS_INVALID_ARGUMENT, &f, v3(1, 0, 0), v2(1, 1), w, 1.0f);
+    }
+
+    // Multi-ray.
+    const refl_image_f32 none{nullptr, 0, 0, 0, 0};
+    const refl_thickness thick{0.5f, none};
+    const refl_multiray_options mo{8, v2(0.25f, 0.5f), 2, 0, 256, 4};
+    const refl_ray ray{v3(1, 1, 3), v3(0, 0, -1)};
+    const refl_multiray_result mr = expect_ok<refl_multiray_result>("cone multiray", [&](refl_multiray_result* o) {
+        return refl_cone_multiray(o, &pyr, &thick, ray, v3(0, 1, 0), kInf, 0.2f, 20.0f, &mo, fb);
+    });
+    CHECK(mr.traced <= 8);
+    auto multi = [&](const char* what, refl_status want, const refl_cone_pyramids* p, const refl_thickness* tk,
+                     refl_ray ry, refl_vec3 nrm, float t_max, float theta, float power,
+                     const refl_multiray_options* o, refl_vec3 f) {
+        expect<refl_multiray_result>(what, want, [=](refl_multiray_result* out) {
+            return refl_cone_multiray(out, p, tk, ry, nrm, t_max, theta, power, o, f);
+        });
+    };
+    const refl_vec3 up = v3(0, 1, 0);
+    multi("cone multiray NULL pyramids", REFL_STATUS_NULL_POINTER, nullptr, &thick, ray, up, kInf, 0.2f, 20.0f, &mo, fb);
+    multi("cone multiray NULL thickness", REFL_STATUS_NULL_POINTER, &pyr, nullptr, ray, up, kInf, 0.2f, 20.0f, &mo, fb);
+    multi("cone multiray NULL options", REFL_STATUS_NULL_POINTER, &pyr, &thick, ray, up, kInf, 0.2f, 20.0f, nullptr, fb);
+    multi("cone multiray short color", REFL_STATUS_INSUFFICIENT_SIZE, &short_color, &thick, ray, up, kInf, 0.2f, 20.0f, &mo, fb);
+    for (const refl_vec3& bad : kBadVec3) {
+        multi("cone multiray bad normal", REFL_STATUS_INVALID_ARGUMENT, &pyr, &thick, ray, bad, kInf, 0.2f, 20.0f, &mo, fb);
+        multi("cone multiray bad fallback", REFL_STATUS_INVALID_ARGUMENT, &pyr, &thick, ray, up, kInf, 0.2f, 20.0f, &mo, bad);
+        multi("cone multiray bad origin", REFL_STATUS_INVALID_ARGUMENT, &pyr, &thick, {bad, ray.dir}, up, kInf, 0.2f, 20.0f, &mo, fb);
+    }
+    for (float t : {kNaN, -0.1f, 2.0f})
+        multi("cone multiray bad theta", REFL_STATUS_INVALID_ARGUMENT, &pyr, &thick, ray, up, kInf, t, 20.0f, &mo, fb);
+    for (float p : {kNaN, -1.0f})
+        multi("cone multiray bad power", REFL_STATUS_INVALID_ARGUMENT, &pyr, &thick, ray, up, kInf, 0.2f, p, &mo, fb);
+    multi("cone multiray NaN t_max", REFL_STATUS_INVALID_ARGUMENT, &pyr, &thick, ray, up, kNaN, 0.2f, 20.0f, &mo, fb);
+    {
+        refl_multiray_options o = mo;
+        o.rays = 0;
+        multi("cone multiray zero rays", REFL_STATUS_INVALID_ARGUMENT, &pyr, &thick, ray, up, kInf, 0.2f, 20.0f, &o, fb);
+        o = mo;
+        o.rotation = v2(kNaN, 0);
+        multi("cone multiray NaN rotation", REFL_STATUS_INVALID_ARGUMENT, &pyr, &thick, ray, up, kInf, 0.2f, 20.0f, &o, fb);
+    }
+    const refl_thickness nan_thick{kNaN, none};
+    multi("cone multiray NaN thickness", REFL_STATUS_INVALID_ARGUMENT, &pyr, &nan_thick, ray, up, kInf, 0.2f, 20.0f, &mo, fb);
+}
+
 }  // namespace
 
 int main() {
@@ -2199,5 +2424,6 @@ int main() {
     hiz_functions();
     tcrr_functions();
     cluster_functions();
+    cone_functions();
     return check::finish("hostile_input");
 }

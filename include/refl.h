@@ -152,6 +152,22 @@
 #define REFL_TCRR_BYTES_PER_PIXEL 110
 
 /**
+ * Bit of `refl_cone_fades::enabled`: fade rays reflected back toward the
+ * camera.
+ */
+#define REFL_FADE_TOWARD_CAMERA 1
+
+/**
+ * Bit of `refl_cone_fades::enabled`: fade hits near the screen border.
+ */
+#define REFL_FADE_BORDER 2
+
+/**
+ * Bit of `refl_cone_fades::enabled`: fade by travel distance.
+ */
+#define REFL_FADE_TRAVEL 4
+
+/**
  * The result of every fallible refl function. `REFL_STATUS_OK` is zero;
  * every other value names why the call refused its input. A function that
  * returns anything but `REFL_STATUS_OK` has left all of its outputs
@@ -1037,6 +1053,245 @@ typedef struct refl_cluster_finalize_params {
 } refl_cluster_finalize_params;
 
 /**
+ * A built Hi-Z pyramid with the camera of its depth image.
+ */
+typedef struct refl_hiz {
+    /**
+     * The pyramid built by `refl_hiz_build` (texel `x` = closest, `y` =
+     * farthest linear depth).
+     */
+    const struct refl_vec2 *data;
+    /**
+     * Number of texels readable from `data`, at least `refl_hiz_len`'s.
+     */
+    size_t len;
+    /**
+     * The camera of the depth image the pyramid was built from (validated
+     * on every call); its size is the pyramid's level-0 size.
+     */
+    struct refl_camera camera;
+    /**
+     * Convention of the depth image, a `refl_depth_convention`; used to
+     * decode back-face images.
+     */
+    uint32_t convention;
+} refl_hiz;
+
+/**
+ * Settings of the cone trace (`refl_core::cone::ConeOptions`);
+ * `refl_cone_default_options` gives 8 circles, bias 0, visibility on,
+ * isotropic, 1% depth tolerance.
+ */
+typedef struct refl_cone_options {
+    /**
+     * Most circles (clamped to 64).
+     */
+    uint32_t max_circles;
+    /**
+     * Added to the circle's mip level `log2(2 r)` (-1 is the seed's
+     * `log2(r)`); finite.
+     */
+    float level_bias;
+    /**
+     * Nonzero: weight samples by the pre-integrated visibility.
+     */
+    uint32_t use_visibility;
+    /**
+     * Largest anisotropic stretch at grazing angles (seed 004
+     * Sec. 4.6.8), `>= 1`; 1 is isotropic.
+     */
+    float max_stretch;
+    /**
+     * Relative depth tolerance of the cone sphere weight, `>= 0`.
+     */
+    float depth_tolerance;
+    /**
+     * Nonzero: divide by the accumulated coverage (a weighted mean of the
+     * samples); zero: the uncovered rest blends the fallback (the seed).
+     */
+    uint32_t normalize;
+} refl_cone_options;
+
+/**
+ * What `refl_cone_trace` returns.
+ */
+typedef struct refl_cone_result {
+    /**
+     * The integrated color, the uncovered rest blended with the fallback.
+     */
+    struct refl_vec3 color;
+    /**
+     * Accumulated coverage in [0, 1] (1 - the fallback's weight).
+     */
+    float coverage;
+    /**
+     * Circles taken.
+     */
+    uint32_t circles;
+    /**
+     * Pyramid texels read.
+     */
+    uint32_t fetches;
+} refl_cone_result;
+
+/**
+ * The cone pyramids of one frame, bound together.
+ */
+typedef struct refl_cone_pyramids {
+    /**
+     * The frame's Hi-Z pyramid and camera.
+     */
+    struct refl_hiz hiz;
+    /**
+     * The color pyramid (`refl_cone_build_color`).
+     */
+    const struct refl_vec3 *color;
+    /**
+     * Texels readable from `color`, at least `refl_cone_pyramid_len`'s.
+     */
+    size_t color_len;
+    /**
+     * The visibility pyramid (`refl_cone_build_visibility`).
+     */
+    const float *visibility;
+    /**
+     * Floats readable from `visibility`, at least `refl_cone_pyramid_len`'s.
+     */
+    size_t visibility_len;
+} refl_cone_pyramids;
+
+/**
+ * A screen-space cone: apex at the reflection ray's start, axis to its
+ * Hi-Z hit (`refl_core::cone::Cone`).
+ */
+typedef struct refl_cone {
+    /**
+     * Apex: the reflection ray's start projected, level-0 pixels.
+     */
+    struct refl_vec2 apex;
+    /**
+     * Linear depth of the apex, > 0.
+     */
+    float apex_depth;
+    /**
+     * The hit pixel (`refl_trace_result::pixel`).
+     */
+    struct refl_vec2 hit;
+    /**
+     * Linear depth of the hit (`refl_trace_result::depth`), > 0.
+     */
+    float hit_depth;
+    /**
+     * Half-angle in radians, in [0, pi/2) (`refl_cone_angle_from_*`).
+     */
+    float theta;
+    /**
+     * `dot(normal, toward_eye)` of the reflector, for the anisotropic
+     * stretch; 1 when unused.
+     */
+    float n_dot_v;
+    /**
+     * World distance from the apex to the hit (`refl_trace_result::t`) for
+     * the view-space cone size, or 0 for the seed's screen-space triangle;
+     * finite, >= 0.
+     */
+    float travel;
+} refl_cone;
+
+/**
+ * A linear fade range of the cone-tracing fades (seed 004 Listing 4.8):
+ * the factor is 1 at or below `start`, 0 at or above `end`, linear
+ * between.
+ */
+typedef struct refl_fade_range {
+    /**
+     * Where the fade begins.
+     */
+    float start;
+    /**
+     * Where it reaches 0; must be greater than `start`.
+     */
+    float end;
+} refl_fade_range;
+
+/**
+ * The fades of seed 004 Sec. 4.6.1 (`refl_core::cone::Fades`).
+ */
+typedef struct refl_cone_fades {
+    /**
+     * Which fades apply: a combination of `REFL_FADE_TOWARD_CAMERA`,
+     * `REFL_FADE_BORDER` and `REFL_FADE_TRAVEL`; other bits are invalid.
+     */
+    uint32_t enabled;
+    /**
+     * Over `dot(reflected, toward_eye)` in [-1, 1].
+     */
+    struct refl_fade_range toward_camera;
+    /**
+     * Over `max(|2u - 1|, |2v - 1|)` of the normalized hit position (1 on
+     * the border).
+     */
+    struct refl_fade_range border;
+    /**
+     * Over the ray's travel distance in world units.
+     */
+    struct refl_fade_range travel;
+} refl_cone_fades;
+
+/**
+ * What `refl_cone_multiray` returns.
+ */
+typedef struct refl_multiray_result {
+    /**
+     * The Phong-weighted mean color.
+     */
+    struct refl_vec3 color;
+    /**
+     * Rays traced (not below the surface).
+     */
+    uint32_t traced;
+    /**
+     * Rays that hit in screen space.
+     */
+    uint32_t hits;
+    /**
+     * Hi-Z iterations summed over the rays.
+     */
+    uint32_t iterations;
+} refl_multiray_result;
+
+/**
+ * Settings of `refl_cone_multiray`.
+ */
+typedef struct refl_multiray_options {
+    /**
+     * Rays per pixel, > 0 (seed 003 Sec. 3.5 uses 8 to 49).
+     */
+    uint32_t rays;
+    /**
+     * Cranley-Patterson rotation of the Hammersley set, finite (e.g.
+     * hashed from the pixel index).
+     */
+    struct refl_vec2 rotation;
+    /**
+     * Hi-Z settings of each ray: start level.
+     */
+    uint32_t hiz_start_level;
+    /**
+     * Hi-Z stop level.
+     */
+    uint32_t hiz_stop_level;
+    /**
+     * Hi-Z iteration cap.
+     */
+    uint32_t hiz_max_iterations;
+    /**
+     * Hi-Z prologue steps.
+     */
+    uint32_t hiz_prologue_steps;
+} refl_multiray_options;
+
+/**
  * Parameters of the reprojection and rendering phases
  * (`refl_epipolar_params_default` gives the defaults). Booleans are
  * `uint32_t` 0 or 1; any other value is `REFL_STATUS_INVALID_ARGUMENT`.
@@ -1303,31 +1558,6 @@ typedef struct refl_trace_result {
      */
     uint32_t iterations;
 } refl_trace_result;
-
-/**
- * A built Hi-Z pyramid with the camera of its depth image.
- */
-typedef struct refl_hiz {
-    /**
-     * The pyramid built by `refl_hiz_build` (texel `x` = closest, `y` =
-     * farthest linear depth).
-     */
-    const struct refl_vec2 *data;
-    /**
-     * Number of texels readable from `data`, at least `refl_hiz_len`'s.
-     */
-    size_t len;
-    /**
-     * The camera of the depth image the pyramid was built from (validated
-     * on every call); its size is the pyramid's level-0 size.
-     */
-    struct refl_camera camera;
-    /**
-     * Convention of the depth image, a `refl_depth_convention`; used to
-     * decode back-face images.
-     */
-    uint32_t convention;
-} refl_hiz;
 
 /**
  * A writable image of `float` texels.
@@ -2635,6 +2865,216 @@ refl_status refl_cluster_finalize(uint32_t *out_fallbacks,
                                   const struct refl_depth_image *depth,
                                   struct refl_image_vec3 color,
                                   const struct refl_cluster_finalize_params *params);
+
+/**
+ * The cone half-angle for a Phong specular power (seed 004 Eq. 4.1 with
+ * the acos erratum, xi = 0.244; powers 1024..2048 blend to 0, +infinity
+ * gives 0) into `*out`.
+ *
+ * Returns `REFL_STATUS_NULL_POINTER` if `out` is NULL,
+ * `REFL_STATUS_INVALID_ARGUMENT` for a NaN or negative power.
+ *
+ * # Safety
+ * `out` must be NULL or writable.
+ */
+refl_status refl_cone_angle_from_phong(float *out, float power);
+
+/**
+ * The cone half-angle for a perceptual roughness in [0, 1] (Phong power
+ * `2 / r^4 - 2`, `refl_core::cone::try_phong_power_from_roughness`) into
+ * `*out`.
+ *
+ * Returns `REFL_STATUS_NULL_POINTER` if `out` is NULL,
+ * `REFL_STATUS_INVALID_ARGUMENT` for NaN or a roughness outside [0, 1].
+ *
+ * # Safety
+ * `out` must be NULL or writable.
+ */
+refl_status refl_cone_angle_from_roughness(float *out, float roughness);
+
+/**
+ * Size query: texels of the color pyramid (`refl_vec3`) and of the
+ * visibility pyramid (`float`) of a `width x height` frame, the same
+ * count, into `*out_len`.
+ *
+ * Returns `REFL_STATUS_NULL_POINTER` if `out_len` is NULL,
+ * `REFL_STATUS_INVALID_ARGUMENT` for a zero or overflowing size.
+ *
+ * # Safety
+ * `out_len` must be NULL or writable.
+ */
+refl_status refl_cone_pyramid_len(size_t *out_len, uint32_t width, uint32_t height);
+
+/**
+ * Builds rows `[row_start, row_end)` of level `level` of the color
+ * pyramid of `*image` in `dst` (level 0 copies the image; level L blurs
+ * level L - 1 with a normalized Gaussian of standard deviation `sigma`
+ * finer texels and halves it). Build level by level; row bands of one
+ * level may run on different threads.
+ *
+ * Returns `REFL_STATUS_NULL_POINTER` if `dst`, `image` or its data is
+ * NULL; `REFL_STATUS_INSUFFICIENT_SIZE` if `dst_len` is below
+ * `refl_cone_pyramid_len` or the image is short;
+ * `REFL_STATUS_INVALID_ARGUMENT` for a bad image, a non-finite texel, a
+ * `sigma` not finite and positive, a level or row range out of bounds, a
+ * misaligned pointer, or `dst` overlapping the image. Nothing is written
+ * on error.
+ *
+ * # Safety
+ * `dst` NULL or writable for `dst_len` texels; `image` NULL or readable,
+ * its data readable for `len` texels; no other thread writes the rows
+ * written or the level read.
+ */
+refl_status refl_cone_build_color_rows(struct refl_vec3 *dst,
+                                       size_t dst_len,
+                                       const struct refl_image_vec3 *image,
+                                       uint32_t level,
+                                       uint32_t row_start,
+                                       uint32_t row_end,
+                                       float sigma);
+
+/**
+ * Builds the whole color pyramid of `*image` into `dst` (seed 004
+ * Sec. 4.4.4 / 4.5.4), as `refl_cone_build_color_rows` level by level.
+ * Every texel is validated first: nothing is written on error.
+ *
+ * Returns as `refl_cone_build_color_rows`.
+ *
+ * # Safety
+ * As `refl_cone_build_color_rows`.
+ */
+refl_status refl_cone_build_color(struct refl_vec3 *dst,
+                                  size_t dst_len,
+                                  const struct refl_image_vec3 *image,
+                                  float sigma);
+
+/**
+ * Builds rows `[row_start, row_end)` of level `level` of the visibility
+ * pyramid of `*hiz` in `dst` (level 0: 1 where a foreground surface is,
+ * 0 elsewhere; level L from level L - 1 and the Hi-Z, seed 004
+ * Sec. 4.4.2 / Listing 4.4 as `refl_core::cone` reads it). Build level by
+ * level; row bands of one level may run on different threads.
+ *
+ * Returns `REFL_STATUS_NULL_POINTER` if `dst`, `hiz` or its data is NULL;
+ * `REFL_STATUS_INSUFFICIENT_SIZE` if `dst_len` or the pyramid is short;
+ * `REFL_STATUS_INVALID_ARGUMENT` for an unknown convention, a level or row
+ * range out of bounds, a misaligned pointer, or `dst` overlapping the
+ * Hi-Z; the camera's status if it is invalid. Nothing is written on
+ * error.
+ *
+ * # Safety
+ * `dst` NULL or writable for `dst_len` floats; `hiz` NULL or readable,
+ * its data readable for `len` texels; no other thread writes the rows
+ * written or the level read.
+ */
+refl_status refl_cone_build_visibility_rows(float *dst,
+                                            size_t dst_len,
+                                            const struct refl_hiz *hiz,
+                                            uint32_t level,
+                                            uint32_t row_start,
+                                            uint32_t row_end);
+
+/**
+ * Builds the whole visibility pyramid of `*hiz` into `dst`.
+ *
+ * Returns as `refl_cone_build_visibility_rows`.
+ *
+ * # Safety
+ * As `refl_cone_build_visibility_rows`.
+ */
+refl_status refl_cone_build_visibility(float *dst, size_t dst_len, const struct refl_hiz *hiz);
+
+/**
+ * The default cone options into `*out`.
+ *
+ * Returns `REFL_STATUS_NULL_POINTER` if `out` is NULL.
+ *
+ * # Safety
+ * `out` must be NULL or writable.
+ */
+refl_status refl_cone_default_options(struct refl_cone_options *out);
+
+/**
+ * Integrates the cone `*cone` over the pyramids (seed 004 Sec. 4.4.5 /
+ * Listing 4.7): in-radius circles from the hit toward the apex, trilinear
+ * color and visibility, weighted by how far the cone's sphere reaches the
+ * cell's closest depth, until the coverage reaches 1; the rest is
+ * `fallback`. Writes the result to `*out`.
+ *
+ * Returns `REFL_STATUS_NULL_POINTER` if `out`, `pyramids` (or one of its
+ * buffers), `cone` or `options` is NULL; `REFL_STATUS_INSUFFICIENT_SIZE`
+ * if a pyramid is shorter than `refl_cone_pyramid_len`;
+ * `REFL_STATUS_INVALID_ARGUMENT` for non-finite or non-positive cone
+ * inputs, a `theta` outside [0, pi/2), a non-finite fallback, bad options,
+ * an unknown convention or a misaligned pointer; the camera's status if it
+ * is invalid.
+ *
+ * # Safety
+ * `out` NULL or writable; `pyramids`, `cone` and `options` NULL or
+ * readable; the pyramid buffers readable for their lengths and not written
+ * during the call.
+ */
+refl_status refl_cone_trace(struct refl_cone_result *out,
+                            const struct refl_cone_pyramids *pyramids,
+                            const struct refl_cone *cone,
+                            struct refl_vec3 fallback,
+                            const struct refl_cone_options *options);
+
+/**
+ * The product of the enabled fades of `*fades` (seed 004 Sec. 4.6.1) for
+ * a reflection ray of unit direction `reflected` seen from the unit
+ * direction `toward_eye`, hitting at pixel `hit` of a `width x height`
+ * frame after traveling `t`, into `*out`. Blend
+ * `fallback + fade * (color - fallback)`.
+ *
+ * Returns `REFL_STATUS_NULL_POINTER` if `out` or `fades` is NULL;
+ * `REFL_STATUS_INVALID_ARGUMENT` for unknown bits in `enabled`, an enabled
+ * range that is not finite with `end > start`, a zero size or non-finite
+ * inputs.
+ *
+ * # Safety
+ * `out` NULL or writable; `fades` NULL or readable.
+ */
+refl_status refl_cone_fade(float *out,
+                           const struct refl_cone_fades *fades,
+                           struct refl_vec3 reflected,
+                           struct refl_vec3 toward_eye,
+                           struct refl_vec2 hit,
+                           uint32_t width,
+                           uint32_t height,
+                           float t);
+
+/**
+ * The multi-ray glossy reflection (seed 003 Sec. 3.5,
+ * `refl_core::cone::try_multiray`): `options->rays` directions uniform in
+ * the cone of half-angle `theta` around `ray.dir` (rays below the surface
+ * of unit `normal` skipped), each traced with the Hi-Z from `ray.origin`
+ * over `[0, t_max]`; a hit reads the level-0 color, a miss `fallback`; the
+ * mean is weighted by `cos^power` (the Phong lobe). Writes `*out`.
+ *
+ * Returns `REFL_STATUS_NULL_POINTER` if `out`, `pyramids` (or a buffer),
+ * `thickness` or `options` is NULL; `REFL_STATUS_INSUFFICIENT_SIZE` for
+ * short pyramids or a short back-face image;
+ * `REFL_STATUS_INVALID_ARGUMENT` for zero rays, a ray rejected by
+ * `refl_hiz_trace_ray`, a non-finite normal, rotation or fallback, a
+ * `theta` outside [0, pi/2), a NaN or negative power, a bad thickness, an
+ * unknown convention or a misaligned pointer; the camera's status if it is
+ * invalid.
+ *
+ * # Safety
+ * As `refl_cone_trace`; `thickness` NULL or readable, a back-face image
+ * readable for its length.
+ */
+refl_status refl_cone_multiray(struct refl_multiray_result *out,
+                               const struct refl_cone_pyramids *pyramids,
+                               const struct refl_thickness *thickness,
+                               struct refl_ray ray,
+                               struct refl_vec3 normal,
+                               float t_max,
+                               float theta,
+                               float power,
+                               const struct refl_multiray_options *options,
+                               struct refl_vec3 fallback);
 
 /**
  * Writes to `*out` the default parameters (m_cnt 5, 3x3 splat, depth

@@ -42,8 +42,8 @@ pub struct Options {
     #[arg(long)]
     pub scene: Vec<String>,
     /// Methods: `reference`, `envmap`, `planar-mirror`, `epipolar`, `orsa`,
-    /// `irsa`, `step`, `hiz`, `layered`, `cluster`, `tcrr`, `naive-warp`
-    /// (repeatable; default: all).
+    /// `irsa`, `step`, `hiz`, `layered`, `cluster`, `tcrr`, `naive-warp`,
+    /// `cone`, `multiray` (repeatable; default: all).
     #[arg(long)]
     pub method: Vec<String>,
     /// Output folder.
@@ -137,7 +137,7 @@ impl Sizes {
 pub const BUILT_IN_SCENES: [&str; 3] = ["room", "concave", "walkthrough"];
 
 /// Every method name the report knows, in report order.
-pub const METHODS: [&str; 12] = [
+pub const METHODS: [&str; 14] = [
     "reference",
     "envmap",
     "planar-mirror",
@@ -153,6 +153,11 @@ pub const METHODS: [&str; 12] = [
     "cluster",
     "tcrr",
     "naive-warp",
+    // Glossy screen-space methods (seed 004 cone tracing, seed 003 Sec. 3.5
+    // multi-ray), run on the room's glossy variants after its frames: see
+    // [`crate::cone`].
+    "cone",
+    "multiray",
 ];
 
 /// What one frame's reflective pixels can use: the report skips the passes
@@ -421,6 +426,8 @@ fn settings(
         )),
         // Whole camera-path runs, after the per-frame loop (crate::tcrr).
         "tcrr" | "naive-warp" => Ok(Vec::new()),
+        // The glossy study on the room, after the per-frame loop (crate::cone).
+        "cone" | "multiray" => Ok(Vec::new()),
         _ => Err("unknown method"),
     }
 }
@@ -831,6 +838,7 @@ pub fn run(opts: &Options) -> Result<PathBuf, String> {
 
     let mut rows = Vec::new();
     let mut notes = String::new();
+    let mut glossy_md = String::new();
     for scene_name in &scenes {
         bar.set_message(format!("{scene_name}: scene + BVH"));
         let scene = load_scene(scene_name, opts, &sizes)?;
@@ -888,7 +896,13 @@ pub fn run(opts: &Options) -> Result<PathBuf, String> {
         }
         // Layered maps are built once per scene and setting (static objects).
         let mut layered_maps: Vec<((u32, u32), crate::layered_render::LayeredScene)> = Vec::new();
-        for (frame, (pose, g, gbuffer_ms)) in frames.iter().enumerate() {
+        // No per-frame method to run (e.g. only the glossy study or the path
+        // methods): skip the frames' ground truth.
+        let per_frame = methods
+            .iter()
+            .filter(|m| !crate::epipolar::is_path_method(m))
+            .any(|m| settings(m, &sizes, needs).is_ok_and(|v| !v.is_empty()));
+        for (frame, (pose, g, gbuffer_ms)) in frames.iter().enumerate().filter(|_| per_frame) {
             // Rays and reference timings of the screen-space methods, made
             // when the first of them runs on this frame.
             let mut screen_frame: Option<screen::ScreenFrame> = None;
@@ -1165,6 +1179,39 @@ pub fn run(opts: &Options) -> Result<PathBuf, String> {
             rows.extend(tcrr_rows);
             notes.push_str(&note);
         }
+        // Glossy study on the room: cone tracing and multi-ray against the
+        // Monte-Carlo reference at low sample counts (crate::cone).
+        let (use_cone, use_multi) = (methods.contains(&"cone"), methods.contains(&"multiray"));
+        if label == "room" && (use_cone || use_multi) {
+            bar.set_message(format!("{label}: glossy study"));
+            // --quick (CI): half the frame, 64-sample ground truth.
+            let study = crate::cone::StudySizes {
+                width: if opts.quick {
+                    sizes.width / 2
+                } else {
+                    sizes.width
+                },
+                height: if opts.quick {
+                    sizes.height / 2
+                } else {
+                    sizes.height
+                },
+                truth_samples: if opts.quick { 64 } else { 1024 },
+                runs: sizes.runs,
+                quick: opts.quick,
+            };
+            let (cone_rows, note) = crate::cone::report_rows(
+                &scene,
+                &tracer,
+                study,
+                (use_cone, use_multi),
+                threads,
+                &pool,
+                &images,
+            )?;
+            rows.extend(cone_rows);
+            glossy_md.push_str(&note);
+        }
         // Seed 002 on the walkthrough: ORSA, the method, IRSA along the path.
         if label == "walkthrough" && methods.iter().any(|m| crate::epipolar::is_path_method(m)) {
             bar.set_message(format!("{label}: epipolar walkthrough"));
@@ -1255,7 +1302,7 @@ pub fn run(opts: &Options) -> Result<PathBuf, String> {
          pixels in the same run, same threads. Error is measured against the ground truth (the reference at {} \
          glossy samples per pixel) on the pixels each method handles, pooled over frames: mean absolute difference \
          on 0..255 of 8-bit sRGB composites, PSNR, share of pixels over 8/255. Images: the first frame.\n\n\
-         ## Scenes\n\n{notes}\n## Summary\n\n{}\n![error vs time](error_vs_time.png)\n{growth_md}{cluster_growth_md}",
+         ## Scenes\n\n{notes}\n## Summary\n\n{}\n![error vs time](error_vs_time.png)\n{glossy_md}{growth_md}{cluster_growth_md}",
         if opts.quick { "Quick" } else { "Default" },
         sizes.frames,
         sizes.runs,

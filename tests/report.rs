@@ -116,6 +116,25 @@ fn quick_report_writes_summary_plot_and_images() {
         );
         assert!(num(r, "mean_abs_255") < 12.0, "{set}");
     }
+    // The glossy study on the room (crate::cone): cone, multi-ray and the
+    // low-sample reference on the same glossy pixels, with bytes per pixel
+    // and the equal-error speedup.
+    let glossy = "room-glossy-0.20";
+    let reference8 = find(glossy, "reference", "glossy_spp=8");
+    for (m, set) in [
+        ("cone", "circles=4;normalize"),
+        ("cone", "circles=16;normalize"),
+        ("multiray", "rays=8"),
+    ] {
+        let r = find(glossy, m, set);
+        assert!(num(r, "time_ms") > 0.0 && num(r, "reference_ms") > 0.0);
+        let e = num(r, "mean_abs_255");
+        assert!(e > 0.0 && e < 40.0, "{m} {set}: {e}");
+        assert!(num(r, "bytes_per_pixel") > 4.0);
+        assert_eq!(num(r, "glossy_pixels"), num(reference8, "glossy_pixels"));
+    }
+    assert!(num(reference8, "mean_abs_255") > 0.0);
+
     // Concave: no planar mirror and no glossy surface, so planar-mirror is
     // skipped and the reference needs no sample-count sweep.
     assert!(rows

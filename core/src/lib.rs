@@ -23,6 +23,8 @@
 pub mod camera;
 #[cfg(feature = "cluster")]
 pub mod cluster;
+#[cfg(feature = "cone")]
+pub mod cone;
 #[cfg(feature = "epipolar")]
 pub mod epipolar;
 pub mod error;
@@ -54,6 +56,13 @@ pub use mirror::{
     mirror_matrix, mirror_point, mirrored_camera, oblique_projection, reflect, Plane,
 };
 
+#[cfg(feature = "cone")]
+pub use cone::{
+    color_pyramid_len, try_build_color_pyramid, try_build_visibility_pyramid,
+    try_cone_angle_from_phong, try_cone_angle_from_roughness, try_cone_trace, try_multiray,
+    visibility_pyramid_len, ColorTexel, Cone, ConeOptions, ConePyramids, ConeResult, FadeRange,
+    Fades, MultiRayOptions, MultiRayResult,
+};
 #[cfg(feature = "hiz")]
 pub use hiz::{
     hiz_len, try_build_hiz, try_build_hiz_level0_rows, try_build_hiz_level_rows, try_trace_hiz,

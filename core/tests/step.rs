@@ -3,6 +3,7 @@
 //! f64, random rays whose true first intersection is computed in f64, and
 //! the stiff cases (planar rays, grazing rays, extreme scales and sizes,
 //! hostile input, every miss reason).
+#![cfg(feature = "depth-image")]
 
 use glam::{DMat4, DVec3, Vec2, Vec3};
 use proptest::prelude::*;

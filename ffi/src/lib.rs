@@ -33,6 +33,7 @@
 
 mod camera;
 mod cluster;
+mod cone;
 mod epipolar;
 mod hiz;
 mod image;
@@ -46,6 +47,7 @@ mod types;
 
 pub use camera::*;
 pub use cluster::*;
+pub use cone::*;
 pub use epipolar::*;
 pub use hiz::*;
 pub use image::*;

@@ -614,3 +614,133 @@ impl From<&refl_core::cluster::ClusterShade> for refl_cluster_shade {
         }
     }
 }
+
+/// A linear fade range of the cone-tracing fades (seed 004 Listing 4.8):
+/// the factor is 1 at or below `start`, 0 at or above `end`, linear
+/// between.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct refl_fade_range {
+    /// Where the fade begins.
+    pub start: f32,
+    /// Where it reaches 0; must be greater than `start`.
+    pub end: f32,
+}
+
+/// Bit of `refl_cone_fades::enabled`: fade rays reflected back toward the
+/// camera.
+pub const REFL_FADE_TOWARD_CAMERA: u32 = 1;
+/// Bit of `refl_cone_fades::enabled`: fade hits near the screen border.
+pub const REFL_FADE_BORDER: u32 = 2;
+/// Bit of `refl_cone_fades::enabled`: fade by travel distance.
+pub const REFL_FADE_TRAVEL: u32 = 4;
+
+/// The fades of seed 004 Sec. 4.6.1 (`refl_core::cone::Fades`).
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct refl_cone_fades {
+    /// Which fades apply: a combination of `REFL_FADE_TOWARD_CAMERA`,
+    /// `REFL_FADE_BORDER` and `REFL_FADE_TRAVEL`; other bits are invalid.
+    pub enabled: u32,
+    /// Over `dot(reflected, toward_eye)` in [-1, 1].
+    pub toward_camera: refl_fade_range,
+    /// Over `max(|2u - 1|, |2v - 1|)` of the normalized hit position (1 on
+    /// the border).
+    pub border: refl_fade_range,
+    /// Over the ray's travel distance in world units.
+    pub travel: refl_fade_range,
+}
+
+/// Settings of the cone trace (`refl_core::cone::ConeOptions`);
+/// `refl_cone_default_options` gives 8 circles, bias 0, visibility on,
+/// isotropic, 1% depth tolerance.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct refl_cone_options {
+    /// Most circles (clamped to 64).
+    pub max_circles: u32,
+    /// Added to the circle's mip level `log2(2 r)` (-1 is the seed's
+    /// `log2(r)`); finite.
+    pub level_bias: f32,
+    /// Nonzero: weight samples by the pre-integrated visibility.
+    pub use_visibility: u32,
+    /// Largest anisotropic stretch at grazing angles (seed 004
+    /// Sec. 4.6.8), `>= 1`; 1 is isotropic.
+    pub max_stretch: f32,
+    /// Relative depth tolerance of the cone sphere weight, `>= 0`.
+    pub depth_tolerance: f32,
+    /// Nonzero: divide by the accumulated coverage (a weighted mean of the
+    /// samples); zero: the uncovered rest blends the fallback (the seed).
+    pub normalize: u32,
+}
+
+/// A screen-space cone: apex at the reflection ray's start, axis to its
+/// Hi-Z hit (`refl_core::cone::Cone`).
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct refl_cone {
+    /// Apex: the reflection ray's start projected, level-0 pixels.
+    pub apex: refl_vec2,
+    /// Linear depth of the apex, > 0.
+    pub apex_depth: f32,
+    /// The hit pixel (`refl_trace_result::pixel`).
+    pub hit: refl_vec2,
+    /// Linear depth of the hit (`refl_trace_result::depth`), > 0.
+    pub hit_depth: f32,
+    /// Half-angle in radians, in [0, pi/2) (`refl_cone_angle_from_*`).
+    pub theta: f32,
+    /// `dot(normal, toward_eye)` of the reflector, for the anisotropic
+    /// stretch; 1 when unused.
+    pub n_dot_v: f32,
+    /// World distance from the apex to the hit (`refl_trace_result::t`) for
+    /// the view-space cone size, or 0 for the seed's screen-space triangle;
+    /// finite, >= 0.
+    pub travel: f32,
+}
+
+/// What `refl_cone_trace` returns.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct refl_cone_result {
+    /// The integrated color, the uncovered rest blended with the fallback.
+    pub color: refl_vec3,
+    /// Accumulated coverage in [0, 1] (1 - the fallback's weight).
+    pub coverage: f32,
+    /// Circles taken.
+    pub circles: u32,
+    /// Pyramid texels read.
+    pub fetches: u32,
+}
+
+/// Settings of `refl_cone_multiray`.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct refl_multiray_options {
+    /// Rays per pixel, > 0 (seed 003 Sec. 3.5 uses 8 to 49).
+    pub rays: u32,
+    /// Cranley-Patterson rotation of the Hammersley set, finite (e.g.
+    /// hashed from the pixel index).
+    pub rotation: refl_vec2,
+    /// Hi-Z settings of each ray: start level.
+    pub hiz_start_level: u32,
+    /// Hi-Z stop level.
+    pub hiz_stop_level: u32,
+    /// Hi-Z iteration cap.
+    pub hiz_max_iterations: u32,
+    /// Hi-Z prologue steps.
+    pub hiz_prologue_steps: u32,
+}
+
+/// What `refl_cone_multiray` returns.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct refl_multiray_result {
+    /// The Phong-weighted mean color.
+    pub color: refl_vec3,
+    /// Rays traced (not below the surface).
+    pub traced: u32,
+    /// Rays that hit in screen space.
+    pub hits: u32,
+    /// Hi-Z iterations summed over the rays.
+    pub iterations: u32,
+}

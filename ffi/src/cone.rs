@@ -1,0 +1,599 @@
+//! Glossy cone tracing (seed 004 Sec. 4.4.2, 4.4.4, 4.4.5, 4.6.1, 4.6.8)
+//! and the multi-ray alternative (seed 003 Sec. 3.5); `refl_core::cone`
+//! documents the algorithm.
+//!
+//! The color pyramid is one caller buffer of `refl_vec3` texels, the
+//! visibility pyramid one of floats; both have the Hi-Z pyramid's layout
+//! (`refl_hiz_level`) and `refl_cone_pyramid_len` texels.
+
+use crate::hiz::refl_hiz;
+use crate::image::refl_image_vec3;
+use crate::ptr::{byte_len, overlaps, read, Out};
+use crate::status::{guard, refl_status};
+use crate::trace::refl_thickness;
+use crate::types::{
+    convention, refl_cone, refl_cone_fades, refl_cone_options, refl_cone_result,
+    refl_multiray_options, refl_multiray_result, refl_ray, refl_vec2, refl_vec3, REFL_FADE_BORDER,
+    REFL_FADE_TOWARD_CAMERA, REFL_FADE_TRAVEL,
+};
+use refl_core::cone::{
+    try_build_color_level0_rows, try_build_color_level_rows, try_build_visibility_level0_rows,
+    try_build_visibility_level_rows, Cone, ConeOptions, ConePyramids, FadeRange, Fades,
+    MultiRayOptions,
+};
+use refl_core::{Camera, ColorTexel, Error, HiZ, HiZLayout, HiZOptions, HiZTexel, Ray, RowRange};
+
+/// The cone pyramids of one frame, bound together.
+#[repr(C)]
+#[derive(Clone, Copy, Debug)]
+pub struct refl_cone_pyramids {
+    /// The frame's Hi-Z pyramid and camera.
+    pub hiz: refl_hiz,
+    /// The color pyramid (`refl_cone_build_color`).
+    pub color: *const refl_vec3,
+    /// Texels readable from `color`, at least `refl_cone_pyramid_len`'s.
+    pub color_len: usize,
+    /// The visibility pyramid (`refl_cone_build_visibility`).
+    pub visibility: *const f32,
+    /// Floats readable from `visibility`, at least `refl_cone_pyramid_len`'s.
+    pub visibility_len: usize,
+}
+
+/// Checks a caller buffer pointer: `NullPointer`, `InvalidArgument` if
+/// misaligned or impossibly long; returns its byte length.
+fn check<T>(p: *const T, count: usize) -> Result<usize, Error> {
+    if p.is_null() {
+        return Err(Error::NullPointer);
+    }
+    if !p.is_aligned() {
+        return Err(Error::InvalidArgument);
+    }
+    byte_len::<T>(p as usize, count)
+}
+
+/// Binds a `refl_hiz` descriptor.
+///
+/// # Safety
+/// `h.data` NULL or readable for `h.len` texels for `'a`, not written
+/// meanwhile.
+unsafe fn bind_hiz<'a>(h: &refl_hiz) -> Result<HiZ<'a>, Error> {
+    check(h.data, h.len)?;
+    let conv = convention(h.convention)?;
+    let cam = Camera::try_from(&h.camera)?;
+    // SAFETY: non-null, aligned, readable for `len` texels (contract), size
+    // fits isize (check); refl_vec2 is [f32; 2].
+    let data = unsafe { core::slice::from_raw_parts(h.data.cast::<HiZTexel>(), h.len) };
+    HiZ::try_new(data, cam, conv)
+}
+
+/// Binds a `refl_cone_pyramids` descriptor.
+///
+/// # Safety
+/// Every buffer NULL or readable for its length for `'a`, not written
+/// meanwhile.
+unsafe fn bind_pyramids<'a>(p: &refl_cone_pyramids) -> Result<ConePyramids<'a>, Error> {
+    check(p.color, p.color_len)?;
+    check(p.visibility, p.visibility_len)?;
+    // SAFETY: caller contract.
+    let hz = unsafe { bind_hiz(&p.hiz) }?;
+    // SAFETY: non-null, aligned, readable (contract), sizes fit isize
+    // (check); refl_vec3 is [f32; 3].
+    let (color, vis) = unsafe {
+        (
+            core::slice::from_raw_parts(p.color.cast::<ColorTexel>(), p.color_len),
+            core::slice::from_raw_parts(p.visibility, p.visibility_len),
+        )
+    };
+    ConePyramids::try_new(hz, color, vis)
+}
+
+/// The cone half-angle for a Phong specular power (seed 004 Eq. 4.1 with
+/// the acos erratum, xi = 0.244; powers 1024..2048 blend to 0, +infinity
+/// gives 0) into `*out`.
+///
+/// Returns `REFL_STATUS_NULL_POINTER` if `out` is NULL,
+/// `REFL_STATUS_INVALID_ARGUMENT` for a NaN or negative power.
+///
+/// # Safety
+/// `out` must be NULL or writable.
+#[no_mangle]
+pub unsafe extern "C" fn refl_cone_angle_from_phong(out: *mut f32, power: f32) -> refl_status {
+    guard(|| {
+        let out = Out::new(out)?;
+        let t = refl_core::try_cone_angle_from_phong(power)?;
+        // SAFETY: caller contract.
+        unsafe { out.write(t) };
+        Ok(())
+    })
+}
+
+/// The cone half-angle for a perceptual roughness in [0, 1] (Phong power
+/// `2 / r^4 - 2`, `refl_core::cone::try_phong_power_from_roughness`) into
+/// `*out`.
+///
+/// Returns `REFL_STATUS_NULL_POINTER` if `out` is NULL,
+/// `REFL_STATUS_INVALID_ARGUMENT` for NaN or a roughness outside [0, 1].
+///
+/// # Safety
+/// `out` must be NULL or writable.
+#[no_mangle]
+pub unsafe extern "C" fn refl_cone_angle_from_roughness(
+    out: *mut f32,
+    roughness: f32,
+) -> refl_status {
+    guard(|| {
+        let out = Out::new(out)?;
+        let t = refl_core::try_cone_angle_from_roughness(roughness)?;
+        // SAFETY: caller contract.
+        unsafe { out.write(t) };
+        Ok(())
+    })
+}
+
+/// Size query: texels of the color pyramid (`refl_vec3`) and of the
+/// visibility pyramid (`float`) of a `width x height` frame, the same
+/// count, into `*out_len`.
+///
+/// Returns `REFL_STATUS_NULL_POINTER` if `out_len` is NULL,
+/// `REFL_STATUS_INVALID_ARGUMENT` for a zero or overflowing size.
+///
+/// # Safety
+/// `out_len` must be NULL or writable.
+#[no_mangle]
+pub unsafe extern "C" fn refl_cone_pyramid_len(
+    out_len: *mut usize,
+    width: u32,
+    height: u32,
+) -> refl_status {
+    guard(|| {
+        let out = Out::new(out_len)?;
+        let n = refl_core::color_pyramid_len(width, height)?;
+        // SAFETY: caller contract.
+        unsafe { out.write(n) };
+        Ok(())
+    })
+}
+
+/// Builds rows `[row_start, row_end)` of level `level` of the color
+/// pyramid of `*image` in `dst` (level 0 copies the image; level L blurs
+/// level L - 1 with a normalized Gaussian of standard deviation `sigma`
+/// finer texels and halves it). Build level by level; row bands of one
+/// level may run on different threads.
+///
+/// Returns `REFL_STATUS_NULL_POINTER` if `dst`, `image` or its data is
+/// NULL; `REFL_STATUS_INSUFFICIENT_SIZE` if `dst_len` is below
+/// `refl_cone_pyramid_len` or the image is short;
+/// `REFL_STATUS_INVALID_ARGUMENT` for a bad image, a non-finite texel, a
+/// `sigma` not finite and positive, a level or row range out of bounds, a
+/// misaligned pointer, or `dst` overlapping the image. Nothing is written
+/// on error.
+///
+/// # Safety
+/// `dst` NULL or writable for `dst_len` texels; `image` NULL or readable,
+/// its data readable for `len` texels; no other thread writes the rows
+/// written or the level read.
+#[no_mangle]
+pub unsafe extern "C" fn refl_cone_build_color_rows(
+    dst: *mut refl_vec3,
+    dst_len: usize,
+    image: *const refl_image_vec3,
+    level: u32,
+    row_start: u32,
+    row_end: u32,
+    sigma: f32,
+) -> refl_status {
+    guard(|| {
+        let bytes = check(dst.cast_const(), dst_len)?;
+        // SAFETY: caller contract.
+        let img_c = unsafe { read(image) }?;
+        // SAFETY: caller contract.
+        let view = unsafe { img_c.view() }?;
+        let src_bytes = byte_len::<refl_vec3>(img_c.data as usize, img_c.len)?;
+        if overlaps(img_c.data as usize, src_bytes, dst as usize, bytes) {
+            return Err(Error::InvalidArgument);
+        }
+        if !(sigma > 0.0 && sigma.is_finite()) {
+            return Err(Error::InvalidArgument);
+        }
+        let layout = HiZLayout::try_new(view.width(), view.height())?;
+        let lv = layout.level(level).ok_or(Error::InvalidArgument)?;
+        let rows = RowRange::try_new(row_start, row_end, lv.height)?;
+        if dst_len < layout.len() {
+            return Err(Error::InsufficientSize);
+        }
+        let band = layout
+            .rows_range(level, rows)
+            .ok_or(Error::InvalidArgument)?;
+        let base = dst.cast::<ColorTexel>();
+        // SAFETY: `band` lies within the first layout.len() <= dst_len
+        // texels, writable by contract and not touched by other threads.
+        let out = unsafe { core::slice::from_raw_parts_mut(base.add(band.start), band.len()) };
+        if level == 0 {
+            return try_build_color_level0_rows(out, &view, rows);
+        }
+        let f = layout.level(level - 1).ok_or(Error::InvalidArgument)?;
+        // SAFETY: level `level - 1` precedes level `level` (disjoint from
+        // `out`), lies within dst_len and is only read meanwhile.
+        let finer =
+            unsafe { core::slice::from_raw_parts(base.add(f.offset).cast_const(), f.len()) };
+        try_build_color_level_rows(out, finer, &layout, level, rows, sigma)
+    })
+}
+
+/// Builds the whole color pyramid of `*image` into `dst` (seed 004
+/// Sec. 4.4.4 / 4.5.4), as `refl_cone_build_color_rows` level by level.
+/// Every texel is validated first: nothing is written on error.
+///
+/// Returns as `refl_cone_build_color_rows`.
+///
+/// # Safety
+/// As `refl_cone_build_color_rows`.
+#[no_mangle]
+pub unsafe extern "C" fn refl_cone_build_color(
+    dst: *mut refl_vec3,
+    dst_len: usize,
+    image: *const refl_image_vec3,
+    sigma: f32,
+) -> refl_status {
+    guard(|| {
+        let bytes = check(dst.cast_const(), dst_len)?;
+        // SAFETY: caller contract.
+        let img_c = unsafe { read(image) }?;
+        // SAFETY: caller contract.
+        let view = unsafe { img_c.view() }?;
+        let src_bytes = byte_len::<refl_vec3>(img_c.data as usize, img_c.len)?;
+        if overlaps(img_c.data as usize, src_bytes, dst as usize, bytes) {
+            return Err(Error::InvalidArgument);
+        }
+        let n = refl_core::color_pyramid_len(view.width(), view.height())?;
+        if dst_len < n {
+            return Err(Error::InsufficientSize);
+        }
+        // SAFETY: non-null, aligned, writable for dst_len >= n texels
+        // (contract), disjoint from the image (checked).
+        let s = unsafe { core::slice::from_raw_parts_mut(dst.cast::<ColorTexel>(), n) };
+        refl_core::try_build_color_pyramid(s, &view, sigma)
+    })
+}
+
+/// Builds rows `[row_start, row_end)` of level `level` of the visibility
+/// pyramid of `*hiz` in `dst` (level 0: 1 where a foreground surface is,
+/// 0 elsewhere; level L from level L - 1 and the Hi-Z, seed 004
+/// Sec. 4.4.2 / Listing 4.4 as `refl_core::cone` reads it). Build level by
+/// level; row bands of one level may run on different threads.
+///
+/// Returns `REFL_STATUS_NULL_POINTER` if `dst`, `hiz` or its data is NULL;
+/// `REFL_STATUS_INSUFFICIENT_SIZE` if `dst_len` or the pyramid is short;
+/// `REFL_STATUS_INVALID_ARGUMENT` for an unknown convention, a level or row
+/// range out of bounds, a misaligned pointer, or `dst` overlapping the
+/// Hi-Z; the camera's status if it is invalid. Nothing is written on
+/// error.
+///
+/// # Safety
+/// `dst` NULL or writable for `dst_len` floats; `hiz` NULL or readable,
+/// its data readable for `len` texels; no other thread writes the rows
+/// written or the level read.
+#[no_mangle]
+pub unsafe extern "C" fn refl_cone_build_visibility_rows(
+    dst: *mut f32,
+    dst_len: usize,
+    hiz: *const refl_hiz,
+    level: u32,
+    row_start: u32,
+    row_end: u32,
+) -> refl_status {
+    guard(|| {
+        let bytes = check(dst.cast_const(), dst_len)?;
+        // SAFETY: caller contract.
+        let h = unsafe { read(hiz) }?;
+        // SAFETY: caller contract.
+        let hz = unsafe { bind_hiz(&h) }?;
+        let hb = byte_len::<refl_vec2>(h.data as usize, h.len)?;
+        if overlaps(h.data as usize, hb, dst as usize, bytes) {
+            return Err(Error::InvalidArgument);
+        }
+        let layout = *hz.layout();
+        let lv = layout.level(level).ok_or(Error::InvalidArgument)?;
+        let rows = RowRange::try_new(row_start, row_end, lv.height)?;
+        if dst_len < layout.len() {
+            return Err(Error::InsufficientSize);
+        }
+        let band = layout
+            .rows_range(level, rows)
+            .ok_or(Error::InvalidArgument)?;
+        // SAFETY: `band` lies within dst_len floats, writable and not
+        // touched by other threads (contract).
+        let out = unsafe { core::slice::from_raw_parts_mut(dst.add(band.start), band.len()) };
+        if level == 0 {
+            return try_build_visibility_level0_rows(out, &hz, rows);
+        }
+        let f = layout.level(level - 1).ok_or(Error::InvalidArgument)?;
+        // SAFETY: level `level - 1` precedes level `level` (disjoint), lies
+        // within dst_len and is only read meanwhile.
+        let finer = unsafe { core::slice::from_raw_parts(dst.add(f.offset).cast_const(), f.len()) };
+        try_build_visibility_level_rows(out, finer, &hz, level, rows)
+    })
+}
+
+/// Builds the whole visibility pyramid of `*hiz` into `dst`.
+///
+/// Returns as `refl_cone_build_visibility_rows`.
+///
+/// # Safety
+/// As `refl_cone_build_visibility_rows`.
+#[no_mangle]
+pub unsafe extern "C" fn refl_cone_build_visibility(
+    dst: *mut f32,
+    dst_len: usize,
+    hiz: *const refl_hiz,
+) -> refl_status {
+    guard(|| {
+        let bytes = check(dst.cast_const(), dst_len)?;
+        // SAFETY: caller contract.
+        let h = unsafe { read(hiz) }?;
+        // SAFETY: caller contract.
+        let hz = unsafe { bind_hiz(&h) }?;
+        let hb = byte_len::<refl_vec2>(h.data as usize, h.len)?;
+        if overlaps(h.data as usize, hb, dst as usize, bytes) {
+            return Err(Error::InvalidArgument);
+        }
+        let n = hz.layout().len();
+        if dst_len < n {
+            return Err(Error::InsufficientSize);
+        }
+        // SAFETY: non-null, aligned, writable for dst_len >= n floats,
+        // disjoint from the Hi-Z (checked).
+        let s = unsafe { core::slice::from_raw_parts_mut(dst, n) };
+        refl_core::try_build_visibility_pyramid(s, &hz)
+    })
+}
+
+impl From<ConeOptions> for refl_cone_options {
+    fn from(o: ConeOptions) -> Self {
+        Self {
+            max_circles: o.max_circles,
+            level_bias: o.level_bias,
+            use_visibility: u32::from(o.use_visibility),
+            max_stretch: o.max_stretch,
+            depth_tolerance: o.depth_tolerance,
+            normalize: u32::from(o.normalize),
+        }
+    }
+}
+
+impl From<refl_cone_options> for ConeOptions {
+    fn from(o: refl_cone_options) -> Self {
+        Self {
+            max_circles: o.max_circles,
+            level_bias: o.level_bias,
+            use_visibility: o.use_visibility != 0,
+            max_stretch: o.max_stretch,
+            depth_tolerance: o.depth_tolerance,
+            normalize: o.normalize != 0,
+        }
+    }
+}
+
+/// The default cone options into `*out`.
+///
+/// Returns `REFL_STATUS_NULL_POINTER` if `out` is NULL.
+///
+/// # Safety
+/// `out` must be NULL or writable.
+#[no_mangle]
+pub unsafe extern "C" fn refl_cone_default_options(out: *mut refl_cone_options) -> refl_status {
+    guard(|| {
+        let out = Out::new(out)?;
+        // SAFETY: caller contract.
+        unsafe { out.write(ConeOptions::default().into()) };
+        Ok(())
+    })
+}
+
+fn texel(v: refl_vec3) -> ColorTexel {
+    [v.x, v.y, v.z]
+}
+
+fn vec3(c: ColorTexel) -> refl_vec3 {
+    refl_vec3 {
+        x: c[0],
+        y: c[1],
+        z: c[2],
+    }
+}
+
+/// Integrates the cone `*cone` over the pyramids (seed 004 Sec. 4.4.5 /
+/// Listing 4.7): in-radius circles from the hit toward the apex, trilinear
+/// color and visibility, weighted by how far the cone's sphere reaches the
+/// cell's closest depth, until the coverage reaches 1; the rest is
+/// `fallback`. Writes the result to `*out`.
+///
+/// Returns `REFL_STATUS_NULL_POINTER` if `out`, `pyramids` (or one of its
+/// buffers), `cone` or `options` is NULL; `REFL_STATUS_INSUFFICIENT_SIZE`
+/// if a pyramid is shorter than `refl_cone_pyramid_len`;
+/// `REFL_STATUS_INVALID_ARGUMENT` for non-finite or non-positive cone
+/// inputs, a `theta` outside [0, pi/2), a non-finite fallback, bad options,
+/// an unknown convention or a misaligned pointer; the camera's status if it
+/// is invalid.
+///
+/// # Safety
+/// `out` NULL or writable; `pyramids`, `cone` and `options` NULL or
+/// readable; the pyramid buffers readable for their lengths and not written
+/// during the call.
+#[no_mangle]
+pub unsafe extern "C" fn refl_cone_trace(
+    out: *mut refl_cone_result,
+    pyramids: *const refl_cone_pyramids,
+    cone: *const refl_cone,
+    fallback: refl_vec3,
+    options: *const refl_cone_options,
+) -> refl_status {
+    guard(|| {
+        let out = Out::new(out)?;
+        // SAFETY: caller contract.
+        let (p, c, o) = unsafe { (read(pyramids)?, read(cone)?, read(options)?) };
+        // SAFETY: caller contract.
+        let pyr = unsafe { bind_pyramids(&p) }?;
+        let cone = Cone {
+            apex: c.apex.into(),
+            apex_depth: c.apex_depth,
+            hit: c.hit.into(),
+            hit_depth: c.hit_depth,
+            theta: c.theta,
+            n_dot_v: c.n_dot_v,
+            travel: c.travel,
+        };
+        let r = refl_core::try_cone_trace(&pyr, &cone, texel(fallback), &o.into())?;
+        // SAFETY: caller contract.
+        unsafe {
+            out.write(refl_cone_result {
+                color: vec3(r.color),
+                coverage: r.coverage,
+                circles: r.circles,
+                fetches: r.fetches,
+            })
+        };
+        Ok(())
+    })
+}
+
+/// The product of the enabled fades of `*fades` (seed 004 Sec. 4.6.1) for
+/// a reflection ray of unit direction `reflected` seen from the unit
+/// direction `toward_eye`, hitting at pixel `hit` of a `width x height`
+/// frame after traveling `t`, into `*out`. Blend
+/// `fallback + fade * (color - fallback)`.
+///
+/// Returns `REFL_STATUS_NULL_POINTER` if `out` or `fades` is NULL;
+/// `REFL_STATUS_INVALID_ARGUMENT` for unknown bits in `enabled`, an enabled
+/// range that is not finite with `end > start`, a zero size or non-finite
+/// inputs.
+///
+/// # Safety
+/// `out` NULL or writable; `fades` NULL or readable.
+#[no_mangle]
+#[allow(clippy::too_many_arguments)]
+pub unsafe extern "C" fn refl_cone_fade(
+    out: *mut f32,
+    fades: *const refl_cone_fades,
+    reflected: refl_vec3,
+    toward_eye: refl_vec3,
+    hit: refl_vec2,
+    width: u32,
+    height: u32,
+    t: f32,
+) -> refl_status {
+    guard(|| {
+        let out = Out::new(out)?;
+        // SAFETY: caller contract.
+        let f = unsafe { read(fades) }?;
+        let all = REFL_FADE_TOWARD_CAMERA | REFL_FADE_BORDER | REFL_FADE_TRAVEL;
+        if f.enabled & !all != 0 {
+            return Err(Error::InvalidArgument);
+        }
+        let range = |bit: u32, r: crate::types::refl_fade_range| {
+            (f.enabled & bit != 0).then_some(FadeRange {
+                start: r.start,
+                end: r.end,
+            })
+        };
+        let fades = Fades {
+            toward_camera: range(REFL_FADE_TOWARD_CAMERA, f.toward_camera),
+            border: range(REFL_FADE_BORDER, f.border),
+            travel: range(REFL_FADE_TRAVEL, f.travel),
+        };
+        let v = fades.try_factor(
+            reflected.into(),
+            toward_eye.into(),
+            hit.into(),
+            width,
+            height,
+            t,
+        )?;
+        // SAFETY: caller contract.
+        unsafe { out.write(v) };
+        Ok(())
+    })
+}
+
+/// The multi-ray glossy reflection (seed 003 Sec. 3.5,
+/// `refl_core::cone::try_multiray`): `options->rays` directions uniform in
+/// the cone of half-angle `theta` around `ray.dir` (rays below the surface
+/// of unit `normal` skipped), each traced with the Hi-Z from `ray.origin`
+/// over `[0, t_max]`; a hit reads the level-0 color, a miss `fallback`; the
+/// mean is weighted by `cos^power` (the Phong lobe). Writes `*out`.
+///
+/// Returns `REFL_STATUS_NULL_POINTER` if `out`, `pyramids` (or a buffer),
+/// `thickness` or `options` is NULL; `REFL_STATUS_INSUFFICIENT_SIZE` for
+/// short pyramids or a short back-face image;
+/// `REFL_STATUS_INVALID_ARGUMENT` for zero rays, a ray rejected by
+/// `refl_hiz_trace_ray`, a non-finite normal, rotation or fallback, a
+/// `theta` outside [0, pi/2), a NaN or negative power, a bad thickness, an
+/// unknown convention or a misaligned pointer; the camera's status if it is
+/// invalid.
+///
+/// # Safety
+/// As `refl_cone_trace`; `thickness` NULL or readable, a back-face image
+/// readable for its length.
+#[no_mangle]
+#[allow(clippy::too_many_arguments)]
+pub unsafe extern "C" fn refl_cone_multiray(
+    out: *mut refl_multiray_result,
+    pyramids: *const refl_cone_pyramids,
+    thickness: *const refl_thickness,
+    ray: refl_ray,
+    normal: refl_vec3,
+    t_max: f32,
+    theta: f32,
+    power: f32,
+    options: *const refl_multiray_options,
+    fallback: refl_vec3,
+) -> refl_status {
+    guard(|| {
+        let out = Out::new(out)?;
+        // SAFETY: caller contract.
+        let (p, th_c, o) = unsafe { (read(pyramids)?, read(thickness)?, read(options)?) };
+        // SAFETY: caller contract.
+        let pyr = unsafe { bind_pyramids(&p) }?;
+        // SAFETY: caller contract.
+        let th = unsafe { crate::trace::thickness(&th_c) }?;
+        let fb = texel(fallback);
+        if !(fb.iter().all(|c| c.is_finite())) {
+            return Err(Error::InvalidArgument);
+        }
+        let opts = MultiRayOptions {
+            rays: o.rays,
+            rotation: o.rotation.into(),
+            hiz: HiZOptions {
+                start_level: o.hiz_start_level,
+                stop_level: o.hiz_stop_level,
+                max_iterations: o.hiz_max_iterations,
+                prologue_steps: o.hiz_prologue_steps,
+            },
+        };
+        let ray = Ray {
+            origin: ray.origin.into(),
+            dir: ray.dir.into(),
+        };
+        let r = refl_core::try_multiray(
+            &pyr,
+            th,
+            ray,
+            normal.into(),
+            t_max,
+            theta,
+            power,
+            &opts,
+            |_| fb,
+        )?;
+        // SAFETY: caller contract.
+        unsafe {
+            out.write(refl_multiray_result {
+                color: vec3(r.color),
+                traced: r.traced,
+                hits: r.hits,
+                iterations: r.iterations,
+            })
+        };
+        Ok(())
+    })
+}

@@ -1,0 +1,862 @@
+//! Glossy screen-space reflections over the primary view (seed 004 Hi-Z
+//! cone tracing, seed 003 Sec. 3.5 multi-ray) and the glossy study of
+//! `refl report` (methods `cone` and `multiray` against the Monte-Carlo
+//! reference at low sample counts).
+//!
+//! # Pipeline ([`run`])
+//!
+//! Inputs an engine has at this point: the G-buffer, its depth buffer (the
+//! report uses reversed-Z with an infinite far plane) and the
+//! direct-shaded frame color ([`crate::render::direct_image`]: what the
+//! reflected surfaces look like under the one-bounce rule of
+//! [`crate::shade`]). The timed pass:
+//!
+//! 1. Hi-Z pyramid of the depth buffer ([`crate::screen::build_hiz`], row
+//!    bands in parallel).
+//! 2. Cone: the color pyramid of the frame color and the visibility pyramid
+//!    of the Hi-Z (refl-core [`refl_core::cone`]), row bands in parallel.
+//!    Multi-ray: level 0 of the color pyramid only (a copy of the frame).
+//! 3. Per glossy pixel (reflective, roughness > 0): cone: trace the mirror
+//!    ray with the Hi-Z (hit refined by [`refl_core::trace::refine_hit`]);
+//!    on a hit, cone-trace from the hit with the cone
+//!    angle of the pixel's roughness; a miss takes the fallback. Multi-ray:
+//!    `rays` Hi-Z traces in the cone, Phong-weighted.
+//!
+//! The fallback (seed 004 Sec. 4.4.5: "blend in the rest of the visibility
+//! using, say, cube-maps") is the environment map ([`crate::shade::env_map`])
+//! in the mirror direction, unfiltered (the report's environment is
+//! analytic; an engine would use a roughness-filtered probe). Pyramid
+//! buffers are allocated outside the timed part, as an engine keeps them
+//! across frames.
+
+use crate::gbuffer::GBuffer;
+use crate::render::{compare, composite, timed, ImageError, ReflectionImage, Timed};
+use crate::report_out::Row;
+use crate::scene::{phong_exponent, Scene};
+use crate::screen::{build_hiz, reflection_rays, DepthBuffer, ReflectionRays};
+use crate::shade::{env_map, hash32, Shader};
+use crate::tracer::Tracer;
+use glam::{Vec2, Vec3};
+use rayon::prelude::*;
+use refl_core::cone::{
+    try_build_color_level0_rows, try_build_color_level_rows, try_build_visibility_level0_rows,
+    try_build_visibility_level_rows, Cone, ConeOptions, ConePyramids, Fades, MultiRayOptions,
+    DEFAULT_SIGMA,
+};
+use refl_core::hiz::{HiZLayout, HiZOptions, HiZTexel};
+use refl_core::{ColorTexel, DepthConvention, DepthImage, HiZ, RowRange, Thickness};
+use std::fmt::Write as _;
+use std::path::Path;
+
+/// A glossy screen-space method with its setting.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum GlossyMethod {
+    /// Hi-Z trace of the mirror ray, then a cone trace from its hit.
+    Cone {
+        /// Cone-trace options (circles, visibility, stretch).
+        options: ConeOptions,
+        /// Fades of seed 004 Sec. 4.6.1 (blend toward the fallback).
+        fades: Option<Fades>,
+        /// Size the cone from its world travel ([`Cone::travel`]) instead
+        /// of the seed's screen-space triangle.
+        view_space: bool,
+    },
+    /// `rays` Hi-Z traced rays per pixel in the cone, Phong-weighted.
+    MultiRay {
+        /// Rays per pixel.
+        rays: u32,
+    },
+}
+
+impl GlossyMethod {
+    /// Caller-buffer bytes per pixel the method reads besides the G-buffer:
+    /// depth (4) + Hi-Z (8 per texel) + color pyramid (12 per texel) +
+    /// visibility pyramid (4 per texel, cone only), all levels.
+    pub fn bytes_per_pixel(&self, width: u32, height: u32) -> f64 {
+        let texels = HiZLayout::try_new(width, height).map_or(0, |l| l.len()) as f64;
+        let per_texel = match self {
+            GlossyMethod::Cone { .. } => 8.0 + 12.0 + 4.0,
+            GlossyMethod::MultiRay { .. } => 8.0 + 12.0,
+        };
+        4.0 + per_texel * texels / (f64::from(width) * f64::from(height))
+    }
+}
+
+/// Counts of one glossy pass.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct GlossyStats {
+    /// Glossy pixels shaded.
+    pub pixels: usize,
+    /// Cone: pixels whose mirror ray hit in screen space. Multi-ray: rays
+    /// that hit.
+    pub hits: usize,
+    /// Cone: sum of the coverage (1 - fallback weight). Multi-ray: rays
+    /// traced.
+    pub coverage_sum: f64,
+    /// Cone: circles taken. Multi-ray: Hi-Z iterations.
+    pub work: u64,
+}
+
+/// Buffers a glossy pass writes (allocated once, outside the timing).
+pub struct GlossyBuffers {
+    hiz: Vec<HiZTexel>,
+    color: Vec<ColorTexel>,
+    visibility: Vec<f32>,
+}
+
+impl GlossyBuffers {
+    /// Buffers for a `width x height` frame.
+    ///
+    /// # Errors
+    /// As [`HiZLayout::try_new`].
+    pub fn new(width: u32, height: u32) -> Result<Self, refl_core::Error> {
+        let n = HiZLayout::try_new(width, height)?.len();
+        Ok(Self {
+            hiz: vec![[0.0; 2]; n],
+            color: vec![[0.0; 3]; n],
+            visibility: vec![0.0; n],
+        })
+    }
+}
+
+/// The glossy pixels of `g`: reflective with roughness > 0.
+pub fn glossy_mask(g: &GBuffer) -> Vec<bool> {
+    (0..g.len())
+        .map(|i| g.is_reflective(i) && g.roughness[i] > 0.0)
+        .collect()
+}
+
+const BAND: u32 = 16;
+
+/// Builds the color pyramid of `lit` into `dst` in row bands on `pool`
+/// (all levels, or level 0 only).
+fn build_color(
+    dst: &mut [ColorTexel],
+    lit: &[ColorTexel],
+    width: u32,
+    height: u32,
+    all_levels: bool,
+    pool: &rayon::ThreadPool,
+) -> Result<(), refl_core::Error> {
+    let layout = HiZLayout::try_new(width, height)?;
+    let view = refl_core::ImageView::try_new(lit, width, height, width)?;
+    pool.install(|| -> Result<(), refl_core::Error> {
+        let l0 = layout.level(0).ok_or(refl_core::Error::InvalidArgument)?;
+        dst[l0.range()]
+            .par_chunks_mut(BAND as usize * l0.width as usize)
+            .enumerate()
+            .try_for_each(|(k, band)| {
+                let y0 = k as u32 * BAND;
+                let rows = RowRange::try_new(y0, (y0 + BAND).min(l0.height), l0.height)?;
+                try_build_color_level0_rows(band, &view, rows)
+            })?;
+        if !all_levels {
+            return Ok(());
+        }
+        for level in 1..layout.level_count() {
+            let (f, c) = (
+                layout
+                    .level(level - 1)
+                    .ok_or(refl_core::Error::InvalidArgument)?,
+                layout
+                    .level(level)
+                    .ok_or(refl_core::Error::InvalidArgument)?,
+            );
+            let (head, tail) = dst.split_at_mut(c.offset);
+            let finer = &head[f.range()];
+            tail[..c.len()]
+                .par_chunks_mut(BAND as usize * c.width as usize)
+                .enumerate()
+                .try_for_each(|(k, band)| {
+                    let y0 = k as u32 * BAND;
+                    let rows = RowRange::try_new(y0, (y0 + BAND).min(c.height), c.height)?;
+                    try_build_color_level_rows(band, finer, &layout, level, rows, DEFAULT_SIGMA)
+                })?;
+        }
+        Ok(())
+    })
+}
+
+/// Builds the visibility pyramid of `hiz` into `dst` in row bands.
+fn build_visibility(
+    dst: &mut [f32],
+    hiz: &HiZ<'_>,
+    pool: &rayon::ThreadPool,
+) -> Result<(), refl_core::Error> {
+    let layout = *hiz.layout();
+    pool.install(|| -> Result<(), refl_core::Error> {
+        let l0 = layout.level(0).ok_or(refl_core::Error::InvalidArgument)?;
+        dst[l0.range()]
+            .par_chunks_mut(BAND as usize * l0.width as usize)
+            .enumerate()
+            .try_for_each(|(k, band)| {
+                let y0 = k as u32 * BAND;
+                let rows = RowRange::try_new(y0, (y0 + BAND).min(l0.height), l0.height)?;
+                try_build_visibility_level0_rows(band, hiz, rows)
+            })?;
+        for level in 1..layout.level_count() {
+            let (f, c) = (
+                layout
+                    .level(level - 1)
+                    .ok_or(refl_core::Error::InvalidArgument)?,
+                layout
+                    .level(level)
+                    .ok_or(refl_core::Error::InvalidArgument)?,
+            );
+            let (head, tail) = dst.split_at_mut(c.offset);
+            let finer = &head[f.range()];
+            tail[..c.len()]
+                .par_chunks_mut(BAND as usize * c.width as usize)
+                .enumerate()
+                .try_for_each(|(k, band)| {
+                    let y0 = k as u32 * BAND;
+                    let rows = RowRange::try_new(y0, (y0 + BAND).min(c.height), c.height)?;
+                    try_build_visibility_level_rows(band, finer, hiz, level, rows)
+                })?;
+        }
+        Ok(())
+    })
+}
+
+/// Runs `method` on the glossy pixels of `g` (those of `mask`; `rays` must
+/// hold the reflection rays of `g`, [`reflection_rays`]): timed pass as in
+/// the module docs. `lit` is the direct-shaded frame, `fallback` the color
+/// for a direction the screen does not cover.
+///
+/// # Errors
+/// A refl-core error (bad buffers or rays).
+#[allow(clippy::too_many_arguments)]
+pub fn run(
+    method: GlossyMethod,
+    g: &GBuffer,
+    lit: &[Vec3],
+    depth: &DepthImage<'_>,
+    thickness: f32,
+    rays: &ReflectionRays,
+    mask: &[bool],
+    fallback: impl Fn(Vec3) -> Vec3 + Sync,
+    buffers: &mut GlossyBuffers,
+    pool: &rayon::ThreadPool,
+) -> Result<Timed<(ReflectionImage, GlossyStats)>, refl_core::Error> {
+    let lit3: Vec<ColorTexel> = lit.iter().map(|c| c.to_array()).collect();
+    let (w, h) = (g.width(), g.height());
+    let work: Vec<usize> = (0..rays.len())
+        .filter(|&k| mask[rays.pixel[k] as usize])
+        .collect();
+    let t = timed(|| -> Result<_, refl_core::Error> {
+        let GlossyBuffers {
+            hiz,
+            color,
+            visibility,
+        } = buffers;
+        build_hiz(hiz, depth, pool)?;
+        let hz = HiZ::try_new(hiz, *depth.camera(), depth.convention())?;
+        let cone = matches!(method, GlossyMethod::Cone { .. });
+        build_color(color, &lit3, w, h, cone, pool)?;
+        if cone {
+            build_visibility(visibility, &hz, pool)?;
+        }
+        let pyr = ConePyramids::try_new(hz, color, visibility)?;
+        let th = Thickness::Constant(thickness);
+        let cam = g.camera;
+        let results: Vec<Result<(Vec3, GlossyStats), refl_core::Error>> = pool.install(|| {
+            work.par_iter()
+                .with_min_len(64)
+                .map(|&k| {
+                    let i = rays.pixel[k] as usize;
+                    let ray = rays.screen_ray[k];
+                    let roughness = g.roughness[i];
+                    let theta = refl_core::try_cone_angle_from_roughness(roughness.min(1.0))?;
+                    let fb = fallback(ray.dir);
+                    let mut st = GlossyStats {
+                        pixels: 1,
+                        ..GlossyStats::default()
+                    };
+                    match method {
+                        GlossyMethod::Cone {
+                            options,
+                            fades,
+                            view_space,
+                        } => {
+                            let trace = refl_core::try_trace_hiz(
+                                &hz,
+                                th,
+                                ray,
+                                f32::INFINITY,
+                                &HiZOptions::default(),
+                            )?;
+                            let Some(hit) = trace.hit() else {
+                                return Ok((fb, st));
+                            };
+                            // Sub-texel hit (as the report's Hi-Z rows).
+                            let hit = refl_core::trace::refine_hit(depth, &ray, f32::INFINITY, hit);
+                            st.hits = 1;
+                            let apex = cam
+                                .project(ray.origin)
+                                .ok_or(refl_core::Error::DegenerateGeometry)?;
+                            let view = -g.primary_ray(i).dir;
+                            let c = Cone {
+                                apex: apex.truncate(),
+                                apex_depth: apex.z,
+                                hit: hit.pixel,
+                                hit_depth: hit.depth,
+                                theta,
+                                n_dot_v: g.normal[i].dot(view),
+                                travel: if view_space { hit.t } else { 0.0 },
+                            };
+                            let r = refl_core::try_cone_trace(&pyr, &c, fb.to_array(), &options)?;
+                            st.coverage_sum = f64::from(r.coverage);
+                            st.work = u64::from(r.circles);
+                            let mut col = Vec3::from_array(r.color);
+                            if let Some(f) = fades {
+                                let k = f.try_factor(ray.dir, view, hit.pixel, w, h, hit.t)?;
+                                col = Vec3::from_array(refl_core::cone::blend_fade(
+                                    r.color,
+                                    fb.to_array(),
+                                    k,
+                                ));
+                            }
+                            Ok((col, st))
+                        }
+                        GlossyMethod::MultiRay { rays: n } => {
+                            let hsh = hash32(i as u32);
+                            let rotation = Vec2::new(
+                                (hsh & 0xffff) as f32 / 65_536.0,
+                                (hsh >> 16) as f32 / 65_536.0,
+                            );
+                            let opts = MultiRayOptions {
+                                rays: n,
+                                rotation,
+                                hiz: HiZOptions::default(),
+                            };
+                            let power = phong_exponent(roughness).min(1e6);
+                            let r = refl_core::try_multiray(
+                                &pyr,
+                                th,
+                                ray,
+                                g.geo_normal[i],
+                                f32::INFINITY,
+                                theta,
+                                power,
+                                &opts,
+                                |d| fallback(d).to_array(),
+                            )?;
+                            st.hits = r.hits as usize;
+                            st.coverage_sum = f64::from(r.traced);
+                            st.work = u64::from(r.iterations);
+                            Ok((Vec3::from_array(r.color), st))
+                        }
+                    }
+                })
+                .collect()
+        });
+        let mut img = ReflectionImage::empty(w, h);
+        let mut stats = GlossyStats::default();
+        for (&k, r) in work.iter().zip(results) {
+            let (c, s) = r?;
+            let i = rays.pixel[k] as usize;
+            img.rgb[i] = c;
+            img.handled[i] = true;
+            stats.pixels += s.pixels;
+            stats.hits += s.hits;
+            stats.coverage_sum += s.coverage_sum;
+            stats.work += s.work;
+        }
+        Ok((img, stats))
+    });
+    let value = t.value?;
+    Ok(Timed { value, ms: t.ms })
+}
+
+// ------------------------------------------------------------ the study
+
+/// A roughness assignment of the study's room variants.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum Glossiness {
+    /// Every reflective surface gets this roughness.
+    Uniform(f32),
+    /// Roughness rising linearly with world x from `lo` at x = -6 to `hi`
+    /// at x = +6 (the room's width): a ramp across the floor.
+    Ramp(f32, f32),
+}
+
+impl Glossiness {
+    /// Scene label suffix.
+    pub fn label(&self) -> String {
+        match self {
+            Glossiness::Uniform(r) => format!("room-glossy-{r:.2}"),
+            Glossiness::Ramp(lo, hi) => format!("room-ramp-{lo:.2}-{hi:.2}"),
+        }
+    }
+
+    /// Overrides the roughness of every reflective pixel of `g`.
+    pub fn apply(&self, g: &mut GBuffer) {
+        for i in 0..g.len() {
+            if g.is_reflective(i) {
+                g.roughness[i] = match *self {
+                    Glossiness::Uniform(r) => r,
+                    Glossiness::Ramp(lo, hi) => {
+                        let s = ((g.position[i].x + 6.0) / 12.0).clamp(0.0, 1.0);
+                        lo + (hi - lo) * s
+                    }
+                };
+            }
+        }
+    }
+}
+
+/// The study's variants: two glossiness levels (seed 003 Fig. 11) and a
+/// roughness ramp.
+pub const VARIANTS: [Glossiness; 3] = [
+    Glossiness::Uniform(0.2),
+    Glossiness::Uniform(0.35),
+    Glossiness::Ramp(0.1, 0.45),
+];
+
+/// Settings of the study.
+#[derive(Clone, Copy, Debug)]
+pub struct StudySizes {
+    /// Image width.
+    pub width: u32,
+    /// Image height.
+    pub height: u32,
+    /// Samples per pixel of the converged reference (its noise is checked
+    /// against the reference at half as many).
+    pub truth_samples: u32,
+    /// Timed repetitions (median).
+    pub runs: usize,
+    /// `--quick`: fewer settings, variants and samples.
+    pub quick: bool,
+}
+
+/// The cone settings of the study: 4, 8 and 16 circles with the seed's
+/// screen-space triangle and rule (the uncovered rest takes the fallback),
+/// the same normalized ([`ConeOptions::normalize`]), and normalized with the
+/// view-space cone size ([`Cone::travel`]); at 8 circles, normalized:
+/// visibility off, anisotropic stretch, fades. `--quick`: 4 and 16 circles,
+/// normalized.
+pub fn cone_settings(quick: bool) -> Vec<(GlossyMethod, String)> {
+    let base = ConeOptions::default();
+    let cone = |options: ConeOptions, fades: Option<Fades>, view_space: bool, s: String| {
+        (
+            GlossyMethod::Cone {
+                options,
+                fades,
+                view_space,
+            },
+            s,
+        )
+    };
+    let norm = |c: u32| ConeOptions {
+        max_circles: c,
+        normalize: true,
+        ..base
+    };
+    let mut v = Vec::new();
+    if quick {
+        for c in [4, 16] {
+            v.push(cone(norm(c), None, false, format!("circles={c};normalize")));
+        }
+        return v;
+    }
+    for c in [4, 8, 16] {
+        v.push(cone(
+            ConeOptions {
+                max_circles: c,
+                ..base
+            },
+            None,
+            false,
+            format!("circles={c}"),
+        ));
+    }
+    for c in [4, 8, 16] {
+        v.push(cone(norm(c), None, false, format!("circles={c};normalize")));
+    }
+    for c in [4, 8, 16] {
+        v.push(cone(
+            norm(c),
+            None,
+            true,
+            format!("circles={c};normalize;view"),
+        ));
+    }
+    v.push(cone(
+        ConeOptions {
+            use_visibility: false,
+            ..norm(8)
+        },
+        None,
+        false,
+        "circles=8;normalize;visibility=off".into(),
+    ));
+    v.push(cone(
+        ConeOptions {
+            max_stretch: 4.0,
+            ..norm(8)
+        },
+        None,
+        false,
+        "circles=8;normalize;stretch=4".into(),
+    ));
+    v.push(cone(
+        norm(8),
+        Some(Fades {
+            toward_camera: Some(refl_core::FadeRange {
+                start: 0.2,
+                end: 0.6,
+            }),
+            border: Some(refl_core::FadeRange {
+                start: 0.85,
+                end: 1.0,
+            }),
+            travel: None,
+        }),
+        false,
+        "circles=8;normalize;fades=camera+border".into(),
+    ));
+    v
+}
+
+/// The multi-ray settings of the study (seed 003 Sec. 3.5: 8 to 49).
+pub fn multiray_settings(quick: bool) -> Vec<(GlossyMethod, String)> {
+    let counts: &[u32] = if quick { &[8] } else { &[8, 16, 49] };
+    counts
+        .iter()
+        .map(|&n| (GlossyMethod::MultiRay { rays: n }, format!("rays={n}")))
+        .collect()
+}
+
+/// The reference sample counts of the study's `reference` rows.
+pub fn reference_counts(quick: bool) -> &'static [u32] {
+    if quick {
+        &[8]
+    } else {
+        &[8, 32, 64]
+    }
+}
+
+fn median_ms<T>(runs: usize, mut f: impl FnMut() -> Timed<T>) -> (T, f64) {
+    let mut first = None;
+    let mut times = Vec::new();
+    for _ in 0..runs.max(1) {
+        let t = f();
+        times.push(t.ms);
+        first.get_or_insert(t.value);
+    }
+    (first.expect("runs >= 1"), crate::render::median(times))
+}
+
+#[allow(clippy::too_many_arguments)]
+fn row(
+    scene: &str,
+    method: &str,
+    setting: &str,
+    threads: usize,
+    ms: f64,
+    reference_ms: f64,
+    coverage: f64,
+    err: &ImageError,
+    extra: Vec<(String, String)>,
+) -> Row {
+    Row {
+        scene: scene.to_owned(),
+        method: method.to_owned(),
+        setting: setting.to_owned(),
+        threads,
+        time_ms: ms,
+        reference_ms,
+        speedup: if ms > 0.0 {
+            reference_ms / ms
+        } else {
+            f64::INFINITY
+        },
+        coverage,
+        mean_abs_255: err.mean_abs,
+        psnr_db: err.psnr,
+        share_over_8: err.share_over_8(),
+        extra,
+    }
+}
+
+/// The reference time at error `e`, interpolated from the `(error, ms)` of
+/// the reference rows in log-log (error falling like `spp^-1/2`, so time
+/// grows like `e^-2` beyond the measured range).
+pub fn reference_ms_at_error(points: &[(f64, f64)], e: f64) -> Option<f64> {
+    let mut p: Vec<(f64, f64)> = points
+        .iter()
+        .copied()
+        .filter(|(err, ms)| *err > 0.0 && *ms > 0.0)
+        .collect();
+    if p.is_empty() || !(e > 0.0) {
+        return None;
+    }
+    p.sort_by(|a, b| b.0.total_cmp(&a.0));
+    // Beyond the range: extrapolate with time ~ error^-2 from the end point.
+    if e >= p[0].0 {
+        return Some(p[0].1 * (p[0].0 / e).powi(2));
+    }
+    let last = p[p.len() - 1];
+    if e <= last.0 {
+        return Some(last.1 * (last.0 / e).powi(2));
+    }
+    for w in p.windows(2) {
+        let ((e0, t0), (e1, t1)) = (w[0], w[1]);
+        if e <= e0 && e >= e1 {
+            let s = (e.ln() - e0.ln()) / (e1.ln() - e0.ln());
+            return Some((t0.ln() + s * (t1.ln() - t0.ln())).exp());
+        }
+    }
+    None
+}
+
+/// Runs the glossy study on the room: per variant, the converged reference
+/// (and its noise check at half the samples), the `reference` rows at low
+/// sample counts, `cone` and `multiray` rows; all on the glossy pixels,
+/// same threads. Returns the rows and a Markdown section.
+///
+/// # Errors
+/// A message for a failed render or write.
+#[allow(clippy::too_many_arguments)]
+pub fn report_rows(
+    scene: &Scene,
+    tracer: &Tracer,
+    sizes: StudySizes,
+    methods: (bool, bool),
+    threads: usize,
+    pool: &rayon::ThreadPool,
+    images: &Path,
+) -> Result<(Vec<Row>, String), String> {
+    let shader = Shader::new(scene, tracer);
+    let camera = scene
+        .camera(0, sizes.width, sizes.height)
+        .map_err(|e| format!("glossy study: camera: {e}"))?;
+    let variants: &[Glossiness] = if sizes.quick {
+        &VARIANTS[..1]
+    } else {
+        &VARIANTS
+    };
+    let mut rows = Vec::new();
+    let mut md = String::from(
+        "\n## Glossy reflections (cone tracing, multi-ray, Monte-Carlo reference)\n\n\
+         Room, camera pose 0, every reflective surface made glossy (two levels and a roughness ramp across \
+         the room). Error on the glossy pixels (mean absolute difference on 0..255 of 8-bit sRGB composites, \
+         PSNR) against the converged Monte-Carlo reference (Phong-lobe importance sampling, obvhs); \
+         time is the whole reflection pass on those pixels, same threads. Cone and multi-ray include building \
+         the Hi-Z, color and visibility pyramids; rays the screen cannot answer take the environment map.\n\n",
+    );
+    for variant in variants {
+        let label = variant.label();
+        let mut g = GBuffer::render(scene, tracer, &camera, pool);
+        variant.apply(&mut g);
+        let mask = glossy_mask(&g);
+        let n_glossy = mask.iter().filter(|&&m| m).count();
+        if n_glossy == 0 {
+            let _ = writeln!(md, "- `{label}`: no glossy pixels in view, skipped");
+            continue;
+        }
+        let direct = crate::render::direct_image(&shader, &g, pool);
+        let truth_t = timed(|| {
+            crate::render::reference_masked(&shader, &g, sizes.truth_samples, &mask, pool)
+        });
+        let half = crate::render::reference_masked(
+            &shader,
+            &g,
+            (sizes.truth_samples / 2).max(1),
+            &mask,
+            pool,
+        );
+        let truth_final = composite(&g, &direct, &truth_t.value);
+        let half_final = composite(&g, &direct, &half);
+        let noise = compare(&truth_final, &half_final, &mask);
+        // The difference of independent estimates at N and N/2 samples has
+        // variance 3 sigma_N^2: the N-sample noise is about MAD / sqrt(3).
+        let _ = writeln!(
+            md,
+            "- `{label}`: {n_glossy} glossy pixels; converged reference {} spp ({:.0} ms); its difference to \
+             {} spp: MAD {:.3}/255, PSNR {:.1} dB, so its own noise is about {:.3}/255",
+            sizes.truth_samples,
+            truth_t.ms,
+            sizes.truth_samples / 2,
+            noise.mean_abs,
+            noise.psnr,
+            noise.mean_abs / 3f64.sqrt()
+        );
+        crate::render::save_png(
+            &images.join(format!("{label}_reference.png")),
+            g.width(),
+            g.height(),
+            &truth_final,
+        )
+        .map_err(|e| e.to_string())?;
+
+        // Glossy pixels whose mirror ray's true hit is visible in the depth
+        // buffer: what screen space can answer at all (the rest is bias of
+        // every screen-space method, reported separately).
+        let rays = reflection_rays(scene, tracer, &shader, &g, pool);
+        let mut visible = vec![false; g.len()];
+        for k in 0..rays.len() {
+            let i = rays.pixel[k] as usize;
+            visible[i] = mask[i] && rays.visible[k];
+        }
+        let n_visible = visible.iter().filter(|&&v| v).count();
+        let _ = writeln!(
+            md,
+            "  - {n_visible} of them ({:.1}%) have a mirror ray whose true hit is visible on screen",
+            100.0 * n_visible as f64 / n_glossy as f64
+        );
+        let visible_err = |fin: &[Vec3]| compare(&truth_final, fin, &visible).mean_abs;
+        let mut ref_points = Vec::new();
+        for &spp in reference_counts(sizes.quick) {
+            let (img, ms) = median_ms(sizes.runs, || {
+                timed(|| crate::render::reference_masked(&shader, &g, spp, &mask, pool))
+            });
+            let fin = composite(&g, &direct, &img);
+            let err = compare(&truth_final, &fin, &mask);
+            ref_points.push((err.mean_abs, ms));
+            rows.push(row(
+                &label,
+                "reference",
+                &format!("glossy_spp={spp}"),
+                threads,
+                ms,
+                truth_t.ms,
+                1.0,
+                &err,
+                vec![
+                    ("glossy_pixels".into(), n_glossy.to_string()),
+                    (
+                        "mean_abs_255_visible".into(),
+                        format!("{:.4}", visible_err(&fin)),
+                    ),
+                ],
+            ));
+        }
+
+        let mut settings = Vec::new();
+        if methods.0 {
+            settings.extend(cone_settings(sizes.quick).into_iter().map(|s| ("cone", s)));
+        }
+        if methods.1 {
+            settings.extend(
+                multiray_settings(sizes.quick)
+                    .into_iter()
+                    .map(|s| ("multiray", s)),
+            );
+        }
+        if settings.is_empty() {
+            continue;
+        }
+        let depth = DepthBuffer::new(&g, DepthConvention::ReversedZ, f32::INFINITY)
+            .map_err(|e| e.to_string())?;
+        let image = depth.image().map_err(|e| e.to_string())?;
+        let thickness = scene.diameter() * crate::screen::THICKNESS_OF_DIAMETER;
+        let mut buffers = GlossyBuffers::new(g.width(), g.height()).map_err(|e| e.to_string())?;
+        // The reference time on the same pixels: the converged one, scaled
+        // per sample (reported as the reference_ms of every row).
+        let truth_ms = truth_t.ms;
+        for (name, (method, setting)) in settings {
+            let mut times = Vec::new();
+            let mut first = None;
+            for _ in 0..sizes.runs.max(1) {
+                let t = run(
+                    method,
+                    &g,
+                    &direct,
+                    &image,
+                    thickness,
+                    &rays,
+                    &mask,
+                    env_map,
+                    &mut buffers,
+                    pool,
+                )
+                .map_err(|e| format!("{label} {name} {setting}: {e}"))?;
+                times.push(t.ms);
+                first.get_or_insert(t.value);
+            }
+            let ms = crate::render::median(times);
+            let (img, stats) = first.ok_or("no run")?;
+            let fin = composite(&g, &direct, &img);
+            let err = compare(&truth_final, &fin, &mask);
+            let eq = reference_ms_at_error(&ref_points, err.mean_abs);
+            let mut extra = vec![
+                ("glossy_pixels".into(), n_glossy.to_string()),
+                (
+                    "mean_abs_255_visible".into(),
+                    format!("{:.4}", visible_err(&fin)),
+                ),
+                (
+                    "bytes_per_pixel".into(),
+                    format!("{:.2}", method.bytes_per_pixel(g.width(), g.height())),
+                ),
+                (
+                    "ref_ms_at_equal_error".into(),
+                    eq.map_or("-".into(), |t| format!("{t:.2}")),
+                ),
+                (
+                    "speedup_at_equal_error".into(),
+                    eq.map_or("-".into(), |t| format!("{:.2}", t / ms)),
+                ),
+            ];
+            match method {
+                GlossyMethod::Cone { .. } => {
+                    extra.push((
+                        "axis_hit_share".into(),
+                        format!("{:.4}", stats.hits as f64 / stats.pixels.max(1) as f64),
+                    ));
+                    extra.push((
+                        "mean_coverage".into(),
+                        format!("{:.4}", stats.coverage_sum / stats.hits.max(1) as f64),
+                    ));
+                    extra.push((
+                        "circles_per_hit".into(),
+                        format!("{:.2}", stats.work as f64 / stats.hits.max(1) as f64),
+                    ));
+                }
+                GlossyMethod::MultiRay { .. } => {
+                    extra.push((
+                        "ray_hit_share".into(),
+                        format!("{:.4}", stats.hits as f64 / stats.coverage_sum.max(1.0)),
+                    ));
+                }
+            }
+            rows.push(row(
+                &label, name, &setting, threads, ms, truth_ms, 1.0, &err, extra,
+            ));
+            let stem = format!(
+                "{label}_{name}_{}",
+                setting.replace(['=', ';', '/', '+'], "-")
+            );
+            crate::render::save_png(
+                &images.join(format!("{stem}.png")),
+                g.width(),
+                g.height(),
+                &fin,
+            )
+            .map_err(|e| e.to_string())?;
+            let diff: Vec<Vec3> = (0..fin.len())
+                .map(|i| {
+                    if mask[i] {
+                        ((truth_final[i] - fin[i]).abs() * 8.0).min(Vec3::ONE)
+                    } else {
+                        Vec3::ZERO
+                    }
+                })
+                .collect();
+            crate::render::save_png(
+                &images.join(format!("{stem}_diff.png")),
+                g.width(),
+                g.height(),
+                &diff,
+            )
+            .map_err(|e| e.to_string())?;
+        }
+    }
+    md.push_str(
+        "\n`speedup_at_equal_error`: the reference's time at the cone's (or multi-ray's) error, interpolated \
+         in log-log between the `reference` rows (extrapolated with time ~ error^-2), over the method's time. \
+         Images: `<variant>_reference.png`, `<variant>_<method>_<setting>.png` and `_diff.png` (8x).\n",
+    );
+    Ok((rows, md))
+}
