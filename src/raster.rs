@@ -43,7 +43,7 @@ use refl_core::{Camera, Plane};
 pub const BAND_ROWS: u32 = 8;
 
 /// Triangles per setup work item.
-const SETUP_CHUNK: usize = 4096;
+pub const SETUP_CHUNK: usize = 4096;
 
 /// A half-open pixel rectangle `[x0, x1) x [y0, y1)`.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]

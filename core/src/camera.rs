@@ -72,8 +72,8 @@ impl Ray {
 ///
 /// The view transform maps world to view space. Its 3x3 part must be
 /// orthonormal (a rotation, or a rotation times a reflection for a mirrored
-/// camera, see [`crate::mirror::mirrored_camera`]), so that view-space lengths
-/// are world-space lengths and linear depth is a distance.
+/// camera, see `mirror::mirrored_camera`, feature `mirror`), so that
+/// view-space lengths are world-space lengths and linear depth is a distance.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Camera {
     view: Mat4,

@@ -1,7 +1,8 @@
 //! Shared vocabulary of the ray / depth-image kernels: the depth image a ray
 //! is traced against, surface thickness, the hit/miss result and the work
-//! counters. Used by per-pixel stepping ([`crate::step`], seed 003 Sec. 3.4)
-//! and Hi-Z traversal ([`crate::hiz`], seed 004 Sec. 4.4.1).
+//! counters. Used by per-pixel stepping (the `step` module, feature
+//! `depth-image`, seed 003 Sec. 3.4) and Hi-Z traversal (the `hiz` module,
+//! feature `hiz`, seed 004 Sec. 4.4.1).
 //!
 //! Contract shared by every kernel that returns a [`Trace`]:
 //! * the ray is a world-space [`Ray`] with a unit direction and a maximum

@@ -1,3 +1,4 @@
+#![cfg(feature = "mirror")]
 //! Reflection vector, planes, mirror matrix and mirrored camera against f64
 //! oracles, including stiff and degenerate cases.
 

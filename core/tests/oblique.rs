@@ -1,3 +1,4 @@
+#![cfg(feature = "mirror")]
 //! Oblique near-plane projection against an f64 evaluation of the plane
 //! side: depth clipping must do exactly the mirror-plane clipping.
 
