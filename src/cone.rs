@@ -23,13 +23,19 @@
 //!    `rays` Hi-Z traces in the cone, Phong-weighted.
 //!
 //! The fallback (seed 004 Sec. 4.4.5: "blend in the rest of the visibility
-//! using, say, cube-maps") is the environment map ([`crate::shade::env_map`])
-//! in the mirror direction, unfiltered (the report's environment is
-//! analytic; an engine would use a roughness-filtered probe). Pyramid
-//! buffers are allocated outside the timed part, as an engine keeps them
-//! across frames.
+//! using, say, cube-maps") is a caller function of the direction and the
+//! pixel's roughness. The cone asks it for the mirror direction and the
+//! pixel's roughness; the report passes the roughness-prefiltered probe
+//! ([`crate::probe::PrefilteredEnv`], built once per scene outside the timed
+//! pass, as an engine prefilters probes at load) and, for one comparison
+//! row, the unfiltered environment map ([`crate::shade::env_map`]).
+//! Multi-ray asks it for each missed ray's own direction with roughness 0:
+//! that ray is already a lobe sample, so its miss takes the unfiltered
+//! environment. Pyramid buffers are allocated outside the timed part, as an
+//! engine keeps them across frames.
 
 use crate::gbuffer::GBuffer;
+use crate::probe::{PrefilteredEnv, ProbeSizes};
 use crate::render::{compare, composite, timed, ImageError, ReflectionImage, Timed};
 use crate::report_out::Row;
 use crate::scene::{phong_exponent, Scene};
@@ -220,8 +226,10 @@ fn build_visibility(
 
 /// Runs `method` on the glossy pixels of `g` (those of `mask`; `rays` must
 /// hold the reflection rays of `g`, [`reflection_rays`]): timed pass as in
-/// the module docs. `lit` is the direct-shaded frame, `fallback` the color
-/// for a direction the screen does not cover.
+/// the module docs. `lit` is the direct-shaded frame, `fallback(dir,
+/// roughness)` the color for a direction the screen does not cover (the
+/// cone: mirror direction and the pixel's roughness; multi-ray: each missed
+/// ray's direction and 0).
 ///
 /// # Errors
 /// A refl-core error (bad buffers or rays).
@@ -234,7 +242,7 @@ pub fn run(
     thickness: f32,
     rays: &ReflectionRays,
     mask: &[bool],
-    fallback: impl Fn(Vec3) -> Vec3 + Sync,
+    fallback: impl Fn(Vec3, f32) -> Vec3 + Sync,
     buffers: &mut GlossyBuffers,
     pool: &rayon::ThreadPool,
 ) -> Result<Timed<(ReflectionImage, GlossyStats)>, refl_core::Error> {
@@ -267,7 +275,7 @@ pub fn run(
                     let ray = rays.screen_ray[k];
                     let roughness = g.roughness[i];
                     let theta = refl_core::try_cone_angle_from_roughness(roughness.min(1.0))?;
-                    let fb = fallback(ray.dir);
+                    let fb = fallback(ray.dir, roughness);
                     let mut st = GlossyStats {
                         pixels: 1,
                         ..GlossyStats::default()
@@ -339,7 +347,7 @@ pub fn run(
                                 theta,
                                 power,
                                 &opts,
-                                |d| fallback(d).to_array(),
+                                |d| fallback(d, 0.0).to_array(),
                             )?;
                             st.hits = r.hits as usize;
                             st.coverage_sum = f64::from(r.traced);
@@ -637,13 +645,44 @@ pub fn report_rows(
         &VARIANTS
     };
     let mut rows = Vec::new();
+    // The cone's fallback: the environment pre-filtered per roughness, built
+    // once per scene outside the timed passes (an engine prefilters its
+    // probes at load).
+    let probe_sizes = if sizes.quick {
+        ProbeSizes::QUICK
+    } else {
+        ProbeSizes::DEFAULT
+    };
+    let probe_t = timed(|| pool.install(|| PrefilteredEnv::build(env_map, probe_sizes)));
+    let probe_ms = probe_t.ms;
+    let probe = probe_t.value;
     let mut md = String::from(
         "\n## Glossy reflections (cone tracing, multi-ray, Monte-Carlo reference)\n\n\
          Room, camera pose 0, every reflective surface made glossy (two levels and a roughness ramp across \
          the room). Error on the glossy pixels (mean absolute difference on 0..255 of 8-bit sRGB composites, \
          PSNR) against the converged Monte-Carlo reference (Phong-lobe importance sampling, obvhs); \
          time is the whole reflection pass on those pixels, same threads. Cone and multi-ray include building \
-         the Hi-Z, color and visibility pyramids; rays the screen cannot answer take the environment map.\n\n",
+         the Hi-Z, color and visibility pyramids. Where the cone's mirror ray finds no hit on screen, or its \
+         circles do not cover the lobe, the cone takes the environment pre-filtered for the pixel's roughness \
+         (`src/probe.rs`; the row with `;fallback=unfiltered` takes the unfiltered environment in the mirror \
+         direction instead); multi-ray rays that miss take the environment in their own direction.\n\n",
+    );
+    let dims = probe.level_dims();
+    let _ = writeln!(
+        md,
+        "- Pre-filtered environment probe: {} roughness levels 0..{:.2} (level 0 unfiltered), lat-long \
+         {}x{} down to {}x{} texels, {} texels ({:.2} MB), {} lobe samples per texel; built in {:.0} ms \
+         ({threads} threads, once per scene, not in the timed passes)",
+        probe.level_count(),
+        probe.sizes().max_roughness,
+        dims[0].0,
+        dims[0].1,
+        dims[dims.len() - 1].0,
+        dims[dims.len() - 1].1,
+        probe.texel_count(),
+        probe.bytes() as f64 / 1e6,
+        probe.sizes().samples,
+        probe_ms
     );
     for variant in variants {
         let label = variant.label();
@@ -733,15 +772,27 @@ pub fn report_rows(
             ));
         }
 
+        // (method name, (method, setting), unfiltered fallback)
         let mut settings = Vec::new();
         if methods.0 {
-            settings.extend(cone_settings(sizes.quick).into_iter().map(|s| ("cone", s)));
+            let cones = cone_settings(sizes.quick);
+            let best = if sizes.quick {
+                "circles=16;normalize"
+            } else {
+                "circles=8;normalize;visibility=off"
+            };
+            let unfiltered = cones
+                .iter()
+                .find(|(_, s)| s == best)
+                .map(|(m, s)| (*m, format!("{s};fallback=unfiltered")));
+            settings.extend(cones.into_iter().map(|s| ("cone", s, false)));
+            settings.extend(unfiltered.map(|s| ("cone", s, true)));
         }
         if methods.1 {
             settings.extend(
                 multiray_settings(sizes.quick)
                     .into_iter()
-                    .map(|s| ("multiray", s)),
+                    .map(|s| ("multiray", s, false)),
             );
         }
         if settings.is_empty() {
@@ -755,7 +806,16 @@ pub fn report_rows(
         // The reference time on the same pixels: the converged one, scaled
         // per sample (reported as the reference_ms of every row).
         let truth_ms = truth_t.ms;
-        for (name, (method, setting)) in settings {
+        for (name, (method, setting), unfiltered) in settings {
+            // Roughness 0 (multi-ray's own lobe samples) takes the analytic
+            // environment exactly.
+            let fallback = |d: Vec3, r: f32| {
+                if unfiltered || !(r > 0.0) {
+                    env_map(d)
+                } else {
+                    probe.sample(d, r)
+                }
+            };
             let mut times = Vec::new();
             let mut first = None;
             for _ in 0..sizes.runs.max(1) {
@@ -767,7 +827,7 @@ pub fn report_rows(
                     thickness,
                     &rays,
                     &mask,
-                    env_map,
+                    fallback,
                     &mut buffers,
                     pool,
                 )

@@ -14,6 +14,7 @@ pub mod gbuffer;
 pub mod growth;
 pub mod layered;
 pub mod layered_render;
+pub mod probe;
 pub mod raster;
 pub mod render;
 pub mod report;

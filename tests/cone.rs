@@ -67,7 +67,7 @@ fn go(
     s: &Setup,
     m: GlossyMethod,
     lit: &[Vec3],
-    fallback: impl Fn(Vec3) -> Vec3 + Sync,
+    fallback: impl Fn(Vec3, f32) -> Vec3 + Sync,
 ) -> (ReflectionImage, GlossyStats) {
     let mask = glossy_mask(&s.g);
     let mut buf = GlossyBuffers::new(W, H).unwrap();
@@ -108,7 +108,7 @@ fn uniform_frame_reflects_its_color_exactly() {
         },
         GlossyMethod::MultiRay { rays: 8 },
     ] {
-        let (img, st) = go(&s, m, &lit, |_| c);
+        let (img, st) = go(&s, m, &lit, |_, _| c);
         assert_eq!(st.pixels, mask.iter().filter(|&&m| m).count());
         for i in 0..mask.len() {
             assert_eq!(img.handled[i], mask[i]);
@@ -124,7 +124,7 @@ fn uniform_frame_reflects_its_color_exactly() {
     // A different fallback: normalized cones that hit show the frame's
     // color exactly; unnormalized ones lie between frame and fallback.
     let f = Vec3::new(1.0, 0.0, 0.0);
-    let (img, st) = go(&s, cone(8, true), &lit, |_| f);
+    let (img, st) = go(&s, cone(8, true), &lit, |_, _| f);
     assert!(st.hits > 100, "{st:?}");
     let frame_colored = (0..mask.len())
         .filter(|&i| mask[i] && (img.rgb[i] - c).abs().max_element() < 1e-5)
@@ -134,13 +134,44 @@ fn uniform_frame_reflects_its_color_exactly() {
         "{frame_colored} of {}",
         st.hits
     );
-    let (img, _) = go(&s, cone(8, false), &lit, |_| f);
+    let (img, _) = go(&s, cone(8, false), &lit, |_, _| f);
     for i in (0..mask.len()).filter(|&i| mask[i]) {
         let p = img.rgb[i];
         // On the segment from f to c.
         let t = (p.y - f.y) / (c.y - f.y);
         assert!((-1e-5..=1.0 + 1e-5).contains(&t));
         assert!((f + (c - f) * t - p).abs().max_element() < 1e-4);
+    }
+}
+
+#[test]
+fn cone_fallback_gets_the_pixel_roughness_multiray_gets_zero() {
+    // A ramp: every glossy pixel has its own roughness. Cone pixels whose
+    // mirror ray misses show exactly fallback(dir, their roughness).
+    let s = setup(Glossiness::Ramp(0.1, 0.45));
+    let mask = glossy_mask(&s.g);
+    let lit = vec![Vec3::new(0.0, 0.0, 1.0); s.g.len()];
+    let fb = |_: Vec3, r: f32| Vec3::new(r, 1.0 - r, 0.0);
+    let (img, st) = go(&s, cone(8, true), &lit, fb);
+    let misses = st.pixels - st.hits;
+    assert!(misses > 100, "{st:?}");
+    let own = (0..mask.len())
+        .filter(|&i| {
+            mask[i]
+                && (img.rgb[i] - fb(Vec3::Y, s.g.roughness[i]))
+                    .abs()
+                    .max_element()
+                    < 1e-6
+        })
+        .count();
+    assert!(own >= misses, "{own} of {misses} misses");
+    // Multi-ray: each missed ray asks for roughness 0.
+    let (img, st) = go(&s, GlossyMethod::MultiRay { rays: 8 }, &lit, fb);
+    assert!(st.hits < st.coverage_sum as usize, "{st:?}");
+    for i in (0..mask.len()).filter(|&i| mask[i]) {
+        let p = img.rgb[i];
+        // A mix of the frame's blue and fallback(_, 0) = green only.
+        assert!(p.x.abs() < 1e-6, "{i}: {p}");
     }
 }
 
@@ -156,7 +187,7 @@ fn cone_beats_the_fallback_and_improves_with_circles() {
         &reference_masked(&shader, &s.g, 64, &mask, &s.pool),
     );
     let err = |m: GlossyMethod| {
-        let (img, _) = go(&s, m, &direct, env_map);
+        let (img, _) = go(&s, m, &direct, |d, _| env_map(d));
         compare(&truth, &composite(&s.g, &direct, &img), &mask).mean_abs
     };
     let (none, one, sixteen, normalized) = (

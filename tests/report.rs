@@ -124,6 +124,7 @@ fn quick_report_writes_summary_plot_and_images() {
     for (m, set) in [
         ("cone", "circles=4;normalize"),
         ("cone", "circles=16;normalize"),
+        ("cone", "circles=16;normalize;fallback=unfiltered"),
         ("multiray", "rays=8"),
     ] {
         let r = find(glossy, m, set);
@@ -134,6 +135,16 @@ fn quick_report_writes_summary_plot_and_images() {
         assert_eq!(num(r, "glossy_pixels"), num(reference8, "glossy_pixels"));
     }
     assert!(num(reference8, "mean_abs_255") > 0.0);
+    // The pre-filtered probe is only the fallback: same pixels, same hits.
+    let (probe, unfiltered) = (
+        find(glossy, "cone", "circles=16;normalize"),
+        find(glossy, "cone", "circles=16;normalize;fallback=unfiltered"),
+    );
+    assert_eq!(
+        num(probe, "axis_hit_share"),
+        num(unfiltered, "axis_hit_share")
+    );
+    assert_ne!(num(probe, "mean_abs_255"), num(unfiltered, "mean_abs_255"));
 
     // Concave: no planar mirror and no glossy surface, so planar-mirror is
     // skipped and the reference needs no sample-count sweep.
@@ -144,6 +155,10 @@ fn quick_report_writes_summary_plot_and_images() {
     let md = std::fs::read_to_string(out.join("summary.md")).unwrap();
     assert!(
         md.contains("`planar-mirror` skipped: no planar mirror in view"),
+        "{md}"
+    );
+    assert!(
+        md.contains("Pre-filtered environment probe: 11 roughness levels"),
         "{md}"
     );
 
