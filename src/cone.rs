@@ -785,8 +785,15 @@ pub fn report_rows(
                 .iter()
                 .find(|(_, s)| s == best)
                 .map(|(m, s)| (*m, format!("{s};fallback=unfiltered")));
-            settings.extend(cones.into_iter().map(|s| ("cone", s, false)));
-            settings.extend(unfiltered.map(|s| ("cone", s, true)));
+            // The unfiltered row right after its probe row (same cache and
+            // load conditions for the timing).
+            for s in cones {
+                let is_best = s.1 == best;
+                settings.push(("cone", s, false));
+                if is_best {
+                    settings.extend(unfiltered.clone().map(|s| ("cone", s, true)));
+                }
+            }
         }
         if methods.1 {
             settings.extend(

@@ -89,11 +89,11 @@ impl Level {
         self.texels[(y * self.width + x) as usize]
     }
 
-    /// Bilinear lookup of the unit direction `d`.
-    fn sample(&self, d: Vec3) -> Vec3 {
-        let (w, h) = (self.width as f32, self.height as f32);
-        let u = (d.z.atan2(d.x) / TAU + 0.5) * w - 0.5;
-        let v = d.y.clamp(-1.0, 1.0).acos() / PI * h - 0.5;
+    /// Bilinear lookup at `(s, t)`: azimuth and polar angle as fractions of
+    /// a turn and of a half turn (see [`LatLong`]).
+    fn sample(&self, at: LatLong) -> Vec3 {
+        let u = at.s * self.width as f32 - 0.5;
+        let v = at.t * self.height as f32 - 0.5;
         let (u0, v0) = (u.floor(), v.floor());
         let (fu, fv) = (u - u0, v - v0);
         let wrap = |x: f32| (x as i64).rem_euclid(i64::from(self.width)) as u32;
@@ -103,6 +103,24 @@ impl Level {
         let top = self.texel(x0, y0).lerp(self.texel(x1, y0), fu);
         let bottom = self.texel(x0, y1).lerp(self.texel(x1, y1), fu);
         top.lerp(bottom, fv)
+    }
+}
+
+/// A unit direction's lat-long coordinates in `[0, 1]`: `s = atan2(z, x) /
+/// (2 pi) + 1/2`, `t = acos(y) / pi` (computed once per lookup, shared by
+/// the two levels).
+#[derive(Clone, Copy)]
+struct LatLong {
+    s: f32,
+    t: f32,
+}
+
+impl LatLong {
+    fn of(d: Vec3) -> Self {
+        Self {
+            s: d.z.atan2(d.x) / TAU + 0.5,
+            t: d.y.clamp(-1.0, 1.0).acos() / PI,
+        }
     }
 }
 
@@ -240,9 +258,10 @@ impl PrefilteredEnv {
         };
         let k0 = (s.floor() as usize).min(self.levels.len() - 1);
         let f = s - k0 as f32;
-        let a = self.levels[k0].sample(d);
+        let at = LatLong::of(d);
+        let a = self.levels[k0].sample(at);
         if f > 0.0 && k0 + 1 < self.levels.len() {
-            a.lerp(self.levels[k0 + 1].sample(d), f)
+            a.lerp(self.levels[k0 + 1].sample(at), f)
         } else {
             a
         }
