@@ -39,7 +39,9 @@ use crate::probe::{PrefilteredEnv, ProbeSizes};
 use crate::render::{compare, composite, timed, ImageError, ReflectionImage, Timed};
 use crate::report_out::Row;
 use crate::scene::{phong_exponent, Scene};
-use crate::screen::{build_hiz, reflection_rays, DepthBuffer, ReflectionRays};
+use crate::screen::{
+    build_hiz, build_pyramid_banded, reflection_rays, DepthBuffer, ReflectionRays,
+};
 use crate::shade::{env_map, hash32, Shader};
 use crate::tracer::Tracer;
 use glam::{Vec2, Vec3};
@@ -50,7 +52,7 @@ use refl_core::cone::{
     DEFAULT_SIGMA,
 };
 use refl_core::hiz::{HiZLayout, HiZOptions, HiZTexel};
-use refl_core::{ColorTexel, DepthConvention, DepthImage, HiZ, RowRange, Thickness};
+use refl_core::{ColorTexel, DepthConvention, DepthImage, HiZ, Thickness};
 use std::fmt::Write as _;
 use std::path::Path;
 
@@ -132,8 +134,6 @@ pub fn glossy_mask(g: &GBuffer) -> Vec<bool> {
         .collect()
 }
 
-const BAND: u32 = 16;
-
 /// Builds the color pyramid of `lit` into `dst` in row bands on `pool`
 /// (all levels, or level 0 only).
 fn build_color(
@@ -146,41 +146,16 @@ fn build_color(
 ) -> Result<(), refl_core::Error> {
     let layout = HiZLayout::try_new(width, height)?;
     let view = refl_core::ImageView::try_new(lit, width, height, width)?;
-    pool.install(|| -> Result<(), refl_core::Error> {
-        let l0 = layout.level(0).ok_or(refl_core::Error::InvalidArgument)?;
-        dst[l0.range()]
-            .par_chunks_mut(BAND as usize * l0.width as usize)
-            .enumerate()
-            .try_for_each(|(k, band)| {
-                let y0 = k as u32 * BAND;
-                let rows = RowRange::try_new(y0, (y0 + BAND).min(l0.height), l0.height)?;
-                try_build_color_level0_rows(band, &view, rows)
-            })?;
-        if !all_levels {
-            return Ok(());
-        }
-        for level in 1..layout.level_count() {
-            let (f, c) = (
-                layout
-                    .level(level - 1)
-                    .ok_or(refl_core::Error::InvalidArgument)?,
-                layout
-                    .level(level)
-                    .ok_or(refl_core::Error::InvalidArgument)?,
-            );
-            let (head, tail) = dst.split_at_mut(c.offset);
-            let finer = &head[f.range()];
-            tail[..c.len()]
-                .par_chunks_mut(BAND as usize * c.width as usize)
-                .enumerate()
-                .try_for_each(|(k, band)| {
-                    let y0 = k as u32 * BAND;
-                    let rows = RowRange::try_new(y0, (y0 + BAND).min(c.height), c.height)?;
-                    try_build_color_level_rows(band, finer, &layout, level, rows, DEFAULT_SIGMA)
-                })?;
-        }
-        Ok(())
-    })
+    build_pyramid_banded(
+        dst,
+        &layout,
+        all_levels,
+        pool,
+        |band, rows| try_build_color_level0_rows(band, &view, rows),
+        |band, finer, level, rows| {
+            try_build_color_level_rows(band, finer, &layout, level, rows, DEFAULT_SIGMA)
+        },
+    )
 }
 
 /// Builds the visibility pyramid of `hiz` into `dst` in row bands.
@@ -189,39 +164,14 @@ fn build_visibility(
     hiz: &HiZ<'_>,
     pool: &rayon::ThreadPool,
 ) -> Result<(), refl_core::Error> {
-    let layout = *hiz.layout();
-    pool.install(|| -> Result<(), refl_core::Error> {
-        let l0 = layout.level(0).ok_or(refl_core::Error::InvalidArgument)?;
-        dst[l0.range()]
-            .par_chunks_mut(BAND as usize * l0.width as usize)
-            .enumerate()
-            .try_for_each(|(k, band)| {
-                let y0 = k as u32 * BAND;
-                let rows = RowRange::try_new(y0, (y0 + BAND).min(l0.height), l0.height)?;
-                try_build_visibility_level0_rows(band, hiz, rows)
-            })?;
-        for level in 1..layout.level_count() {
-            let (f, c) = (
-                layout
-                    .level(level - 1)
-                    .ok_or(refl_core::Error::InvalidArgument)?,
-                layout
-                    .level(level)
-                    .ok_or(refl_core::Error::InvalidArgument)?,
-            );
-            let (head, tail) = dst.split_at_mut(c.offset);
-            let finer = &head[f.range()];
-            tail[..c.len()]
-                .par_chunks_mut(BAND as usize * c.width as usize)
-                .enumerate()
-                .try_for_each(|(k, band)| {
-                    let y0 = k as u32 * BAND;
-                    let rows = RowRange::try_new(y0, (y0 + BAND).min(c.height), c.height)?;
-                    try_build_visibility_level_rows(band, finer, hiz, level, rows)
-                })?;
-        }
-        Ok(())
-    })
+    build_pyramid_banded(
+        dst,
+        hiz.layout(),
+        true,
+        pool,
+        |band, rows| try_build_visibility_level0_rows(band, hiz, rows),
+        |band, finer, level, rows| try_build_visibility_level_rows(band, finer, hiz, level, rows),
+    )
 }
 
 /// Runs `method` on the glossy pixels of `g` (those of `mask`; `rays` must

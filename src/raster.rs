@@ -242,12 +242,7 @@ impl ChunkBounds {
     pub fn new(scene: &Scene, pool: &rayon::ThreadPool) -> Self {
         let mut ranges = Vec::new();
         for object in &scene.objects {
-            let mut start = object.tris.start;
-            while start < object.tris.end {
-                let end = (start + SETUP_CHUNK as u32).min(object.tris.end);
-                ranges.push((start, end));
-                start = end;
-            }
+            push_chunks(&mut ranges, object.tris.clone());
         }
         let chunks = pool.install(|| {
             ranges
@@ -264,6 +259,17 @@ impl ChunkBounds {
                 .collect()
         });
         Self { chunks }
+    }
+}
+
+/// Splits the triangle range `tris` into the rasterizer's work items of at
+/// most [`SETUP_CHUNK`] triangles, `(start, end)` each, appended to `out`.
+fn push_chunks(out: &mut Vec<(u32, u32)>, tris: std::ops::Range<u32>) {
+    let mut start = tris.start;
+    while start < tris.end {
+        let end = (start + SETUP_CHUNK as u32).min(tris.end);
+        out.push((start, end));
+        start = end;
     }
 }
 
@@ -333,12 +339,7 @@ fn rasterize_chunks(
             stats.objects_culled += 1;
             continue;
         }
-        let mut start = object.tris.start;
-        while start < object.tris.end {
-            let end = (start + SETUP_CHUNK as u32).min(object.tris.end);
-            chunks.push((start, end));
-            start = end;
-        }
+        push_chunks(&mut chunks, object.tris.clone());
     }
     if let Some(b) = bounds {
         // Chunk culling: the same tests on each chunk's box (chunks are

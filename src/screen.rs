@@ -425,12 +425,42 @@ pub fn build_hiz(
     pool: &rayon::ThreadPool,
 ) -> Result<(), refl_core::Error> {
     use refl_core::hiz::{try_build_hiz_level0_rows, try_build_hiz_level_rows, HiZLayout};
-    use refl_core::RowRange;
-    const BAND: u32 = 16;
     let layout = HiZLayout::try_new(depth.width(), depth.height())?;
     if dst.len() < layout.len() {
         return Err(refl_core::Error::InsufficientSize);
     }
+    build_pyramid_banded(
+        dst,
+        &layout,
+        true,
+        pool,
+        |band, rows| try_build_hiz_level0_rows(band, depth, rows),
+        |band, finer, level, rows| try_build_hiz_level_rows(band, finer, &layout, level, rows),
+    )
+}
+
+/// Rows per band of [`build_pyramid_banded`].
+const PYRAMID_BAND: u32 = 16;
+
+/// Builds a pyramid laid out as `layout` into `dst` in row bands of
+/// [`PYRAMID_BAND`] rows on `pool`: level 0 with `level0(band, rows)`, then
+/// (with `all_levels`) each coarser level from the finished finer one with
+/// `level(band, finer, level, rows)`. The driver of every banded pyramid
+/// build of the root package (Hi-Z, convolved color, visibility); the
+/// kernels are refl-core's `*_level0_rows` / `*_level_rows`.
+///
+/// # Errors
+/// The first error of a kernel or of a row range.
+pub fn build_pyramid_banded<T: Send + Sync>(
+    dst: &mut [T],
+    layout: &refl_core::hiz::HiZLayout,
+    all_levels: bool,
+    pool: &rayon::ThreadPool,
+    level0: impl Fn(&mut [T], refl_core::RowRange) -> Result<(), refl_core::Error> + Sync,
+    level: impl Fn(&mut [T], &[T], u32, refl_core::RowRange) -> Result<(), refl_core::Error> + Sync,
+) -> Result<(), refl_core::Error> {
+    use refl_core::RowRange;
+    const BAND: u32 = PYRAMID_BAND;
     pool.install(|| -> Result<(), refl_core::Error> {
         let l0 = layout.level(0).ok_or(refl_core::Error::InvalidArgument)?;
         dst[l0.range()]
@@ -439,16 +469,17 @@ pub fn build_hiz(
             .try_for_each(|(k, band)| {
                 let y0 = k as u32 * BAND;
                 let rows = RowRange::try_new(y0, (y0 + BAND).min(l0.height), l0.height)?;
-                try_build_hiz_level0_rows(band, depth, rows)
+                level0(band, rows)
             })?;
-        for level in 1..layout.level_count() {
+        if !all_levels {
+            return Ok(());
+        }
+        for lv in 1..layout.level_count() {
             let (f, c) = (
                 layout
-                    .level(level - 1)
+                    .level(lv - 1)
                     .ok_or(refl_core::Error::InvalidArgument)?,
-                layout
-                    .level(level)
-                    .ok_or(refl_core::Error::InvalidArgument)?,
+                layout.level(lv).ok_or(refl_core::Error::InvalidArgument)?,
             );
             let (head, tail) = dst.split_at_mut(c.offset);
             let finer = &head[f.range()];
@@ -458,7 +489,7 @@ pub fn build_hiz(
                 .try_for_each(|(k, band)| {
                     let y0 = k as u32 * BAND;
                     let rows = RowRange::try_new(y0, (y0 + BAND).min(c.height), c.height)?;
-                    try_build_hiz_level_rows(band, finer, &layout, level, rows)
+                    level(band, finer, lv, rows)
                 })?;
         }
         Ok(())
