@@ -176,30 +176,49 @@ impl ClusterFrame {
         self.image.handled_count()
     }
 
-    /// Share of the reflective pixels that fell back.
-    pub fn fallback_share(&self) -> f64 {
-        self.fallback.iter().filter(|&&f| f).count() as f64 / self.reflective().max(1) as f64
+    /// Reflective pixels that fell back.
+    pub fn fallback_count(&self) -> usize {
+        self.fallback.iter().filter(|&&f| f).count()
     }
 
-    /// Share of the reflective pixels that fell back although their
-    /// ray-traced mirror ray hits the scene (0 without diagnostics): the
-    /// fallbacks that are errors.
-    pub fn wrong_fallback_share(&self) -> f64 {
-        self.reference_hit.as_ref().map_or(0.0, |r| {
+    /// Reflective pixels that fell back although their ray-traced mirror
+    /// ray hits the scene (0 without diagnostics): the fallbacks that are
+    /// errors.
+    pub fn wrong_fallback_count(&self) -> usize {
+        self.reference_hit.as_ref().map_or(0, |r| {
             r.iter()
                 .zip(&self.fallback)
                 .filter(|(&h, &f)| h && f)
-                .count() as f64
-                / self.reflective().max(1) as f64
+                .count()
         })
+    }
+
+    /// Disocclusion pixels (0 without diagnostics).
+    pub fn disoccluded_count(&self) -> usize {
+        self.disoccluded
+            .as_ref()
+            .map_or(0, |d| d.iter().filter(|&&x| x).count())
+    }
+
+    fn share(&self, count: usize) -> f64 {
+        count as f64 / self.reflective().max(1) as f64
+    }
+
+    /// Share of the reflective pixels that fell back.
+    pub fn fallback_share(&self) -> f64 {
+        self.share(self.fallback_count())
+    }
+
+    /// [`ClusterFrame::wrong_fallback_count`] as a share of the reflective
+    /// pixels.
+    pub fn wrong_fallback_share(&self) -> f64 {
+        self.share(self.wrong_fallback_count())
     }
 
     /// Share of the reflective pixels with a disocclusion (0 without
     /// diagnostics).
     pub fn disocclusion_share(&self) -> f64 {
-        self.disoccluded.as_ref().map_or(0.0, |d| {
-            d.iter().filter(|&&x| x).count() as f64 / self.reflective().max(1) as f64
-        })
+        self.share(self.disoccluded_count())
     }
 }
 

@@ -503,14 +503,12 @@ struct ClusterAccum {
 
 impl ClusterAccum {
     fn of(f: &crate::cluster::ClusterFrame, stages: crate::cluster::StageMs) -> Self {
-        let n = f.reflective();
-        let count = |share: f64| (share * n as f64).round() as usize;
         ClusterAccum {
             frames: 1,
-            reflective: n,
-            disoccluded: count(f.disocclusion_share()),
-            fallback: count(f.fallback_share()),
-            wrong_fallback: count(f.wrong_fallback_share()),
+            reflective: f.reflective(),
+            disoccluded: f.disoccluded_count(),
+            fallback: f.fallback_count(),
+            wrong_fallback: f.wrong_fallback_count(),
             clusters: f.clusters,
             cameras: f.cameras,
             planar: f.planar,
