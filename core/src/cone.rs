@@ -457,20 +457,8 @@ pub fn try_build_color_level_rows(
     sigma: f32,
 ) -> Result<(), Error> {
     validate_sigma(sigma)?;
-    if level == 0 {
-        return Err(Error::InvalidArgument);
-    }
-    let (f, c) = match (layout.level(level - 1), layout.level(level)) {
-        (Some(f), Some(c)) => (f, c),
-        _ => return Err(Error::InvalidArgument),
-    };
-    if rows.end() > c.height {
-        return Err(Error::InvalidArgument);
-    }
+    let (f, c) = layout.try_band_levels(level, rows, finer.len(), band.len())?;
     let cw = c.width as usize;
-    if finer.len() < f.len() || band.len() < rows.len() as usize * cw {
-        return Err(Error::InsufficientSize);
-    }
     let (fw, fh) = (i64::from(f.width), i64::from(f.height));
     let at = |x: i64, y: i64| -> ColorTexel {
         let x = x.clamp(0, fw - 1) as usize;
@@ -610,20 +598,8 @@ pub fn try_build_visibility_level_rows(
     rows: RowRange,
 ) -> Result<(), Error> {
     let layout = hiz.layout();
-    if level == 0 {
-        return Err(Error::InvalidArgument);
-    }
-    let (f, c) = match (layout.level(level - 1), layout.level(level)) {
-        (Some(f), Some(c)) => (f, c),
-        _ => return Err(Error::InvalidArgument),
-    };
-    if rows.end() > c.height {
-        return Err(Error::InvalidArgument);
-    }
+    let (f, c) = layout.try_band_levels(level, rows, finer.len(), band.len())?;
     let cw = c.width as usize;
-    if finer.len() < f.len() || band.len() < rows.len() as usize * cw {
-        return Err(Error::InsufficientSize);
-    }
     let far = hiz.camera().far();
     let fw = f.width as usize;
     for (dst, y) in band.chunks_exact_mut(cw).zip(rows.rows()) {

@@ -218,6 +218,39 @@ impl HiZLayout {
         (level < self.count).then(|| self.levels[level as usize])
     }
 
+    /// The finer and the coarser level of a row-band build of level
+    /// `level` from level `level - 1` (the `*_level_rows` builds of Hi-Z,
+    /// color and visibility pyramids), after checking the band: `rows`
+    /// inside the coarser level, `finer_len` elements for the whole finer
+    /// level and `band_len` for the band's rows.
+    ///
+    /// # Errors
+    /// * [`Error::InvalidArgument`]: `level` is 0 or past the last level,
+    ///   or `rows` ends below the coarser level.
+    /// * [`Error::InsufficientSize`]: `finer_len` or `band_len` too small.
+    pub(crate) fn try_band_levels(
+        &self,
+        level: u32,
+        rows: RowRange,
+        finer_len: usize,
+        band_len: usize,
+    ) -> Result<(HiZLevel, HiZLevel), Error> {
+        if level == 0 {
+            return Err(Error::InvalidArgument);
+        }
+        let (f, c) = match (self.level(level - 1), self.level(level)) {
+            (Some(f), Some(c)) => (f, c),
+            _ => return Err(Error::InvalidArgument),
+        };
+        if rows.end() > c.height {
+            return Err(Error::InvalidArgument);
+        }
+        if finer_len < f.len() || band_len < rows.len() as usize * c.width as usize {
+            return Err(Error::InsufficientSize);
+        }
+        Ok((f, c))
+    }
+
     /// The texels of rows `rows` of level `level` as an index range of the
     /// pyramid buffer, for handing row bands to threads; `None` if the level
     /// does not exist or the rows exceed its height.
@@ -342,20 +375,8 @@ pub fn try_build_hiz_level_rows(
     level: u32,
     rows: RowRange,
 ) -> Result<(), Error> {
-    if level == 0 {
-        return Err(Error::InvalidArgument);
-    }
-    let (f, c) = match (layout.level(level - 1), layout.level(level)) {
-        (Some(f), Some(c)) => (f, c),
-        _ => return Err(Error::InvalidArgument),
-    };
-    if rows.end() > c.height {
-        return Err(Error::InvalidArgument);
-    }
+    let (f, c) = layout.try_band_levels(level, rows, finer.len(), band.len())?;
     let cw = c.width as usize;
-    if finer.len() < f.len() || band.len() < rows.len() as usize * cw {
-        return Err(Error::InsufficientSize);
-    }
     let fw = f.width as usize;
     for (dst, y) in band.chunks_exact_mut(cw).zip(rows.rows()) {
         let ys = cell_children(y, c.height, f.height);
