@@ -32,9 +32,8 @@
 use crate::gbuffer::GBuffer;
 use crate::raster::{rasterize_into_culled, ChunkBounds, RasterOptions, VisBuffer};
 use crate::render::{self, compare, composite, direct_image, median, timed, ReflectionImage};
-use crate::scene::{phong_exponent, Scene, NONE};
+use crate::scene::{phong_exponent, NONE};
 use crate::shade::{env_map, reflection_dir, Shader};
-use crate::tracer::Tracer;
 use glam::{Vec2, Vec3};
 use rayon::prelude::*;
 use refl_core::cluster::{
@@ -637,15 +636,14 @@ pub fn growth(
 ) -> Result<Vec<ClusterGrowthRow>, String> {
     let mut rows = Vec::new();
     for &n in sizes {
-        let scene = Scene::room(n);
-        let builds: Vec<f64> = (0..runs.max(1))
-            .map(|_| timed(|| Tracer::new(&scene)).ms)
-            .collect();
-        let tracer = Tracer::new(&scene);
+        let crate::growth::RoomAt {
+            scene,
+            bvh_build_ms,
+            tracer,
+            g,
+        } = crate::growth::RoomAt::new(n, width, height, runs, pool)?;
         let mut shader = Shader::new(&scene, &tracer);
         shader.shadows = false;
-        let camera = scene.camera(0, width, height).map_err(|e| e.to_string())?;
-        let g = GBuffer::render(&scene, &tracer, &camera, pool);
         let reference_ms = median(
             (0..runs.max(1))
                 .map(|_| timed(|| render::reference(&shader, &g, settings.glossy_rays, pool)).ms)
@@ -673,7 +671,7 @@ pub fn growth(
         rows.push(ClusterGrowthRow {
             triangles: scene.tri_count(),
             reflective: f.reflective(),
-            bvh_build_ms: median(builds),
+            bvh_build_ms,
             reference_ms,
             stages: StageMs::median_of(&stage_runs),
             color_ms: median(color_runs),

@@ -44,6 +44,50 @@ pub struct GrowthRow {
     pub step_hit_rate: f64,
 }
 
+/// The room at one size of a cost-growth curve: the scene, the median
+/// time of building its obvhs BVH (what a dynamic scene pays every frame),
+/// the tracer and the G-buffer of camera pose 0.
+pub struct RoomAt {
+    /// The room with about `n` triangles.
+    pub scene: Scene,
+    /// Median BVH build time over the runs, ms.
+    pub bvh_build_ms: f64,
+    /// The reference tracer of `scene`.
+    pub tracer: Tracer,
+    /// The first pass of camera pose 0.
+    pub g: GBuffer,
+}
+
+impl RoomAt {
+    /// Builds the room with about `n` triangles and times its BVH build
+    /// (median of `runs`), then renders the G-buffer of pose 0 at
+    /// `width x height` on `pool`.
+    ///
+    /// # Errors
+    /// A message for a camera error.
+    pub fn new(
+        n: usize,
+        width: u32,
+        height: u32,
+        runs: usize,
+        pool: &rayon::ThreadPool,
+    ) -> Result<RoomAt, String> {
+        let scene = Scene::room(n);
+        let builds: Vec<f64> = (0..runs.max(1))
+            .map(|_| timed(|| Tracer::new(&scene)).ms)
+            .collect();
+        let tracer = Tracer::new(&scene);
+        let camera = scene.camera(0, width, height).map_err(|e| e.to_string())?;
+        let g = GBuffer::render(&scene, &tracer, &camera, pool);
+        Ok(RoomAt {
+            scene,
+            bvh_build_ms: median(builds),
+            tracer,
+            g,
+        })
+    }
+}
+
 /// Measures the room scene at each of `sizes` triangles (`width x height`
 /// pixels, camera pose 0, median of `runs`) on `pool`.
 ///
@@ -58,14 +102,13 @@ pub fn measure(
 ) -> Result<Vec<GrowthRow>, String> {
     let mut rows = Vec::new();
     for &n in sizes {
-        let scene = Scene::room(n);
-        let builds: Vec<f64> = (0..runs.max(1))
-            .map(|_| timed(|| Tracer::new(&scene)).ms)
-            .collect();
-        let tracer = Tracer::new(&scene);
+        let RoomAt {
+            scene,
+            bvh_build_ms,
+            tracer,
+            g,
+        } = RoomAt::new(n, width, height, runs, pool)?;
         let shader = Shader::new(&scene, &tracer);
-        let camera = scene.camera(0, width, height).map_err(|e| e.to_string())?;
-        let g = GBuffer::render(&scene, &tracer, &camera, pool);
         let rays = screen::reflection_rays(&scene, &tracer, &shader, &g, pool);
         let obvhs_ms = median(
             (0..runs.max(1))
@@ -102,7 +145,7 @@ pub fn measure(
         rows.push(GrowthRow {
             triangles: scene.tri_count(),
             rays: rays.len(),
-            bvh_build_ms: median(builds),
+            bvh_build_ms,
             obvhs_ms,
             step_ms,
             hiz_ms,
