@@ -440,7 +440,7 @@ pub fn build_hiz(
 }
 
 /// Rows per band of [`build_pyramid_banded`].
-const PYRAMID_BAND: u32 = 16;
+pub const PYRAMID_BAND: u32 = 16;
 
 /// Builds a pyramid laid out as `layout` into `dst` in row bands of
 /// [`PYRAMID_BAND`] rows on `pool`: level 0 with `level0(band, rows)`, then

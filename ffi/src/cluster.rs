@@ -12,7 +12,7 @@
 //! is written, so a failed call leaves every output untouched.
 
 use crate::image::{refl_image_u32, refl_image_u32_mut, refl_image_vec3, refl_row_range};
-use crate::ptr::{byte_len, overlaps, read, Out};
+use crate::ptr::{byte_len, overlaps, read, read_vec, Out};
 use crate::status::{guard, refl_status};
 use crate::trace::{depth_image, refl_depth_image, refl_step_options, refl_thickness};
 use crate::types::{
@@ -53,16 +53,8 @@ unsafe fn copy_in<T: Copy>(p: *const T, count: usize) -> Result<Vec<T>, Error> {
     if count == 0 {
         return Ok(Vec::new());
     }
-    if p.is_null() {
-        return Err(Error::NullPointer);
-    }
-    if !p.is_aligned() {
-        return Err(Error::InvalidArgument);
-    }
-    byte_len::<T>(p as usize, count)?;
-    // SAFETY: non-null, aligned, length fits isize (checked above);
-    // readability is the caller's contract. Copied at once.
-    Ok(unsafe { core::slice::from_raw_parts(p, count) }.to_vec())
+    // SAFETY: caller contract.
+    unsafe { read_vec(p, count) }
 }
 
 /// Checks an output array: non-null, aligned, a possible length.

@@ -8,7 +8,7 @@
 
 use crate::hiz::refl_hiz;
 use crate::image::refl_image_vec3;
-use crate::ptr::{byte_len, overlaps, read, Out};
+use crate::ptr::{byte_len, check_buffer, overlaps, pyramid_band, read, Out};
 use crate::status::{guard, refl_status};
 use crate::trace::refl_thickness;
 use crate::types::{
@@ -21,7 +21,7 @@ use refl_core::cone::{
     try_build_visibility_level_rows, Cone, ConeOptions, ConePyramids, FadeRange, Fades,
     MultiRayOptions,
 };
-use refl_core::{Camera, ColorTexel, Error, HiZ, HiZLayout, HiZOptions, HiZTexel, Ray, RowRange};
+use refl_core::{Camera, ColorTexel, Error, HiZ, HiZLayout, HiZOptions, HiZTexel, Ray};
 
 /// The cone pyramids of one frame, bound together.
 #[repr(C)]
@@ -39,25 +39,13 @@ pub struct refl_cone_pyramids {
     pub visibility_len: usize,
 }
 
-/// Checks a caller buffer pointer: `NullPointer`, `InvalidArgument` if
-/// misaligned or impossibly long; returns its byte length.
-fn check<T>(p: *const T, count: usize) -> Result<usize, Error> {
-    if p.is_null() {
-        return Err(Error::NullPointer);
-    }
-    if !p.is_aligned() {
-        return Err(Error::InvalidArgument);
-    }
-    byte_len::<T>(p as usize, count)
-}
-
 /// Binds a `refl_hiz` descriptor.
 ///
 /// # Safety
 /// `h.data` NULL or readable for `h.len` texels for `'a`, not written
 /// meanwhile.
 unsafe fn bind_hiz<'a>(h: &refl_hiz) -> Result<HiZ<'a>, Error> {
-    check(h.data, h.len)?;
+    check_buffer(h.data, h.len)?;
     let conv = convention(h.convention)?;
     let cam = Camera::try_from(&h.camera)?;
     // SAFETY: non-null, aligned, readable for `len` texels (contract), size
@@ -72,8 +60,8 @@ unsafe fn bind_hiz<'a>(h: &refl_hiz) -> Result<HiZ<'a>, Error> {
 /// Every buffer NULL or readable for its length for `'a`, not written
 /// meanwhile.
 unsafe fn bind_pyramids<'a>(p: &refl_cone_pyramids) -> Result<ConePyramids<'a>, Error> {
-    check(p.color, p.color_len)?;
-    check(p.visibility, p.visibility_len)?;
+    check_buffer(p.color, p.color_len)?;
+    check_buffer(p.visibility, p.visibility_len)?;
     // SAFETY: caller contract.
     let hz = unsafe { bind_hiz(&p.hiz) }?;
     // SAFETY: non-null, aligned, readable (contract), sizes fit isize
@@ -183,7 +171,7 @@ pub unsafe extern "C" fn refl_cone_build_color_rows(
     sigma: f32,
 ) -> refl_status {
     guard(|| {
-        let bytes = check(dst.cast_const(), dst_len)?;
+        let bytes = check_buffer(dst.cast_const(), dst_len)?;
         // SAFETY: caller contract.
         let img_c = unsafe { read(image) }?;
         // SAFETY: caller contract.
@@ -196,27 +184,22 @@ pub unsafe extern "C" fn refl_cone_build_color_rows(
             return Err(Error::InvalidArgument);
         }
         let layout = HiZLayout::try_new(view.width(), view.height())?;
-        let lv = layout.level(level).ok_or(Error::InvalidArgument)?;
-        let rows = RowRange::try_new(row_start, row_end, lv.height)?;
-        if dst_len < layout.len() {
-            return Err(Error::InsufficientSize);
+        // SAFETY: `dst` checked above, writable by contract; the band and
+        // the finer level are this call's alone (contract).
+        let (out, finer, rows) = unsafe {
+            pyramid_band(
+                dst.cast::<ColorTexel>(),
+                dst_len,
+                &layout,
+                level,
+                row_start,
+                row_end,
+            )
+        }?;
+        match finer {
+            None => try_build_color_level0_rows(out, &view, rows),
+            Some(finer) => try_build_color_level_rows(out, finer, &layout, level, rows, sigma),
         }
-        let band = layout
-            .rows_range(level, rows)
-            .ok_or(Error::InvalidArgument)?;
-        let base = dst.cast::<ColorTexel>();
-        // SAFETY: `band` lies within the first layout.len() <= dst_len
-        // texels, writable by contract and not touched by other threads.
-        let out = unsafe { core::slice::from_raw_parts_mut(base.add(band.start), band.len()) };
-        if level == 0 {
-            return try_build_color_level0_rows(out, &view, rows);
-        }
-        let f = layout.level(level - 1).ok_or(Error::InvalidArgument)?;
-        // SAFETY: level `level - 1` precedes level `level` (disjoint from
-        // `out`), lies within dst_len and is only read meanwhile.
-        let finer =
-            unsafe { core::slice::from_raw_parts(base.add(f.offset).cast_const(), f.len()) };
-        try_build_color_level_rows(out, finer, &layout, level, rows, sigma)
     })
 }
 
@@ -236,7 +219,7 @@ pub unsafe extern "C" fn refl_cone_build_color(
     sigma: f32,
 ) -> refl_status {
     guard(|| {
-        let bytes = check(dst.cast_const(), dst_len)?;
+        let bytes = check_buffer(dst.cast_const(), dst_len)?;
         // SAFETY: caller contract.
         let img_c = unsafe { read(image) }?;
         // SAFETY: caller contract.
@@ -283,7 +266,7 @@ pub unsafe extern "C" fn refl_cone_build_visibility_rows(
     row_end: u32,
 ) -> refl_status {
     guard(|| {
-        let bytes = check(dst.cast_const(), dst_len)?;
+        let bytes = check_buffer(dst.cast_const(), dst_len)?;
         // SAFETY: caller contract.
         let h = unsafe { read(hiz) }?;
         // SAFETY: caller contract.
@@ -293,25 +276,14 @@ pub unsafe extern "C" fn refl_cone_build_visibility_rows(
             return Err(Error::InvalidArgument);
         }
         let layout = *hz.layout();
-        let lv = layout.level(level).ok_or(Error::InvalidArgument)?;
-        let rows = RowRange::try_new(row_start, row_end, lv.height)?;
-        if dst_len < layout.len() {
-            return Err(Error::InsufficientSize);
+        // SAFETY: `dst` checked above, writable by contract; the band and
+        // the finer level are this call's alone (contract).
+        let (out, finer, rows) =
+            unsafe { pyramid_band(dst, dst_len, &layout, level, row_start, row_end) }?;
+        match finer {
+            None => try_build_visibility_level0_rows(out, &hz, rows),
+            Some(finer) => try_build_visibility_level_rows(out, finer, &hz, level, rows),
         }
-        let band = layout
-            .rows_range(level, rows)
-            .ok_or(Error::InvalidArgument)?;
-        // SAFETY: `band` lies within dst_len floats, writable and not
-        // touched by other threads (contract).
-        let out = unsafe { core::slice::from_raw_parts_mut(dst.add(band.start), band.len()) };
-        if level == 0 {
-            return try_build_visibility_level0_rows(out, &hz, rows);
-        }
-        let f = layout.level(level - 1).ok_or(Error::InvalidArgument)?;
-        // SAFETY: level `level - 1` precedes level `level` (disjoint), lies
-        // within dst_len and is only read meanwhile.
-        let finer = unsafe { core::slice::from_raw_parts(dst.add(f.offset).cast_const(), f.len()) };
-        try_build_visibility_level_rows(out, finer, &hz, level, rows)
     })
 }
 
@@ -328,7 +300,7 @@ pub unsafe extern "C" fn refl_cone_build_visibility(
     hiz: *const refl_hiz,
 ) -> refl_status {
     guard(|| {
-        let bytes = check(dst.cast_const(), dst_len)?;
+        let bytes = check_buffer(dst.cast_const(), dst_len)?;
         // SAFETY: caller contract.
         let h = unsafe { read(hiz) }?;
         // SAFETY: caller contract.

@@ -7,13 +7,11 @@
 //! surface). `refl_hiz_len` gives its length and level count,
 //! `refl_hiz_level` where each level lives.
 
-use crate::ptr::{byte_len, overlaps, read, Out};
+use crate::ptr::{byte_len, check_buffer, overlaps, pyramid_band, read, read_vec, Out};
 use crate::status::{guard, refl_status};
 use crate::trace::{depth_image, refl_depth_image, refl_thickness, refl_trace_result};
 use crate::types::{convention, refl_camera, refl_ray, refl_vec2};
-use refl_core::{
-    Camera, Error, HiZ, HiZLayout, HiZOptions, HiZTexel, Miss, Ray, RowRange, Thickness, Trace,
-};
+use refl_core::{Camera, Error, HiZ, HiZLayout, HiZOptions, HiZTexel, Miss, Ray, Thickness, Trace};
 
 /// Where one pyramid level lives in the buffer: texels `offset` to
 /// `offset + width * height - 1`, row by row, row stride `width`.
@@ -167,18 +165,6 @@ pub unsafe extern "C" fn refl_hiz_default_options(out: *mut refl_hiz_options) ->
     })
 }
 
-/// Checks a pyramid buffer pointer and returns its byte length for
-/// `count` texels.
-fn check_buffer(p: *const refl_vec2, count: usize) -> Result<usize, Error> {
-    if p.is_null() {
-        return Err(Error::NullPointer);
-    }
-    if !p.is_aligned() {
-        return Err(Error::InvalidArgument);
-    }
-    byte_len::<refl_vec2>(p as usize, count)
-}
-
 /// `InvalidArgument` if the depth image's buffer overlaps the pyramid
 /// bytes `[dst, dst + dst_bytes)`.
 fn check_no_overlap(img: &refl_depth_image, dst: usize, dst_bytes: usize) -> Result<(), Error> {
@@ -265,28 +251,22 @@ pub unsafe extern "C" fn refl_hiz_build_rows(
         let img = unsafe { depth_image(&img_c) }?;
         check_no_overlap(&img_c, dst as usize, bytes)?;
         let layout = HiZLayout::try_new(img.width(), img.height())?;
-        let lv = layout.level(level).ok_or(Error::InvalidArgument)?;
-        let rows = RowRange::try_new(row_start, row_end, lv.height)?;
-        if dst_len < layout.len() {
-            return Err(Error::InsufficientSize);
+        // SAFETY: `dst` checked above, writable by contract; the band and
+        // the finer level are this call's alone (contract).
+        let (out, finer, rows) = unsafe {
+            pyramid_band(
+                dst.cast::<HiZTexel>(),
+                dst_len,
+                &layout,
+                level,
+                row_start,
+                row_end,
+            )
+        }?;
+        match finer {
+            None => refl_core::try_build_hiz_level0_rows(out, &img, rows),
+            Some(finer) => refl_core::try_build_hiz_level_rows(out, finer, &layout, level, rows),
         }
-        let band = layout
-            .rows_range(level, rows)
-            .ok_or(Error::InvalidArgument)?;
-        let base = dst.cast::<HiZTexel>();
-        // SAFETY: `band` lies within the first layout.len() <= dst_len
-        // texels, writable by contract and not touched by other threads.
-        let out = unsafe { core::slice::from_raw_parts_mut(base.add(band.start), band.len()) };
-        if level == 0 {
-            return refl_core::try_build_hiz_level0_rows(out, &img, rows);
-        }
-        let f = layout.level(level - 1).ok_or(Error::InvalidArgument)?;
-        // SAFETY: level `level - 1` lies before level `level` in the buffer
-        // (disjoint from `out`), within dst_len, and is only read by any
-        // thread during this phase (contract).
-        let finer =
-            unsafe { core::slice::from_raw_parts(base.add(f.offset).cast_const(), f.len()) };
-        refl_core::try_build_hiz_level_rows(out, finer, &layout, level, rows)
     })
 }
 
@@ -364,24 +344,6 @@ pub unsafe extern "C" fn refl_hiz_trace_ray(
     })
 }
 
-/// Reads `count` caller values: `NullPointer` if `p` is NULL,
-/// `InvalidArgument` if misaligned or impossibly long.
-///
-/// # Safety
-/// A non-null, aligned `p` must be readable for `count` values of `T`.
-unsafe fn read_slice<T: Copy>(p: *const T, count: usize) -> Result<Vec<T>, Error> {
-    if p.is_null() {
-        return Err(Error::NullPointer);
-    }
-    if !p.is_aligned() {
-        return Err(Error::InvalidArgument);
-    }
-    byte_len::<T>(p as usize, count)?;
-    // SAFETY: non-null, aligned, size fits isize (checked); readability is
-    // the caller's contract. Copied at once.
-    Ok(unsafe { core::slice::from_raw_parts(p, count) }.to_vec())
-}
-
 /// Traces `ray_count` rays as `refl_hiz_trace_ray` would, writing result
 /// `i` to `out[i]`. `t_max` holds one value for every ray
 /// (`t_max_count == 1`) or one per ray (`t_max_count >= ray_count`).
@@ -430,9 +392,9 @@ pub unsafe extern "C" fn refl_hiz_trace_rays(
         byte_len::<refl_trace_result>(out as usize, ray_count)?;
         // SAFETY: caller contract; copied before any output is written, so
         // `out` may alias the inputs.
-        let rays_c = unsafe { read_slice(rays, ray_count) }?;
+        let rays_c = unsafe { read_vec(rays, ray_count) }?;
         // SAFETY: caller contract.
-        let tms = unsafe { read_slice(t_max, t_max_count.min(ray_count).max(1)) }?;
+        let tms = unsafe { read_vec(t_max, t_max_count.min(ray_count).max(1)) }?;
         let rays: Vec<Ray> = rays_c
             .iter()
             .map(|r| Ray {

@@ -75,3 +75,78 @@ pub(crate) fn byte_len<T>(addr: usize, count: usize) -> Result<usize, Error> {
 pub(crate) fn overlaps(a: usize, a_len: usize, b: usize, b_len: usize) -> bool {
     a_len > 0 && b_len > 0 && a < b + b_len && b < a + a_len
 }
+
+/// Reads `count` caller values into a copy: `NullPointer` if `p` is NULL,
+/// `InvalidArgument` if misaligned or impossibly long.
+///
+/// # Safety
+/// A non-null, aligned `p` must be readable for `count` values of `T`.
+pub(crate) unsafe fn read_vec<T: Copy>(p: *const T, count: usize) -> Result<Vec<T>, Error> {
+    check_buffer(p, count)?;
+    // SAFETY: non-null, aligned, length fits isize (checked above);
+    // readability is the caller's contract. The slice is copied at once.
+    Ok(unsafe { core::slice::from_raw_parts(p, count) }.to_vec())
+}
+
+/// Checks a caller buffer pointer for `count` values of `T`: `NullPointer`
+/// if NULL, `InvalidArgument` if misaligned or impossibly long; returns its
+/// byte length.
+pub(crate) fn check_buffer<T>(p: *const T, count: usize) -> Result<usize, Error> {
+    if p.is_null() {
+        return Err(Error::NullPointer);
+    }
+    if !p.is_aligned() {
+        return Err(Error::InvalidArgument);
+    }
+    byte_len::<T>(p as usize, count)
+}
+
+/// A band of pyramid rows to write, the finer level to read (none for level
+/// 0) and the band's rows: what [`pyramid_band`] returns.
+pub(crate) type PyramidBand<'a, T> = (&'a mut [T], Option<&'a [T]>, refl_core::RowRange);
+
+/// The rows `row_start..row_end` of level `level` of a pyramid laid out as
+/// `layout` in the caller buffer `dst` of `dst_len` texels (checked with
+/// [`check_buffer`]), and for `level > 0` the whole finer level they are
+/// built from: the slices of every `*_build_*_rows` export (Hi-Z, color,
+/// visibility).
+///
+/// # Errors
+/// `InvalidArgument` for a level past the last or empty, reversed or
+/// out-of-level rows; `InsufficientSize` if `dst_len` is below
+/// `layout.len()`.
+///
+/// # Safety
+/// `dst` writable for `dst_len` texels; during `'a` no other thread
+/// touches the returned rows and none writes the finer level.
+pub(crate) unsafe fn pyramid_band<'a, T>(
+    dst: *mut T,
+    dst_len: usize,
+    layout: &refl_core::hiz::HiZLayout,
+    level: u32,
+    row_start: u32,
+    row_end: u32,
+) -> Result<PyramidBand<'a, T>, Error> {
+    let lv = layout.level(level).ok_or(Error::InvalidArgument)?;
+    let rows = refl_core::RowRange::try_new(row_start, row_end, lv.height)?;
+    if dst_len < layout.len() {
+        return Err(Error::InsufficientSize);
+    }
+    let band = layout
+        .rows_range(level, rows)
+        .ok_or(Error::InvalidArgument)?;
+    // SAFETY: `band` lies within the first layout.len() <= dst_len texels,
+    // writable by contract and not touched by other threads.
+    let out = unsafe { core::slice::from_raw_parts_mut(dst.add(band.start), band.len()) };
+    let finer = match level {
+        0 => None,
+        _ => {
+            let f = layout.level(level - 1).ok_or(Error::InvalidArgument)?;
+            // SAFETY: level `level - 1` lies before level `level` in the
+            // buffer (disjoint from `out`), within dst_len, and is only
+            // read meanwhile (contract).
+            Some(unsafe { core::slice::from_raw_parts(dst.add(f.offset).cast_const(), f.len()) })
+        }
+    };
+    Ok((out, finer, rows))
+}

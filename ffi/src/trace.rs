@@ -7,7 +7,7 @@
 //! (`refl_miss`), never a sentinel NaN.
 
 use crate::image::refl_image_f32;
-use crate::ptr::{byte_len, read, Out};
+use crate::ptr::{byte_len, read, read_vec, Out};
 use crate::status::{guard, refl_status};
 use crate::types::{convention, refl_camera, refl_ray, refl_vec2};
 use refl_core::{Camera, DepthImage, Error, Miss, Ray, StepOptions, Thickness, Trace};
@@ -178,24 +178,6 @@ pub(crate) unsafe fn thickness<'a>(t: &refl_thickness) -> Result<Thickness<'a>, 
     }
 }
 
-/// Reads a caller array of `count` values: `NullPointer` if `p` is NULL,
-/// `InvalidArgument` if misaligned or impossibly long.
-///
-/// # Safety
-/// A non-null, aligned `p` must be readable for `count` values of `T`.
-unsafe fn read_array<T: Copy>(p: *const T, count: usize) -> Result<Vec<T>, Error> {
-    if p.is_null() {
-        return Err(Error::NullPointer);
-    }
-    if !p.is_aligned() {
-        return Err(Error::InvalidArgument);
-    }
-    byte_len::<T>(p as usize, count)?;
-    // SAFETY: non-null, aligned, length fits isize (checked above);
-    // readability is the caller's contract. The slice is copied at once.
-    Ok(unsafe { core::slice::from_raw_parts(p, count) }.to_vec())
-}
-
 /// Reads the three by-pointer inputs shared by the stepping exports.
 ///
 /// # Safety
@@ -314,9 +296,9 @@ pub unsafe extern "C" fn refl_step_rays(
         byte_len::<refl_trace_result>(out as usize, ray_count)?;
         // SAFETY: caller contract; copied before any output is written, so
         // `out` may alias the inputs.
-        let rays_c = unsafe { read_array(rays, ray_count) }?;
+        let rays_c = unsafe { read_vec(rays, ray_count) }?;
         // SAFETY: caller contract.
-        let tms = unsafe { read_array(t_max, t_max_count.min(ray_count).max(1)) }?;
+        let tms = unsafe { read_vec(t_max, t_max_count.min(ray_count).max(1)) }?;
         let rays: Vec<Ray> = rays_c
             .iter()
             .map(|r| Ray {
