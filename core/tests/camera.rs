@@ -2,6 +2,8 @@
 
 use glam::{DVec3, Mat4, Vec2, Vec3};
 use proptest::prelude::*;
+
+mod common;
 use refl_core::camera::{apply_reprojection, reproject, reprojection_matrix};
 use refl_core::{Camera, DepthConvention, Error};
 
@@ -390,8 +392,9 @@ fn scaled_scenes_round_trip() {
 }
 
 proptest! {
+    #![proptest_config(common::proptest_config(256))]
     #[test]
-    fn round_trip_random_points(x in -50f32..50.0, y in -50f32..50.0, z in -60f32..4.0) {
+    fn prop_round_trip_random_points(x in -50f32..50.0, y in -50f32..50.0, z in -60f32..4.0) {
         let c = cam(0.1, f32::INFINITY);
         let p = Vec3::new(x, y, z);
         if let Some(q) = c.project(p) {

@@ -5,6 +5,8 @@
 
 use glam::{DMat4, DVec3, Vec3};
 use proptest::prelude::*;
+
+mod common;
 use refl_core::hiz::MAX_LEVELS;
 use refl_core::{
     hiz_len, try_build_hiz, try_build_hiz_level0_rows, try_build_hiz_level_rows, try_trace_hiz,
@@ -690,9 +692,9 @@ fn pyramid_matches_brute_force_on_odd_sizes_all_conventions() {
 }
 
 proptest! {
-    #![proptest_config(ProptestConfig::with_cases(48))]
+    #![proptest_config(common::proptest_config(48))]
     #[test]
-    fn pyramid_matches_brute_force_on_random_sizes(
+    fn prop_pyramid_matches_brute_force_on_random_sizes(
         w in 1u32..70, h in 1u32..70, conv in 0usize..3, inf in any::<bool>(), seed in any::<u64>()
     ) {
         let conv = DepthConvention::ALL[conv];
@@ -879,14 +881,14 @@ fn agrees_with_oracle_on_open_scene_with_background() {
 }
 
 proptest! {
-    #![proptest_config(ProptestConfig::with_cases(24))]
+    #![proptest_config(common::proptest_config(24))]
     /// Random scenes parameters and rays: Hi-Z equals plain per-pixel
     /// stepping (prologue only) and every stop level, every hit is a genuine
     /// hit (the ray point projects into the texel and lies in its slab), and
     /// the oracle agrees on at least 95% of each batch (>= 99% overall is
     /// asserted by the deterministic tests above).
     #[test]
-    fn random_rays_hierarchy_never_skips_a_hit(
+    fn prop_random_rays_hierarchy_never_skips_a_hit(
         conv in 0usize..3, inf in any::<bool>(), seed in any::<u64>(),
         thick in prop_oneof![Just(0.0f32), 0.01f32..2.0, Just(f32::INFINITY)],
         ex in -2.0f32..2.0, ey in 0.5f32..3.5,

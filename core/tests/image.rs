@@ -1,6 +1,8 @@
 //! Image views: validation, bounds, row bands.
 
 use proptest::prelude::*;
+
+mod common;
 use refl_core::image::required_len;
 use refl_core::{Error, ImageView, ImageViewMut, RowRange};
 
@@ -88,8 +90,9 @@ fn row_range_validation() {
 }
 
 proptest! {
+    #![proptest_config(common::proptest_config(256))]
     #[test]
-    fn bands_partition_the_range(start in 0u32..50, len in 1u32..200, count in 1u32..64) {
+    fn prop_bands_partition_the_range(start in 0u32..50, len in 1u32..200, count in 1u32..64) {
         let r = RowRange::try_new(start, start + len, start + len).unwrap();
         let mut next = start;
         for i in 0..count {

@@ -6,6 +6,8 @@
 #![cfg(feature = "layered")]
 
 use proptest::prelude::*;
+
+mod common;
 use refl_core::glam::{Affine3A, DVec3, Quat, Vec3};
 use refl_core::layered::NO_PAYLOAD;
 use refl_core::{
@@ -1516,7 +1518,7 @@ fn refilled_columns_are_never_skipped_until_the_bounds_are_rebuilt() {
 }
 
 proptest! {
-    #![proptest_config(ProptestConfig::with_cases(200))]
+    #![proptest_config(common::proptest_config(200))]
 
     /// A ray that passes at least two texels inside the torus hits it, on
     /// the surface to within 1.5 texels, no earlier than where the ray
@@ -1524,7 +1526,7 @@ proptest! {
     /// legitimately be taken for a hit) and no later than 3 texels past
     /// the analytic hit; a ray that stays two texels away misses.
     #[test]
-    fn torus_rays_hit_where_the_torus_is(
+    fn prop_torus_rays_hit_where_the_torus_is(
         ox in -1.0f64..1.0, oy in -1.0f64..1.0, oz in -1.0f64..1.0,
         tx in -1.0f64..1.0, ty in -1.0f64..1.0, tz in -1.0f64..1.0,
     ) {

@@ -7,6 +7,8 @@
 
 use glam::{DMat4, DVec3, Vec2, Vec3};
 use proptest::prelude::*;
+
+mod common;
 use refl_core::{
     try_step, try_step_rays, Camera, DepthConvention, DepthImage, Error, ImageView, Miss, Ray,
     StepOptions, Thickness, Trace,
@@ -523,6 +525,50 @@ fn on_surface(c: &Cam64, scene: &[Shape], p: DVec3, th: f64) -> bool {
         }
     }
     z >= lo * (1.0 - 1e-4) && z <= hi * (1.0 + 1e-4)
+}
+
+/// `true` if some point of the ray (within `t_max` and the frustum) that
+/// projects within one texel of the oracle's hit pixel `(hx, hy)` lies in the
+/// shell `[front, front + th]` of the texel it projects into, with `front`
+/// the depth *stored* in `image` (ReversedZ). The f64 oracle's visible hit
+/// is the analytic surface's; the image holds only its samples at texel
+/// centers, so where the ray ends inside one texel's depth variation the
+/// image has nothing to hit and the oracle's hit cannot be asked for.
+#[allow(clippy::too_many_arguments)]
+fn image_shell_near_hit(
+    cam: &Camera,
+    c: &Cam64,
+    image: &[f32],
+    ray: &Ray,
+    t_max: f32,
+    hx: f64,
+    hy: f64,
+    th: f64,
+) -> bool {
+    let o = ray.origin.as_dvec3();
+    let d = ray.dir.as_dvec3();
+    let Some((ta, tb)) = clip64(c, o, d, f64::from(t_max)) else {
+        return false;
+    };
+    let tb = if tb.is_finite() { tb } else { 1e6 };
+    let (w, h) = (cam.width() as i64, cam.height() as i64);
+    let (hx, hy) = (hx.floor() as i64, hy.floor() as i64);
+    let pa = c.project(o + d * ta);
+    let pb = c.project(o + d * tb);
+    let len = ((pb.0 - pa.0).powi(2) + (pb.1 - pa.1).powi(2)).sqrt();
+    let n = ((len * 64.0) as usize).clamp(256, 200_000);
+    (0..=n).any(|i| {
+        let s = i as f64 / n as f64;
+        let u = s * pa.2 / ((1.0 - s) * pb.2 + s * pa.2);
+        let (px, py, z) = c.project(o + d * (ta + (tb - ta) * u));
+        let (x, y) = (px.floor() as i64, py.floor() as i64);
+        if (x - hx).abs().max((y - hy).abs()) > 1 || x < 0 || y < 0 || x >= w || y >= h {
+            return false;
+        }
+        let zf =
+            f64::from(cam.decode_depth(image[(y * w + x) as usize], DepthConvention::ReversedZ));
+        zf > 0.0 && z >= zf * (1.0 - 1e-6) && z <= (zf + th) * (1.0 + 1e-6)
+    })
 }
 
 /// `ray.at(t)` projects into the reported texel (to rounding) and the hit
@@ -1774,6 +1820,7 @@ fn room_fixture() -> &'static (Camera, Vec<f32>, Vec<Shape>) {
 }
 
 proptest! {
+    #![proptest_config(common::proptest_config(256))]
     /// Random rays in the room: visible true hits are found within a texel
     /// (or a pixel of the surface), clear misses are not hit away from a
     /// surface, at strides 1 and 8.
@@ -1799,6 +1846,11 @@ proptest! {
             on_surface(&c, scene, ray.origin.as_dvec3() + ray.dir.as_dvec3() * f64::from(h.t), 2.0)
         });
         match truth(&c, scene, &ray, t_max) {
+            // The image stores one depth per texel center; a ray that ends
+            // (t_max) between the true surface and the depth sampled at the
+            // texel centers near the hit never touches the image's shell
+            // there, so no kernel can report it (issue 12's case).
+            Truth::Visible { px, py, .. } if !image_shell_near_hit(cam, &c, front, &ray, t_max, px, py, 2.0) => {}
             Truth::Visible { px, py, .. } => {
                 let ok = tr.hit().is_some_and(|h| texel_dist(h.pixel, px, py) <= 1) || near_surface(&tr);
                 prop_assert!(ok, "{:?} vs ({}, {})", tr, px, py);
