@@ -391,6 +391,19 @@ void plane_functions() {
     expect<refl_vec3>("reflect overflow", REFL_STATUS_INVALID_ARGUMENT,
                       [&](refl_vec3* o) { return refl_reflect(o, v3(3e38f, 3e38f, 0), v3(1, 1, 0)); });
     expect_ok<refl_vec3>("reflect", [&](refl_vec3* o) { return refl_reflect(o, v3(0, 1, 0), v3(0, 1, 0)); });
+    // A zero normal has no reflection (it used to return OK with -v); a
+    // non-unit one is refused rather than silently scaling the result.
+    expect<refl_vec3>("reflect zero normal", REFL_STATUS_DEGENERATE_GEOMETRY,
+                      [&](refl_vec3* o) { return refl_reflect(o, v3(1, 1, 0), v3(0, 0, 0)); });
+    expect<refl_vec3>("reflect non-unit normal", REFL_STATUS_INVALID_ARGUMENT,
+                      [&](refl_vec3* o) { return refl_reflect(o, v3(1, 1, 0), v3(0, 2, 0)); });
+    {
+        refl_vec3 o{};
+        CHECK_STATUS(refl_reflect(&o, v3(1, 1, 0), v3(0, 0, 0)), REFL_STATUS_DEGENERATE_GEOMETRY);
+        char msg[128];
+        refl_last_error_message(msg, sizeof msg);
+        CHECK(std::strstr(msg, "refl_reflect: degenerate geometry: `n` is the zero vector") == msg);
+    }
 
     // Functions taking a plane: NULL, non-finite and zero-normal planes.
     struct BadPlane {
@@ -1354,7 +1367,7 @@ void hiz_functions() {
     CHECK(l0.offset == 0 && l0.width == w && l0.height == h);
     const refl_hiz_level_info top = expect_ok<refl_hiz_level_info>(
         "hiz_level top", [&](refl_hiz_level_info* o) { return refl_hiz_level(o, w, h, levels - 1); });
-    CHECK(top.width == 1 && top.height == 1 && top.offset == len - 1);
+    CHECK(top.width == 1 && top.height == 1 && top.offset == len - 1 - REFL_HIZ_STAMP_TEXELS);
     for (uint32_t lv : {levels, levels + 1, kMax})
         expect<refl_hiz_level_info>("hiz_level past last", REFL_STATUS_INVALID_ARGUMENT,
                                     [=](refl_hiz_level_info* o) { return refl_hiz_level(o, w, h, lv); });
@@ -1368,7 +1381,33 @@ void hiz_functions() {
     // Builds: on error the whole destination stays byte-identical.
     std::vector<refl_vec2> pyr(len);
     CHECK_STATUS(refl_hiz_build(pyr.data(), len, &img), REFL_STATUS_OK);
-    CHECK(pyr[0].x == pyr[0].y && pyr[0].x > 0.0f && pyr[len - 1].x == pyr[0].x);
+    CHECK(pyr[0].x == pyr[0].y && pyr[0].x > 0.0f && pyr[top.offset].x == pyr[0].x);
+    {
+        // The pyramid records the camera it was built for: another size or
+        // pose is refused (was OK with every ray missing), and the
+        // last-error message says what it was built for.
+        refl_camera other = g;
+        other.width = w / 2;
+        other.height = h / 2;
+        const refl_hiz wrong{pyr.data(), len, other, REFL_DEPTH_CONVENTION_ZERO_TO_ONE};
+        refl_trace_result r{};
+        const refl_thickness t1{1.0f, none};
+        CHECK_STATUS(refl_hiz_trace_ray(&r, &wrong, &t1, refl_ray{v3(0, 0, 0), v3(0, 0, -1)}, kInf, &opts),
+                     REFL_STATUS_INVALID_ARGUMENT);
+        char msg[256];
+        const size_t mlen = refl_last_error_message(msg, sizeof msg);
+        CHECK(mlen > 0 && mlen < sizeof msg);
+        CHECK(std::strstr(msg, "refl_hiz_trace_ray: ") == msg);
+        CHECK(std::strstr(msg, "the camera is") != nullptr);
+        other = g;
+        other.view.m[12] += 0.25f;
+        const refl_hiz moved{pyr.data(), len, other, REFL_DEPTH_CONVENTION_ZERO_TO_ONE};
+        CHECK_STATUS(refl_hiz_trace_ray(&r, &moved, &t1, refl_ray{v3(0, 0, 0), v3(0, 0, -1)}, kInf, &opts),
+                     REFL_STATUS_INVALID_ARGUMENT);
+        // A truncated copy is NUL-terminated and the length is the whole one.
+        char tiny[8];
+        CHECK(refl_last_error_message(tiny, sizeof tiny) > sizeof tiny && tiny[7] == '\0');
+    }
     auto build = [&](const char* what, refl_status want, size_t dl, const refl_depth_image* i, int mode,
                      uint32_t level = kMax, uint32_t r0 = 0, uint32_t r1 = 0) {
         std::vector<unsigned char> buf((len + 2) * sizeof(refl_vec2) + 16);
@@ -2213,9 +2252,14 @@ void cone_functions() {
     // Hi-Z of a flat depth image for the visibility build and traces.
     std::vector<float> depth(n, 0.5f);
     const refl_depth_image dimg{{depth.data(), n, w, h, w}, g, REFL_DEPTH_CONVENTION_ZERO_TO_ONE};
-    std::vector<refl_vec2> hz(len);
-    CHECK_STATUS(refl_hiz_build(hz.data(), len, &dimg), REFL_STATUS_OK);
-    const refl_hiz hiz{hz.data(), len, g, REFL_DEPTH_CONVENTION_ZERO_TO_ONE};
+    // The Hi-Z pyramid is the cone pyramids' layout plus its stamp.
+    size_t hiz_len = 0;
+    uint32_t hiz_levels = 0;
+    CHECK_STATUS(refl_hiz_len(&hiz_len, &hiz_levels, w, h), REFL_STATUS_OK);
+    CHECK(hiz_len == len + REFL_HIZ_STAMP_TEXELS);
+    std::vector<refl_vec2> hz(hiz_len);
+    CHECK_STATUS(refl_hiz_build(hz.data(), hiz_len, &dimg), REFL_STATUS_OK);
+    const refl_hiz hiz{hz.data(), hiz_len, g, REFL_DEPTH_CONVENTION_ZERO_TO_ONE};
 
     // Color pyramid builds: failures leave the destination untouched.
     std::vector<refl_vec3> frame(n, v3(0.25f, 0.5f, 0.75f));

@@ -19,7 +19,7 @@
  *    column-major.
  *  - Thread safety: every function is reentrant; there is no global state.
  */
-/* refl 0.1.0 */
+/* refl 0.2.0 */
 
 #ifndef REFL_H
 #define REFL_H
@@ -83,6 +83,15 @@
 #define REFL_EPIPOLAR_FLAG_SURROUNDED 240
 
 /**
+ * Texels after the last level of a Hi-Z pyramid that record the image
+ * size and camera it was built for (counted in `refl_hiz_len`, written by
+ * `refl_hiz_build` and by the `refl_hiz_build_rows` call of the last
+ * level). Tracing a pyramid with a camera other than the one it was built
+ * for is `REFL_STATUS_INVALID_ARGUMENT`.
+ */
+#define REFL_HIZ_STAMP_TEXELS 2
+
+/**
  * Major version of the header this library was built with; compare with
  * `refl_version_number()` at run time to detect a header/library mismatch.
  */
@@ -91,12 +100,18 @@
 /**
  * Minor version of the header.
  */
-#define REFL_VERSION_MINOR 1
+#define REFL_VERSION_MINOR 2
 
 /**
  * Patch version of the header.
  */
 #define REFL_VERSION_PATCH 0
+
+/**
+ * Capacity in bytes of the thread-local last-error message (longer
+ * messages are cut at a character boundary).
+ */
+#define REFL_LAST_ERROR_CAPACITY 256
 
 /**
  * `refl_tcrr_surfel::flags` bit: the surface fields are valid.
@@ -3175,7 +3190,8 @@ refl_status refl_epipolar_decide_rows(struct refl_epipolar_decision *out,
 
 /**
  * Size query: the number of `refl_vec2` texels of the Hi-Z pyramid of a
- * `width x height` image (all levels) into `*out_len`, and its level count
+ * `width x height` image (all levels, then `REFL_HIZ_STAMP_TEXELS`) into
+ * `*out_len`, and its level count
  * (the last level is 1 x 1) into `*out_levels`.
  *
  * Returns `REFL_STATUS_NULL_POINTER` if an output is NULL,
@@ -3244,7 +3260,10 @@ refl_status refl_hiz_build(struct refl_vec2 *dst,
  * (from `*image`) completely, then level 1 (from level 0 in `dst`), and so
  * on; the row bands of one level may run concurrently on different
  * threads. Only the rows written and, for `level > 0`, level `level - 1`
- * (read) are touched. The result equals `refl_hiz_build`'s.
+ * (read) are touched; the call that builds the last level also writes
+ * the pyramid's stamp (the texels after the last level, which record the
+ * image size and camera that `refl_hiz_trace_ray` checks). The result
+ * equals `refl_hiz_build`'s.
  *
  * Returns as `refl_hiz_build`, plus `REFL_STATUS_INVALID_ARGUMENT` if
  * `level` is not below the level count or the rows are empty, reversed or
@@ -3621,14 +3640,17 @@ refl_status refl_prr_classify(uint32_t *out,
                               struct refl_vec3 p2);
 
 /**
- * Writes to `*out` the reflection of `v` about the normal `n`:
+ * Writes to `*out` the reflection of `v` about the unit normal `n`:
  * `2 dot(v, n) n - v` (seed 004 Sec. 4.4.3). `v` points from the surface
  * toward the viewer; the result points away from the surface on the same
  * side. For an incident direction d (pointing at the surface) pass `-d`.
- * Unit `v` and `n` give a unit result; nothing is normalized here.
+ * A unit `v` gives a unit result; nothing is normalized here.
  *
  * Returns `REFL_STATUS_NULL_POINTER` if `out` is NULL;
- * `REFL_STATUS_INVALID_ARGUMENT` if an input or the result is not finite.
+ * `REFL_STATUS_DEGENERATE_GEOMETRY` for a zero normal (no mirror to
+ * reflect about); `REFL_STATUS_INVALID_ARGUMENT` if an input or the
+ * result is not finite, or `n` is not unit length (`|n|^2` within 2e-3 of
+ * 1).
  *
  * # Safety
  * `out` must be NULL or point to a writable `refl_vec3`.
@@ -3791,7 +3813,7 @@ const char *refl_status_string(uint32_t status);
 
 /**
  * The library version as a static, NUL-terminated string such as
- * "0.1.0". Never NULL; must not be freed.
+ * "0.2.0". Never NULL; must not be freed.
  */
 const char *refl_version(void);
 
@@ -3801,6 +3823,29 @@ const char *refl_version(void);
  * and `REFL_VERSION_PATCH`.
  */
 uint32_t refl_version_number(void);
+
+/**
+ * The message of the most recent call on this thread of a refl function
+ * that returns a `refl_status`: empty if that call succeeded, else
+ * `"<function>: <status string>"` followed, where the call can say, by
+ * `": "` and which argument was refused and why (for example
+ * `"refl_hiz_trace_ray: invalid argument (NaN/Inf, zero or overflowing
+ * size, bad range): hiz: the pyramid was built for 512x384, the camera is
+ * 256x192"`). This function and `refl_status_string`,
+ * `refl_version` and `refl_version_number` do not change it. Like `errno`
+ * it is per thread; unlike `errno` every status-returning call resets it.
+ *
+ * Copies at most `dst_len - 1` bytes of the message and a terminating NUL
+ * to `dst` (nothing when `dst` is NULL or `dst_len` is 0) and returns the
+ * message's full length in bytes, without the NUL (as `snprintf` does): a
+ * return value `>= dst_len` means the copy was cut. Messages are at most
+ * `REFL_LAST_ERROR_CAPACITY - 1` bytes of UTF-8 (English, ASCII in
+ * practice).
+ *
+ * # Safety
+ * `dst` must be NULL or writable for `dst_len` bytes.
+ */
+size_t refl_last_error_message(char *dst, size_t dst_len);
 
 /**
  * Writes to `*out` the default TCRR settings (iteration cap 64,

@@ -12,7 +12,8 @@
 # Each round draws a seed from /dev/urandom and runs every test named prop_*
 # in core/tests with REFL_EXPLORE=1 and that seed. A failing case is saved by
 # proptest in core/tests/<file>.proptest-regressions (check it in, then fix
-# the kernel or the oracle); the round's log goes to target/explore/.
+# the kernel or the oracle); the round's log goes to target/explore/ and the
+# script stops there, since every later round would replay that case.
 # At the end the script prints the rounds, the cases run, the CPU seconds
 # spent and the failures.
 set -uo pipefail
@@ -48,6 +49,12 @@ while [ "$(date +%s)" -lt "$end" ]; do
   cases=$((cases + n))
   echo "round $rounds seed $seed: $n cases, $status"
   [ "$status" = ok ] && rm -f "$out"
+  if [ "$status" = FAILED ]; then
+    # proptest saved the case in a *.proptest-regressions file, which every
+    # later round would replay and fail on: stop here, check it in, fix.
+    echo "stopping at the first failure: see $log_dir/failure-$seed.log"
+    break
+  fi
 done
 # CPU time of this shell's children (user + system, in clock ticks).
 ticks=$(getconf CLK_TCK)

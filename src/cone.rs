@@ -120,7 +120,7 @@ impl GlossyBuffers {
     pub fn new(width: u32, height: u32) -> Result<Self, refl_core::Error> {
         let n = HiZLayout::try_new(width, height)?.len();
         Ok(Self {
-            hiz: vec![[0.0; 2]; n],
+            hiz: vec![[0.0; 2]; refl_core::hiz::hiz_len(width, height)?],
             color: vec![[0.0; 3]; n],
             visibility: vec![0.0; n],
         })

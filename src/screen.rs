@@ -426,7 +426,7 @@ pub fn build_hiz(
 ) -> Result<(), refl_core::Error> {
     use refl_core::hiz::{try_build_hiz_level0_rows, try_build_hiz_level_rows, HiZLayout};
     let layout = HiZLayout::try_new(depth.width(), depth.height())?;
-    if dst.len() < layout.len() {
+    if dst.len() < refl_core::hiz::hiz_len(depth.width(), depth.height())? {
         return Err(refl_core::Error::InsufficientSize);
     }
     build_pyramid_banded(
@@ -436,7 +436,8 @@ pub fn build_hiz(
         pool,
         |band, rows| try_build_hiz_level0_rows(band, depth, rows),
         |band, finer, level, rows| try_build_hiz_level_rows(band, finer, &layout, level, rows),
-    )
+    )?;
+    refl_core::hiz::try_stamp_hiz(dst, depth.camera())
 }
 
 /// Rows per band of [`build_pyramid_banded`].

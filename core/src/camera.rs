@@ -204,6 +204,29 @@ impl Camera {
         );
         Self::try_new(view.as_mat4(), fov_y, near, far, width, height)
     }
+    /// A 32-bit fingerprint of everything that defines the camera (view
+    /// matrix, field of view, near, far, width, height; FNV-1a over their
+    /// bits): what a prepared structure (a Hi-Z pyramid) records about the
+    /// camera it was built for, so that using it with another camera is an
+    /// error rather than a silent miss. Equal cameras have equal
+    /// fingerprints; different ones collide with probability about 2^-32.
+    pub fn fingerprint(&self) -> u32 {
+        let mut h: u32 = 0x811c_9dc5;
+        let mut eat = |word: u32| {
+            for b in word.to_le_bytes() {
+                h = (h ^ u32::from(b)).wrapping_mul(0x0100_0193);
+            }
+        };
+        for v in self.view.to_cols_array() {
+            eat(v.to_bits());
+        }
+        for v in [self.fov_y, self.near, self.far] {
+            eat(v.to_bits());
+        }
+        eat(self.width);
+        eat(self.height);
+        h
+    }
 
     /// World-to-view matrix.
     pub const fn view(&self) -> Mat4 {

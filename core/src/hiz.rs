@@ -295,7 +295,96 @@ fn cell_span(c: u32, level: u32, cells: u32, full: u32) -> Range<u32> {
 /// # Errors
 /// As [`HiZLayout::try_new`].
 pub fn hiz_len(width: u32, height: u32) -> Result<usize, Error> {
-    HiZLayout::try_new(width, height).map(|l| l.len())
+    HiZLayout::try_new(width, height)?
+        .len()
+        .checked_add(HIZ_STAMP_TEXELS)
+        .ok_or(Error::InvalidArgument)
+}
+
+/// Texels after the last level of a Hi-Z pyramid that hold its
+/// [`HiZStamp`]; counted in [`hiz_len`].
+pub const HIZ_STAMP_TEXELS: usize = 2;
+
+/// "RFHZ": the first word of a stamp.
+const STAMP_MAGIC: u32 = 0x5a48_4652;
+
+/// What a built Hi-Z pyramid records about the depth image it was built
+/// from, in the [`HIZ_STAMP_TEXELS`] texels after its last level (written
+/// by [`try_build_hiz`] or [`try_stamp_hiz`]): the image size and the
+/// camera's [`Camera::fingerprint`]. [`HiZ::try_new`] refuses a pyramid
+/// whose stamp does not match the camera it is bound to, so a pyramid of
+/// another size, of an earlier frame's camera, or never built, is an error
+/// and not a silent miss.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub struct HiZStamp {
+    /// Width of the depth image (level 0).
+    pub width: u32,
+    /// Height of the depth image (level 0).
+    pub height: u32,
+    /// [`Camera::fingerprint`] of the depth image's camera.
+    pub camera: u32,
+}
+
+impl HiZStamp {
+    /// The stamp of a pyramid built from a depth image of `camera`.
+    pub fn of(camera: &Camera) -> Self {
+        Self {
+            width: camera.width(),
+            height: camera.height(),
+            camera: camera.fingerprint(),
+        }
+    }
+
+    /// The stamp stored in `texels` (the [`HIZ_STAMP_TEXELS`] texels after a
+    /// pyramid's last level), or `None` if they hold none.
+    pub fn read(texels: &[HiZTexel]) -> Option<Self> {
+        match texels {
+            [[m, w], [h, c], ..] if m.to_bits() == STAMP_MAGIC => Some(Self {
+                width: w.to_bits(),
+                height: h.to_bits(),
+                camera: c.to_bits(),
+            }),
+            _ => None,
+        }
+    }
+
+    /// The stamp as its texels (bit patterns, not depths).
+    pub fn texels(&self) -> [HiZTexel; HIZ_STAMP_TEXELS] {
+        [
+            [f32::from_bits(STAMP_MAGIC), f32::from_bits(self.width)],
+            [f32::from_bits(self.height), f32::from_bits(self.camera)],
+        ]
+    }
+
+    /// The stamp at the very end of `data` (where a buffer of exactly
+    /// [`hiz_len`] texels holds it), for diagnosing a mismatch: what size
+    /// the pyramid was built for.
+    pub fn read_tail(data: &[HiZTexel]) -> Option<Self> {
+        let n = data.len().checked_sub(HIZ_STAMP_TEXELS)?;
+        Self::read(&data[n..])
+    }
+}
+
+/// Writes the [`HiZStamp`] of `camera` after the last level of the pyramid
+/// in `dst` (laid out for `camera`'s size): the last step of a row-band
+/// build ([`try_build_hiz_level0_rows`], [`try_build_hiz_level_rows`]);
+/// [`try_build_hiz`] does it itself.
+///
+/// # Errors
+/// [`Error::InsufficientSize`] if `dst` holds fewer than
+/// [`hiz_len`]`(camera.width(), camera.height())` texels. Nothing is
+/// written on error.
+///
+/// # Panics
+/// Never.
+pub fn try_stamp_hiz(dst: &mut [HiZTexel], camera: &Camera) -> Result<(), Error> {
+    let layout = HiZLayout::try_new(camera.width(), camera.height())?;
+    let at = layout.len();
+    let slot = dst
+        .get_mut(at..at + HIZ_STAMP_TEXELS)
+        .ok_or(Error::InsufficientSize)?;
+    slot.copy_from_slice(&HiZStamp::of(camera).texels());
+    Ok(())
 }
 
 /// Decoded linear depth as stored in the pyramid: NaN for "no surface"
@@ -407,7 +496,8 @@ fn cell_children(c: u32, coarse: u32, fine: u32) -> Range<u32> {
 
 /// Builds the whole pyramid of `depth` into `dst` (level by level, see
 /// [`try_build_hiz_level0_rows`] and [`try_build_hiz_level_rows`] for the row-band
-/// variants a threaded host uses).
+/// variants a threaded host uses) and stamps it with the depth image's
+/// size and camera ([`HiZStamp`]).
 ///
 /// # Errors
 /// [`Error::InsufficientSize`] if `dst` holds fewer than
@@ -417,7 +507,7 @@ fn cell_children(c: u32, coarse: u32, fine: u32) -> Range<u32> {
 /// Never.
 pub fn try_build_hiz(dst: &mut [HiZTexel], depth: &DepthImage<'_>) -> Result<(), Error> {
     let layout = HiZLayout::try_new(depth.width(), depth.height())?;
-    if dst.len() < layout.len() {
+    if dst.len() < hiz_len(depth.width(), depth.height())? {
         return Err(Error::InsufficientSize);
     }
     let l0 = layout.levels[0];
@@ -436,7 +526,7 @@ pub fn try_build_hiz(dst: &mut [HiZTexel], depth: &DepthImage<'_>) -> Result<(),
             RowRange::try_all(c.height)?,
         )?;
     }
-    Ok(())
+    try_stamp_hiz(dst, depth.camera())
 }
 
 /// A built pyramid with the camera of its depth image: what [`try_trace_hiz`]
@@ -458,16 +548,22 @@ impl<'a> HiZ<'a> {
     /// only to decode [`Thickness::BackFaces`]).
     ///
     /// # Errors
-    /// [`Error::InsufficientSize`] if `data` holds fewer than
-    /// [`hiz_len`]`(camera.width(), camera.height())` texels.
+    /// * [`Error::InsufficientSize`] if `data` holds fewer than
+    ///   [`hiz_len`]`(camera.width(), camera.height())` texels.
+    /// * [`Error::InvalidArgument`] if the pyramid's [`HiZStamp`] is not
+    ///   `camera`'s: built for another image size or another camera, or not
+    ///   built (or not stamped, after a row-band build) at all.
     pub fn try_new(
         data: &'a [HiZTexel],
         camera: Camera,
         convention: DepthConvention,
     ) -> Result<Self, Error> {
         let layout = HiZLayout::try_new(camera.width(), camera.height())?;
-        if data.len() < layout.len() {
+        if data.len() < hiz_len(camera.width(), camera.height())? {
             return Err(Error::InsufficientSize);
+        }
+        if HiZStamp::read(&data[layout.len()..]) != Some(HiZStamp::of(&camera)) {
+            return Err(Error::InvalidArgument);
         }
         // The x, y and w rows do not depend on the depth convention.
         let to_pixel = camera.world_to_pixel(DepthConvention::ZeroToOne)?;

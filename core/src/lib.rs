@@ -53,7 +53,7 @@ pub use layered::{
 };
 #[cfg(feature = "mirror")]
 pub use mirror::{
-    mirror_matrix, mirror_point, mirrored_camera, oblique_projection, reflect, Plane,
+    mirror_matrix, mirror_point, mirrored_camera, oblique_projection, reflect, try_reflect, Plane,
 };
 
 #[cfg(feature = "cone")]
@@ -65,9 +65,9 @@ pub use cone::{
 };
 #[cfg(feature = "hiz")]
 pub use hiz::{
-    hiz_len, try_build_hiz, try_build_hiz_level0_rows, try_build_hiz_level_rows, try_trace_hiz,
-    try_trace_hiz_rays, try_trace_hiz_stats, HiZ, HiZLayout, HiZLevel, HiZOptions, HiZStats,
-    HiZTexel,
+    hiz_len, try_build_hiz, try_build_hiz_level0_rows, try_build_hiz_level_rows, try_stamp_hiz,
+    try_trace_hiz, try_trace_hiz_rays, try_trace_hiz_stats, HiZ, HiZLayout, HiZLevel, HiZOptions,
+    HiZStamp, HiZStats, HiZTexel, HIZ_STAMP_TEXELS,
 };
 #[cfg(feature = "depth-image")]
 pub use step::{try_step, try_step_rays, StepOptions};

@@ -21,6 +21,43 @@ pub fn reflect(v: Vec3, n: Vec3) -> Vec3 {
     2.0 * v.dot(n) * n - v
 }
 
+/// [`reflect`] with its contract checked (seed 004 Sec. 4.4.3): `v` and
+/// `n` finite, `n` unit length (`|n|^2` within `2e-3` of 1, the tolerance
+/// of ray directions), the result finite.
+///
+/// # Errors
+/// * [`Error::DegenerateGeometry`]: `n` is zero (`|n|^2 < 1e-12`): there is
+///   no mirror to reflect about. (Without the check the formula returns
+///   `-v`, a plausible-looking wrong answer.)
+/// * [`Error::InvalidArgument`]: `v` or `n` not finite, `n` not unit
+///   length, or the result overflowed.
+///
+/// # Examples
+/// ```
+/// use refl_core::{glam::Vec3, try_reflect, Error};
+/// let r = try_reflect(Vec3::new(1.0, 1.0, 0.0), Vec3::Y)?;
+/// assert_eq!(r, Vec3::new(-1.0, 1.0, 0.0));
+/// assert_eq!(try_reflect(Vec3::X, Vec3::ZERO), Err(Error::DegenerateGeometry));
+/// # Ok::<(), Error>(())
+/// ```
+pub fn try_reflect(v: Vec3, n: Vec3) -> Result<Vec3, Error> {
+    if !v.is_finite() || !n.is_finite() {
+        return Err(Error::InvalidArgument);
+    }
+    let n2 = n.length_squared();
+    if n2 < 1e-12 {
+        return Err(Error::DegenerateGeometry);
+    }
+    if !((n2 - 1.0).abs() <= 2e-3) {
+        return Err(Error::InvalidArgument);
+    }
+    let r = reflect(v, n);
+    if !r.is_finite() {
+        return Err(Error::InvalidArgument);
+    }
+    Ok(r)
+}
+
 /// An oriented plane `n . p + d = 0` with a unit normal `n`.
 ///
 /// Built only through the validating constructors, so the normal is always

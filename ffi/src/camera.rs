@@ -18,10 +18,10 @@ use refl_core::{Camera, Error};
 ///
 /// # Safety
 /// `p` must be NULL or point to a readable `refl_camera`.
-unsafe fn camera(p: *const refl_camera) -> Result<Camera, Error> {
+unsafe fn camera(p: *const refl_camera, name: &str) -> Result<Camera, Error> {
     // SAFETY: forwarded contract.
-    let c = unsafe { read(p) }?;
-    Camera::try_from(&c)
+    let c = unsafe { read(p, name) }?;
+    crate::types::camera_named(&c, name)
 }
 
 /// A finite pixel position, or `InvalidArgument`.
@@ -72,8 +72,8 @@ pub unsafe extern "C" fn refl_camera_look_at(
     width: u32,
     height: u32,
 ) -> refl_status {
-    guard(|| {
-        let out = Out::new(out)?;
+    guard("refl_camera_look_at", || {
+        let out = Out::new(out, "out")?;
         let cam = Camera::try_look_at(
             eye.into(),
             target.into(),
@@ -103,8 +103,10 @@ pub unsafe extern "C" fn refl_camera_look_at(
 /// `camera` must be NULL or point to a readable `refl_camera`.
 #[no_mangle]
 pub unsafe extern "C" fn refl_camera_validate(camera: *const refl_camera) -> refl_status {
-    // SAFETY: caller contract.
-    guard(|| unsafe { self::camera(camera) }.map(|_| ()))
+    guard("refl_camera_validate", || {
+        // SAFETY: caller contract.
+        unsafe { self::camera(camera, "camera") }.map(|_| ())
+    })
 }
 
 /// Writes to `*out` the primary ray of `camera` through `pixel` (in pixels;
@@ -124,10 +126,10 @@ pub unsafe extern "C" fn refl_camera_primary_ray(
     camera: *const refl_camera,
     pixel: refl_vec2,
 ) -> refl_status {
-    guard(|| {
-        let out = Out::new(out)?;
+    guard("refl_camera_primary_ray", || {
+        let out = Out::new(out, "out")?;
         // SAFETY: caller contract.
-        let cam = unsafe { self::camera(camera) }?;
+        let cam = unsafe { self::camera(camera, "camera") }?;
         let ray = cam.primary_ray(self::pixel(pixel)?);
         if !(ray.dir.is_finite() && ray.dir != Vec3::ZERO && ray.origin.is_finite()) {
             return Err(Error::InvalidArgument);
@@ -156,10 +158,10 @@ pub unsafe extern "C" fn refl_camera_project(
     camera: *const refl_camera,
     point: refl_vec3,
 ) -> refl_status {
-    guard(|| {
-        let out = Out::new(out)?;
+    guard("refl_camera_project", || {
+        let out = Out::new(out, "out")?;
         // SAFETY: caller contract.
-        let cam = unsafe { self::camera(camera) }?;
+        let cam = unsafe { self::camera(camera, "camera") }?;
         let p = cam.project(finite3(point)?);
         // SAFETY: caller contract.
         unsafe { out.write(refl_projection::from_option(p)) };
@@ -183,10 +185,10 @@ pub unsafe extern "C" fn refl_camera_linear_depth(
     camera: *const refl_camera,
     point: refl_vec3,
 ) -> refl_status {
-    guard(|| {
-        let out = Out::new(out)?;
+    guard("refl_camera_linear_depth", || {
+        let out = Out::new(out, "out")?;
         // SAFETY: caller contract.
-        let cam = unsafe { self::camera(camera) }?;
+        let cam = unsafe { self::camera(camera, "camera") }?;
         let z = cam.linear_depth(finite3(point)?);
         if !z.is_finite() {
             return Err(Error::InvalidArgument);
@@ -215,10 +217,10 @@ pub unsafe extern "C" fn refl_camera_unproject(
     depth: f32,
     convention: u32,
 ) -> refl_status {
-    guard(|| {
-        let out = Out::new(out)?;
+    guard("refl_camera_unproject", || {
+        let out = Out::new(out, "out")?;
         // SAFETY: caller contract.
-        let cam = unsafe { self::camera(camera) }?;
+        let cam = unsafe { self::camera(camera, "camera") }?;
         let c = self::convention(convention)?;
         let px = self::pixel(pixel)?;
         if !depth.is_finite() {
@@ -253,10 +255,10 @@ pub unsafe extern "C" fn refl_camera_encode_depth(
     linear_depth: f32,
     convention: u32,
 ) -> refl_status {
-    guard(|| {
-        let out = Out::new(out)?;
+    guard("refl_camera_encode_depth", || {
+        let out = Out::new(out, "out")?;
         // SAFETY: caller contract.
-        let cam = unsafe { self::camera(camera) }?;
+        let cam = unsafe { self::camera(camera, "camera") }?;
         let c = self::convention(convention)?;
         let d = cam.encode_depth(linear_depth, c);
         if linear_depth.is_nan() || d.is_nan() {
@@ -285,10 +287,10 @@ pub unsafe extern "C" fn refl_camera_decode_depth(
     depth: f32,
     convention: u32,
 ) -> refl_status {
-    guard(|| {
-        let out = Out::new(out)?;
+    guard("refl_camera_decode_depth", || {
+        let out = Out::new(out, "out")?;
         // SAFETY: caller contract.
-        let cam = unsafe { self::camera(camera) }?;
+        let cam = unsafe { self::camera(camera, "camera") }?;
         let c = self::convention(convention)?;
         let z = cam.decode_depth(depth, c);
         if depth.is_nan() || z.is_nan() {
@@ -318,10 +320,10 @@ pub unsafe extern "C" fn refl_camera_projection_matrix(
     camera: *const refl_camera,
     convention: u32,
 ) -> refl_status {
-    guard(|| {
-        let out = Out::new(out)?;
+    guard("refl_camera_projection_matrix", || {
+        let out = Out::new(out, "out")?;
         // SAFETY: caller contract.
-        let cam = unsafe { self::camera(camera) }?;
+        let cam = unsafe { self::camera(camera, "camera") }?;
         let m = finite_mat(cam.projection(self::convention(convention)?)?)?;
         // SAFETY: caller contract.
         unsafe { out.write(m) };
@@ -343,10 +345,10 @@ pub unsafe extern "C" fn refl_camera_world_to_pixel_matrix(
     camera: *const refl_camera,
     convention: u32,
 ) -> refl_status {
-    guard(|| {
-        let out = Out::new(out)?;
+    guard("refl_camera_world_to_pixel_matrix", || {
+        let out = Out::new(out, "out")?;
         // SAFETY: caller contract.
-        let cam = unsafe { self::camera(camera) }?;
+        let cam = unsafe { self::camera(camera, "camera") }?;
         let m = finite_mat(cam.world_to_pixel(self::convention(convention)?)?)?;
         // SAFETY: caller contract.
         unsafe { out.write(m) };
@@ -367,10 +369,10 @@ pub unsafe extern "C" fn refl_camera_inverse_view(
     out: *mut refl_mat4,
     camera: *const refl_camera,
 ) -> refl_status {
-    guard(|| {
-        let out = Out::new(out)?;
+    guard("refl_camera_inverse_view", || {
+        let out = Out::new(out, "out")?;
         // SAFETY: caller contract.
-        let cam = unsafe { self::camera(camera) }?;
+        let cam = unsafe { self::camera(camera, "camera") }?;
         // SAFETY: caller contract.
         unsafe { out.write(cam.inverse_view().into()) };
         Ok(())
@@ -389,10 +391,10 @@ pub unsafe extern "C" fn refl_camera_eye(
     out: *mut refl_vec3,
     camera: *const refl_camera,
 ) -> refl_status {
-    guard(|| {
-        let out = Out::new(out)?;
+    guard("refl_camera_eye", || {
+        let out = Out::new(out, "out")?;
         // SAFETY: caller contract.
-        let cam = unsafe { self::camera(camera) }?;
+        let cam = unsafe { self::camera(camera, "camera") }?;
         // SAFETY: caller contract.
         unsafe { out.write(cam.eye().into()) };
         Ok(())
@@ -413,10 +415,10 @@ pub unsafe extern "C" fn refl_camera_is_mirrored(
     out: *mut bool,
     camera: *const refl_camera,
 ) -> refl_status {
-    guard(|| {
-        let out = Out::new(out)?;
+    guard("refl_camera_is_mirrored", || {
+        let out = Out::new(out, "out")?;
         // SAFETY: caller contract.
-        let cam = unsafe { self::camera(camera) }?;
+        let cam = unsafe { self::camera(camera, "camera") }?;
         // SAFETY: caller contract.
         unsafe { out.write(cam.is_mirrored()) };
         Ok(())
@@ -446,13 +448,11 @@ pub unsafe extern "C" fn refl_reprojection_matrix(
     to: *const refl_camera,
     convention: u32,
 ) -> refl_status {
-    guard(|| {
-        let out = Out::new(out)?;
-        if from.is_null() || to.is_null() {
-            return Err(Error::NullPointer);
-        }
+    guard("refl_reprojection_matrix", || {
+        let out = Out::new(out, "out")?;
+        crate::ptr::no_nulls(&[(from.is_null(), "from"), (to.is_null(), "to")])?;
         // SAFETY: caller contract.
-        let (from, to) = unsafe { (camera(from)?, camera(to)?) };
+        let (from, to) = unsafe { (camera(from, "from")?, camera(to, "to")?) };
         let m = finite_mat(reprojection_matrix(
             &from,
             &to,
@@ -485,13 +485,11 @@ pub unsafe extern "C" fn refl_reproject(
     depth: f32,
     convention: u32,
 ) -> refl_status {
-    guard(|| {
-        let out = Out::new(out)?;
-        if from.is_null() || to.is_null() {
-            return Err(Error::NullPointer);
-        }
+    guard("refl_reproject", || {
+        let out = Out::new(out, "out")?;
+        crate::ptr::no_nulls(&[(from.is_null(), "from"), (to.is_null(), "to")])?;
         // SAFETY: caller contract.
-        let (from, to) = unsafe { (camera(from)?, camera(to)?) };
+        let (from, to) = unsafe { (camera(from, "from")?, camera(to, "to")?) };
         let c = self::convention(convention)?;
         let px = self::pixel(pixel)?;
         if !depth.is_finite() {
@@ -523,10 +521,10 @@ pub unsafe extern "C" fn refl_apply_reprojection(
     pixel: refl_vec2,
     depth: f32,
 ) -> refl_status {
-    guard(|| {
-        let out = Out::new(out)?;
+    guard("refl_apply_reprojection", || {
+        let out = Out::new(out, "out")?;
         // SAFETY: caller contract.
-        let m = Mat4::from(unsafe { read(matrix) }?);
+        let m = Mat4::from(unsafe { read(matrix, "matrix") }?);
         let px = self::pixel(pixel)?;
         if !(m.is_finite() && depth.is_finite()) {
             return Err(Error::InvalidArgument);

@@ -49,12 +49,12 @@ pub struct refl_cluster_finalize_params {
 ///
 /// # Safety
 /// A non-null, aligned `p` must be readable for `count` values of `T`.
-unsafe fn copy_in<T: Copy>(p: *const T, count: usize) -> Result<Vec<T>, Error> {
+unsafe fn copy_in<T: Copy>(p: *const T, count: usize, name: &str) -> Result<Vec<T>, Error> {
     if count == 0 {
         return Ok(Vec::new());
     }
     // SAFETY: caller contract.
-    unsafe { read_vec(p, count) }
+    unsafe { read_vec(p, count, name) }
 }
 
 /// Checks an output array: non-null, aligned, a possible length.
@@ -94,8 +94,8 @@ fn rows(r: refl_row_range, height: u32) -> Result<RowRange, Error> {
 /// `out` must be NULL or writable.
 #[no_mangle]
 pub unsafe extern "C" fn refl_cluster_params_default(out: *mut refl_cluster_params) -> refl_status {
-    guard(|| {
-        let out = Out::new(out)?;
+    guard("refl_cluster_params_default", || {
+        let out = Out::new(out, "out")?;
         // SAFETY: caller contract.
         unsafe { out.write(ClusterParams::default().into()) };
         Ok(())
@@ -114,8 +114,8 @@ pub unsafe extern "C" fn refl_cluster_params_default(out: *mut refl_cluster_para
 pub unsafe extern "C" fn refl_cluster_camera_params_default(
     out: *mut refl_cluster_camera_params,
 ) -> refl_status {
-    guard(|| {
-        let out = Out::new(out)?;
+    guard("refl_cluster_camera_params_default", || {
+        let out = Out::new(out, "out")?;
         // SAFETY: caller contract.
         unsafe { out.write(CameraParams::default().into()) };
         Ok(())
@@ -138,10 +138,10 @@ pub unsafe extern "C" fn refl_cluster_bins_max(
     objects: u32,
     params: *const refl_cluster_params,
 ) -> refl_status {
-    guard(|| {
-        let out = Out::new(out)?;
+    guard("refl_cluster_bins_max", || {
+        let out = Out::new(out, "out")?;
         // SAFETY: caller contract.
-        let p = ClusterParams::from(unsafe { read(params) }?);
+        let p = ClusterParams::from(unsafe { read(params, "params") }?);
         let n = cluster::cluster_bins_max(objects, &p)?;
         // SAFETY: caller contract.
         unsafe { out.write(n) };
@@ -168,9 +168,9 @@ pub unsafe extern "C" fn refl_cluster_count_objects(
     objects: refl_image_u32,
     rows: refl_row_range,
 ) -> refl_status {
-    guard(|| {
+    guard("refl_cluster_count_objects", || {
         // SAFETY: caller contract.
-        let mut c = unsafe { copy_in(counts.cast_const(), counts_len) }?;
+        let mut c = unsafe { copy_in(counts.cast_const(), counts_len, "counts") }?;
         // SAFETY: caller contract.
         let view = unsafe { objects.view() }?;
         let r = self::rows(rows, view.height())?;
@@ -211,13 +211,13 @@ pub unsafe extern "C" fn refl_cluster_bin_layout(
     frame_pixels: u64,
     params: *const refl_cluster_params,
 ) -> refl_status {
-    guard(|| {
-        let total_out = Out::new(out_total)?;
+    guard("refl_cluster_bin_layout", || {
+        let total_out = Out::new(out_total, "out_total")?;
         check_out(out, out_len)?;
         // SAFETY: caller contract.
-        let c = unsafe { copy_in(counts, counts_len) }?;
+        let c = unsafe { copy_in(counts, counts_len, "counts") }?;
         // SAFETY: caller contract.
-        let p = ClusterParams::from(unsafe { read(params) }?);
+        let p = ClusterParams::from(unsafe { read(params, "params") }?);
         let mut bins = vec![ObjectBins::default(); out_len.min(counts_len)];
         if out_len < counts_len {
             return Err(Error::InsufficientSize);
@@ -257,9 +257,9 @@ pub unsafe extern "C" fn refl_cluster_assign(
     layout: *const refl_object_bins,
     layout_len: usize,
 ) -> refl_status {
-    guard(|| {
+    guard("refl_cluster_assign", || {
         // SAFETY: caller contract.
-        let lay: Vec<ObjectBins> = unsafe { copy_in(layout, layout_len) }?
+        let lay: Vec<ObjectBins> = unsafe { copy_in(layout, layout_len, "layout") }?
             .into_iter()
             .map(Into::into)
             .collect();
@@ -329,8 +329,8 @@ pub unsafe extern "C" fn refl_cluster_ranges(
     ids: refl_image_u32,
     clusters: u32,
 ) -> refl_status {
-    guard(|| {
-        let total_out = Out::new(out_total)?;
+    guard("refl_cluster_ranges", || {
+        let total_out = Out::new(out_total, "out_total")?;
         check_out(offsets, offsets_len)?;
         check_out(order, order_len)?;
         // SAFETY: caller contract.
@@ -386,12 +386,12 @@ pub unsafe extern "C" fn refl_cluster_build_camera(
     eye: refl_vec3,
     params: *const refl_cluster_camera_params,
 ) -> refl_status {
-    guard(|| {
-        let out = Out::new(out)?;
+    guard("refl_cluster_build_camera", || {
+        let out = Out::new(out, "out")?;
         // SAFETY: caller contract.
-        let px = unsafe { copy_in(pixels, pixel_count) }?;
+        let px = unsafe { copy_in(pixels, pixel_count, "pixels") }?;
         // SAFETY: caller contract.
-        let p = CameraParams::from(unsafe { read(params) }?);
+        let p = CameraParams::from(unsafe { read(params, "params") }?);
         // SAFETY: caller contract.
         let input = unsafe {
             ClusterInput {
@@ -417,8 +417,8 @@ pub unsafe extern "C" fn refl_cluster_build_camera(
 /// `out` NULL or writable.
 #[no_mangle]
 pub unsafe extern "C" fn refl_lobe_angle(out: *mut f32, exponent: f32, energy: f32) -> refl_status {
-    guard(|| {
-        let out = Out::new(out)?;
+    guard("refl_lobe_angle", || {
+        let out = Out::new(out, "out")?;
         let a = cluster::lobe_angle(exponent, energy)?;
         // SAFETY: caller contract.
         unsafe { out.write(a) };
@@ -463,13 +463,19 @@ pub unsafe extern "C" fn refl_cluster_finalize(
     color: refl_image_vec3,
     params: *const refl_cluster_finalize_params,
 ) -> refl_status {
-    guard(|| {
-        let fb_out = Out::new(out_fallbacks)?;
+    guard("refl_cluster_finalize", || {
+        let fb_out = Out::new(out_fallbacks, "out_fallbacks")?;
         check_out(out, out_len)?;
         // SAFETY: caller contract.
-        let px = unsafe { copy_in(pixels, pixel_count) }?;
+        let px = unsafe { copy_in(pixels, pixel_count, "pixels") }?;
         // SAFETY: caller contract.
-        let (cam_c, depth_c, params_c) = unsafe { (read(camera)?, read(depth)?, read(params)?) };
+        let (cam_c, depth_c, params_c) = unsafe {
+            (
+                read(camera, "camera")?,
+                read(depth, "depth")?,
+                read(params, "params")?,
+            )
+        };
         let cam = ClusterCamera::try_from(&cam_c)?;
         // SAFETY: caller contract.
         let di = unsafe { depth_image(&depth_c) }?;

@@ -6,14 +6,15 @@
 //! visibility pyramid one of floats; both have the Hi-Z pyramid's layout
 //! (`refl_hiz_level`) and `refl_cone_pyramid_len` texels.
 
+use crate::hiz::bind_hiz;
 use crate::hiz::refl_hiz;
 use crate::image::refl_image_vec3;
 use crate::ptr::{byte_len, check_buffer, overlaps, pyramid_band, read, Out};
 use crate::status::{guard, refl_status};
 use crate::trace::refl_thickness;
 use crate::types::{
-    convention, refl_cone, refl_cone_fades, refl_cone_options, refl_cone_result,
-    refl_multiray_options, refl_multiray_result, refl_ray, refl_vec2, refl_vec3, REFL_FADE_BORDER,
+    refl_cone, refl_cone_fades, refl_cone_options, refl_cone_result, refl_multiray_options,
+    refl_multiray_result, refl_ray, refl_vec2, refl_vec3, REFL_FADE_BORDER,
     REFL_FADE_TOWARD_CAMERA, REFL_FADE_TRAVEL,
 };
 use refl_core::cone::{
@@ -21,7 +22,7 @@ use refl_core::cone::{
     try_build_visibility_level_rows, Cone, ConeOptions, ConePyramids, FadeRange, Fades,
     MultiRayOptions,
 };
-use refl_core::{Camera, ColorTexel, Error, HiZ, HiZLayout, HiZOptions, HiZTexel, Ray};
+use refl_core::{ColorTexel, Error, HiZLayout, HiZOptions, Ray};
 
 /// The cone pyramids of one frame, bound together.
 #[repr(C)]
@@ -39,29 +40,14 @@ pub struct refl_cone_pyramids {
     pub visibility_len: usize,
 }
 
-/// Binds a `refl_hiz` descriptor.
-///
-/// # Safety
-/// `h.data` NULL or readable for `h.len` texels for `'a`, not written
-/// meanwhile.
-unsafe fn bind_hiz<'a>(h: &refl_hiz) -> Result<HiZ<'a>, Error> {
-    check_buffer(h.data, h.len)?;
-    let conv = convention(h.convention)?;
-    let cam = Camera::try_from(&h.camera)?;
-    // SAFETY: non-null, aligned, readable for `len` texels (contract), size
-    // fits isize (check); refl_vec2 is [f32; 2].
-    let data = unsafe { core::slice::from_raw_parts(h.data.cast::<HiZTexel>(), h.len) };
-    HiZ::try_new(data, cam, conv)
-}
-
 /// Binds a `refl_cone_pyramids` descriptor.
 ///
 /// # Safety
 /// Every buffer NULL or readable for its length for `'a`, not written
 /// meanwhile.
 unsafe fn bind_pyramids<'a>(p: &refl_cone_pyramids) -> Result<ConePyramids<'a>, Error> {
-    check_buffer(p.color, p.color_len)?;
-    check_buffer(p.visibility, p.visibility_len)?;
+    check_buffer(p.color, p.color_len, "pyramids.color")?;
+    check_buffer(p.visibility, p.visibility_len, "pyramids.visibility")?;
     // SAFETY: caller contract.
     let hz = unsafe { bind_hiz(&p.hiz) }?;
     // SAFETY: non-null, aligned, readable (contract), sizes fit isize
@@ -86,8 +72,8 @@ unsafe fn bind_pyramids<'a>(p: &refl_cone_pyramids) -> Result<ConePyramids<'a>, 
 /// `out` must be NULL or writable.
 #[no_mangle]
 pub unsafe extern "C" fn refl_cone_angle_from_phong(out: *mut f32, power: f32) -> refl_status {
-    guard(|| {
-        let out = Out::new(out)?;
+    guard("refl_cone_angle_from_phong", || {
+        let out = Out::new(out, "out")?;
         let t = refl_core::try_cone_angle_from_phong(power)?;
         // SAFETY: caller contract.
         unsafe { out.write(t) };
@@ -109,8 +95,8 @@ pub unsafe extern "C" fn refl_cone_angle_from_roughness(
     out: *mut f32,
     roughness: f32,
 ) -> refl_status {
-    guard(|| {
-        let out = Out::new(out)?;
+    guard("refl_cone_angle_from_roughness", || {
+        let out = Out::new(out, "out")?;
         let t = refl_core::try_cone_angle_from_roughness(roughness)?;
         // SAFETY: caller contract.
         unsafe { out.write(t) };
@@ -133,8 +119,8 @@ pub unsafe extern "C" fn refl_cone_pyramid_len(
     width: u32,
     height: u32,
 ) -> refl_status {
-    guard(|| {
-        let out = Out::new(out_len)?;
+    guard("refl_cone_pyramid_len", || {
+        let out = Out::new(out_len, "out_len")?;
         let n = refl_core::color_pyramid_len(width, height)?;
         // SAFETY: caller contract.
         unsafe { out.write(n) };
@@ -170,10 +156,10 @@ pub unsafe extern "C" fn refl_cone_build_color_rows(
     row_end: u32,
     sigma: f32,
 ) -> refl_status {
-    guard(|| {
-        let bytes = check_buffer(dst.cast_const(), dst_len)?;
+    guard("refl_cone_build_color_rows", || {
+        let bytes = check_buffer(dst.cast_const(), dst_len, "dst")?;
         // SAFETY: caller contract.
-        let img_c = unsafe { read(image) }?;
+        let img_c = unsafe { read(image, "image") }?;
         // SAFETY: caller contract.
         let view = unsafe { img_c.view() }?;
         let src_bytes = byte_len::<refl_vec3>(img_c.data as usize, img_c.len)?;
@@ -218,10 +204,10 @@ pub unsafe extern "C" fn refl_cone_build_color(
     image: *const refl_image_vec3,
     sigma: f32,
 ) -> refl_status {
-    guard(|| {
-        let bytes = check_buffer(dst.cast_const(), dst_len)?;
+    guard("refl_cone_build_color", || {
+        let bytes = check_buffer(dst.cast_const(), dst_len, "dst")?;
         // SAFETY: caller contract.
-        let img_c = unsafe { read(image) }?;
+        let img_c = unsafe { read(image, "image") }?;
         // SAFETY: caller contract.
         let view = unsafe { img_c.view() }?;
         let src_bytes = byte_len::<refl_vec3>(img_c.data as usize, img_c.len)?;
@@ -265,10 +251,10 @@ pub unsafe extern "C" fn refl_cone_build_visibility_rows(
     row_start: u32,
     row_end: u32,
 ) -> refl_status {
-    guard(|| {
-        let bytes = check_buffer(dst.cast_const(), dst_len)?;
+    guard("refl_cone_build_visibility_rows", || {
+        let bytes = check_buffer(dst.cast_const(), dst_len, "dst")?;
         // SAFETY: caller contract.
-        let h = unsafe { read(hiz) }?;
+        let h = unsafe { read(hiz, "hiz") }?;
         // SAFETY: caller contract.
         let hz = unsafe { bind_hiz(&h) }?;
         let hb = byte_len::<refl_vec2>(h.data as usize, h.len)?;
@@ -299,10 +285,10 @@ pub unsafe extern "C" fn refl_cone_build_visibility(
     dst_len: usize,
     hiz: *const refl_hiz,
 ) -> refl_status {
-    guard(|| {
-        let bytes = check_buffer(dst.cast_const(), dst_len)?;
+    guard("refl_cone_build_visibility", || {
+        let bytes = check_buffer(dst.cast_const(), dst_len, "dst")?;
         // SAFETY: caller contract.
-        let h = unsafe { read(hiz) }?;
+        let h = unsafe { read(hiz, "hiz") }?;
         // SAFETY: caller contract.
         let hz = unsafe { bind_hiz(&h) }?;
         let hb = byte_len::<refl_vec2>(h.data as usize, h.len)?;
@@ -354,8 +340,8 @@ impl From<refl_cone_options> for ConeOptions {
 /// `out` must be NULL or writable.
 #[no_mangle]
 pub unsafe extern "C" fn refl_cone_default_options(out: *mut refl_cone_options) -> refl_status {
-    guard(|| {
-        let out = Out::new(out)?;
+    guard("refl_cone_default_options", || {
+        let out = Out::new(out, "out")?;
         // SAFETY: caller contract.
         unsafe { out.write(ConeOptions::default().into()) };
         Ok(())
@@ -400,10 +386,16 @@ pub unsafe extern "C" fn refl_cone_trace(
     fallback: refl_vec3,
     options: *const refl_cone_options,
 ) -> refl_status {
-    guard(|| {
-        let out = Out::new(out)?;
+    guard("refl_cone_trace", || {
+        let out = Out::new(out, "out")?;
         // SAFETY: caller contract.
-        let (p, c, o) = unsafe { (read(pyramids)?, read(cone)?, read(options)?) };
+        let (p, c, o) = unsafe {
+            (
+                read(pyramids, "pyramids")?,
+                read(cone, "cone")?,
+                read(options, "options")?,
+            )
+        };
         // SAFETY: caller contract.
         let pyr = unsafe { bind_pyramids(&p) }?;
         let cone = Cone {
@@ -454,10 +446,10 @@ pub unsafe extern "C" fn refl_cone_fade(
     height: u32,
     t: f32,
 ) -> refl_status {
-    guard(|| {
-        let out = Out::new(out)?;
+    guard("refl_cone_fade", || {
+        let out = Out::new(out, "out")?;
         // SAFETY: caller contract.
-        let f = unsafe { read(fades) }?;
+        let f = unsafe { read(fades, "fades") }?;
         let all = REFL_FADE_TOWARD_CAMERA | REFL_FADE_BORDER | REFL_FADE_TRAVEL;
         if f.enabled & !all != 0 {
             return Err(Error::InvalidArgument);
@@ -520,10 +512,16 @@ pub unsafe extern "C" fn refl_cone_multiray(
     options: *const refl_multiray_options,
     fallback: refl_vec3,
 ) -> refl_status {
-    guard(|| {
-        let out = Out::new(out)?;
+    guard("refl_cone_multiray", || {
+        let out = Out::new(out, "out")?;
         // SAFETY: caller contract.
-        let (p, th_c, o) = unsafe { (read(pyramids)?, read(thickness)?, read(options)?) };
+        let (p, th_c, o) = unsafe {
+            (
+                read(pyramids, "pyramids")?,
+                read(thickness, "thickness")?,
+                read(options, "options")?,
+            )
+        };
         // SAFETY: caller contract.
         let pyr = unsafe { bind_pyramids(&p) }?;
         // SAFETY: caller contract.

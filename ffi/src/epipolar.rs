@@ -13,7 +13,7 @@ use refl_core::epipolar::{
     decide, scratch_len, try_reproject, AipEntry, Decision, Params, PosEntry, Reason,
     ReprojectStats, BACKGROUND_OBJECT, INVALID_OBJECT, MAX_SPLAT_RADIUS,
 };
-use refl_core::{Camera, Error, RowRange};
+use refl_core::{Error, RowRange};
 
 /// Object id meaning "no object": an unused POS entry (never reprojected)
 /// or an AIP entry no point reached; in a decision, "full traversal".
@@ -286,8 +286,8 @@ fn buffer<T>(p: *const T, len: usize) -> Result<(usize, usize), Error> {
 pub unsafe extern "C" fn refl_epipolar_params_default(
     out: *mut refl_epipolar_params,
 ) -> refl_status {
-    guard(|| {
-        let out = Out::new(out)?;
+    guard("refl_epipolar_params_default", || {
+        let out = Out::new(out, "out")?;
         // SAFETY: caller contract.
         unsafe { out.write((&Params::default()).into()) };
         Ok(())
@@ -312,8 +312,8 @@ pub unsafe extern "C" fn refl_epipolar_scratch_len(
     width: u32,
     height: u32,
 ) -> refl_status {
-    guard(|| {
-        let out = Out::new(out_len)?;
+    guard("refl_epipolar_scratch_len", || {
+        let out = Out::new(out_len, "out_len")?;
         let n = scratch_len(width, height)?;
         // SAFETY: caller contract.
         unsafe { out.write(n) };
@@ -356,23 +356,22 @@ pub unsafe extern "C" fn refl_epipolar_reproject(
     current: *const refl_camera,
     params: *const refl_epipolar_params,
 ) -> refl_status {
-    guard(|| {
-        if aip.is_null()
-            || scratch.is_null()
-            || pos.is_null()
-            || previous.is_null()
-            || current.is_null()
-            || params.is_null()
-        {
-            return Err(Error::NullPointer);
-        }
-        let out = Out::new(out_stats)?;
+    guard("refl_epipolar_reproject", || {
+        crate::ptr::no_nulls(&[
+            (aip.is_null(), "aip"),
+            (scratch.is_null(), "scratch"),
+            (pos.is_null(), "pos"),
+            (previous.is_null(), "previous"),
+            (current.is_null(), "current"),
+            (params.is_null(), "params"),
+        ])?;
+        let out = Out::new(out_stats, "out_stats")?;
         // SAFETY: caller contract.
-        let p = Params::try_from(&unsafe { read(params) }?)?;
+        let p = Params::try_from(&unsafe { read(params, "params") }?)?;
         // SAFETY: caller contract.
-        let prev = Camera::try_from(&unsafe { read(previous) }?)?;
+        let prev = crate::types::camera_named(&unsafe { read(previous, "previous") }?, "previous")?;
         // SAFETY: caller contract.
-        let cur = Camera::try_from(&unsafe { read(current) }?)?;
+        let cur = crate::types::camera_named(&unsafe { read(current, "current") }?, "current")?;
         let a = buffer(aip.cast_const(), aip_len)?;
         let s = buffer(scratch.cast_const(), scratch_len)?;
         let q = buffer(pos, pos_len)?;
@@ -446,12 +445,14 @@ pub unsafe extern "C" fn refl_epipolar_decide_rows(
     frame: u32,
     params: *const refl_epipolar_params,
 ) -> refl_status {
-    guard(|| {
-        if out.is_null() || aip.is_null() || params.is_null() {
-            return Err(Error::NullPointer);
-        }
+    guard("refl_epipolar_decide_rows", || {
+        crate::ptr::no_nulls(&[
+            (out.is_null(), "out"),
+            (aip.is_null(), "aip"),
+            (params.is_null(), "params"),
+        ])?;
         // SAFETY: caller contract.
-        let p = Params::try_from(&unsafe { read(params) }?)?;
+        let p = Params::try_from(&unsafe { read(params, "params") }?)?;
         if width == 0 || row_end <= row_begin {
             return Err(Error::InvalidArgument);
         }

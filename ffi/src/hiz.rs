@@ -8,10 +8,22 @@
 //! `refl_hiz_level` where each level lives.
 
 use crate::ptr::{byte_len, check_buffer, overlaps, pyramid_band, read, read_vec, Out};
-use crate::status::{guard, refl_status};
+use crate::status::{fail, fail_str, guard, refl_status};
 use crate::trace::{depth_image, refl_depth_image, refl_thickness, refl_trace_result};
 use crate::types::{convention, refl_camera, refl_ray, refl_vec2};
-use refl_core::{Camera, Error, HiZ, HiZLayout, HiZOptions, HiZTexel, Miss, Ray, Thickness, Trace};
+use refl_core::{
+    Error, HiZ, HiZLayout, HiZOptions, HiZStamp, HiZTexel, Miss, Ray, Thickness, Trace,
+};
+
+/// Texels after the last level of a Hi-Z pyramid that record the image
+/// size and camera it was built for (counted in `refl_hiz_len`, written by
+/// `refl_hiz_build` and by the `refl_hiz_build_rows` call of the last
+/// level). Tracing a pyramid with a camera other than the one it was built
+/// for is `REFL_STATUS_INVALID_ARGUMENT`.
+pub const REFL_HIZ_STAMP_TEXELS: usize = 2;
+
+// The header's constant is refl-core's.
+const _: () = assert!(REFL_HIZ_STAMP_TEXELS == refl_core::HIZ_STAMP_TEXELS);
 
 /// Where one pyramid level lives in the buffer: texels `offset` to
 /// `offset + width * height - 1`, row by row, row stride `width`.
@@ -88,7 +100,8 @@ impl From<HiZOptions> for refl_hiz_options {
 }
 
 /// Size query: the number of `refl_vec2` texels of the Hi-Z pyramid of a
-/// `width x height` image (all levels) into `*out_len`, and its level count
+/// `width x height` image (all levels, then `REFL_HIZ_STAMP_TEXELS`) into
+/// `*out_len`, and its level count
 /// (the last level is 1 x 1) into `*out_levels`.
 ///
 /// Returns `REFL_STATUS_NULL_POINTER` if an output is NULL,
@@ -104,12 +117,16 @@ pub unsafe extern "C" fn refl_hiz_len(
     width: u32,
     height: u32,
 ) -> refl_status {
-    guard(|| {
-        let (ol, oc) = (Out::new(out_len)?, Out::new(out_levels)?);
+    guard("refl_hiz_len", || {
+        let (ol, oc) = (
+            Out::new(out_len, "out_len")?,
+            Out::new(out_levels, "out_levels")?,
+        );
         let l = HiZLayout::try_new(width, height)?;
+        let len = refl_core::hiz::hiz_len(width, height)?;
         // SAFETY: caller contract.
         unsafe {
-            ol.write(l.len());
+            ol.write(len);
             oc.write(l.level_count());
         }
         Ok(())
@@ -132,8 +149,8 @@ pub unsafe extern "C" fn refl_hiz_level(
     height: u32,
     level: u32,
 ) -> refl_status {
-    guard(|| {
-        let out = Out::new(out)?;
+    guard("refl_hiz_level", || {
+        let out = Out::new(out, "out")?;
         let l = HiZLayout::try_new(width, height)?
             .level(level)
             .ok_or(Error::InvalidArgument)?;
@@ -157,8 +174,8 @@ pub unsafe extern "C" fn refl_hiz_level(
 /// `out` must be NULL or writable.
 #[no_mangle]
 pub unsafe extern "C" fn refl_hiz_default_options(out: *mut refl_hiz_options) -> refl_status {
-    guard(|| {
-        let out = Out::new(out)?;
+    guard("refl_hiz_default_options", || {
+        let out = Out::new(out, "out")?;
         // SAFETY: caller contract.
         unsafe { out.write(HiZOptions::default().into()) };
         Ok(())
@@ -201,21 +218,24 @@ pub unsafe extern "C" fn refl_hiz_build(
     dst_len: usize,
     image: *const refl_depth_image,
 ) -> refl_status {
-    guard(|| {
-        let bytes = check_buffer(dst.cast_const(), dst_len)?;
+    guard("refl_hiz_build", || {
+        let bytes = check_buffer(dst.cast_const(), dst_len, "dst")?;
         // SAFETY: caller contract.
-        let img_c = unsafe { read(image) }?;
+        let img_c = unsafe { read(image, "image") }?;
         // SAFETY: caller contract.
         let img = unsafe { depth_image(&img_c) }?;
         check_no_overlap(&img_c, dst as usize, bytes)?;
-        let layout = HiZLayout::try_new(img.width(), img.height())?;
-        if dst_len < layout.len() {
-            return Err(Error::InsufficientSize);
+        let len = refl_core::hiz::hiz_len(img.width(), img.height())?;
+        if dst_len < len {
+            return Err(fail(
+                Error::InsufficientSize,
+                format_args!("`dst_len` is {dst_len}, the pyramid needs {len} (refl_hiz_len)"),
+            ));
         }
-        // SAFETY: non-null, aligned, writable for dst_len >= layout.len()
-        // texels (caller contract), size fits isize (byte_len), disjoint
-        // from the depth image (checked). refl_vec2 is [f32; 2] (types.rs).
-        let s = unsafe { core::slice::from_raw_parts_mut(dst.cast::<HiZTexel>(), layout.len()) };
+        // SAFETY: non-null, aligned, writable for dst_len >= len texels
+        // (caller contract), size fits isize (byte_len), disjoint from the
+        // depth image (checked). refl_vec2 is [f32; 2] (types.rs).
+        let s = unsafe { core::slice::from_raw_parts_mut(dst.cast::<HiZTexel>(), len) };
         refl_core::try_build_hiz(s, &img)
     })
 }
@@ -225,7 +245,10 @@ pub unsafe extern "C" fn refl_hiz_build(
 /// (from `*image`) completely, then level 1 (from level 0 in `dst`), and so
 /// on; the row bands of one level may run concurrently on different
 /// threads. Only the rows written and, for `level > 0`, level `level - 1`
-/// (read) are touched. The result equals `refl_hiz_build`'s.
+/// (read) are touched; the call that builds the last level also writes
+/// the pyramid's stamp (the texels after the last level, which record the
+/// image size and camera that `refl_hiz_trace_ray` checks). The result
+/// equals `refl_hiz_build`'s.
 ///
 /// Returns as `refl_hiz_build`, plus `REFL_STATUS_INVALID_ARGUMENT` if
 /// `level` is not below the level count or the rows are empty, reversed or
@@ -243,14 +266,21 @@ pub unsafe extern "C" fn refl_hiz_build_rows(
     row_start: u32,
     row_end: u32,
 ) -> refl_status {
-    guard(|| {
-        let bytes = check_buffer(dst.cast_const(), dst_len)?;
+    guard("refl_hiz_build_rows", || {
+        let bytes = check_buffer(dst.cast_const(), dst_len, "dst")?;
         // SAFETY: caller contract.
-        let img_c = unsafe { read(image) }?;
+        let img_c = unsafe { read(image, "image") }?;
         // SAFETY: caller contract.
         let img = unsafe { depth_image(&img_c) }?;
         check_no_overlap(&img_c, dst as usize, bytes)?;
         let layout = HiZLayout::try_new(img.width(), img.height())?;
+        let len = refl_core::hiz::hiz_len(img.width(), img.height())?;
+        if dst_len < len {
+            return Err(fail(
+                Error::InsufficientSize,
+                format_args!("`dst_len` is {dst_len}, the pyramid needs {len} (refl_hiz_len)"),
+            ));
+        }
         // SAFETY: `dst` checked above, writable by contract; the band and
         // the finer level are this call's alone (contract).
         let (out, finer, rows) = unsafe {
@@ -266,6 +296,64 @@ pub unsafe extern "C" fn refl_hiz_build_rows(
         match finer {
             None => refl_core::try_build_hiz_level0_rows(out, &img, rows),
             Some(finer) => refl_core::try_build_hiz_level_rows(out, finer, &layout, level, rows),
+        }?;
+        if level + 1 == layout.level_count() {
+            // The last level (1 x 1, one band) is built last: stamp the
+            // pyramid with its image's size and camera.
+            let at = layout.len();
+            let stamp = HiZStamp::of(img.camera()).texels();
+            for (i, t) in stamp.iter().enumerate() {
+                // SAFETY: at + i < len <= dst_len texels, writable (caller
+                // contract), disjoint from every level's rows; no other
+                // thread builds while the last level is built (contract).
+                unsafe { dst.add(at + i).cast::<HiZTexel>().write(*t) };
+            }
+        }
+        Ok(())
+    })
+}
+
+/// Binds a `refl_hiz` descriptor to a core pyramid; a pyramid whose stamp
+/// is not its camera's is refused with a last-error detail that says what
+/// it was built for.
+///
+/// # Safety
+/// `h.data` NULL or readable for `h.len` texels for `'a`, not written
+/// meanwhile.
+pub(crate) unsafe fn bind_hiz<'a>(h: &refl_hiz) -> Result<HiZ<'a>, Error> {
+    check_buffer(h.data, h.len, "hiz.data")?;
+    let conv = convention(h.convention)?;
+    let cam = crate::types::camera_named(&h.camera, "hiz.camera")?;
+    // SAFETY: non-null, aligned, readable for `len` texels (contract), size
+    // fits isize (check_buffer); refl_vec2 is [f32; 2].
+    let data = unsafe { core::slice::from_raw_parts(h.data.cast::<HiZTexel>(), h.len) };
+    HiZ::try_new(data, cam, conv).map_err(|e| {
+        let (w, hh) = (cam.width(), cam.height());
+        let need = refl_core::hiz::hiz_len(w, hh).unwrap_or(0);
+        if e == Error::InsufficientSize {
+            return fail(
+                e,
+                format_args!("`hiz.len` is {}, a {w}x{hh} pyramid needs {need}", h.len),
+            );
+        }
+        let at = HiZLayout::try_new(w, hh).map_or(0, |l| l.len());
+        let here = data.get(at..).and_then(HiZStamp::read);
+        match here.or_else(|| HiZStamp::read_tail(data)) {
+            Some(s) if (s.width, s.height) != (w, hh) => fail(
+                e,
+                format_args!(
+                    "`hiz`: the pyramid was built for {}x{}, the camera is {w}x{hh}",
+                    s.width, s.height
+                ),
+            ),
+            Some(_) => fail_str(
+                e,
+                "`hiz`: the pyramid was built for another camera of the same size",
+            ),
+            None => fail_str(
+                e,
+                "`hiz`: no pyramid stamp where the camera's size puts it (not built with refl_hiz_build, or the last level not built)",
+            ),
         }
     })
 }
@@ -280,14 +368,15 @@ unsafe fn trace_inputs<'a>(
     options: *const refl_hiz_options,
 ) -> Result<(HiZ<'a>, Thickness<'a>, HiZOptions), Error> {
     // SAFETY: caller contract.
-    let (h, th_c, opts) = unsafe { (read(hiz)?, read(thickness)?, read(options)?) };
-    check_buffer(h.data, h.len)?;
-    let conv = convention(h.convention)?;
-    let cam = Camera::try_from(&h.camera)?;
-    // SAFETY: non-null, aligned, readable for `len` texels (contract), size
-    // fits isize (check_buffer); refl_vec2 is [f32; 2].
-    let data = unsafe { core::slice::from_raw_parts(h.data.cast::<HiZTexel>(), h.len) };
-    let hz = HiZ::try_new(data, cam, conv)?;
+    let (h, th_c, opts) = unsafe {
+        (
+            read(hiz, "hiz")?,
+            read(thickness, "thickness")?,
+            read(options, "options")?,
+        )
+    };
+    // SAFETY: caller contract.
+    let hz = unsafe { bind_hiz(&h) }?;
     // SAFETY: caller contract.
     let th = unsafe { crate::trace::thickness(&th_c) }?;
     Ok((hz, th, opts.into()))
@@ -329,8 +418,8 @@ pub unsafe extern "C" fn refl_hiz_trace_ray(
     t_max: f32,
     options: *const refl_hiz_options,
 ) -> refl_status {
-    guard(|| {
-        let out = Out::new(out)?;
+    guard("refl_hiz_trace_ray", || {
+        let out = Out::new(out, "out")?;
         // SAFETY: caller contract.
         let (hz, th, opts) = unsafe { trace_inputs(hiz, thickness, options) }?;
         let ray = Ray {
@@ -377,10 +466,12 @@ pub unsafe extern "C" fn refl_hiz_trace_rays(
     thickness: *const refl_thickness,
     options: *const refl_hiz_options,
 ) -> refl_status {
-    guard(|| {
-        if out.is_null() || rays.is_null() || t_max.is_null() {
-            return Err(Error::NullPointer);
-        }
+    guard("refl_hiz_trace_rays", || {
+        crate::ptr::no_nulls(&[
+            (out.is_null(), "out"),
+            (rays.is_null(), "rays"),
+            (t_max.is_null(), "t_max"),
+        ])?;
         // SAFETY: caller contract.
         let (hz, th, opts) = unsafe { trace_inputs(hiz, thickness, options) }?;
         if !out.is_aligned() || t_max_count == 0 {
@@ -392,9 +483,9 @@ pub unsafe extern "C" fn refl_hiz_trace_rays(
         byte_len::<refl_trace_result>(out as usize, ray_count)?;
         // SAFETY: caller contract; copied before any output is written, so
         // `out` may alias the inputs.
-        let rays_c = unsafe { read_vec(rays, ray_count) }?;
+        let rays_c = unsafe { read_vec(rays, ray_count, "rays") }?;
         // SAFETY: caller contract.
-        let tms = unsafe { read_vec(t_max, t_max_count.min(ray_count).max(1)) }?;
+        let tms = unsafe { read_vec(t_max, t_max_count.min(ray_count).max(1), "t_max") }?;
         let rays: Vec<Ray> = rays_c
             .iter()
             .map(|r| Ray {

@@ -12,7 +12,7 @@ use crate::status::{guard, refl_status};
 use crate::tcrr::refl_tcrr_surfel;
 use crate::types::{convention, refl_camera, refl_rgba8, refl_vec2, refl_vec3, refl_vec4};
 use refl_core::image::required_len;
-use refl_core::{Camera, Error, ImageView, ImageViewMut, RowRange};
+use refl_core::{Error, ImageView, ImageViewMut, RowRange};
 
 /// A read-only image of `float` texels (e.g. a depth buffer).
 #[repr(C)]
@@ -277,9 +277,7 @@ pub struct refl_image_tcrr_surfel_mut {
 /// Order: `NullPointer`, then `InvalidArgument` (misaligned pointer, zero
 /// size, `stride < width`, overflow), then `InsufficientSize`.
 fn checked_len<T>(data: *const T, len: usize, w: u32, h: u32, stride: u32) -> Result<usize, Error> {
-    if data.is_null() {
-        return Err(Error::NullPointer);
-    }
+    crate::ptr::no_nulls(&[(data.is_null(), "data")])?;
     if !data.is_aligned() {
         return Err(Error::InvalidArgument);
     }
@@ -414,8 +412,8 @@ pub unsafe extern "C" fn refl_row_band(
     index: u32,
     count: u32,
 ) -> refl_status {
-    guard(|| {
-        let out = Out::new(out)?;
+    guard("refl_row_band", || {
+        let out = Out::new(out, "out")?;
         let all = RowRange::try_all(height)?;
         if count == 0 || index >= count {
             return Err(Error::InvalidArgument);
@@ -453,8 +451,8 @@ pub unsafe extern "C" fn refl_image_required_len(
     height: u32,
     stride: u32,
 ) -> refl_status {
-    guard(|| {
-        let out = Out::new(out_len)?;
+    guard("refl_image_required_len", || {
+        let out = Out::new(out_len, "out_len")?;
         let len = required_len(width, height, stride)?;
         // SAFETY: checked by Out::new; writability is the caller's contract.
         unsafe { out.write(len) };
@@ -500,14 +498,15 @@ pub unsafe extern "C" fn refl_convert_depth(
     row_begin: u32,
     row_end: u32,
 ) -> refl_status {
-    guard(|| {
-        if dst.data.is_null() || src.data.is_null() {
-            return Err(Error::NullPointer);
-        }
+    guard("refl_convert_depth", || {
+        crate::ptr::no_nulls(&[
+            (dst.data.is_null(), "dst.data"),
+            (src.data.is_null(), "src.data"),
+        ])?;
         // SAFETY: caller contract.
-        let cam_c = unsafe { read(camera) }?;
+        let cam_c = unsafe { read(camera, "camera") }?;
         let (from, to) = (convention(from)?, convention(to)?);
-        let cam = Camera::try_from(&cam_c)?;
+        let cam = crate::types::camera_named(&cam_c, "camera")?;
         let dst_need = checked_len(
             dst.data.cast_const(),
             dst.len,

@@ -482,8 +482,8 @@ pub unsafe extern "C" fn refl_layered_len(
     face_res: u32,
     layers: u32,
 ) -> refl_status {
-    guard(|| {
-        let out = Out::new(out)?;
+    guard("refl_layered_len", || {
+        let out = Out::new(out, "out")?;
         let l = layered_len(face_res, layers)?;
         // SAFETY: caller contract.
         unsafe {
@@ -509,8 +509,8 @@ pub unsafe extern "C" fn refl_layered_len(
 /// `out` must be NULL or point to a writable `refl_layered_params`.
 #[no_mangle]
 pub unsafe extern "C" fn refl_layered_params_default(out: *mut refl_layered_params) -> refl_status {
-    guard(|| {
-        let out = Out::new(out)?;
+    guard("refl_layered_params_default", || {
+        let out = Out::new(out, "out")?;
         // SAFETY: caller contract.
         unsafe { out.write(LayeredParams::default().into()) };
         Ok(())
@@ -540,10 +540,10 @@ pub unsafe extern "C" fn refl_layered_face_ray(
     i: u32,
     j: u32,
 ) -> refl_status {
-    guard(|| {
-        let out = Out::new(out)?;
+    guard("refl_layered_face_ray", || {
+        let out = Out::new(out, "out")?;
         // SAFETY: caller contract.
-        let grid = LayeredGrid::try_from(&unsafe { read(grid) }?)?;
+        let grid = LayeredGrid::try_from(&unsafe { read(grid, "grid") }?)?;
         let r = grid.face_ray(self::face(face)?, i, j)?;
         // SAFETY: caller contract.
         unsafe {
@@ -570,9 +570,9 @@ pub unsafe extern "C" fn refl_layered_face_ray(
 /// `map` must be NULL or readable, its buffers writable for their lengths.
 #[no_mangle]
 pub unsafe extern "C" fn refl_layered_clear(map: *const refl_layered_map_mut) -> refl_status {
-    guard(|| {
+    guard("refl_layered_clear", || {
         // SAFETY: caller contract.
-        let desc = unsafe { read(map) }?;
+        let desc = unsafe { read(map, "map") }?;
         // SAFETY: caller contract.
         let mut m = unsafe { desc.view_mut() }?;
         m.clear();
@@ -613,10 +613,10 @@ pub unsafe extern "C" fn refl_layered_fill_column(
     hit_count: usize,
 ) -> refl_status {
     let out_at = out as usize;
-    guard(|| {
-        let out = Out::new(out)?;
+    guard("refl_layered_fill_column", || {
+        let out = Out::new(out, "out")?;
         // SAFETY: caller contract.
-        let desc = unsafe { read(map) }?;
+        let desc = unsafe { read(map, "map") }?;
         let mut scratch = Vec::new();
         // SAFETY: caller contract.
         unsafe { read_hits(hits, hit_count, &mut scratch) }?;
@@ -676,14 +676,14 @@ pub unsafe extern "C" fn refl_layered_fill_face(
     offset_count: usize,
 ) -> refl_status {
     let out_at = out as usize;
-    guard(|| {
+    guard("refl_layered_fill_face", || {
         let out = if out.is_null() {
             None
         } else {
-            Some(Out::new(out)?)
+            Some(Out::new(out, "out")?)
         };
         // SAFETY: caller contract.
-        let desc = unsafe { read(map) }?;
+        let desc = unsafe { read(map, "map") }?;
         let face = self::face(face)?;
         let res = desc.grid.face_res as usize;
         let need = res
@@ -746,9 +746,9 @@ pub unsafe extern "C" fn refl_layered_fill_face(
 pub unsafe extern "C" fn refl_layered_build_bounds(
     map: *const refl_layered_map_mut,
 ) -> refl_status {
-    guard(|| {
+    guard("refl_layered_build_bounds", || {
         // SAFETY: caller contract.
-        let desc = unsafe { read(map) }?;
+        let desc = unsafe { read(map, "map") }?;
         // SAFETY: caller contract.
         let mut m = unsafe { desc.view_mut() }?;
         m.build_bounds();
@@ -782,15 +782,13 @@ pub unsafe extern "C" fn refl_layered_trace(
     params: *const refl_layered_params,
 ) -> refl_status {
     let out_at = out as usize;
-    guard(|| {
-        let out = Out::new(out)?;
-        if map.is_null() || params.is_null() {
-            return Err(Error::NullPointer);
-        }
+    guard("refl_layered_trace", || {
+        let out = Out::new(out, "out")?;
+        crate::ptr::no_nulls(&[(map.is_null(), "map"), (params.is_null(), "params")])?;
         // SAFETY: caller contract.
-        let desc = unsafe { read(map) }?;
+        let desc = unsafe { read(map, "map") }?;
         // SAFETY: caller contract.
-        let params = LayeredParams::from(unsafe { read(params) }?);
+        let params = LayeredParams::from(unsafe { read(params, "params") }?);
         let r = (out_at, core::mem::size_of::<refl_layered_result>());
         if desc.ranges().iter().any(|x| overlaps(x.0, x.1, r.0, r.1)) {
             return Err(Error::InvalidArgument);
@@ -832,10 +830,8 @@ pub unsafe extern "C" fn refl_layered_trace_rays(
     t_max: f32,
     params: *const refl_layered_params,
 ) -> refl_status {
-    guard(|| {
-        if map.is_null() || params.is_null() {
-            return Err(Error::NullPointer);
-        }
+    guard("refl_layered_trace_rays", || {
+        crate::ptr::no_nulls(&[(map.is_null(), "map"), (params.is_null(), "params")])?;
         if ray_count == 0 {
             return Ok(());
         }
@@ -845,9 +841,9 @@ pub unsafe extern "C" fn refl_layered_trace_rays(
             return Err(Error::InsufficientSize);
         }
         // SAFETY: caller contract.
-        let desc = unsafe { read(map) }?;
+        let desc = unsafe { read(map, "map") }?;
         // SAFETY: caller contract.
-        let params = LayeredParams::from(unsafe { read(params) }?);
+        let params = LayeredParams::from(unsafe { read(params, "params") }?);
         let o = (o.0, ray_count * core::mem::size_of::<refl_layered_result>());
         if overlaps(o.0, o.1, r.0, r.1)
             || desc.ranges().iter().any(|x| overlaps(x.0, x.1, o.0, o.1))
@@ -902,8 +898,8 @@ pub unsafe extern "C" fn refl_prr_classify(
     p1: refl_vec3,
     p2: refl_vec3,
 ) -> refl_status {
-    guard(|| {
-        let out = Out::new(out)?;
+    guard("refl_prr_classify", || {
+        let out = Out::new(out, "out")?;
         let c = prr_classify(
             eye.into(),
             center.into(),

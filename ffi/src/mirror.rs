@@ -3,7 +3,7 @@
 
 use crate::camera::{finite3, finite_mat};
 use crate::ptr::{read, Out};
-use crate::status::{guard, refl_status};
+use crate::status::{fail_str, guard, refl_status};
 use crate::types::{convention, refl_camera, refl_mat4, refl_plane, refl_ray, refl_vec3};
 use refl_core::glam::Vec3;
 use refl_core::{Camera, Error, Plane};
@@ -12,10 +12,15 @@ use refl_core::{Camera, Error, Plane};
 ///
 /// # Safety
 /// `p` must be NULL or point to a readable `refl_plane`.
-unsafe fn plane(p: *const refl_plane) -> Result<Plane, Error> {
+unsafe fn plane(p: *const refl_plane, name: &str) -> Result<Plane, Error> {
     // SAFETY: forwarded contract.
-    let p = unsafe { read(p) }?;
-    Plane::try_from(&p)
+    let p = unsafe { read(p, name) }?;
+    Plane::try_from(&p).map_err(|e| {
+        crate::status::fail(
+            e,
+            format_args!("`{name}` is not a plane (finite, unit normal)"),
+        )
+    })
 }
 
 /// Reads a camera and a plane, null checks first (both reported as
@@ -27,13 +32,11 @@ unsafe fn camera_and_plane(
     camera: *const refl_camera,
     plane: *const refl_plane,
 ) -> Result<(Camera, Plane), Error> {
-    if camera.is_null() || plane.is_null() {
-        return Err(Error::NullPointer);
-    }
+    crate::ptr::no_nulls(&[(camera.is_null(), "camera"), (plane.is_null(), "plane")])?;
     // SAFETY: forwarded contract.
-    let cam = Camera::try_from(&unsafe { read(camera) }?)?;
+    let cam = crate::types::camera_named(&unsafe { read(camera, "camera") }?, "camera")?;
     // SAFETY: forwarded contract.
-    let plane = unsafe { self::plane(plane) }?;
+    let plane = unsafe { self::plane(plane, "plane") }?;
     Ok((cam, plane))
 }
 
@@ -44,14 +47,17 @@ fn finite_out(v: Vec3) -> Result<refl_vec3, Error> {
         .ok_or(Error::InvalidArgument)
 }
 
-/// Writes to `*out` the reflection of `v` about the normal `n`:
+/// Writes to `*out` the reflection of `v` about the unit normal `n`:
 /// `2 dot(v, n) n - v` (seed 004 Sec. 4.4.3). `v` points from the surface
 /// toward the viewer; the result points away from the surface on the same
 /// side. For an incident direction d (pointing at the surface) pass `-d`.
-/// Unit `v` and `n` give a unit result; nothing is normalized here.
+/// A unit `v` gives a unit result; nothing is normalized here.
 ///
 /// Returns `REFL_STATUS_NULL_POINTER` if `out` is NULL;
-/// `REFL_STATUS_INVALID_ARGUMENT` if an input or the result is not finite.
+/// `REFL_STATUS_DEGENERATE_GEOMETRY` for a zero normal (no mirror to
+/// reflect about); `REFL_STATUS_INVALID_ARGUMENT` if an input or the
+/// result is not finite, or `n` is not unit length (`|n|^2` within 2e-3 of
+/// 1).
 ///
 /// # Safety
 /// `out` must be NULL or point to a writable `refl_vec3`.
@@ -61,11 +67,22 @@ pub unsafe extern "C" fn refl_reflect(
     v: refl_vec3,
     n: refl_vec3,
 ) -> refl_status {
-    guard(|| {
-        let out = Out::new(out)?;
-        let r = finite_out(refl_core::reflect(finite3(v)?, finite3(n)?))?;
+    guard("refl_reflect", || {
+        let out = Out::new(out, "out")?;
+        let r = refl_core::try_reflect(v.into(), n.into()).map_err(|e| {
+            let why = match e {
+                Error::DegenerateGeometry => "`n` is the zero vector",
+                _ if !Vec3::from(v).is_finite() => "`v` is not finite",
+                _ if !Vec3::from(n).is_finite() => "`n` is not finite",
+                _ if !((Vec3::from(n).length_squared() - 1.0).abs() <= 2e-3) => {
+                    "`n` is not unit length"
+                }
+                _ => "the result overflowed",
+            };
+            fail_str(e, why)
+        })?;
         // SAFETY: caller contract.
-        unsafe { out.write(r) };
+        unsafe { out.write(r.into()) };
         Ok(())
     })
 }
@@ -91,8 +108,8 @@ pub unsafe extern "C" fn refl_plane_from_triangle(
     p2: refl_vec3,
     p3: refl_vec3,
 ) -> refl_status {
-    guard(|| {
-        let out = Out::new(out)?;
+    guard("refl_plane_from_triangle", || {
+        let out = Out::new(out, "out")?;
         let p = Plane::try_from_triangle(p1.into(), p2.into(), p3.into())?;
         // SAFETY: caller contract.
         unsafe { out.write((&p).into()) };
@@ -115,8 +132,8 @@ pub unsafe extern "C" fn refl_plane_from_point_normal(
     point: refl_vec3,
     normal: refl_vec3,
 ) -> refl_status {
-    guard(|| {
-        let out = Out::new(out)?;
+    guard("refl_plane_from_point_normal", || {
+        let out = Out::new(out, "out")?;
         let p = Plane::try_from_point_normal(point.into(), normal.into())?;
         // SAFETY: caller contract.
         unsafe { out.write((&p).into()) };
@@ -139,10 +156,10 @@ pub unsafe extern "C" fn refl_plane_signed_distance(
     plane: *const refl_plane,
     point: refl_vec3,
 ) -> refl_status {
-    guard(|| {
-        let out = Out::new(out)?;
+    guard("refl_plane_signed_distance", || {
+        let out = Out::new(out, "out")?;
         // SAFETY: caller contract.
-        let plane = unsafe { self::plane(plane) }?;
+        let plane = unsafe { self::plane(plane, "plane") }?;
         let s = plane.signed_distance(finite3(point)?);
         if !s.is_finite() {
             return Err(Error::InvalidArgument);
@@ -170,10 +187,10 @@ pub unsafe extern "C" fn refl_plane_intersect_ray(
     plane: *const refl_plane,
     ray: refl_ray,
 ) -> refl_status {
-    guard(|| {
-        let out = Out::new(out_t)?;
+    guard("refl_plane_intersect_ray", || {
+        let out = Out::new(out_t, "out_t")?;
         // SAFETY: caller contract.
-        let plane = unsafe { self::plane(plane) }?;
+        let plane = unsafe { self::plane(plane, "plane") }?;
         let (o, d) = (finite3(ray.origin)?, finite3(ray.dir)?);
         let t = plane.intersect_ray(o, d).ok_or(Error::DegenerateGeometry)?;
         // SAFETY: caller contract.
@@ -198,10 +215,10 @@ pub unsafe extern "C" fn refl_mirror_matrix(
     out: *mut refl_mat4,
     plane: *const refl_plane,
 ) -> refl_status {
-    guard(|| {
-        let out = Out::new(out)?;
+    guard("refl_mirror_matrix", || {
+        let out = Out::new(out, "out")?;
         // SAFETY: caller contract.
-        let plane = unsafe { self::plane(plane) }?;
+        let plane = unsafe { self::plane(plane, "plane") }?;
         let m = refl_core::mirror_matrix(&plane);
         if !m.is_finite() {
             return Err(Error::InvalidArgument);
@@ -227,10 +244,10 @@ pub unsafe extern "C" fn refl_mirror_point(
     plane: *const refl_plane,
     point: refl_vec3,
 ) -> refl_status {
-    guard(|| {
-        let out = Out::new(out)?;
+    guard("refl_mirror_point", || {
+        let out = Out::new(out, "out")?;
         // SAFETY: caller contract.
-        let plane = unsafe { self::plane(plane) }?;
+        let plane = unsafe { self::plane(plane, "plane") }?;
         let r = finite_out(refl_core::mirror_point(&plane, finite3(point)?))?;
         // SAFETY: caller contract.
         unsafe { out.write(r) };
@@ -261,8 +278,8 @@ pub unsafe extern "C" fn refl_mirrored_camera(
     camera: *const refl_camera,
     plane: *const refl_plane,
 ) -> refl_status {
-    guard(|| {
-        let out = Out::new(out)?;
+    guard("refl_mirrored_camera", || {
+        let out = Out::new(out, "out")?;
         // SAFETY: caller contract.
         let (cam, plane) = unsafe { camera_and_plane(camera, plane) }?;
         let m = refl_core::mirrored_camera(&cam, &plane)?;
@@ -297,8 +314,8 @@ pub unsafe extern "C" fn refl_oblique_projection(
     clip: *const refl_plane,
     convention: u32,
 ) -> refl_status {
-    guard(|| {
-        let out = Out::new(out)?;
+    guard("refl_oblique_projection", || {
+        let out = Out::new(out, "out")?;
         // SAFETY: caller contract.
         let (cam, clip) = unsafe { camera_and_plane(camera, clip) }?;
         let m = finite_mat(refl_core::oblique_projection(

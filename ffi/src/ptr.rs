@@ -5,24 +5,49 @@
 //! a single read or write: an output may alias an input (e.g. a camera
 //! mirrored in place) without undefined behavior.
 
+use crate::status::fail;
 use core::mem::size_of;
 use refl_core::Error;
 
+/// `NullPointer` if `p` is null, `InvalidArgument` if it is misaligned;
+/// the last-error detail names the argument `name`.
+#[inline]
+pub(crate) fn check_pointer<T>(p: *const T, name: &str) -> Result<(), Error> {
+    if p.is_null() {
+        return Err(fail(Error::NullPointer, format_args!("`{name}` is NULL")));
+    }
+    if !p.is_aligned() {
+        return Err(fail(
+            Error::InvalidArgument,
+            format_args!(
+                "`{name}` is misaligned (needs {}-byte alignment)",
+                core::mem::align_of::<T>()
+            ),
+        ));
+    }
+    Ok(())
+}
+
+/// `NullPointer` naming the first argument whose flag is `true` (each
+/// flag is `pointer.is_null()`), checked in the order given.
+#[inline]
+pub(crate) fn no_nulls(args: &[(bool, &str)]) -> Result<(), Error> {
+    match args.iter().find(|(null, _)| *null) {
+        Some((_, name)) => Err(fail(Error::NullPointer, format_args!("`{name}` is NULL"))),
+        None => Ok(()),
+    }
+}
+
 /// Reads `*p`: `NullPointer` if `p` is null, `InvalidArgument` if it is
-/// misaligned.
+/// misaligned (the last-error detail names `name`).
 ///
 /// # Safety
 /// A non-null, aligned `p` must point to a readable, initialized `T`.
 /// Only used with plain-old-data `T` (floats and integers), for which every
 /// bit pattern is a valid value.
 #[inline]
-pub(crate) unsafe fn read<T: Copy>(p: *const T) -> Result<T, Error> {
-    if p.is_null() {
-        return Err(Error::NullPointer);
-    }
-    if !p.is_aligned() {
-        return Err(Error::InvalidArgument);
-    }
+pub(crate) unsafe fn read<T: Copy>(p: *const T, name: &str) -> Result<T, Error> {
+    check_pointer(p, name)?;
     // SAFETY: non-null and aligned checked above; readability is the
     // caller's contract.
     Ok(unsafe { p.read() })
@@ -35,13 +60,8 @@ pub(crate) struct Out<T>(*mut T);
 impl<T> Out<T> {
     /// Checks `p`: `NullPointer` if null, `InvalidArgument` if misaligned.
     #[inline]
-    pub(crate) fn new(p: *mut T) -> Result<Self, Error> {
-        if p.is_null() {
-            return Err(Error::NullPointer);
-        }
-        if !p.is_aligned() {
-            return Err(Error::InvalidArgument);
-        }
+    pub(crate) fn new(p: *mut T, name: &str) -> Result<Self, Error> {
+        check_pointer(p.cast_const(), name)?;
         Ok(Self(p))
     }
 
@@ -81,8 +101,12 @@ pub(crate) fn overlaps(a: usize, a_len: usize, b: usize, b_len: usize) -> bool {
 ///
 /// # Safety
 /// A non-null, aligned `p` must be readable for `count` values of `T`.
-pub(crate) unsafe fn read_vec<T: Copy>(p: *const T, count: usize) -> Result<Vec<T>, Error> {
-    check_buffer(p, count)?;
+pub(crate) unsafe fn read_vec<T: Copy>(
+    p: *const T,
+    count: usize,
+    name: &str,
+) -> Result<Vec<T>, Error> {
+    check_buffer(p, count, name)?;
     // SAFETY: non-null, aligned, length fits isize (checked above);
     // readability is the caller's contract. The slice is copied at once.
     Ok(unsafe { core::slice::from_raw_parts(p, count) }.to_vec())
@@ -91,14 +115,14 @@ pub(crate) unsafe fn read_vec<T: Copy>(p: *const T, count: usize) -> Result<Vec<
 /// Checks a caller buffer pointer for `count` values of `T`: `NullPointer`
 /// if NULL, `InvalidArgument` if misaligned or impossibly long; returns its
 /// byte length.
-pub(crate) fn check_buffer<T>(p: *const T, count: usize) -> Result<usize, Error> {
-    if p.is_null() {
-        return Err(Error::NullPointer);
-    }
-    if !p.is_aligned() {
-        return Err(Error::InvalidArgument);
-    }
-    byte_len::<T>(p as usize, count)
+pub(crate) fn check_buffer<T>(p: *const T, count: usize, name: &str) -> Result<usize, Error> {
+    check_pointer(p, name)?;
+    byte_len::<T>(p as usize, count).map_err(|e| {
+        fail(
+            e,
+            format_args!("`{name}`: {count} elements do not fit in memory"),
+        )
+    })
 }
 
 /// A band of pyramid rows to write, the finer level to read (none for level

@@ -99,7 +99,7 @@ pub const UNKNOWN_STATUS: &CStr = c"unknown refl_status value";
 /// `refl_version_number()` at run time to detect a header/library mismatch.
 pub const REFL_VERSION_MAJOR: u32 = 0;
 /// Minor version of the header.
-pub const REFL_VERSION_MINOR: u32 = 1;
+pub const REFL_VERSION_MINOR: u32 = 2;
 /// Patch version of the header.
 pub const REFL_VERSION_PATCH: u32 = 0;
 
@@ -116,7 +116,7 @@ pub extern "C" fn refl_status_string(status: u32) -> *const c_char {
 }
 
 /// The library version as a static, NUL-terminated string such as
-/// "0.1.0". Never NULL; must not be freed.
+/// "0.2.0". Never NULL; must not be freed.
 #[no_mangle]
 pub extern "C" fn refl_version() -> *const c_char {
     const V: &CStr =
@@ -135,20 +135,165 @@ pub extern "C" fn refl_version_number() -> u32 {
     (REFL_VERSION_MAJOR << 16) | (REFL_VERSION_MINOR << 8) | REFL_VERSION_PATCH
 }
 
-/// Runs `f` behind the panic boundary: its `Result` becomes a status, and a
-/// panic becomes [`refl_status::Panic`] instead of unwinding into C.
+/// Capacity in bytes of the thread-local last-error message (longer
+/// messages are cut at a character boundary).
+pub const REFL_LAST_ERROR_CAPACITY: usize = 256;
+
+/// A fixed-size UTF-8 message buffer (no allocation).
+struct Message {
+    len: usize,
+    buf: [u8; REFL_LAST_ERROR_CAPACITY],
+}
+
+impl Message {
+    const EMPTY: Self = Self {
+        len: 0,
+        buf: [0; REFL_LAST_ERROR_CAPACITY],
+    };
+
+    fn as_str(&self) -> &str {
+        // Only whole characters are ever appended (`write_str`).
+        core::str::from_utf8(&self.buf[..self.len]).unwrap_or("")
+    }
+}
+
+impl core::fmt::Write for Message {
+    fn write_str(&mut self, s: &str) -> core::fmt::Result {
+        // At most REFL_LAST_ERROR_CAPACITY - 1 bytes (a C copy adds the NUL).
+        let room = REFL_LAST_ERROR_CAPACITY - 1 - self.len;
+        let mut n = s.len().min(room);
+        while !s.is_char_boundary(n) {
+            n -= 1;
+        }
+        self.buf[self.len..self.len + n].copy_from_slice(&s.as_bytes()[..n]);
+        self.len += n;
+        Ok(())
+    }
+}
+
+std::thread_local! {
+    /// What the failing check of the current call said (empty: nothing).
+    static DETAIL: core::cell::RefCell<Message> = const { core::cell::RefCell::new(Message::EMPTY) };
+    /// The message of the last call made through [`guard`] on this thread.
+    static LAST_ERROR: core::cell::RefCell<Message> = const { core::cell::RefCell::new(Message::EMPTY) };
+}
+
+/// Records why the current call fails (which argument, what was wrong) and
+/// returns `e`, for `return Err(fail(..))` and `.map_err(|e| fail(..))`.
+/// The first detail of a call wins: a check deeper down that already said
+/// why is not overwritten by a caller's more general one.
+pub(crate) fn fail(e: Error, why: core::fmt::Arguments<'_>) -> Error {
+    use core::fmt::Write;
+    DETAIL.with(|d| {
+        if let Ok(mut d) = d.try_borrow_mut() {
+            if d.len == 0 {
+                let _ = d.write_fmt(why);
+            }
+        }
+    });
+    e
+}
+
+/// `fail` with a plain string.
+pub(crate) fn fail_str(e: Error, why: &str) -> Error {
+    fail(e, format_args!("{why}"))
+}
+
+/// Runs `f`, the body of the export `name`, behind the panic boundary: its
+/// `Result` becomes a status, and a panic becomes [`refl_status::Panic`]
+/// instead of unwinding into C. The thread-local last-error message is
+/// cleared on entry and, on failure, set to `"<name>: <status string>:
+/// <detail>"` (the detail from [`fail`], when a check gave one).
 ///
 /// The panic payload is leaked rather than dropped: a payload whose `Drop`
 /// panics again would otherwise unwind across the boundary.
-pub(crate) fn guard<F: FnOnce() -> Result<(), Error>>(f: F) -> refl_status {
-    match catch_unwind(AssertUnwindSafe(f)) {
+pub(crate) fn guard<F: FnOnce() -> Result<(), Error>>(name: &str, f: F) -> refl_status {
+    DETAIL.with(|d| {
+        if let Ok(mut d) = d.try_borrow_mut() {
+            d.len = 0;
+        }
+    });
+    let status = match catch_unwind(AssertUnwindSafe(f)) {
         Ok(Ok(())) => refl_status::Ok,
         Ok(Err(e)) => e.into(),
         Err(payload) => {
             core::mem::forget(payload);
             refl_status::Panic
         }
-    }
+    };
+    LAST_ERROR.with(|l| {
+        let Ok(mut l) = l.try_borrow_mut() else {
+            return;
+        };
+        l.len = 0;
+        if status == refl_status::Ok {
+            return;
+        }
+        use core::fmt::Write;
+        let what = status.as_cstr().to_str().unwrap_or("");
+        let _ = write!(l, "{name}: {what}");
+        DETAIL.with(|d| {
+            if let Ok(d) = d.try_borrow() {
+                if d.len > 0 {
+                    let _ = write!(l, ": {}", d.as_str());
+                }
+            }
+        });
+    });
+    status
+}
+
+/// The message of the most recent call on this thread of a refl function
+/// that returns a `refl_status`: empty if that call succeeded, else
+/// `"<function>: <status string>"` followed, where the call can say, by
+/// `": "` and which argument was refused and why (for example
+/// `"refl_hiz_trace_ray: invalid argument (NaN/Inf, zero or overflowing
+/// size, bad range): hiz: the pyramid was built for 512x384, the camera is
+/// 256x192"`). This function and `refl_status_string`,
+/// `refl_version` and `refl_version_number` do not change it. Like `errno`
+/// it is per thread; unlike `errno` every status-returning call resets it.
+///
+/// Copies at most `dst_len - 1` bytes of the message and a terminating NUL
+/// to `dst` (nothing when `dst` is NULL or `dst_len` is 0) and returns the
+/// message's full length in bytes, without the NUL (as `snprintf` does): a
+/// return value `>= dst_len` means the copy was cut. Messages are at most
+/// `REFL_LAST_ERROR_CAPACITY - 1` bytes of UTF-8 (English, ASCII in
+/// practice).
+///
+/// # Safety
+/// `dst` must be NULL or writable for `dst_len` bytes.
+#[no_mangle]
+pub unsafe extern "C" fn refl_last_error_message(dst: *mut c_char, dst_len: usize) -> usize {
+    let r = catch_unwind(AssertUnwindSafe(|| {
+        LAST_ERROR.with(|l| {
+            let Ok(l) = l.try_borrow() else {
+                return 0;
+            };
+            let msg = &l.buf[..l.len];
+            if !dst.is_null() && dst_len > 0 {
+                let n = msg.len().min(dst_len - 1);
+                // SAFETY: `dst` is writable for `dst_len > n` bytes (caller
+                // contract); `msg` is a thread-local buffer, disjoint from
+                // caller memory.
+                unsafe {
+                    core::ptr::copy_nonoverlapping(msg.as_ptr(), dst.cast::<u8>(), n);
+                    dst.add(n).write(0);
+                }
+            }
+            msg.len()
+        })
+    }));
+    r.unwrap_or(0)
+}
+
+/// The current thread's last-error message as a Rust string (for tests and
+/// Rust callers of the C ABI); see [`refl_last_error_message`].
+pub fn last_error_message() -> std::string::String {
+    LAST_ERROR.with(|l| {
+        l.try_borrow()
+            .map(|l| l.as_str().into())
+            .unwrap_or_default()
+    })
 }
 
 #[cfg(test)]
@@ -171,13 +316,42 @@ mod tests {
 
     #[test]
     fn guard_catches_panics() {
-        let s = guard(|| panic!("boom"));
+        let s = guard("boom", || panic!("boom"));
         assert_eq!(s, refl_status::Panic);
-        assert_eq!(guard(|| Ok(())), refl_status::Ok);
+        assert!(last_error_message().starts_with("boom: a panic was caught"));
+        assert_eq!(guard("fine", || Ok(())), refl_status::Ok);
+        assert_eq!(last_error_message(), "");
         assert_eq!(
-            guard(|| Err(Error::DegenerateGeometry)),
+            guard("f", || Err(Error::DegenerateGeometry)),
             refl_status::DegenerateGeometry
         );
+        assert_eq!(last_error_message(), "f: degenerate geometry");
+        assert_eq!(
+            guard("g", || Err(fail(
+                Error::InvalidArgument,
+                format_args!("x is {}", 3)
+            ))),
+            refl_status::InvalidArgument
+        );
+        assert!(last_error_message().starts_with("g: invalid argument"));
+        assert!(last_error_message().ends_with(": x is 3"));
+    }
+
+    #[test]
+    fn long_messages_are_cut_at_a_character_boundary() {
+        let long = "\u{e9}".repeat(400);
+        guard("h", || Err(fail_str(Error::InvalidArgument, &long)));
+        let m = last_error_message();
+        assert!(m.len() < REFL_LAST_ERROR_CAPACITY && m.len() >= REFL_LAST_ERROR_CAPACITY - 2);
+        let mut buf = [0x55u8; 8];
+        // SAFETY: buf is writable for 8 bytes.
+        let n = unsafe { refl_last_error_message(buf.as_mut_ptr().cast(), buf.len()) };
+        assert_eq!(n, m.len());
+        assert_eq!(&buf[..7], &m.as_bytes()[..7]);
+        assert_eq!(buf[7], 0);
+        // SAFETY: NULL is allowed.
+        let n = unsafe { refl_last_error_message(core::ptr::null_mut(), 0) };
+        assert_eq!(n, m.len());
     }
 
     #[test]

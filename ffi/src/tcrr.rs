@@ -24,7 +24,7 @@ use crate::types::{convention, refl_camera, refl_vec3};
 use refl_core::tcrr::{
     self, CurrentView, Fresnel, KeyFramePolicy, Reflected, ReflectionBuffers, TcrrParams,
 };
-use refl_core::{Camera, Error, RowRange};
+use refl_core::{Error, RowRange};
 
 /// A key-frame texel back-projected once per key frame
 /// (`refl_tcrr_prepare`); layout of refl-core's `tcrr::Surfel`.
@@ -253,13 +253,14 @@ pub const REFL_TCRR_BYTES_PER_PIXEL: usize = 110;
 /// `p` NULL or readable.
 unsafe fn params(p: *const refl_tcrr_params) -> Result<TcrrParams, Error> {
     // SAFETY: forwarded contract.
-    TcrrParams::try_from(&unsafe { read(p) }?)
+    TcrrParams::try_from(&unsafe { read(p, "params") }?)
+        .map_err(|e| crate::status::fail_str(e, "`params` out of range (see refl_tcrr_params)"))
 }
 
 /// # Safety
 /// `k`'s images readable as described on `refl_tcrr_key` for `'a`.
 unsafe fn key_buffers<'a>(k: &refl_tcrr_key) -> Result<ReflectionBuffers<'a>, Error> {
-    let cam = Camera::try_from(&k.camera)?;
+    let cam = crate::types::camera_named(&k.camera, "key.camera")?;
     let conv = convention(k.convention)?;
     // SAFETY: forwarded contract (each view validates its descriptor).
     let b = unsafe {
@@ -284,7 +285,7 @@ unsafe fn key_buffers<'a>(k: &refl_tcrr_key) -> Result<ReflectionBuffers<'a>, Er
 /// # Safety
 /// `c`'s images readable for `'a`.
 unsafe fn current_view<'a>(c: &refl_tcrr_current) -> Result<CurrentView<'a>, Error> {
-    let cam = Camera::try_from(&c.camera)?;
+    let cam = crate::types::camera_named(&c.camera, "current.camera")?;
     let conv = convention(c.convention)?;
     // SAFETY: forwarded contract.
     unsafe { CurrentView::try_new(cam, conv, c.depth.view()?, c.specular.view()?) }
@@ -296,7 +297,7 @@ unsafe fn current_view<'a>(c: &refl_tcrr_current) -> Result<CurrentView<'a>, Err
 /// `k` NULL or readable.
 unsafe fn read_key(k: *const refl_tcrr_key) -> Result<refl_tcrr_key, Error> {
     // SAFETY: forwarded contract.
-    unsafe { read(k) }
+    unsafe { read(k, "key") }
 }
 
 /// Writes to `*out` the default TCRR settings (iteration cap 64,
@@ -309,8 +310,8 @@ unsafe fn read_key(k: *const refl_tcrr_key) -> Result<refl_tcrr_key, Error> {
 /// `out` must be NULL or point to a writable `refl_tcrr_params`.
 #[no_mangle]
 pub unsafe extern "C" fn refl_tcrr_default_params(out: *mut refl_tcrr_params) -> refl_status {
-    guard(|| {
-        let out = Out::new(out)?;
+    guard("refl_tcrr_default_params", || {
+        let out = Out::new(out, "out")?;
         // SAFETY: caller contract.
         unsafe { out.write((&TcrrParams::default()).into()) };
         Ok(())
@@ -334,8 +335,8 @@ pub unsafe extern "C" fn refl_tcrr_frame_bytes(
     width: u32,
     height: u32,
 ) -> refl_status {
-    guard(|| {
-        let out = Out::new(out_bytes)?;
+    guard("refl_tcrr_frame_bytes", || {
+        let out = Out::new(out_bytes, "out_bytes")?;
         if width == 0 || height == 0 {
             return Err(Error::InvalidArgument);
         }
@@ -373,8 +374,8 @@ pub unsafe extern "C" fn refl_tcrr_reflection_distance(
     reflected: refl_vec3,
     kind: u32,
 ) -> refl_status {
-    guard(|| {
-        let out = Out::new(out)?;
+    guard("refl_tcrr_reflection_distance", || {
+        let out = Out::new(out, "out")?;
         let (e, w, n, r) = (
             finite3(eye)?,
             finite3(surface)?,
@@ -416,10 +417,8 @@ pub unsafe extern "C" fn refl_tcrr_prepare(
     key: *const refl_tcrr_key,
     rows: refl_row_range,
 ) -> refl_status {
-    guard(|| {
-        if surfels.data.is_null() {
-            return Err(Error::NullPointer);
-        }
+    guard("refl_tcrr_prepare", || {
+        crate::ptr::no_nulls(&[(surfels.data.is_null(), "surfels.data")])?;
         // SAFETY: caller contract.
         let mut k = unsafe { read_key(key) }?;
         k.surfels.data = core::ptr::null();
@@ -433,7 +432,7 @@ pub unsafe extern "C" fn refl_tcrr_prepare(
         }
         let n = tcrr::prepare(&mut v, &b)?;
         if !out_reflective.is_null() {
-            let o = Out::new(out_reflective)?;
+            let o = Out::new(out_reflective, "out_reflective")?;
             // SAFETY: caller contract.
             unsafe { o.write(n) };
         }
@@ -456,7 +455,7 @@ pub unsafe extern "C" fn refl_tcrr_reset_offsets(
     offsets: refl_image_vec2_mut,
     rows: refl_row_range,
 ) -> refl_status {
-    guard(|| {
+    guard("refl_tcrr_reset_offsets", || {
         let rows = RowRange::try_new(rows.begin, rows.end, offsets.height)?;
         // SAFETY: caller contract.
         let mut v = unsafe { offsets.band_mut(rows) }?;
@@ -489,10 +488,12 @@ pub unsafe extern "C" fn refl_tcrr_search(
     params: *const refl_tcrr_params,
     rows: refl_row_range,
 ) -> refl_status {
-    guard(|| {
-        if offsets.data.is_null() || key.is_null() || params.is_null() {
-            return Err(Error::NullPointer);
-        }
+    guard("refl_tcrr_search", || {
+        crate::ptr::no_nulls(&[
+            (offsets.data.is_null(), "offsets.data"),
+            (key.is_null(), "key"),
+            (params.is_null(), "params"),
+        ])?;
         // SAFETY: caller contract.
         let k = unsafe { read_key(key) }?;
         // SAFETY: caller contract.
@@ -505,7 +506,7 @@ pub unsafe extern "C" fn refl_tcrr_search(
         let mut v = unsafe { offsets.band_mut(rows) }?;
         let s = tcrr::search(&mut v, &b, eye, &p)?;
         if !out_stats.is_null() {
-            let o = Out::new(out_stats)?;
+            let o = Out::new(out_stats, "out_stats")?;
             // SAFETY: caller contract.
             unsafe {
                 o.write(refl_tcrr_search_stats {
@@ -542,16 +543,15 @@ pub unsafe extern "C" fn refl_tcrr_shift(
     params: *const refl_tcrr_params,
     rows: refl_row_range,
 ) -> refl_status {
-    guard(|| {
-        if color.data.is_null()
-            || depth.data.is_null()
-            || coverage.data.is_null()
-            || offsets.data.is_null()
-            || key.is_null()
-            || params.is_null()
-        {
-            return Err(Error::NullPointer);
-        }
+    guard("refl_tcrr_shift", || {
+        crate::ptr::no_nulls(&[
+            (color.data.is_null(), "color.data"),
+            (depth.data.is_null(), "depth.data"),
+            (coverage.data.is_null(), "coverage.data"),
+            (offsets.data.is_null(), "offsets.data"),
+            (key.is_null(), "key"),
+            (params.is_null(), "params"),
+        ])?;
         // SAFETY: caller contract.
         let k = unsafe { read_key(key) }?;
         // SAFETY: caller contract.
@@ -571,7 +571,7 @@ pub unsafe extern "C" fn refl_tcrr_shift(
         };
         let s = tcrr::shift(&mut c, &mut d, &mut v, &b, &ov, &p)?;
         if !out_stats.is_null() {
-            let o = Out::new(out_stats)?;
+            let o = Out::new(out_stats, "out_stats")?;
             // SAFETY: caller contract.
             unsafe {
                 o.write(refl_tcrr_shift_stats {
@@ -611,17 +611,16 @@ pub unsafe extern "C" fn refl_tcrr_warp(
     params: *const refl_tcrr_params,
     rows: refl_row_range,
 ) -> refl_status {
-    guard(|| {
-        if color.data.is_null()
-            || mask.data.is_null()
-            || current.is_null()
-            || key.is_null()
-            || params.is_null()
-        {
-            return Err(Error::NullPointer);
-        }
+    guard("refl_tcrr_warp", || {
+        crate::ptr::no_nulls(&[
+            (color.data.is_null(), "color.data"),
+            (mask.data.is_null(), "mask.data"),
+            (current.is_null(), "current"),
+            (key.is_null(), "key"),
+            (params.is_null(), "params"),
+        ])?;
         // SAFETY: caller contract.
-        let (k, cur) = unsafe { (read_key(key)?, read(current)?) };
+        let (k, cur) = unsafe { (read_key(key)?, read(current, "current")?) };
         // SAFETY: caller contract.
         let p = unsafe { self::params(params) }?;
         // SAFETY: caller contract.
@@ -635,7 +634,7 @@ pub unsafe extern "C" fn refl_tcrr_warp(
         let (mut c, mut m) = unsafe { (color.band_mut(r)?, mask.band_mut(r)?) };
         let s = tcrr::warp(&mut c, &mut m, &cv, &b, &sv, &sd, &cov, &p)?;
         if !out_stats.is_null() {
-            let o = Out::new(out_stats)?;
+            let o = Out::new(out_stats, "out_stats")?;
             // SAFETY: caller contract.
             unsafe {
                 o.write(refl_tcrr_warp_stats {
@@ -669,8 +668,8 @@ pub unsafe extern "C" fn refl_tcrr_retrace_list(
     out_count: *mut usize,
     mask: refl_image_u8,
 ) -> refl_status {
-    guard(|| {
-        let out = Out::new(out_count)?;
+    guard("refl_tcrr_retrace_list", || {
+        let out = Out::new(out_count, "out_count")?;
         // SAFETY: caller contract.
         let m = unsafe { mask.view() }?;
         let n = if list.is_null() {
@@ -719,12 +718,13 @@ pub unsafe extern "C" fn refl_tcrr_compose(
     fresnel: u32,
     rows: refl_row_range,
 ) -> refl_status {
-    guard(|| {
-        if out.data.is_null() || current.is_null() {
-            return Err(Error::NullPointer);
-        }
+    guard("refl_tcrr_compose", || {
+        crate::ptr::no_nulls(&[
+            (out.data.is_null(), "out.data"),
+            (current.is_null(), "current"),
+        ])?;
         // SAFETY: caller contract.
-        let cur = unsafe { read(current) }?;
+        let cur = unsafe { read(current, "current") }?;
         let mode = self::fresnel(fresnel)?;
         // SAFETY: caller contract.
         let cv = unsafe { current_view(&cur) }?;
@@ -753,8 +753,8 @@ pub unsafe extern "C" fn refl_tcrr_fresnel_weight(
     cos_theta: f32,
     fresnel: u32,
 ) -> refl_status {
-    guard(|| {
-        let out = Out::new(out)?;
+    guard("refl_tcrr_fresnel_weight", || {
+        let out = Out::new(out, "out")?;
         let w = tcrr::fresnel_weight(f, cos_theta, self::fresnel(fresnel)?);
         // SAFETY: caller contract.
         unsafe { out.write(w) };
@@ -780,8 +780,8 @@ pub unsafe extern "C" fn refl_tcrr_needs_key_frame(
     retrace: u64,
     reflective: u64,
 ) -> refl_status {
-    guard(|| {
-        let out = Out::new(out)?;
+    guard("refl_tcrr_needs_key_frame", || {
+        let out = Out::new(out, "out")?;
         let p = KeyFramePolicy::try_new(threshold)?;
         if retrace > reflective {
             return Err(Error::InvalidArgument);

@@ -10,7 +10,7 @@ use crate::image::refl_image_f32;
 use crate::ptr::{byte_len, read, read_vec, Out};
 use crate::status::{guard, refl_status};
 use crate::types::{convention, refl_camera, refl_ray, refl_vec2};
-use refl_core::{Camera, DepthImage, Error, Miss, Ray, StepOptions, Thickness, Trace};
+use refl_core::{DepthImage, Error, Miss, Ray, StepOptions, Thickness, Trace};
 
 /// A depth image with the camera that rendered it and its convention.
 #[repr(C)]
@@ -159,7 +159,7 @@ pub(crate) unsafe fn depth_image<'a>(d: &refl_depth_image) -> Result<DepthImage<
     // SAFETY: caller contract.
     let view = unsafe { d.depth.view() }?;
     let conv = convention(d.convention)?;
-    let cam = Camera::try_from(&d.camera)?;
+    let cam = crate::types::camera_named(&d.camera, "image.camera")?;
     DepthImage::try_new(view, cam, conv)
 }
 
@@ -188,7 +188,13 @@ unsafe fn step_inputs<'a>(
     options: *const refl_step_options,
 ) -> Result<(DepthImage<'a>, Thickness<'a>, StepOptions), Error> {
     // SAFETY: caller contract.
-    let (img_c, th_c, opts) = unsafe { (read(image)?, read(thickness)?, read(options)?) };
+    let (img_c, th_c, opts) = unsafe {
+        (
+            read(image, "image")?,
+            read(thickness, "thickness")?,
+            read(options, "options")?,
+        )
+    };
     // SAFETY: caller contract.
     let img = unsafe { depth_image(&img_c) }?;
     // SAFETY: caller contract.
@@ -231,8 +237,8 @@ pub unsafe extern "C" fn refl_step_ray(
     t_max: f32,
     options: *const refl_step_options,
 ) -> refl_status {
-    guard(|| {
-        let out = Out::new(out)?;
+    guard("refl_step_ray", || {
+        let out = Out::new(out, "out")?;
         // SAFETY: caller contract.
         let (img, th, opts) = unsafe { step_inputs(image, thickness, options) }?;
         let ray = Ray {
@@ -278,10 +284,12 @@ pub unsafe extern "C" fn refl_step_rays(
     thickness: *const refl_thickness,
     options: *const refl_step_options,
 ) -> refl_status {
-    guard(|| {
-        if out.is_null() || rays.is_null() || t_max.is_null() {
-            return Err(Error::NullPointer);
-        }
+    guard("refl_step_rays", || {
+        crate::ptr::no_nulls(&[
+            (out.is_null(), "out"),
+            (rays.is_null(), "rays"),
+            (t_max.is_null(), "t_max"),
+        ])?;
         // SAFETY: caller contract.
         let (img, th, opts) = unsafe { step_inputs(image, thickness, options) }?;
         if !out.is_aligned() {
@@ -296,9 +304,9 @@ pub unsafe extern "C" fn refl_step_rays(
         byte_len::<refl_trace_result>(out as usize, ray_count)?;
         // SAFETY: caller contract; copied before any output is written, so
         // `out` may alias the inputs.
-        let rays_c = unsafe { read_vec(rays, ray_count) }?;
+        let rays_c = unsafe { read_vec(rays, ray_count, "rays") }?;
         // SAFETY: caller contract.
-        let tms = unsafe { read_vec(t_max, t_max_count.min(ray_count).max(1)) }?;
+        let tms = unsafe { read_vec(t_max, t_max_count.min(ray_count).max(1), "t_max") }?;
         let rays: Vec<Ray> = rays_c
             .iter()
             .map(|r| Ray {
@@ -351,10 +359,10 @@ pub unsafe extern "C" fn refl_refine_hit(
     t_max: f32,
     hit: *const refl_trace_result,
 ) -> refl_status {
-    guard(|| {
-        let out = Out::new(out)?;
+    guard("refl_refine_hit", || {
+        let out = Out::new(out, "out")?;
         // SAFETY: caller contract.
-        let (img_c, h) = unsafe { (read(image)?, read(hit)?) };
+        let (img_c, h) = unsafe { (read(image, "image")?, read(hit, "hit")?) };
         // SAFETY: caller contract.
         let img = unsafe { depth_image(&img_c) }?;
         let ray = Ray {

@@ -236,6 +236,27 @@ impl TryFrom<&refl_camera> for Camera {
     }
 }
 
+/// `Camera::try_from(c)`, with a last-error detail that names the argument
+/// `name` and the field that was refused.
+pub(crate) fn camera_named(c: &refl_camera, name: &str) -> Result<Camera, Error> {
+    Camera::try_from(c).map_err(|e| {
+        let why = if c.width == 0 || c.height == 0 {
+            "zero width or height"
+        } else if !(c.fov_y > 0.0 && c.fov_y < core::f32::consts::PI) {
+            "fov_y not in (0, pi)"
+        } else if !(c.z_near > 0.0 && c.z_near.is_finite()) {
+            "z_near not finite and positive"
+        } else if !(c.z_far > c.z_near) {
+            "z_far not beyond z_near"
+        } else if !c.view.m.iter().all(|v| v.is_finite()) {
+            "view matrix not finite"
+        } else {
+            "view matrix not a rigid transform (rotation and translation)"
+        };
+        crate::status::fail(e, format_args!("`{name}`: {why}"))
+    })
+}
+
 impl From<&refl_core::Plane> for refl_plane {
     fn from(p: &refl_core::Plane) -> Self {
         Self {
@@ -524,7 +545,7 @@ impl TryFrom<&refl_cluster_camera> for refl_core::cluster::ClusterCamera {
         if c.fallback != refl_cluster_fallback::None as u32 {
             return Err(Error::InvalidArgument);
         }
-        let camera = Camera::try_from(&c.camera)?;
+        let camera = camera_named(&c.camera, "camera")?;
         let n = Vec3::from(c.clip.normal);
         if !(n.is_finite() && c.clip.d.is_finite() && (n.length_squared() - 1.0).abs() <= 1e-3) {
             return Err(Error::InvalidArgument);

@@ -96,10 +96,13 @@ fn pyramids_and_trace_equal_core() {
         // Row bands, level by level, equal the whole build.
         let mut banded = vec![refl_vec3::default(); n];
         let mut levels = 0u32;
+        let mut hiz_n = 0usize;
         assert_eq!(
-            unsafe { refl_hiz_len(&mut n, &mut levels, W, H) },
+            unsafe { refl_hiz_len(&mut hiz_n, &mut levels, W, H) },
             refl_status::Ok
         );
+        // The Hi-Z pyramid ends with its stamp; the cone pyramids do not.
+        assert_eq!(hiz_n, n + refl_core::HIZ_STAMP_TEXELS);
         for level in 0..levels {
             let mut info = refl_hiz_level_info::default();
             assert_eq!(

@@ -111,7 +111,8 @@ fn len_and_level_match_core() {
             refl_status::Ok
         );
         let l = HiZLayout::try_new(w, h).unwrap();
-        assert_eq!((n, c), (l.len(), l.level_count()));
+        assert_eq!((n, c), (hiz_len(w, h).unwrap(), l.level_count()));
+        assert_eq!(n, l.len() + refl_core::HIZ_STAMP_TEXELS);
         for i in 0..c {
             let mut info = refl_hiz_level_info::default();
             // SAFETY: valid output.

@@ -1,0 +1,475 @@
+//! Issue 12 part 4 through the C ABI: every refusal names the call, and
+//! (for a sample in every family) the argument and why, in the thread-local
+//! last-error message; prepared structures used with the wrong camera are
+//! errors; `refl_reflect` refuses a zero normal.
+
+use core::ptr::{null, null_mut};
+use refl::*;
+use refl_core::glam::Vec3;
+use refl_core::{hiz_len, try_build_hiz, Camera, DepthConvention, DepthImage, ImageView};
+
+/// The message as C sees it, through `refl_last_error_message`.
+fn message() -> String {
+    // SAFETY: NULL with length 0 is allowed.
+    let n = unsafe { refl_last_error_message(null_mut(), 0) };
+    let mut buf = vec![0x7fu8; n + 1];
+    // SAFETY: buf is writable for n + 1 bytes.
+    let m = unsafe { refl_last_error_message(buf.as_mut_ptr().cast(), buf.len()) };
+    assert_eq!(m, n);
+    assert_eq!(buf[n], 0, "NUL-terminated");
+    let s = String::from_utf8(buf[..n].to_vec()).unwrap();
+    assert_eq!(s, last_error_message());
+    s
+}
+
+/// `status` is `want` and the message starts with `call` and holds every
+/// part of `says`.
+#[track_caller]
+fn refused(status: refl_status, want: refl_status, call: &str, says: &[&str]) {
+    assert_eq!(status, want, "{call}");
+    let m = message();
+    assert!(m.starts_with(&format!("{call}: ")), "{m}");
+    for s in says {
+        assert!(m.contains(s), "{m:?} lacks {s:?}");
+    }
+}
+
+fn v3(x: f32, y: f32, z: f32) -> refl_vec3 {
+    refl_vec3 { x, y, z }
+}
+
+fn look(w: u32, h: u32, eye_x: f32) -> Camera {
+    Camera::try_look_at(
+        Vec3::new(eye_x, 1.5, 4.0),
+        Vec3::new(0.0, 0.5, -5.0),
+        Vec3::Y,
+        1.0,
+        0.1,
+        100.0,
+        w,
+        h,
+    )
+    .unwrap()
+}
+
+#[test]
+fn success_clears_the_message_and_statusless_calls_keep_it() {
+    let mut c = core::mem::MaybeUninit::<refl_camera>::uninit();
+    // SAFETY: valid output.
+    let s = unsafe {
+        refl_camera_look_at(
+            c.as_mut_ptr(),
+            v3(0.0, 0.0, 5.0),
+            v3(0.0, 0.0, 0.0),
+            v3(0.0, 1.0, 0.0),
+            0.0,
+            0.1,
+            10.0,
+            4,
+            4,
+        )
+    };
+    refused(s, refl_status::InvalidArgument, "refl_camera_look_at", &[]);
+    let _ = refl_status_string(3);
+    let _ = refl_version();
+    assert!(!message().is_empty());
+    // SAFETY: valid output.
+    let s = unsafe {
+        refl_camera_look_at(
+            c.as_mut_ptr(),
+            v3(0.0, 0.0, 5.0),
+            v3(0.0, 0.0, 0.0),
+            v3(0.0, 1.0, 0.0),
+            1.0,
+            0.1,
+            10.0,
+            4,
+            4,
+        )
+    };
+    assert_eq!(s, refl_status::Ok);
+    assert_eq!(message(), "");
+    // Per thread.
+    // SAFETY: NULL output is reported, not written.
+    let s = unsafe { refl_tcrr_frame_bytes(null_mut(), 4, 4) };
+    assert_eq!(s, refl_status::NullPointer);
+    std::thread::spawn(|| assert_eq!(last_error_message(), ""))
+        .join()
+        .unwrap();
+}
+
+#[test]
+fn camera_and_mirror_refusals_name_the_argument() {
+    let cam = look(8, 6, 0.5);
+    let mut bad: refl_camera = (&cam).into();
+    bad.fov_y = 4.0;
+    let mut p = refl_projection::default();
+    // SAFETY: valid pointers.
+    let s = unsafe { refl_camera_project(&mut p, &bad, v3(0.0, 0.0, -3.0)) };
+    refused(
+        s,
+        refl_status::InvalidArgument,
+        "refl_camera_project",
+        &["`camera`", "fov_y"],
+    );
+    bad = (&cam).into();
+    bad.view.m[0] = 2.0;
+    // SAFETY: valid pointers.
+    let s = unsafe { refl_camera_project(&mut p, &bad, v3(0.0, 0.0, -3.0)) };
+    refused(
+        s,
+        refl_status::DegenerateGeometry,
+        "refl_camera_project",
+        &["`camera`", "rigid"],
+    );
+    let good: refl_camera = (&cam).into();
+    // SAFETY: NULL output is reported.
+    let s = unsafe { refl_camera_project(null_mut(), &good, v3(0.0, 0.0, -3.0)) };
+    refused(
+        s,
+        refl_status::NullPointer,
+        "refl_camera_project",
+        &["`out` is NULL"],
+    );
+    let mut m = refl_mat4 { m: [0.0; 16] };
+    // SAFETY: `to` NULL is reported.
+    let s = unsafe { refl_reprojection_matrix(&mut m, &good, null(), 0) };
+    refused(
+        s,
+        refl_status::NullPointer,
+        "refl_reprojection_matrix",
+        &["`to` is NULL"],
+    );
+
+    // refl_reflect: a zero normal is degenerate, not -v.
+    let sentinel = v3(7.0, 7.0, 7.0);
+    let mut r = sentinel;
+    // SAFETY: valid output.
+    let s = unsafe { refl_reflect(&mut r, v3(1.0, 1.0, 0.0), v3(0.0, 0.0, 0.0)) };
+    refused(
+        s,
+        refl_status::DegenerateGeometry,
+        "refl_reflect",
+        &["`n` is the zero vector"],
+    );
+    assert_eq!(r, sentinel);
+    // SAFETY: valid output.
+    let s = unsafe { refl_reflect(&mut r, v3(1.0, 1.0, 0.0), v3(0.0, 2.0, 0.0)) };
+    refused(
+        s,
+        refl_status::InvalidArgument,
+        "refl_reflect",
+        &["`n` is not unit length"],
+    );
+    assert_eq!(r, sentinel);
+    // SAFETY: valid output.
+    let s = unsafe { refl_reflect(&mut r, v3(f32::NAN, 1.0, 0.0), v3(0.0, 1.0, 0.0)) };
+    refused(
+        s,
+        refl_status::InvalidArgument,
+        "refl_reflect",
+        &["`v` is not finite"],
+    );
+    // SAFETY: valid output.
+    let s = unsafe { refl_reflect(&mut r, v3(1.0, 1.0, 0.0), v3(0.0, 1.0, 0.0)) };
+    assert_eq!(s, refl_status::Ok);
+    assert_eq!(r, v3(-1.0, 1.0, 0.0));
+
+    let mut c = good;
+    // SAFETY: `plane` NULL is reported.
+    let s = unsafe { refl_mirrored_camera(&mut c, &good, null()) };
+    refused(
+        s,
+        refl_status::NullPointer,
+        "refl_mirrored_camera",
+        &["`plane` is NULL"],
+    );
+    let plane = refl_plane {
+        normal: v3(0.0, 0.0, 0.0),
+        d: 0.0,
+    };
+    // SAFETY: valid pointers.
+    let s = unsafe { refl_mirrored_camera(&mut c, &good, &plane) };
+    refused(
+        s,
+        refl_status::DegenerateGeometry,
+        "refl_mirrored_camera",
+        &["`plane`"],
+    );
+}
+
+#[test]
+fn image_and_step_refusals_name_the_argument() {
+    let cam = look(8, 6, 0.5);
+    let src = [0.5f32; 48];
+    let mut dst = vec![0.0f32; 48];
+    let s_img = refl_image_f32 {
+        data: src.as_ptr(),
+        len: 48,
+        width: 8,
+        height: 6,
+        stride: 8,
+    };
+    let d_img = refl_image_f32_mut {
+        data: dst.as_mut_ptr(),
+        len: 48,
+        width: 8,
+        height: 6,
+        stride: 8,
+    };
+    let c: refl_camera = (&cam).into();
+    // SAFETY: `camera` NULL is reported.
+    let s = unsafe { refl_convert_depth(d_img, s_img, null(), 0, 2, 0, 6) };
+    refused(
+        s,
+        refl_status::NullPointer,
+        "refl_convert_depth",
+        &["`camera` is NULL"],
+    );
+    // SAFETY: valid buffers.
+    let s = unsafe { refl_convert_depth(d_img, s_img, &c, 0, 9, 0, 6) };
+    refused(s, refl_status::InvalidArgument, "refl_convert_depth", &[]);
+
+    let mut out = core::mem::MaybeUninit::<refl_trace_result>::uninit();
+    let th = refl_thickness {
+        constant: 1.0,
+        back_faces: refl_image_f32 {
+            data: null(),
+            len: 0,
+            width: 0,
+            height: 0,
+            stride: 0,
+        },
+    };
+    let ray = refl_ray {
+        origin: v3(0.0, 1.0, 2.0),
+        dir: v3(0.0, 0.0, -1.0),
+    };
+    // SAFETY: `image` NULL is reported.
+    let s = unsafe { refl_step_ray(out.as_mut_ptr(), null(), &th, ray, 10.0, null()) };
+    refused(s, refl_status::NullPointer, "refl_step_ray", &["is NULL"]);
+}
+
+/// The issue's case: a pyramid built for 512x384 traced with a 256x192
+/// camera was OK with every ray missing.
+#[test]
+fn hiz_pyramid_of_another_size_or_camera_is_refused() {
+    let conv = DepthConvention::ReversedZ;
+    let (big, small, moved) = (
+        look(512, 384, 0.5),
+        look(256, 192, 0.5),
+        look(512, 384, 0.6),
+    );
+    let depth = vec![big.encode_depth(8.0, conv); 512 * 384];
+    let img = refl_depth_image {
+        depth: refl_image_f32 {
+            data: depth.as_ptr(),
+            len: depth.len(),
+            width: 512,
+            height: 384,
+            stride: 512,
+        },
+        camera: (&big).into(),
+        convention: conv as u32,
+    };
+    let (mut n, mut levels) = (0usize, 0u32);
+    // SAFETY: valid outputs.
+    assert_eq!(
+        unsafe { refl_hiz_len(&mut n, &mut levels, 512, 384) },
+        refl_status::Ok
+    );
+    let mut pyr = vec![refl_vec2::default(); n];
+    // Too short by the stamp: refused, naming the length needed.
+    // SAFETY: pyr is writable for n - 1 texels.
+    let s = unsafe { refl_hiz_build(pyr.as_mut_ptr(), n - 1, &img) };
+    refused(
+        s,
+        refl_status::InsufficientSize,
+        "refl_hiz_build",
+        &["`dst_len`", &format!("{n}")],
+    );
+    // SAFETY: pyr is writable for n texels.
+    assert_eq!(
+        unsafe { refl_hiz_build(pyr.as_mut_ptr(), n, &img) },
+        refl_status::Ok
+    );
+    // Bit for bit the core build, stamp included.
+    let view = ImageView::try_new(&depth, 512, 384, 512).unwrap();
+    let mut core_pyr = vec![[0.0f32; 2]; hiz_len(512, 384).unwrap()];
+    try_build_hiz(
+        &mut core_pyr,
+        &DepthImage::try_new(view, big, conv).unwrap(),
+    )
+    .unwrap();
+    assert!(pyr
+        .iter()
+        .zip(&core_pyr)
+        .all(|(a, b)| a.x.to_bits() == b[0].to_bits() && a.y.to_bits() == b[1].to_bits()));
+
+    let th = refl_thickness {
+        constant: 1.0,
+        back_faces: refl_image_f32 {
+            data: null(),
+            len: 0,
+            width: 0,
+            height: 0,
+            stride: 0,
+        },
+    };
+    let mut opts = core::mem::MaybeUninit::<refl_hiz_options>::uninit();
+    // SAFETY: valid output.
+    assert_eq!(
+        unsafe { refl_hiz_default_options(opts.as_mut_ptr()) },
+        refl_status::Ok
+    );
+    // SAFETY: initialized above.
+    let opts = unsafe { opts.assume_init() };
+    let ray = refl_ray {
+        origin: v3(0.5, 1.5, 3.0),
+        dir: v3(0.0, 0.0, -1.0),
+    };
+    let sentinel = refl_trace_result {
+        pixel: refl_vec2 { x: -9.0, y: -9.0 },
+        t: -9.0,
+        depth: -9.0,
+        surface_depth: -9.0,
+        miss: 77,
+        steps: 1,
+        fetches: 2,
+        iterations: 3,
+    };
+    for (cam, says) in [
+        (small, "built for 512x384, the camera is 256x192"),
+        (moved, "another camera of the same size"),
+    ] {
+        let hz = refl_hiz {
+            data: pyr.as_ptr(),
+            len: pyr.len(),
+            camera: (&cam).into(),
+            convention: conv as u32,
+        };
+        let mut out = sentinel;
+        // SAFETY: valid pointers; pyr readable for its length.
+        let s = unsafe { refl_hiz_trace_ray(&mut out, &hz, &th, ray, f32::INFINITY, &opts) };
+        refused(
+            s,
+            refl_status::InvalidArgument,
+            "refl_hiz_trace_ray",
+            &["`hiz`", says],
+        );
+        assert_eq!(out, sentinel);
+    }
+    // Never built.
+    let blank = vec![refl_vec2::default(); n];
+    let hz = refl_hiz {
+        data: blank.as_ptr(),
+        len: n,
+        camera: (&big).into(),
+        convention: conv as u32,
+    };
+    let mut out = sentinel;
+    // SAFETY: valid pointers.
+    let s = unsafe { refl_hiz_trace_ray(&mut out, &hz, &th, ray, f32::INFINITY, &opts) };
+    refused(
+        s,
+        refl_status::InvalidArgument,
+        "refl_hiz_trace_ray",
+        &["no pyramid stamp"],
+    );
+    // The right camera traces and hits the wall.
+    let hz = refl_hiz {
+        data: pyr.as_ptr(),
+        len: pyr.len(),
+        camera: (&big).into(),
+        convention: conv as u32,
+    };
+    // SAFETY: valid pointers.
+    let s = unsafe { refl_hiz_trace_ray(&mut out, &hz, &th, ray, f32::INFINITY, &opts) };
+    assert_eq!(s, refl_status::Ok);
+    assert_eq!(out.miss, 0, "REFL_MISS_NONE: a hit");
+    assert_eq!(message(), "");
+}
+
+#[test]
+fn every_family_names_a_null_argument() {
+    let ray = refl_ray {
+        origin: v3(0.0, 1.0, 2.0),
+        dir: v3(0.0, 0.0, -1.0),
+    };
+    let mut lr = core::mem::MaybeUninit::<refl_layered_result>::uninit();
+    let mut lp = core::mem::MaybeUninit::<refl_layered_params>::uninit();
+    // SAFETY: valid output.
+    assert_eq!(
+        unsafe { refl_layered_params_default(lp.as_mut_ptr()) },
+        refl_status::Ok
+    );
+    // SAFETY: `map` NULL is reported.
+    let s = unsafe { refl_layered_trace(lr.as_mut_ptr(), null(), ray, 1.0, lp.as_ptr()) };
+    refused(
+        s,
+        refl_status::NullPointer,
+        "refl_layered_trace",
+        &["`map` is NULL"],
+    );
+
+    let mut cr = core::mem::MaybeUninit::<refl_cone_result>::uninit();
+    let mut co = core::mem::MaybeUninit::<refl_cone_options>::uninit();
+    // SAFETY: valid output.
+    assert_eq!(
+        unsafe { refl_cone_default_options(co.as_mut_ptr()) },
+        refl_status::Ok
+    );
+    // SAFETY: `pyramids` NULL is reported.
+    let s = unsafe {
+        refl_cone_trace(
+            cr.as_mut_ptr(),
+            null(),
+            null(),
+            v3(0.0, 0.0, 0.0),
+            co.as_ptr(),
+        )
+    };
+    refused(
+        s,
+        refl_status::NullPointer,
+        "refl_cone_trace",
+        &["`pyramids` is NULL"],
+    );
+
+    let mut bins = 0u32;
+    // SAFETY: `params` NULL is reported.
+    let s = unsafe { refl_cluster_bins_max(&mut bins, 3, null()) };
+    refused(
+        s,
+        refl_status::NullPointer,
+        "refl_cluster_bins_max",
+        &["`params` is NULL"],
+    );
+
+    // SAFETY: `out_bytes` NULL is reported.
+    let s = unsafe { refl_tcrr_frame_bytes(null_mut(), 4, 4) };
+    refused(
+        s,
+        refl_status::NullPointer,
+        "refl_tcrr_frame_bytes",
+        &["`out_bytes` is NULL"],
+    );
+    let mut bytes = 0usize;
+    // SAFETY: valid output.
+    let s = unsafe { refl_tcrr_frame_bytes(&mut bytes, 0, 4) };
+    refused(
+        s,
+        refl_status::InvalidArgument,
+        "refl_tcrr_frame_bytes",
+        &[],
+    );
+
+    // SAFETY: `out_len` NULL is reported.
+    let s = unsafe { refl_epipolar_scratch_len(null_mut(), 4, 4) };
+    refused(
+        s,
+        refl_status::NullPointer,
+        "refl_epipolar_scratch_len",
+        &["`out_len` is NULL"],
+    );
+}
