@@ -281,15 +281,15 @@ int main() {
     size_t hz_len = 0;
     uint32_t levels = 0;
     REQUIRE(refl_hiz_len(&hz_len, &levels, kW, kH) == REFL_STATUS_OK);
-    size_t pyr_len = 0;
-    REQUIRE(refl_cone_pyramid_len(&pyr_len, kW, kH) == REFL_STATUS_OK);
+    size_t pyr_len = 0, vis_len = 0;
+    REQUIRE(refl_cone_pyramid_len(&pyr_len, &vis_len, kW, kH) == REFL_STATUS_OK);
     std::vector<refl_vec2> hz(hz_len);
     std::vector<refl_vec3> color(pyr_len);
-    std::vector<float> vis(pyr_len);
+    std::vector<float> vis(vis_len);
     const refl_depth_image dimg{{depth.data(), n, kW, kH, kW}, cam_inf, REFL_DEPTH_CONVENTION_REVERSED_Z};
     const refl_image_vec3 limg{lit.data(), n, kW, kH, kW};
     const refl_hiz hiz{hz.data(), hz_len, cam_inf, REFL_DEPTH_CONVENTION_REVERSED_Z};
-    const refl_cone_pyramids pyr{hiz, color.data(), pyr_len, vis.data(), pyr_len};
+    const refl_cone_pyramids pyr{hiz, color.data(), pyr_len, vis.data(), vis_len};
     refl_hiz_options hopts{};
     REQUIRE(refl_hiz_default_options(&hopts) == REFL_STATUS_OK);
     const refl_thickness thick{0.06f, {nullptr, 0, 0, 0, 0}};
@@ -299,7 +299,7 @@ int main() {
     auto run_cone = [&](uint32_t circles, std::vector<V3>& out) {
         REQUIRE(refl_hiz_build(hz.data(), hz_len, &dimg) == REFL_STATUS_OK);
         REQUIRE(refl_cone_build_color(color.data(), pyr_len, &limg, 1.0f) == REFL_STATUS_OK);
-        REQUIRE(refl_cone_build_visibility(vis.data(), pyr_len, &hiz) == REFL_STATUS_OK);
+        REQUIRE(refl_cone_build_visibility(vis.data(), vis_len, &hiz) == REFL_STATUS_OK);
         refl_cone_options co{};
         REQUIRE(refl_cone_default_options(&co) == REFL_STATUS_OK);
         co.max_circles = circles;

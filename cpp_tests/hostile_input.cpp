@@ -2243,11 +2243,16 @@ void cone_functions() {
     CHECK(expect_ok<float>("cone angle roughness", [](float* o) { return refl_cone_angle_from_roughness(o, 0.5f); }) > 0.0f);
 
     expect<size_t>("cone pyramid len zero", REFL_STATUS_INVALID_ARGUMENT,
-                   [=](size_t* o) { return refl_cone_pyramid_len(o, 0, h); });
+                   [=](size_t* o) { size_t v = 0; return refl_cone_pyramid_len(o, &v, 0, h); });
     expect<size_t>("cone pyramid len overflow", REFL_STATUS_INVALID_ARGUMENT,
-                   [](size_t* o) { return refl_cone_pyramid_len(o, kMax, kMax); });
-    const size_t len = expect_ok<size_t>("cone pyramid len", [=](size_t* o) { return refl_cone_pyramid_len(o, w, h); });
+                   [](size_t* o) { size_t v = 0; return refl_cone_pyramid_len(o, &v, kMax, kMax); });
+    expect<size_t>("cone pyramid vis len zero", REFL_STATUS_INVALID_ARGUMENT,
+                   [=](size_t* o) { size_t c = 0; return refl_cone_pyramid_len(&c, o, 0, h); });
+    const size_t len = expect_ok<size_t>("cone pyramid len", [=](size_t* o) { size_t v = 0; return refl_cone_pyramid_len(o, &v, w, h); });
+    const size_t vlen = expect_ok<size_t>("cone pyramid vis len", [=](size_t* o) { size_t c = 0; return refl_cone_pyramid_len(&c, o, w, h); });
     CHECK(len > n);
+    // The same levels, then each pyramid's stamp.
+    CHECK(vlen == len - REFL_CONE_COLOR_STAMP_TEXELS + REFL_CONE_VISIBILITY_STAMP_LEN);
 
     // Hi-Z of a flat depth image for the visibility build and traces.
     std::vector<float> depth(n, 0.5f);
@@ -2256,7 +2261,7 @@ void cone_functions() {
     size_t hiz_len = 0;
     uint32_t hiz_levels = 0;
     CHECK_STATUS(refl_hiz_len(&hiz_len, &hiz_levels, w, h), REFL_STATUS_OK);
-    CHECK(hiz_len == len + REFL_HIZ_STAMP_TEXELS);
+    CHECK(hiz_len == len - REFL_CONE_COLOR_STAMP_TEXELS + REFL_HIZ_STAMP_TEXELS);
     std::vector<refl_vec2> hz(hiz_len);
     CHECK_STATUS(refl_hiz_build(hz.data(), hiz_len, &dimg), REFL_STATUS_OK);
     const refl_hiz hiz{hz.data(), hiz_len, g, REFL_DEPTH_CONVENTION_ZERO_TO_ONE};
@@ -2292,33 +2297,33 @@ void cone_functions() {
 
     // Visibility pyramid builds.
     auto vis_build = [&](const char* what, refl_status want, auto call) {
-        std::vector<float> dst(len, -7.0f);
+        std::vector<float> dst(vlen, -7.0f);
         CHECK_STATUS(call(dst.data()), want);
         bool same = true;
         for (float t : dst) same = same && t == -7.0f;
         if (want != REFL_STATUS_OK && !same) check::fail(__FILE__, __LINE__, std::string(what) + ": written");
     };
-    vis_build("cone vis ok", REFL_STATUS_OK, [&](float* d) { return refl_cone_build_visibility(d, len, &hiz); });
-    vis_build("cone vis NULL dst", REFL_STATUS_NULL_POINTER, [&](float*) { return refl_cone_build_visibility(nullptr, len, &hiz); });
-    vis_build("cone vis NULL hiz", REFL_STATUS_NULL_POINTER, [&](float* d) { return refl_cone_build_visibility(d, len, nullptr); });
-    vis_build("cone vis short", REFL_STATUS_INSUFFICIENT_SIZE, [&](float* d) { return refl_cone_build_visibility(d, len - 1, &hiz); });
-    const refl_hiz short_hiz{hz.data(), len - 1, g, REFL_DEPTH_CONVENTION_ZERO_TO_ONE};
-    vis_build("cone vis short hiz", REFL_STATUS_INSUFFICIENT_SIZE, [&](float* d) { return refl_cone_build_visibility(d, len, &short_hiz); });
+    vis_build("cone vis ok", REFL_STATUS_OK, [&](float* d) { return refl_cone_build_visibility(d, vlen, &hiz); });
+    vis_build("cone vis NULL dst", REFL_STATUS_NULL_POINTER, [&](float*) { return refl_cone_build_visibility(nullptr, vlen, &hiz); });
+    vis_build("cone vis NULL hiz", REFL_STATUS_NULL_POINTER, [&](float* d) { return refl_cone_build_visibility(d, vlen, nullptr); });
+    vis_build("cone vis short", REFL_STATUS_INSUFFICIENT_SIZE, [&](float* d) { return refl_cone_build_visibility(d, vlen - 1, &hiz); });
+    const refl_hiz short_hiz{hz.data(), hiz_len - 1, g, REFL_DEPTH_CONVENTION_ZERO_TO_ONE};
+    vis_build("cone vis short hiz", REFL_STATUS_INSUFFICIENT_SIZE, [&](float* d) { return refl_cone_build_visibility(d, vlen, &short_hiz); });
     for (uint32_t c : kBadConventions) {
-        const refl_hiz bad{hz.data(), len, g, c};
-        vis_build("cone vis convention", REFL_STATUS_INVALID_ARGUMENT, [&](float* d) { return refl_cone_build_visibility(d, len, &bad); });
+        const refl_hiz bad{hz.data(), hiz_len, g, c};
+        vis_build("cone vis convention", REFL_STATUS_INVALID_ARGUMENT, [&](float* d) { return refl_cone_build_visibility(d, vlen, &bad); });
     }
-    vis_build("cone vis rows ok", REFL_STATUS_OK, [&](float* d) { return refl_cone_build_visibility_rows(d, len, &hiz, 0, 0, h); });
-    vis_build("cone vis rows NULL", REFL_STATUS_NULL_POINTER, [&](float* d) { return refl_cone_build_visibility_rows(d, len, nullptr, 0, 0, h); });
-    vis_build("cone vis rows short", REFL_STATUS_INSUFFICIENT_SIZE, [&](float* d) { return refl_cone_build_visibility_rows(d, len - 1, &hiz, 1, 0, 1); });
-    vis_build("cone vis rows level", REFL_STATUS_INVALID_ARGUMENT, [&](float* d) { return refl_cone_build_visibility_rows(d, len, &hiz, 99, 0, 1); });
+    vis_build("cone vis rows ok", REFL_STATUS_OK, [&](float* d) { return refl_cone_build_visibility_rows(d, vlen, &hiz, 0, 0, h); });
+    vis_build("cone vis rows NULL", REFL_STATUS_NULL_POINTER, [&](float* d) { return refl_cone_build_visibility_rows(d, vlen, nullptr, 0, 0, h); });
+    vis_build("cone vis rows short", REFL_STATUS_INSUFFICIENT_SIZE, [&](float* d) { return refl_cone_build_visibility_rows(d, vlen - 1, &hiz, 1, 0, 1); });
+    vis_build("cone vis rows level", REFL_STATUS_INVALID_ARGUMENT, [&](float* d) { return refl_cone_build_visibility_rows(d, vlen, &hiz, 99, 0, 1); });
 
     // Cone trace.
     std::vector<refl_vec3> color(len);
-    std::vector<float> vis(len);
+    std::vector<float> vis(vlen);
     CHECK_STATUS(refl_cone_build_color(color.data(), len, &img, 1.0f), REFL_STATUS_OK);
-    CHECK_STATUS(refl_cone_build_visibility(vis.data(), len, &hiz), REFL_STATUS_OK);
-    const refl_cone_pyramids pyr{hiz, color.data(), len, vis.data(), len};
+    CHECK_STATUS(refl_cone_build_visibility(vis.data(), vlen, &hiz), REFL_STATUS_OK);
+    const refl_cone_pyramids pyr{hiz, color.data(), len, vis.data(), vlen};
     const refl_cone_options opts =
         expect_ok<refl_cone_options>("cone default options", [](refl_cone_options* o) { return refl_cone_default_options(o); });
     CHECK(opts.max_circles == 8 && opts.use_visibility == 1 && opts.max_stretch == 1.0f);
@@ -2335,12 +2340,27 @@ void cone_functions() {
     trace("cone trace NULL pyramids", REFL_STATUS_NULL_POINTER, nullptr, &cone, fb, &opts);
     trace("cone trace NULL cone", REFL_STATUS_NULL_POINTER, &pyr, nullptr, fb, &opts);
     trace("cone trace NULL options", REFL_STATUS_NULL_POINTER, &pyr, &cone, fb, nullptr);
-    const refl_cone_pyramids null_color{hiz, nullptr, len, vis.data(), len};
+    const refl_cone_pyramids null_color{hiz, nullptr, len, vis.data(), vlen};
     trace("cone trace NULL color", REFL_STATUS_NULL_POINTER, &null_color, &cone, fb, &opts);
-    const refl_cone_pyramids short_color{hiz, color.data(), len - 1, vis.data(), len};
+    const refl_cone_pyramids short_color{hiz, color.data(), len - 1, vis.data(), vlen};
     trace("cone trace short color", REFL_STATUS_INSUFFICIENT_SIZE, &short_color, &cone, fb, &opts);
     const refl_cone_pyramids short_vis{hiz, color.data(), len, vis.data(), 3};
     trace("cone trace short visibility", REFL_STATUS_INSUFFICIENT_SIZE, &short_vis, &cone, fb, &opts);
+    {
+        // An unbuilt visibility pyramid, and none at all.
+        std::vector<float> blank(vlen, 0.0f);
+        const refl_cone_pyramids no_stamp{hiz, color.data(), len, blank.data(), vlen};
+        trace("cone trace unbuilt visibility", REFL_STATUS_INVALID_ARGUMENT, &no_stamp, &cone, fb, &opts);
+        char msg[256];
+        refl_last_error_message(msg, sizeof msg);
+        CHECK(std::strstr(msg, "`pyramids.visibility`") != nullptr);
+        const refl_cone_pyramids no_vis{hiz, color.data(), len, nullptr, 0};
+        trace("cone trace no visibility, use_visibility on", REFL_STATUS_INVALID_ARGUMENT, &no_vis, &cone, fb, &opts);
+        refl_cone_options off = opts;
+        off.use_visibility = 0;
+        expect_ok<refl_cone_result>("cone trace no visibility, use_visibility off",
+                                    [&](refl_cone_result* o) { return refl_cone_trace(o, &no_vis, &cone, fb, &off); });
+    }
     for (const refl_vec3& bad : kBadVec3) trace("cone trace bad fallback", REFL_STATUS_INVALID_ARGUMENT, &pyr, &cone, bad, &opts);
     for (const refl_vec2& bad : kBadVec2) {
         refl_cone c = cone;

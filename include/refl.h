@@ -32,6 +32,16 @@
 
 
 /**
+ * Texels after the color pyramid's last level that hold its stamp.
+ */
+#define REFL_CONE_COLOR_STAMP_TEXELS 2
+
+/**
+ * Floats after the visibility pyramid's last level that hold its stamp.
+ */
+#define REFL_CONE_VISIBILITY_STAMP_LEN 4
+
+/**
  * Object id meaning "no object": an unused POS entry (never reprojected)
  * or an AIP entry no point reached; in a decision, "full traversal".
  */
@@ -90,6 +100,12 @@
  * for is `REFL_STATUS_INVALID_ARGUMENT`.
  */
 #define REFL_HIZ_STAMP_TEXELS 2
+
+/**
+ * Words after a layered map's per-texel counts that record the grid it
+ * was cleared for (counted in `refl_layered_len`'s `counts`).
+ */
+#define REFL_LAYERED_STAMP_LEN 4
 
 /**
  * Major version of the header this library was built with; compare with
@@ -1162,15 +1178,20 @@ typedef struct refl_cone_pyramids {
      */
     const struct refl_vec3 *color;
     /**
-     * Texels readable from `color`, at least `refl_cone_pyramid_len`'s.
+     * Texels readable from `color`, at least `refl_cone_pyramid_len`'s
+     * `out_color_len`.
      */
     size_t color_len;
     /**
-     * The visibility pyramid (`refl_cone_build_visibility`).
+     * The visibility pyramid (`refl_cone_build_visibility`), or NULL with
+     * `visibility_len` 0 for none (enough for `refl_cone_multiray` and for
+     * `refl_cone_trace` with `use_visibility` off; with it on the trace is
+     * `REFL_STATUS_INVALID_ARGUMENT`).
      */
     const float *visibility;
     /**
-     * Floats readable from `visibility`, at least `refl_cone_pyramid_len`'s.
+     * Floats readable from `visibility`, at least `refl_cone_pyramid_len`'s
+     * `out_visibility_len` (or 0 with a NULL `visibility`).
      */
     size_t visibility_len;
 } refl_cone_pyramids;
@@ -2908,17 +2929,24 @@ refl_status refl_cone_angle_from_phong(float *out, float power);
 refl_status refl_cone_angle_from_roughness(float *out, float roughness);
 
 /**
- * Size query: texels of the color pyramid (`refl_vec3`) and of the
- * visibility pyramid (`float`) of a `width x height` frame, the same
- * count, into `*out_len`.
+ * Size query: texels of the color pyramid (`refl_vec3`) into
+ * `*out_color_len` and floats of the visibility pyramid into
+ * `*out_visibility_len`, for a `width x height` frame. Both are the Hi-Z
+ * layout's levels (`refl_hiz_level`) followed by the pyramid's stamp
+ * (`REFL_CONE_COLOR_STAMP_TEXELS` texels, `REFL_CONE_VISIBILITY_STAMP_LEN`
+ * floats), which records the size (and, for visibility, the Hi-Z's
+ * camera) that `refl_cone_trace` checks.
  *
- * Returns `REFL_STATUS_NULL_POINTER` if `out_len` is NULL,
+ * Returns `REFL_STATUS_NULL_POINTER` if an output is NULL,
  * `REFL_STATUS_INVALID_ARGUMENT` for a zero or overflowing size.
  *
  * # Safety
- * `out_len` must be NULL or writable.
+ * `out_color_len` and `out_visibility_len` must be NULL or writable.
  */
-refl_status refl_cone_pyramid_len(size_t *out_len, uint32_t width, uint32_t height);
+refl_status refl_cone_pyramid_len(size_t *out_color_len,
+                                  size_t *out_visibility_len,
+                                  uint32_t width,
+                                  uint32_t height);
 
 /**
  * Builds rows `[row_start, row_end)` of level `level` of the color

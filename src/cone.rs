@@ -118,11 +118,10 @@ impl GlossyBuffers {
     /// # Errors
     /// As [`HiZLayout::try_new`].
     pub fn new(width: u32, height: u32) -> Result<Self, refl_core::Error> {
-        let n = HiZLayout::try_new(width, height)?.len();
         Ok(Self {
             hiz: vec![[0.0; 2]; refl_core::hiz::hiz_len(width, height)?],
-            color: vec![[0.0; 3]; n],
-            visibility: vec![0.0; n],
+            color: vec![[0.0; 3]; refl_core::color_pyramid_len(width, height)?],
+            visibility: vec![0.0; refl_core::visibility_pyramid_len(width, height)?],
         })
     }
 }
@@ -155,7 +154,9 @@ fn build_color(
         |band, finer, level, rows| {
             try_build_color_level_rows(band, finer, &layout, level, rows, DEFAULT_SIGMA)
         },
-    )
+    )?;
+    // Level 0 alone (multi-ray) is still this frame's pyramid, stamped.
+    refl_core::try_stamp_color_pyramid(dst, width, height)
 }
 
 /// Builds the visibility pyramid of `hiz` into `dst` in row bands.
@@ -171,7 +172,8 @@ fn build_visibility(
         pool,
         |band, rows| try_build_visibility_level0_rows(band, hiz, rows),
         |band, finer, level, rows| try_build_visibility_level_rows(band, finer, hiz, level, rows),
-    )
+    )?;
+    refl_core::try_stamp_visibility_pyramid(dst, hiz)
 }
 
 /// Runs `method` on the glossy pixels of `g` (those of `mask`; `rays` must
@@ -214,7 +216,9 @@ pub fn run(
         if cone {
             build_visibility(visibility, &hz, pool)?;
         }
-        let pyr = ConePyramids::try_new(hz, color, visibility)?;
+        // Multi-ray reads no visibility pyramid: bind none.
+        let vis: &[f32] = if cone { visibility } else { &[] };
+        let pyr = ConePyramids::try_new(hz, color, vis)?;
         let th = Thickness::Constant(thickness);
         let cam = g.camera;
         let results: Vec<Result<(Vec3, GlossyStats), refl_core::Error>> = pool.install(|| {

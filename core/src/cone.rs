@@ -9,10 +9,13 @@
 //! 1. Hi-Z pyramid of the frame's depth ([`crate::hiz`]).
 //! 2. [`try_build_color_pyramid`]: the lit frame, blurred with a normalized
 //!    Gaussian and halved per level (same level sizes as the Hi-Z,
-//!    [`HiZLayout`]), into a caller buffer of [`color_pyramid_len`] texels.
+//!    [`HiZLayout`]), into a caller buffer of [`color_pyramid_len`] texels
+//!    ending with its [`PyramidStamp`].
 //! 3. [`try_build_visibility_pyramid`]: per texel, the pre-integrated share
 //!    of the cell that blocks rays (module section "Visibility"), into a
-//!    caller buffer of [`visibility_pyramid_len`] floats.
+//!    caller buffer of [`visibility_pyramid_len`] floats ending with its
+//!    [`PyramidStamp`]; [`ConePyramids::try_new`] checks both stamps
+//!    against the Hi-Z's camera.
 //! 4. Per glossy pixel: trace the mirror ray with [`crate::try_trace_hiz`];
 //!    from its hit, [`try_cone_trace`] integrates the cone of half-angle
 //!    `theta` ([`try_cone_angle_from_phong`],
@@ -99,7 +102,7 @@
 //! (slanted surfaces at coarse levels, silhouettes), and the seed's rule
 //! gives the rest to the fallback.
 
-use crate::hiz::{try_trace_hiz, HiZ, HiZLayout, HiZOptions, HiZTexel};
+use crate::hiz::{pyramid_len, try_trace_hiz, HiZ, HiZLayout, HiZOptions, HiZTexel, PyramidStamp};
 use crate::trace::Thickness;
 use crate::{Error, ImageView, Ray, RowRange};
 use glam::{Vec2, Vec3};
@@ -308,22 +311,58 @@ pub fn cone_mip_level(radius: f32, bias: f32) -> f32 {
 
 // ------------------------------------------------------------ pyramids
 
-/// Texels of the color pyramid of a `width x height` frame (same layout as
-/// the Hi-Z pyramid, [`HiZLayout`]).
+/// Texels of the color pyramid of a `width x height` frame: the levels
+/// (same layout as the Hi-Z pyramid, [`HiZLayout`]), then
+/// [`COLOR_STAMP_TEXELS`] for its [`PyramidStamp`].
 ///
 /// # Errors
 /// As [`HiZLayout::try_new`].
 pub fn color_pyramid_len(width: u32, height: u32) -> Result<usize, Error> {
-    HiZLayout::try_new(width, height).map(|l| l.len())
+    pyramid_len::<ColorTexel>(width, height)
 }
 
-/// Floats of the visibility pyramid of a `width x height` frame (same
-/// layout as the Hi-Z pyramid).
+/// Floats of the visibility pyramid of a `width x height` frame: the
+/// levels (same layout as the Hi-Z pyramid), then
+/// [`VISIBILITY_STAMP_LEN`] for its [`PyramidStamp`].
 ///
 /// # Errors
 /// As [`HiZLayout::try_new`].
 pub fn visibility_pyramid_len(width: u32, height: u32) -> Result<usize, Error> {
-    HiZLayout::try_new(width, height).map(|l| l.len())
+    pyramid_len::<f32>(width, height)
+}
+
+/// Texels after the color pyramid's last level that hold its stamp (the
+/// frame size: the color image has no camera).
+pub const COLOR_STAMP_TEXELS: usize = <ColorTexel as crate::hiz::PyramidTexel>::STAMP_TEXELS;
+
+/// Floats after the visibility pyramid's last level that hold its stamp
+/// (the size and camera of the Hi-Z it was built from).
+pub const VISIBILITY_STAMP_LEN: usize = <f32 as crate::hiz::PyramidTexel>::STAMP_TEXELS;
+
+/// Stamps a row-band-built color pyramid of a `width x height` frame
+/// ([`try_build_color_level0_rows`], [`try_build_color_level_rows`]; the
+/// whole build [`try_build_color_pyramid`] does it itself).
+///
+/// # Errors
+/// [`Error::InsufficientSize`] if `dst` is shorter than
+/// [`color_pyramid_len`]; [`Error::InvalidArgument`] for a zero size.
+pub fn try_stamp_color_pyramid(
+    dst: &mut [ColorTexel],
+    width: u32,
+    height: u32,
+) -> Result<(), Error> {
+    PyramidStamp::of_size(width, height).try_write(dst)
+}
+
+/// Stamps a row-band-built visibility pyramid of `hiz`
+/// ([`try_build_visibility_level0_rows`], [`try_build_visibility_level_rows`];
+/// the whole build [`try_build_visibility_pyramid`] does it itself).
+///
+/// # Errors
+/// [`Error::InsufficientSize`] if `dst` is shorter than
+/// [`visibility_pyramid_len`].
+pub fn try_stamp_visibility_pyramid(dst: &mut [f32], hiz: &HiZ<'_>) -> Result<(), Error> {
+    PyramidStamp::of(hiz.camera()).try_write(dst)
 }
 
 fn validate_sigma(sigma: f32) -> Result<(), Error> {
@@ -506,7 +545,7 @@ pub fn try_build_color_pyramid(
 ) -> Result<(), Error> {
     validate_sigma(sigma)?;
     let layout = HiZLayout::try_new(color.width(), color.height())?;
-    if dst.len() < layout.len() {
+    if dst.len() < color_pyramid_len(color.width(), color.height())? {
         return Err(Error::InsufficientSize);
     }
     let l0 = layout.level(0).ok_or(Error::InvalidArgument)?;
@@ -534,7 +573,7 @@ pub fn try_build_color_pyramid(
             sigma,
         )?;
     }
-    Ok(())
+    try_stamp_color_pyramid(dst, color.width(), color.height())
 }
 
 /// Whether a Hi-Z closest depth is a foreground surface (not NaN, below the
@@ -658,7 +697,7 @@ fn children(c: u32, coarse: u32, fine: u32) -> core::ops::Range<u32> {
 /// Never.
 pub fn try_build_visibility_pyramid(dst: &mut [f32], hiz: &HiZ<'_>) -> Result<(), Error> {
     let layout = *hiz.layout();
-    if dst.len() < layout.len() {
+    if dst.len() < visibility_pyramid_len(layout.width(), layout.height())? {
         return Err(Error::InsufficientSize);
     }
     let l0 = layout.level(0).ok_or(Error::InvalidArgument)?;
@@ -677,7 +716,7 @@ pub fn try_build_visibility_pyramid(dst: &mut [f32], hiz: &HiZ<'_>) -> Result<()
             RowRange::try_all(c.height)?,
         )?;
     }
-    Ok(())
+    try_stamp_visibility_pyramid(dst, hiz)
 }
 
 // ------------------------------------------------------------ cone trace
@@ -694,20 +733,35 @@ pub struct ConePyramids<'a> {
 impl<'a> ConePyramids<'a> {
     /// Binds a Hi-Z, a color pyramid ([`try_build_color_pyramid`]) and a
     /// visibility pyramid ([`try_build_visibility_pyramid`]) of one frame.
+    /// An empty `visibility` binds none: enough for [`try_multiray`] and
+    /// for [`try_cone_trace`] with [`ConeOptions::use_visibility`] off
+    /// (with it on, the trace is refused).
     ///
     /// # Errors
-    /// [`Error::InsufficientSize`] if `color` or `visibility` is shorter
-    /// than the Hi-Z layout's length.
+    /// * [`Error::InsufficientSize`] if `color` is shorter than
+    ///   [`color_pyramid_len`] or a non-empty `visibility` than
+    ///   [`visibility_pyramid_len`] for the Hi-Z's size.
+    /// * [`Error::InvalidArgument`] if a pyramid's [`PyramidStamp`] is not
+    ///   this frame's: the color pyramid built for another size, the
+    ///   visibility pyramid from another Hi-Z camera, or either not built.
     pub fn try_new(
         hiz: HiZ<'a>,
         color: &'a [ColorTexel],
         visibility: &'a [f32],
     ) -> Result<Self, Error> {
-        let n = hiz.layout().len();
-        if color.len() < n || visibility.len() < n {
+        let cam = hiz.camera();
+        let (w, h) = (cam.width(), cam.height());
+        let with_vis = !visibility.is_empty();
+        if color.len() < color_pyramid_len(w, h)?
+            || (with_vis && visibility.len() < visibility_pyramid_len(w, h)?)
+        {
             return Err(Error::InsufficientSize);
         }
-        let cam = hiz.camera();
+        if PyramidStamp::read(color, w, h) != Some(PyramidStamp::of_size(w, h))
+            || (with_vis && PyramidStamp::read(visibility, w, h) != Some(PyramidStamp::of(cam)))
+        {
+            return Err(Error::InvalidArgument);
+        }
         let focal = cam.height() as f32 / (2.0 * libm::tanf(cam.fov_y() * 0.5));
         Ok(Self {
             hiz,
@@ -953,8 +1007,9 @@ pub struct ConeResult {
 /// # Errors
 /// [`Error::InvalidArgument`] for non-finite or non-positive depths,
 /// non-finite pixels, `theta` outside `[0, pi/2)`, a non-finite fallback,
-/// `n_dot_v` NaN, or options with a non-finite bias or a `max_stretch`
-/// below 1 or not finite.
+/// `n_dot_v` NaN, options with a non-finite bias or a `max_stretch`
+/// below 1 or not finite, or `use_visibility` on with pyramids bound
+/// without a visibility pyramid.
 ///
 /// # Panics
 /// Never.
@@ -981,7 +1036,7 @@ pub fn try_cone_trace(
         && options.max_stretch.is_finite()
         && options.depth_tolerance >= 0.0
         && options.depth_tolerance.is_finite();
-    if !ok {
+    if !ok || (options.use_visibility && pyramids.visibility.is_empty()) {
         return Err(Error::InvalidArgument);
     }
     let axis = cone.hit - cone.apex;

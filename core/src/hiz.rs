@@ -295,37 +295,105 @@ fn cell_span(c: u32, level: u32, cells: u32, full: u32) -> Range<u32> {
 /// # Errors
 /// As [`HiZLayout::try_new`].
 pub fn hiz_len(width: u32, height: u32) -> Result<usize, Error> {
-    HiZLayout::try_new(width, height)?
-        .len()
-        .checked_add(HIZ_STAMP_TEXELS)
-        .ok_or(Error::InvalidArgument)
+    pyramid_len::<HiZTexel>(width, height)
 }
 
 /// Texels after the last level of a Hi-Z pyramid that hold its
-/// [`HiZStamp`]; counted in [`hiz_len`].
-pub const HIZ_STAMP_TEXELS: usize = 2;
+/// [`PyramidStamp`]; counted in [`hiz_len`].
+pub const HIZ_STAMP_TEXELS: usize = <HiZTexel as PyramidTexel>::STAMP_TEXELS;
 
-/// "RFHZ": the first word of a stamp.
-const STAMP_MAGIC: u32 = 0x5a48_4652;
+mod sealed {
+    pub trait Sealed {}
+    impl Sealed for [f32; 2] {}
+    impl Sealed for [f32; 3] {}
+    impl Sealed for f32 {}
+}
 
-/// What a built Hi-Z pyramid records about the depth image it was built
-/// from, in the [`HIZ_STAMP_TEXELS`] texels after its last level (written
-/// by [`try_build_hiz`] or [`try_stamp_hiz`]): the image size and the
-/// camera's [`Camera::fingerprint`]. [`HiZ::try_new`] refuses a pyramid
-/// whose stamp does not match the camera it is bound to, so a pyramid of
-/// another size, of an earlier frame's camera, or never built, is an error
-/// and not a silent miss.
+/// The texel types of refl's screen pyramids, all laid out as
+/// [`HiZLayout`] and ended by a [`PyramidStamp`]: [`HiZTexel`] (Hi-Z),
+/// `[f32; 3]` (the cone's color pyramid) and `f32` (its visibility
+/// pyramid). Sealed.
+pub trait PyramidTexel: Copy + sealed::Sealed {
+    /// Texels after the last level that hold the stamp (four 32-bit words).
+    const STAMP_TEXELS: usize;
+    /// First word of the stamp: which pyramid it is.
+    #[doc(hidden)]
+    const MAGIC: u32;
+    /// The texels as 32-bit words.
+    #[doc(hidden)]
+    fn words(texels: &[Self]) -> &[f32];
+    /// The texels as 32-bit words, writable.
+    #[doc(hidden)]
+    fn words_mut(texels: &mut [Self]) -> &mut [f32];
+}
+
+impl PyramidTexel for [f32; 2] {
+    const STAMP_TEXELS: usize = 2;
+    const MAGIC: u32 = 0x5a48_4652; // "RFHZ"
+    fn words(texels: &[Self]) -> &[f32] {
+        texels.as_flattened()
+    }
+    fn words_mut(texels: &mut [Self]) -> &mut [f32] {
+        texels.as_flattened_mut()
+    }
+}
+
+impl PyramidTexel for [f32; 3] {
+    const STAMP_TEXELS: usize = 2;
+    const MAGIC: u32 = 0x5043_4652; // "RFCP"
+    fn words(texels: &[Self]) -> &[f32] {
+        texels.as_flattened()
+    }
+    fn words_mut(texels: &mut [Self]) -> &mut [f32] {
+        texels.as_flattened_mut()
+    }
+}
+
+impl PyramidTexel for f32 {
+    const STAMP_TEXELS: usize = 4;
+    const MAGIC: u32 = 0x5056_4652; // "RFVP"
+    fn words(texels: &[Self]) -> &[f32] {
+        texels
+    }
+    fn words_mut(texels: &mut [Self]) -> &mut [f32] {
+        texels
+    }
+}
+
+/// Elements of a pyramid of texel type `T` for a `width x height` image:
+/// its levels ([`HiZLayout::len`]) and then `T::STAMP_TEXELS`. What
+/// [`hiz_len`], `cone::color_pyramid_len` and
+/// `cone::visibility_pyramid_len` return.
+///
+/// # Errors
+/// As [`HiZLayout::try_new`].
+pub fn pyramid_len<T: PyramidTexel>(width: u32, height: u32) -> Result<usize, Error> {
+    HiZLayout::try_new(width, height)?
+        .len()
+        .checked_add(T::STAMP_TEXELS)
+        .ok_or(Error::InvalidArgument)
+}
+
+/// What a built screen pyramid records about what it was built from, in
+/// the [`PyramidTexel::STAMP_TEXELS`] texels after its last level: the
+/// image size and, for pyramids built from a depth image (Hi-Z, and the
+/// visibility pyramid built from a Hi-Z), the camera's
+/// [`Camera::fingerprint`] (0 for the color pyramid, built from a color
+/// image alone). Binding a pyramid to a camera whose stamp differs ([`HiZ::try_new`],
+/// `cone::ConePyramids::try_new`) is an error, so a pyramid of another
+/// size, of an earlier frame's camera, or never built, is refused rather
+/// than traced into silent misses.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
-pub struct HiZStamp {
-    /// Width of the depth image (level 0).
+pub struct PyramidStamp {
+    /// Width of the image (level 0).
     pub width: u32,
-    /// Height of the depth image (level 0).
+    /// Height of the image (level 0).
     pub height: u32,
-    /// [`Camera::fingerprint`] of the depth image's camera.
+    /// [`Camera::fingerprint`] of the image's camera, or 0 (size only).
     pub camera: u32,
 }
 
-impl HiZStamp {
+impl PyramidStamp {
     /// The stamp of a pyramid built from a depth image of `camera`.
     pub fn of(camera: &Camera) -> Self {
         Self {
@@ -335,40 +403,71 @@ impl HiZStamp {
         }
     }
 
-    /// The stamp stored in `texels` (the [`HIZ_STAMP_TEXELS`] texels after a
-    /// pyramid's last level), or `None` if they hold none.
-    pub fn read(texels: &[HiZTexel]) -> Option<Self> {
-        match texels {
-            [[m, w], [h, c], ..] if m.to_bits() == STAMP_MAGIC => Some(Self {
-                width: w.to_bits(),
-                height: h.to_bits(),
-                camera: c.to_bits(),
+    /// The stamp of a pyramid built from a `width x height` image without a
+    /// camera (the color pyramid).
+    pub const fn of_size(width: u32, height: u32) -> Self {
+        Self {
+            width,
+            height,
+            camera: 0,
+        }
+    }
+
+    fn from_words<T: PyramidTexel>(w: &[f32]) -> Option<Self> {
+        match w {
+            [m, width, height, camera, ..] if m.to_bits() == T::MAGIC => Some(Self {
+                width: width.to_bits(),
+                height: height.to_bits(),
+                camera: camera.to_bits(),
             }),
             _ => None,
         }
     }
 
-    /// The stamp as its texels (bit patterns, not depths).
-    pub fn texels(&self) -> [HiZTexel; HIZ_STAMP_TEXELS] {
-        [
-            [f32::from_bits(STAMP_MAGIC), f32::from_bits(self.width)],
-            [f32::from_bits(self.height), f32::from_bits(self.camera)],
-        ]
+    /// The stamp where a `width x height` pyramid's levels end in
+    /// `pyramid`, or `None` if none is there (not built, or built for
+    /// another size).
+    pub fn read<T: PyramidTexel>(pyramid: &[T], width: u32, height: u32) -> Option<Self> {
+        let at = HiZLayout::try_new(width, height).ok()?.len();
+        Self::from_words::<T>(T::words(pyramid.get(at..)?))
     }
 
-    /// The stamp at the very end of `data` (where a buffer of exactly
-    /// [`hiz_len`] texels holds it), for diagnosing a mismatch: what size
-    /// the pyramid was built for.
-    pub fn read_tail(data: &[HiZTexel]) -> Option<Self> {
-        let n = data.len().checked_sub(HIZ_STAMP_TEXELS)?;
-        Self::read(&data[n..])
+    /// The stamp in the last `T::STAMP_TEXELS` texels of `pyramid` (where a
+    /// buffer of exactly the pyramid's length holds it), for diagnosing a
+    /// mismatch: what the pyramid was built for.
+    pub fn read_tail<T: PyramidTexel>(pyramid: &[T]) -> Option<Self> {
+        let n = pyramid.len().checked_sub(T::STAMP_TEXELS)?;
+        Self::from_words::<T>(T::words(&pyramid[n..]))
+    }
+
+    /// Writes the stamp after the last level of the `width x height`
+    /// pyramid in `pyramid`: the last step of a row-band build.
+    ///
+    /// # Errors
+    /// [`Error::InsufficientSize`] if `pyramid` is shorter than
+    /// [`pyramid_len`]; [`Error::InvalidArgument`] for a zero size.
+    /// Nothing is written on error.
+    pub fn try_write<T: PyramidTexel>(&self, pyramid: &mut [T]) -> Result<(), Error> {
+        let at = HiZLayout::try_new(self.width, self.height)?.len();
+        let slot = pyramid
+            .get_mut(at..at + T::STAMP_TEXELS)
+            .ok_or(Error::InsufficientSize)?;
+        let w = T::words_mut(slot);
+        w.fill(0.0);
+        w[..4].copy_from_slice(&[
+            f32::from_bits(T::MAGIC),
+            f32::from_bits(self.width),
+            f32::from_bits(self.height),
+            f32::from_bits(self.camera),
+        ]);
+        Ok(())
     }
 }
 
-/// Writes the [`HiZStamp`] of `camera` after the last level of the pyramid
-/// in `dst` (laid out for `camera`'s size): the last step of a row-band
-/// build ([`try_build_hiz_level0_rows`], [`try_build_hiz_level_rows`]);
-/// [`try_build_hiz`] does it itself.
+/// Writes the [`PyramidStamp`] of `camera` after the last level of the
+/// Hi-Z pyramid in `dst` (laid out for `camera`'s size): the last step of
+/// a row-band build ([`try_build_hiz_level0_rows`],
+/// [`try_build_hiz_level_rows`]); [`try_build_hiz`] does it itself.
 ///
 /// # Errors
 /// [`Error::InsufficientSize`] if `dst` holds fewer than
@@ -378,13 +477,7 @@ impl HiZStamp {
 /// # Panics
 /// Never.
 pub fn try_stamp_hiz(dst: &mut [HiZTexel], camera: &Camera) -> Result<(), Error> {
-    let layout = HiZLayout::try_new(camera.width(), camera.height())?;
-    let at = layout.len();
-    let slot = dst
-        .get_mut(at..at + HIZ_STAMP_TEXELS)
-        .ok_or(Error::InsufficientSize)?;
-    slot.copy_from_slice(&HiZStamp::of(camera).texels());
-    Ok(())
+    PyramidStamp::of(camera).try_write(dst)
 }
 
 /// Decoded linear depth as stored in the pyramid: NaN for "no surface"
@@ -497,7 +590,7 @@ fn cell_children(c: u32, coarse: u32, fine: u32) -> Range<u32> {
 /// Builds the whole pyramid of `depth` into `dst` (level by level, see
 /// [`try_build_hiz_level0_rows`] and [`try_build_hiz_level_rows`] for the row-band
 /// variants a threaded host uses) and stamps it with the depth image's
-/// size and camera ([`HiZStamp`]).
+/// size and camera ([`PyramidStamp`]).
 ///
 /// # Errors
 /// [`Error::InsufficientSize`] if `dst` holds fewer than
@@ -550,7 +643,7 @@ impl<'a> HiZ<'a> {
     /// # Errors
     /// * [`Error::InsufficientSize`] if `data` holds fewer than
     ///   [`hiz_len`]`(camera.width(), camera.height())` texels.
-    /// * [`Error::InvalidArgument`] if the pyramid's [`HiZStamp`] is not
+    /// * [`Error::InvalidArgument`] if the pyramid's [`PyramidStamp`] is not
     ///   `camera`'s: built for another image size or another camera, or not
     ///   built (or not stamped, after a row-band build) at all.
     pub fn try_new(
@@ -562,7 +655,9 @@ impl<'a> HiZ<'a> {
         if data.len() < hiz_len(camera.width(), camera.height())? {
             return Err(Error::InsufficientSize);
         }
-        if HiZStamp::read(&data[layout.len()..]) != Some(HiZStamp::of(&camera)) {
+        if PyramidStamp::read(data, camera.width(), camera.height())
+            != Some(PyramidStamp::of(&camera))
+        {
             return Err(Error::InvalidArgument);
         }
         // The x, y and w rows do not depend on the depth convention.

@@ -162,7 +162,9 @@ pub struct LayeredLen {
     pub depth: usize,
     /// `u32` payloads: `6 * res * res * layers`.
     pub payload: usize,
-    /// `u32` per-texel layer counts: `6 * res * res`.
+    /// `u32` per-texel layer counts: `6 * res * res`, then
+    /// [`LAYERED_STAMP_LEN`] words recording the grid the map was cleared
+    /// for ([`LayeredMapMut::clear`], checked by [`LayeredMap::try_new`]).
     pub counts: usize,
     /// `f32` empty-space bounds (our addition, see [`LayeredMapMut::build_bounds`]):
     /// per face a pyramid of levels `1..=ceil(log2 res)`, level `l` having
@@ -215,9 +217,57 @@ pub fn layered_len(face_res: u32, layers: u32) -> Result<LayeredLen, Error> {
     Ok(LayeredLen {
         depth: to_usize(depth)?,
         payload: to_usize(depth)?,
-        counts: to_usize(texels)?,
+        counts: to_usize(texels + LAYERED_STAMP_LEN as u64)?,
         bounds: to_usize(bounds)?,
     })
+}
+
+/// Words after the per-texel counts that record the grid a map was
+/// cleared for: `"RFLM"`, face resolution, layers and
+/// [`LayeredGrid::fingerprint`]. A map bound to another grid (another
+/// resolution, layer count or box), or never cleared, is refused by
+/// [`LayeredMap::try_new`] rather than read with the wrong layout.
+pub const LAYERED_STAMP_LEN: usize = 4;
+
+/// "RFLM": the first word of a layered map's stamp.
+const LAYERED_MAGIC: u32 = 0x4d4c_4652;
+
+/// What a layered map's stamp records (for diagnosing a mismatch).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub struct LayeredStamp {
+    /// Face resolution the map was cleared for.
+    pub face_res: u32,
+    /// Layers the map was cleared for.
+    pub layers: u32,
+    /// [`LayeredGrid::fingerprint`] of that grid.
+    pub grid: u32,
+}
+
+impl LayeredStamp {
+    fn from_words(w: &[u32]) -> Option<Self> {
+        match *w {
+            [LAYERED_MAGIC, face_res, layers, grid, ..] => Some(Self {
+                face_res,
+                layers,
+                grid,
+            }),
+            _ => None,
+        }
+    }
+
+    /// The stamp where a map of `face_res` puts it in `counts` (after its
+    /// `6 face_res^2` counts), if one is there.
+    pub fn read(counts: &[u32], face_res: u32) -> Option<Self> {
+        let at = (6 * u64::from(face_res) * u64::from(face_res)) as usize;
+        Self::from_words(counts.get(at..)?)
+    }
+
+    /// The stamp in the last [`LAYERED_STAMP_LEN`] words of `counts` (where
+    /// a buffer of exactly the map's length holds it).
+    pub fn read_tail(counts: &[u32]) -> Option<Self> {
+        let n = counts.len().checked_sub(LAYERED_STAMP_LEN)?;
+        Self::from_words(&counts[n..])
+    }
 }
 
 /// The geometry of a layered depth cube map: the local box, its placement
@@ -334,6 +384,35 @@ impl LayeredGrid {
     /// The object-to-world transform.
     pub const fn world_from_local(&self) -> Affine3A {
         self.world_from_local
+    }
+
+    /// A 32-bit fingerprint of the grid's layout and box (`min`, `max`,
+    /// face resolution, layers; FNV-1a over their bits), which a map's
+    /// stamp records. The placement (`world_from_local`) is not part of it:
+    /// a map built once follows its moving object.
+    pub fn fingerprint(&self) -> u32 {
+        let mut h: u32 = 0x811c_9dc5;
+        let mut eat = |word: u32| {
+            for b in word.to_le_bytes() {
+                h = (h ^ u32::from(b)).wrapping_mul(0x0100_0193);
+            }
+        };
+        for v in self.min.to_array().into_iter().chain(self.max.to_array()) {
+            eat(v.to_bits());
+        }
+        eat(self.res);
+        eat(self.layers);
+        h
+    }
+
+    /// The stamp words of a map cleared for this grid.
+    fn stamp(&self) -> [u32; LAYERED_STAMP_LEN] {
+        [LAYERED_MAGIC, self.res, self.layers, self.fingerprint()]
+    }
+
+    /// Where the stamp starts in the counts buffer.
+    fn stamp_at(&self) -> usize {
+        self.len().counts - LAYERED_STAMP_LEN
     }
 
     /// The buffer sizes of this grid.
@@ -498,12 +577,15 @@ impl<'a> LayeredMapMut<'a> {
 
     /// Empties every texel: count 0, depth `+inf`, payload [`NO_PAYLOAD`];
     /// the bounds become those of the empty map (empty hulls: everything
-    /// can be skipped), which are exact.
+    /// can be skipped), which are exact; and stamps the map with its grid
+    /// ([`LAYERED_STAMP_LEN`]), which [`LayeredMap::try_new`] checks.
     pub fn clear(&mut self) {
         let n = self.grid.len();
         self.depth[..n.depth].fill(f32::INFINITY);
         self.payload[..n.payload].fill(NO_PAYLOAD);
-        self.counts[..n.counts].fill(0);
+        let at = self.grid.stamp_at();
+        self.counts[..at].fill(0);
+        self.counts[at..n.counts].copy_from_slice(&self.grid.stamp());
         for (k, b) in self.bounds[..n.bounds].iter_mut().enumerate() {
             *b = if k % 2 == 0 {
                 f32::INFINITY
@@ -1032,8 +1114,11 @@ impl<'a> LayeredMap<'a> {
     /// traces skip them.
     ///
     /// # Errors
-    /// [`Error::InsufficientSize`] if a buffer is shorter than
-    /// [`LayeredGrid::len`] says.
+    /// * [`Error::InsufficientSize`] if a buffer is shorter than
+    ///   [`LayeredGrid::len`] says.
+    /// * [`Error::InvalidArgument`] if the map's stamp
+    ///   ([`LAYERED_STAMP_LEN`]) is not `grid`'s: cleared for another
+    ///   resolution, layer count or box, or never cleared.
     pub fn try_new(
         grid: LayeredGrid,
         depth: &'a [f32],
@@ -1042,6 +1127,10 @@ impl<'a> LayeredMap<'a> {
         bounds: &'a [f32],
     ) -> Result<Self, Error> {
         grid.check_buffers(depth.len(), payload.len(), counts.len(), bounds.len())?;
+        let at = grid.stamp_at();
+        if counts[at..at + LAYERED_STAMP_LEN] != grid.stamp() {
+            return Err(Error::InvalidArgument);
+        }
         Ok(Self {
             grid,
             depth,

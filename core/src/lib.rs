@@ -48,8 +48,8 @@ pub use image::{ImageView, ImageViewMut, RowRange};
 #[cfg(feature = "layered")]
 pub use layered::{
     layered_len, prr_classify, ColumnFill, ColumnRay, Face, LayerHit, LayeredGrid, LayeredHit,
-    LayeredLen, LayeredMap, LayeredMapMut, LayeredMiss, LayeredParams, LayeredTrace, LayeredWork,
-    PrrClass,
+    LayeredLen, LayeredMap, LayeredMapMut, LayeredMiss, LayeredParams, LayeredStamp, LayeredTrace,
+    LayeredWork, PrrClass, LAYERED_STAMP_LEN,
 };
 #[cfg(feature = "mirror")]
 pub use mirror::{
@@ -60,14 +60,15 @@ pub use mirror::{
 pub use cone::{
     color_pyramid_len, try_build_color_pyramid, try_build_visibility_pyramid,
     try_cone_angle_from_phong, try_cone_angle_from_roughness, try_cone_trace, try_multiray,
-    visibility_pyramid_len, ColorTexel, Cone, ConeOptions, ConePyramids, ConeResult, FadeRange,
-    Fades, MultiRayOptions, MultiRayResult,
+    try_stamp_color_pyramid, try_stamp_visibility_pyramid, visibility_pyramid_len, ColorTexel,
+    Cone, ConeOptions, ConePyramids, ConeResult, FadeRange, Fades, MultiRayOptions, MultiRayResult,
+    COLOR_STAMP_TEXELS, VISIBILITY_STAMP_LEN,
 };
 #[cfg(feature = "hiz")]
 pub use hiz::{
     hiz_len, try_build_hiz, try_build_hiz_level0_rows, try_build_hiz_level_rows, try_stamp_hiz,
     try_trace_hiz, try_trace_hiz_rays, try_trace_hiz_stats, HiZ, HiZLayout, HiZLevel, HiZOptions,
-    HiZStamp, HiZStats, HiZTexel, HIZ_STAMP_TEXELS,
+    HiZStats, HiZTexel, PyramidStamp, PyramidTexel, HIZ_STAMP_TEXELS,
 };
 #[cfg(feature = "depth-image")]
 pub use step::{try_step, try_step_rays, StepOptions};

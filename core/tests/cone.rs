@@ -16,7 +16,10 @@ use refl_core::{
     try_cone_angle_from_phong, try_cone_angle_from_roughness, try_cone_trace, try_multiray,
     visibility_pyramid_len, Camera, ColorTexel, Cone, ConeOptions, ConePyramids, DepthConvention,
     DepthImage, Error, FadeRange, Fades, HiZ, HiZLayout, HiZOptions, HiZTexel, ImageView,
-    MultiRayOptions, Ray, RowRange, Thickness,
+    MultiRayOptions, PyramidStamp, Ray, RowRange, Thickness,
+};
+use refl_core::{
+    try_stamp_color_pyramid, try_stamp_visibility_pyramid, COLOR_STAMP_TEXELS, VISIBILITY_STAMP_LEN,
 };
 
 // ---------------------------------------------------------------- helpers
@@ -408,7 +411,14 @@ fn color_pyramid_matches_f64_convolution_and_keeps_constants() {
         let flat = vec![v; (w * h) as usize];
         try_build_color_pyramid(&mut pyr, &ImageView::try_new(&flat, w, h, w).unwrap(), 1.3)
             .unwrap();
-        assert!(pyr.iter().all(|&t| t == v));
+        let levels = HiZLayout::try_new(w, h).unwrap().len();
+        assert!(pyr[..levels].iter().all(|&t| t == v));
+        // Then the stamp: the frame size.
+        assert_eq!(pyr.len(), levels + COLOR_STAMP_TEXELS);
+        assert_eq!(
+            PyramidStamp::read(&pyr, w, h),
+            Some(PyramidStamp::of_size(w, h))
+        );
     }
 }
 
@@ -492,9 +502,9 @@ fn row_bands_equal_whole_builds() {
     let img: Vec<ColorTexel> = (0..w * h).map(|_| [rng.f(), rng.f(), rng.f()]).collect();
     let view = ImageView::try_new(&img, w, h, w).unwrap();
     let layout = HiZLayout::try_new(w, h).unwrap();
-    let mut whole = vec![[0.0; 3]; layout.len()];
+    let mut whole = vec![[0.0; 3]; color_pyramid_len(w, h).unwrap()];
     try_build_color_pyramid(&mut whole, &view, 1.0).unwrap();
-    let mut banded = vec![[0.0; 3]; layout.len()];
+    let mut banded = vec![[0.0; 3]; color_pyramid_len(w, h).unwrap()];
     let l0 = layout.level(0).unwrap();
     for (a, b) in [(0u32, 5u32), (5, 13)] {
         let r = layout
@@ -529,12 +539,14 @@ fn row_bands_equal_whole_builds() {
             .unwrap();
         }
     }
+    // A row-band build ends with the stamp.
+    try_stamp_color_pyramid(&mut banded, w, h).unwrap();
     assert_eq!(whole, banded);
 
     // Visibility, banded vs whole, on the floor/wall frame.
     let fr = Frame::new(w, h, 8.0, DepthConvention::ReversedZ, |_, _| [1.0; 3]);
     let hz = HiZ::try_new(&fr.hiz, fr.cam, fr.conv).unwrap();
-    let mut vb = vec![0.0f32; layout.len()];
+    let mut vb = vec![0.0f32; visibility_pyramid_len(w, h).unwrap()];
     for (a, b) in [(0u32, 7u32), (7, 13)] {
         let r = layout
             .rows_range(0, RowRange::try_new(a, b, h).unwrap())
@@ -557,7 +569,11 @@ fn row_bands_equal_whole_builds() {
         )
         .unwrap();
     }
-    assert_eq!(vb, fr.vis);
+    try_stamp_visibility_pyramid(&mut vb, &hz).unwrap();
+    assert_eq!(
+        vb.iter().map(|v| v.to_bits()).collect::<Vec<_>>(),
+        fr.vis.iter().map(|v| v.to_bits()).collect::<Vec<_>>()
+    );
 }
 
 /// f64 oracle of the visibility pyramid (module docs of `cone`).
@@ -1336,5 +1352,90 @@ fn view_space_size_widens_the_cone_for_rays_into_depth() {
         )
         .unwrap(),
         screen
+    );
+}
+
+/// Issue 12: the cone pyramids carry what they were built for; bound to
+/// another frame's Hi-Z (size or camera), or unbuilt, they are refused.
+#[test]
+fn cone_pyramids_refuse_another_frame() {
+    let conv = DepthConvention::ReversedZ;
+    let a = Frame::new(24, 16, 8.0, conv, |_, _| [0.5; 3]);
+    let b = Frame::new(12, 8, 8.0, conv, |_, _| [0.5; 3]);
+    let ha = HiZ::try_new(&a.hiz, a.cam, conv).unwrap();
+    assert!(ConePyramids::try_new(ha, &a.color, &a.vis).is_ok());
+    assert_eq!(
+        a.vis.len(),
+        HiZLayout::try_new(24, 16).unwrap().len() + VISIBILITY_STAMP_LEN
+    );
+    // b's (smaller) pyramids padded to a's length: long enough, not a's.
+    let mut color_b = b.color.clone();
+    color_b.resize(a.color.len(), [0.0; 3]);
+    let mut vis_b = b.vis.clone();
+    vis_b.resize(a.vis.len(), 0.0);
+    assert_eq!(
+        ConePyramids::try_new(ha, &color_b, &a.vis).err(),
+        Some(Error::InvalidArgument)
+    );
+    assert_eq!(
+        ConePyramids::try_new(ha, &a.color, &vis_b).err(),
+        Some(Error::InvalidArgument)
+    );
+    // The same size, another camera: a visibility pyramid of the moved
+    // camera's Hi-Z is refused for this Hi-Z.
+    let moved = Camera::try_look_at(
+        Vec3::new(0.3, 1.0, 3.0),
+        Vec3::ZERO,
+        Vec3::Y,
+        1.0,
+        0.1,
+        FAR,
+        24,
+        16,
+    )
+    .unwrap();
+    let mut vis_moved = a.vis.clone();
+    PyramidStamp::of(&moved).try_write(&mut vis_moved).unwrap();
+    assert_eq!(
+        ConePyramids::try_new(ha, &a.color, &vis_moved).err(),
+        Some(Error::InvalidArgument)
+    );
+    // Never built.
+    let blank_c = vec![[0.0f32; 3]; a.color.len()];
+    assert_eq!(
+        ConePyramids::try_new(ha, &blank_c, &a.vis).err(),
+        Some(Error::InvalidArgument)
+    );
+    // Short: the stamp is part of the length.
+    assert_eq!(
+        ConePyramids::try_new(ha, &a.color[..a.color.len() - 1], &a.vis).err(),
+        Some(Error::InsufficientSize)
+    );
+    // No visibility pyramid: multi-ray and use_visibility off work, a
+    // trace with use_visibility on is refused.
+    let pyr = ConePyramids::try_new(ha, &a.color, &[]).unwrap();
+    let cone = Cone {
+        apex: Vec2::new(12.0, 12.0),
+        hit: Vec2::new(12.0, 4.0),
+        theta: 0.1,
+        apex_depth: 2.0,
+        hit_depth: 6.0,
+        n_dot_v: 0.7,
+        travel: 0.0,
+    };
+    let on = ConeOptions::default();
+    assert!(on.use_visibility);
+    assert_eq!(
+        try_cone_trace(&pyr, &cone, [0.0; 3], &on).err(),
+        Some(Error::InvalidArgument)
+    );
+    let off = ConeOptions {
+        use_visibility: false,
+        ..on
+    };
+    let full = ConePyramids::try_new(ha, &a.color, &a.vis).unwrap();
+    assert_eq!(
+        try_cone_trace(&pyr, &cone, [0.0; 3], &off).unwrap(),
+        try_cone_trace(&full, &cone, [0.0; 3], &off).unwrap()
     );
 }

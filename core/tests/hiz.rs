@@ -11,7 +11,7 @@ use refl_core::hiz::MAX_LEVELS;
 use refl_core::{
     hiz_len, try_build_hiz, try_build_hiz_level0_rows, try_build_hiz_level_rows, try_stamp_hiz,
     try_trace_hiz, try_trace_hiz_rays, try_trace_hiz_stats, Camera, DepthConvention, DepthImage,
-    Error, HiZ, HiZLayout, HiZOptions, HiZStamp, HiZTexel, ImageView, Miss, Ray, RowRange,
+    Error, HiZ, HiZLayout, HiZOptions, HiZTexel, ImageView, Miss, PyramidStamp, Ray, RowRange,
     Thickness, Trace, HIZ_STAMP_TEXELS,
 };
 
@@ -1801,9 +1801,9 @@ fn pyramid_stamp_refuses_another_camera() {
         Some(Error::InvalidArgument)
     );
     // What the stamp says, for diagnostics.
-    let tail = HiZStamp::read_tail(&pyr).unwrap();
+    let tail = PyramidStamp::read_tail(&pyr).unwrap();
     assert_eq!((tail.width, tail.height), (512, 384));
-    assert_eq!(tail, HiZStamp::of(&big));
+    assert_eq!(tail, PyramidStamp::of(&big));
     assert_ne!(big.fingerprint(), moved.fingerprint());
     assert_eq!(
         big.fingerprint(),

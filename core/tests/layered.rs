@@ -12,7 +12,7 @@ use refl_core::glam::{Affine3A, DVec3, Quat, Vec3};
 use refl_core::layered::NO_PAYLOAD;
 use refl_core::{
     layered_len, prr_classify, Error, Face, LayerHit, LayeredGrid, LayeredMap, LayeredMapMut,
-    LayeredMiss, LayeredParams, LayeredTrace, PrrClass, Ray,
+    LayeredMiss, LayeredParams, LayeredStamp, LayeredTrace, PrrClass, Ray, LAYERED_STAMP_LEN,
 };
 
 // ---------------------------------------------------------------- oracles
@@ -394,7 +394,8 @@ fn report(name: &str, st: &Stats) {
 #[test]
 fn layered_len_counts_and_rejects_bad_sizes() {
     let l = layered_len(4, 3).unwrap();
-    assert_eq!(l.counts, 6 * 16);
+    // The counts, then the stamp.
+    assert_eq!(l.counts, 6 * 16 + LAYERED_STAMP_LEN);
     assert_eq!(l.depth, 6 * 16 * 3);
     assert_eq!(l.payload, l.depth);
     // Bound pyramid: levels 1 (2x2 cells) and 2 (1 cell), 2 * 3 values each.
@@ -466,7 +467,46 @@ fn map_views_reject_short_buffers() {
         vec![0; l.counts],
         vec![0.0; l.bounds],
     );
+    // Never cleared: no stamp, refused.
+    assert_eq!(
+        LayeredMap::try_new(g, &d, &p, &c, &b).err(),
+        Some(Error::InvalidArgument)
+    );
+    let (mut d, mut p, mut c, mut b) = (d, p, c, b);
+    LayeredMapMut::try_new(g, &mut d, &mut p, &mut c, &mut b)
+        .unwrap()
+        .clear();
+    let (d, p, c, b) = (d, p, c, b);
     assert!(LayeredMap::try_new(g, &d, &p, &c, &b).is_ok());
+    // Issue 12: a map cleared for one grid and bound to another (another
+    // resolution, layer count or box) is refused; a moved grid is not.
+    let other_box = LayeredGrid::try_new(Vec3::ZERO, Vec3::splat(2.0), 4, 2).unwrap();
+    assert_eq!(
+        LayeredMap::try_new(other_box, &d, &p, &c, &b).err(),
+        Some(Error::InvalidArgument)
+    );
+    let fewer_layers = LayeredGrid::try_new(Vec3::ZERO, Vec3::ONE, 4, 1).unwrap();
+    assert_eq!(
+        LayeredMap::try_new(fewer_layers, &d, &p, &c, &b).err(),
+        Some(Error::InvalidArgument)
+    );
+    let coarser = LayeredGrid::try_new(Vec3::ZERO, Vec3::ONE, 2, 2).unwrap();
+    assert_eq!(
+        LayeredMap::try_new(coarser, &d, &p, &c, &b).err(),
+        Some(Error::InvalidArgument)
+    );
+    assert_eq!(
+        LayeredStamp::read_tail(&c),
+        Some(LayeredStamp {
+            face_res: 4,
+            layers: 2,
+            grid: g.fingerprint()
+        })
+    );
+    let moved = g
+        .try_with_transform(Affine3A::from_translation(Vec3::new(3.0, 0.0, 1.0)))
+        .unwrap();
+    assert!(LayeredMap::try_new(moved, &d, &p, &c, &b).is_ok());
     assert_eq!(
         LayeredMap::try_new(g, &d[1..], &p, &c, &b).err(),
         Some(Error::InsufficientSize)
@@ -724,7 +764,8 @@ fn fill_column_rejects_bad_hits_and_leaves_the_map_untouched() {
             Err(Error::InvalidArgument)
         );
     }
-    assert!(c.iter().all(|&n| n == 0));
+    let texels = c.len() - LAYERED_STAMP_LEN;
+    assert!(c[..texels].iter().all(|&n| n == 0));
     assert!(d.iter().all(|x| x.is_infinite()));
     assert!(p.iter().all(|&x| x == NO_PAYLOAD));
 }

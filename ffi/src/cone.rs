@@ -6,11 +6,11 @@
 //! visibility pyramid one of floats; both have the Hi-Z pyramid's layout
 //! (`refl_hiz_level`) and `refl_cone_pyramid_len` texels.
 
-use crate::hiz::bind_hiz;
 use crate::hiz::refl_hiz;
+use crate::hiz::{bind_hiz, stamp_mismatch};
 use crate::image::refl_image_vec3;
 use crate::ptr::{byte_len, check_buffer, overlaps, pyramid_band, read, Out};
-use crate::status::{guard, refl_status};
+use crate::status::{fail, fail_str, guard, refl_status};
 use crate::trace::refl_thickness;
 use crate::types::{
     refl_cone, refl_cone_fades, refl_cone_options, refl_cone_result, refl_multiray_options,
@@ -32,11 +32,16 @@ pub struct refl_cone_pyramids {
     pub hiz: refl_hiz,
     /// The color pyramid (`refl_cone_build_color`).
     pub color: *const refl_vec3,
-    /// Texels readable from `color`, at least `refl_cone_pyramid_len`'s.
+    /// Texels readable from `color`, at least `refl_cone_pyramid_len`'s
+    /// `out_color_len`.
     pub color_len: usize,
-    /// The visibility pyramid (`refl_cone_build_visibility`).
+    /// The visibility pyramid (`refl_cone_build_visibility`), or NULL with
+    /// `visibility_len` 0 for none (enough for `refl_cone_multiray` and for
+    /// `refl_cone_trace` with `use_visibility` off; with it on the trace is
+    /// `REFL_STATUS_INVALID_ARGUMENT`).
     pub visibility: *const f32,
-    /// Floats readable from `visibility`, at least `refl_cone_pyramid_len`'s.
+    /// Floats readable from `visibility`, at least `refl_cone_pyramid_len`'s
+    /// `out_visibility_len` (or 0 with a NULL `visibility`).
     pub visibility_len: usize,
 }
 
@@ -47,7 +52,12 @@ pub struct refl_cone_pyramids {
 /// meanwhile.
 unsafe fn bind_pyramids<'a>(p: &refl_cone_pyramids) -> Result<ConePyramids<'a>, Error> {
     check_buffer(p.color, p.color_len, "pyramids.color")?;
-    check_buffer(p.visibility, p.visibility_len, "pyramids.visibility")?;
+    // NULL with length 0: no visibility pyramid (multi-ray, or a cone
+    // trace with use_visibility off).
+    let no_vis = p.visibility.is_null() && p.visibility_len == 0;
+    if !no_vis {
+        check_buffer(p.visibility, p.visibility_len, "pyramids.visibility")?;
+    }
     // SAFETY: caller contract.
     let hz = unsafe { bind_hiz(&p.hiz) }?;
     // SAFETY: non-null, aligned, readable (contract), sizes fit isize
@@ -55,10 +65,30 @@ unsafe fn bind_pyramids<'a>(p: &refl_cone_pyramids) -> Result<ConePyramids<'a>, 
     let (color, vis) = unsafe {
         (
             core::slice::from_raw_parts(p.color.cast::<ColorTexel>(), p.color_len),
-            core::slice::from_raw_parts(p.visibility, p.visibility_len),
+            if no_vis {
+                &[][..]
+            } else {
+                core::slice::from_raw_parts(p.visibility, p.visibility_len)
+            },
         )
     };
-    ConePyramids::try_new(hz, color, vis)
+    ConePyramids::try_new(hz, color, vis).map_err(|e| {
+        let cam = *hz.camera();
+        let (w, h) = (cam.width(), cam.height());
+        if e == Error::InsufficientSize {
+            return fail_str(
+                e,
+                "`pyramids.color_len` or `pyramids.visibility_len` below refl_cone_pyramid_len's",
+            );
+        }
+        if refl_core::PyramidStamp::read(color, w, h)
+            != Some(refl_core::PyramidStamp::of_size(w, h))
+        {
+            stamp_mismatch(e, "pyramids.color", color, &cam, w, h)
+        } else {
+            stamp_mismatch(e, "pyramids.visibility", vis, &cam, w, h)
+        }
+    })
 }
 
 /// The cone half-angle for a Phong specular power (seed 004 Eq. 4.1 with
@@ -104,29 +134,49 @@ pub unsafe extern "C" fn refl_cone_angle_from_roughness(
     })
 }
 
-/// Size query: texels of the color pyramid (`refl_vec3`) and of the
-/// visibility pyramid (`float`) of a `width x height` frame, the same
-/// count, into `*out_len`.
+/// Size query: texels of the color pyramid (`refl_vec3`) into
+/// `*out_color_len` and floats of the visibility pyramid into
+/// `*out_visibility_len`, for a `width x height` frame. Both are the Hi-Z
+/// layout's levels (`refl_hiz_level`) followed by the pyramid's stamp
+/// (`REFL_CONE_COLOR_STAMP_TEXELS` texels, `REFL_CONE_VISIBILITY_STAMP_LEN`
+/// floats), which records the size (and, for visibility, the Hi-Z's
+/// camera) that `refl_cone_trace` checks.
 ///
-/// Returns `REFL_STATUS_NULL_POINTER` if `out_len` is NULL,
+/// Returns `REFL_STATUS_NULL_POINTER` if an output is NULL,
 /// `REFL_STATUS_INVALID_ARGUMENT` for a zero or overflowing size.
 ///
 /// # Safety
-/// `out_len` must be NULL or writable.
+/// `out_color_len` and `out_visibility_len` must be NULL or writable.
 #[no_mangle]
 pub unsafe extern "C" fn refl_cone_pyramid_len(
-    out_len: *mut usize,
+    out_color_len: *mut usize,
+    out_visibility_len: *mut usize,
     width: u32,
     height: u32,
 ) -> refl_status {
     guard("refl_cone_pyramid_len", || {
-        let out = Out::new(out_len, "out_len")?;
-        let n = refl_core::color_pyramid_len(width, height)?;
+        let oc = Out::new(out_color_len, "out_color_len")?;
+        let ov = Out::new(out_visibility_len, "out_visibility_len")?;
+        let c = refl_core::color_pyramid_len(width, height)?;
+        let v = refl_core::visibility_pyramid_len(width, height)?;
         // SAFETY: caller contract.
-        unsafe { out.write(n) };
+        unsafe {
+            oc.write(c);
+            ov.write(v);
+        }
         Ok(())
     })
 }
+
+/// Texels after the color pyramid's last level that hold its stamp.
+pub const REFL_CONE_COLOR_STAMP_TEXELS: usize = 2;
+/// Floats after the visibility pyramid's last level that hold its stamp.
+pub const REFL_CONE_VISIBILITY_STAMP_LEN: usize = 4;
+// The header's constants are refl-core's.
+const _: () = assert!(
+    REFL_CONE_COLOR_STAMP_TEXELS == refl_core::COLOR_STAMP_TEXELS
+        && REFL_CONE_VISIBILITY_STAMP_LEN == refl_core::VISIBILITY_STAMP_LEN
+);
 
 /// Builds rows `[row_start, row_end)` of level `level` of the color
 /// pyramid of `*image` in `dst` (level 0 copies the image; level L blurs
@@ -170,6 +220,13 @@ pub unsafe extern "C" fn refl_cone_build_color_rows(
             return Err(Error::InvalidArgument);
         }
         let layout = HiZLayout::try_new(view.width(), view.height())?;
+        let len = refl_core::color_pyramid_len(view.width(), view.height())?;
+        if dst_len < len {
+            return Err(fail(
+                Error::InsufficientSize,
+                format_args!("`dst_len` is {dst_len}, the color pyramid needs {len}"),
+            ));
+        }
         // SAFETY: `dst` checked above, writable by contract; the band and
         // the finer level are this call's alone (contract).
         let (out, finer, rows) = unsafe {
@@ -185,7 +242,15 @@ pub unsafe extern "C" fn refl_cone_build_color_rows(
         match finer {
             None => try_build_color_level0_rows(out, &view, rows),
             Some(finer) => try_build_color_level_rows(out, finer, &layout, level, rows, sigma),
+        }?;
+        if level + 1 == layout.level_count() {
+            // SAFETY: dst writable for dst_len >= len texels (contract); no
+            // other thread touches the pyramid while its last level is
+            // built (contract).
+            let all = unsafe { core::slice::from_raw_parts_mut(dst.cast::<ColorTexel>(), len) };
+            refl_core::try_stamp_color_pyramid(all, view.width(), view.height())?;
         }
+        Ok(())
     })
 }
 
@@ -262,6 +327,13 @@ pub unsafe extern "C" fn refl_cone_build_visibility_rows(
             return Err(Error::InvalidArgument);
         }
         let layout = *hz.layout();
+        let len = refl_core::visibility_pyramid_len(layout.width(), layout.height())?;
+        if dst_len < len {
+            return Err(fail(
+                Error::InsufficientSize,
+                format_args!("`dst_len` is {dst_len}, the visibility pyramid needs {len}"),
+            ));
+        }
         // SAFETY: `dst` checked above, writable by contract; the band and
         // the finer level are this call's alone (contract).
         let (out, finer, rows) =
@@ -269,7 +341,15 @@ pub unsafe extern "C" fn refl_cone_build_visibility_rows(
         match finer {
             None => try_build_visibility_level0_rows(out, &hz, rows),
             Some(finer) => try_build_visibility_level_rows(out, finer, &hz, level, rows),
+        }?;
+        if level + 1 == layout.level_count() {
+            // SAFETY: dst writable for dst_len >= len floats (contract),
+            // disjoint from the Hi-Z (checked); no other thread touches the
+            // pyramid while its last level is built (contract).
+            let all = unsafe { core::slice::from_raw_parts_mut(dst, len) };
+            refl_core::try_stamp_visibility_pyramid(all, &hz)?;
         }
+        Ok(())
     })
 }
 
@@ -295,7 +375,7 @@ pub unsafe extern "C" fn refl_cone_build_visibility(
         if overlaps(h.data as usize, hb, dst as usize, bytes) {
             return Err(Error::InvalidArgument);
         }
-        let n = hz.layout().len();
+        let n = refl_core::visibility_pyramid_len(hz.layout().width(), hz.layout().height())?;
         if dst_len < n {
             return Err(Error::InsufficientSize);
         }

@@ -8,11 +8,11 @@
 //! `refl_hiz_level` where each level lives.
 
 use crate::ptr::{byte_len, check_buffer, overlaps, pyramid_band, read, read_vec, Out};
-use crate::status::{fail, fail_str, guard, refl_status};
+use crate::status::{fail, guard, refl_status};
 use crate::trace::{depth_image, refl_depth_image, refl_thickness, refl_trace_result};
 use crate::types::{convention, refl_camera, refl_ray, refl_vec2};
 use refl_core::{
-    Error, HiZ, HiZLayout, HiZOptions, HiZStamp, HiZTexel, Miss, Ray, Thickness, Trace,
+    Error, HiZ, HiZLayout, HiZOptions, HiZTexel, Miss, PyramidStamp, Ray, Thickness, Trace,
 };
 
 /// Texels after the last level of a Hi-Z pyramid that record the image
@@ -300,14 +300,11 @@ pub unsafe extern "C" fn refl_hiz_build_rows(
         if level + 1 == layout.level_count() {
             // The last level (1 x 1, one band) is built last: stamp the
             // pyramid with its image's size and camera.
-            let at = layout.len();
-            let stamp = HiZStamp::of(img.camera()).texels();
-            for (i, t) in stamp.iter().enumerate() {
-                // SAFETY: at + i < len <= dst_len texels, writable (caller
-                // contract), disjoint from every level's rows; no other
-                // thread builds while the last level is built (contract).
-                unsafe { dst.add(at + i).cast::<HiZTexel>().write(*t) };
-            }
+            // SAFETY: dst is writable for dst_len >= len texels (caller
+            // contract); no other thread touches the pyramid while its last
+            // level is built (contract), so this is the only reference.
+            let all = unsafe { core::slice::from_raw_parts_mut(dst.cast::<HiZTexel>(), len) };
+            refl_core::try_stamp_hiz(all, img.camera())?;
         }
         Ok(())
     })
@@ -336,26 +333,42 @@ pub(crate) unsafe fn bind_hiz<'a>(h: &refl_hiz) -> Result<HiZ<'a>, Error> {
                 format_args!("`hiz.len` is {}, a {w}x{hh} pyramid needs {need}", h.len),
             );
         }
-        let at = HiZLayout::try_new(w, hh).map_or(0, |l| l.len());
-        let here = data.get(at..).and_then(HiZStamp::read);
-        match here.or_else(|| HiZStamp::read_tail(data)) {
-            Some(s) if (s.width, s.height) != (w, hh) => fail(
-                e,
-                format_args!(
-                    "`hiz`: the pyramid was built for {}x{}, the camera is {w}x{hh}",
-                    s.width, s.height
-                ),
-            ),
-            Some(_) => fail_str(
-                e,
-                "`hiz`: the pyramid was built for another camera of the same size",
-            ),
-            None => fail_str(
-                e,
-                "`hiz`: no pyramid stamp where the camera's size puts it (not built with refl_hiz_build, or the last level not built)",
-            ),
-        }
+        stamp_mismatch(e, "hiz", data, &cam, w, hh)
     })
+}
+
+/// The error `e` for a pyramid (`name`) whose stamp is not the one a
+/// `w x h` frame of `cam` needs, with a last-error detail saying what the
+/// pyramid was built for (its stamp where the frame's size puts it, else at
+/// the end of the buffer).
+pub(crate) fn stamp_mismatch<T: refl_core::PyramidTexel>(
+    e: Error,
+    name: &str,
+    data: &[T],
+    cam: &refl_core::Camera,
+    w: u32,
+    h: u32,
+) -> Error {
+    let found = PyramidStamp::read(data, w, h).or_else(|| PyramidStamp::read_tail(data));
+    match found {
+        Some(s) if (s.width, s.height) != (w, h) => fail(
+            e,
+            format_args!(
+                "`{name}`: the pyramid was built for {}x{}, the camera is {w}x{h}",
+                s.width, s.height
+            ),
+        ),
+        Some(s) if s.camera != 0 && s.camera != cam.fingerprint() => fail(
+            e,
+            format_args!("`{name}`: the pyramid was built for another camera of the same size"),
+        ),
+        _ => fail(
+            e,
+            format_args!(
+                "`{name}`: no pyramid stamp where a {w}x{h} pyramid ends (not built, or its last level not built)"
+            ),
+        ),
+    }
 }
 
 /// Reads a pyramid descriptor, a thickness and options.

@@ -5,21 +5,30 @@
 //! Buffer layout (see refl-core's `layered` module): for `res` texels per
 //! face side and `L` layers, `depth` (float) and `payload` (uint32_t) hold
 //! `6 * res * res * L` elements at index `((face * res + j) * res + i) * L + k`,
-//! `counts` (uint32_t) holds `6 * res * res` at `(face * res + j) * res + i`,
+//! `counts` (uint32_t) holds `6 * res * res` at `(face * res + j) * res + i`
+//! and then `REFL_LAYERED_STAMP_LEN` words that record the grid the map was
+//! cleared for (`refl_layered_clear`; a trace with another grid is
+//! `REFL_STATUS_INVALID_ARGUMENT`),
 //! `bounds` (float) the empty-space pyramids (`refl_layered_build_bounds`).
 //! Faces: 0 = +X, 1 = -X, 2 = +Y, 3 = -Y, 4 = +Z, 5 = -Z; each looks into
 //! the box; texel axes of axis a are u = (a + 1) % 3, v = (a + 2) % 3.
 //! Depths are normalized to [0, 1] from the face.
 
 use crate::ptr::{byte_len, overlaps, read, Out};
-use crate::status::{guard, refl_status};
+use crate::status::{fail, fail_str, guard, refl_status};
 use crate::types::{refl_mat4, refl_ray, refl_vec3};
 use refl_core::glam::{Affine3A, Mat4, Vec3};
 use refl_core::layered::{
     layered_len, prr_classify, ColumnFill, Face, LayerHit, LayeredGrid, LayeredMap, LayeredMapMut,
-    LayeredMiss, LayeredParams, LayeredTrace, PrrClass,
+    LayeredMiss, LayeredParams, LayeredStamp, LayeredTrace, PrrClass,
 };
 use refl_core::{Error, Ray};
+
+/// Words after a layered map's per-texel counts that record the grid it
+/// was cleared for (counted in `refl_layered_len`'s `counts`).
+pub const REFL_LAYERED_STAMP_LEN: usize = 4;
+// The header's constant is refl-core's.
+const _: () = assert!(REFL_LAYERED_STAMP_LEN == refl_core::LAYERED_STAMP_LEN);
 
 /// The geometry of a layered depth cube map.
 #[repr(C)]
@@ -379,7 +388,27 @@ impl refl_layered_map {
                 core::slice::from_raw_parts(self.bounds, self.bounds_len),
             )
         };
-        LayeredMap::try_new(grid, d, p, c, b)
+        LayeredMap::try_new(grid, d, p, c, b).map_err(|e| {
+            if e != Error::InvalidArgument {
+                return e;
+            }
+            // The stamp after the counts: what the map was cleared for.
+            let (res, layers) = (self.grid.face_res, self.grid.layers);
+            match LayeredStamp::read(c, res).or_else(|| LayeredStamp::read_tail(c)) {
+                Some(st) if (st.face_res, st.layers) != (res, layers) => fail(
+                    e,
+                    format_args!(
+                        "`map`: cleared for face_res {} and {} layers, the grid says {res} and {layers}",
+                        st.face_res, st.layers
+                    ),
+                ),
+                Some(_) => fail_str(e, "`map`: cleared for another grid box (min/max)"),
+                _ => fail_str(
+                    e,
+                    "`map`: no stamp after the counts (never cleared with refl_layered_clear, or cleared for another face_res)",
+                ),
+            }
+        })
     }
 
     /// The byte ranges of the four buffers.

@@ -69,12 +69,13 @@ fn image_c(f: &Frame) -> refl_image_vec3 {
 fn pyramids_and_trace_equal_core() {
     for conv in DepthConvention::ALL {
         let f = frame(conv);
-        let mut n = 0usize;
+        let (mut n, mut nv) = (0usize, 0usize);
         assert_eq!(
-            unsafe { refl_cone_pyramid_len(&mut n, W, H) },
+            unsafe { refl_cone_pyramid_len(&mut n, &mut nv, W, H) },
             refl_status::Ok
         );
         assert_eq!(n, refl_core::color_pyramid_len(W, H).unwrap());
+        assert_eq!(nv, refl_core::visibility_pyramid_len(W, H).unwrap());
         let img = image_c(&f);
         let mut color = vec![refl_vec3::default(); n];
         assert_eq!(
@@ -102,7 +103,10 @@ fn pyramids_and_trace_equal_core() {
             refl_status::Ok
         );
         // The Hi-Z pyramid ends with its stamp; the cone pyramids do not.
-        assert_eq!(hiz_n, n + refl_core::HIZ_STAMP_TEXELS);
+        assert_eq!(
+            hiz_n - refl_core::HIZ_STAMP_TEXELS,
+            n - refl_core::COLOR_STAMP_TEXELS
+        );
         for level in 0..levels {
             let mut info = refl_hiz_level_info::default();
             assert_eq!(
@@ -125,12 +129,12 @@ fn pyramids_and_trace_equal_core() {
         assert_eq!(banded, color);
 
         let hz = hiz_c(&f, conv);
-        let mut vis = vec![0.0f32; n];
+        let mut vis = vec![0.0f32; nv];
         assert_eq!(
-            unsafe { refl_cone_build_visibility(vis.as_mut_ptr(), n, &hz) },
+            unsafe { refl_cone_build_visibility(vis.as_mut_ptr(), nv, &hz) },
             refl_status::Ok
         );
-        let mut vb = vec![0.0f32; n];
+        let mut vb = vec![0.0f32; nv];
         for level in 0..levels {
             let mut info = refl_hiz_level_info::default();
             assert_eq!(
@@ -139,17 +143,18 @@ fn pyramids_and_trace_equal_core() {
             );
             assert_eq!(
                 unsafe {
-                    refl_cone_build_visibility_rows(vb.as_mut_ptr(), n, &hz, level, 0, info.height)
+                    refl_cone_build_visibility_rows(vb.as_mut_ptr(), nv, &hz, level, 0, info.height)
                 },
                 refl_status::Ok
             );
         }
-        assert_eq!(vb, vis);
+        let bits = |v: &[f32]| v.iter().map(|x| x.to_bits()).collect::<Vec<_>>();
+        assert_eq!(bits(&vb), bits(&vis));
         let core_hiz: Vec<[f32; 2]> = f.hiz.iter().map(|t| [t.x, t.y]).collect();
         let chz = HiZ::try_new(&core_hiz, f.cam, conv).unwrap();
-        let mut core_vis = vec![0.0f32; n];
+        let mut core_vis = vec![0.0f32; nv];
         refl_core::try_build_visibility_pyramid(&mut core_vis, &chz).unwrap();
-        assert_eq!(core_vis, vis);
+        assert_eq!(bits(&core_vis), bits(&vis));
 
         // Trace.
         let pyr = refl_cone_pyramids {
@@ -157,7 +162,7 @@ fn pyramids_and_trace_equal_core() {
             color: color.as_ptr(),
             color_len: n,
             visibility: vis.as_ptr(),
-            visibility_len: n,
+            visibility_len: nv,
         };
         let mut opts = refl_cone_options::default();
         assert_eq!(
@@ -478,6 +483,7 @@ fn angles_fades_and_build_errors() {
     );
     assert!(color.iter().all(|c| c.x == 7.0));
     let hz = hiz_c(&f, DepthConvention::ReversedZ);
+    let n = refl_core::visibility_pyramid_len(W, H).unwrap();
     let mut vis = vec![7.0f32; n];
     assert_eq!(
         unsafe { refl_cone_build_visibility(vis.as_mut_ptr(), n - 1, &hz) },
