@@ -837,7 +837,7 @@ void layered_functions() {
     // refl_layered_len
     const refl_layered_sizes len =
         expect_ok<refl_layered_sizes>("layered_len", [](refl_layered_sizes* o) { return refl_layered_len(o, 4, 2); });
-    CHECK_EQ(len.counts, size_t(6 * 16));
+    CHECK_EQ(len.counts, size_t(6 * 16) + REFL_LAYERED_STAMP_LEN);
     CHECK_EQ(len.depth, size_t(6 * 16 * 2));
     expect<refl_layered_sizes>("layered_len res 0", REFL_STATUS_INVALID_ARGUMENT,
                              [](refl_layered_sizes* o) { return refl_layered_len(o, 0, 2); });
@@ -1034,6 +1034,23 @@ void layered_functions() {
         "trace", [&](refl_layered_result* o) { return refl_layered_trace(o, &map, ray, kInf, &params); });
     CHECK(r.hit == 1);
     CHECK(std::fabs(r.t - 2.5f) < 0.6f);
+    {
+        // The map was cleared for `grid`: another resolution or box is
+        // refused (was read with the wrong layout), and the message says so.
+        refl_layered_map other = map;
+        other.grid.layers = 1;
+        expect<refl_layered_result>("trace map of another grid", REFL_STATUS_INVALID_ARGUMENT,
+                                    [&](refl_layered_result* o) { return refl_layered_trace(o, &other, ray, kInf, &params); });
+        refl_layered_result rr{};
+        CHECK_STATUS(refl_layered_trace(&rr, &other, ray, kInf, &params), REFL_STATUS_INVALID_ARGUMENT);
+        char msg[256];
+        refl_last_error_message(msg, sizeof msg);
+        CHECK(std::strstr(msg, "refl_layered_trace: ") == msg && std::strstr(msg, "`map`") != nullptr);
+        other = map;
+        other.grid.max.x += 1.0f;
+        expect<refl_layered_result>("trace map of another box", REFL_STATUS_INVALID_ARGUMENT,
+                                    [&](refl_layered_result* o) { return refl_layered_trace(o, &other, ray, kInf, &params); });
+    }
     auto trace = [&](refl_ray rr, float t_max, const refl_layered_params* p) {
         return [=, &map](refl_layered_result* o) { return refl_layered_trace(o, &map, rr, t_max, p); };
     };
@@ -2351,6 +2368,8 @@ void cone_functions() {
         std::vector<float> blank(vlen, 0.0f);
         const refl_cone_pyramids no_stamp{hiz, color.data(), len, blank.data(), vlen};
         trace("cone trace unbuilt visibility", REFL_STATUS_INVALID_ARGUMENT, &no_stamp, &cone, fb, &opts);
+        refl_cone_result cr{};
+        CHECK_STATUS(refl_cone_trace(&cr, &no_stamp, &cone, fb, &opts), REFL_STATUS_INVALID_ARGUMENT);
         char msg[256];
         refl_last_error_message(msg, sizeof msg);
         CHECK(std::strstr(msg, "`pyramids.visibility`") != nullptr);
