@@ -130,6 +130,32 @@ impl Shape {
             .map(|c| c.0)
     }
 
+    /// The first `t <= t_max` at which the ray is at least `depth` inside
+    /// the solid (dense sampling, then bisection): unlike [`Shape::first_hit`]
+    /// it passes over tangential grazes shallower than `depth`.
+    fn first_deep(&self, o: DVec3, d: DVec3, t_max: f64, depth: f64) -> Option<f64> {
+        let n = 20_000;
+        let inside = |t: f64| self.sdf(o + d * t) <= -depth;
+        let mut prev = 0.0;
+        for k in 1..=n {
+            let t = t_max * k as f64 / n as f64;
+            if inside(t) {
+                let (mut a, mut b) = (prev, t);
+                for _ in 0..60 {
+                    let m = 0.5 * (a + b);
+                    if inside(m) {
+                        b = m;
+                    } else {
+                        a = m;
+                    }
+                }
+                return Some(b);
+            }
+            prev = t;
+        }
+        None
+    }
+
     /// The first `t` at which the ray comes within `tol` of the solid.
     fn first_near(&self, o: DVec3, d: DVec3, tol: f64) -> f64 {
         let mut t = 0.0;
@@ -1565,7 +1591,8 @@ proptest! {
     /// the surface to within 1.5 texels, no earlier than where the ray
     /// first comes within 1.5 texels of the torus (a sub-texel graze may
     /// legitimately be taken for a hit) and no later than 3 texels past
-    /// the analytic hit; a ray that stays two texels away misses.
+    /// where it is first a texel inside (a shallower graze may be missed);
+    /// a ray that stays two texels away misses.
     #[test]
     fn prop_torus_rays_hit_where_the_torus_is(
         ox in -1.0f64..1.0, oy in -1.0f64..1.0, oz in -1.0f64..1.0,
@@ -1584,12 +1611,16 @@ proptest! {
             let h = got.hit();
             prop_assert!(h.is_some(), "robust hit missed: {:?}", got);
             let h = h.unwrap();
-            let t = shape.first_hit(o, d, 8.0).unwrap();
+            // The first point a texel deep: a tangential graze of the tube
+            // shallower than that may be missed (explore.sh found one 1e-3
+            // texels deep, checked in as a regression case), as a sub-texel
+            // graze may be taken for a hit.
+            let t = shape.first_deep(o, d, 8.0, tex).unwrap();
             let near = shape.first_near(o, d, 1.5 * tex);
             let sd = shape.sdf(h.position.as_dvec3()).abs() / tex;
             prop_assert!(sd <= 1.5, "hit {} texels off the surface", sd);
             prop_assert!(h.t as f64 >= near - 1e-4, "hit at {} before the ray nears the torus at {}", h.t, near);
-            prop_assert!(h.t as f64 <= t + 3.0 * tex, "hit at {} after the true hit {}", h.t, t);
+            prop_assert!(h.t as f64 <= t + 3.0 * tex, "hit at {} after the ray is a texel inside at {}", h.t, t);
         } else if min > 2.0 * tex {
             prop_assert!(got.hit().is_none(), "robust miss hit: {:?}", got);
         }
