@@ -74,6 +74,9 @@
 //! with the full test, so on geometry the ray does not pass in and out of
 //! within `N` pixels the result equals that of `N = 1`. If the refinement
 //! finds no hit (the ray passed behind a surface), coarse stepping resumes.
+//! The last interval, where the ray stops (at `t_max`, the far plane or the
+//! image border), is always refined: a ray that enters a shell there and
+//! stops at once need not be behind the stored depth at the coarse sample.
 //!
 //! **Threading.** [`try_step`] reads only its arguments; [`try_step_rays`]
 //! traces a slice of rays. A host splits its rays (and outputs) into
@@ -752,6 +755,9 @@ fn step_unchecked<const C: u8>(
                 group_len += 1;
             }
             let Some(span) = sample else { break };
+            // The walk's last interval: where the ray stops (t_max, the far
+            // plane, the image border), not where it went behind geometry.
+            let last = walker.done;
             if look.work.steps >= opts.max_steps {
                 return out_of_steps(look.work);
             }
@@ -775,7 +781,12 @@ fn step_unchecked<const C: u8>(
                 }
                 None => false,
             };
-            if !trigger {
+            // A ray that enters a surface's shell inside the last interval
+            // and stops there can be in front of the stored depth at the
+            // coarse sample (the depth varies within a texel): refine the
+            // last interval whatever the sample says (at most `stride`
+            // steps once per ray; found by scripts/explore.sh).
+            if !trigger && !last {
                 occluded = false;
                 continue;
             }
