@@ -1823,7 +1823,8 @@ proptest! {
     #![proptest_config(common::proptest_config(256))]
     /// Random rays in the room: visible true hits are found within a texel
     /// (or a pixel of the surface), clear misses are not hit away from a
-    /// surface, at strides 1 and 8.
+    /// surface, at strides 1 and 8 (at 8, a visible hit stride 8 passes
+    /// over must be one stride 1 finds).
     #[test]
     fn prop_random_rays_against_the_room_oracle(
         px in 0.0f64..96.0, py in 0.0f64..72.0, f in 0.02f64..0.98,
@@ -1852,8 +1853,23 @@ proptest! {
             // there, so no kernel can report it (issue 12's case).
             Truth::Visible { px, py, .. } if !image_shell_near_hit(cam, &c, front, &ray, t_max, px, py, 2.0) => {}
             Truth::Visible { px, py, .. } => {
-                let ok = tr.hit().is_some_and(|h| texel_dist(h.pixel, px, py) <= 1) || near_surface(&tr);
-                prop_assert!(ok, "{:?} vs ({}, {})", tr, px, py);
+                let found = |tr: &Trace| tr.hit().is_some_and(|h| texel_dist(h.pixel, px, py) <= 1) || near_surface(tr);
+                if stride == 1 {
+                    prop_assert!(found(&tr), "{:?} vs ({}, {})", tr, px, py);
+                } else if !found(&tr) {
+                    // Stride > 1 samples every stride-th texel; a ray that
+                    // enters and leaves a surface's discrete shell between
+                    // two samples is passed over (the documented limit of
+                    // striding, step.rs module docs; explore.sh found such
+                    // grazing rays at stride 8, checked in as regression
+                    // cases). What stride 1 must find, it does find; a
+                    // stride-8 hit is never before stride 1's.
+                    let unit = try_step(&d, Thickness::Constant(2.0), ray, t_max, StepOptions::default()).unwrap();
+                    prop_assert!(found(&unit), "stride 1 {:?} vs ({}, {})", unit, px, py);
+                    if let (Some(a), Some(b)) = (unit.hit(), tr.hit()) {
+                        prop_assert!(b.t >= a.t * (1.0 - 1e-4), "stride {} hit before stride 1: {:?} vs {:?}", stride, tr, unit);
+                    }
+                }
             }
             Truth::ClearMiss => prop_assert!(tr.hit().is_none() || near_surface(&tr), "{:?}", tr),
             Truth::Other => {}
