@@ -3503,7 +3503,9 @@ refl_status refl_layered_face_ray(struct refl_column_ray *out,
 
 /**
  * Empties every texel of the map: count 0, depth +inf, payload
- * 0xFFFFFFFF, bounds +inf (the exact bounds of the empty map).
+ * 0xFFFFFFFF, every bound cell the empty hull (+inf, -inf), the exact
+ * bounds of the empty map; and stamps the map with its grid
+ * (`REFL_LAYERED_STAMP_LEN` words after the counts).
  *
  * Returns `REFL_STATUS_NULL_POINTER` if `map` or one of its buffers is
  * NULL; `REFL_STATUS_INVALID_ARGUMENT` for an invalid grid, misaligned or
@@ -4058,10 +4060,12 @@ refl_status refl_tcrr_retrace_list(uint32_t *list,
 /**
  * Output composition (seed 000 Sec. 3.3) over rows `[rows.begin,
  * rows.end)`: `out = (1 - w) diffuse + w reflection` at the current
- * frame's reflective pixels, `w` the specular factor (`fresnel ==
+ * frame's reflective pixels (a positive specular factor where the
+ * current depth holds a surface), `w` the specular factor (`fresnel ==
  * REFL_TCRR_FRESNEL_OFF`) or Schlick's Fresnel term of it
  * (`REFL_TCRR_FRESNEL_SCHLICK`) with `cos = n . normalize(E_cur - P)`;
- * `out = diffuse` elsewhere.
+ * `out = diffuse` elsewhere (background pixels included, whatever their
+ * specular factor).
  *
  * Returns `REFL_STATUS_NULL_POINTER` for NULL `current` or image data;
  * `REFL_STATUS_INVALID_ARGUMENT` for an unknown `fresnel`, a bad camera,

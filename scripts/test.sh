@@ -7,7 +7,10 @@
 # Steps: set-up, fmt, clippy (-D warnings), rustdoc (-D warnings), cargo test (workspace; includes
 # the header-staleness test), no_std link check, refl-core built with each
 # feature alone, C++ tests against Embree 3 (normal and ASan+UBSan builds,
-# including the obvhs-vs-Embree cross-check) and `refl report --quick`.
+# including the obvhs-vs-Embree cross-check), `refl report --quick` and a
+# one-minute smoke run of the C ABI fuzz targets (scripts/fuzz.sh smoke).
+# Property tests run from a fixed seed (core/tests/common); random
+# exploration is scripts/explore.sh, outside this command.
 set -euo pipefail
 cd "$(dirname "$0")/.."
 root=$(pwd)
@@ -91,5 +94,10 @@ xdir="$root/target/crosscheck"
 rm -rf "$xdir"
 "$root/target/release/refl" export-crosscheck "$xdir"
 bash scripts/cpp_tests.sh "$xdir"
+
+step "fuzz smoke: every C ABI fuzz target a few seconds from its checked-in corpus"
+# Strict for the findings fixed in refl (F2, F4, F5, F6, F7); fuzz/README.md
+# lists the rest.
+REFL_FUZZ_STRICT=${REFL_FUZZ_STRICT:-F2,F4,F5,F6,F7} bash scripts/fuzz.sh smoke
 
 step "done in $(( $(date +%s) - t0 )) s"

@@ -100,7 +100,9 @@ impl Camera {
     /// # Errors
     /// * [`Error::InvalidArgument`]: a zero size; `fov_y` not in `(0, pi)`;
     ///   `near` not finite and positive; `far` not greater than `near` (it
-    ///   may be `+inf`); a non-finite matrix.
+    ///   may be `+inf`); a non-finite matrix; an eye (the inverse view's
+    ///   translation) or a projection scale (`1 / tan(fov_y / 2)`, also
+    ///   times the aspect ratio) that is not finite in f32.
     /// * [`Error::DegenerateGeometry`]: the view's 3x3 part is not
     ///   orthonormal within 1e-4, or its last row is not `(0, 0, 0, 1)`.
     pub fn try_new(
@@ -151,6 +153,17 @@ impl Camera {
         );
         let tan_half_y = libm::tan(f64::from(fov_y) * 0.5);
         let aspect = f64::from(width) / f64::from(height);
+        // Fuzz findings F3, F5: a camera whose eye (the inverse view's
+        // translation) or whose projection (1 / tan(fov_y / 2), the
+        // x and y scales) is not finite in f32 cannot be used by any
+        // function: refuse it here rather than in each of them.
+        let inv_f32 = inv.as_mat4();
+        let scales_ok = [tan_half_y, tan_half_y * aspect]
+            .iter()
+            .all(|&t| (t as f32) > 0.0 && (t as f32).is_finite() && (1.0 / t as f32).is_finite());
+        if !inv_f32.is_finite() || !scales_ok {
+            return Err(Error::InvalidArgument);
+        }
         Ok(Self {
             view,
             inv_view: inv.as_mat4(),
@@ -277,7 +290,9 @@ impl Camera {
     /// as a mirrored camera's does: triangles rasterized through it have
     /// their winding reversed, so front-face culling must be flipped.
     pub fn is_mirrored(&self) -> bool {
-        self.view.determinant() < 0.0
+        // The 3x3 part in f64: the f32 4x4 determinant overflows to NaN
+        // for translations near f32::MAX (fuzz finding F5).
+        glam::DMat3::from_mat4(self.view.as_dmat4()).determinant() < 0.0
     }
 
     /// The primary ray through `pixel` (in pixels, e.g. `(x + 0.5, y + 0.5)`

@@ -58,6 +58,16 @@ pub fn try_reflect(v: Vec3, n: Vec3) -> Result<Vec3, Error> {
     Ok(r)
 }
 
+/// `n / |n|` with the length taken in f64, so that finite non-zero normals
+/// whose squared length under- or overflows f32 still normalize.
+fn unit_normal(n: Vec3) -> Result<Vec3, Error> {
+    let len = n.as_dvec3().length();
+    if !(len > 0.0) {
+        return Err(Error::DegenerateGeometry);
+    }
+    Ok((n.as_dvec3() / len).as_vec3())
+}
+
 /// An oriented plane `n . p + d = 0` with a unit normal `n`.
 ///
 /// Built only through the validating constructors, so the normal is always
@@ -106,11 +116,14 @@ impl Plane {
             return Err(Error::DegenerateGeometry);
         }
         let normal = n / sin;
-        let centroid = (p1 + p2 + p3) / 3.0;
-        Ok(Self {
-            normal,
-            d: -normal.dot(centroid),
-        })
+        // The centroid in f64: (p1 + p2 + p3) overflows f32 near f32::MAX.
+        let centroid = (p1.as_dvec3() + p2.as_dvec3() + p3.as_dvec3()) / 3.0;
+        let d = -normal.as_dvec3().dot(centroid) as f32;
+        if !d.is_finite() {
+            // |d| beyond f32 (fuzz finding F4): no representable plane.
+            return Err(Error::InvalidArgument);
+        }
+        Ok(Self { normal, d })
     }
 
     /// The plane through `point` with normal direction `normal` (normalized
@@ -123,11 +136,13 @@ impl Plane {
         if !(point.is_finite() && normal.is_finite()) {
             return Err(Error::InvalidArgument);
         }
-        let normal = normal.try_normalize().ok_or(Error::DegenerateGeometry)?;
-        Ok(Self {
-            normal,
-            d: -normal.dot(point),
-        })
+        let normal = unit_normal(normal)?;
+        let d = -normal.as_dvec3().dot(point.as_dvec3()) as f32;
+        if !d.is_finite() {
+            // |d| beyond f32 (fuzz finding F4): no representable plane.
+            return Err(Error::InvalidArgument);
+        }
+        Ok(Self { normal, d })
     }
 
     /// The plane `n . p + d = 0` from its coefficients. A non-unit `normal`
@@ -141,16 +156,23 @@ impl Plane {
         if !(normal.is_finite() && d.is_finite()) {
             return Err(Error::InvalidArgument);
         }
-        let len = normal.length();
-        if !(len > 0.0) || !len.is_finite() {
-            return Err(Error::DegenerateGeometry);
-        }
-        if len == 1.0 {
+        if normal.length() == 1.0 {
             return Ok(Self { normal, d });
         }
+        // The length in f64: |n|^2 under- or overflows f32 for components
+        // below ~1e-19 or above ~1e19 (fuzz finding F2), which are finite,
+        // non-zero normals all the same.
+        let len = normal.as_dvec3().length();
+        if !(len > 0.0) {
+            return Err(Error::DegenerateGeometry);
+        }
+        let d = (f64::from(d) / len) as f32;
+        if !d.is_finite() {
+            return Err(Error::InvalidArgument);
+        }
         Ok(Self {
-            normal: normal / len,
-            d: d / len,
+            normal: (normal.as_dvec3() / len).as_vec3(),
+            d,
         })
     }
 

@@ -555,10 +555,21 @@ fn make_hit(seg: &Segment, span: &Span, s: f32, front: f32, work: Work) -> Trace
         p.x.clamp(x0, next_below(x0 + 1.0)),
         p.y.clamp(y0, next_below(y0 + 1.0)),
     );
+    let (mut t, mut depth) = (seg.t(s), 1.0 / seg.iz(s));
+    if !(t.is_finite() && depth.is_finite()) && seg.dz > 0.0 {
+        // A ray ending at its vanishing point (iz_b = 0) that enters a
+        // surface more than ~2^23 times deeper than its start: the entry
+        // fraction rounds to the segment's end, where 1/iz is infinite
+        // (found by the step fuzz target). The ray enters through the
+        // front face there: depth = front, and t from the linear depth
+        // z(t) = 1/iz_a + dz (t - t_a).
+        depth = front;
+        t = seg.t_a + (front - 1.0 / seg.iz_a) / seg.dz;
+    }
     Trace::Hit(DepthHit {
         pixel,
-        t: seg.t(s),
-        depth: 1.0 / seg.iz(s),
+        t,
+        depth,
         surface_depth: front,
         work,
     })

@@ -405,3 +405,28 @@ proptest! {
         }
     }
 }
+
+/// Fuzz findings F3 and F5: a camera whose eye or projection scale is not
+/// finite in f32 is refused at construction (it used to validate, then
+/// give infinite eyes, NaN mirroring and degenerate matrices).
+#[test]
+fn cameras_with_unrepresentable_eyes_or_projections_are_refused() {
+    // The eye is -R^T t: |x| about 1.41 f32::MAX.
+    let view = Mat4::from_translation(Vec3::new(f32::MAX, 0.0, f32::MAX))
+        * Mat4::from_rotation_y(std::f32::consts::FRAC_PI_4);
+    assert_eq!(
+        Camera::try_new(view, 1.0, 0.1, 100.0, 8, 8).err(),
+        Some(Error::InvalidArgument)
+    );
+    assert_eq!(
+        Camera::try_new(Mat4::IDENTITY, 1e-45, 0.1, 100.0, 8, 8).err(),
+        Some(Error::InvalidArgument)
+    );
+    // Large but representable translations still work, and mirroring is
+    // read from the rotation part.
+    let mirror = Mat4::from_translation(Vec3::new(1e30, 0.0, 0.0))
+        * Mat4::from_scale(Vec3::new(-1.0, 1.0, 1.0));
+    let c = Camera::try_new(mirror, 1.0, 0.1, 100.0, 8, 8).unwrap();
+    assert!(c.is_mirrored());
+    assert!(c.eye().is_finite());
+}

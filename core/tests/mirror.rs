@@ -271,3 +271,36 @@ fn plane_from_coefficients() {
         Err(Error::InvalidArgument)
     );
 }
+
+/// Fuzz findings F2 and F4: finite non-zero normals whose squared length
+/// under- or overflows f32 normalize (in f64); a plane whose `d` would
+/// overflow f32 is refused instead of carrying `d = inf`.
+#[test]
+fn planes_at_extreme_scales() {
+    for s in [1e-30f32, 1e-20, 1e20, 1e30] {
+        let p = Plane::try_new(Vec3::new(0.0, s, 0.0), 2.0 * s).unwrap();
+        assert_eq!(p.normal(), Vec3::Y);
+        assert!((p.d() - 2.0).abs() < 1e-6);
+        let q =
+            Plane::try_from_point_normal(Vec3::new(1.0, 3.0, 0.0), Vec3::new(0.0, s, 0.0)).unwrap();
+        assert_eq!(q.normal(), Vec3::Y);
+        assert_eq!(q.d(), -3.0);
+    }
+    assert_eq!(
+        Plane::try_new(Vec3::ZERO, 1.0),
+        Err(Error::DegenerateGeometry)
+    );
+    let huge = Vec3::splat(f32::MAX * 0.9);
+    assert_eq!(
+        Plane::try_from_point_normal(huge, Vec3::ONE),
+        Err(Error::InvalidArgument)
+    );
+    assert_eq!(
+        Plane::try_from_triangle(
+            huge + Vec3::new(1e37, 0.0, 0.0),
+            huge + Vec3::new(0.0, 1e37, 0.0),
+            huge + Vec3::new(0.0, 0.0, 1e37)
+        ),
+        Err(Error::InvalidArgument)
+    );
+}

@@ -1912,3 +1912,41 @@ proptest! {
         }
     }
 }
+
+/// Fuzz finding F6: a ray from near the eye into a surface ~2^31 times
+/// deeper, under an infinite far plane and an infinite thickness, got a
+/// hit with `t = depth = +inf`; the hit now has finite values on the ray.
+#[test]
+fn hit_far_beyond_the_start_depth_is_finite() {
+    let cam = camera(1.0, f32::INFINITY, 16, 12);
+    let mut hits = 0;
+    for conv in DepthConvention::ALL {
+        let far_z = 8.4e8f32;
+        let data = vec![cam.encode_depth(far_z, conv); 16 * 12];
+        let d = di(&cam, &data, conv);
+        let ray = cam.primary_ray(Vec2::new(8.5, 6.5));
+        let ray = Ray {
+            origin: ray.origin + ray.dir * 0.38,
+            dir: ray.dir,
+        };
+        for th in [Thickness::Constant(f32::INFINITY), Thickness::Constant(1.0)] {
+            let tr = try_step(&d, th, ray, f32::INFINITY, StepOptions::default()).unwrap();
+            if let Some(h) = tr.hit() {
+                hits += 1;
+                assert!(h.t.is_finite() && h.depth.is_finite(), "{conv:?}: {tr:?}");
+                let z = f64::from(cam.decode_depth(data[0], conv));
+                assert!(
+                    (f64::from(h.depth) - z).abs() <= 1e-3 * z,
+                    "{conv:?}: {tr:?}"
+                );
+                let p = ray.origin.as_dvec3() + ray.dir.as_dvec3() * f64::from(h.t);
+                let vz = -(cam.view().as_dmat4().transform_point3(p)).z;
+                assert!(
+                    (vz - z).abs() <= 1e-3 * z,
+                    "{conv:?}: ray.at(t) depth {vz} vs {z}"
+                );
+            }
+        }
+    }
+    assert!(hits >= 3, "the far surface is hit ({hits})");
+}

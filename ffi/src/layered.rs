@@ -587,7 +587,9 @@ pub unsafe extern "C" fn refl_layered_face_ray(
 }
 
 /// Empties every texel of the map: count 0, depth +inf, payload
-/// 0xFFFFFFFF, bounds +inf (the exact bounds of the empty map).
+/// 0xFFFFFFFF, every bound cell the empty hull (+inf, -inf), the exact
+/// bounds of the empty map; and stamps the map with its grid
+/// (`REFL_LAYERED_STAMP_LEN` words after the counts).
 ///
 /// Returns `REFL_STATUS_NULL_POINTER` if `map` or one of its buffers is
 /// NULL; `REFL_STATUS_INVALID_ARGUMENT` for an invalid grid, misaligned or

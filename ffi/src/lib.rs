@@ -11,8 +11,13 @@
 //! * Outputs first, then inputs. Small values (vectors, rays, image
 //!   descriptors) are passed by value; cameras, planes and matrices by
 //!   pointer.
-//! * Every function returns a [`refl_status`]; `REFL_STATUS_OK` is 0. Null
-//!   pointers are reported before anything else, then invalid arguments.
+//! * Every function returns a [`refl_status`]; `REFL_STATUS_OK` is 0. Each
+//!   pointer is checked (NULL, then alignment) before it is read, and
+//!   `REFL_STATUS_NULL_POINTER` comes only with a NULL pointer; when several
+//!   arguments are bad, which one is reported is not specified (the
+//!   last-error message names it). (This read "NULL pointers first" until
+//!   the fuzz targets showed exports that check a misaligned output, a row
+//!   range or a face before a later NULL.)
 //! * Outputs are written only on success: results are computed into locals
 //!   and stored last, so a failed call leaves every output byte untouched,
 //!   and an output may alias an input.

@@ -58,6 +58,18 @@ pub(crate) unsafe fn read<T: Copy>(p: *const T, name: &str) -> Result<T, Error> 
 pub(crate) struct Out<T>(*mut T);
 
 impl<T> Out<T> {
+    /// An optional output: `None` for NULL, else checked as [`Out::new`].
+    /// Check it before the work it reports on, so that a misaligned one is
+    /// refused before any other output is written.
+    #[inline]
+    pub(crate) fn optional(p: *mut T, name: &str) -> Result<Option<Self>, Error> {
+        if p.is_null() {
+            Ok(None)
+        } else {
+            Self::new(p, name).map(Some)
+        }
+    }
+
     /// Checks `p`: `NullPointer` if null, `InvalidArgument` if misaligned.
     #[inline]
     pub(crate) fn new(p: *mut T, name: &str) -> Result<Self, Error> {

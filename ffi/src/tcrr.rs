@@ -418,6 +418,9 @@ pub unsafe extern "C" fn refl_tcrr_prepare(
     rows: refl_row_range,
 ) -> refl_status {
     guard("refl_tcrr_prepare", || {
+        // Checked before anything is written (an error leaves every output
+        // untouched).
+        let out_reflective_checked = Out::optional(out_reflective, "out_reflective")?;
         crate::ptr::no_nulls(&[(surfels.data.is_null(), "surfels.data")])?;
         // SAFETY: caller contract.
         let mut k = unsafe { read_key(key) }?;
@@ -431,8 +434,7 @@ pub unsafe extern "C" fn refl_tcrr_prepare(
             return Err(Error::InvalidArgument);
         }
         let n = tcrr::prepare(&mut v, &b)?;
-        if !out_reflective.is_null() {
-            let o = Out::new(out_reflective, "out_reflective")?;
+        if let Some(o) = out_reflective_checked {
             // SAFETY: caller contract.
             unsafe { o.write(n) };
         }
@@ -456,6 +458,7 @@ pub unsafe extern "C" fn refl_tcrr_reset_offsets(
     rows: refl_row_range,
 ) -> refl_status {
     guard("refl_tcrr_reset_offsets", || {
+        crate::ptr::no_nulls(&[(offsets.data.is_null(), "offsets.data")])?;
         let rows = RowRange::try_new(rows.begin, rows.end, offsets.height)?;
         // SAFETY: caller contract.
         let mut v = unsafe { offsets.band_mut(rows) }?;
@@ -489,6 +492,9 @@ pub unsafe extern "C" fn refl_tcrr_search(
     rows: refl_row_range,
 ) -> refl_status {
     guard("refl_tcrr_search", || {
+        // Checked before anything is written (an error leaves every output
+        // untouched).
+        let out_stats_checked = Out::optional(out_stats, "out_stats")?;
         crate::ptr::no_nulls(&[
             (offsets.data.is_null(), "offsets.data"),
             (key.is_null(), "key"),
@@ -505,8 +511,7 @@ pub unsafe extern "C" fn refl_tcrr_search(
         // SAFETY: caller contract.
         let mut v = unsafe { offsets.band_mut(rows) }?;
         let s = tcrr::search(&mut v, &b, eye, &p)?;
-        if !out_stats.is_null() {
-            let o = Out::new(out_stats, "out_stats")?;
+        if let Some(o) = out_stats_checked {
             // SAFETY: caller contract.
             unsafe {
                 o.write(refl_tcrr_search_stats {
@@ -544,6 +549,9 @@ pub unsafe extern "C" fn refl_tcrr_shift(
     rows: refl_row_range,
 ) -> refl_status {
     guard("refl_tcrr_shift", || {
+        // Checked before anything is written (an error leaves every output
+        // untouched).
+        let out_stats_checked = Out::optional(out_stats, "out_stats")?;
         crate::ptr::no_nulls(&[
             (color.data.is_null(), "color.data"),
             (depth.data.is_null(), "depth.data"),
@@ -570,8 +578,7 @@ pub unsafe extern "C" fn refl_tcrr_shift(
             )
         };
         let s = tcrr::shift(&mut c, &mut d, &mut v, &b, &ov, &p)?;
-        if !out_stats.is_null() {
-            let o = Out::new(out_stats, "out_stats")?;
+        if let Some(o) = out_stats_checked {
             // SAFETY: caller contract.
             unsafe {
                 o.write(refl_tcrr_shift_stats {
@@ -612,6 +619,9 @@ pub unsafe extern "C" fn refl_tcrr_warp(
     rows: refl_row_range,
 ) -> refl_status {
     guard("refl_tcrr_warp", || {
+        // Checked before anything is written (an error leaves every output
+        // untouched).
+        let out_stats_checked = Out::optional(out_stats, "out_stats")?;
         crate::ptr::no_nulls(&[
             (color.data.is_null(), "color.data"),
             (mask.data.is_null(), "mask.data"),
@@ -633,8 +643,7 @@ pub unsafe extern "C" fn refl_tcrr_warp(
         // SAFETY: caller contract (two distinct images).
         let (mut c, mut m) = unsafe { (color.band_mut(r)?, mask.band_mut(r)?) };
         let s = tcrr::warp(&mut c, &mut m, &cv, &b, &sv, &sd, &cov, &p)?;
-        if !out_stats.is_null() {
-            let o = Out::new(out_stats, "out_stats")?;
+        if let Some(o) = out_stats_checked {
             // SAFETY: caller contract.
             unsafe {
                 o.write(refl_tcrr_warp_stats {
@@ -694,10 +703,12 @@ pub unsafe extern "C" fn refl_tcrr_retrace_list(
 
 /// Output composition (seed 000 Sec. 3.3) over rows `[rows.begin,
 /// rows.end)`: `out = (1 - w) diffuse + w reflection` at the current
-/// frame's reflective pixels, `w` the specular factor (`fresnel ==
+/// frame's reflective pixels (a positive specular factor where the
+/// current depth holds a surface), `w` the specular factor (`fresnel ==
 /// REFL_TCRR_FRESNEL_OFF`) or Schlick's Fresnel term of it
 /// (`REFL_TCRR_FRESNEL_SCHLICK`) with `cos = n . normalize(E_cur - P)`;
-/// `out = diffuse` elsewhere.
+/// `out = diffuse` elsewhere (background pixels included, whatever their
+/// specular factor).
 ///
 /// Returns `REFL_STATUS_NULL_POINTER` for NULL `current` or image data;
 /// `REFL_STATUS_INVALID_ARGUMENT` for an unknown `fresnel`, a bad camera,

@@ -1,0 +1,149 @@
+#!/usr/bin/env bash
+# cargo-fuzz (libFuzzer + AddressSanitizer, leak detection on) targets of
+# refl's C ABI (fuzz/, issue 12 part 3).
+#
+#   scripts/fuzz.sh smoke              every target a few seconds from the
+#                                      checked-in corpus (about 60 s in all);
+#                                      fails on any crash, contract
+#                                      violation, leak or timeout
+#   scripts/fuzz.sh run TARGET SECONDS one long run (new inputs go to
+#                                      fuzz/corpus-local/TARGET, ignored)
+#   scripts/fuzz.sh minimize [TARGET]  merges fuzz/corpus-local into
+#                                      fuzz/corpus and `cargo fuzz cmin`s it
+#   scripts/fuzz.sh list               the targets
+#   scripts/fuzz.sh build              builds every target
+#
+# Every run prints per target the executions (libFuzzer's
+# stat::number_of_executed_units, -print_final_stats=1) and the coverage
+# (cov: edges, ft: features, from the final stats line).
+#
+# Environment: SMOKE_SECONDS (total smoke budget, default 60), JOBS (cargo
+# build jobs, default 2), REFL_FUZZ_STRICT (1 or a list such as F6,F7:
+# also fail on the known findings listed in fuzz/README.md).
+#
+# Toolchain: nightly when `rustup toolchain list` has it, otherwise the
+# default toolchain with RUSTC_BOOTSTRAP=1 (cargo-fuzz needs -Z flags).
+# cargo-fuzz itself is installed with `cargo install cargo-fuzz --locked`
+# when missing.
+set -euo pipefail
+cd "$(dirname "$0")/../fuzz"
+fuzz_dir=$(pwd)
+
+if command -v rustup >/dev/null 2>&1 && rustup toolchain list 2>/dev/null | grep -q '^nightly'; then
+  cargo_fuzz=(cargo +nightly fuzz)
+  rustc_vv=$(rustc +nightly -vV)
+else
+  export RUSTC_BOOTSTRAP=1
+  cargo_fuzz=(cargo fuzz)
+  rustc_vv=$(rustc -vV)
+fi
+if ! cargo fuzz --version >/dev/null 2>&1; then
+  echo "installing cargo-fuzz (cargo install cargo-fuzz --locked)"
+  cargo install cargo-fuzz --locked -j "${JOBS:-2}"
+fi
+export CARGO_BUILD_JOBS="${JOBS:-2}"
+triple=$(sed -n 's/^host: //p' <<<"$rustc_vv")
+bin_dir="$fuzz_dir/target/$triple/release"
+
+targets() {
+  for f in fuzz_targets/*.rs; do basename "$f" .rs; done
+}
+
+build() {
+  echo "building fuzz targets (${cargo_fuzz[*]} build, AddressSanitizer)"
+  "${cargo_fuzz[@]}" build
+}
+
+# Common libFuzzer flags: ASan's leak detection is on by default; a slow
+# input (10 s) or more than 2 GiB is a failure too.
+lf_flags=(-print_final_stats=1 -detect_leaks=1 -rss_limit_mb=2048 -timeout=10)
+
+# summary TARGET LOG STATUS: one line of executions and coverage.
+summary() {
+  local t=$1 log=$2 st=$3
+  local execs cov ft
+  execs=$(sed -n 's/^stat::number_of_executed_units: *//p' "$log" | tail -n 1)
+  cov=$(grep -Eo 'cov: [0-9]+' "$log" | tail -n 1 | awk '{print $2}')
+  ft=$(grep -Eo 'ft: [0-9]+' "$log" | tail -n 1 | awk '{print $2}')
+  printf '%-14s %-6s executions %-9s cov %-6s ft %-6s\n' "$t" "$st" "${execs:-?}" "${cov:-?}" "${ft:-?}"
+}
+
+# fuzz_one TARGET SECONDS OUT_CORPUS LOG: runs TARGET from its checked-in
+# corpus (read only) for SECONDS, new inputs to OUT_CORPUS; artifacts of
+# failures under fuzz/artifacts/TARGET/.
+fuzz_one() {
+  local t=$1 secs=$2 out=$3 log=$4
+  mkdir -p "$out" "corpus/$t" "artifacts/$t"
+  "$bin_dir/$t" "${lf_flags[@]}" -max_total_time="$secs" \
+    -artifact_prefix="artifacts/$t/" "$out" "corpus/$t" >"$log" 2>&1
+}
+
+cmd=${1:-smoke}
+case "$cmd" in
+  list)
+    targets
+    ;;
+  build)
+    build
+    ;;
+  smoke)
+    build
+    mapfile -t all < <(targets)
+    total=${SMOKE_SECONDS:-60}
+    per=$(( total / ${#all[@]} ))
+    [ "$per" -ge 1 ] || per=1
+    tmp=$(mktemp -d)
+    trap 'rm -rf "$tmp"' EXIT
+    echo "smoke: ${#all[@]} targets, ${per} s each"
+    failed=()
+    for t in "${all[@]}"; do
+      log="$tmp/$t.log"
+      if fuzz_one "$t" "$per" "$tmp/corpus-$t" "$log"; then
+        summary "$t" "$log" ok
+      else
+        summary "$t" "$log" FAIL
+        failed+=("$t")
+        grep -E -A12 'panicked at|ERROR: (AddressSanitizer|LeakSanitizer|libFuzzer)' "$log" | head -n 40 || true
+        ls -1 "artifacts/$t/" 2>/dev/null | sed "s|^|  reproducer: fuzz/artifacts/$t/|" || true
+      fi
+    done
+    if [ ${#failed[@]} -gt 0 ]; then
+      echo "fuzz smoke FAILED: ${failed[*]} (reproduce: fuzz/target/$triple/release/TARGET fuzz/artifacts/TARGET/crash-...)" >&2
+      exit 1
+    fi
+    echo "fuzz smoke: ${#all[@]} passed, 0 failed"
+    ;;
+  run)
+    t=${2:?usage: scripts/fuzz.sh run TARGET SECONDS}
+    secs=${3:?usage: scripts/fuzz.sh run TARGET SECONDS}
+    targets | grep -x "$t" >/dev/null || { echo "unknown target $t (scripts/fuzz.sh list)" >&2; exit 2; }
+    build
+    log="$fuzz_dir/target/fuzz-$t.log"
+    echo "running $t for $secs s (log: fuzz/target/fuzz-$t.log, new inputs: fuzz/corpus-local/$t)"
+    st=ok
+    fuzz_one "$t" "$secs" "corpus-local/$t" "$log" || st=FAIL
+    summary "$t" "$log" "$st"
+    if [ "$st" != ok ]; then
+      grep -E -A20 'panicked at|ERROR: (AddressSanitizer|LeakSanitizer|libFuzzer)' "$log" | head -n 60 || true
+      ls -1 "artifacts/$t/" 2>/dev/null | sed "s|^|  reproducer: fuzz/artifacts/$t/|" || true
+      exit 1
+    fi
+    ;;
+  minimize)
+    mapfile -t all < <(if [ -n "${2:-}" ]; then echo "$2"; else targets; fi)
+    build
+    for t in "${all[@]}"; do
+      mkdir -p "corpus/$t"
+      if [ -d "corpus-local/$t" ]; then
+        # Keep only the local inputs that add coverage.
+        "$bin_dir/$t" -merge=1 -rss_limit_mb=2048 -timeout=10 "corpus/$t" "corpus-local/$t" >/dev/null 2>&1
+      fi
+      "${cargo_fuzz[@]}" cmin "$t" "corpus/$t" -- -rss_limit_mb=2048 -timeout=10 >"target/cmin-$t.log" 2>&1
+      printf '%-14s %4d inputs, %6d bytes\n' "$t" "$(ls "corpus/$t" | wc -l)" "$(cat corpus/"$t"/* 2>/dev/null | wc -c)"
+    done
+    ;;
+  *)
+    sed -n '2,25p' "$0" >&2
+    exit 2
+    ;;
+esac
