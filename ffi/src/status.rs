@@ -286,13 +286,13 @@ pub unsafe extern "C" fn refl_last_error_message(dst: *mut c_char, dst_len: usiz
     r.unwrap_or(0)
 }
 
-/// The current thread's last-error message as a Rust string (for tests and
-/// Rust callers of the C ABI); see [`refl_last_error_message`].
-pub fn last_error_message() -> std::string::String {
-    LAST_ERROR.with(|l| {
-        l.try_borrow()
-            .map(|l| l.as_str().into())
-            .unwrap_or_default()
+/// Calls `f` with the current thread's last-error message (for Rust
+/// callers of the C ABI and tests; no copy, no allocation); see
+/// [`refl_last_error_message`].
+pub fn with_last_error_message<R>(f: impl FnOnce(&str) -> R) -> R {
+    LAST_ERROR.with(|l| match l.try_borrow() {
+        Ok(l) => f(l.as_str()),
+        Err(_) => f(""),
     })
 }
 
@@ -312,6 +312,10 @@ mod tests {
             assert_eq!(s.as_cstr().to_str().unwrap(), e.as_str());
             assert_eq!(s.to_result(), Err(Some(e)));
         }
+    }
+
+    fn last_error_message() -> std::string::String {
+        with_last_error_message(|m| m.to_owned())
     }
 
     #[test]

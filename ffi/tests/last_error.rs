@@ -18,7 +18,7 @@ fn message() -> String {
     assert_eq!(m, n);
     assert_eq!(buf[n], 0, "NUL-terminated");
     let s = String::from_utf8(buf[..n].to_vec()).unwrap();
-    assert_eq!(s, last_error_message());
+    with_last_error_message(|m| assert_eq!(s, m));
     s
 }
 
@@ -93,7 +93,7 @@ fn success_clears_the_message_and_statusless_calls_keep_it() {
     // SAFETY: NULL output is reported, not written.
     let s = unsafe { refl_tcrr_frame_bytes(null_mut(), 4, 4) };
     assert_eq!(s, refl_status::NullPointer);
-    std::thread::spawn(|| assert_eq!(last_error_message(), ""))
+    std::thread::spawn(|| with_last_error_message(|m| assert_eq!(m, "")))
         .join()
         .unwrap();
 }
