@@ -914,7 +914,10 @@ proptest! {
         let hiz = HiZ::try_new(&pyr, img.cam, img.conv).unwrap();
         let mut rng = Rng(seed);
         let rays = rays_for(&img, &mut rng, 20, 1.0);
-        let mut agree = 0;
+        // Agreement with the oracle is a statistic, not a property: 20 rays
+        // with a zero-thickness shell agreed 18 times under a random seed
+        // (scripts/explore.sh, checked in as a regression case). The
+        // overall >= 99% is asserted by the fixed-seed tests above.
         for (r, tm) in &rays {
             let th = Thickness::Constant(thick);
             let base = try_trace_hiz(&hiz, th, *r, *tm, &HiZOptions::default()).unwrap();
@@ -928,15 +931,7 @@ proptest! {
             if let Some(h) = base.hit() {
                 check_genuine(&img, thick as f64, r, h);
             }
-            let o = oracle(&img, thick as f64, r.origin.as_dvec3(), r.dir.as_dvec3(), *tm as f64);
-            agree += agrees(&base, &o) as usize;
         }
-        // Agreement with the oracle is a statistic, not a property: 20
-        // rays with a zero-thickness shell agreed 18 times under a random
-        // seed (scripts/explore.sh, checked in as a regression case). The
-        // overall >= 99% is asserted by the fixed-seed tests above; here the
-        // count is only reported.
-        let _ = agree;
     }
 }
 
