@@ -9,6 +9,14 @@
 #                                      violation, leak or timeout
 #   scripts/fuzz.sh run TARGET SECONDS one long run (new inputs go to
 #                                      fuzz/corpus-local/TARGET, ignored)
+#   scripts/fuzz.sh campaign TARGET CPU_SECONDS
+#                                      runs TARGET in chunks (CHUNK wall
+#                                      seconds each, default 900) until its
+#                                      processes used CPU_SECONDS of CPU
+#                                      time (user + system), appending one
+#                                      line per chunk to fuzz/campaign.tsv
+#                                      (checked in: the fuzzing record);
+#                                      stops at the first failure
 #   scripts/fuzz.sh minimize [TARGET]  merges fuzz/corpus-local into
 #                                      fuzz/corpus and `cargo fuzz cmin`s it
 #   scripts/fuzz.sh list               the targets
@@ -137,6 +145,46 @@ case "$cmd" in
       ls -1 "artifacts/$t/" 2>/dev/null | sed "s|^|  reproducer: fuzz/artifacts/$t/|" || true
       exit 1
     fi
+    ;;
+  campaign)
+    t=${2:?usage: scripts/fuzz.sh campaign TARGET CPU_SECONDS}
+    want=${3:?usage: scripts/fuzz.sh campaign TARGET CPU_SECONDS}
+    targets | grep -x "$t" >/dev/null || { echo "unknown target $t (scripts/fuzz.sh list)" >&2; exit 2; }
+    build
+    ledger="$fuzz_dir/campaign.tsv"
+    [ -f "$ledger" ] || printf 'date\tcommit\ttarget\twall_s\tcpu_s\texecutions\tcov\tft\tstatus\n' >"$ledger"
+    commit=$(git -C "$fuzz_dir" rev-parse --short HEAD)
+    if [ -n "$(git -C "$fuzz_dir" status --porcelain -- ../core ../ffi . 2>/dev/null | grep -v '^??' || true)" ]; then
+      commit="$commit+dirty"
+    fi
+    used=0
+    chunk=${CHUNK:-900}
+    while awk -v u="$used" -v w="$want" 'BEGIN { exit !(u < w) }'; do
+      log="$fuzz_dir/target/campaign-$t.log"
+      mkdir -p "corpus-local/$t" "corpus/$t" "artifacts/$t"
+      tfile=$(mktemp)
+      start=$(date +%s)
+      st=ok
+      /usr/bin/time -o "$tfile" -f '%U %S' \
+        "$bin_dir/$t" "${lf_flags[@]}" -max_total_time="$chunk" \
+        -artifact_prefix="artifacts/$t/" "corpus-local/$t" "corpus/$t" >"$log" 2>&1 || st=FAIL
+      wall=$(( $(date +%s) - start ))
+      cpu=$(tail -n 1 "$tfile" | awk '{ printf "%.0f", $1 + $2 }')
+      rm -f "$tfile"
+      used=$(( used + cpu ))
+      execs=$(sed -n 's/^stat::number_of_executed_units: *//p' "$log" | tail -n 1)
+      cov=$(grep -Eo 'cov: [0-9]+' "$log" | tail -n 1 | awk '{print $2}')
+      ft=$(grep -Eo 'ft: [0-9]+' "$log" | tail -n 1 | awk '{print $2}')
+      printf '%s\t%s\t%s\t%s\t%s\t%s\t%s\t%s\t%s\n' "$(date -u +%FT%TZ)" "$commit" "$t" "$wall" "$cpu" \
+        "${execs:-?}" "${cov:-?}" "${ft:-?}" "$st" >>"$ledger"
+      summary "$t" "$log" "$st"
+      if [ "$st" != ok ]; then
+        grep -E -A20 'panicked at|ERROR: (AddressSanitizer|LeakSanitizer|libFuzzer)' "$log" | head -n 60 || true
+        ls -1 "artifacts/$t/" 2>/dev/null | sed "s|^|  reproducer: fuzz/artifacts/$t/|" || true
+        exit 1
+      fi
+    done
+    echo "$t: $used CPU-s this campaign"
     ;;
   minimize)
     mapfile -t all < <(if [ -n "${2:-}" ]; then echo "$2"; else targets; fi)

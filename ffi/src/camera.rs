@@ -95,8 +95,11 @@ pub unsafe extern "C" fn refl_camera_look_at(
 ///
 /// Returns `REFL_STATUS_NULL_POINTER` if `camera` is NULL;
 /// `REFL_STATUS_INVALID_ARGUMENT` for a zero size, `fov_y` outside (0, pi),
-/// `z_near` not finite and positive, `z_far <= z_near`, or a non-finite
-/// view matrix; `REFL_STATUS_DEGENERATE_GEOMETRY` if the view's 3x3 part is
+/// `z_near` not finite and positive, `z_far <= z_near`, a non-finite
+/// view matrix, or (checked last) a camera whose projection scales
+/// (`tan(fov_y / 2)`, times the aspect, and their reciprocals) or whose eye
+/// overflow f32 (a subnormal `fov_y`, a translation near `FLT_MAX`);
+/// `REFL_STATUS_DEGENERATE_GEOMETRY` if the view's 3x3 part is
 /// not orthonormal within 1e-4 or its last row is not (0, 0, 0, 1).
 ///
 /// # Safety

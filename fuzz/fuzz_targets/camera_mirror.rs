@@ -203,10 +203,33 @@ fn op_validate(b: &mut Bytes, st: &mut State) {
         assert_eq!(s, refl_status::DegenerateGeometry, "refl_camera_validate: last row");
         return;
     }
+    // Fixed F3/F5: a camera whose projection scales (tan(fov_y / 2), its
+    // aspect product, and their reciprocals) or whose eye (-R^T t) are not
+    // finite in f32 is refused as InvalidArgument, after the geometry check.
+    let t = (f64::from(c.fov_y) * 0.5).tan();
+    let a = t * f64::from(c.width) / f64::from(c.height);
+    let scale_ok = [t, a].iter().all(|&v| (v as f32) > 0.0 && (v as f32).is_finite() && (1.0 / v as f32).is_finite());
+    let eye_ok = {
+        let m = &c.view.m;
+        (0..3).all(|i| {
+            // Row i of R^T is column i of R: m[4 * i .. 4 * i + 3].
+            let e = -(f64::from(m[4 * i]) * f64::from(m[12])
+                + f64::from(m[4 * i + 1]) * f64::from(m[13])
+                + f64::from(m[4 * i + 2]) * f64::from(m[14]));
+            (e as f32).is_finite()
+        })
+    };
+    if s == refl_status::InvalidArgument {
+        assert!(!(scale_ok && eye_ok), "refl_camera_validate({c:?}): InvalidArgument with finite scales and eye");
+        return;
+    }
     assert!(
         matches!(s, refl_status::Ok | refl_status::DegenerateGeometry),
         "refl_camera_validate: {s:?}"
     );
+    if s == refl_status::Ok {
+        assert!(scale_ok && eye_ok, "refl_camera_validate({c:?}) accepted a camera whose projection scale or eye overflows f32");
+    }
     if s == refl_status::Ok {
         // "OK if every other function will accept it."
         let mut m4 = refl_mat4 { m: [0.0; 16] };
