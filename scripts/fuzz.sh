@@ -26,7 +26,8 @@
 # stat::number_of_executed_units, -print_final_stats=1) and the coverage
 # (cov: edges, ft: features, from the final stats line).
 #
-# Environment: SMOKE_RUNS (executions per target in smoke, default 1500),
+# Environment: REFL_FUZZ_NO_BUILD (use the binaries already built, e.g.
+# for a long campaign while the sources change), SMOKE_RUNS (executions per target in smoke, default 1500),
 # SMOKE_SECONDS (time cap per smoke target, default 60), JOBS (cargo
 # build jobs, default 2), REFL_FUZZ_STRICT (1 or a list such as F6,F7:
 # also fail on the known findings listed in fuzz/README.md).
@@ -59,9 +60,27 @@ targets() {
   for f in fuzz_targets/*.rs; do basename "$f" .rs; done
 }
 
+# The commit the binaries were built from (+dirty when core, ffi or fuzz
+# had uncommitted changes), recorded in target/built-commit.
+source_commit() {
+  local c
+  c=$(git -C "$fuzz_dir" rev-parse --short HEAD 2>/dev/null || echo unknown)
+  if [ -n "$(git -C "$fuzz_dir" status --porcelain -- ../core ../ffi . 2>/dev/null | grep -v '^??' || true)" ]; then
+    c="$c+dirty"
+  fi
+  echo "$c"
+}
+
 build() {
+  if [ -n "${REFL_FUZZ_NO_BUILD:-}" ] && [ -f target/built-commit ]; then
+    echo "using the targets built from $(cat target/built-commit) (REFL_FUZZ_NO_BUILD)"
+    return
+  fi
   echo "building fuzz targets (${cargo_fuzz[*]} build, AddressSanitizer)"
+  local c
+  c=$(source_commit)
   "${cargo_fuzz[@]}" build
+  echo "$c" >target/built-commit
 }
 
 # Common libFuzzer flags: ASan's leak detection is on by default; a slow
@@ -153,10 +172,7 @@ case "$cmd" in
     build
     ledger="$fuzz_dir/campaign.tsv"
     [ -f "$ledger" ] || printf 'date\tcommit\ttarget\twall_s\tcpu_s\texecutions\tcov\tft\tstatus\n' >"$ledger"
-    commit=$(git -C "$fuzz_dir" rev-parse --short HEAD)
-    if [ -n "$(git -C "$fuzz_dir" status --porcelain -- ../core ../ffi . 2>/dev/null | grep -v '^??' || true)" ]; then
-      commit="$commit+dirty"
-    fi
+    commit=$(cat target/built-commit)
     used=0
     chunk=${CHUNK:-900}
     while awk -v u="$used" -v w="$want" 'BEGIN { exit !(u < w) }'; do
