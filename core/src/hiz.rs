@@ -1220,11 +1220,27 @@ impl<const STATS: bool> Walker<'_, '_, STATS> {
         }
     }
 
-    /// Moves the frontier along one axis to the pixel of coordinate `v`,
-    /// kept inside `[lo, hi)` and never backward.
+    /// Moves the frontier along one axis to the pixel of coordinate `v`
+    /// (the position at `self.s` along an axis whose segment starts at `v0`
+    /// and moves `d` over the segment), kept inside `[lo, hi)` and never
+    /// backward.
+    ///
+    /// A pixel owns the segment up to and including its exit parameter as
+    /// [`Self::exit`] computes it (`(boundary - v0) / d`), which is what a
+    /// level-0 visit searches. The position `v` is rounded in f32 and may
+    /// already lie on or past the boundary while `self.s` is still within
+    /// the old pixel's exit: the frontier then stays in the old pixel, so a
+    /// hit in its last sliver (a zero-thickness slab touched as the ray
+    /// leaves the texel, found by exploration) is not stepped over.
     #[inline]
-    fn sync_axis(&mut self, v: f32, d: f32, p: u32, lo: u32, hi: u32) -> u32 {
-        let f = dir_floor(v, d).clamp(i64::from(lo), i64::from(hi) - 1) as u32;
+    fn sync_axis(&mut self, v: f32, v0: f32, d: f32, p: u32, lo: u32, hi: u32) -> u32 {
+        let mut f = dir_floor(v, d);
+        if d > 0.0 && f > i64::from(p) && self.s <= (f as f32 - v0) / d {
+            f -= 1;
+        } else if d < 0.0 && f < i64::from(p) && self.s <= ((f + 1) as f32 - v0) / d {
+            f += 1;
+        }
+        let f = f.clamp(i64::from(lo), i64::from(hi) - 1) as u32;
         let n = if d > 0.0 {
             p.max(f)
         } else if d < 0.0 {
@@ -1240,8 +1256,8 @@ impl<const STATS: bool> Walker<'_, '_, STATS> {
     #[inline]
     fn sync_in(&mut self, c: &Cell) {
         let (x, y) = (self.seg.x(self.s), self.seg.y(self.s));
-        self.px = self.sync_axis(x, self.seg.dx, self.px, c.x0, c.x1);
-        self.py = self.sync_axis(y, self.seg.dy, self.py, c.y0, c.y1);
+        self.px = self.sync_axis(x, self.seg.x0, self.seg.dx, self.px, c.x0, c.x1);
+        self.py = self.sync_axis(y, self.seg.y0, self.seg.dy, self.py, c.y0, c.y1);
     }
 
     /// Crosses from cell `c` into its neighbor through `e`. `false` when
@@ -1275,13 +1291,13 @@ impl<const STATS: bool> Walker<'_, '_, STATS> {
             self.px = nx as u32;
             self.tie(x, nx);
         } else {
-            self.px = self.sync_axis(x, self.seg.dx, self.px, c.x0, c.x1);
+            self.px = self.sync_axis(x, self.seg.x0, self.seg.dx, self.px, c.x0, c.x1);
         }
         if e.cross_y {
             self.py = ny as u32;
             self.tie(y, ny);
         } else {
-            self.py = self.sync_axis(y, self.seg.dy, self.py, c.y0, c.y1);
+            self.py = self.sync_axis(y, self.seg.y0, self.seg.dy, self.py, c.y0, c.y1);
         }
         true
     }

@@ -1835,3 +1835,35 @@ fn pyramid_stamp_refuses_another_camera() {
     );
     assert!(short.iter().all(|t| *t == [5.0, 5.0]));
 }
+
+/// Regression (scripts/explore.sh): a reflection ray leaving the floor
+/// touches its own texel's zero-thickness slab 3e-5 px before the texel's
+/// edge, where the f32 position already rounds onto the edge. Descending
+/// from a coarser level moved the frontier past the texel by position and
+/// skipped the hit; every option setting now finds the oracle's hit.
+#[test]
+fn zero_thickness_hit_in_the_last_sliver_of_a_texel() {
+    let conv = DepthConvention::ALL[1];
+    let (ex, ey) = (0.07972314f32, 0.8701805f32);
+    let img = Img::new(
+        camera(Vec3::new(ex, ey, 7.0), Vec3::new(-ex, 1.0, -8.0), 40.0, 97, 61),
+        conv,
+        room(1.0),
+    );
+    let pyr = img.pyramid();
+    let hiz = HiZ::try_new(&pyr, img.cam, img.conv).unwrap();
+    let mut rng = Rng(16996242128816185205);
+    let (r, tm) = rays_for(&img, &mut rng, 20, 1.0)[7];
+    let orc = oracle(&img, 0.0, r.origin.as_dvec3(), r.dir.as_dvec3(), tm as f64).expect("oracle hit");
+    assert!(orc.t < 0.03, "the case: a hit right after the start, t = {}", orc.t);
+    for stop in 0..4 {
+        for start in stop..5 {
+            for prologue_steps in [0, 1, 2] {
+                let o = HiZOptions { stop_level: stop, start_level: start, prologue_steps, ..Default::default() };
+                let tr = try_trace_hiz(&hiz, Thickness::Constant(0.0), r, tm, &o).unwrap();
+                let h = tr.hit().unwrap_or_else(|| panic!("{o:?}: {tr:?}"));
+                assert!((f64::from(h.t) - orc.t).abs() < 1e-4, "{o:?}: t {} vs oracle {}", h.t, orc.t);
+            }
+        }
+    }
+}
