@@ -2455,7 +2455,8 @@ refl_status refl_camera_look_at(struct refl_camera *out,
  *
  * Returns `REFL_STATUS_NULL_POINTER` if `camera` is NULL;
  * `REFL_STATUS_INVALID_ARGUMENT` for a zero size, `fov_y` outside (0, pi),
- * `z_near` not finite and positive, `z_far <= z_near`, a non-finite
+ * `z_near` not finite and positive (or so small that `1 / z_near`
+ * overflows), `z_far <= z_near`, a non-finite
  * view matrix, or (checked last) a camera whose projection scales
  * (`tan(fov_y / 2)`, times the aspect, and their reciprocals) or whose eye
  * overflow f32 (a subnormal `fov_y`, a translation near `FLT_MAX`);
@@ -2581,7 +2582,11 @@ refl_status refl_camera_decode_depth(float *out,
  * Returns `REFL_STATUS_NULL_POINTER` if `out` or `camera` is NULL;
  * `REFL_STATUS_INVALID_ARGUMENT` for an unknown convention or
  * `REFL_DEPTH_CONVENTION_LINEAR` (linear depth is not projective); the
- * camera's status if it is invalid.
+ * camera's status if it is invalid; `REFL_STATUS_DEGENERATE_GEOMETRY` if
+ * an entry of the matrix is not representable in f32 (for the
+ * world-to-pixel matrix: the focal length in pixels times the view's
+ * translation beyond `FLT_MAX`, e.g. a translation near 1e30 with a
+ * 2^16-pixel image).
  *
  * # Safety
  * `out` must be NULL or writable; `camera` NULL or readable.
@@ -3319,7 +3324,11 @@ refl_status refl_hiz_build_rows(struct refl_vec2 *dst,
  * clipped to the camera's frustum and walked in screen space over the
  * pyramid; a texel is hit where the ray's linear depth lies between its
  * front depth and front + thickness (or its back-face depth). The first
- * hit agrees with `refl_step_ray` (per-pixel stepping) within a pixel.
+ * hit agrees with `refl_step_ray` (per-pixel stepping) within a pixel
+ * wherever f32 resolves the scene to better than a pixel (the rounding
+ * of the camera's and the ray's world coordinates, e.g. 0.125 at 1.6e6,
+ * below a pixel's footprint at the hit's depth); both round the same
+ * segment differently beyond that.
  * Writes the hit or the miss reason to `*out`.
  *
  * `ray.dir` must be unit length (within 1e-3); `t_max` > 0, +infinity

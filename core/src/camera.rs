@@ -99,7 +99,8 @@ impl Camera {
     ///
     /// # Errors
     /// * [`Error::InvalidArgument`]: a zero size; `fov_y` not in `(0, pi)`;
-    ///   `near` not finite and positive; `far` not greater than `near` (it
+    ///   `near` not finite and positive, or so small (subnormal) that
+    ///   `1 / near` overflows f32; `far` not greater than `near` (it
     ///   may be `+inf`); a non-finite matrix; an eye (the inverse view's
     ///   translation) or a projection scale (`1 / tan(fov_y / 2)`, also
     ///   times the aspect ratio) that is not finite in f32.
@@ -116,7 +117,7 @@ impl Camera {
         if width == 0
             || height == 0
             || !(fov_y > 0.0 && fov_y < core::f32::consts::PI)
-            || !(near > 0.0 && near.is_finite())
+            || !(near > 0.0 && near.is_finite() && (1.0 / near).is_finite())
             || !(far > near)
             || !view.is_finite()
         {
@@ -387,15 +388,22 @@ impl Camera {
 
     /// Decodes a stored depth `d` of convention `c` to linear depth: the
     /// inverse of [`Camera::encode_depth`]. The far plane at infinity decodes
-    /// to `+inf`.
+    /// to `+inf`; the stored far plane of a finite one (`1` in
+    /// [`DepthConvention::ZeroToOne`], `0` in [`DepthConvention::ReversedZ`],
+    /// the value a cleared depth buffer holds) decodes to exactly `far`, so
+    /// that every kernel's "no surface at or beyond the far plane" test
+    /// (`z < far`) holds for the background (the formula alone rounds it
+    /// to slightly less than `far`).
     #[inline]
     pub fn decode_depth(&self, d: f32, c: DepthConvention) -> f32 {
         let (n, f) = (self.near, self.far);
         match c {
             DepthConvention::Linear => d,
             DepthConvention::ZeroToOne if f.is_infinite() => n / (1.0 - d),
+            DepthConvention::ZeroToOne if d == 1.0 => f,
             DepthConvention::ZeroToOne => n * f / (f - d * (f - n)),
             DepthConvention::ReversedZ if f.is_infinite() => n / d,
+            DepthConvention::ReversedZ if d == 0.0 => f,
             DepthConvention::ReversedZ => n * f / (n + d * (f - n)),
         }
     }

@@ -469,15 +469,19 @@ impl LayeredGrid {
             step[a] = ext[a];
         }
         let origin = self.world_from_local.transform_point3(start);
-        let span = self.world_from_local.transform_vector3(step);
+        // Length and direction in f64 (fuzz finding F10): for a nearly
+        // singular transform (an axis scaled by ~1e-22) the f32 squares
+        // underflow and `span / span.length()` is not unit length.
+        let span = self.world_from_local.transform_vector3(step).as_dvec3();
         let len = span.length();
-        if !(len > 0.0) || !len.is_finite() || !origin.is_finite() {
+        let t_max = len as f32;
+        if !(t_max > 0.0) || !t_max.is_finite() || !origin.is_finite() {
             return Err(Error::DegenerateGeometry);
         }
         Ok(ColumnRay {
             origin,
-            dir: span / len,
-            t_max: len,
+            dir: (span / len).as_vec3(),
+            t_max,
         })
     }
 

@@ -1846,7 +1846,13 @@ fn zero_thickness_hit_in_the_last_sliver_of_a_texel() {
     let conv = DepthConvention::ALL[1];
     let (ex, ey) = (0.07972314f32, 0.8701805f32);
     let img = Img::new(
-        camera(Vec3::new(ex, ey, 7.0), Vec3::new(-ex, 1.0, -8.0), 40.0, 97, 61),
+        camera(
+            Vec3::new(ex, ey, 7.0),
+            Vec3::new(-ex, 1.0, -8.0),
+            40.0,
+            97,
+            61,
+        ),
         conv,
         room(1.0),
     );
@@ -1854,15 +1860,30 @@ fn zero_thickness_hit_in_the_last_sliver_of_a_texel() {
     let hiz = HiZ::try_new(&pyr, img.cam, img.conv).unwrap();
     let mut rng = Rng(16996242128816185205);
     let (r, tm) = rays_for(&img, &mut rng, 20, 1.0)[7];
-    let orc = oracle(&img, 0.0, r.origin.as_dvec3(), r.dir.as_dvec3(), tm as f64).expect("oracle hit");
-    assert!(orc.t < 0.03, "the case: a hit right after the start, t = {}", orc.t);
+    let orc =
+        oracle(&img, 0.0, r.origin.as_dvec3(), r.dir.as_dvec3(), tm as f64).expect("oracle hit");
+    assert!(
+        orc.t < 0.03,
+        "the case: a hit right after the start, t = {}",
+        orc.t
+    );
     for stop in 0..4 {
         for start in stop..5 {
             for prologue_steps in [0, 1, 2] {
-                let o = HiZOptions { stop_level: stop, start_level: start, prologue_steps, ..Default::default() };
+                let o = HiZOptions {
+                    stop_level: stop,
+                    start_level: start,
+                    prologue_steps,
+                    ..Default::default()
+                };
                 let tr = try_trace_hiz(&hiz, Thickness::Constant(0.0), r, tm, &o).unwrap();
                 let h = tr.hit().unwrap_or_else(|| panic!("{o:?}: {tr:?}"));
-                assert!((f64::from(h.t) - orc.t).abs() < 1e-4, "{o:?}: t {} vs oracle {}", h.t, orc.t);
+                assert!(
+                    (f64::from(h.t) - orc.t).abs() < 1e-4,
+                    "{o:?}: t {} vs oracle {}",
+                    h.t,
+                    orc.t
+                );
             }
         }
     }

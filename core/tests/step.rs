@@ -1916,6 +1916,60 @@ proptest! {
 /// Fuzz finding F6: a ray from near the eye into a surface ~2^31 times
 /// deeper, under an infinite far plane and an infinite thickness, got a
 /// hit with `t = depth = +inf`; the hit now has finite values on the ray.
+/// Fuzz finding F11: the far-surface fallback above rounded a hit 3% past
+/// `t_max` (1x1 image, infinite far plane, a surface at 3.6e12 just before
+/// `t_max`); the hit's `t` stays in `[0, t_max]`.
+#[test]
+fn far_surface_hit_stays_within_t_max() {
+    let view = glam::Mat4::from_cols_array(&[
+        -0.7150354,
+        0.4547328,
+        -0.53098255,
+        0.0,
+        0.0,
+        0.7595358,
+        0.65046555,
+        0.0,
+        0.6990882,
+        0.4651059,
+        -0.543095,
+        0.0,
+        -0.010881593,
+        0.88679034,
+        -4.2802224,
+        1.0,
+    ]);
+    let cam = Camera::try_new(view, 0.9905882, 0.33611766, f32::INFINITY, 1, 1).unwrap();
+    let ray = Ray {
+        origin: Vec3::new(-2.6837568, 2.1105883, -2.7294116),
+        dir: Vec3::new(0.72322553, -0.49385598, 0.48275372),
+    };
+    let t_max = 3_647_791_700_000f32;
+    let mut hits = 0;
+    for conv in DepthConvention::ALL {
+        for z in [3_647_791_400_000f32, 3.0e12, 3.6e12, 3.64e12] {
+            let data = [cam.encode_depth(z, conv)];
+            let d = di(&cam, &data, conv);
+            for th in [
+                Thickness::Constant(f32::INFINITY),
+                Thickness::Constant(1.0),
+                Thickness::Constant(1e12),
+            ] {
+                let tr = try_step(&d, th, ray, t_max, StepOptions::default()).unwrap();
+                if let Some(h) = tr.hit() {
+                    hits += 1;
+                    assert!(
+                        h.t >= 0.0 && h.t <= t_max,
+                        "{conv:?} z {z}: t {} outside [0, {t_max}]",
+                        h.t
+                    );
+                }
+            }
+        }
+    }
+    assert!(hits > 0, "the case hits");
+}
+
 #[test]
 fn hit_far_beyond_the_start_depth_is_finite() {
     let cam = camera(1.0, f32::INFINITY, 16, 12);

@@ -1196,3 +1196,39 @@ fn key_frame_policy_and_fresnel_weights() {
         }
     }
 }
+
+/// Fuzz finding F9: a background pixel (the cleared depth, at the far
+/// plane) with a positive specular factor holds no surface, so compose
+/// leaves it diffuse, in every convention.
+#[test]
+fn compose_leaves_far_plane_pixels_diffuse() {
+    for conv in DepthConvention::ALL {
+        let mut key = render(camera(eye0(), target0(), conv, W, H), conv);
+        let n = (W * H) as usize;
+        // The first row shows the background: cleared to the far plane,
+        // with a specular factor left over.
+        let background: Vec<usize> = (0..W as usize).collect();
+        for &i in &background {
+            key.depth[i] = key.cam.encode_depth(key.cam.far(), conv);
+            key.spec[i] = 1.0;
+        }
+        let diffuse = vec![[0.2f32, 0.4, 0.6]; n];
+        let refl = vec![[1.0f32, 0.0, 0.5]; n];
+        let mut out = vec![[0.0f32; 3]; n];
+        compose(
+            &mut ImageViewMut::try_new(&mut out, W, H, W).unwrap(),
+            &ImageView::try_new(&diffuse, W, H, W).unwrap(),
+            &ImageView::try_new(&refl, W, H, W).unwrap(),
+            &ImageView::try_new(&key.normal, W, H, W).unwrap(),
+            &key.current(),
+            Fresnel::Off,
+        )
+        .unwrap();
+        for &i in &background {
+            assert_eq!(
+                out[i], diffuse[i],
+                "{conv:?}: background pixel {i} composed"
+            );
+        }
+    }
+}

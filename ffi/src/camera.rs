@@ -95,7 +95,8 @@ pub unsafe extern "C" fn refl_camera_look_at(
 ///
 /// Returns `REFL_STATUS_NULL_POINTER` if `camera` is NULL;
 /// `REFL_STATUS_INVALID_ARGUMENT` for a zero size, `fov_y` outside (0, pi),
-/// `z_near` not finite and positive, `z_far <= z_near`, a non-finite
+/// `z_near` not finite and positive (or so small that `1 / z_near`
+/// overflows), `z_far <= z_near`, a non-finite
 /// view matrix, or (checked last) a camera whose projection scales
 /// (`tan(fov_y / 2)`, times the aspect, and their reciprocals) or whose eye
 /// overflow f32 (a subnormal `fov_y`, a translation near `FLT_MAX`);
@@ -313,7 +314,11 @@ pub unsafe extern "C" fn refl_camera_decode_depth(
 /// Returns `REFL_STATUS_NULL_POINTER` if `out` or `camera` is NULL;
 /// `REFL_STATUS_INVALID_ARGUMENT` for an unknown convention or
 /// `REFL_DEPTH_CONVENTION_LINEAR` (linear depth is not projective); the
-/// camera's status if it is invalid.
+/// camera's status if it is invalid; `REFL_STATUS_DEGENERATE_GEOMETRY` if
+/// an entry of the matrix is not representable in f32 (for the
+/// world-to-pixel matrix: the focal length in pixels times the view's
+/// translation beyond `FLT_MAX`, e.g. a translation near 1e30 with a
+/// 2^16-pixel image).
 ///
 /// # Safety
 /// `out` must be NULL or writable; `camera` NULL or readable.

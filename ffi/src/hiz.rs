@@ -402,7 +402,11 @@ unsafe fn trace_inputs<'a>(
 /// clipped to the camera's frustum and walked in screen space over the
 /// pyramid; a texel is hit where the ray's linear depth lies between its
 /// front depth and front + thickness (or its back-face depth). The first
-/// hit agrees with `refl_step_ray` (per-pixel stepping) within a pixel.
+/// hit agrees with `refl_step_ray` (per-pixel stepping) within a pixel
+/// wherever f32 resolves the scene to better than a pixel (the rounding
+/// of the camera's and the ray's world coordinates, e.g. 0.125 at 1.6e6,
+/// below a pixel's footprint at the hit's depth); both round the same
+/// segment differently beyond that.
 /// Writes the hit or the miss reason to `*out`.
 ///
 /// `ray.dir` must be unit length (within 1e-3); `t_max` > 0, +infinity

@@ -244,12 +244,14 @@ pub(crate) fn camera_named(c: &refl_camera, name: &str) -> Result<Camera, Error>
             "zero width or height"
         } else if !(c.fov_y > 0.0 && c.fov_y < core::f32::consts::PI) {
             "fov_y not in (0, pi)"
-        } else if !(c.z_near > 0.0 && c.z_near.is_finite()) {
-            "z_near not finite and positive"
+        } else if !(c.z_near > 0.0 && c.z_near.is_finite() && (1.0 / c.z_near).is_finite()) {
+            "z_near not finite and positive (or 1 / z_near overflows)"
         } else if !(c.z_far > c.z_near) {
             "z_far not beyond z_near"
         } else if !c.view.m.iter().all(|v| v.is_finite()) {
             "view matrix not finite"
+        } else if e == Error::InvalidArgument {
+            "projection scale (1 / tan(fov_y / 2), times the aspect) or eye not representable in f32"
         } else {
             "view matrix not a rigid transform (rotation and translation)"
         };

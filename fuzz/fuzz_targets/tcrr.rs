@@ -348,9 +348,9 @@ fuzz_target!(|data: &[u8]| {
     let od = refl_image_vec2_mut { data: offs.buf.ptr(), len: offs.buf.len(), width: offs.w, height: offs.h, stride: offs.stride };
     // SAFETY: NULL, misaligned or valid.
     let s = unsafe { refl_tcrr_reset_offsets(od, rows) };
-    // Known finding F1 (second form): the row range is checked before the
-    // NULL data pointer.
-    let f1 = !strict_for("F1") && !rows_ok(rows, offs.h) && s == refl_status::InvalidArgument;
+    // F1's rule: a bad row range may be reported rather than a NULL data
+    // pointer.
+    let f1 = !rows_ok(rows, offs.h) && s == refl_status::InvalidArgument;
     null_rules(s, offs.buf.is_null() && !f1, offs.buf.is_null(), "refl_tcrr_reset_offsets");
     on_error_untouched(s, &[("offsets", offs.buf.bytes() == &snap[..])], "refl_tcrr_reset_offsets");
     if s == refl_status::Ok {
@@ -617,15 +617,11 @@ fuzz_target!(|data: &[u8]| {
                 let i = (y * w + x) as usize;
                 let o = out.buf.get((y * out.stride + x) as usize);
                 let sp = k.spec.get(i);
-                // Known finding F9 (header text): refl composes only where
-                // the current depth holds a surface (refl-core's docs say
-                // so); the header promises the blend at every pixel with a
-                // positive specular factor.
+                // F9 (the header corrected): the blend only where the
+                // current depth holds a surface, diffuse elsewhere.
                 let z = decode(&cur.camera, k.depth.get(i), cur.convention);
                 let surface = z.is_some_and(|z| z > 0.0 && z.is_finite() && z < cur.camera.z_far);
-                if !surface && !strict_for("F9") {
-                    // Either: diffuse (refl-core) or the blend (header).
-                } else if !(sp > 0.0) {
+                if !surface || !(sp > 0.0) {
                     assert!(o == diffuse[i], "non-reflective pixel ({x}, {y}) composed to {o:?}");
                 } else if fres == 0 {
                     let wgt = sp.clamp(0.0, 1.0);

@@ -493,19 +493,6 @@ pub fn strict_for(id: &str) -> bool {
     v == "1" || v == "all" || v.split(',').any(|x| x.trim() == id)
 }
 
-/// Known finding F3 (tolerated unless [`strict`]): `refl_camera_validate`
-/// accepts any `fov_y` in (0, pi), but for a subnormal `fov_y` (below about
-/// 6e-39) `1 / tan(fov_y / 2)` overflows f32 and the projection matrices
-/// of the "valid" camera come back as `REFL_STATUS_DEGENERATE_GEOMETRY`.
-/// The same holds for `refl_camera_world_to_pixel_matrix` of a camera far
-/// from the origin (a view translation near f32::MAX): the header lists no
-/// DEGENERATE_GEOMETRY for either function.
-/// A subnormal `z_near` (also accepted) overflows `1 / near` the same way:
-/// traces through such a camera report hits with an infinite depth.
-pub fn known_f3(c: &refl_camera) -> bool {
-    !strict_for("F3") && ((c.fov_y > 0.0 && c.fov_y < 1e-37) || (c.z_near > 0.0 && c.z_near < 1e-37))
-}
-
 /// Known finding F5 (tolerated unless [`strict`]): `refl_camera_validate`
 /// accepts a view translation near f32::MAX, whose eye (`-R^T t`, rounded
 /// to f32) overflows: `refl_camera_eye` and `refl_camera_inverse_view`
@@ -516,14 +503,15 @@ pub fn known_f5(c: &refl_camera) -> bool {
     !strict_for("F5") && c.view.m[12..15].iter().any(|v| v.abs() > 1e37)
 }
 
-/// [`known_f3`] for the world-to-pixel matrix (also huge translations).
-pub fn known_f3_world(c: &refl_camera) -> bool {
-    // The matrix scales the view by the focal length in pixels: it
-    // overflows when focal * max(w, h) * |translation| nears f32::MAX.
+/// Whether the world-to-pixel matrix of a valid camera may overflow f32
+/// (the documented `REFL_STATUS_DEGENERATE_GEOMETRY`): it scales the view
+/// by the focal length in pixels, so it can only when focal * max(w, h) *
+/// |translation| nears `FLT_MAX`. A refusal without this is a bug.
+pub fn world_to_pixel_may_overflow(c: &refl_camera) -> bool {
     let focal = 1.0 / (f64::from(c.fov_y) * 0.5).tan();
     let t = c.view.m[12..15].iter().fold(1f64, |a, v| a.max(f64::from(v.abs())));
     let side = f64::from(c.width.max(c.height));
-    known_f3(c) || (!strict_for("F3") && (focal + 1.0) * (side + 1.0) * t > 1e36)
+    (focal + 1.0) * (side + 1.0) * t > 1e36
 }
 
 /// The NULL rules: with a NULL required pointer the status is
@@ -535,10 +523,11 @@ pub fn null_rules(s: refl_status, required_null: bool, any_null: bool, what: &st
 }
 
 /// [`null_rules`] for a call where some pointer is misaligned
-/// (`any_misaligned`). Known finding F1 (tolerated unless [`strict`]): a
-/// misaligned pointer checked before a NULL one gives
-/// `REFL_STATUS_INVALID_ARGUMENT`, although the header reports "NULL
-/// pointers first".
+/// (`any_misaligned`). Since finding F1 the header's rule is that every
+/// pointer is checked before it is read and `REFL_STATUS_NULL_POINTER`
+/// comes only with a NULL, while which of several bad arguments is reported
+/// is unspecified: a misaligned pointer checked before a NULL one may give
+/// `REFL_STATUS_INVALID_ARGUMENT`.
 #[track_caller]
 pub fn null_rules_m(
     s: refl_status,
@@ -550,8 +539,8 @@ pub fn null_rules_m(
     no_panic(s, what);
     check_last_error(s, what);
     if required_null {
-        let known_f1 = any_misaligned && s == refl_status::InvalidArgument && !strict_for("F1");
-        if !known_f1 {
+        let misaligned_first = any_misaligned && s == refl_status::InvalidArgument;
+        if !misaligned_first {
             assert_eq!(s, refl_status::NullPointer, "{what}: NULL not reported first");
         }
     }
@@ -1134,7 +1123,7 @@ pub fn check_trace(
             r.t
         );
         assert!(
-            (r.depth.is_finite() && r.surface_depth.is_finite()) || known_f3(cam),
+            r.depth.is_finite() && r.surface_depth.is_finite(),
             "{what}: non-finite hit depth {r:?} ray {ray:?} t_max {t_max} camera {cam:?}"
         );
         if camera_moderate(cam) && max_abs3(ray.origin) < 100.0 && r.t < 1e3 {

@@ -72,13 +72,16 @@ impl<'a> CurrentView<'a> {
         self.specular.get(x, y).is_some_and(|s| s > 0.0)
     }
 
-    /// World point seen through pixel `(x, y)`, if its depth is a finite
-    /// positive distance.
+    /// World point seen through pixel `(x, y)`, if its depth is a positive
+    /// distance in front of the far plane.
     #[inline]
     fn point(&self, x: u32, y: u32) -> Option<(Vec3, f32)> {
         let d = self.depth.get(x, y)?;
         let z = self.camera.decode_depth(d, self.convention);
-        if !(z > 0.0 && z.is_finite()) {
+        // A surface lies in front of the far plane: a depth at the far
+        // plane (a cleared depth buffer, the background) or beyond holds
+        // none (fuzz finding F9).
+        if !(z > 0.0 && z.is_finite() && z < self.camera.far()) {
             return None;
         }
         let p = self.camera.unproject(
