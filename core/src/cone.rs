@@ -802,7 +802,10 @@ impl<'a> ConePyramids<'a> {
         let (x0, y0) = (libm::floorf(u), libm::floorf(v));
         let (fx, fy) = (u - x0, v - y0);
         let (wm, hm) = (i64::from(l.width) - 1, i64::from(l.height) - 1);
-        let (xi, yi) = (x0 as i64, y0 as i64);
+        // Clamped first: a position far outside the image (or +-inf)
+        // saturates the cast at i64::MAX, where `xi + 1` overflowed (fuzz
+        // finding F13); every index is clamped into the level anyway.
+        let (xi, yi) = ((x0 as i64).clamp(-1, wm), (y0 as i64).clamp(-1, hm));
         let fetch = |x: i64, y: i64| -> [f32; N] {
             let x = x.clamp(0, wm) as usize;
             let y = y.clamp(0, hm) as usize;

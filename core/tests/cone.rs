@@ -1439,3 +1439,35 @@ fn cone_pyramids_refuse_another_frame() {
         try_cone_trace(&full, &cone, [0.0; 3], &off).unwrap()
     );
 }
+
+/// Fuzz finding F13: a cone stretched by a huge `max_stretch` (2.3e21,
+/// with `n_dot_v <= 0`, so the stretch is the maximum) samples the pyramid
+/// at positions ~1e21 px outside the image, whose integer cell saturated to
+/// `i64::MAX`; `cell + 1` overflowed (a panic with debug assertions). The
+/// trace now returns a finite result.
+#[test]
+fn cone_stretched_far_outside_the_image_is_finite() {
+    let fr = Frame::new(32, 24, 5.0, DepthConvention::ZeroToOne, |_, _| [0.5; 3]);
+    let p = fr.pyramids();
+    for max_stretch in [2.334_960_3e21f32, 1e30, f32::MAX] {
+        let opts = ConeOptions {
+            max_stretch,
+            use_visibility: true,
+            ..ConeOptions::default()
+        };
+        let k = Cone {
+            apex: Vec2::new(2.4e-35, 0.9998169),
+            apex_depth: 11.413258,
+            hit: Vec2::new(0.9123827, 0.153048),
+            hit_depth: 3.4544716,
+            theta: 0.6573541,
+            n_dot_v: -1.1754944e-38,
+            travel: 1.0608072,
+        };
+        let r = try_cone_trace(&p, &k, [-0.05, 0.0, 0.0], &opts).unwrap();
+        assert!(
+            r.color.iter().all(|c| c.is_finite()) && (0.0..=1.0).contains(&r.coverage),
+            "{max_stretch}: {r:?}"
+        );
+    }
+}

@@ -503,15 +503,23 @@ pub fn known_f5(c: &refl_camera) -> bool {
     !strict_for("F5") && c.view.m[12..15].iter().any(|v| v.abs() > 1e37)
 }
 
-/// Whether the world-to-pixel matrix of a valid camera may overflow f32
-/// (the documented `REFL_STATUS_DEGENERATE_GEOMETRY`): it scales the view
-/// by the focal length in pixels, so it can only when focal * max(w, h) *
-/// |translation| nears `FLT_MAX`. A refusal without this is a bug.
-pub fn world_to_pixel_may_overflow(c: &refl_camera) -> bool {
+/// Whether the projection (`world == false`) or world-to-pixel matrix of a
+/// valid camera may overflow f32 (the documented
+/// `REFL_STATUS_DEGENERATE_GEOMETRY`): the projection's depth row holds
+/// `f / (n - f)` and `n f / (n - f)` (reversed: `n / (f - n)`, `n f / (f -
+/// n)`), which overflow for a huge near plane close to the far one; the
+/// world-to-pixel matrix also scales the view by the focal length in
+/// pixels and the image size. A refusal without this is a bug.
+pub fn matrix_may_overflow(c: &refl_camera, world: bool) -> bool {
+    let (n, f) = (f64::from(c.z_near), f64::from(c.z_far));
+    let depth_row = if f.is_infinite() { n } else { (n * f / (f - n)).abs().max((f / (f - n)).abs()) };
     let focal = 1.0 / (f64::from(c.fov_y) * 0.5).tan();
+    if !world {
+        return depth_row > 1e37 || focal > 1e37;
+    }
     let t = c.view.m[12..15].iter().fold(1f64, |a, v| a.max(f64::from(v.abs())));
     let side = f64::from(c.width.max(c.height));
-    (focal + 1.0) * (side + 1.0) * t > 1e36
+    (focal + 1.0 + depth_row) * (side + 1.0) * t > 1e36
 }
 
 /// The NULL rules: with a NULL required pointer the status is
