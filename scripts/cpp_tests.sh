@@ -35,3 +35,26 @@ run build --verbose -DREFL_SANITIZE=OFF
 ASAN_OPTIONS=${ASAN_OPTIONS:-detect_leaks=1:halt_on_error=1:abort_on_error=0} \
 UBSAN_OPTIONS=${UBSAN_OPTIONS:-print_stacktrace=1:halt_on_error=1} \
   run build-asan "" -DREFL_SANITIZE=ON
+
+# The README's two link lines, as a C++ user types them (issue 13 part 5):
+# the archive named explicitly, and -lrefl with an rpath to librefl.so.
+echo "==== cpp_tests: README link lines (static and shared) ===="
+cargo build --locked --release -p refl-ffi
+link_dir="$root/target/readme-link"
+rm -rf "$link_dir"
+mkdir -p "$link_dir"
+c++ -std=c++17 cpp_tests/example.cpp -Iinclude target/release/librefl.a -lpthread -ldl -lm \
+  -o "$link_dir/example-static"
+cp target/release/librefl.so "$link_dir/"
+c++ -std=c++17 cpp_tests/example.cpp -Iinclude -Ltarget/release -lrefl -Wl,-rpath,'$ORIGIN' \
+  -o "$link_dir/example-shared"
+"$link_dir/example-static" >/dev/null
+"$link_dir/example-shared" >/dev/null
+# The static program needs no librefl.so; the shared one loads the copy
+# beside it.
+if ldd "$link_dir/example-static" | grep -q librefl; then
+  echo "example-static depends on librefl.so" >&2
+  exit 1
+fi
+ldd "$link_dir/example-shared" | grep -q "$link_dir/librefl.so"
+echo "README link lines: static $(stat -c %s target/release/librefl.a) bytes (librefl.a), shared $(stat -c %s target/release/librefl.so) bytes (librefl.so)"
