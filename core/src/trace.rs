@@ -337,3 +337,70 @@ fn below(n: u32) -> f32 {
     let f = n as f32;
     f32::from_bits(f.to_bits() - 1)
 }
+
+/// The ray parameter where the projection of `ray` into `camera` has moved
+/// `pixels` pixels (Euclidean) from the projection of its origin: where a
+/// screen-space reflection ray leaving a surface should start, so that the
+/// texels it starts in (its own surface's) are not reported as hits.
+///
+/// A depth texel stores one depth for its whole footprint; a ray leaving a
+/// surface that recedes from the camera runs behind the next texels of that
+/// surface for about half a texel, so a kernel starting at `t = 0` reports
+/// the reflector itself (self-intersection). Starting once the projection
+/// has left the origin's texel, `pixels = 1`, removes these hits whatever
+/// the thickness or the viewing angle (issue 13: a depth-slope offset left
+/// thousands of self-hits with a thick shell, this rule none).
+///
+/// Closed form (perspective projection of a line): with the origin at view
+/// depth `w0 > 0`, the depth changing by `wd` per unit `t`, and `K` the norm
+/// of `w0 (du, dv) - wd (u0, v0)` for the view-plane pixel coordinates `u =
+/// fx x`, `v = fy y`, the projected distance is `t K / (w0 (w0 + t wd))`,
+/// increasing in `t` while `w0 + t wd > 0`; it reaches `pixels` at
+/// `t = pixels w0^2 / (K - pixels w0 wd)`. Computed in f64.
+///
+/// Returns `None` if the origin is not in front of the camera (`w0 <= 0`),
+/// if the inputs are not finite or `pixels` is negative, or if the
+/// projection never moves that far: a ray receding toward its vanishing
+/// point closer than `pixels` to the origin's projection (`K <= pixels w0
+/// wd`), e.g. a ray along the line of sight.
+///
+/// # Examples
+/// ```
+/// use refl_core::{trace::ray_start_t, Camera, Ray};
+/// use refl_core::glam::Vec3;
+/// let cam = Camera::try_look_at(Vec3::new(0.0, 1.0, 5.0), Vec3::ZERO, Vec3::Y,
+///     1.0, 0.1, 100.0, 64, 48).unwrap();
+/// // A ray leaving the floor under the camera's view, to the right.
+/// let ray = Ray { origin: Vec3::ZERO, dir: Vec3::X };
+/// let t = ray_start_t(&cam, &ray, 1.0).unwrap();
+/// let (p0, p1) = (cam.project(ray.origin).unwrap(), cam.project(ray.at(t)).unwrap());
+/// assert!(((p1.x - p0.x).hypot(p1.y - p0.y) - 1.0).abs() < 1e-3);
+/// ```
+pub fn ray_start_t(camera: &Camera, ray: &Ray, pixels: f32) -> Option<f32> {
+    if !(pixels >= 0.0 && pixels.is_finite() && ray.origin.is_finite() && ray.dir.is_finite()) {
+        return None;
+    }
+    let view = camera.view().as_dmat4();
+    let o = view.transform_point3(ray.origin.as_dvec3());
+    let d = view.transform_vector3(ray.dir.as_dvec3());
+    // The same f64 tangents as `Camera::project`.
+    let (w, h) = (f64::from(camera.width()), f64::from(camera.height()));
+    let tan_y = libm::tan(f64::from(camera.fov_y()) * 0.5);
+    let tan_x = tan_y * w / h;
+    let (fx, fy) = (0.5 * w / tan_x, 0.5 * h / tan_y);
+    let (w0, wd) = (-o.z, -d.z);
+    if !(w0 > 0.0) {
+        return None;
+    }
+    let n = f64::from(pixels);
+    let ku = fx * (w0 * d.x - wd * o.x);
+    let kv = fy * (w0 * d.y - wd * o.y);
+    let k = libm::sqrt(ku * ku + kv * kv);
+    let den = k - n * w0 * wd;
+    if !(den > 0.0) {
+        return None;
+    }
+    let t = n * w0 * w0 / den;
+    let t32 = t as f32;
+    t32.is_finite().then_some(t32)
+}
