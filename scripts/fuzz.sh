@@ -107,6 +107,14 @@ fuzz_one() {
     -artifact_prefix="artifacts/$t/" "$out" "corpus/$t" >"$log" 2>&1
 }
 
+# report_failure TARGET LOG: the panic or sanitizer report and the
+# reproducers of a failed run; exits 1.
+report_failure() {
+  grep -E -A20 'panicked at|ERROR: (AddressSanitizer|LeakSanitizer|libFuzzer)' "$2" | head -n 60 || true
+  ls -1 "artifacts/$1/" 2>/dev/null | sed "s|^|  reproducer: fuzz/artifacts/$1/|" || true
+  exit 1
+}
+
 # Extra libFuzzer flags (the smoke run's fixed seed and run count).
 extra_flags=()
 
@@ -159,11 +167,7 @@ case "$cmd" in
     st=ok
     fuzz_one "$t" "$secs" "corpus-local/$t" "$log" || st=FAIL
     summary "$t" "$log" "$st"
-    if [ "$st" != ok ]; then
-      grep -E -A20 'panicked at|ERROR: (AddressSanitizer|LeakSanitizer|libFuzzer)' "$log" | head -n 60 || true
-      ls -1 "artifacts/$t/" 2>/dev/null | sed "s|^|  reproducer: fuzz/artifacts/$t/|" || true
-      exit 1
-    fi
+    [ "$st" = ok ] || report_failure "$t" "$log"
     ;;
   campaign)
     t=${2:?usage: scripts/fuzz.sh campaign TARGET CPU_SECONDS}
@@ -194,11 +198,7 @@ case "$cmd" in
       printf '%s\t%s\t%s\t%s\t%s\t%s\t%s\t%s\t%s\n' "$(date -u +%FT%TZ)" "$commit" "$t" "$wall" "$cpu" \
         "${execs:-?}" "${cov:-?}" "${ft:-?}" "$st" >>"$ledger"
       summary "$t" "$log" "$st"
-      if [ "$st" != ok ]; then
-        grep -E -A20 'panicked at|ERROR: (AddressSanitizer|LeakSanitizer|libFuzzer)' "$log" | head -n 60 || true
-        ls -1 "artifacts/$t/" 2>/dev/null | sed "s|^|  reproducer: fuzz/artifacts/$t/|" || true
-        exit 1
-      fi
+      [ "$st" = ok ] || report_failure "$t" "$log"
     done
     echo "$t: $used CPU-s this campaign"
     ;;

@@ -1175,6 +1175,22 @@ fn key_frame_policy_and_fresnel_weights() {
     let conv = DepthConvention::Linear;
     let key = render(camera(eye0(), target0(), conv, W, H), conv);
     let n = (W * H) as usize;
+    let (diffuse, refl, out) = compose_constant(&key);
+    for i in 0..n {
+        if key.spec[i] > 0.0 {
+            let want = Vec3::from_array(diffuse[i]) * 0.1 + Vec3::from_array(refl[i]) * 0.9;
+            assert!((Vec3::from_array(out[i]) - want).abs().max_element() < 1e-6);
+        } else {
+            assert_eq!(out[i], diffuse[i]);
+        }
+    }
+}
+
+/// Composes `key` with a constant diffuse (0.2, 0.4, 0.6) and reflection
+/// (1, 0, 0.5), Fresnel off: returns (diffuse, reflection, output).
+type Rgb = Vec<[f32; 3]>;
+fn compose_constant(key: &Frame) -> (Rgb, Rgb, Rgb) {
+    let n = (W * H) as usize;
     let diffuse = vec![[0.2f32, 0.4, 0.6]; n];
     let refl = vec![[1.0f32, 0.0, 0.5]; n];
     let mut out = vec![[0.0f32; 3]; n];
@@ -1187,14 +1203,7 @@ fn key_frame_policy_and_fresnel_weights() {
         Fresnel::Off,
     )
     .unwrap();
-    for i in 0..n {
-        if key.spec[i] > 0.0 {
-            let want = Vec3::from_array(diffuse[i]) * 0.1 + Vec3::from_array(refl[i]) * 0.9;
-            assert!((Vec3::from_array(out[i]) - want).abs().max_element() < 1e-6);
-        } else {
-            assert_eq!(out[i], diffuse[i]);
-        }
-    }
+    (diffuse, refl, out)
 }
 
 /// Fuzz finding F9: a background pixel (the cleared depth, at the far
@@ -1204,7 +1213,6 @@ fn key_frame_policy_and_fresnel_weights() {
 fn compose_leaves_far_plane_pixels_diffuse() {
     for conv in DepthConvention::ALL {
         let mut key = render(camera(eye0(), target0(), conv, W, H), conv);
-        let n = (W * H) as usize;
         // The first row shows the background: cleared to the far plane,
         // with a specular factor left over.
         let background: Vec<usize> = (0..W as usize).collect();
@@ -1212,18 +1220,7 @@ fn compose_leaves_far_plane_pixels_diffuse() {
             key.depth[i] = key.cam.encode_depth(key.cam.far(), conv);
             key.spec[i] = 1.0;
         }
-        let diffuse = vec![[0.2f32, 0.4, 0.6]; n];
-        let refl = vec![[1.0f32, 0.0, 0.5]; n];
-        let mut out = vec![[0.0f32; 3]; n];
-        compose(
-            &mut ImageViewMut::try_new(&mut out, W, H, W).unwrap(),
-            &ImageView::try_new(&diffuse, W, H, W).unwrap(),
-            &ImageView::try_new(&refl, W, H, W).unwrap(),
-            &ImageView::try_new(&key.normal, W, H, W).unwrap(),
-            &key.current(),
-            Fresnel::Off,
-        )
-        .unwrap();
+        let (diffuse, _, out) = compose_constant(&key);
         for &i in &background {
             assert_eq!(
                 out[i], diffuse[i],
