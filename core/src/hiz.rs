@@ -886,9 +886,13 @@ impl Segment {
     fn y(&self, s: f32) -> f32 {
         self.y0 + s * self.dy
     }
+    /// `q` at `s`, exact at both ends: `q0 + s dq` loses `q1` entirely when
+    /// `q0` is huge (a near plane of 1.6e-33 clipping a ray that starts at
+    /// the eye, found by the hiz fuzz target: a hit at `s = 1` with depth
+    /// `1 / 0 = inf`).
     #[inline]
     fn q(&self, s: f32) -> f32 {
-        self.q0 + s * self.dq
+        self.q0 * (1.0 - s) + self.q1 * s
     }
 }
 

@@ -1888,3 +1888,69 @@ fn zero_thickness_hit_in_the_last_sliver_of_a_texel() {
         }
     }
 }
+
+/// Fuzz finding F14: with a near plane of 1.6e-33 a ray starting at the eye
+/// is clipped to `q0 = 1 / near = 6e32`, and `q0 + s (q1 - q0)` at `s = 1`
+/// lost `q1`: a hit at the segment's end reported depth `1 / 0 = inf`. The
+/// hit's depth is finite and is the ray's depth at the hit.
+#[test]
+fn tiny_near_plane_hit_at_the_segment_end_has_a_finite_depth() {
+    let view = glam::Mat4::from_cols_array(&[
+        1.0,
+        0.0,
+        0.0,
+        0.0,
+        0.0,
+        0.9363292,
+        0.35112345,
+        0.0,
+        0.0,
+        -0.35112345,
+        0.9363292,
+        0.0,
+        0.0,
+        0.0,
+        -4.2720017,
+        1.0,
+    ]);
+    let cam = Camera::try_new(view, 1.0, 1.649_077_5e-33, 100.0, 10, 10).unwrap();
+    let ray = Ray {
+        origin: Vec3::new(0.0, 1.5, 4.0),
+        dir: Vec3::new(0.43017733, -0.68145996, -0.59208095),
+    };
+    let mut hits = 0;
+    for conv in DepthConvention::ALL {
+        // Every texel holds a surface at linear depth 9.56 (fronto-parallel).
+        let depth = vec![cam.encode_depth(9.56353, conv); 100];
+        let img = DepthImage::try_new(ImageView::try_new(&depth, 10, 10, 10).unwrap(), cam, conv)
+            .unwrap();
+        let mut pyr = vec![[0.0; 2]; hiz_len(10, 10).unwrap()];
+        try_build_hiz(&mut pyr, &img).unwrap();
+        let hiz = HiZ::try_new(&pyr, cam, conv).unwrap();
+        for t_max in [49.804314f32, 20.0, 15.0, 12.0, f32::INFINITY] {
+            for th in [
+                Thickness::Constant(f32::INFINITY),
+                Thickness::Constant(100.0),
+            ] {
+                let tr = try_trace_hiz(&hiz, th, ray, t_max, &HiZOptions::default()).unwrap();
+                if let Some(h) = tr.hit() {
+                    hits += 1;
+                    assert!(
+                        h.depth.is_finite() && h.t.is_finite() && h.t <= t_max,
+                        "{conv:?} {t_max}: {tr:?}"
+                    );
+                    let z = -(cam.view().as_dmat4().transform_point3(
+                        ray.origin.as_dvec3() + ray.dir.as_dvec3() * f64::from(h.t),
+                    ))
+                    .z;
+                    assert!(
+                        (f64::from(h.depth) - z).abs() <= 1e-3 * z,
+                        "{conv:?} {t_max}: depth {} vs ray depth {z}",
+                        h.depth
+                    );
+                }
+            }
+        }
+    }
+    assert!(hits > 0);
+}
