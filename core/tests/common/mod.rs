@@ -10,14 +10,22 @@
 //! proptest in the `*.proptest-regressions` file beside the test, which is
 //! checked in and replayed first on every run.
 
-use proptest::test_runner::{Config, RngSeed};
+use proptest::test_runner::{Config, FileFailurePersistence, RngSeed};
 
 /// The seed of every property test under the test command.
 pub const FIXED_SEED: u64 = 0x7265_666c_5f73_6565; // "refl_see"
 
 /// The configuration of a property test with `cases` cases (module docs).
 pub fn proptest_config(cases: u32) -> Config {
-    let mut c = Config::default();
+    // Failures go to `<test file>.proptest-regressions` beside the test
+    // (what the default, `SourceParallel`, falls back to for integration
+    // tests, with a warning on every run).
+    let mut c = Config {
+        failure_persistence: Some(Box::new(FileFailurePersistence::WithSource(
+            "proptest-regressions",
+        ))),
+        ..Config::default()
+    };
     if std::env::var_os("REFL_EXPLORE").is_some() {
         let scale = std::env::var("REFL_EXPLORE_SCALE")
             .ok()
