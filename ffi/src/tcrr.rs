@@ -704,7 +704,9 @@ pub unsafe extern "C" fn refl_tcrr_retrace_list(
 /// Output composition (seed 000 Sec. 3.3) over rows `[rows.begin,
 /// rows.end)`: `out = (1 - w) diffuse + w reflection` at the current
 /// frame's reflective pixels (a positive specular factor where the
-/// current depth holds a surface), `w` the specular factor (`fresnel ==
+/// current depth holds a surface: it decodes to a positive distance in
+/// front of the far plane, and the world point at the pixel center,
+/// `refl_camera_unproject`, is finite), `w` the specular factor (`fresnel ==
 /// REFL_TCRR_FRESNEL_OFF`) or Schlick's Fresnel term of it
 /// (`REFL_TCRR_FRESNEL_SCHLICK`) with `cos = n . normalize(E_cur - P)`;
 /// `out = diffuse` elsewhere (background pixels included, whatever their

@@ -620,7 +620,11 @@ fuzz_target!(|data: &[u8]| {
                 // F9 (the header corrected): the blend only where the
                 // current depth holds a surface, diffuse elsewhere.
                 let z = decode(&cur.camera, k.depth.get(i), cur.convention);
-                let surface = z.is_some_and(|z| z > 0.0 && z.is_finite() && z < cur.camera.z_far);
+                let mut p = refl_vec3::default();
+                let center = refl_vec2 { x: x as f32 + 0.5, y: y as f32 + 0.5 };
+                // SAFETY: pointers valid.
+                let point_ok = unsafe { refl_camera_unproject(&mut p, &cur.camera, center, k.depth.get(i), cur.convention) } == refl_status::Ok;
+                let surface = point_ok && z.is_some_and(|z| z > 0.0 && z.is_finite() && z < cur.camera.z_far);
                 if !surface || !(sp > 0.0) {
                     assert!(o == diffuse[i], "non-reflective pixel ({x}, {y}) composed to {o:?}");
                 } else if fres == 0 {
