@@ -107,6 +107,11 @@ fuzz_one() {
     -artifact_prefix="artifacts/$t/" "$out" "corpus/$t" >"$log" 2>&1
 }
 
+# known_target TARGET: exits 2 unless TARGET is one of `targets`.
+known_target() {
+  targets | grep -x "$1" >/dev/null || { echo "unknown target $1 (scripts/fuzz.sh list)" >&2; exit 2; }
+}
+
 # report_failure TARGET LOG: the panic or sanitizer report and the
 # reproducers of a failed run; exits 1.
 report_failure() {
@@ -160,7 +165,7 @@ case "$cmd" in
   run)
     t=${2:?usage: scripts/fuzz.sh run TARGET SECONDS}
     secs=${3:?usage: scripts/fuzz.sh run TARGET SECONDS}
-    targets | grep -x "$t" >/dev/null || { echo "unknown target $t (scripts/fuzz.sh list)" >&2; exit 2; }
+    known_target "$t"
     build
     log="$fuzz_dir/target/fuzz-$t.log"
     echo "running $t for $secs s (log: fuzz/target/fuzz-$t.log, new inputs: fuzz/corpus-local/$t)"
@@ -172,7 +177,7 @@ case "$cmd" in
   campaign)
     t=${2:?usage: scripts/fuzz.sh campaign TARGET CPU_SECONDS}
     want=${3:?usage: scripts/fuzz.sh campaign TARGET CPU_SECONDS}
-    targets | grep -x "$t" >/dev/null || { echo "unknown target $t (scripts/fuzz.sh list)" >&2; exit 2; }
+    known_target "$t"
     build
     ledger="$fuzz_dir/campaign.tsv"
     [ -f "$ledger" ] || printf 'date\tcommit\ttarget\twall_s\tcpu_s\texecutions\tcov\tft\tstatus\n' >"$ledger"
