@@ -817,6 +817,66 @@ impl<'a> LayeredMapMut<'a> {
         })
     }
 
+    /// Fills the whole of `face` (and its opposite) from the crossings of
+    /// all its column rays, then rebuilds the empty-space bounds of both
+    /// faces. The crossings of texel `(i, j)` are
+    /// `hits[offsets[j * res + i] .. offsets[j * res + i + 1]]` (a CSR
+    /// layout: `res * res + 1` non-decreasing offsets, the last at most
+    /// `hits.len()`); each column is filled as by
+    /// [`LayeredMapMut::try_fill_column`] (each column's slice of `hits` is
+    /// sorted in place). Returns the number of approximate columns (whose
+    /// gaps had to be filled because they had more intervals than layers).
+    ///
+    /// Everything is validated before the first write: on error the map is
+    /// unchanged (fuzz finding F15: a column ray that is not finite for one
+    /// texel of a huge transform used to be found after earlier columns
+    /// were written).
+    ///
+    /// # Errors
+    /// * [`Error::InsufficientSize`]: fewer than `res * res + 1` offsets.
+    /// * [`Error::InvalidArgument`]: decreasing offsets, one beyond
+    ///   `hits.len()`, a NaN or infinite `t`.
+    /// * [`Error::DegenerateGeometry`]: the column ray of some texel of
+    ///   `face` is degenerate ([`LayeredGrid::face_ray`]).
+    pub fn try_fill_face(
+        &mut self,
+        face: Face,
+        hits: &mut [LayerHit],
+        offsets: &[usize],
+    ) -> Result<u32, Error> {
+        let res = self.grid.res as usize;
+        let need = res
+            .checked_mul(res)
+            .and_then(|n| n.checked_add(1))
+            .ok_or(Error::InvalidArgument)?;
+        if offsets.len() < need {
+            return Err(Error::InsufficientSize);
+        }
+        let offs = &offsets[..need];
+        if offs.windows(2).any(|w| w[0] > w[1]) || offs[need - 1] > hits.len() {
+            return Err(Error::InvalidArgument);
+        }
+        if hits.iter().any(|h| !h.t.is_finite()) {
+            return Err(Error::InvalidArgument);
+        }
+        for j in 0..self.grid.res {
+            for i in 0..self.grid.res {
+                self.grid.face_ray(face, i, j)?;
+            }
+        }
+        let mut approx = 0u32;
+        for j in 0..self.grid.res {
+            for i in 0..self.grid.res {
+                let k = j as usize * res + i as usize;
+                let f = self.try_fill_column(face, i, j, &mut hits[offs[k]..offs[k + 1]])?;
+                approx += (f.stored < f.intervals) as u32;
+            }
+        }
+        self.build_face_bounds(face);
+        self.build_face_bounds(face.opposite());
+        Ok(approx)
+    }
+
     /// A read-only view of the map for tracing.
     pub fn as_map(&self) -> LayeredMap<'_> {
         LayeredMap {

@@ -796,6 +796,132 @@ fn fill_column_rejects_bad_hits_and_leaves_the_map_untouched() {
     assert!(p.iter().all(|&x| x == NO_PAYLOAD));
 }
 
+#[test]
+fn fill_face_equals_its_columns_and_rebuilds_both_faces_bounds() {
+    let shape = Shape::Sphere {
+        c: DVec3::ZERO,
+        r: 1.0,
+    };
+    let grid = grid_of(&shape, 16, 2, 0.05);
+    let len = grid.len();
+    let alloc = || {
+        (
+            vec![0.0f32; len.depth],
+            vec![0u32; len.payload],
+            vec![0u32; len.counts],
+            vec![0.0f32; len.bounds],
+        )
+    };
+    // Crossings of every column ray of -Y with the sphere, in CSR layout.
+    let face = Face::NegY;
+    let (mut all, mut offsets) = (Vec::new(), vec![0usize]);
+    for j in 0..16 {
+        for i in 0..16 {
+            let r = grid.face_ray(face, i, j).unwrap();
+            let (o, d) = (r.origin.as_dvec3(), r.dir.as_dvec3());
+            let b = o.dot(d);
+            let disc = b * b - (o.dot(o) - 1.0);
+            if disc > 0.0 {
+                let s = disc.sqrt();
+                // Exit first: the fill sorts each column's slice.
+                all.push(hit((-b + s) as f32, 7, false));
+                all.push(hit((-b - s) as f32, 7, true));
+            }
+            offsets.push(all.len());
+        }
+    }
+    let (mut d1, mut p1, mut c1, mut b1) = alloc();
+    let (mut d2, mut p2, mut c2, mut b2) = alloc();
+    let approx = {
+        let mut m = LayeredMapMut::try_new(grid, &mut d1, &mut p1, &mut c1, &mut b1).unwrap();
+        m.clear();
+        m.try_fill_face(face, &mut all.clone(), &offsets).unwrap()
+    };
+    {
+        let mut m = LayeredMapMut::try_new(grid, &mut d2, &mut p2, &mut c2, &mut b2).unwrap();
+        m.clear();
+        for k in 0..256 {
+            let mut col = all[offsets[k]..offsets[k + 1]].to_vec();
+            let (i, j) = (k as u32 % 16, k as u32 / 16);
+            m.try_fill_column(face, i, j, &mut col).unwrap();
+        }
+        m.build_face_bounds(face);
+        m.build_face_bounds(face.opposite());
+    }
+    assert_eq!(approx, 0);
+    assert_eq!(
+        d1.iter().map(|x| x.to_bits()).collect::<Vec<_>>(),
+        d2.iter().map(|x| x.to_bits()).collect::<Vec<_>>()
+    );
+    assert_eq!(p1, p2);
+    assert_eq!(c1, c2);
+    assert_eq!(
+        b1.iter().map(|x| x.to_bits()).collect::<Vec<_>>(),
+        b2.iter().map(|x| x.to_bits()).collect::<Vec<_>>()
+    );
+    assert!(c1.iter().any(|&n| n > 0));
+}
+
+/// Fuzz finding F15: with a huge scale, some column rays of a face are not
+/// finite while earlier ones are; the fill must refuse before writing.
+#[test]
+fn fill_face_validates_every_column_before_writing() {
+    let g = LayeredGrid::try_new(Vec3::ZERO, Vec3::new(5.0, 1.0, 1.0), 2, 2)
+        .unwrap()
+        .try_with_transform(Affine3A::from_scale(Vec3::new(1e38, 1.0, 1.0)))
+        .unwrap();
+    // A face whose first column is fine and a later one is not.
+    let face = [
+        Face::PosX,
+        Face::NegX,
+        Face::PosY,
+        Face::NegY,
+        Face::PosZ,
+        Face::NegZ,
+    ]
+    .into_iter()
+    .find(|&f| g.face_ray(f, 0, 0).is_ok() && g.face_ray(f, 1, 1).is_err())
+    .expect("a face with both finite and non-finite column rays");
+    assert_eq!(
+        g.face_ray(face, 1, 1).err(),
+        Some(Error::DegenerateGeometry)
+    );
+    let l = g.len();
+    let (mut d, mut p, mut c, mut b) = (
+        vec![0.0; l.depth],
+        vec![0; l.payload],
+        vec![0; l.counts],
+        vec![0.0; l.bounds],
+    );
+    let mut hits = vec![hit(0.1, 1, true), hit(0.2, 1, false)];
+    {
+        let mut m = LayeredMapMut::try_new(g, &mut d, &mut p, &mut c, &mut b).unwrap();
+        m.clear();
+        // Every column gets the same interval.
+        let offsets = [0usize, 2, 2, 2, 2];
+        assert_eq!(
+            m.try_fill_face(face, &mut hits, &offsets),
+            Err(Error::DegenerateGeometry)
+        );
+        assert_eq!(
+            m.try_fill_face(face, &mut hits, &offsets[..4]),
+            Err(Error::InsufficientSize)
+        );
+        assert_eq!(
+            m.try_fill_face(face, &mut hits, &[0, 2, 1, 2, 2]),
+            Err(Error::InvalidArgument)
+        );
+        assert_eq!(
+            m.try_fill_face(face, &mut hits, &[0, 2, 2, 2, 3]),
+            Err(Error::InvalidArgument)
+        );
+    }
+    let texels = c.len() - LAYERED_STAMP_LEN;
+    assert!(c[..texels].iter().all(|&n| n == 0));
+    assert!(d.iter().all(|x| x.is_infinite()));
+    assert!(p.iter().all(|&x| x == NO_PAYLOAD));
+}
+
 // ---------------------------------------------------------------- tracing
 
 #[test]

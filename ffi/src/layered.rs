@@ -727,9 +727,6 @@ pub unsafe extern "C" fn refl_layered_fill_face(
         }
         // SAFETY: non-null, aligned, size checked; readability by contract.
         let offs = unsafe { core::slice::from_raw_parts(offsets, need) };
-        if offs.windows(2).any(|w| w[0] > w[1]) || offs[need - 1] > hit_count {
-            return Err(Error::InvalidArgument);
-        }
         let mut all = Vec::new();
         // SAFETY: caller contract.
         unsafe { read_hits(hits, hit_count, &mut all) }?;
@@ -741,19 +738,8 @@ pub unsafe extern "C" fn refl_layered_fill_face(
         }
         // SAFETY: caller contract.
         let mut m = unsafe { desc.view_mut() }?;
-        let mut approx = 0u32;
-        let mut col = Vec::new();
-        for j in 0..res as u32 {
-            for i in 0..res as u32 {
-                let k = j as usize * res + i as usize;
-                col.clear();
-                col.extend_from_slice(&all[offs[k]..offs[k + 1]]);
-                let f = m.try_fill_column(face, i, j, &mut col)?;
-                approx += (f.stored < f.intervals) as u32;
-            }
-        }
-        m.build_face_bounds(face);
-        m.build_face_bounds(face.opposite());
+        // Validates everything (offsets, every column ray) before writing.
+        let approx = m.try_fill_face(face, &mut all, offs)?;
         if let Some(o) = out {
             // SAFETY: caller contract.
             unsafe { o.write(approx) };
