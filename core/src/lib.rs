@@ -28,6 +28,8 @@ pub mod cone;
 #[cfg(feature = "epipolar")]
 pub mod epipolar;
 pub mod error;
+#[cfg(any(feature = "depth-image", feature = "hiz"))]
+pub mod gbuffer;
 #[cfg(feature = "hiz")]
 pub mod hiz;
 pub mod image;
@@ -35,6 +37,8 @@ pub mod image;
 pub mod layered;
 #[cfg(feature = "mirror")]
 pub mod mirror;
+#[cfg(any(feature = "depth-image", feature = "hiz"))]
+pub mod ssr;
 #[cfg(feature = "depth-image")]
 pub mod step;
 #[cfg(feature = "tcrr")]
@@ -64,11 +68,18 @@ pub use cone::{
     Cone, ConeOptions, ConePyramids, ConeResult, FadeRange, Fades, MultiRayOptions, MultiRayResult,
     COLOR_STAMP_TEXELS, VISIBILITY_STAMP_LEN,
 };
+#[cfg(any(feature = "depth-image", feature = "hiz"))]
+pub use gbuffer::{GBuffer, NormalSpace, Surface};
 #[cfg(feature = "hiz")]
 pub use hiz::{
     hiz_len, try_build_hiz, try_build_hiz_level0_rows, try_build_hiz_level_rows, try_stamp_hiz,
     try_trace_hiz, try_trace_hiz_rays, try_trace_hiz_stats, HiZ, HiZLayout, HiZLevel, HiZOptions,
     HiZStats, HiZTexel, PyramidStamp, PyramidTexel, HIZ_STAMP_TEXELS,
+};
+#[cfg(any(feature = "depth-image", feature = "hiz"))]
+pub use ssr::{
+    HostRay, MirrorMethod, MirrorOptions, MirrorPass, MirrorRay, MirrorStats, MirrorStatus,
+    MirrorTexel,
 };
 #[cfg(feature = "depth-image")]
 pub use step::{try_step, try_step_rays, StepOptions};

@@ -63,9 +63,12 @@
 //! **Empty texels.** A stored depth that decodes to NaN, to a depth
 //! `<= 0`, or to the far plane or beyond (the cleared value of
 //! [`DepthConvention::ZeroToOne`] and [`DepthConvention::ReversedZ`], `+inf`
-//! under an infinite far plane) holds no surface. An empty or NaN back-face
-//! texel, or one in front of its front texel, makes that texel a zero-thick
-//! shell.
+//! under an infinite far plane) holds no surface. A back-face texel is used
+//! as it decodes when it lies behind its front texel, the cleared value
+//! included: a surface with nothing behind it in the back-face image (a
+//! one-sided floor or wall) is solid to the far plane, as the Hi-Z kernel
+//! reads it. A NaN back-face texel, or one at or in front of its front
+//! texel, makes that texel a zero-thick shell.
 //!
 //! **Strides.** With [`StepOptions::stride`] `N > 1` the walk samples only
 //! every `N`-th texel (and the last one); a coarse step fetches the front
@@ -481,8 +484,12 @@ impl<const C: u8> Lookup<'_, '_, C> {
                 self.work.fetches = self.work.fetches.saturating_add(1);
                 match view.get(x, y) {
                     Some(d) => {
+                        // The rule of the Hi-Z kernel (`hiz.rs`, `bounds`):
+                        // a back depth behind the front one is used as it
+                        // is, the cleared value (far plane, `+inf`)
+                        // included; NaN, `<= 0` or in front: zero-thick.
                         let z = self.image.camera().decode_depth(d, convention::<C>());
-                        if self.is_surface(z) && z > front {
+                        if z > front {
                             z
                         } else {
                             front

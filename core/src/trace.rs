@@ -95,6 +95,12 @@ pub enum Thickness<'a> {
     Constant(f32),
     /// A back-face depth image (same size, camera and convention as the
     /// front image): the ray hits where its depth lies between the two.
+    /// A back texel that decodes behind its front texel is used as it
+    /// decodes, the cleared value (far plane, `+inf`) included, so a
+    /// surface with nothing behind it in the back-face pass (a one-sided
+    /// floor or wall) is solid to the far plane; a NaN back texel, or one
+    /// at or in front of its front texel, makes a zero-thick shell. Every
+    /// kernel reads it so.
     BackFaces(ImageView<'a, f32>),
 }
 

@@ -1,0 +1,706 @@
+//! The screen-space mirror reflection pass: G-buffer in, one mirror ray per
+//! reflective pixel traced against the frame's own depth buffer by per-pixel
+//! stepping (seed 003 Sec. 3.4, [`crate::step`]) or Hi-Z traversal (seed
+//! 004 Sec. 4.4.1, [`crate::hiz`]), hits validated and shaded, and the
+//! pixels the screen cannot answer handed back as world rays for the host's
+//! own tracer (design.md, "Passes"; issue 13).
+//!
+//! Described once ([`MirrorPass::try_new`]: the G-buffer, the options and,
+//! for Hi-Z, the pyramid, validated together), executed over row bands
+//! ([`MirrorPass::try_run`] on an output band; bands are independent, so
+//! the host's threads split the image).
+//!
+//! # Per pixel
+//! 1. **Reflective?** A pixel is traced when its mask (if any) is non-zero
+//!    and its roughness (if any) is at most [`MirrorOptions::max_roughness`];
+//!    otherwise [`MirrorStatus::Skipped`].
+//! 2. **Surface.** The world point `P` at the pixel center and stored depth,
+//!    the unit world normal `n` ([`GBuffer::surface`]); sky, NaN or a zero
+//!    normal give [`MirrorStatus::NoSurface`]. A normal facing away from
+//!    the eye is flipped toward it (a two-sided surface seen from behind).
+//! 3. **Ray.** `r = v - 2 (v . n) n` with `v` the unit view direction from
+//!    the eye to `P` (the mirror reflection of seed 001 appendix).
+//! 4. **Start.** A depth texel stores one depth over its footprint, so a
+//!    ray leaving a surface that recedes from the camera runs behind its own
+//!    surface's next texels for about half a texel, and any kernel started
+//!    at `P` reports its own reflector (self-intersection). The ray starts
+//!    where its projection has moved [`MirrorOptions::start_pixels`] pixels
+//!    from `P`'s ([`crate::trace::ray_start_t`], closed form in f64), or at
+//!    [`MirrorOptions::t_min`] if that is later. This is independent of the
+//!    thickness and of the viewing angle: with a constant thickness of 1x
+//!    the scene depth a depth-slope start (the root package's old rule) left
+//!    3,797 self-hits where this rule left none (issue 13). A ray whose
+//!    projection never moves that far (toward its own vanishing point) goes
+//!    to the host ([`MirrorStatus::NoProjection`]).
+//! 5. **Thickness.** With a back-face image in the G-buffer, a hit needs the
+//!    ray between the front and the back depth ([`Thickness::BackFaces`]);
+//!    otherwise every surface is [`MirrorOptions::thickness`] times the
+//!    reflecting pixel's linear depth thick ([`Thickness::Constant`]; a
+//!    scale-free default).
+//! 6. **Trace** from `P + t0 r` with `t_max - t0`; the hit is refined to
+//!    sub-pixel precision ([`crate::trace::refine_hit`]) when
+//!    [`MirrorOptions::refine`] is set. `t` is reported from `P`.
+//! 7. **Validate.** A ray that passes behind an object, within its
+//!    thickness, is reported by the kernels as a hit, though what it really
+//!    meets (if anything) is hidden: the hit is accepted only where the ray
+//!    meets the visible surface, i.e. the hit was refined onto the plane of
+//!    the surface around it, or the ray's depth at the hit is at most one
+//!    texel's depth change (the largest to a continuous neighbor) behind
+//!    the texel's front depth; otherwise it goes to the host as
+//!    [`MirrorStatus::Hidden`] ([`MirrorOptions::reject_hidden_hits`];
+//!    on the test scene of `core/tests/ssr.rs` this removes most false
+//!    hits). A hit where every texel of its bilinear footprint has a normal
+//!    facing along the ray (`n . r > 0`) reached the surface from behind:
+//!    what the ray really hits is hidden, so the hit is refused
+//!    ([`MirrorStatus::BackFace`]) when [`MirrorOptions::reject_back_faces`]
+//!    is set, and goes to the host. (One texel is not enough: at an edge the
+//!    texel under the hit may show the neighboring surface.)
+//! 8. **Confidence.** `1` in the image, fading linearly to `0` within
+//!    [`MirrorOptions::border_fade`] (a fraction of the smaller image side)
+//!    of the border, as production SSR fades hits near the screen edge so
+//!    that a fallback (the host's probe) takes over without a seam.
+//! 9. **Shade.** With a lit color in the G-buffer and a color output, the
+//!    hit texel's color is written (black for every other status); blend
+//!    `probe + confidence (color - probe)`.
+//!
+//! # What goes to the host
+//! A ray that left the image ([`MirrorStatus::LeftImage`]), went behind
+//! geometry ([`MirrorStatus::BehindGeometry`]), ran out of steps, has no
+//! usable projection, or hit a back face is appended to the host-ray list as
+//! a [`HostRay`] from `P` (the list is the caller's slice; rays past its end
+//! are counted, and [`MirrorPass::host_ray`] gives any pixel's ray again). A
+//! ray that reached `t_max` or the far plane in front of every surface
+//! ([`MirrorStatus::Sky`]) is answered: within the view frustum, everything
+//! in front of the depth buffer is empty.
+
+use crate::trace::{ray_start_t, refine_hit, REFINE_CONTINUITY};
+use crate::{Camera, DepthHit, Error, GBuffer, ImageViewMut, Miss, Ray, Thickness, Trace};
+
+/// Relative depth slack of the visible-surface test (module docs, step 7):
+/// f32 rounding of the decoded depths.
+pub const HIDDEN_EPSILON: f32 = 1e-4;
+use glam::{Vec2, Vec3};
+
+#[cfg(feature = "hiz")]
+use crate::hiz::{try_trace_hiz, HiZ, HiZOptions};
+#[cfg(feature = "depth-image")]
+use crate::step::{try_step, StepOptions};
+
+/// The kernel a [`MirrorPass`] traces with.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub enum MirrorMethod {
+    /// Per-pixel stepping ([`crate::step::try_step`], feature
+    /// `depth-image`).
+    Step,
+    /// Hi-Z traversal ([`crate::hiz::try_trace_hiz`], feature `hiz`): needs
+    /// a pyramid built from the G-buffer's depth.
+    HiZ,
+}
+
+/// Settings of the mirror pass. [`MirrorOptions::default`] is what the pass
+/// was measured with (tests/ssr_scenes.rs of the root package).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct MirrorOptions {
+    /// The kernel.
+    pub method: MirrorMethod,
+    /// Stepping settings (used when `method` is [`MirrorMethod::Step`]).
+    #[cfg(feature = "depth-image")]
+    pub step: StepOptions,
+    /// Hi-Z settings (used when `method` is [`MirrorMethod::HiZ`]).
+    #[cfg(feature = "hiz")]
+    pub hiz: HiZOptions,
+    /// Surface thickness without a back-face image, relative to the
+    /// reflecting pixel's linear depth (finite, `>= 0`).
+    pub thickness: f32,
+    /// Where a ray starts: once its projection has moved this many pixels
+    /// (finite, `>= 0`; module docs, step 4).
+    pub start_pixels: f32,
+    /// The ray starts no earlier than this distance from the surface point
+    /// (finite, `>= 0`).
+    pub t_min: f32,
+    /// The longest ray, world units (`> t_min`; `+inf` allowed).
+    pub t_max: f32,
+    /// Pixels with a roughness above this are not traced (used only with a
+    /// roughness image; NaN roughness is never traced). Not NaN.
+    pub max_roughness: f32,
+    /// Width of the confidence fade at the image border, as a fraction of
+    /// the smaller image side (`[0, 0.5]`; `0`: no fade).
+    pub border_fade: f32,
+    /// Refine hits to sub-pixel precision ([`crate::trace::refine_hit`]).
+    pub refine: bool,
+    /// Refuse hits on surfaces that face along the ray (module docs, step 7).
+    pub reject_back_faces: bool,
+    /// Refuse hits inside the thickness that do not lie on the visible
+    /// surface (module docs, step 7).
+    pub reject_hidden_hits: bool,
+}
+
+impl Default for MirrorOptions {
+    /// Stepping (Hi-Z when only the `hiz` feature is on) with its defaults,
+    /// thickness 0.5 of the pixel's depth, start after 1 pixel, `t_min = 0`,
+    /// `t_max = +inf`, roughness up to 0.1, a 5% border fade, refined hits,
+    /// back faces refused.
+    fn default() -> Self {
+        Self {
+            #[cfg(feature = "depth-image")]
+            method: MirrorMethod::Step,
+            #[cfg(not(feature = "depth-image"))]
+            method: MirrorMethod::HiZ,
+            #[cfg(feature = "depth-image")]
+            step: StepOptions::default(),
+            #[cfg(feature = "hiz")]
+            hiz: HiZOptions::default(),
+            thickness: 0.5,
+            start_pixels: 1.0,
+            t_min: 0.0,
+            t_max: f32::INFINITY,
+            max_roughness: 0.1,
+            border_fade: 0.05,
+            refine: true,
+            reject_back_faces: true,
+            reject_hidden_hits: true,
+        }
+    }
+}
+
+/// What the pass did at one pixel.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash)]
+#[repr(u8)]
+pub enum MirrorStatus {
+    /// Not reflective (mask 0, roughness above the limit or NaN), or not in
+    /// the rows a run wrote.
+    #[default]
+    Skipped = 0,
+    /// No usable surface: sky, NaN depth, zero or non-finite normal.
+    NoSurface = 1,
+    /// A validated hit.
+    Hit = 2,
+    /// The ray reached `t_max` or the far plane in front of every surface:
+    /// it hits nothing (answered).
+    Sky = 3,
+    /// Host: the projected ray left the image.
+    LeftImage = 4,
+    /// Host: the ray passed behind geometry.
+    BehindGeometry = 5,
+    /// Host: the kernel's step or iteration cap was reached.
+    OutOfSteps = 6,
+    /// Host: the ray has no usable projection (it never moves
+    /// `start_pixels` from its origin, or leaves through the near plane at
+    /// once).
+    NoProjection = 7,
+    /// Host: the hit surface faces along the ray.
+    BackFace = 8,
+    /// Host: the kernel's hit lies inside the thickness, not on the
+    /// visible surface (module docs, step 7).
+    Hidden = 9,
+}
+
+impl MirrorStatus {
+    /// `true` for the statuses whose pixels are handed to the host.
+    pub const fn needs_host(self) -> bool {
+        matches!(
+            self,
+            Self::LeftImage
+                | Self::BehindGeometry
+                | Self::OutOfSteps
+                | Self::NoProjection
+                | Self::BackFace
+                | Self::Hidden
+        )
+    }
+}
+
+/// One pixel of the pass's output.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct MirrorTexel {
+    /// What happened.
+    pub status: MirrorStatus,
+    /// Sub-pixel position of the hit in the image (pixels; the texel hit is
+    /// its floor). `[0, 0]` without a hit.
+    pub pixel: Vec2,
+    /// Distance along the ray from the surface point to the hit (world
+    /// units). `0` without a hit.
+    pub t: f32,
+    /// Confidence of the hit in `[0, 1]` (module docs, step 8). `0` without
+    /// a hit.
+    pub confidence: f32,
+}
+
+/// A pixel's reflection ray for the host's tracer.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct HostRay {
+    /// Pixel column.
+    pub x: u32,
+    /// Pixel row.
+    pub y: u32,
+    /// The surface point (the ray's origin; add the host's own offset).
+    pub origin: Vec3,
+    /// Unit direction.
+    pub dir: Vec3,
+    /// Trace from this distance ([`MirrorOptions::t_min`]).
+    pub t_min: f32,
+    /// Trace up to this distance ([`MirrorOptions::t_max`]).
+    pub t_max: f32,
+    /// Why the screen did not answer.
+    pub status: MirrorStatus,
+}
+
+/// Counts of one run over a band.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct MirrorStats {
+    /// Pixels traced (reflective with a surface).
+    pub traced: u32,
+    /// Validated hits.
+    pub hits: u32,
+    /// Rays answered as sky.
+    pub sky: u32,
+    /// Pixels that need the host's tracer.
+    pub host_rays: u32,
+    /// Of those, the ones written to the host list (the rest did not fit).
+    pub host_rays_written: u32,
+}
+
+/// The trace of one pixel as the pass sets it up (what [`MirrorPass`]
+/// hands its kernel): for tests and hosts that want the rays themselves.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct MirrorRay {
+    /// The surface point.
+    pub origin: Vec3,
+    /// Unit reflection direction.
+    pub dir: Vec3,
+    /// Unit normal the ray was reflected about (facing the eye).
+    pub normal: Vec3,
+    /// Where the kernel starts, from `origin` (module docs, step 4).
+    pub t_start: f32,
+    /// The thickness the kernel is given when there is no back-face image
+    /// (linear depth units).
+    pub thickness: f32,
+}
+
+impl MirrorRay {
+    /// The ray the kernel traces, starting at `t_start`.
+    pub fn kernel_ray(&self) -> Ray {
+        Ray {
+            origin: self.origin + self.dir * self.t_start,
+            dir: self.dir,
+        }
+    }
+}
+
+/// The four texels whose centers surround `p` (the bilinear footprint),
+/// shifted inside at the top and left border (those past the bottom or
+/// right border are outside the image and read as no surface).
+fn footprint(p: Vec2) -> [(u32, u32); 4] {
+    let x0 = libm::floorf(p.x - 0.5).max(0.0) as u32;
+    let y0 = libm::floorf(p.y - 0.5).max(0.0) as u32;
+    [(x0, y0), (x0 + 1, y0), (x0, y0 + 1), (x0 + 1, y0 + 1)]
+}
+
+/// A pixel's setup, or the status that ends it early.
+enum Setup {
+    Done(MirrorStatus),
+    Trace(MirrorRay),
+    Host(MirrorRay, MirrorStatus),
+}
+
+/// The mirror pass over one frame (module docs).
+#[derive(Clone, Copy, Debug)]
+pub struct MirrorPass<'a> {
+    gbuffer: GBuffer<'a>,
+    options: MirrorOptions,
+    #[cfg(feature = "hiz")]
+    hiz: Option<HiZ<'a>>,
+}
+
+fn validate_options(o: &MirrorOptions) -> Result<(), Error> {
+    let finite_nonneg = |x: f32| x >= 0.0 && x.is_finite();
+    let ok = finite_nonneg(o.thickness)
+        && finite_nonneg(o.start_pixels)
+        && finite_nonneg(o.t_min)
+        && o.t_max > o.t_min
+        && !o.max_roughness.is_nan()
+        && (0.0..=0.5).contains(&o.border_fade);
+    if !ok {
+        return Err(Error::InvalidArgument);
+    }
+    #[cfg(feature = "depth-image")]
+    if o.method == MirrorMethod::Step && o.step.stride == 0 {
+        return Err(Error::InvalidArgument);
+    }
+    Ok(())
+}
+
+impl<'a> MirrorPass<'a> {
+    /// Describes the pass over `gbuffer` with `options`; `hiz` is the
+    /// pyramid of the G-buffer's depth for [`MirrorMethod::HiZ`] (built
+    /// with [`crate::try_build_hiz`] from [`GBuffer::depth`]; ignored for
+    /// stepping).
+    ///
+    /// # Errors
+    /// * [`Error::InvalidArgument`]: an option out of its range (see
+    ///   [`MirrorOptions`]); a method whose feature is not compiled in;
+    ///   Hi-Z without a pyramid, or with a pyramid of another camera or
+    ///   depth convention than the G-buffer's.
+    #[cfg(feature = "hiz")]
+    pub fn try_new(
+        gbuffer: GBuffer<'a>,
+        options: MirrorOptions,
+        hiz: Option<HiZ<'a>>,
+    ) -> Result<Self, Error> {
+        validate_options(&options)?;
+        match options.method {
+            MirrorMethod::HiZ => {
+                let h = hiz.as_ref().ok_or(Error::InvalidArgument)?;
+                if h.camera() != gbuffer.camera() || h.convention() != gbuffer.convention() {
+                    return Err(Error::InvalidArgument);
+                }
+            }
+            MirrorMethod::Step => {
+                if cfg!(not(feature = "depth-image")) {
+                    return Err(Error::InvalidArgument);
+                }
+            }
+        }
+        Ok(Self {
+            gbuffer,
+            options,
+            hiz,
+        })
+    }
+
+    /// Describes the stepping pass over `gbuffer` with `options` (built
+    /// without the `hiz` feature).
+    ///
+    /// # Errors
+    /// [`Error::InvalidArgument`]: an option out of its range (see
+    /// [`MirrorOptions`]).
+    #[cfg(not(feature = "hiz"))]
+    pub fn try_new(gbuffer: GBuffer<'a>, options: MirrorOptions) -> Result<Self, Error> {
+        validate_options(&options)?;
+        Ok(Self { gbuffer, options })
+    }
+
+    /// The G-buffer.
+    pub const fn gbuffer(&self) -> &GBuffer<'a> {
+        &self.gbuffer
+    }
+
+    /// The options.
+    pub const fn options(&self) -> &MirrorOptions {
+        &self.options
+    }
+
+    fn camera(&self) -> &Camera {
+        self.gbuffer.camera()
+    }
+
+    fn reflective(&self, x: u32, y: u32) -> bool {
+        if let Some(m) = self.gbuffer.mask() {
+            if m.get(x, y) == Some(0) {
+                return false;
+            }
+        }
+        if let Some(r) = self.gbuffer.roughness() {
+            match r.get(x, y) {
+                Some(r) if r <= self.options.max_roughness => {}
+                _ => return false,
+            }
+        }
+        true
+    }
+
+    fn setup(&self, x: u32, y: u32) -> Setup {
+        if !self.reflective(x, y) {
+            return Setup::Done(MirrorStatus::Skipped);
+        }
+        let Some(s) = self.gbuffer.surface(x, y) else {
+            return Setup::Done(MirrorStatus::NoSurface);
+        };
+        let v = (s.position - self.camera().eye()).normalize_or_zero();
+        let n = if s.normal.dot(v) > 0.0 {
+            -s.normal
+        } else {
+            s.normal
+        };
+        let dir = (v - 2.0 * v.dot(n) * n).normalize_or_zero();
+        if v == Vec3::ZERO || dir == Vec3::ZERO {
+            return Setup::Done(MirrorStatus::NoSurface);
+        }
+        let ray = Ray {
+            origin: s.position,
+            dir,
+        };
+        let thickness = self.options.thickness * s.depth;
+        let mut mr = MirrorRay {
+            origin: s.position,
+            dir,
+            normal: n,
+            t_start: self.options.t_min,
+            thickness,
+        };
+        match ray_start_t(self.camera(), &ray, self.options.start_pixels) {
+            Some(t0) if thickness.is_finite() => {
+                mr.t_start = t0.max(self.options.t_min);
+                if !(mr.t_start < self.options.t_max) {
+                    return Setup::Done(MirrorStatus::Sky);
+                }
+                Setup::Trace(mr)
+            }
+            _ => Setup::Host(mr, MirrorStatus::NoProjection),
+        }
+    }
+
+    /// The ray the pass traces for pixel `(x, y)`, or `None` where it
+    /// traces none (not reflective, no surface, or a ray it hands to the
+    /// host without tracing).
+    pub fn ray(&self, x: u32, y: u32) -> Option<MirrorRay> {
+        match self.setup(x, y) {
+            Setup::Trace(r) => Some(r),
+            _ => None,
+        }
+    }
+
+    /// The host ray of pixel `(x, y)` as the pass would hand it over with
+    /// `status` (for pixels whose list entry did not fit), or `None` for a
+    /// pixel without a reflection ray.
+    pub fn host_ray(&self, x: u32, y: u32, status: MirrorStatus) -> Option<HostRay> {
+        match self.setup(x, y) {
+            Setup::Trace(r) | Setup::Host(r, _) => Some(self.host_entry(x, y, &r, status)),
+            Setup::Done(_) => None,
+        }
+    }
+
+    fn host_entry(&self, x: u32, y: u32, r: &MirrorRay, status: MirrorStatus) -> HostRay {
+        HostRay {
+            x,
+            y,
+            origin: r.origin,
+            dir: r.dir,
+            t_min: self.options.t_min,
+            t_max: self.options.t_max,
+            status,
+        }
+    }
+
+    fn thickness(&self, r: &MirrorRay) -> Thickness<'a> {
+        match self.gbuffer.back_depth() {
+            Some(b) => Thickness::BackFaces(*b),
+            None => Thickness::Constant(r.thickness),
+        }
+    }
+
+    /// The kernel's trace of a pixel's ray, unrefined: exactly what
+    /// [`crate::step::try_step`] or [`crate::hiz::try_trace_hiz`] returns
+    /// for [`MirrorRay::kernel_ray`], `t_max - t_start`, the thickness
+    /// above and the options' kernel settings.
+    ///
+    /// # Errors
+    /// As the kernel (never for a ray from [`MirrorPass::ray`]).
+    pub fn try_trace_kernel(&self, r: &MirrorRay) -> Result<Trace, Error> {
+        let ray = r.kernel_ray();
+        let t_max = self.options.t_max - r.t_start;
+        let th = self.thickness(r);
+        match self.options.method {
+            #[cfg(feature = "depth-image")]
+            MirrorMethod::Step => try_step(self.gbuffer.depth(), th, ray, t_max, self.options.step),
+            #[cfg(feature = "hiz")]
+            MirrorMethod::HiZ => match &self.hiz {
+                Some(h) => try_trace_hiz(h, th, ray, t_max, &self.options.hiz),
+                None => Err(Error::InvalidArgument),
+            },
+            #[allow(unreachable_patterns)]
+            _ => Err(Error::InvalidArgument),
+        }
+    }
+
+    /// Whether a kernel hit lies on the visible surface (module docs, step
+    /// 7): refined onto the surface's plane, or at most one texel's depth
+    /// change behind the texel's front depth.
+    fn meets_front(&self, h: &DepthHit, refined: bool) -> bool {
+        if refined {
+            return true;
+        }
+        let (x, y) = (h.pixel.x as u32, h.pixel.y as u32);
+        let d = self.gbuffer.depth();
+        let Some(z0) = d.linear_at(x, y) else {
+            return true;
+        };
+        // The largest depth change to a continuous neighbor (the plate
+        // error of a texel on a sloped surface is up to half of it).
+        let mut slope = 0.0f32;
+        for (dx, dy) in [(-1i64, 0i64), (1, 0), (0, -1), (0, 1)] {
+            let (nx, ny) = (i64::from(x) + dx, i64::from(y) + dy);
+            if nx < 0 || ny < 0 {
+                continue;
+            }
+            if let Some(z) = d.linear_at(nx as u32, ny as u32) {
+                let dz = (z - z0).abs();
+                if dz <= REFINE_CONTINUITY * z0 {
+                    slope = slope.max(dz);
+                }
+            }
+        }
+        h.depth <= z0 + slope + HIDDEN_EPSILON * z0
+    }
+
+    /// Whether every texel of the bilinear footprint of `p` (the up to 4
+    /// texel centers around it) with a usable normal faces along `dir`, and
+    /// there is one: the ray meets the surface from behind. One texel is
+    /// not enough at an edge, where the texel under the hit may show the
+    /// neighboring surface (a floor under a box's base).
+    fn faces_away(&self, p: Vec2, dir: Vec3) -> bool {
+        let mut any = false;
+        for (x, y) in footprint(p) {
+            if let Some(n) = self.gbuffer.world_normal(x, y) {
+                if !(n.dot(dir) > 0.0) {
+                    return false;
+                }
+                any = true;
+            }
+        }
+        any
+    }
+
+    fn confidence(&self, p: Vec2) -> f32 {
+        let (w, h) = (self.gbuffer.width() as f32, self.gbuffer.height() as f32);
+        let band = self.options.border_fade * w.min(h);
+        if !(band > 0.0) {
+            return 1.0;
+        }
+        let d = p.x.min(w - p.x).min(p.y).min(h - p.y);
+        (d / band).clamp(0.0, 1.0)
+    }
+
+    /// Traces and validates one pixel: its output texel and, for the
+    /// statuses of [`MirrorStatus::needs_host`], its host ray.
+    pub fn pixel(&self, x: u32, y: u32) -> (MirrorTexel, Option<HostRay>) {
+        let mut out = MirrorTexel::default();
+        let r = match self.setup(x, y) {
+            Setup::Done(s) => {
+                out.status = s;
+                return (out, None);
+            }
+            Setup::Host(r, s) => {
+                out.status = s;
+                return (out, Some(self.host_entry(x, y, &r, s)));
+            }
+            Setup::Trace(r) => r,
+        };
+        let status = match self.try_trace_kernel(&r) {
+            Ok(Trace::Hit(h)) => {
+                let (h, refined) = if self.options.refine {
+                    let f = refine_hit(
+                        self.gbuffer.depth(),
+                        &r.kernel_ray(),
+                        self.options.t_max - r.t_start,
+                        &h,
+                    );
+                    let moved = f.t.to_bits() != h.t.to_bits() || f.pixel != h.pixel;
+                    (f, moved)
+                } else {
+                    (h, false)
+                };
+                let hidden = self.options.reject_hidden_hits && !self.meets_front(&h, refined);
+                let back = self.options.reject_back_faces && self.faces_away(h.pixel, r.dir);
+                if hidden {
+                    MirrorStatus::Hidden
+                } else if back {
+                    MirrorStatus::BackFace
+                } else {
+                    out.pixel = h.pixel;
+                    out.t = r.t_start + h.t;
+                    out.confidence = self.confidence(h.pixel);
+                    MirrorStatus::Hit
+                }
+            }
+            Ok(Trace::Miss { reason, .. }) => match reason {
+                Miss::EndOfRay => MirrorStatus::Sky,
+                Miss::LeftImage => MirrorStatus::LeftImage,
+                Miss::BehindGeometry => MirrorStatus::BehindGeometry,
+                Miss::OutOfSteps => MirrorStatus::OutOfSteps,
+                Miss::DegenerateProjection => MirrorStatus::NoProjection,
+            },
+            // Not reached for a ray from `setup` (validated options, unit
+            // direction, finite origin); handed over rather than lost.
+            Err(_) => MirrorStatus::NoProjection,
+        };
+        out.status = status;
+        let host = status.needs_host().then(|| self.host_entry(x, y, &r, status));
+        (out, host)
+    }
+
+    /// Runs the pass over the rows `out` owns (a whole image or a band from
+    /// [`ImageViewMut::try_band`]): writes every pixel's [`MirrorTexel`],
+    /// the lit color at each hit into `color` (black elsewhere; needs a
+    /// G-buffer color), and appends the pixels that need the host's tracer
+    /// to `host` in row-major order, as far as `host` holds them.
+    ///
+    /// Contract: `out` (and `color`) are the G-buffer's size; `host` may be
+    /// empty (the statuses still say which pixels need the host, and
+    /// [`MirrorPass::host_ray`] gives their rays).
+    ///
+    /// # Errors
+    /// [`Error::InvalidArgument`] if `out` or `color` is not the G-buffer's
+    /// size, or their bands differ, or `color` is given without a G-buffer
+    /// color. Nothing is written then.
+    pub fn try_run(
+        &self,
+        out: &mut ImageViewMut<'_, MirrorTexel>,
+        mut color: Option<&mut ImageViewMut<'_, [f32; 3]>>,
+        host: &mut [HostRay],
+    ) -> Result<MirrorStats, Error> {
+        let (w, h) = (self.gbuffer.width(), self.gbuffer.height());
+        if out.width() != w || out.height() != h {
+            return Err(Error::InvalidArgument);
+        }
+        if let Some(c) = color.as_deref() {
+            if c.width() != w
+                || c.height() != h
+                || c.owned_rows() != out.owned_rows()
+                || self.gbuffer.color().is_none()
+            {
+                return Err(Error::InvalidArgument);
+            }
+        }
+        let mut stats = MirrorStats::default();
+        let Some(rows) = out.owned_rows() else {
+            return Ok(stats);
+        };
+        let lit = self.gbuffer.color();
+        for y in rows.rows() {
+            for x in 0..w {
+                let (t, hr) = self.pixel(x, y);
+                if !matches!(t.status, MirrorStatus::Skipped | MirrorStatus::NoSurface) {
+                    stats.traced += 1;
+                }
+                match t.status {
+                    MirrorStatus::Hit => stats.hits += 1,
+                    MirrorStatus::Sky => stats.sky += 1,
+                    _ => {}
+                }
+                if let Some(hr) = hr {
+                    if let Some(slot) = host.get_mut(stats.host_rays_written as usize) {
+                        *slot = hr;
+                        stats.host_rays_written += 1;
+                    }
+                    stats.host_rays += 1;
+                }
+                if let Some(c) = color.as_deref_mut() {
+                    let rgb = match (t.status, lit) {
+                        (MirrorStatus::Hit, Some(l)) => l
+                            .get(t.pixel.x as u32, t.pixel.y as u32)
+                            .unwrap_or([0.0; 3]),
+                        _ => [0.0; 3],
+                    };
+                    if let Some(p) = c.get_mut(x, y) {
+                        *p = rgb;
+                    }
+                }
+                if let Some(p) = out.get_mut(x, y) {
+                    *p = t;
+                }
+            }
+        }
+        Ok(stats)
+    }
+}
