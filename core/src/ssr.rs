@@ -625,7 +625,9 @@ impl<'a> MirrorPass<'a> {
             Err(_) => MirrorStatus::NoProjection,
         };
         out.status = status;
-        let host = status.needs_host().then(|| self.host_entry(x, y, &r, status));
+        let host = status
+            .needs_host()
+            .then(|| self.host_entry(x, y, &r, status));
         (out, host)
     }
 

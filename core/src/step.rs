@@ -504,8 +504,10 @@ impl<const C: u8> Lookup<'_, '_, C> {
 
 /// Outcome of the full test of one texel.
 enum Test {
-    /// Hit at screen parameter `s`, with the texel's front depth.
-    Hit { s: f32, front: f32 },
+    /// Hit at screen parameter `s`, with the texel's front depth and the
+    /// ray's depth at the hit (the boundary it entered through, or its
+    /// depth at the texel's entry when it starts inside).
+    Hit { s: f32, front: f32, z: f32 },
     /// No hit; `occluded` if the ray leaves the texel behind its surface.
     Clear { occluded: bool },
 }
@@ -529,8 +531,8 @@ fn test_texel<const C: u8>(seg: &Segment, look: &mut Lookup<'_, '_, C>, span: &S
         };
     }
     // The ray's depth interval overlaps [front, back]: first point inside.
-    let s = if z_in >= front && z_in <= back {
-        span.s_in
+    let (s, z) = if z_in >= front && z_in <= back {
+        (span.s_in, z_in)
     } else {
         // Enters through the front face (moving away) or through the back
         // face (moving toward the camera): solve iz(s) = 1 / boundary on the
@@ -543,9 +545,9 @@ fn test_texel<const C: u8>(seg: &Segment, look: &mut Lookup<'_, '_, C>, span: &S
         } else {
             0.0
         };
-        span.s_in + (span.s_out - span.s_in) * f
+        (span.s_in + (span.s_out - span.s_in) * f, boundary)
     };
-    Test::Hit { s, front }
+    Test::Hit { s, front, z }
 }
 
 /// The largest `f32` below `v` (for `v > 0`), so that a coordinate clamped
@@ -555,7 +557,7 @@ fn next_below(v: f32) -> f32 {
     f32::from_bits(v.to_bits() - 1)
 }
 
-fn make_hit(seg: &Segment, span: &Span, s: f32, front: f32, work: Work) -> Trace {
+fn make_hit(seg: &Segment, span: &Span, s: f32, front: f32, z: f32, work: Work) -> Trace {
     let p = seg.pixel(s);
     let (x0, y0) = (span.x as f32, span.y as f32);
     let pixel = Vec2::new(
@@ -563,15 +565,20 @@ fn make_hit(seg: &Segment, span: &Span, s: f32, front: f32, work: Work) -> Trace
         p.y.clamp(y0, next_below(y0 + 1.0)),
     );
     let (mut t, mut depth) = (seg.t(s), 1.0 / seg.iz(s));
-    if !(t.is_finite() && depth.is_finite()) && seg.dz > 0.0 {
-        // A ray ending at its vanishing point (iz_b = 0) that enters a
-        // surface more than ~2^23 times deeper than its start: the entry
-        // fraction rounds to the segment's end, where 1/iz is infinite
-        // (found by the step fuzz target). The ray enters through the
-        // front face there: depth = front, and t from the linear depth
-        // z(t) = 1/iz_a + dz (t - t_a).
-        depth = front;
-        t = seg.t_a + (front - 1.0 / seg.iz_a) / seg.dz;
+    let unresolved = seg.t_b.is_infinite() || !(t.is_finite() && depth.is_finite());
+    if unresolved && seg.dz > 0.0 {
+        let z = if z.is_finite() { z } else { front };
+        // A ray ending at its vanishing point (iz_b = 0): near that end the
+        // screen parameter cannot resolve depth (a surface 2^23 times
+        // deeper than the start rounds the entry fraction to the end,
+        // where 1/iz is infinite; at 1e8 times, depth came out 40% short:
+        // fuzz findings of the step target, the second F16). The depth of
+        // the hit is known, the boundary the ray crossed (or its depth at
+        // the texel's entry), and t follows from the linear depth z(t) =
+        // 1/iz_a + dz (t - t_a); where s resolves depth this is the value
+        // `seg.t(s)` computes, up to rounding.
+        depth = z;
+        t = seg.t_a + (z - 1.0 / seg.iz_a) / seg.dz;
         // The hit lies on the segment: rounding of that expression (a
         // 1x1 image, an infinite far plane and a surface at 3.6e12 gave
         // t 3% past t_max, fuzz finding F11) must not leave it.
@@ -759,7 +766,7 @@ fn step_unchecked<const C: u8>(
             }
             look.work.steps += 1;
             match test_texel(&seg, &mut look, &span) {
-                Test::Hit { s, front } => return make_hit(&seg, &span, s, front, look.work),
+                Test::Hit { s, front, z } => return make_hit(&seg, &span, s, front, z, look.work),
                 Test::Clear { occluded: o } => occluded = o,
             }
         }
@@ -788,7 +795,9 @@ fn step_unchecked<const C: u8>(
                 // A one-texel interval (stride 1, or the planar case and other
                 // one-texel walks at any stride): the full test at once.
                 match test_texel(&seg, &mut look, &span) {
-                    Test::Hit { s, front } => return make_hit(&seg, &span, s, front, look.work),
+                    Test::Hit { s, front, z } => {
+                        return make_hit(&seg, &span, s, front, z, look.work)
+                    }
                     Test::Clear { occluded: o } => occluded = o,
                 }
                 continue;
@@ -823,7 +832,7 @@ fn step_unchecked<const C: u8>(
                 }
                 look.work.steps += 1;
                 match test_texel(&seg, &mut look, &f) {
-                    Test::Hit { s, front } => return make_hit(&seg, &f, s, front, look.work),
+                    Test::Hit { s, front, z } => return make_hit(&seg, &f, s, front, z, look.work),
                     Test::Clear { occluded: o } => occluded = o,
                 }
             }

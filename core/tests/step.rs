@@ -1970,6 +1970,68 @@ fn far_surface_hit_stays_within_t_max() {
     assert!(hits > 0, "the case hits");
 }
 
+/// Fuzz finding F16: a ray toward its vanishing point (infinite far plane,
+/// `t_max = inf`) hitting a surface 1.2e8 times deeper than the near plane
+/// reported the hit at depth 3.4e7 for a surface at 5.4e7: near the
+/// segment's end the screen parameter does not resolve depth. The hit's
+/// depth is now the boundary it crossed, and `t` the point of the ray at
+/// that depth.
+#[test]
+fn vanishing_point_hit_reports_the_depth_it_crossed() {
+    let view = glam::Mat4::from_cols_array(&[
+        2.253374e-38,
+        -1.9129795e-38,
+        1.0,
+        0.0,
+        0.0,
+        1.0,
+        1.9129795e-38,
+        0.0,
+        -1.0,
+        -0.0,
+        2.253374e-38,
+        0.0,
+        7.751461,
+        -5.882646,
+        -7.7714806,
+        1.0,
+    ]);
+    let cam = Camera::try_new(view, 1.0187869, 0.44444588, f32::INFINITY, 1, 3).unwrap();
+    let ray = Ray {
+        origin: Vec3::new(4.1554685, 6.6984744, 8.023404),
+        dir: Vec3::new(-0.9728666, -0.21949376, 0.07316459),
+    };
+    let th = 0.6039216f32;
+    let mut hits = 0;
+    for conv in DepthConvention::ALL {
+        let data: Vec<f32> = [f32::INFINITY, 215274700.0, 53555504.0]
+            .iter()
+            .map(|&z| cam.encode_depth(z, conv))
+            .collect();
+        let d = di(&cam, &data, conv);
+        for stride in [1, 6] {
+            let opts = StepOptions {
+                stride,
+                ..StepOptions::default()
+            };
+            let tr = try_step(&d, Thickness::Constant(th), ray, f32::INFINITY, opts).unwrap();
+            let Some(h) = tr.hit() else { continue };
+            hits += 1;
+            let tol = 1e-3 * h.surface_depth;
+            assert!(
+                h.depth >= h.surface_depth - tol && h.depth <= h.surface_depth + th + tol,
+                "{conv:?} stride {stride}: {h:?}"
+            );
+            let z_at_t = cam.linear_depth(ray.at(h.t));
+            assert!(
+                (z_at_t - h.depth).abs() <= 1e-3 * h.depth,
+                "{conv:?}: z(t) {z_at_t} vs {h:?}"
+            );
+        }
+    }
+    assert!(hits > 0, "the case hits");
+}
+
 #[test]
 fn hit_far_beyond_the_start_depth_is_finite() {
     let cam = camera(1.0, f32::INFINITY, 16, 12);
