@@ -1908,6 +1908,247 @@ typedef struct refl_layered_map {
 } refl_layered_map;
 
 /**
+ * Settings of the pass; `refl_ssr_options_default` gives the measured
+ * defaults.
+ */
+typedef struct refl_ssr_options {
+    /**
+     * The kernel, a `refl_ssr_method`.
+     */
+    uint32_t method;
+    /**
+     * Stepping settings (method `REFL_SSR_METHOD_STEP`).
+     */
+    struct refl_step_options step;
+    /**
+     * Hi-Z settings (method `REFL_SSR_METHOD_HIZ`).
+     */
+    struct refl_hiz_options hiz;
+    /**
+     * Surface thickness without a back-face image, relative to the
+     * reflecting pixel's linear depth; finite, >= 0. Default 0.5.
+     */
+    float thickness;
+    /**
+     * A ray starts where its projection has moved this many pixels from
+     * its surface point, so that it does not hit its own surface's depth
+     * texels; finite, >= 0. Default 1.
+     */
+    float start_pixels;
+    /**
+     * A ray starts no earlier than this distance; finite, >= 0. Default 0.
+     */
+    float t_min;
+    /**
+     * The longest ray, > t_min, +infinity allowed (the default).
+     */
+    float t_max;
+    /**
+     * Pixels with a roughness above this are not traced (only with a
+     * roughness image); not NaN. Default 0.1.
+     */
+    float max_roughness;
+    /**
+     * Width of the confidence fade at the image border, a fraction of the
+     * smaller image side in [0, 0.5]. Default 0.05.
+     */
+    float border_fade;
+    /**
+     * Refine hits to sub-pixel precision (`refl_refine_hit`). Default true.
+     */
+    bool refine;
+    /**
+     * Refuse hits on surfaces that face along the ray. Default true.
+     */
+    bool reject_back_faces;
+    /**
+     * Refuse hits inside the thickness that are not on the visible
+     * surface (the ray passed behind an object). Default true.
+     */
+    bool reject_hidden_hits;
+} refl_ssr_options;
+
+/**
+ * A read-only image of `uint8_t` texels (e.g. a coverage or re-trace
+ * mask).
+ */
+typedef struct refl_image_u8 {
+    /**
+     * Texel (0, 0); texel (x, y) is `data[y * stride + x]`.
+     */
+    const uint8_t *data;
+    /**
+     * Number of texels readable from `data` on (the buffer length).
+     */
+    size_t len;
+    /**
+     * Width in texels, > 0.
+     */
+    uint32_t width;
+    /**
+     * Height in texels, > 0.
+     */
+    uint32_t height;
+    /**
+     * Row stride in texels, >= `width`.
+     */
+    uint32_t stride;
+} refl_image_u8;
+
+/**
+ * A deferred renderer's G-buffer. Every image must have the camera's
+ * size. Optional images are absent when their `data` is NULL (their other
+ * fields are then ignored).
+ */
+typedef struct refl_gbuffer {
+    /**
+     * Depth, with the camera that rendered it and its convention.
+     */
+    struct refl_depth_image depth;
+    /**
+     * Normals (any length; zero or non-finite marks a pixel without a
+     * usable surface).
+     */
+    struct refl_image_vec3 normals;
+    /**
+     * Space of `normals`, a `refl_normal_space`.
+     */
+    uint32_t normal_space;
+    /**
+     * Optional reflective mask: 0 = not reflective.
+     */
+    struct refl_image_u8 mask;
+    /**
+     * Optional per-pixel roughness in [0, 1]; pixels above
+     * `refl_ssr_options.max_roughness` (or NaN) are not traced.
+     */
+    struct refl_image_f32 roughness;
+    /**
+     * Optional lit color of the frame (linear RGB), read at the hits.
+     */
+    struct refl_image_vec3 color;
+    /**
+     * Optional back-face depth (same camera and convention as `depth`):
+     * a hit needs the ray between the front and the back depth. A back
+     * texel at the cleared value (far plane) behind a front surface makes
+     * it solid to the far plane (a one-sided floor or wall).
+     */
+    struct refl_image_f32 back_depth;
+} refl_gbuffer;
+
+/**
+ * Counts of one `refl_ssr_trace_rows` call.
+ */
+typedef struct refl_ssr_stats {
+    /**
+     * Pixels traced (reflective, with a surface).
+     */
+    uint32_t traced;
+    /**
+     * Validated hits.
+     */
+    uint32_t hits;
+    /**
+     * Rays answered as sky.
+     */
+    uint32_t sky;
+    /**
+     * Pixels that need the host's tracer.
+     */
+    uint32_t host_rays;
+    /**
+     * Of those, the ones written to the host list (the first ones in
+     * row-major order; the rest did not fit, their texels still say so).
+     */
+    uint32_t host_rays_written;
+} refl_ssr_stats;
+
+/**
+ * One pixel of the pass's output.
+ */
+typedef struct refl_ssr_texel {
+    /**
+     * A `refl_ssr_status`.
+     */
+    uint32_t status;
+    /**
+     * Sub-pixel position of the hit (the texel hit is its floor); 0
+     * without a hit.
+     */
+    struct refl_vec2 pixel;
+    /**
+     * Distance from the surface point to the hit along the ray; 0 without
+     * a hit.
+     */
+    float t;
+    /**
+     * Confidence of the hit in [0, 1] (1 inside, fading at the border);
+     * blend `probe + confidence * (color - probe)`. 0 without a hit.
+     */
+    float confidence;
+} refl_ssr_texel;
+
+/**
+ * A writable image of three-float texels.
+ */
+typedef struct refl_image_vec3_mut {
+    /**
+     * Texel (0, 0); texel (x, y) is `data[y * stride + x]`.
+     */
+    struct refl_vec3 *data;
+    /**
+     * Number of texels writable from `data` on (the buffer length).
+     */
+    size_t len;
+    /**
+     * Width in texels, > 0.
+     */
+    uint32_t width;
+    /**
+     * Height in texels, > 0.
+     */
+    uint32_t height;
+    /**
+     * Row stride in texels, >= `width`.
+     */
+    uint32_t stride;
+} refl_image_vec3_mut;
+
+/**
+ * A pixel's reflection ray for the host's own tracer.
+ */
+typedef struct refl_host_ray {
+    /**
+     * Pixel column.
+     */
+    uint32_t x;
+    /**
+     * Pixel row.
+     */
+    uint32_t y;
+    /**
+     * The surface point (add the host tracer's own offset).
+     */
+    struct refl_vec3 origin;
+    /**
+     * Unit direction.
+     */
+    struct refl_vec3 dir;
+    /**
+     * Trace from this distance (`refl_ssr_options.t_min`).
+     */
+    float t_min;
+    /**
+     * Trace up to this distance (`refl_ssr_options.t_max`).
+     */
+    float t_max;
+    /**
+     * Why the screen did not answer, a `refl_ssr_status`.
+     */
+    uint32_t status;
+} refl_host_ray;
+
+/**
  * Settings of the TCRR passes (refl-core `TcrrParams`); fill with
  * `refl_tcrr_default_params`.
  */
@@ -2107,32 +2348,6 @@ typedef struct refl_tcrr_search_stats {
 } refl_tcrr_search_stats;
 
 /**
- * A writable image of three-float texels.
- */
-typedef struct refl_image_vec3_mut {
-    /**
-     * Texel (0, 0); texel (x, y) is `data[y * stride + x]`.
-     */
-    struct refl_vec3 *data;
-    /**
-     * Number of texels writable from `data` on (the buffer length).
-     */
-    size_t len;
-    /**
-     * Width in texels, > 0.
-     */
-    uint32_t width;
-    /**
-     * Height in texels, > 0.
-     */
-    uint32_t height;
-    /**
-     * Row stride in texels, >= `width`.
-     */
-    uint32_t stride;
-} refl_image_vec3_mut;
-
-/**
  * A writable image of `uint8_t` texels.
  */
 typedef struct refl_image_u8_mut {
@@ -2242,33 +2457,6 @@ typedef struct refl_tcrr_current {
      */
     struct refl_image_f32 specular;
 } refl_tcrr_current;
-
-/**
- * A read-only image of `uint8_t` texels (e.g. a coverage or re-trace
- * mask).
- */
-typedef struct refl_image_u8 {
-    /**
-     * Texel (0, 0); texel (x, y) is `data[y * stride + x]`.
-     */
-    const uint8_t *data;
-    /**
-     * Number of texels readable from `data` on (the buffer length).
-     */
-    size_t len;
-    /**
-     * Width in texels, > 0.
-     */
-    uint32_t width;
-    /**
-     * Height in texels, > 0.
-     */
-    uint32_t height;
-    /**
-     * Row stride in texels, >= `width`.
-     */
-    uint32_t stride;
-} refl_image_u8;
 
 /**
  * A 4-component float vector (a four-channel texel).
@@ -3844,6 +4032,99 @@ refl_status refl_oblique_projection(struct refl_mat4 *out,
                                     const struct refl_camera *camera,
                                     const struct refl_plane *clip,
                                     uint32_t convention);
+
+/**
+ * The pass's defaults: stepping, thickness 0.5 of the pixel's depth,
+ * start after 1 pixel, t_min 0, t_max +infinity, roughness up to 0.1, a
+ * 5% border fade, refined hits, back faces and hidden hits refused; the
+ * kernels' own defaults (`refl_hiz_default_options`, stride 1).
+ */
+struct refl_ssr_options refl_ssr_options_default(void);
+
+/**
+ * Size query: the number of `refl_vec2` scratch texels the pass needs for
+ * this G-buffer's size and method (the Hi-Z pyramid, `refl_hiz_len`; 0 for
+ * stepping) into `*out_len`.
+ *
+ * Returns `REFL_STATUS_NULL_POINTER` if `out_len`, `gbuffer` or `options`
+ * is NULL; `REFL_STATUS_INVALID_ARGUMENT` for an unknown method or an
+ * invalid camera size.
+ *
+ * # Safety
+ * `out_len` NULL or writable; `gbuffer` and `options` NULL or readable.
+ */
+refl_status refl_ssr_scratch_len(size_t *out_len,
+                                 const struct refl_gbuffer *gbuffer,
+                                 const struct refl_ssr_options *options);
+
+/**
+ * Prepares a frame: validates the G-buffer and the options together and,
+ * for Hi-Z, builds the pyramid of the G-buffer's depth into `scratch`
+ * (`refl_ssr_scratch_len` texels; for stepping `scratch` may be NULL and
+ * nothing is written). Call it once per frame, before any
+ * `refl_ssr_trace_rows`.
+ *
+ * Returns `REFL_STATUS_NULL_POINTER` if `gbuffer`, `options`, a required
+ * image or (Hi-Z) `scratch` is NULL; `REFL_STATUS_INSUFFICIENT_SIZE` if
+ * `scratch_len` or an image's `len` is too small;
+ * `REFL_STATUS_INVALID_ARGUMENT` for an option out of range, an unknown
+ * method, convention or normal space, an image not of the camera's size,
+ * a misaligned pointer, or `scratch` overlapping a G-buffer image; the
+ * camera's status if it is invalid. Nothing is written on error.
+ *
+ * # Safety
+ * `scratch` NULL or writable for `scratch_len` texels; `gbuffer` and
+ * `options` NULL or readable, the images readable for their `len` texels
+ * and not written during the call.
+ */
+refl_status refl_ssr_prepare(struct refl_vec2 *scratch,
+                             size_t scratch_len,
+                             const struct refl_gbuffer *gbuffer,
+                             const struct refl_ssr_options *options);
+
+/**
+ * Runs the pass over the rows `rows` of the G-buffer: for each pixel of
+ * those rows writes its `refl_ssr_texel` to `out[y * width + x]` (`out`
+ * holds the whole `width x height` image, row stride `width`; only the
+ * band's rows are written), its reflection color (the lit color at a hit,
+ * black otherwise) to `color` if `color.data` is not NULL (then the
+ * G-buffer must have a color), and appends the pixels that need the
+ * host's tracer to `host` (up to `host_len`; `host` may be NULL with
+ * `host_len` 0) in row-major order. The counts go to `*out_stats`.
+ *
+ * Bands are independent: split the rows (`refl_row_band`) across threads,
+ * each with its own `host` list. `scratch` is what `refl_ssr_prepare`
+ * built for this G-buffer (Hi-Z; NULL for stepping); a pyramid built for
+ * another camera or size is refused.
+ *
+ * Returns `REFL_STATUS_NULL_POINTER` if `out_stats`, `out`, `gbuffer`,
+ * `options`, a required image, (Hi-Z) `scratch`, or `host` with a
+ * non-zero `host_len` is NULL; `REFL_STATUS_INSUFFICIENT_SIZE` if
+ * `out_len < width * height`, `scratch_len` or an image's `len` is too
+ * small; `REFL_STATUS_INVALID_ARGUMENT` for rows reversed or beyond the
+ * height, `color` not of the camera's size or given without a G-buffer
+ * color, outputs overlapping each other or the inputs, a pyramid not
+ * built for this camera, and the cases of `refl_ssr_prepare`. Nothing is
+ * written on error.
+ *
+ * # Safety
+ * `out_stats` NULL or writable; `out` NULL or writable for `out_len`
+ * texels; `color.data` NULL or writable for `color.len` texels; `host`
+ * NULL or writable for `host_len` entries; `scratch` NULL or readable for
+ * `scratch_len` texels; the rest as `refl_ssr_prepare`. No other thread
+ * writes the rows of `out` and `color` this call writes.
+ */
+refl_status refl_ssr_trace_rows(struct refl_ssr_stats *out_stats,
+                                struct refl_ssr_texel *out,
+                                size_t out_len,
+                                struct refl_image_vec3_mut color,
+                                struct refl_host_ray *host,
+                                size_t host_len,
+                                const struct refl_gbuffer *gbuffer,
+                                const struct refl_ssr_options *options,
+                                const struct refl_vec2 *scratch,
+                                size_t scratch_len,
+                                struct refl_row_range rows);
 
 /**
  * A static, NUL-terminated English description of `status`.

@@ -78,8 +78,8 @@ pub use hiz::{
 };
 #[cfg(any(feature = "depth-image", feature = "hiz"))]
 pub use ssr::{
-    HostRay, MirrorMethod, MirrorOptions, MirrorPass, MirrorRay, MirrorStats, MirrorStatus,
-    MirrorTexel,
+    HostRay, MirrorMethod, MirrorOptions, MirrorPass, MirrorRay, MirrorSink, MirrorStats,
+    MirrorStatus, MirrorTexel,
 };
 #[cfg(feature = "depth-image")]
 pub use step::{try_step, try_step_rays, StepOptions};

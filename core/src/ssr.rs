@@ -74,7 +74,9 @@
 //! in front of the depth buffer is empty.
 
 use crate::trace::{ray_start_t, refine_hit, REFINE_CONTINUITY};
-use crate::{Camera, DepthHit, Error, GBuffer, ImageViewMut, Miss, Ray, Thickness, Trace};
+use crate::{
+    Camera, DepthHit, Error, GBuffer, ImageViewMut, Miss, Ray, RowRange, Thickness, Trace,
+};
 
 /// Relative depth slack of the visible-surface test (module docs, step 7):
 /// f32 rounding of the decoded depths.
@@ -648,7 +650,7 @@ impl<'a> MirrorPass<'a> {
     pub fn try_run(
         &self,
         out: &mut ImageViewMut<'_, MirrorTexel>,
-        mut color: Option<&mut ImageViewMut<'_, [f32; 3]>>,
+        color: Option<&mut ImageViewMut<'_, [f32; 3]>>,
         host: &mut [HostRay],
     ) -> Result<MirrorStats, Error> {
         let (w, h) = (self.gbuffer.width(), self.gbuffer.height());
@@ -664,13 +666,62 @@ impl<'a> MirrorPass<'a> {
                 return Err(Error::InvalidArgument);
             }
         }
-        let mut stats = MirrorStats::default();
         let Some(rows) = out.owned_rows() else {
-            return Ok(stats);
+            return Ok(MirrorStats::default());
         };
+        struct Views<'o, 'c, 'h, 'x, 'y> {
+            out: &'o mut ImageViewMut<'x, MirrorTexel>,
+            color: Option<&'c mut ImageViewMut<'y, [f32; 3]>>,
+            host: &'h mut [HostRay],
+        }
+        impl MirrorSink for Views<'_, '_, '_, '_, '_> {
+            fn texel(&mut self, x: u32, y: u32, texel: &MirrorTexel, color: [f32; 3]) {
+                if let Some(p) = self.out.get_mut(x, y) {
+                    *p = *texel;
+                }
+                if let Some(c) = self.color.as_deref_mut().and_then(|c| c.get_mut(x, y)) {
+                    *c = color;
+                }
+            }
+            fn host(&mut self, index: u32, ray: &HostRay) -> bool {
+                match self.host.get_mut(index as usize) {
+                    Some(slot) => {
+                        *slot = *ray;
+                        true
+                    }
+                    None => false,
+                }
+            }
+        }
+        let mut views = Views { out, color, host };
+        Ok(self.run_rows(rows, &mut views))
+    }
+
+    /// Runs the pass over `rows` (checked against the G-buffer's height)
+    /// and hands every pixel's texel and color, and every host ray in
+    /// row-major order, to `sink`: the loop of [`MirrorPass::try_run`] for
+    /// hosts whose buffers are not [`ImageViewMut`]s (refl-ffi writes C
+    /// structs through it).
+    ///
+    /// # Errors
+    /// [`Error::InvalidArgument`] if `rows` ends beyond the G-buffer's
+    /// height. Nothing is handed to `sink` then.
+    pub fn try_run_rows(
+        &self,
+        rows: RowRange,
+        sink: &mut impl MirrorSink,
+    ) -> Result<MirrorStats, Error> {
+        if rows.end() > self.gbuffer.height() {
+            return Err(Error::InvalidArgument);
+        }
+        Ok(self.run_rows(rows, sink))
+    }
+
+    fn run_rows(&self, rows: RowRange, sink: &mut impl MirrorSink) -> MirrorStats {
+        let mut stats = MirrorStats::default();
         let lit = self.gbuffer.color();
         for y in rows.rows() {
-            for x in 0..w {
+            for x in 0..self.gbuffer.width() {
                 let (t, hr) = self.pixel(x, y);
                 if !matches!(t.status, MirrorStatus::Skipped | MirrorStatus::NoSurface) {
                     stats.traced += 1;
@@ -681,28 +732,31 @@ impl<'a> MirrorPass<'a> {
                     _ => {}
                 }
                 if let Some(hr) = hr {
-                    if let Some(slot) = host.get_mut(stats.host_rays_written as usize) {
-                        *slot = hr;
+                    if sink.host(stats.host_rays_written, &hr) {
                         stats.host_rays_written += 1;
                     }
                     stats.host_rays += 1;
                 }
-                if let Some(c) = color.as_deref_mut() {
-                    let rgb = match (t.status, lit) {
-                        (MirrorStatus::Hit, Some(l)) => l
-                            .get(t.pixel.x as u32, t.pixel.y as u32)
-                            .unwrap_or([0.0; 3]),
-                        _ => [0.0; 3],
-                    };
-                    if let Some(p) = c.get_mut(x, y) {
-                        *p = rgb;
-                    }
-                }
-                if let Some(p) = out.get_mut(x, y) {
-                    *p = t;
-                }
+                let rgb = match (t.status, lit) {
+                    (MirrorStatus::Hit, Some(l)) => l
+                        .get(t.pixel.x as u32, t.pixel.y as u32)
+                        .unwrap_or([0.0; 3]),
+                    _ => [0.0; 3],
+                };
+                sink.texel(x, y, &t, rgb);
             }
         }
-        Ok(stats)
+        stats
     }
+}
+
+/// Where [`MirrorPass::try_run_rows`] puts its results.
+pub trait MirrorSink {
+    /// Pixel `(x, y)`'s texel and reflection color (the lit color at a
+    /// hit, black otherwise or without a G-buffer color).
+    fn texel(&mut self, x: u32, y: u32, texel: &MirrorTexel, color: [f32; 3]);
+    /// Host ray number `index` of this run (0, 1, ... in row-major order,
+    /// counting only those stored); returns `false` if it was not stored
+    /// (the list is full).
+    fn host(&mut self, index: u32, ray: &HostRay) -> bool;
 }

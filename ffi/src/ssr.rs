@@ -1,0 +1,653 @@
+//! The screen-space mirror reflection pass (`refl_core::ssr`): G-buffer in,
+//! reflections out, the rays the screen cannot answer handed back as a list
+//! for the host's tracer.
+//!
+//! A frame takes four calls: `refl_ssr_options_default` (or your own
+//! options), `refl_ssr_scratch_len` and `refl_ssr_prepare` (the Hi-Z
+//! pyramid, nothing for stepping), then `refl_ssr_trace_rows` once per row
+//! band, from any number of threads.
+
+use crate::hiz::refl_hiz_options;
+use crate::image::{
+    refl_image_f32, refl_image_u8, refl_image_vec3, refl_image_vec3_mut, refl_row_range,
+};
+use crate::ptr::{byte_len, check_buffer, overlaps, read, Out};
+use crate::status::{fail, guard, refl_status};
+use crate::trace::{depth_image, refl_depth_image, refl_step_options};
+use crate::types::{refl_vec2, refl_vec3};
+use refl_core::{
+    Error, GBuffer, HiZ, HiZTexel, HostRay, MirrorMethod, MirrorOptions, MirrorPass, MirrorSink,
+    MirrorStats, MirrorStatus, MirrorTexel, NormalSpace, RowRange,
+};
+
+/// The space a G-buffer's normals are stored in.
+#[repr(u32)]
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum refl_normal_space {
+    /// World space.
+    World = 0,
+    /// View space of the G-buffer's camera (looking down -z).
+    View = 1,
+}
+
+/// A deferred renderer's G-buffer. Every image must have the camera's
+/// size. Optional images are absent when their `data` is NULL (their other
+/// fields are then ignored).
+#[repr(C)]
+#[derive(Clone, Copy, Debug)]
+pub struct refl_gbuffer {
+    /// Depth, with the camera that rendered it and its convention.
+    pub depth: refl_depth_image,
+    /// Normals (any length; zero or non-finite marks a pixel without a
+    /// usable surface).
+    pub normals: refl_image_vec3,
+    /// Space of `normals`, a `refl_normal_space`.
+    pub normal_space: u32,
+    /// Optional reflective mask: 0 = not reflective.
+    pub mask: refl_image_u8,
+    /// Optional per-pixel roughness in [0, 1]; pixels above
+    /// `refl_ssr_options.max_roughness` (or NaN) are not traced.
+    pub roughness: refl_image_f32,
+    /// Optional lit color of the frame (linear RGB), read at the hits.
+    pub color: refl_image_vec3,
+    /// Optional back-face depth (same camera and convention as `depth`):
+    /// a hit needs the ray between the front and the back depth. A back
+    /// texel at the cleared value (far plane) behind a front surface makes
+    /// it solid to the far plane (a one-sided floor or wall).
+    pub back_depth: refl_image_f32,
+}
+
+/// The kernel of the pass.
+#[repr(u32)]
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum refl_ssr_method {
+    /// Per-pixel stepping (`refl_step_ray`).
+    Step = 0,
+    /// Hi-Z traversal (`refl_hiz_trace_ray`) over a pyramid that
+    /// `refl_ssr_prepare` builds.
+    Hiz = 1,
+}
+
+/// Settings of the pass; `refl_ssr_options_default` gives the measured
+/// defaults.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct refl_ssr_options {
+    /// The kernel, a `refl_ssr_method`.
+    pub method: u32,
+    /// Stepping settings (method `REFL_SSR_METHOD_STEP`).
+    pub step: refl_step_options,
+    /// Hi-Z settings (method `REFL_SSR_METHOD_HIZ`).
+    pub hiz: refl_hiz_options,
+    /// Surface thickness without a back-face image, relative to the
+    /// reflecting pixel's linear depth; finite, >= 0. Default 0.5.
+    pub thickness: f32,
+    /// A ray starts where its projection has moved this many pixels from
+    /// its surface point, so that it does not hit its own surface's depth
+    /// texels; finite, >= 0. Default 1.
+    pub start_pixels: f32,
+    /// A ray starts no earlier than this distance; finite, >= 0. Default 0.
+    pub t_min: f32,
+    /// The longest ray, > t_min, +infinity allowed (the default).
+    pub t_max: f32,
+    /// Pixels with a roughness above this are not traced (only with a
+    /// roughness image); not NaN. Default 0.1.
+    pub max_roughness: f32,
+    /// Width of the confidence fade at the image border, a fraction of the
+    /// smaller image side in [0, 0.5]. Default 0.05.
+    pub border_fade: f32,
+    /// Refine hits to sub-pixel precision (`refl_refine_hit`). Default true.
+    pub refine: bool,
+    /// Refuse hits on surfaces that face along the ray. Default true.
+    pub reject_back_faces: bool,
+    /// Refuse hits inside the thickness that are not on the visible
+    /// surface (the ray passed behind an object). Default true.
+    pub reject_hidden_hits: bool,
+}
+
+/// What the pass did at a pixel (`refl_ssr_texel.status`,
+/// `refl_host_ray.status`).
+#[repr(u32)]
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum refl_ssr_status {
+    /// Not reflective (mask, roughness), or a row the call did not cover.
+    Skipped = 0,
+    /// No usable surface: sky, NaN depth, zero or non-finite normal.
+    NoSurface = 1,
+    /// A validated hit.
+    Hit = 2,
+    /// The ray reached t_max or the far plane in front of every surface:
+    /// it hits nothing (answered).
+    Sky = 3,
+    /// Host ray: the projected ray left the image.
+    LeftImage = 4,
+    /// Host ray: the ray passed behind geometry.
+    BehindGeometry = 5,
+    /// Host ray: the kernel's step or iteration cap was reached.
+    OutOfSteps = 6,
+    /// Host ray: no usable projection (the ray runs toward its own
+    /// vanishing point).
+    NoProjection = 7,
+    /// Host ray: the hit surface faces along the ray.
+    BackFace = 8,
+    /// Host ray: the kernel's hit lies inside the thickness, not on the
+    /// visible surface.
+    Hidden = 9,
+}
+
+impl From<MirrorStatus> for refl_ssr_status {
+    fn from(s: MirrorStatus) -> Self {
+        match s {
+            MirrorStatus::Skipped => Self::Skipped,
+            MirrorStatus::NoSurface => Self::NoSurface,
+            MirrorStatus::Hit => Self::Hit,
+            MirrorStatus::Sky => Self::Sky,
+            MirrorStatus::LeftImage => Self::LeftImage,
+            MirrorStatus::BehindGeometry => Self::BehindGeometry,
+            MirrorStatus::OutOfSteps => Self::OutOfSteps,
+            MirrorStatus::NoProjection => Self::NoProjection,
+            MirrorStatus::BackFace => Self::BackFace,
+            MirrorStatus::Hidden => Self::Hidden,
+        }
+    }
+}
+
+/// One pixel of the pass's output.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct refl_ssr_texel {
+    /// A `refl_ssr_status`.
+    pub status: u32,
+    /// Sub-pixel position of the hit (the texel hit is its floor); 0
+    /// without a hit.
+    pub pixel: refl_vec2,
+    /// Distance from the surface point to the hit along the ray; 0 without
+    /// a hit.
+    pub t: f32,
+    /// Confidence of the hit in [0, 1] (1 inside, fading at the border);
+    /// blend `probe + confidence * (color - probe)`. 0 without a hit.
+    pub confidence: f32,
+}
+
+/// A pixel's reflection ray for the host's own tracer.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct refl_host_ray {
+    /// Pixel column.
+    pub x: u32,
+    /// Pixel row.
+    pub y: u32,
+    /// The surface point (add the host tracer's own offset).
+    pub origin: refl_vec3,
+    /// Unit direction.
+    pub dir: refl_vec3,
+    /// Trace from this distance (`refl_ssr_options.t_min`).
+    pub t_min: f32,
+    /// Trace up to this distance (`refl_ssr_options.t_max`).
+    pub t_max: f32,
+    /// Why the screen did not answer, a `refl_ssr_status`.
+    pub status: u32,
+}
+
+/// Counts of one `refl_ssr_trace_rows` call.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct refl_ssr_stats {
+    /// Pixels traced (reflective, with a surface).
+    pub traced: u32,
+    /// Validated hits.
+    pub hits: u32,
+    /// Rays answered as sky.
+    pub sky: u32,
+    /// Pixels that need the host's tracer.
+    pub host_rays: u32,
+    /// Of those, the ones written to the host list (the first ones in
+    /// row-major order; the rest did not fit, their texels still say so).
+    pub host_rays_written: u32,
+}
+
+impl From<MirrorStats> for refl_ssr_stats {
+    fn from(s: MirrorStats) -> Self {
+        Self {
+            traced: s.traced,
+            hits: s.hits,
+            sky: s.sky,
+            host_rays: s.host_rays,
+            host_rays_written: s.host_rays_written,
+        }
+    }
+}
+
+impl From<MirrorOptions> for refl_ssr_options {
+    fn from(o: MirrorOptions) -> Self {
+        Self {
+            method: match o.method {
+                MirrorMethod::Step => refl_ssr_method::Step as u32,
+                MirrorMethod::HiZ => refl_ssr_method::Hiz as u32,
+            },
+            step: refl_step_options {
+                stride: o.step.stride,
+                max_steps: o.step.max_steps,
+            },
+            hiz: o.hiz.into(),
+            thickness: o.thickness,
+            start_pixels: o.start_pixels,
+            t_min: o.t_min,
+            t_max: o.t_max,
+            max_roughness: o.max_roughness,
+            border_fade: o.border_fade,
+            refine: o.refine,
+            reject_back_faces: o.reject_back_faces,
+            reject_hidden_hits: o.reject_hidden_hits,
+        }
+    }
+}
+
+fn options(o: &refl_ssr_options) -> Result<MirrorOptions, Error> {
+    let method = match o.method {
+        0 => MirrorMethod::Step,
+        1 => MirrorMethod::HiZ,
+        m => {
+            return Err(fail(
+                Error::InvalidArgument,
+                format_args!("`options.method` is {m}, not a refl_ssr_method"),
+            ))
+        }
+    };
+    Ok(MirrorOptions {
+        method,
+        step: o.step.into(),
+        hiz: o.hiz.into(),
+        thickness: o.thickness,
+        start_pixels: o.start_pixels,
+        t_min: o.t_min,
+        t_max: o.t_max,
+        max_roughness: o.max_roughness,
+        border_fade: o.border_fade,
+        refine: o.refine,
+        reject_back_faces: o.reject_back_faces,
+        reject_hidden_hits: o.reject_hidden_hits,
+    })
+}
+
+/// The pass's defaults: stepping, thickness 0.5 of the pixel's depth,
+/// start after 1 pixel, t_min 0, t_max +infinity, roughness up to 0.1, a
+/// 5% border fade, refined hits, back faces and hidden hits refused; the
+/// kernels' own defaults (`refl_hiz_default_options`, stride 1).
+#[no_mangle]
+pub extern "C" fn refl_ssr_options_default() -> refl_ssr_options {
+    MirrorOptions::default().into()
+}
+
+/// The byte ranges of a G-buffer's images (for aliasing checks).
+fn gbuffer_ranges(g: &refl_gbuffer) -> [(usize, usize); 6] {
+    fn r<T>(p: *const T, len: usize) -> (usize, usize) {
+        if p.is_null() {
+            (0, 0)
+        } else {
+            (p as usize, len.saturating_mul(core::mem::size_of::<T>()))
+        }
+    }
+    [
+        r(g.depth.depth.data, g.depth.depth.len),
+        r(g.normals.data, g.normals.len),
+        r(g.mask.data, g.mask.len),
+        r(g.roughness.data, g.roughness.len),
+        r(g.color.data, g.color.len),
+        r(g.back_depth.data, g.back_depth.len),
+    ]
+}
+
+/// A refl-core G-buffer from its descriptor.
+///
+/// # Safety
+/// Every non-NULL image `data` readable for its `len` texels for `'a` and
+/// not written meanwhile.
+unsafe fn gbuffer<'a>(g: &refl_gbuffer) -> Result<GBuffer<'a>, Error> {
+    // SAFETY: caller contract.
+    let depth = unsafe { depth_image(&g.depth) }?;
+    let space = match g.normal_space {
+        0 => NormalSpace::World,
+        1 => NormalSpace::View,
+        s => {
+            return Err(fail(
+                Error::InvalidArgument,
+                format_args!("`gbuffer.normal_space` is {s}, not a refl_normal_space"),
+            ))
+        }
+    };
+    let size = |what: &str| {
+        fail(
+            Error::InvalidArgument,
+            format_args!("`gbuffer.{what}` is not the camera's size"),
+        )
+    };
+    // SAFETY: caller contract.
+    let normals = unsafe { g.normals.view() }?;
+    let mut gb = GBuffer::try_new(depth, normals, space).map_err(|_| size("normals"))?;
+    if !g.mask.data.is_null() {
+        // SAFETY: caller contract.
+        gb = gb
+            .try_with_mask(unsafe { g.mask.view() }?)
+            .map_err(|_| size("mask"))?;
+    }
+    if !g.roughness.data.is_null() {
+        // SAFETY: caller contract.
+        let v = unsafe { g.roughness.view() }?;
+        gb = gb.try_with_roughness(v).map_err(|_| size("roughness"))?;
+    }
+    if !g.color.data.is_null() {
+        // SAFETY: caller contract.
+        gb = gb
+            .try_with_color(unsafe { g.color.view() }?)
+            .map_err(|_| size("color"))?;
+    }
+    if !g.back_depth.data.is_null() {
+        // SAFETY: caller contract.
+        let v = unsafe { g.back_depth.view() }?;
+        gb = gb.try_with_back_depth(v).map_err(|_| size("back_depth"))?;
+    }
+    Ok(gb)
+}
+
+/// Size query: the number of `refl_vec2` scratch texels the pass needs for
+/// this G-buffer's size and method (the Hi-Z pyramid, `refl_hiz_len`; 0 for
+/// stepping) into `*out_len`.
+///
+/// Returns `REFL_STATUS_NULL_POINTER` if `out_len`, `gbuffer` or `options`
+/// is NULL; `REFL_STATUS_INVALID_ARGUMENT` for an unknown method or an
+/// invalid camera size.
+///
+/// # Safety
+/// `out_len` NULL or writable; `gbuffer` and `options` NULL or readable.
+#[no_mangle]
+pub unsafe extern "C" fn refl_ssr_scratch_len(
+    out_len: *mut usize,
+    gbuffer: *const refl_gbuffer,
+    options: *const refl_ssr_options,
+) -> refl_status {
+    guard("refl_ssr_scratch_len", || {
+        let out = Out::new(out_len, "out_len")?;
+        // SAFETY: caller contract.
+        let (g, o) = unsafe { (read(gbuffer, "gbuffer")?, read(options, "options")?) };
+        let o = self::options(&o)?;
+        let cam = crate::types::camera_named(&g.depth.camera, "gbuffer.depth.camera")?;
+        let n = match o.method {
+            MirrorMethod::Step => 0,
+            MirrorMethod::HiZ => refl_core::hiz_len(cam.width(), cam.height())?,
+        };
+        // SAFETY: caller contract.
+        unsafe { out.write(n) };
+        Ok(())
+    })
+}
+
+/// Prepares a frame: validates the G-buffer and the options together and,
+/// for Hi-Z, builds the pyramid of the G-buffer's depth into `scratch`
+/// (`refl_ssr_scratch_len` texels; for stepping `scratch` may be NULL and
+/// nothing is written). Call it once per frame, before any
+/// `refl_ssr_trace_rows`.
+///
+/// Returns `REFL_STATUS_NULL_POINTER` if `gbuffer`, `options`, a required
+/// image or (Hi-Z) `scratch` is NULL; `REFL_STATUS_INSUFFICIENT_SIZE` if
+/// `scratch_len` or an image's `len` is too small;
+/// `REFL_STATUS_INVALID_ARGUMENT` for an option out of range, an unknown
+/// method, convention or normal space, an image not of the camera's size,
+/// a misaligned pointer, or `scratch` overlapping a G-buffer image; the
+/// camera's status if it is invalid. Nothing is written on error.
+///
+/// # Safety
+/// `scratch` NULL or writable for `scratch_len` texels; `gbuffer` and
+/// `options` NULL or readable, the images readable for their `len` texels
+/// and not written during the call.
+#[no_mangle]
+pub unsafe extern "C" fn refl_ssr_prepare(
+    scratch: *mut refl_vec2,
+    scratch_len: usize,
+    gbuffer: *const refl_gbuffer,
+    options: *const refl_ssr_options,
+) -> refl_status {
+    guard("refl_ssr_prepare", || {
+        // SAFETY: caller contract.
+        let (g, o) = unsafe { (read(gbuffer, "gbuffer")?, read(options, "options")?) };
+        let opts = self::options(&o)?;
+        // SAFETY: caller contract.
+        let gb = unsafe { self::gbuffer(&g) }?;
+        if opts.method == MirrorMethod::Step {
+            // Validates the options against the G-buffer.
+            MirrorPass::try_new(gb, opts, None)?;
+            return Ok(());
+        }
+        let bytes = check_buffer(scratch.cast_const(), scratch_len, "scratch")?;
+        if gbuffer_ranges(&g)
+            .iter()
+            .any(|r| overlaps(r.0, r.1, scratch as usize, bytes))
+        {
+            return Err(fail(
+                Error::InvalidArgument,
+                format_args!("`scratch` overlaps a G-buffer image"),
+            ));
+        }
+        let need = refl_core::hiz_len(gb.width(), gb.height())?;
+        if scratch_len < need {
+            return Err(fail(
+                Error::InsufficientSize,
+                format_args!(
+                    "`scratch_len` is {scratch_len}, the pass needs {need} (refl_ssr_scratch_len)"
+                ),
+            ));
+        }
+        // Options first, with a pass over no pyramid but the right method
+        // check: validate everything before the first write.
+        MirrorPass::try_new(
+            gb,
+            MirrorOptions {
+                method: MirrorMethod::Step,
+                ..opts
+            },
+            None,
+        )?;
+        // SAFETY: non-null, aligned, writable for scratch_len >= need
+        // texels (contract), size fits isize (check_buffer), disjoint from
+        // the G-buffer (checked); refl_vec2 is [f32; 2].
+        let s = unsafe { core::slice::from_raw_parts_mut(scratch.cast::<HiZTexel>(), need) };
+        refl_core::try_build_hiz(s, gb.depth())
+    })
+}
+
+/// Where a C call's results go.
+struct Sink<'a> {
+    texels: *mut refl_ssr_texel,
+    width: usize,
+    /// Index of the first row's first texel (the band starts there).
+    base: usize,
+    first_row: u32,
+    color: Option<refl_core::ImageViewMut<'a, [f32; 3]>>,
+    host: *mut refl_host_ray,
+    host_len: usize,
+}
+
+impl MirrorSink for Sink<'_> {
+    fn texel(&mut self, x: u32, y: u32, t: &MirrorTexel, color: [f32; 3]) {
+        let i = (y - self.first_row) as usize * self.width + x as usize + self.base;
+        let v = refl_ssr_texel {
+            status: refl_ssr_status::from(t.status) as u32,
+            pixel: t.pixel.into(),
+            t: t.t,
+            confidence: t.confidence,
+        };
+        // SAFETY: `i` indexes the band's texels, writable (checked by the
+        // caller of `try_run_rows` against `out_len`).
+        unsafe { self.texels.add(i).write(v) };
+        if let Some(c) = self.color.as_mut().and_then(|c| c.get_mut(x, y)) {
+            *c = color;
+        }
+    }
+
+    fn host(&mut self, index: u32, r: &HostRay) -> bool {
+        let i = index as usize;
+        if i >= self.host_len {
+            return false;
+        }
+        let v = refl_host_ray {
+            x: r.x,
+            y: r.y,
+            origin: r.origin.into(),
+            dir: r.dir.into(),
+            t_min: r.t_min,
+            t_max: r.t_max,
+            status: refl_ssr_status::from(r.status) as u32,
+        };
+        // SAFETY: `i < host_len`, writable by contract (checked non-null,
+        // aligned, size fits isize).
+        unsafe { self.host.add(i).write(v) };
+        true
+    }
+}
+
+/// Runs the pass over the rows `rows` of the G-buffer: for each pixel of
+/// those rows writes its `refl_ssr_texel` to `out[y * width + x]` (`out`
+/// holds the whole `width x height` image, row stride `width`; only the
+/// band's rows are written), its reflection color (the lit color at a hit,
+/// black otherwise) to `color` if `color.data` is not NULL (then the
+/// G-buffer must have a color), and appends the pixels that need the
+/// host's tracer to `host` (up to `host_len`; `host` may be NULL with
+/// `host_len` 0) in row-major order. The counts go to `*out_stats`.
+///
+/// Bands are independent: split the rows (`refl_row_band`) across threads,
+/// each with its own `host` list. `scratch` is what `refl_ssr_prepare`
+/// built for this G-buffer (Hi-Z; NULL for stepping); a pyramid built for
+/// another camera or size is refused.
+///
+/// Returns `REFL_STATUS_NULL_POINTER` if `out_stats`, `out`, `gbuffer`,
+/// `options`, a required image, (Hi-Z) `scratch`, or `host` with a
+/// non-zero `host_len` is NULL; `REFL_STATUS_INSUFFICIENT_SIZE` if
+/// `out_len < width * height`, `scratch_len` or an image's `len` is too
+/// small; `REFL_STATUS_INVALID_ARGUMENT` for rows reversed or beyond the
+/// height, `color` not of the camera's size or given without a G-buffer
+/// color, outputs overlapping each other or the inputs, a pyramid not
+/// built for this camera, and the cases of `refl_ssr_prepare`. Nothing is
+/// written on error.
+///
+/// # Safety
+/// `out_stats` NULL or writable; `out` NULL or writable for `out_len`
+/// texels; `color.data` NULL or writable for `color.len` texels; `host`
+/// NULL or writable for `host_len` entries; `scratch` NULL or readable for
+/// `scratch_len` texels; the rest as `refl_ssr_prepare`. No other thread
+/// writes the rows of `out` and `color` this call writes.
+#[no_mangle]
+#[allow(clippy::too_many_arguments)]
+pub unsafe extern "C" fn refl_ssr_trace_rows(
+    out_stats: *mut refl_ssr_stats,
+    out: *mut refl_ssr_texel,
+    out_len: usize,
+    color: refl_image_vec3_mut,
+    host: *mut refl_host_ray,
+    host_len: usize,
+    gbuffer: *const refl_gbuffer,
+    options: *const refl_ssr_options,
+    scratch: *const refl_vec2,
+    scratch_len: usize,
+    rows: refl_row_range,
+) -> refl_status {
+    guard("refl_ssr_trace_rows", || {
+        let stats_out = Out::new(out_stats, "out_stats")?;
+        let out_bytes = check_buffer(out.cast_const(), out_len, "out")?;
+        let host_bytes = if host_len == 0 && host.is_null() {
+            0
+        } else {
+            check_buffer(host.cast_const(), host_len, "host")?
+        };
+        // SAFETY: caller contract.
+        let (g, o) = unsafe { (read(gbuffer, "gbuffer")?, read(options, "options")?) };
+        let opts = self::options(&o)?;
+        // SAFETY: caller contract.
+        let gb = unsafe { self::gbuffer(&g) }?;
+        let (w, h) = (gb.width(), gb.height());
+        let rows = RowRange::try_new(rows.begin, rows.end, h).map_err(|e| {
+            fail(
+                e,
+                format_args!(
+                    "`rows` [{}, {}) is not within [0, {h})",
+                    rows.begin, rows.end
+                ),
+            )
+        })?;
+        let need = (w as usize)
+            .checked_mul(h as usize)
+            .ok_or(Error::InvalidArgument)?;
+        if out_len < need {
+            return Err(fail(
+                Error::InsufficientSize,
+                format_args!("`out_len` is {out_len}, a {w}x{h} image needs {need}"),
+            ));
+        }
+        let hiz = match opts.method {
+            MirrorMethod::Step => None,
+            MirrorMethod::HiZ => {
+                check_buffer(scratch, scratch_len, "scratch")?;
+                // SAFETY: non-null, aligned, readable for scratch_len
+                // texels (contract), size fits isize (check_buffer).
+                let data =
+                    unsafe { core::slice::from_raw_parts(scratch.cast::<HiZTexel>(), scratch_len) };
+                Some(HiZ::try_new(data, *gb.camera(), gb.convention()).map_err(|e| {
+                    fail(e, format_args!("`scratch` is not the pyramid refl_ssr_prepare built for this G-buffer"))
+                })?)
+            }
+        };
+        let pass = MirrorPass::try_new(gb, opts, hiz)?;
+        let color_view = if color.data.is_null() {
+            None
+        } else {
+            if g.color.data.is_null() || color.width != w || color.height != h {
+                return Err(fail(
+                    Error::InvalidArgument,
+                    format_args!("`color` needs a G-buffer color and the camera's size"),
+                ));
+            }
+            // SAFETY: caller contract (the band's rows writable, not
+            // accessed by others during the call).
+            Some(unsafe { color.band_mut(rows) }?)
+        };
+        // Aliasing: the outputs must not overlap each other or the inputs.
+        let color_bytes = if color.data.is_null() {
+            0
+        } else {
+            byte_len::<[f32; 3]>(color.data as usize, color.len)?
+        };
+        let outs = [
+            (out as usize, out_bytes),
+            (host as usize, host_bytes),
+            (color.data as usize, color_bytes),
+            (out_stats as usize, core::mem::size_of::<refl_ssr_stats>()),
+        ];
+        let mut ins = [(0usize, 0usize); 7];
+        ins[..6].copy_from_slice(&gbuffer_ranges(&g));
+        ins[6] = (scratch as usize, scratch_len.saturating_mul(8));
+        for (k, a) in outs.iter().enumerate() {
+            let clash = outs[k + 1..]
+                .iter()
+                .chain(ins.iter())
+                .any(|b| overlaps(a.0, a.1, b.0, b.1));
+            if clash {
+                return Err(fail(
+                    Error::InvalidArgument,
+                    format_args!("the outputs overlap each other or an input"),
+                ));
+            }
+        }
+        let mut sink = Sink {
+            texels: out,
+            width: w as usize,
+            base: rows.start() as usize * w as usize,
+            first_row: rows.start(),
+            color: color_view,
+            host,
+            host_len,
+        };
+        let stats = pass.try_run_rows(rows, &mut sink)?;
+        // SAFETY: caller contract.
+        unsafe { stats_out.write(stats.into()) };
+        Ok(())
+    })
+}
