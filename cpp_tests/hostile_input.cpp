@@ -2493,6 +2493,174 @@ void cone_functions() {
     multi("cone multiray NaN thickness", REFL_STATUS_INVALID_ARGUMENT, &pyr, &nan_thick, ray, up, kInf, 0.2f, 20.0f, &mo, fb);
 }
 
+// The screen-space mirror pass: scratch size, prepare and trace with NULL
+// pointers, unknown enums, options out of range, short and aliased
+// buffers, rows out of range and pyramids of another camera. Every output
+// (stats, texels, colors, host rays, scratch) must be left untouched.
+void ssr_functions() {
+    const refl_camera g = good_camera();
+    const uint32_t w = g.width, h = g.height;
+    const size_t n = size_t(w) * h;
+    std::vector<float> depth(n, 0.5f);
+    std::vector<refl_vec3> normals(n, v3(0, 1, 0)), color(n, v3(0.5f, 0.5f, 0.5f));
+    const refl_image_f32 none{nullptr, 0, 0, 0, 0};
+    refl_gbuffer gb{};
+    gb.depth = {{depth.data(), n, w, h, w}, g, REFL_DEPTH_CONVENTION_ZERO_TO_ONE};
+    gb.normals = {normals.data(), n, w, h, w};
+    gb.normal_space = REFL_NORMAL_SPACE_WORLD;
+    gb.mask = {nullptr, 0, 0, 0, 0};
+    gb.roughness = none;
+    gb.color = {color.data(), n, w, h, w};
+    gb.back_depth = none;
+    const refl_ssr_options def = refl_ssr_options_default();
+    refl_ssr_options hz = def;
+    hz.method = REFL_SSR_METHOD_HIZ;
+
+    // Scratch size.
+    const size_t zero = expect_ok<size_t>("ssr scratch step", [&](size_t* o) { return refl_ssr_scratch_len(o, &gb, &def); });
+    CHECK_EQ(zero, size_t(0));
+    const size_t len = expect_ok<size_t>("ssr scratch hiz", [&](size_t* o) { return refl_ssr_scratch_len(o, &gb, &hz); });
+    CHECK(len > n);
+    expect<size_t>("ssr scratch NULL gbuffer", REFL_STATUS_NULL_POINTER,
+                   [&](size_t* o) { return refl_ssr_scratch_len(o, nullptr, &def); });
+    expect<size_t>("ssr scratch NULL options", REFL_STATUS_NULL_POINTER,
+                   [&](size_t* o) { return refl_ssr_scratch_len(o, &gb, nullptr); });
+    for (uint32_t m : {2u, 7u, kMax}) {
+        refl_ssr_options o = def;
+        o.method = m;
+        expect<size_t>("ssr scratch bad method", REFL_STATUS_INVALID_ARGUMENT,
+                       [&](size_t* out) { return refl_ssr_scratch_len(out, &gb, &o); });
+    }
+    for (const BadCamera& bc : bad_cameras()) {
+        refl_gbuffer b = gb;
+        b.depth.camera = bc.cam;
+        expect<size_t>(bc.name, bc.status, [&](size_t* o) { return refl_ssr_scratch_len(o, &b, &def); });
+    }
+
+    // Prepare: the scratch is its output.
+    auto prep = [&](const char* what, refl_status want, size_t scratch_len, const refl_gbuffer* gbp,
+                    const refl_ssr_options* o, bool null_scratch = false) {
+        std::vector<refl_vec2> scratch(len + 4, v2(-7.0f, -7.0f));
+        const uint32_t got = refl_ssr_prepare(null_scratch ? nullptr : scratch.data(), scratch_len, gbp, o);
+        ++check::checks();
+        bool untouched = true;
+        for (const refl_vec2& v : scratch) untouched = untouched && v.x == -7.0f && v.y == -7.0f;
+        if (got != static_cast<uint32_t>(want) || !untouched)
+            check::fail(__FILE__, __LINE__, std::string(what) + ": got " + check::status_name(got));
+    };
+    prep("ssr prepare NULL gbuffer", REFL_STATUS_NULL_POINTER, len, nullptr, &hz);
+    prep("ssr prepare NULL options", REFL_STATUS_NULL_POINTER, len, &gb, nullptr);
+    prep("ssr prepare NULL scratch", REFL_STATUS_NULL_POINTER, len, &gb, &hz, true);
+    prep("ssr prepare short scratch", REFL_STATUS_INSUFFICIENT_SIZE, len - 1, &gb, &hz);
+    {
+        refl_gbuffer b = gb;
+        b.normal_space = 2;
+        prep("ssr prepare bad normal space", REFL_STATUS_INVALID_ARGUMENT, len, &b, &hz);
+        b = gb;
+        b.depth.convention = 3;
+        prep("ssr prepare bad convention", REFL_STATUS_INVALID_ARGUMENT, len, &b, &hz);
+        b = gb;
+        b.normals.data = nullptr;
+        prep("ssr prepare NULL normals", REFL_STATUS_NULL_POINTER, len, &b, &hz);
+        b = gb;
+        b.normals.len = n - 1;
+        prep("ssr prepare short normals", REFL_STATUS_INSUFFICIENT_SIZE, len, &b, &hz);
+        b = gb;
+        b.color.width = w - 1;
+        prep("ssr prepare color of another size", REFL_STATUS_INVALID_ARGUMENT, len, &b, &hz);
+        b = gb;
+        b.back_depth = {depth.data(), n, w, h - 1, w};
+        prep("ssr prepare back depth of another size", REFL_STATUS_INVALID_ARGUMENT, len, &b, &hz);
+    }
+    for (float bad : {kNaN, -1.0f, kInf}) {
+        refl_ssr_options o = hz;
+        o.thickness = bad;
+        prep("ssr prepare bad thickness", REFL_STATUS_INVALID_ARGUMENT, len, &gb, &o);
+        o = hz;
+        o.start_pixels = bad;
+        prep("ssr prepare bad start", REFL_STATUS_INVALID_ARGUMENT, len, &gb, &o);
+        o = hz;
+        o.border_fade = bad;
+        prep("ssr prepare bad fade", REFL_STATUS_INVALID_ARGUMENT, len, &gb, &o);
+    }
+
+    // Trace: every output prefilled.
+    std::vector<refl_vec2> pyr(len);
+    CHECK_STATUS(refl_ssr_prepare(pyr.data(), len, &gb, &hz), REFL_STATUS_OK);
+    const refl_row_range all{0, h};
+    auto trace = [&](const char* what, refl_status want, const refl_gbuffer* gbp, const refl_ssr_options* o,
+                     const refl_vec2* scratch, size_t scratch_len, refl_row_range rows, size_t out_len,
+                     bool with_color, bool null_out = false, size_t host_len = 16, bool null_host = false) {
+        std::vector<refl_ssr_texel> out(n + 1);
+        std::memset(static_cast<void*>(out.data()), 0x5A, out.size() * sizeof(refl_ssr_texel));
+        std::vector<refl_vec3> col(n, v3(-3, -3, -3));
+        std::vector<refl_host_ray> host(16);
+        std::memset(static_cast<void*>(host.data()), 0x6B, host.size() * sizeof(refl_host_ray));
+        const refl_image_vec3_mut cm = with_color ? refl_image_vec3_mut{col.data(), n, w, h, w}
+                                                  : refl_image_vec3_mut{nullptr, 0, 0, 0, 0};
+        expect<refl_ssr_stats>(what, want, [&](refl_ssr_stats* st) {
+            return refl_ssr_trace_rows(st, null_out ? nullptr : out.data(), out_len, cm,
+                                       null_host ? nullptr : host.data(), host_len, gbp, o, scratch,
+                                       scratch_len, rows);
+        }, false);
+        bool untouched = true;
+        const unsigned char* ob = reinterpret_cast<const unsigned char*>(out.data());
+        for (size_t i = 0; i < out.size() * sizeof(refl_ssr_texel); ++i) untouched = untouched && ob[i] == 0x5A;
+        const unsigned char* hb = reinterpret_cast<const unsigned char*>(host.data());
+        for (size_t i = 0; i < host.size() * sizeof(refl_host_ray); ++i) untouched = untouched && hb[i] == 0x6B;
+        for (const refl_vec3& c : col) untouched = untouched && c.x == -3.0f;
+        CHECK(untouched);
+    };
+    const refl_ssr_stats ok = expect_ok<refl_ssr_stats>("ssr trace", [&](refl_ssr_stats* st) {
+        std::vector<refl_ssr_texel> out(n);
+        std::vector<refl_host_ray> host(n);
+        std::vector<refl_vec3> col(n);
+        return refl_ssr_trace_rows(st, out.data(), n, {col.data(), n, w, h, w}, host.data(), n, &gb, &hz,
+                                   pyr.data(), len, all);
+    });
+    CHECK(ok.traced == n);
+    CHECK_STATUS(refl_ssr_trace_rows(nullptr, nullptr, n, {nullptr, 0, 0, 0, 0}, nullptr, 0, &gb, &def, nullptr,
+                                     0, all),
+                 REFL_STATUS_NULL_POINTER);
+    trace("ssr trace NULL out", REFL_STATUS_NULL_POINTER, &gb, &def, nullptr, 0, all, n, true, true);
+    trace("ssr trace NULL gbuffer", REFL_STATUS_NULL_POINTER, nullptr, &def, nullptr, 0, all, n, true);
+    trace("ssr trace NULL options", REFL_STATUS_NULL_POINTER, &gb, nullptr, nullptr, 0, all, n, true);
+    trace("ssr trace NULL host", REFL_STATUS_NULL_POINTER, &gb, &def, nullptr, 0, all, n, true, false, 16, true);
+    trace("ssr trace short out", REFL_STATUS_INSUFFICIENT_SIZE, &gb, &def, nullptr, 0, all, n - 1, true);
+    trace("ssr trace reversed rows", REFL_STATUS_INVALID_ARGUMENT, &gb, &def, nullptr, 0, {3, 2}, n, true);
+    trace("ssr trace rows past the end", REFL_STATUS_INVALID_ARGUMENT, &gb, &def, nullptr, 0, {0, h + 1}, n, true);
+    trace("ssr trace NULL pyramid", REFL_STATUS_NULL_POINTER, &gb, &hz, nullptr, 0, all, n, true);
+    trace("ssr trace short pyramid", REFL_STATUS_INSUFFICIENT_SIZE, &gb, &hz, pyr.data(), len - 1, all, n, true);
+    {
+        std::vector<refl_vec2> blank(len, v2(0, 0));
+        trace("ssr trace unprepared pyramid", REFL_STATUS_INVALID_ARGUMENT, &gb, &hz, blank.data(), len, all, n, true);
+        refl_gbuffer other = gb;
+        REQUIRE(refl_camera_look_at(&other.depth.camera, v3(1, 2, 6), v3(0, 0.5f, 0), v3(0, 1, 0), 1.0f, 0.1f,
+                                    100.0f, 64, 48) == REFL_STATUS_OK);
+        trace("ssr trace pyramid of another camera", REFL_STATUS_INVALID_ARGUMENT, &other, &hz, pyr.data(), len,
+              all, n, true);
+        refl_gbuffer nocolor = gb;
+        nocolor.color = {nullptr, 0, 0, 0, 0};
+        trace("ssr trace color without a G-buffer color", REFL_STATUS_INVALID_ARGUMENT, &nocolor, &def, nullptr, 0,
+              all, n, true);
+    }
+    {
+        // Misaligned texels; texels aliasing the G-buffer's normals.
+        std::vector<refl_ssr_texel> out(n + 1);
+        refl_ssr_stats st{};
+        CHECK_STATUS(refl_ssr_trace_rows(&st, reinterpret_cast<refl_ssr_texel*>(reinterpret_cast<char*>(out.data()) + 1),
+                                         n, {nullptr, 0, 0, 0, 0}, nullptr, 0, &gb, &def, nullptr, 0, all),
+                     REFL_STATUS_INVALID_ARGUMENT);
+        std::vector<refl_vec3> big(4 * n, v3(0, 1, 0));
+        refl_gbuffer alias = gb;
+        alias.normals = {big.data(), n, w, h, w};
+        CHECK_STATUS(refl_ssr_trace_rows(&st, reinterpret_cast<refl_ssr_texel*>(big.data()), n,
+                                         {nullptr, 0, 0, 0, 0}, nullptr, 0, &alias, &def, nullptr, 0, all),
+                     REFL_STATUS_INVALID_ARGUMENT);
+        CHECK(big[0].y == 1.0f && big[3 * n].y == 1.0f);
+    }
+}
+
 }  // namespace
 
 int main() {
@@ -2508,5 +2676,6 @@ int main() {
     tcrr_functions();
     cluster_functions();
     cone_functions();
+    ssr_functions();
     return check::finish("hostile_input");
 }

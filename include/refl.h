@@ -541,6 +541,118 @@ typedef uint32_t refl_cluster_fallback;
 #endif // __cplusplus
 
 /**
+ * The space a G-buffer's normals are stored in.
+ */
+enum refl_normal_space
+#if defined(__cplusplus) || __STDC_VERSION__ >= 202311L
+  : uint32_t
+#endif // defined(__cplusplus) || __STDC_VERSION__ >= 202311L
+ {
+    /**
+     * World space.
+     */
+    REFL_NORMAL_SPACE_WORLD = 0,
+    /**
+     * View space of the G-buffer's camera (looking down -z).
+     */
+    REFL_NORMAL_SPACE_VIEW = 1,
+};
+#ifndef __cplusplus
+#if __STDC_VERSION__ >= 202311L
+typedef enum refl_normal_space refl_normal_space;
+#else
+typedef uint32_t refl_normal_space;
+#endif // __STDC_VERSION__ >= 202311L
+#endif // __cplusplus
+
+/**
+ * The kernel of the pass.
+ */
+enum refl_ssr_method
+#if defined(__cplusplus) || __STDC_VERSION__ >= 202311L
+  : uint32_t
+#endif // defined(__cplusplus) || __STDC_VERSION__ >= 202311L
+ {
+    /**
+     * Per-pixel stepping (`refl_step_ray`).
+     */
+    REFL_SSR_METHOD_STEP = 0,
+    /**
+     * Hi-Z traversal (`refl_hiz_trace_ray`) over a pyramid that
+     * `refl_ssr_prepare` builds.
+     */
+    REFL_SSR_METHOD_HIZ = 1,
+};
+#ifndef __cplusplus
+#if __STDC_VERSION__ >= 202311L
+typedef enum refl_ssr_method refl_ssr_method;
+#else
+typedef uint32_t refl_ssr_method;
+#endif // __STDC_VERSION__ >= 202311L
+#endif // __cplusplus
+
+/**
+ * What the pass did at a pixel (`refl_ssr_texel.status`,
+ * `refl_host_ray.status`).
+ */
+enum refl_ssr_status
+#if defined(__cplusplus) || __STDC_VERSION__ >= 202311L
+  : uint32_t
+#endif // defined(__cplusplus) || __STDC_VERSION__ >= 202311L
+ {
+    /**
+     * Not reflective (mask, roughness), or a row the call did not cover.
+     */
+    REFL_SSR_STATUS_SKIPPED = 0,
+    /**
+     * No usable surface: sky, NaN depth, zero or non-finite normal.
+     */
+    REFL_SSR_STATUS_NO_SURFACE = 1,
+    /**
+     * A validated hit.
+     */
+    REFL_SSR_STATUS_HIT = 2,
+    /**
+     * The ray reached t_max or the far plane in front of every surface:
+     * it hits nothing (answered).
+     */
+    REFL_SSR_STATUS_SKY = 3,
+    /**
+     * Host ray: the projected ray left the image.
+     */
+    REFL_SSR_STATUS_LEFT_IMAGE = 4,
+    /**
+     * Host ray: the ray passed behind geometry.
+     */
+    REFL_SSR_STATUS_BEHIND_GEOMETRY = 5,
+    /**
+     * Host ray: the kernel's step or iteration cap was reached.
+     */
+    REFL_SSR_STATUS_OUT_OF_STEPS = 6,
+    /**
+     * Host ray: no usable projection (the ray runs toward its own
+     * vanishing point).
+     */
+    REFL_SSR_STATUS_NO_PROJECTION = 7,
+    /**
+     * Host ray: the hit surface faces along the ray.
+     */
+    REFL_SSR_STATUS_BACK_FACE = 8,
+    /**
+     * Host ray: the kernel's hit lies inside the thickness, not on the
+     * visible surface.
+     */
+    REFL_SSR_STATUS_HIDDEN = 9,
+};
+#ifndef __cplusplus
+#if __STDC_VERSION__ >= 202311L
+typedef enum refl_ssr_status refl_ssr_status;
+#else
+typedef uint32_t refl_ssr_status;
+#endif // __STDC_VERSION__ >= 202311L
+#endif // __cplusplus
+
+/**
  * A 4x4 float matrix, column-major: element (row r, column c) is
  * `m[4 * c + r]`, the layout of OpenGL and glam. Points are column vectors
  * multiplied on the right (`p' = M p`).

@@ -46,11 +46,13 @@
 //!    meets the visible surface, i.e. the hit was refined onto the plane of
 //!    the surface around it, or the ray's depth at the hit is at most one
 //!    texel's depth change (the largest to a continuous neighbor) behind
-//!    the texel's front depth; otherwise it goes to the host as
-//!    [`MirrorStatus::Hidden`] ([`MirrorOptions::reject_hidden_hits`];
+//!    the texel's front depth; otherwise the ray resumes where its
+//!    projection has left that texel (it may come out from behind the
+//!    object and meet a visible surface), at most [`HIDDEN_RESUMES`] times,
+//!    and then goes to the host as [`MirrorStatus::Hidden`] ([`MirrorOptions::reject_hidden_hits`];
 //!    on the test scene of `core/tests/ssr.rs` this removes most false
 //!    hits). A hit where every texel of its bilinear footprint has a normal
-//!    facing along the ray (`n . r > 0`) reached the surface from behind:
+//!    facing along the ray (`n . r >` [`BACK_FACE_COS`]) reached the surface from behind:
 //!    what the ray really hits is hidden, so the hit is refused
 //!    ([`MirrorStatus::BackFace`]) when [`MirrorOptions::reject_back_faces`]
 //!    is set, and goes to the host. (One texel is not enough: at an edge the
@@ -77,6 +79,24 @@ use crate::trace::{ray_start_t, refine_hit, REFINE_CONTINUITY};
 use crate::{
     Camera, DepthHit, Error, GBuffer, ImageViewMut, Miss, Ray, RowRange, Thickness, Trace,
 };
+
+/// How many texel depth changes (to the steepest continuous neighbor) a
+/// kernel hit may lie behind its texel's front depth and still be on the
+/// visible surface (module docs, step 7). Measured on
+/// `cpp_tests/ssr_example.cpp`: 2, 3 and 5 raise the found share by 0.15,
+/// 0.22 and 0.27 points and the false hits by 42%, 55% and 83%.
+pub const HIDDEN_SLOPES: f32 = 1.0;
+
+/// A hit is on a back face when every texel around it has `n . r` above
+/// this (module docs, step 7). At a curved object's base (a torus, a sphere
+/// on a floor) the texels around a true hit face slightly along the ray;
+/// measured on `cpp_tests/ssr_example.cpp`: 0 finds 98.54% of the visible
+/// reflections with 277 false hits, 0.2 98.56% / 292, 0.4 99.07% / 319.
+pub const BACK_FACE_COS: f32 = 0.4;
+
+/// How often a ray resumes past a hidden hit before it goes to the host as
+/// [`MirrorStatus::Hidden`] (module docs, step 7).
+pub const HIDDEN_RESUMES: u32 = 32;
 
 /// Relative depth slack of the visible-surface test (module docs, step 7):
 /// f32 rounding of the decoded depths.
@@ -516,8 +536,8 @@ impl<'a> MirrorPass<'a> {
     }
 
     /// Whether a kernel hit lies on the visible surface (module docs, step
-    /// 7): refined onto the surface's plane, or at most one texel's depth
-    /// change behind the texel's front depth.
+    /// 7): refined onto the surface's plane, or at most [`HIDDEN_SLOPES`]
+    /// texel depth changes behind the texel's front depth.
     fn meets_front(&self, h: &DepthHit, refined: bool) -> bool {
         if refined {
             return true;
@@ -542,7 +562,7 @@ impl<'a> MirrorPass<'a> {
                 }
             }
         }
-        h.depth <= z0 + slope + HIDDEN_EPSILON * z0
+        h.depth <= z0 + HIDDEN_SLOPES * slope + HIDDEN_EPSILON * z0
     }
 
     /// Whether every texel of the bilinear footprint of `p` (the up to 4
@@ -554,7 +574,7 @@ impl<'a> MirrorPass<'a> {
         let mut any = false;
         for (x, y) in footprint(p) {
             if let Some(n) = self.gbuffer.world_normal(x, y) {
-                if !(n.dot(dir) > 0.0) {
+                if !(n.dot(dir) > BACK_FACE_COS) {
                     return false;
                 }
                 any = true;
@@ -588,43 +608,63 @@ impl<'a> MirrorPass<'a> {
             }
             Setup::Trace(r) => r,
         };
-        let status = match self.try_trace_kernel(&r) {
-            Ok(Trace::Hit(h)) => {
-                let (h, refined) = if self.options.refine {
-                    let f = refine_hit(
-                        self.gbuffer.depth(),
-                        &r.kernel_ray(),
-                        self.options.t_max - r.t_start,
-                        &h,
-                    );
-                    let moved = f.t.to_bits() != h.t.to_bits() || f.pixel != h.pixel;
-                    (f, moved)
-                } else {
-                    (h, false)
+        // A hidden hit (the ray passed behind an object within its
+        // thickness) does not end the ray: it resumes one pixel past it, at
+        // most `HIDDEN_RESUMES` times (module docs, step 7).
+        let mut seg = r;
+        let mut resumes = 0;
+        let status = loop {
+            let trace = self.try_trace_kernel(&seg);
+            let Ok(Trace::Hit(h)) = trace else {
+                break match trace {
+                    Ok(Trace::Miss { reason, .. }) => match reason {
+                        Miss::EndOfRay => MirrorStatus::Sky,
+                        Miss::LeftImage => MirrorStatus::LeftImage,
+                        Miss::BehindGeometry => MirrorStatus::BehindGeometry,
+                        Miss::OutOfSteps => MirrorStatus::OutOfSteps,
+                        Miss::DegenerateProjection => MirrorStatus::NoProjection,
+                    },
+                    // Not reached for a ray from `setup` (validated options,
+                    // unit direction, finite origin); handed over rather
+                    // than lost.
+                    _ => MirrorStatus::NoProjection,
                 };
-                let hidden = self.options.reject_hidden_hits && !self.meets_front(&h, refined);
-                let back = self.options.reject_back_faces && self.faces_away(h.pixel, r.dir);
-                if hidden {
-                    MirrorStatus::Hidden
-                } else if back {
-                    MirrorStatus::BackFace
-                } else {
-                    out.pixel = h.pixel;
-                    out.t = r.t_start + h.t;
-                    out.confidence = self.confidence(h.pixel);
-                    MirrorStatus::Hit
+            };
+            let (h, refined) = if self.options.refine {
+                let f = refine_hit(
+                    self.gbuffer.depth(),
+                    &seg.kernel_ray(),
+                    self.options.t_max - seg.t_start,
+                    &h,
+                );
+                let moved = f.t.to_bits() != h.t.to_bits() || f.pixel != h.pixel;
+                (f, moved)
+            } else {
+                (h, false)
+            };
+            if self.options.reject_hidden_hits && !self.meets_front(&h, refined) {
+                // Resume where the projection has left the hit's texel.
+                let at = Ray {
+                    origin: seg.kernel_ray().at(h.t),
+                    dir: seg.dir,
+                };
+                let next = ray_start_t(self.camera(), &at, 1.0).map(|dt| seg.t_start + h.t + dt);
+                match next {
+                    Some(t) if resumes < HIDDEN_RESUMES && t < self.options.t_max => {
+                        resumes += 1;
+                        seg.t_start = t;
+                        continue;
+                    }
+                    _ => break MirrorStatus::Hidden,
                 }
             }
-            Ok(Trace::Miss { reason, .. }) => match reason {
-                Miss::EndOfRay => MirrorStatus::Sky,
-                Miss::LeftImage => MirrorStatus::LeftImage,
-                Miss::BehindGeometry => MirrorStatus::BehindGeometry,
-                Miss::OutOfSteps => MirrorStatus::OutOfSteps,
-                Miss::DegenerateProjection => MirrorStatus::NoProjection,
-            },
-            // Not reached for a ray from `setup` (validated options, unit
-            // direction, finite origin); handed over rather than lost.
-            Err(_) => MirrorStatus::NoProjection,
+            if self.options.reject_back_faces && self.faces_away(h.pixel, seg.dir) {
+                break MirrorStatus::BackFace;
+            }
+            out.pixel = h.pixel;
+            out.t = seg.t_start + h.t;
+            out.confidence = self.confidence(h.pixel);
+            break MirrorStatus::Hit;
         };
         out.status = status;
         let host = status
