@@ -1351,8 +1351,11 @@ pub fn try_multiray(
     let axis = ray.dir.normalize();
     let hiz = pyramids.hiz();
     let l0 = hiz.layout().level(0).ok_or(Error::InvalidArgument)?;
-    let mut sum = [0.0f32; 3];
-    let mut wsum = 0.0f32;
+    // The weighted mean in f64: weights up to (power + 1) / (2 pi) times
+    // colors near f32::MAX overflow an f32 sum (fuzz finding F18); the
+    // mean of finite colors lies between them and fits f32 again.
+    let mut sum = [0.0f64; 3];
+    let mut wsum = 0.0f64;
     let (mut traced, mut hits, mut iterations) = (0u32, 0u32, 0u32);
     let n = options.rays;
     for i in 0..n {
@@ -1386,14 +1389,18 @@ pub fn try_multiray(
             }
             None => fallback(dir),
         };
-        let w = phong_lobe_weight(dir.dot(axis), power);
+        let w = f64::from(phong_lobe_weight(dir.dot(axis), power));
         for k in 0..3 {
-            sum[k] += w * c[k];
+            sum[k] += w * f64::from(c[k]);
         }
         wsum += w;
     }
     let color = if wsum > 0.0 {
-        [sum[0] / wsum, sum[1] / wsum, sum[2] / wsum]
+        [
+            (sum[0] / wsum) as f32,
+            (sum[1] / wsum) as f32,
+            (sum[2] / wsum) as f32,
+        ]
     } else {
         fallback(axis)
     };

@@ -1222,6 +1222,39 @@ fn cone_directions_are_uniform_in_the_cap() {
     assert!((phong_lobe_weight(0.5, 2.0) - 0.25).abs() < 1e-7);
 }
 
+/// Fuzz finding F18: the weighted mean of colors near `f32::MAX` overflowed
+/// an f32 sum (weights up to `(power + 1) / (2 pi)`) to `+inf`.
+#[test]
+fn multiray_mean_of_huge_colors_is_finite() {
+    let c = [3.0e38f32, 1.0, 0.0];
+    let fr = Frame::new(48, 32, 6.0, DepthConvention::ReversedZ, |_, _| c);
+    let p = fr.pyramids();
+    let ray = Ray {
+        origin: Vec3::new(0.0, -0.9, -3.0),
+        dir: Vec3::new(0.0, 0.3, -1.0).normalize(),
+    };
+    let opts = MultiRayOptions {
+        rays: 16,
+        rotation: Vec2::new(0.3, 0.7),
+        hiz: HiZOptions::default(),
+    };
+    let r = try_multiray(
+        &p,
+        Thickness::Constant(f32::INFINITY),
+        ray,
+        Vec3::Y,
+        100.0,
+        0.1,
+        100.0,
+        &opts,
+        |_| c,
+    )
+    .unwrap();
+    assert!(r.hits > 0);
+    assert!(r.color.iter().all(|v| v.is_finite()), "{:?}", r.color);
+    assert!((r.color[0] / c[0] - 1.0).abs() < 1e-6, "{:?}", r.color);
+}
+
 #[test]
 fn multiray_uniform_scene_and_bad_input() {
     let c = [0.4f32, 0.5, 0.6];
