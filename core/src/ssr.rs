@@ -1,7 +1,7 @@
 //! The screen-space mirror reflection pass: G-buffer in, one mirror ray per
 //! reflective pixel traced against the frame's own depth buffer by per-pixel
-//! stepping (seed 003 Sec. 3.4, [`crate::step`]) or Hi-Z traversal (seed
-//! 004 Sec. 4.4.1, [`crate::hiz`]), hits validated and shaded, and the
+//! stepping (seed 003 Sec. 3.4, `crate::step`) or Hi-Z traversal (seed
+//! 004 Sec. 4.4.1, `crate::hiz`), hits validated and shaded, and the
 //! pixels the screen cannot answer handed back as world rays for the host's
 //! own tracer (design.md, "Passes"; issue 13).
 //!
@@ -111,10 +111,10 @@ use crate::step::{try_step, StepOptions};
 /// The kernel a [`MirrorPass`] traces with.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
 pub enum MirrorMethod {
-    /// Per-pixel stepping ([`crate::step::try_step`], feature
+    /// Per-pixel stepping (`crate::step::try_step`, feature
     /// `depth-image`).
     Step,
-    /// Hi-Z traversal ([`crate::hiz::try_trace_hiz`], feature `hiz`): needs
+    /// Hi-Z traversal (`crate::hiz::try_trace_hiz`, feature `hiz`): needs
     /// a pyramid built from the G-buffer's depth.
     HiZ,
 }
@@ -355,7 +355,7 @@ fn validate_options(o: &MirrorOptions) -> Result<(), Error> {
 impl<'a> MirrorPass<'a> {
     /// Describes the pass over `gbuffer` with `options`; `hiz` is the
     /// pyramid of the G-buffer's depth for [`MirrorMethod::HiZ`] (built
-    /// with [`crate::try_build_hiz`] from [`GBuffer::depth`]; ignored for
+    /// with `crate::try_build_hiz` from [`GBuffer::depth`]; ignored for
     /// stepping).
     ///
     /// # Errors
@@ -512,7 +512,7 @@ impl<'a> MirrorPass<'a> {
     }
 
     /// The kernel's trace of a pixel's ray, unrefined: exactly what
-    /// [`crate::step::try_step`] or [`crate::hiz::try_trace_hiz`] returns
+    /// `crate::step::try_step` or `crate::hiz::try_trace_hiz` returns
     /// for [`MirrorRay::kernel_ray`], `t_max - t_start`, the thickness
     /// above and the options' kernel settings.
     ///
