@@ -510,9 +510,11 @@ fn op_matrices(b: &mut Bytes, st: &mut State) {
                 f64::from(ray.origin.z) + f64::from(k * ray.dir.z),
             ];
             let r = mat_mul4(&m, [p[0], p[1], p[2], 1.0]);
-            // f32 rounding of the eye and matrix scales with |eye| / k.
-            let e = f64::from(max_abs3(ray.origin));
-            let tol = f64::from(c.width.max(c.height)) * (5e-3 + 1e-5 * (1.0 + e) / f64::from(k));
+            // f32 rounding of the eye and matrix, and the camera's allowed
+            // orthonormality defect (the ray starts at the transposed
+            // inverse's eye, the matrix projects through the view itself),
+            // scale with |eye| / k (`pixel_tol`).
+            let tol = f64::from(c.width.max(c.height)) * 5e-3 + f64::from(pixel_tol(&c, k));
             assert!(
                 (r[0] / r[3] - f64::from(px.x)).abs() <= tol && (r[1] / r[3] - f64::from(px.y)).abs() <= tol,
                 "world-to-pixel maps a point on the ray through {px:?} to ({}, {}) {c:?} {m:?} {ray:?} {k}",
