@@ -1064,7 +1064,11 @@ pub fn try_cone_trace(
         options.max_stretch
     };
     let (q1, q2) = (1.0 / cone.apex_depth, 1.0 / cone.hit_depth);
-    let mut acc = [0.0f32; 3];
+    // Color differences and their weighted sum in f64: a color near
+    // f32::MAX against a fallback of the other sign overflows f32 (fuzz
+    // finding F19), though the result, a convex combination of the
+    // fallback and the pyramid's colors, is finite.
+    let mut acc = [0.0f64; 3];
     let mut coverage = 0.0f32;
     let mut fetches = 0u32;
     let mut circles = 0u32;
@@ -1105,7 +1109,7 @@ pub fn try_cone_trace(
         } else {
             1
         };
-        let (mut c, mut a) = ([0.0f32; 3], 0.0f32);
+        let (mut c, mut a) = ([0.0f64; 3], 0.0f32);
         for j in 0..n {
             let off = if n > 1 {
                 (j as f32 / (n - 1) as f32 * 2.0 - 1.0) * circle.radius * (stretch - 1.0)
@@ -1122,7 +1126,7 @@ pub fn try_cone_trace(
             let w = pyramids.sphere_weight(level, p, z, rz, options.depth_tolerance, &mut fetches);
             let aj = (vis * w).clamp(0.0, 1.0);
             for k in 0..3 {
-                c[k] += aj * (col[k] - fallback[k]);
+                c[k] += f64::from(aj) * (f64::from(col[k]) - f64::from(fallback[k]));
             }
             a += aj;
         }
@@ -1132,7 +1136,7 @@ pub fn try_cone_trace(
             let take = a.min(1.0 - coverage);
             // c / n is the weighted color difference of this circle; its
             // share is scaled down to the weight actually taken.
-            let scale = take / a * inv;
+            let scale = f64::from(take / a * inv);
             for k in 0..3 {
                 acc[k] += c[k] * scale;
             }
@@ -1145,14 +1149,14 @@ pub fn try_cone_trace(
     }
     if options.normalize && coverage > 0.0 {
         for a in &mut acc {
-            *a /= coverage;
+            *a /= f64::from(coverage);
         }
     }
     Ok(ConeResult {
         color: [
-            fallback[0] + acc[0],
-            fallback[1] + acc[1],
-            fallback[2] + acc[2],
+            (f64::from(fallback[0]) + acc[0]) as f32,
+            (f64::from(fallback[1]) + acc[1]) as f32,
+            (f64::from(fallback[2]) + acc[2]) as f32,
         ],
         coverage,
         circles,

@@ -1255,6 +1255,45 @@ fn multiray_mean_of_huge_colors_is_finite() {
     assert!((r.color[0] / c[0] - 1.0).abs() < 1e-6, "{:?}", r.color);
 }
 
+/// Fuzz finding F19: a pyramid color near `f32::MAX` and a fallback of the
+/// other sign overflowed the f32 color difference; the result, a convex
+/// combination of the two, is finite and equals the f64 combination.
+#[test]
+fn cone_trace_of_huge_colors_against_a_huge_fallback_is_finite() {
+    let c = [3.0e38f32, -3.0e38, 1.0];
+    let fallback = [-3.0e38f32, 3.0e38, 0.5];
+    let fr = Frame::new(48, 32, 6.0, DepthConvention::ReversedZ, |_, _| c);
+    let p = fr.pyramids();
+    for normalize in [false, true] {
+        let opts = ConeOptions {
+            normalize,
+            max_stretch: 4.0,
+            ..ConeOptions::default()
+        };
+        let mut k = cone(Vec2::new(20.0, 24.0), Vec2::new(20.0, 10.0), 2.0, 5.0, 0.3);
+        k.n_dot_v = 0.4;
+        let r = try_cone_trace(&p, &k, fallback, &opts).unwrap();
+        assert!(r.color.iter().all(|v| v.is_finite()), "{:?}", r.color);
+        assert!(r.coverage > 0.0);
+        // Every sample reads `c`: the result is fallback + coverage (c -
+        // fallback), or `c` itself when normalized.
+        let w = if normalize {
+            1.0
+        } else {
+            f64::from(r.coverage)
+        };
+        for i in 0..3 {
+            let want = f64::from(fallback[i]) + w * (f64::from(c[i]) - f64::from(fallback[i]));
+            let tol = 1e-6 * want.abs().max(1.0);
+            assert!(
+                (f64::from(r.color[i]) - want).abs() <= tol,
+                "{i}: {} vs {want}",
+                r.color[i]
+            );
+        }
+    }
+}
+
 #[test]
 fn multiray_uniform_scene_and_bad_input() {
     let c = [0.4f32, 0.5, 0.6];
