@@ -321,8 +321,28 @@ fn footprint(p: Vec2) -> [(u32, u32); 4] {
 /// A pixel's setup, or the status that ends it early.
 enum Setup {
     Done(MirrorStatus),
+    /// The ray starts at or beyond `t_max`: answered as sky untraced.
+    Sky(MirrorRay),
     Trace(MirrorRay),
     Host(MirrorRay, MirrorStatus),
+}
+
+/// One pixel's mirror ray as [`MirrorPass`] traced it: what the glossy
+/// pass (`crate::glossy`) builds on, so that both passes share one ray
+/// generation, start rule and hit validation.
+#[derive(Clone, Copy, Debug)]
+#[cfg_attr(not(feature = "cone"), allow(dead_code))]
+pub(crate) struct AxisTrace {
+    /// The pixel's texel, as [`MirrorPass::pixel`] gives it.
+    pub texel: MirrorTexel,
+    /// Its host ray, as [`MirrorPass::pixel`] gives it.
+    pub host: Option<HostRay>,
+    /// The reflection ray, for every pixel with one (`None` for
+    /// [`MirrorStatus::Skipped`] and [`MirrorStatus::NoSurface`]).
+    pub ray: Option<MirrorRay>,
+    /// Whether the ray was traced from `ray.t_start` (not handed over or
+    /// answered before tracing).
+    pub traced: bool,
 }
 
 /// The mirror pass over one frame (module docs).
@@ -334,7 +354,7 @@ pub struct MirrorPass<'a> {
     hiz: Option<HiZ<'a>>,
 }
 
-fn validate_options(o: &MirrorOptions) -> Result<(), Error> {
+pub(crate) fn validate_options(o: &MirrorOptions) -> Result<(), Error> {
     let finite_nonneg = |x: f32| x >= 0.0 && x.is_finite();
     let ok = finite_nonneg(o.thickness)
         && finite_nonneg(o.start_pixels)
@@ -464,7 +484,7 @@ impl<'a> MirrorPass<'a> {
             Some(t0) if thickness.is_finite() => {
                 mr.t_start = t0.max(self.options.t_min);
                 if !(mr.t_start < self.options.t_max) {
-                    return Setup::Done(MirrorStatus::Sky);
+                    return Setup::Sky(mr);
                 }
                 Setup::Trace(mr)
             }
@@ -488,7 +508,7 @@ impl<'a> MirrorPass<'a> {
     pub fn host_ray(&self, x: u32, y: u32, status: MirrorStatus) -> Option<HostRay> {
         match self.setup(x, y) {
             Setup::Trace(r) | Setup::Host(r, _) => Some(self.host_entry(x, y, &r, status)),
-            Setup::Done(_) => None,
+            Setup::Done(_) | Setup::Sky(_) => None,
         }
     }
 
@@ -596,15 +616,31 @@ impl<'a> MirrorPass<'a> {
     /// Traces and validates one pixel: its output texel and, for the
     /// statuses of [`MirrorStatus::needs_host`], its host ray.
     pub fn pixel(&self, x: u32, y: u32) -> (MirrorTexel, Option<HostRay>) {
+        let a = self.trace_axis(x, y);
+        (a.texel, a.host)
+    }
+
+    /// [`MirrorPass::pixel`] with the ray it traced.
+    pub(crate) fn trace_axis(&self, x: u32, y: u32) -> AxisTrace {
         let mut out = MirrorTexel::default();
+        let done = |texel, host, ray| AxisTrace {
+            texel,
+            host,
+            ray,
+            traced: false,
+        };
         let r = match self.setup(x, y) {
             Setup::Done(s) => {
                 out.status = s;
-                return (out, None);
+                return done(out, None, None);
+            }
+            Setup::Sky(r) => {
+                out.status = MirrorStatus::Sky;
+                return done(out, None, Some(r));
             }
             Setup::Host(r, s) => {
                 out.status = s;
-                return (out, Some(self.host_entry(x, y, &r, s)));
+                return done(out, Some(self.host_entry(x, y, &r, s)), Some(r));
             }
             Setup::Trace(r) => r,
         };
@@ -670,7 +706,12 @@ impl<'a> MirrorPass<'a> {
         let host = status
             .needs_host()
             .then(|| self.host_entry(x, y, &r, status));
-        (out, host)
+        AxisTrace {
+            texel: out,
+            host,
+            ray: Some(r),
+            traced: true,
+        }
     }
 
     /// Runs the pass over the rows `out` owns (a whole image or a band from
