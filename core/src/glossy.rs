@@ -73,7 +73,7 @@ use crate::cone::{
     Fades, MultiRayOptions, DEFAULT_SIGMA,
 };
 use crate::hiz::{hiz_len, try_build_hiz, HiZ, HiZLayout, HiZOptions, HiZTexel};
-use crate::ssr::AxisTrace;
+use crate::ssr::{AxisTrace, ImageSink};
 use crate::{
     Error, GBuffer, HostRay, ImageViewMut, MirrorMethod, MirrorOptions, MirrorPass, MirrorRay,
     MirrorStatus, RowRange, Thickness,
@@ -686,43 +686,10 @@ impl<'a> GlossyPass<'a> {
         host: &mut [HostRay],
     ) -> Result<GlossyStats, Error> {
         let (w, h) = (self.gbuffer().width(), self.gbuffer().height());
-        if out.width() != w || out.height() != h {
-            return Err(Error::InvalidArgument);
+        match ImageSink::try_new(out, color, host, w, h)? {
+            Some((rows, mut sink)) => Ok(self.run_rows(rows, &mut sink)),
+            None => Ok(GlossyStats::default()),
         }
-        if let Some(c) = color.as_deref() {
-            if c.width() != w || c.height() != h || c.owned_rows() != out.owned_rows() {
-                return Err(Error::InvalidArgument);
-            }
-        }
-        let Some(rows) = out.owned_rows() else {
-            return Ok(GlossyStats::default());
-        };
-        struct Views<'o, 'c, 'h, 'x, 'y> {
-            out: &'o mut ImageViewMut<'x, GlossyTexel>,
-            color: Option<&'c mut ImageViewMut<'y, ColorTexel>>,
-            host: &'h mut [HostRay],
-        }
-        impl GlossySink for Views<'_, '_, '_, '_, '_> {
-            fn texel(&mut self, x: u32, y: u32, texel: &GlossyTexel, color: ColorTexel) {
-                if let Some(p) = self.out.get_mut(x, y) {
-                    *p = *texel;
-                }
-                if let Some(c) = self.color.as_deref_mut().and_then(|c| c.get_mut(x, y)) {
-                    *c = color;
-                }
-            }
-            fn host(&mut self, index: u32, ray: &HostRay) -> bool {
-                match self.host.get_mut(index as usize) {
-                    Some(slot) => {
-                        *slot = *ray;
-                        true
-                    }
-                    None => false,
-                }
-            }
-        }
-        let mut views = Views { out, color, host };
-        Ok(self.run_rows(rows, &mut views))
     }
 
     /// Runs the pass over `rows` and hands every pixel's texel and color,
@@ -771,5 +738,14 @@ impl<'a> GlossyPass<'a> {
             }
         }
         stats
+    }
+}
+
+impl GlossySink for ImageSink<'_, '_, '_, '_, '_, GlossyTexel> {
+    fn texel(&mut self, x: u32, y: u32, texel: &GlossyTexel, color: ColorTexel) {
+        self.put(x, y, texel, color);
+    }
+    fn host(&mut self, index: u32, ray: &HostRay) -> bool {
+        self.put_host(index, ray)
     }
 }

@@ -734,48 +734,14 @@ impl<'a> MirrorPass<'a> {
         color: Option<&mut ImageViewMut<'_, [f32; 3]>>,
         host: &mut [HostRay],
     ) -> Result<MirrorStats, Error> {
-        let (w, h) = (self.gbuffer.width(), self.gbuffer.height());
-        if out.width() != w || out.height() != h {
+        if color.is_some() && self.gbuffer.color().is_none() {
             return Err(Error::InvalidArgument);
         }
-        if let Some(c) = color.as_deref() {
-            if c.width() != w
-                || c.height() != h
-                || c.owned_rows() != out.owned_rows()
-                || self.gbuffer.color().is_none()
-            {
-                return Err(Error::InvalidArgument);
-            }
+        let (w, h) = (self.gbuffer.width(), self.gbuffer.height());
+        match ImageSink::try_new(out, color, host, w, h)? {
+            Some((rows, mut sink)) => Ok(self.run_rows(rows, &mut sink)),
+            None => Ok(MirrorStats::default()),
         }
-        let Some(rows) = out.owned_rows() else {
-            return Ok(MirrorStats::default());
-        };
-        struct Views<'o, 'c, 'h, 'x, 'y> {
-            out: &'o mut ImageViewMut<'x, MirrorTexel>,
-            color: Option<&'c mut ImageViewMut<'y, [f32; 3]>>,
-            host: &'h mut [HostRay],
-        }
-        impl MirrorSink for Views<'_, '_, '_, '_, '_> {
-            fn texel(&mut self, x: u32, y: u32, texel: &MirrorTexel, color: [f32; 3]) {
-                if let Some(p) = self.out.get_mut(x, y) {
-                    *p = *texel;
-                }
-                if let Some(c) = self.color.as_deref_mut().and_then(|c| c.get_mut(x, y)) {
-                    *c = color;
-                }
-            }
-            fn host(&mut self, index: u32, ray: &HostRay) -> bool {
-                match self.host.get_mut(index as usize) {
-                    Some(slot) => {
-                        *slot = *ray;
-                        true
-                    }
-                    None => false,
-                }
-            }
-        }
-        let mut views = Views { out, color, host };
-        Ok(self.run_rows(rows, &mut views))
     }
 
     /// Runs the pass over `rows` (checked against the G-buffer's height)
@@ -840,4 +806,72 @@ pub trait MirrorSink {
     /// counting only those stored); returns `false` if it was not stored
     /// (the list is full).
     fn host(&mut self, index: u32, ray: &HostRay) -> bool;
+}
+
+/// The image outputs of a pass's `try_run` (the mirror and the glossy
+/// pass): texels of type `T`, an optional color image of the same rows,
+/// and the host-ray list.
+pub(crate) struct ImageSink<'o, 'c, 'h, 'x, 'y, T> {
+    out: &'o mut ImageViewMut<'x, T>,
+    color: Option<&'c mut ImageViewMut<'y, [f32; 3]>>,
+    host: &'h mut [HostRay],
+}
+
+impl<'o, 'c, 'h, 'x, 'y, T: Copy> ImageSink<'o, 'c, 'h, 'x, 'y, T> {
+    /// Checks the outputs against a `width x height` G-buffer: the sink
+    /// and the rows `out` owns (`None` if it owns none).
+    ///
+    /// # Errors
+    /// [`Error::InvalidArgument`] if `out` or `color` is not `width x
+    /// height`, or their bands differ.
+    #[allow(clippy::type_complexity)]
+    pub(crate) fn try_new(
+        out: &'o mut ImageViewMut<'x, T>,
+        color: Option<&'c mut ImageViewMut<'y, [f32; 3]>>,
+        host: &'h mut [HostRay],
+        width: u32,
+        height: u32,
+    ) -> Result<Option<(RowRange, Self)>, Error> {
+        if out.width() != width || out.height() != height {
+            return Err(Error::InvalidArgument);
+        }
+        if let Some(c) = color.as_deref() {
+            if c.width() != width || c.height() != height || c.owned_rows() != out.owned_rows() {
+                return Err(Error::InvalidArgument);
+            }
+        }
+        Ok(out
+            .owned_rows()
+            .map(|rows| (rows, Self { out, color, host })))
+    }
+
+    /// Writes pixel `(x, y)`'s texel and color.
+    pub(crate) fn put(&mut self, x: u32, y: u32, texel: &T, color: [f32; 3]) {
+        if let Some(p) = self.out.get_mut(x, y) {
+            *p = *texel;
+        }
+        if let Some(c) = self.color.as_deref_mut().and_then(|c| c.get_mut(x, y)) {
+            *c = color;
+        }
+    }
+
+    /// Stores host ray number `index` if the list holds it.
+    pub(crate) fn put_host(&mut self, index: u32, ray: &HostRay) -> bool {
+        match self.host.get_mut(index as usize) {
+            Some(slot) => {
+                *slot = *ray;
+                true
+            }
+            None => false,
+        }
+    }
+}
+
+impl MirrorSink for ImageSink<'_, '_, '_, '_, '_, MirrorTexel> {
+    fn texel(&mut self, x: u32, y: u32, texel: &MirrorTexel, color: [f32; 3]) {
+        self.put(x, y, texel, color);
+    }
+    fn host(&mut self, index: u32, ray: &HostRay) -> bool {
+        self.put_host(index, ray)
+    }
 }

@@ -459,9 +459,9 @@ pub unsafe extern "C" fn refl_glossy_prepare(
     })
 }
 
-impl GlossySink for Band<'_, refl_glossy_texel> {
-    fn texel(&mut self, x: u32, y: u32, t: &GlossyTexel, color: [f32; 3]) {
-        let v = refl_glossy_texel {
+impl From<GlossyTexel> for refl_glossy_texel {
+    fn from(t: GlossyTexel) -> Self {
+        Self {
             status: refl_ssr_status::from(t.status) as u32,
             pixel: t.pixel.into(),
             t: t.t,
@@ -469,8 +469,13 @@ impl GlossySink for Band<'_, refl_glossy_texel> {
             fade: t.fade,
             fallback_weight: t.fallback_weight,
             dir: t.dir.into(),
-        };
-        self.put(x, y, v, color);
+        }
+    }
+}
+
+impl GlossySink for Band<'_, refl_glossy_texel> {
+    fn texel(&mut self, x: u32, y: u32, t: &GlossyTexel, color: [f32; 3]) {
+        self.put(x, y, (*t).into(), color);
     }
 
     fn host(&mut self, index: u32, r: &HostRay) -> bool {

@@ -189,6 +189,20 @@ pub struct refl_host_ray {
     pub status: u32,
 }
 
+impl From<HostRay> for refl_host_ray {
+    fn from(r: HostRay) -> Self {
+        Self {
+            x: r.x,
+            y: r.y,
+            origin: r.origin.into(),
+            dir: r.dir.into(),
+            t_min: r.t_min,
+            t_max: r.t_max,
+            status: refl_ssr_status::from(r.status) as u32,
+        }
+    }
+}
+
 /// Counts of one `refl_ssr_trace_rows` call.
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
@@ -590,15 +604,7 @@ impl<'a, T> Band<'a, T> {
         if i >= self.host_len {
             return false;
         }
-        let v = refl_host_ray {
-            x: r.x,
-            y: r.y,
-            origin: r.origin.into(),
-            dir: r.dir.into(),
-            t_min: r.t_min,
-            t_max: r.t_max,
-            status: refl_ssr_status::from(r.status) as u32,
-        };
+        let v = refl_host_ray::from(*r);
         // SAFETY: `i < host_len`, writable by contract (checked non-null,
         // aligned, size fits isize).
         unsafe { self.host.add(i).write(v) };

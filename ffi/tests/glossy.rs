@@ -7,7 +7,10 @@
 #[path = "common/gbuffer.rs"]
 mod common;
 
-use common::{color_mut, counted, img_f32, render, Frame, Shared, H, W};
+use common::{
+    bands_from_threads, color_mut, counted, img_f32, no_color, refused_outputs, render, Frame,
+    Shared, H, W,
+};
 use refl::*;
 use refl_core::cone::{FadeRange, Fades};
 use refl_core::glam::Vec3;
@@ -40,46 +43,11 @@ fn gbuffer_c(f: &Frame, rough: &[f32], back: bool) -> refl_gbuffer {
     g
 }
 
-/// The C options of refl-core options.
+/// The C options of refl-core options (the ABI's conversion; the
+/// bit-for-bit test below holds the pass it configures against the Rust
+/// one).
 fn c_options(o: &GlossyOptions) -> refl_glossy_options {
-    let fade = |r: Option<FadeRange>| match r {
-        Some(r) => refl_glossy_fade {
-            enabled: true,
-            start: r.start,
-            end: r.end,
-        },
-        None => refl_glossy_fade::default(),
-    };
-    refl_glossy_options {
-        method: o.method as u32,
-        max_circles: o.cone.max_circles,
-        level_bias: o.cone.level_bias,
-        use_visibility: o.cone.use_visibility,
-        max_stretch: o.cone.max_stretch,
-        depth_tolerance: o.cone.depth_tolerance,
-        normalize: o.cone.normalize,
-        fade_toward_camera: fade(o.fades.toward_camera),
-        fade_border: fade(o.fades.border),
-        fade_travel: fade(o.fades.travel),
-        view_space: o.view_space,
-        sigma: o.sigma,
-        rays: o.rays,
-        hiz: refl_hiz_options {
-            start_level: o.hiz.start_level,
-            stop_level: o.hiz.stop_level,
-            max_iterations: o.hiz.max_iterations,
-            prologue_steps: o.hiz.prologue_steps,
-        },
-        thickness: o.thickness,
-        start_pixels: o.start_pixels,
-        t_min: o.t_min,
-        t_max: o.t_max,
-        min_roughness: o.min_roughness,
-        max_roughness: o.max_roughness,
-        refine: o.refine,
-        reject_back_faces: o.reject_back_faces,
-        reject_hidden_hits: o.reject_hidden_hits,
-    }
+    (*o).into()
 }
 
 fn option_sets() -> Vec<GlossyOptions> {
@@ -123,7 +91,26 @@ fn option_sets() -> Vec<GlossyOptions> {
 fn options_default_is_the_rust_default() {
     let c = refl_glossy_options_default();
     assert_eq!(c, c_options(&GlossyOptions::default()));
-    assert_eq!(c, GlossyOptions::default().into());
+    // Field by field where C and Rust name them differently.
+    let d = GlossyOptions::default();
+    assert_eq!(c.method, refl_glossy_method::Cone as u32);
+    assert_eq!(
+        (
+            c.max_circles,
+            c.use_visibility,
+            c.normalize,
+            c.rays,
+            c.sigma
+        ),
+        (
+            d.cone.max_circles,
+            d.cone.use_visibility,
+            d.cone.normalize,
+            d.rays,
+            d.sigma
+        )
+    );
+    assert!(!c.fade_border.enabled && !c.fade_travel.enabled && !c.fade_toward_camera.enabled);
 }
 
 /// The C pass over all rows into fresh buffers.
@@ -195,24 +182,6 @@ fn texel_bits(t: &refl_glossy_texel) -> (u32, [u32; 9]) {
     )
 }
 
-fn rust_bits(t: &GlossyTexel) -> (u32, [u32; 9]) {
-    (
-        t.status as u32,
-        [
-            t.pixel.x,
-            t.pixel.y,
-            t.t,
-            t.coverage,
-            t.fade,
-            t.fallback_weight,
-            t.dir.x,
-            t.dir.y,
-            t.dir.z,
-        ]
-        .map(f32::to_bits),
-    )
-}
-
 fn host_bits(a: &refl_host_ray) -> (u32, u32, u32, [u32; 8]) {
     (
         a.x,
@@ -220,18 +189,6 @@ fn host_bits(a: &refl_host_ray) -> (u32, u32, u32, [u32; 8]) {
         a.status,
         [
             a.origin.x, a.origin.y, a.origin.z, a.dir.x, a.dir.y, a.dir.z, a.t_min, a.t_max,
-        ]
-        .map(f32::to_bits),
-    )
-}
-
-fn rust_host_bits(b: &HostRay) -> (u32, u32, u32, [u32; 8]) {
-    (
-        b.x,
-        b.y,
-        b.status as u32,
-        [
-            b.origin.x, b.origin.y, b.origin.z, b.dir.x, b.dir.y, b.dir.z, b.t_min, b.t_max,
         ]
         .map(f32::to_bits),
     )
@@ -307,12 +264,21 @@ fn c_pass_equals_the_rust_pass_bit_for_bit_without_allocating() {
                 assert_eq!(c.stats, st.into());
                 assert!(st.hits > 100, "{conv:?} {:?}: {st:?}", o.method);
                 for i in 0..np {
-                    assert_eq!(texel_bits(&c.texels[i]), rust_bits(&out[i]), "{conv:?} {i}");
+                    assert_eq!(
+                        texel_bits(&c.texels[i]),
+                        texel_bits(&out[i].into()),
+                        "{conv:?} {i}"
+                    );
                     assert_eq!(c.color[i].map(f32::to_bits), color[i].map(f32::to_bits));
                 }
                 assert_eq!(c.host.len(), st.host_rays_written as usize);
                 for (a, b) in c.host.iter().zip(&host) {
-                    assert_eq!(host_bits(a), rust_host_bits(b));
+                    let o = [b.origin.to_array(), b.dir.to_array()].concat();
+                    let want = [&o[..], &[b.t_min, b.t_max]].concat();
+                    let want: Vec<u32> = want.iter().map(|v| v.to_bits()).collect();
+                    let got = host_bits(a);
+                    assert_eq!((got.0, got.1, got.2), (b.x, b.y, b.status as u32));
+                    assert_eq!(got.3.to_vec(), want);
                 }
             }
         }
@@ -331,47 +297,30 @@ fn row_bands_from_threads_equal_the_whole_image() {
         let n = (W * H) as usize;
         let mut texels = vec![refl_glossy_texel::default(); n];
         let mut color = vec![[0.0f32; 3]; n];
-        let bands = 5u32;
-        let tp = texels.as_mut_ptr() as usize;
-        let shared = Shared((g, color_mut(&mut color)));
-        let runs: Vec<(Vec<refl_host_ray>, refl_glossy_stats)> = std::thread::scope(|s| {
-            let hs: Vec<_> = (0..bands)
-                .map(|b| {
-                    let (shared, oc, scratch) = (&shared, &oc, &scratch);
-                    s.spawn(move || {
-                        let (g, c) = shared.0;
-                        let mut rows = refl_row_range::default();
-                        // SAFETY: valid pointer.
-                        assert_eq!(
-                            unsafe { refl_row_band(&mut rows, H, b, bands) },
-                            refl_status::Ok
-                        );
-                        let mut host = vec![refl_host_ray::default(); n];
-                        let mut st = refl_glossy_stats::default();
-                        // SAFETY: each thread writes only its own rows.
-                        let r = unsafe {
-                            refl_glossy_trace_rows(
-                                &mut st,
-                                tp as *mut refl_glossy_texel,
-                                n,
-                                c,
-                                host.as_mut_ptr(),
-                                n,
-                                &g,
-                                oc,
-                                scratch.as_ptr(),
-                                scratch.len(),
-                                rows,
-                            )
-                        };
-                        assert_eq!(r, refl_status::Ok);
-                        host.truncate(st.host_rays_written as usize);
-                        (host, st)
-                    })
-                })
-                .collect();
-            hs.into_iter().map(|h| h.join().unwrap()).collect()
-        });
+        let gs = Shared(g);
+        let runs = bands_from_threads(
+            &mut texels,
+            &mut color,
+            5,
+            &|st, out, out_len, c, host, host_len, rows| {
+                // SAFETY: valid buffers; each band writes only its own rows.
+                unsafe {
+                    refl_glossy_trace_rows(
+                        st,
+                        out,
+                        out_len,
+                        c,
+                        host,
+                        host_len,
+                        gs.get(),
+                        &oc,
+                        scratch.as_ptr(),
+                        scratch.len(),
+                        rows,
+                    )
+                }
+            },
+        );
         assert_eq!(texels, whole.texels);
         assert_eq!(color, whole.color);
         let hosts: Vec<refl_host_ray> = runs.iter().flat_map(|r| r.0.clone()).collect();
@@ -405,64 +354,44 @@ fn refused(
     out_len: usize,
     with_color: bool,
 ) {
-    let n = (W * H) as usize;
-    let sentinel = refl_glossy_texel {
+    let texel = refl_glossy_texel {
         status: 99,
         t: -3.0,
         ..Default::default()
     };
-    let mut texels = vec![sentinel; n];
-    let mut color = vec![[5.0f32; 3]; n];
-    let mut host = vec![
-        refl_host_ray {
-            x: 77,
-            ..Default::default()
-        };
-        8
-    ];
-    let mut st = refl_glossy_stats {
+    let stats = refl_glossy_stats {
         traced: 55,
         ..Default::default()
     };
-    let cm = if with_color {
-        color_mut(&mut color)
-    } else {
-        refl_image_vec3_mut {
-            data: core::ptr::null_mut(),
-            len: 0,
-            width: 0,
-            height: 0,
-            stride: 0,
-        }
-    };
-    let (s, allocs) = counted(|| {
-        // SAFETY: valid buffers (out_len <= n).
-        unsafe {
-            refl_glossy_trace_rows(
-                &mut st,
-                texels.as_mut_ptr(),
-                out_len,
-                cm,
-                host.as_mut_ptr(),
-                host.len(),
-                g,
-                o,
-                if null_scratch {
-                    core::ptr::null()
-                } else {
-                    scratch.as_ptr()
-                },
-                scratch.len(),
-                rows,
-            )
-        }
-    });
-    assert_eq!(s, want);
-    assert_eq!(allocs, 0, "allocations on the error path");
-    assert!(texels.iter().all(|t| *t == sentinel));
-    assert!(color.iter().all(|c| *c == [5.0; 3]));
-    assert!(host.iter().all(|h| h.x == 77));
-    assert_eq!(st.traced, 55);
+    refused_outputs(
+        want,
+        texel,
+        stats,
+        with_color,
+        |st, out, cm, host, host_len| {
+            let scratch_ptr = if null_scratch {
+                core::ptr::null()
+            } else {
+                scratch.as_ptr()
+            };
+            // SAFETY: valid buffers (out_len <= n).
+            unsafe {
+                refl_glossy_trace_rows(
+                    st,
+                    out,
+                    out_len,
+                    cm,
+                    host,
+                    host_len,
+                    g,
+                    o,
+                    scratch_ptr,
+                    scratch.len(),
+                    rows,
+                )
+            }
+        },
+    );
 }
 
 /// `refl_glossy_prepare` into a sentinel scratch of `len` floats: the
@@ -683,13 +612,7 @@ fn errors_name_their_cause_and_leave_every_output_untouched() {
             &mut st,
             big.as_mut_ptr().add(8).cast(),
             n,
-            refl_image_vec3_mut {
-                data: core::ptr::null_mut(),
-                len: 0,
-                width: 0,
-                height: 0,
-                stride: 0,
-            },
+            no_color(),
             core::ptr::null_mut(),
             0,
             &g,

@@ -6,7 +6,7 @@
 #[path = "common/gbuffer.rs"]
 mod common;
 
-use common::{color_mut, counted, render, Shared, H, W};
+use common::{bands_from_threads, color_mut, counted, refused_outputs, render, Shared, H, W};
 use refl::*;
 use refl_core::glam::Vec3;
 use refl_core::{
@@ -199,50 +199,34 @@ fn row_bands_from_threads_equal_the_whole_image() {
     let n = (W * H) as usize;
     let mut texels = vec![refl_ssr_texel::default(); n];
     let mut color = vec![[0.0f32; 3]; n];
-    let bands = 5u32;
-    let tp = texels.as_mut_ptr() as usize;
-    let shared = Shared((g, color_mut(&mut color)));
-    let hosts: Vec<Vec<refl_host_ray>> = std::thread::scope(|s| {
-        let hs: Vec<_> = (0..bands)
-            .map(|b| {
-                let (shared, o, scratch) = (&shared, &o, &scratch);
-                s.spawn(move || {
-                    let (g, c) = shared.0;
-                    let mut rows = refl_row_range::default();
-                    // SAFETY: valid pointer.
-                    assert_eq!(
-                        unsafe { refl_row_band(&mut rows, H, b, bands) },
-                        refl_status::Ok
-                    );
-                    let mut host = vec![refl_host_ray::default(); n];
-                    let mut st = refl_ssr_stats::default();
-                    // SAFETY: each thread writes only its own rows.
-                    let r = unsafe {
-                        refl_ssr_trace_rows(
-                            &mut st,
-                            tp as *mut refl_ssr_texel,
-                            n,
-                            c,
-                            host.as_mut_ptr(),
-                            n,
-                            &g,
-                            o,
-                            scratch.as_ptr(),
-                            scratch.len(),
-                            rows,
-                        )
-                    };
-                    assert_eq!(r, refl_status::Ok);
-                    host.truncate(st.host_rays_written as usize);
-                    host
-                })
-            })
-            .collect();
-        hs.into_iter().map(|h| h.join().unwrap()).collect()
-    });
+    let gs = Shared(g);
+    let runs = bands_from_threads(
+        &mut texels,
+        &mut color,
+        5,
+        &|st, out, out_len, c, host, host_len, rows| {
+            // SAFETY: valid buffers; each band writes only its own rows.
+            unsafe {
+                refl_ssr_trace_rows(
+                    st,
+                    out,
+                    out_len,
+                    c,
+                    host,
+                    host_len,
+                    gs.get(),
+                    &o,
+                    scratch.as_ptr(),
+                    scratch.len(),
+                    rows,
+                )
+            }
+        },
+    );
     assert_eq!(texels, whole.texels);
     assert_eq!(color, whole.color);
-    assert_eq!(hosts.concat(), whole.host);
+    let hosts: Vec<refl_host_ray> = runs.into_iter().flat_map(|r| r.0).collect();
+    assert_eq!(hosts, whole.host);
 }
 
 /// Calls `refl_ssr_trace_rows` with every output filled with sentinels and
@@ -256,64 +240,44 @@ fn refused(
     out_len: usize,
     with_color: bool,
 ) {
-    let n = (W * H) as usize;
-    let sentinel = refl_ssr_texel {
+    let texel = refl_ssr_texel {
         status: 99,
         t: -3.0,
         ..Default::default()
     };
-    let mut texels = vec![sentinel; n];
-    let mut color = vec![[5.0f32; 3]; n];
-    let mut host = vec![
-        refl_host_ray {
-            x: 77,
-            ..Default::default()
-        };
-        8
-    ];
-    let mut st = refl_ssr_stats {
+    let stats = refl_ssr_stats {
         traced: 55,
         ..Default::default()
     };
-    let cm = if with_color {
-        color_mut(&mut color)
-    } else {
-        refl_image_vec3_mut {
-            data: core::ptr::null_mut(),
-            len: 0,
-            width: 0,
-            height: 0,
-            stride: 0,
-        }
-    };
-    let (s, allocs) = counted(|| {
-        // SAFETY: valid buffers (out_len <= n).
-        unsafe {
-            refl_ssr_trace_rows(
-                &mut st,
-                texels.as_mut_ptr(),
-                out_len,
-                cm,
-                host.as_mut_ptr(),
-                host.len(),
-                g,
-                o,
-                if scratch.is_empty() {
-                    core::ptr::null()
-                } else {
-                    scratch.as_ptr()
-                },
-                scratch.len(),
-                rows,
-            )
-        }
-    });
-    assert_eq!(s, want);
-    assert_eq!(allocs, 0, "allocations on the error path");
-    assert!(texels.iter().all(|t| *t == sentinel));
-    assert!(color.iter().all(|c| *c == [5.0; 3]));
-    assert!(host.iter().all(|h| h.x == 77));
-    assert_eq!(st.traced, 55);
+    refused_outputs(
+        want,
+        texel,
+        stats,
+        with_color,
+        |st, out, cm, host, host_len| {
+            let scratch_ptr = if scratch.is_empty() {
+                core::ptr::null()
+            } else {
+                scratch.as_ptr()
+            };
+            // SAFETY: valid buffers (out_len <= n).
+            unsafe {
+                refl_ssr_trace_rows(
+                    st,
+                    out,
+                    out_len,
+                    cm,
+                    host,
+                    host_len,
+                    g,
+                    o,
+                    scratch_ptr,
+                    scratch.len(),
+                    rows,
+                )
+            }
+        },
+    );
 }
 
 #[test]

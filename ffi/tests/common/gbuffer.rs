@@ -227,5 +227,144 @@ pub fn color_mut(c: &mut [[f32; 3]]) -> refl_image_vec3_mut {
 
 /// Descriptors shared by the band threads (each writes only its rows).
 pub struct Shared<T>(pub T);
+
+impl<T> Shared<T> {
+    /// The value (a method, so that a closure captures the whole
+    /// `Shared`, not its field).
+    pub fn get(&self) -> &T {
+        &self.0
+    }
+}
 // SAFETY: the threads read the G-buffer and write disjoint rows.
 unsafe impl<T> Sync for Shared<T> {}
+
+/// An absent color output.
+pub fn no_color() -> refl_image_vec3_mut {
+    refl_image_vec3_mut {
+        data: core::ptr::null_mut(),
+        len: 0,
+        width: 0,
+        height: 0,
+        stride: 0,
+    }
+}
+
+/// Runs a failing `*_trace_rows` call through `call(stats, texels, color,
+/// host, host_len)` with every output filled with sentinels (`texel`,
+/// `stats`, colors of 5, host rays with `x = 77`; the color output only
+/// `with_color`), and checks its status `want`, that it allocated nothing
+/// and that no output changed.
+pub fn refused_outputs<
+    T: Copy + PartialEq + std::fmt::Debug,
+    S: Copy + PartialEq + std::fmt::Debug,
+>(
+    want: refl_status,
+    texel: T,
+    stats: S,
+    with_color: bool,
+    call: impl FnOnce(&mut S, *mut T, refl_image_vec3_mut, *mut refl_host_ray, usize) -> refl_status,
+) {
+    let n = (W * H) as usize;
+    let mut texels = vec![texel; n];
+    let mut color = vec![[5.0f32; 3]; n];
+    let mut host = vec![
+        refl_host_ray {
+            x: 77,
+            ..Default::default()
+        };
+        8
+    ];
+    let mut st = stats;
+    let cm = if with_color {
+        color_mut(&mut color)
+    } else {
+        no_color()
+    };
+    let (s, allocs) = counted(|| {
+        call(
+            &mut st,
+            texels.as_mut_ptr(),
+            cm,
+            host.as_mut_ptr(),
+            host.len(),
+        )
+    });
+    assert_eq!(s, want);
+    assert_eq!(allocs, 0, "allocations on the error path");
+    assert!(texels.iter().all(|t| *t == texel));
+    assert!(color.iter().all(|c| *c == [5.0; 3]));
+    assert!(host.iter().all(|h| h.x == 77));
+    assert_eq!(st, stats);
+}
+
+/// A band call of a `*_trace_rows` export: `(stats, texels, texels_len,
+/// color, host, host_len, rows)`, the rest of its arguments captured.
+pub type BandCall<'a, T, S> = dyn Fn(
+        &mut S,
+        *mut T,
+        usize,
+        refl_image_vec3_mut,
+        *mut refl_host_ray,
+        usize,
+        refl_row_range,
+    ) -> refl_status
+    + Sync
+    + 'a;
+
+/// Runs `call` over `bands` row bands (`refl_row_band`), one thread each,
+/// all writing into `texels` and `color` (the whole image); returns each
+/// band's written host rays and stats, in band order.
+pub fn bands_from_threads<T: Default + Copy, S: Default + Send + HostRaysWritten>(
+    texels: &mut [T],
+    color: &mut [[f32; 3]],
+    bands: u32,
+    call: &BandCall<'_, T, S>,
+) -> Vec<(Vec<refl_host_ray>, S)> {
+    let n = (W * H) as usize;
+    assert_eq!((texels.len(), color.len()), (n, n));
+    let tp = texels.as_mut_ptr() as usize;
+    let shared = Shared(color_mut(color));
+    std::thread::scope(|s| {
+        let hs: Vec<_> = (0..bands)
+            .map(|b| {
+                let shared = &shared;
+                s.spawn(move || {
+                    let c = shared.0;
+                    let mut rows = refl_row_range::default();
+                    // SAFETY: valid pointer.
+                    assert_eq!(
+                        unsafe { refl_row_band(&mut rows, H, b, bands) },
+                        refl_status::Ok
+                    );
+                    let mut host = vec![refl_host_ray::default(); n];
+                    let mut st = S::default();
+                    // Each thread writes only its own rows of the texels
+                    // and colors.
+                    let r = call(&mut st, tp as *mut T, n, c, host.as_mut_ptr(), n, rows);
+                    assert_eq!(r, refl_status::Ok);
+                    host.truncate(st.host_rays_written() as usize);
+                    (host, st)
+                })
+            })
+            .collect();
+        hs.into_iter().map(|h| h.join().unwrap()).collect()
+    })
+}
+
+/// The stats of a `*_trace_rows` call: how many host rays it wrote.
+pub trait HostRaysWritten {
+    /// `host_rays_written`.
+    fn host_rays_written(&self) -> u32;
+}
+
+impl HostRaysWritten for refl_ssr_stats {
+    fn host_rays_written(&self) -> u32 {
+        self.host_rays_written
+    }
+}
+
+impl HostRaysWritten for refl_glossy_stats {
+    fn host_rays_written(&self) -> u32 {
+        self.host_rays_written
+    }
+}
