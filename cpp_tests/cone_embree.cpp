@@ -1,5 +1,5 @@
-// cone_embree: refl's glossy cone tracing (refl_hiz_* + refl_cone_*, seed
-// 004 Sec. 4.4.5) through the C ABI against an Embree 3 Monte-Carlo glossy
+// cone_embree: refl's glossy pass (refl_glossy_*, seed 004 Sec. 4.4.5 cone
+// tracing) through the C ABI against an Embree 3 Monte-Carlo glossy
 // reference on the same pixels, one thread each.
 //
 // Scene (built here): a room with a glossy floor (roughness 0.35, Phong
@@ -14,11 +14,15 @@
 //    traced with rtcIntersect1. Converged: 1024 samples, checked against
 //    512 (their mean difference / sqrt(3), the 1024-sample estimate's own
 //    noise, must stay under 1/255).
-//  * refl: Embree renders the primary view (linear depth, direct color);
-//    refl builds the Hi-Z (reversed-Z, infinite far), the color and
-//    visibility pyramids, traces each floor pixel's mirror ray with
-//    refl_hiz_trace_ray and cone-traces from the hit (refl_cone_trace,
-//    normalized, 4 / 8 / 16 circles); a miss takes the environment.
+//  * refl: Embree renders the G-buffer (depth reversed-Z with an infinite
+//    far plane, normals, a mask and roughness of the floor, direct color);
+//    the glossy pass does the rest in four calls: refl_glossy_options_default,
+//    refl_glossy_scratch_len, refl_glossy_prepare (Hi-Z, color and
+//    visibility pyramids), refl_glossy_trace_rows (per floor pixel the
+//    mirror ray, its start, Hi-Z trace and validation, the cone over the
+//    pyramids: normalized, 4 / 8 / 16 circles). The probe is the
+//    environment in the texel's direction, taken with the texel's
+//    fallback weight.
 //
 // Printed: error (mean absolute difference of 8-bit sRGB reflection colors
 // over the floor pixels) and time per method; the reference time at the
@@ -169,12 +173,11 @@ int main() {
                                 kW, kH) == REFL_STATUS_OK);
     refl_camera cam_inf = cam;
     cam_inf.z_far = kInf;
-    const double tan_y = std::tan(0.5), pixel_angle = 2.0 * tan_y / kH;
 
     // Primary view: depth (reversed-Z, infinite far), direct color, floor pixels.
     const size_t n = size_t(kW) * kH;
     std::vector<float> depth(n);
-    std::vector<refl_vec3> lit(n);
+    std::vector<refl_vec3> lit(n), normals(n, refl_vec3{0.0f, 0.0f, 0.0f});
     std::vector<Pixel> floor_px;
     for (uint32_t y = 0; y < kH; ++y)
         for (uint32_t x = 0; x < kW; ++x) {
@@ -209,6 +212,7 @@ int main() {
             REQUIRE(refl_camera_encode_depth(&depth[i], &cam_inf, lin, REFL_DEPTH_CONVENTION_REVERSED_Z) ==
                     REFL_STATUS_OK);
             lit[i] = rv(direct(rh.hit.geomID, p, ng, -1.0 * d));
+            normals[i] = rv(ng);
             if (rh.hit.geomID == 0) {
                 const V3 v = -1.0 * d;
                 const V3 m = 2.0 * scene::dot(ng, v) * ng - v;
@@ -277,70 +281,67 @@ int main() {
         std::printf("embree mc spp=%-8u %10.2f %10.3f\n", spp, ms, e);
     }
 
-    // refl: pyramids and cone trace.
-    size_t hz_len = 0;
-    uint32_t levels = 0;
-    REQUIRE(refl_hiz_len(&hz_len, &levels, kW, kH) == REFL_STATUS_OK);
-    size_t pyr_len = 0, vis_len = 0;
-    REQUIRE(refl_cone_pyramid_len(&pyr_len, &vis_len, kW, kH) == REFL_STATUS_OK);
-    std::vector<refl_vec2> hz(hz_len);
-    std::vector<refl_vec3> color(pyr_len);
-    std::vector<float> vis(vis_len);
-    const refl_depth_image dimg{{depth.data(), n, kW, kH, kW}, cam_inf, REFL_DEPTH_CONVENTION_REVERSED_Z};
-    const refl_image_vec3 limg{lit.data(), n, kW, kH, kW};
-    const refl_hiz hiz{hz.data(), hz_len, cam_inf, REFL_DEPTH_CONVENTION_REVERSED_Z};
-    const refl_cone_pyramids pyr{hiz, color.data(), pyr_len, vis.data(), vis_len};
-    refl_hiz_options hopts{};
-    REQUIRE(refl_hiz_default_options(&hopts) == REFL_STATUS_OK);
-    const refl_thickness thick{0.06f, {nullptr, 0, 0, 0, 0}};
-    float theta = 0;
-    REQUIRE(refl_cone_angle_from_roughness(&theta, float(kRoughness)) == REFL_STATUS_OK);
+    // refl: the glossy pass over the G-buffer (mask and roughness of the
+    // floor; normals facing the eye).
+    std::vector<uint8_t> mask(n, 0);
+    std::vector<float> rough(n, std::numeric_limits<float>::quiet_NaN());
+    for (const Pixel& px : floor_px) {
+        mask[px.index] = 1;
+        rough[px.index] = float(kRoughness);
+    }
+    refl_gbuffer gb{};
+    gb.depth = {{depth.data(), n, kW, kH, kW}, cam_inf, REFL_DEPTH_CONVENTION_REVERSED_Z};
+    gb.normals = {normals.data(), n, kW, kH, kW};
+    gb.normal_space = REFL_NORMAL_SPACE_WORLD;
+    gb.mask = {mask.data(), n, kW, kH, kW};
+    gb.roughness = {rough.data(), n, kW, kH, kW};
+    gb.color = {lit.data(), n, kW, kH, kW};
+    gb.back_depth = {nullptr, 0, 0, 0, 0};
+    std::vector<refl_glossy_texel> texels(n);
+    std::vector<refl_vec3> reflection(n);
+    // The settings: 4, 8 and 16 circles with visibility weighting, and the
+    // pass's defaults (8 circles, no visibility weighting).
+    std::vector<std::pair<const char*, refl_glossy_options>> settings;
+    const std::pair<uint32_t, const char*> circle_rows[] = {
+        {4u, "refl cone circles=4"}, {8u, "refl cone circles=8"}, {16u, "refl cone circles=16"}};
+    for (const auto& row : circle_rows) {
+        refl_glossy_options o = refl_glossy_options_default();
+        o.max_circles = row.first;
+        o.use_visibility = true;
+        settings.push_back({row.second, o});
+    }
+    settings.push_back({"refl glossy defaults", refl_glossy_options_default()});
+    size_t len = 0;
+    REQUIRE(refl_glossy_scratch_len(&len, &gb, &settings[0].second) == REFL_STATUS_OK);
+    std::vector<float> scratch(len);
 
-    auto run_cone = [&](uint32_t circles, std::vector<V3>& out) {
-        REQUIRE(refl_hiz_build(hz.data(), hz_len, &dimg) == REFL_STATUS_OK);
-        REQUIRE(refl_cone_build_color(color.data(), pyr_len, &limg, 1.0f) == REFL_STATUS_OK);
-        REQUIRE(refl_cone_build_visibility(vis.data(), vis_len, &hiz) == REFL_STATUS_OK);
-        refl_cone_options co{};
-        REQUIRE(refl_cone_default_options(&co) == REFL_STATUS_OK);
-        co.max_circles = circles;
-        co.normalize = 1;
-        size_t hits = 0;
+    auto run_cone = [&](const refl_glossy_options& o, std::vector<V3>& out) {
+        REQUIRE(refl_glossy_prepare(scratch.data(), len, &gb, &o) == REFL_STATUS_OK);
+        refl_glossy_stats st{};
+        REQUIRE(refl_glossy_trace_rows(&st, texels.data(), n, {reflection.data(), n, kW, kH, kW}, nullptr, 0,
+                                       &gb, &o, scratch.data(), len, {0, kH}) == REFL_STATUS_OK);
         for (size_t k = 0; k < floor_px.size(); ++k) {
-            const Pixel& px = floor_px[k];
-            const double cosv = std::min(1.0, std::max(1.0 / 16, scene::dot(px.to_eye, px.n)));
-            const double tanv = std::sqrt(1 - cosv * cosv) / cosv;
-            const double t_start = 0.5 * px.z * pixel_angle * tanv;
-            const V3 o = px.p + 2.4e-3 * px.n + t_start * px.mirror;
-            const refl_ray ray{rv(o), rv(px.mirror)};
-            refl_trace_result tr{};
-            REQUIRE(refl_hiz_trace_ray(&tr, &hiz, &thick, ray, kInf, &hopts) == REFL_STATUS_OK);
-            const V3 fb = env(px.mirror);
-            if (tr.miss != REFL_MISS_NONE) {
-                out[k] = fb;
-                continue;
-            }
-            ++hits;
-            refl_projection ap{};
-            REQUIRE(refl_camera_project(&ap, &cam_inf, ray.origin) == REFL_STATUS_OK);
-            const refl_cone c{{ap.x, ap.y}, ap.depth, tr.pixel, tr.depth, theta, float(cosv), 0.0f};
-            refl_cone_result res{};
-            REQUIRE(refl_cone_trace(&res, &pyr, &c, rv(fb), &co) == REFL_STATUS_OK);
-            CHECK(std::isfinite(res.color.x) && std::isfinite(res.color.y) && std::isfinite(res.color.z));
-            out[k] = {res.color.x, res.color.y, res.color.z};
+            const size_t i = floor_px[k].index;
+            const refl_glossy_texel& t = texels[i];
+            const refl_vec3 c = reflection[i];
+            CHECK(std::isfinite(c.x) && std::isfinite(c.y) && std::isfinite(c.z));
+            CHECK(t.status != REFL_SSR_STATUS_SKIPPED && t.status != REFL_SSR_STATUS_NO_SURFACE);
+            const V3 probe = env({t.dir.x, t.dir.y, t.dir.z});
+            out[k] = V3{c.x, c.y, c.z} + double(t.fallback_weight) * probe;
         }
-        return hits;
+        return size_t(st.hits);
     };
     std::vector<V3> env_only(floor_px.size());
     for (size_t k = 0; k < floor_px.size(); ++k) env_only[k] = env(floor_px[k].mirror);
     const double env_err = mad(truth, env_only);
     std::printf("%-22s %10s %10.3f\n", "environment only", "-", env_err);
-    for (uint32_t circles : {4u, 8u, 16u}) {
+    for (const auto& setting : settings) {
         std::vector<V3> out(floor_px.size());
         std::vector<double> times;
         size_t hits = 0;
         for (int rep = 0; rep < 3; ++rep) {
             t0 = Clock::now();
-            hits = run_cone(circles, out);
+            hits = run_cone(setting.second, out);
             times.push_back(seconds(t0) * 1e3);
         }
         std::sort(times.begin(), times.end());
@@ -361,8 +362,8 @@ int main() {
                 }
             }
         }
-        std::printf("refl cone circles=%-4u %10.2f %10.3f   axis hits %.3f, embree at equal error %.2f ms: ratio %.1fx\n",
-                    circles, ms, e, double(hits) / floor_px.size(), eq, eq / ms);
+        std::printf("%-22s %10.2f %10.3f   axis hits %.3f, embree at equal error %.2f ms: ratio %.1fx\n",
+                    setting.first, ms, e, double(hits) / floor_px.size(), eq, eq / ms);
         CHECK(e < env_err);
     }
     return check::finish("cone_embree");

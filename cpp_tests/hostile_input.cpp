@@ -2661,6 +2661,227 @@ void ssr_functions() {
     }
 }
 
+
+// The glossy pass: scratch size, prepare and trace with NULL pointers,
+// unknown enums, options out of range, G-buffers without color or
+// roughness, short, misaligned and aliased buffers, rows out of range and
+// pyramids of another camera. Every output (stats, texels, colors, host
+// rays, scratch) must be left untouched.
+void glossy_functions() {
+    const refl_camera g = good_camera();
+    const uint32_t w = g.width, h = g.height;
+    const size_t n = size_t(w) * h;
+    std::vector<float> depth(n, 0.5f), rough(n, 0.3f);
+    std::vector<refl_vec3> normals(n, v3(0, 1, 0)), color(n, v3(0.5f, 0.5f, 0.5f));
+    const refl_image_f32 none{nullptr, 0, 0, 0, 0};
+    refl_gbuffer gb{};
+    gb.depth = {{depth.data(), n, w, h, w}, g, REFL_DEPTH_CONVENTION_ZERO_TO_ONE};
+    gb.normals = {normals.data(), n, w, h, w};
+    gb.normal_space = REFL_NORMAL_SPACE_WORLD;
+    gb.mask = {nullptr, 0, 0, 0, 0};
+    gb.roughness = {rough.data(), n, w, h, w};
+    gb.color = {color.data(), n, w, h, w};
+    gb.back_depth = none;
+    const refl_glossy_options def = refl_glossy_options_default();
+    refl_glossy_options vis = def;
+    vis.use_visibility = true;
+
+    // Scratch size.
+    const size_t len = expect_ok<size_t>("glossy scratch", [&](size_t* o) { return refl_glossy_scratch_len(o, &gb, &def); });
+    const size_t vis_len =
+        expect_ok<size_t>("glossy scratch vis", [&](size_t* o) { return refl_glossy_scratch_len(o, &gb, &vis); });
+    CHECK(len > 5 * n && vis_len > len);
+    expect<size_t>("glossy scratch NULL gbuffer", REFL_STATUS_NULL_POINTER,
+                   [&](size_t* o) { return refl_glossy_scratch_len(o, nullptr, &def); });
+    expect<size_t>("glossy scratch NULL options", REFL_STATUS_NULL_POINTER,
+                   [&](size_t* o) { return refl_glossy_scratch_len(o, &gb, nullptr); });
+    for (uint32_t m : {2u, 7u, kMax}) {
+        refl_glossy_options o = def;
+        o.method = m;
+        expect<size_t>("glossy scratch bad method", REFL_STATUS_INVALID_ARGUMENT,
+                       [&](size_t* out) { return refl_glossy_scratch_len(out, &gb, &o); });
+    }
+    for (const BadCamera& bc : bad_cameras()) {
+        refl_gbuffer b = gb;
+        b.depth.camera = bc.cam;
+        expect<size_t>(bc.name, bc.status, [&](size_t* o) { return refl_glossy_scratch_len(o, &b, &def); });
+    }
+
+    // Prepare: the scratch is its output.
+    auto prep = [&](const char* what, refl_status want, size_t scratch_len, const refl_gbuffer* gbp,
+                    const refl_glossy_options* o, bool null_scratch = false, bool misaligned = false) {
+        std::vector<float> scratch(vis_len + 4, -7.0f);
+        float* p = null_scratch ? nullptr : scratch.data();
+        if (misaligned) p = reinterpret_cast<float*>(reinterpret_cast<char*>(scratch.data()) + 1);
+        const uint32_t got = refl_glossy_prepare(p, scratch_len, gbp, o);
+        ++check::checks();
+        bool untouched = true;
+        for (size_t i = 0; i + 1 < scratch.size(); ++i) untouched = untouched && scratch[i] == -7.0f;
+        if (got != static_cast<uint32_t>(want) || !untouched)
+            check::fail(__FILE__, __LINE__, std::string(what) + ": got " + check::status_name(got));
+    };
+    prep("glossy prepare NULL gbuffer", REFL_STATUS_NULL_POINTER, len, nullptr, &def);
+    prep("glossy prepare NULL options", REFL_STATUS_NULL_POINTER, len, &gb, nullptr);
+    prep("glossy prepare NULL scratch", REFL_STATUS_NULL_POINTER, len, &gb, &def, true);
+    prep("glossy prepare misaligned scratch", REFL_STATUS_INVALID_ARGUMENT, len, &gb, &def, false, true);
+    prep("glossy prepare short scratch", REFL_STATUS_INSUFFICIENT_SIZE, len - 1, &gb, &def);
+    prep("glossy prepare short scratch for visibility", REFL_STATUS_INSUFFICIENT_SIZE, len, &gb, &vis);
+    {
+        refl_gbuffer b = gb;
+        b.normal_space = 2;
+        prep("glossy prepare bad normal space", REFL_STATUS_INVALID_ARGUMENT, len, &b, &def);
+        b = gb;
+        b.depth.convention = 3;
+        prep("glossy prepare bad convention", REFL_STATUS_INVALID_ARGUMENT, len, &b, &def);
+        b = gb;
+        b.normals.data = nullptr;
+        prep("glossy prepare NULL normals", REFL_STATUS_NULL_POINTER, len, &b, &def);
+        b = gb;
+        b.roughness.len = n - 1;
+        prep("glossy prepare short roughness", REFL_STATUS_INSUFFICIENT_SIZE, len, &b, &def);
+        b = gb;
+        b.roughness = none;
+        prep("glossy prepare no roughness", REFL_STATUS_INVALID_ARGUMENT, len, &b, &def);
+        b = gb;
+        b.color = {nullptr, 0, 0, 0, 0};
+        prep("glossy prepare no color", REFL_STATUS_INVALID_ARGUMENT, len, &b, &def);
+        b = gb;
+        b.color.width = w - 1;
+        prep("glossy prepare color of another size", REFL_STATUS_INVALID_ARGUMENT, len, &b, &def);
+        std::vector<refl_vec3> hot = color;
+        hot[7] = v3(kNaN, 0, 0);
+        b = gb;
+        b.color.data = hot.data();
+        prep("glossy prepare NaN color", REFL_STATUS_INVALID_ARGUMENT, len, &b, &def);
+        hot[7] = v3(0, kInf, 0);
+        prep("glossy prepare infinite color", REFL_STATUS_INVALID_ARGUMENT, len, &b, &def);
+    }
+    for (float bad : {kNaN, -1.0f, kInf}) {
+        refl_glossy_options o = def;
+        o.thickness = bad;
+        prep("glossy prepare bad thickness", REFL_STATUS_INVALID_ARGUMENT, len, &gb, &o);
+        o = def;
+        o.sigma = bad;
+        prep("glossy prepare bad sigma", REFL_STATUS_INVALID_ARGUMENT, len, &gb, &o);
+        o = def;
+        o.max_stretch = bad;
+        prep("glossy prepare bad stretch", REFL_STATUS_INVALID_ARGUMENT, len, &gb, &o);
+        o = def;
+        o.fade_travel = {true, 0.0f, bad};
+        prep("glossy prepare bad fade", REFL_STATUS_INVALID_ARGUMENT, len, &gb, &o);
+    }
+    {
+        refl_glossy_options o = def;
+        o.rays = 0;
+        prep("glossy prepare zero rays", REFL_STATUS_INVALID_ARGUMENT, len, &gb, &o);
+        o = def;
+        o.min_roughness = kNaN;
+        prep("glossy prepare NaN roughness limit", REFL_STATUS_INVALID_ARGUMENT, len, &gb, &o);
+        o = def;
+        o.method = 9;
+        prep("glossy prepare bad method", REFL_STATUS_INVALID_ARGUMENT, len, &gb, &o);
+        // A scratch over the depth image it reads.
+        std::vector<float> big(len + n, 0.5f);
+        refl_gbuffer b = gb;
+        b.depth.depth.data = big.data();
+        CHECK_STATUS(refl_glossy_prepare(big.data(), len, &b, &def), REFL_STATUS_INVALID_ARGUMENT);
+    }
+
+    // Trace: every output prefilled.
+    std::vector<float> pyr(len);
+    CHECK_STATUS(refl_glossy_prepare(pyr.data(), len, &gb, &def), REFL_STATUS_OK);
+    const refl_row_range all{0, h};
+    auto trace = [&](const char* what, refl_status want, const refl_gbuffer* gbp, const refl_glossy_options* o,
+                     const float* scratch, size_t scratch_len, refl_row_range rows, size_t out_len,
+                     bool null_out = false, size_t host_len = 16, bool null_host = false) {
+        std::vector<refl_glossy_texel> out(n + 1);
+        std::memset(static_cast<void*>(out.data()), 0x5A, out.size() * sizeof(refl_glossy_texel));
+        std::vector<refl_vec3> col(n, v3(-3, -3, -3));
+        std::vector<refl_host_ray> host(16);
+        std::memset(static_cast<void*>(host.data()), 0x6B, host.size() * sizeof(refl_host_ray));
+        const refl_image_vec3_mut cm{col.data(), n, w, h, w};
+        expect<refl_glossy_stats>(what, want, [&](refl_glossy_stats* st) {
+            return refl_glossy_trace_rows(st, null_out ? nullptr : out.data(), out_len, cm,
+                                          null_host ? nullptr : host.data(), host_len, gbp, o, scratch, scratch_len,
+                                          rows);
+        }, false);
+        bool untouched = true;
+        const unsigned char* ob = reinterpret_cast<const unsigned char*>(out.data());
+        for (size_t i = 0; i < out.size() * sizeof(refl_glossy_texel); ++i) untouched = untouched && ob[i] == 0x5A;
+        const unsigned char* hb = reinterpret_cast<const unsigned char*>(host.data());
+        for (size_t i = 0; i < host.size() * sizeof(refl_host_ray); ++i) untouched = untouched && hb[i] == 0x6B;
+        for (const refl_vec3& c : col) untouched = untouched && c.x == -3.0f;
+        CHECK(untouched);
+    };
+    const refl_glossy_stats ok = expect_ok<refl_glossy_stats>("glossy trace", [&](refl_glossy_stats* st) {
+        std::vector<refl_glossy_texel> out(n);
+        std::vector<refl_host_ray> host(n);
+        std::vector<refl_vec3> col(n);
+        return refl_glossy_trace_rows(st, out.data(), n, {col.data(), n, w, h, w}, host.data(), n, &gb, &def,
+                                      pyr.data(), len, all);
+    });
+    CHECK(ok.traced == n);
+    CHECK_STATUS(refl_glossy_trace_rows(nullptr, nullptr, n, {nullptr, 0, 0, 0, 0}, nullptr, 0, &gb, &def,
+                                        pyr.data(), len, all),
+                 REFL_STATUS_NULL_POINTER);
+    trace("glossy trace NULL out", REFL_STATUS_NULL_POINTER, &gb, &def, pyr.data(), len, all, n, true);
+    trace("glossy trace NULL gbuffer", REFL_STATUS_NULL_POINTER, nullptr, &def, pyr.data(), len, all, n);
+    trace("glossy trace NULL options", REFL_STATUS_NULL_POINTER, &gb, nullptr, pyr.data(), len, all, n);
+    trace("glossy trace NULL host", REFL_STATUS_NULL_POINTER, &gb, &def, pyr.data(), len, all, n, false, 16, true);
+    trace("glossy trace NULL scratch", REFL_STATUS_NULL_POINTER, &gb, &def, nullptr, len, all, n);
+    trace("glossy trace short out", REFL_STATUS_INSUFFICIENT_SIZE, &gb, &def, pyr.data(), len, all, n - 1);
+    trace("glossy trace reversed rows", REFL_STATUS_INVALID_ARGUMENT, &gb, &def, pyr.data(), len, {3, 2}, n);
+    trace("glossy trace rows past the end", REFL_STATUS_INVALID_ARGUMENT, &gb, &def, pyr.data(), len, {0, h + 1}, n);
+    trace("glossy trace short scratch", REFL_STATUS_INSUFFICIENT_SIZE, &gb, &def, pyr.data(), len - 1, all, n);
+    trace("glossy trace misaligned scratch", REFL_STATUS_INVALID_ARGUMENT, &gb, &def,
+          reinterpret_cast<const float*>(reinterpret_cast<const char*>(pyr.data()) + 2), len - 1, all, n);
+    {
+        refl_glossy_options o = def;
+        o.method = 5;
+        trace("glossy trace bad method", REFL_STATUS_INVALID_ARGUMENT, &gb, &o, pyr.data(), len, all, n);
+        o = def;
+        o.t_max = -1.0f;
+        trace("glossy trace bad t_max", REFL_STATUS_INVALID_ARGUMENT, &gb, &o, pyr.data(), len, all, n);
+        std::vector<float> blank(len, 0.0f);
+        trace("glossy trace unprepared scratch", REFL_STATUS_INVALID_ARGUMENT, &gb, &def, blank.data(), len, all, n);
+        std::vector<float> padded(vis_len, 0.0f);
+        std::memcpy(padded.data(), pyr.data(), len * sizeof(float));
+        trace("glossy trace without the visibility pyramid", REFL_STATUS_INVALID_ARGUMENT, &gb, &vis,
+              padded.data(), vis_len, all, n);
+        refl_gbuffer other = gb;
+        REQUIRE(refl_camera_look_at(&other.depth.camera, v3(1, 2, 6), v3(0, 0.5f, 0), v3(0, 1, 0), 1.0f, 0.1f,
+                                    100.0f, 64, 48) == REFL_STATUS_OK);
+        trace("glossy trace scratch of another camera", REFL_STATUS_INVALID_ARGUMENT, &other, &def, pyr.data(), len,
+              all, n);
+        refl_gbuffer nocolor = gb;
+        nocolor.color = {nullptr, 0, 0, 0, 0};
+        trace("glossy trace without a G-buffer color", REFL_STATUS_INVALID_ARGUMENT, &nocolor, &def, pyr.data(), len,
+              all, n);
+    }
+    {
+        // Misaligned texels; texels aliasing the scratch or the normals.
+        std::vector<refl_glossy_texel> out(n + 1);
+        refl_glossy_stats st{};
+        CHECK_STATUS(refl_glossy_trace_rows(&st,
+                                            reinterpret_cast<refl_glossy_texel*>(
+                                                reinterpret_cast<char*>(out.data()) + 1),
+                                            n, {nullptr, 0, 0, 0, 0}, nullptr, 0, &gb, &def, pyr.data(), len, all),
+                     REFL_STATUS_INVALID_ARGUMENT);
+        std::vector<float> big(len + 16 * n, 1.0f);
+        CHECK_STATUS(refl_glossy_prepare(big.data(), len, &gb, &def), REFL_STATUS_OK);
+        CHECK_STATUS(refl_glossy_trace_rows(&st, reinterpret_cast<refl_glossy_texel*>(big.data() + 8), n,
+                                            {nullptr, 0, 0, 0, 0}, nullptr, 0, &gb, &def, big.data(), len, all),
+                     REFL_STATUS_INVALID_ARGUMENT);
+        std::vector<refl_vec3> nbig(16 * n, v3(0, 1, 0));
+        refl_gbuffer alias = gb;
+        alias.normals = {nbig.data(), n, w, h, w};
+        CHECK_STATUS(refl_glossy_trace_rows(&st, reinterpret_cast<refl_glossy_texel*>(nbig.data()), n,
+                                            {nullptr, 0, 0, 0, 0}, nullptr, 0, &alias, &def, pyr.data(), len, all),
+                     REFL_STATUS_INVALID_ARGUMENT);
+        CHECK(nbig[0].y == 1.0f && nbig[15 * n].y == 1.0f);
+    }
+}
+
 }  // namespace
 
 int main() {
@@ -2677,5 +2898,6 @@ int main() {
     cluster_functions();
     cone_functions();
     ssr_functions();
+    glossy_functions();
     return check::finish("hostile_input");
 }

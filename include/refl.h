@@ -653,6 +653,31 @@ typedef uint32_t refl_ssr_status;
 #endif // __cplusplus
 
 /**
+ * How the glossy pass integrates the lobe.
+ */
+enum refl_glossy_method
+#if defined(__cplusplus) || __STDC_VERSION__ >= 202311L
+  : uint32_t
+#endif // defined(__cplusplus) || __STDC_VERSION__ >= 202311L
+ {
+    /**
+     * Cone tracing over the color (and visibility) pyramid (seed 004).
+     */
+    REFL_GLOSSY_METHOD_CONE = 0,
+    /**
+     * Several Hi-Z rays in the cone, Phong-weighted (seed 003 Sec. 3.5).
+     */
+    REFL_GLOSSY_METHOD_MULTI_RAY = 1,
+};
+#ifndef __cplusplus
+#if __STDC_VERSION__ >= 202311L
+typedef enum refl_glossy_method refl_glossy_method;
+#else
+typedef uint32_t refl_glossy_method;
+#endif // __STDC_VERSION__ >= 202311L
+#endif // __cplusplus
+
+/**
  * A 4x4 float matrix, column-major: element (row r, column c) is
  * `m[4 * c + r]`, the layout of OpenGL and glam. Points are column vectors
  * multiplied on the right (`p' = M p`).
@@ -1619,23 +1644,23 @@ typedef struct refl_epipolar_decision {
 } refl_epipolar_decision;
 
 /**
- * Where one pyramid level lives in the buffer: texels `offset` to
- * `offset + width * height - 1`, row by row, row stride `width`.
+ * One fade of seed 004 Sec. 4.6.1: a factor 1 at or below `start`, 0 at
+ * or above `end`, linear between.
  */
-typedef struct refl_hiz_level_info {
+typedef struct refl_glossy_fade {
     /**
-     * Index (in `refl_vec2` texels) of the level's first texel.
+     * Whether the fade applies.
      */
-    size_t offset;
+    bool enabled;
     /**
-     * Width in texels: `max(1, image_width >> level)`.
+     * Where the fade begins (finite when enabled).
      */
-    uint32_t width;
+    float start;
     /**
-     * Height in texels: `max(1, image_height >> level)`.
+     * Where it reaches 0 (finite, > start when enabled).
      */
-    uint32_t height;
-} refl_hiz_level_info;
+    float end;
+} refl_glossy_fade;
 
 /**
  * Settings of the Hi-Z traversal. `refl_hiz_default_options` gives the
@@ -1666,6 +1691,342 @@ typedef struct refl_hiz_options {
      */
     uint32_t prologue_steps;
 } refl_hiz_options;
+
+/**
+ * Settings of the glossy pass; `refl_glossy_options_default` gives the
+ * measured defaults.
+ */
+typedef struct refl_glossy_options {
+    /**
+     * A `refl_glossy_method`. Default cone.
+     */
+    uint32_t method;
+    /**
+     * Cone: most circles per pixel (clamped to 64). Default 8.
+     */
+    uint32_t max_circles;
+    /**
+     * Cone: added to a circle's mip level log2(2 r); finite. Default 0.
+     */
+    float level_bias;
+    /**
+     * Cone: weight samples by the pre-integrated visibility (then
+     * `refl_glossy_prepare` builds its pyramid). Default false.
+     */
+    bool use_visibility;
+    /**
+     * Cone: largest anisotropic stretch along the axis, >= 1, finite
+     * (1: isotropic). Default 1.
+     */
+    float max_stretch;
+    /**
+     * Cone: relative depth tolerance of a sample's sphere weight; finite,
+     * >= 0. Default 0.01.
+     */
+    float depth_tolerance;
+    /**
+     * Cone: divide by the coverage (a weighted mean of the samples; the
+     * probe then takes only uncovered cones). Default true.
+     */
+    bool normalize;
+    /**
+     * Cone: fade over dot(reflected, toward the eye). Default off.
+     */
+    struct refl_glossy_fade fade_toward_camera;
+    /**
+     * Cone: fade over the hit's max(|2u - 1|, |2v - 1|). Default off.
+     */
+    struct refl_glossy_fade fade_border;
+    /**
+     * Cone: fade over the travel from the ray's start to the hit (world
+     * units). Default off.
+     */
+    struct refl_glossy_fade fade_travel;
+    /**
+     * Cone: size the cone from its world travel instead of the seed's
+     * screen-space triangle. Default false.
+     */
+    bool view_space;
+    /**
+     * Standard deviation of the color pyramid's Gaussian, finer texels;
+     * finite, > 0. Default 1.
+     */
+    float sigma;
+    /**
+     * Multi-ray: rays per pixel, > 0. Default 8.
+     */
+    uint32_t rays;
+    /**
+     * Hi-Z settings of the mirror ray (the cone's axis) and of each
+     * multi-ray ray (`refl_hiz_default_options`).
+     */
+    struct refl_hiz_options hiz;
+    /**
+     * As `refl_ssr_options.thickness`. Default 0.5.
+     */
+    float thickness;
+    /**
+     * As `refl_ssr_options.start_pixels`. Default 1.
+     */
+    float start_pixels;
+    /**
+     * As `refl_ssr_options.t_min`. Default 0.
+     */
+    float t_min;
+    /**
+     * As `refl_ssr_options.t_max`. Default +infinity.
+     */
+    float t_max;
+    /**
+     * Pixels with a roughness at or below this are not traced (left to
+     * the mirror pass, whose default `max_roughness` is the same); not
+     * NaN, < max_roughness; negative traces every roughness. Default 0.1.
+     */
+    float min_roughness;
+    /**
+     * Pixels with a roughness above this are not traced; not NaN.
+     * Default 1.
+     */
+    float max_roughness;
+    /**
+     * As `refl_ssr_options.refine`. Default true.
+     */
+    bool refine;
+    /**
+     * As `refl_ssr_options.reject_back_faces`. Default true.
+     */
+    bool reject_back_faces;
+    /**
+     * As `refl_ssr_options.reject_hidden_hits`. Default true.
+     */
+    bool reject_hidden_hits;
+} refl_glossy_options;
+
+/**
+ * A read-only image of `uint8_t` texels (e.g. a coverage or re-trace
+ * mask).
+ */
+typedef struct refl_image_u8 {
+    /**
+     * Texel (0, 0); texel (x, y) is `data[y * stride + x]`.
+     */
+    const uint8_t *data;
+    /**
+     * Number of texels readable from `data` on (the buffer length).
+     */
+    size_t len;
+    /**
+     * Width in texels, > 0.
+     */
+    uint32_t width;
+    /**
+     * Height in texels, > 0.
+     */
+    uint32_t height;
+    /**
+     * Row stride in texels, >= `width`.
+     */
+    uint32_t stride;
+} refl_image_u8;
+
+/**
+ * A deferred renderer's G-buffer. Every image must have the camera's
+ * size. Optional images are absent when their `data` is NULL (their other
+ * fields are then ignored).
+ */
+typedef struct refl_gbuffer {
+    /**
+     * Depth, with the camera that rendered it and its convention.
+     */
+    struct refl_depth_image depth;
+    /**
+     * Normals (any length; zero or non-finite marks a pixel without a
+     * usable surface).
+     */
+    struct refl_image_vec3 normals;
+    /**
+     * Space of `normals`, a `refl_normal_space`.
+     */
+    uint32_t normal_space;
+    /**
+     * Optional reflective mask: 0 = not reflective.
+     */
+    struct refl_image_u8 mask;
+    /**
+     * Optional per-pixel roughness in [0, 1]; pixels above
+     * `refl_ssr_options.max_roughness` (or NaN) are not traced.
+     */
+    struct refl_image_f32 roughness;
+    /**
+     * Optional lit color of the frame (linear RGB), read at the hits.
+     */
+    struct refl_image_vec3 color;
+    /**
+     * Optional back-face depth (same camera and convention as `depth`):
+     * a hit needs the ray between the front and the back depth. A back
+     * texel at the cleared value (far plane) behind a front surface makes
+     * it solid to the far plane (a one-sided floor or wall).
+     */
+    struct refl_image_f32 back_depth;
+} refl_gbuffer;
+
+/**
+ * Counts of one `refl_glossy_trace_rows` call.
+ */
+typedef struct refl_glossy_stats {
+    /**
+     * Pixels traced (glossy, with a surface).
+     */
+    uint32_t traced;
+    /**
+     * Validated axis hits.
+     */
+    uint32_t hits;
+    /**
+     * Axes answered as sky.
+     */
+    uint32_t sky;
+    /**
+     * Pixels that need the host's tracer.
+     */
+    uint32_t host_rays;
+    /**
+     * Of those, the ones written to the host list (the first ones in
+     * row-major order).
+     */
+    uint32_t host_rays_written;
+    /**
+     * Cone circles taken, summed over the pixels.
+     */
+    uint64_t circles;
+    /**
+     * Multi-ray rays traced (not below the surface), summed.
+     */
+    uint64_t lobe_rays;
+    /**
+     * Multi-ray rays that hit on screen, summed.
+     */
+    uint64_t lobe_hits;
+} refl_glossy_stats;
+
+/**
+ * One pixel of the glossy pass's output.
+ */
+typedef struct refl_glossy_texel {
+    /**
+     * What happened to the pixel's mirror ray (the cone's axis), a
+     * `refl_ssr_status`: traced and validated as `refl_ssr_trace_rows`
+     * does with Hi-Z.
+     */
+    uint32_t status;
+    /**
+     * Sub-pixel position of the axis hit; 0 without a hit.
+     */
+    struct refl_vec2 pixel;
+    /**
+     * Distance from the surface point to the axis hit; 0 without a hit.
+     */
+    float t;
+    /**
+     * Share of the lobe the screen covered (cone coverage, or multi-ray's
+     * 1 - fallback_weight); 0 without a result.
+     */
+    float coverage;
+    /**
+     * The fades' factor (cone with a hit; 1 for multi-ray, 0 otherwise).
+     */
+    float fade;
+    /**
+     * The weight of your probe: final = color + fallback_weight * probe,
+     * with the probe sampled in `dir` at the pixel's roughness. 1 where
+     * the screen answered nothing, 0 for pixels the pass does not handle.
+     */
+    float fallback_weight;
+    /**
+     * Unit mirror direction (where to sample the probe); 0 for pixels the
+     * pass does not handle.
+     */
+    struct refl_vec3 dir;
+} refl_glossy_texel;
+
+/**
+ * A writable image of three-float texels.
+ */
+typedef struct refl_image_vec3_mut {
+    /**
+     * Texel (0, 0); texel (x, y) is `data[y * stride + x]`.
+     */
+    struct refl_vec3 *data;
+    /**
+     * Number of texels writable from `data` on (the buffer length).
+     */
+    size_t len;
+    /**
+     * Width in texels, > 0.
+     */
+    uint32_t width;
+    /**
+     * Height in texels, > 0.
+     */
+    uint32_t height;
+    /**
+     * Row stride in texels, >= `width`.
+     */
+    uint32_t stride;
+} refl_image_vec3_mut;
+
+/**
+ * A pixel's reflection ray for the host's own tracer.
+ */
+typedef struct refl_host_ray {
+    /**
+     * Pixel column.
+     */
+    uint32_t x;
+    /**
+     * Pixel row.
+     */
+    uint32_t y;
+    /**
+     * The surface point (add the host tracer's own offset).
+     */
+    struct refl_vec3 origin;
+    /**
+     * Unit direction.
+     */
+    struct refl_vec3 dir;
+    /**
+     * Trace from this distance (`refl_ssr_options.t_min`).
+     */
+    float t_min;
+    /**
+     * Trace up to this distance (`refl_ssr_options.t_max`).
+     */
+    float t_max;
+    /**
+     * Why the screen did not answer, a `refl_ssr_status`.
+     */
+    uint32_t status;
+} refl_host_ray;
+
+/**
+ * Where one pyramid level lives in the buffer: texels `offset` to
+ * `offset + width * height - 1`, row by row, row stride `width`.
+ */
+typedef struct refl_hiz_level_info {
+    /**
+     * Index (in `refl_vec2` texels) of the level's first texel.
+     */
+    size_t offset;
+    /**
+     * Width in texels: `max(1, image_width >> level)`.
+     */
+    uint32_t width;
+    /**
+     * Height in texels: `max(1, image_height >> level)`.
+     */
+    uint32_t height;
+} refl_hiz_level_info;
 
 /**
  * The result of tracing one ray against a depth image.
@@ -2081,74 +2442,6 @@ typedef struct refl_ssr_options {
 } refl_ssr_options;
 
 /**
- * A read-only image of `uint8_t` texels (e.g. a coverage or re-trace
- * mask).
- */
-typedef struct refl_image_u8 {
-    /**
-     * Texel (0, 0); texel (x, y) is `data[y * stride + x]`.
-     */
-    const uint8_t *data;
-    /**
-     * Number of texels readable from `data` on (the buffer length).
-     */
-    size_t len;
-    /**
-     * Width in texels, > 0.
-     */
-    uint32_t width;
-    /**
-     * Height in texels, > 0.
-     */
-    uint32_t height;
-    /**
-     * Row stride in texels, >= `width`.
-     */
-    uint32_t stride;
-} refl_image_u8;
-
-/**
- * A deferred renderer's G-buffer. Every image must have the camera's
- * size. Optional images are absent when their `data` is NULL (their other
- * fields are then ignored).
- */
-typedef struct refl_gbuffer {
-    /**
-     * Depth, with the camera that rendered it and its convention.
-     */
-    struct refl_depth_image depth;
-    /**
-     * Normals (any length; zero or non-finite marks a pixel without a
-     * usable surface).
-     */
-    struct refl_image_vec3 normals;
-    /**
-     * Space of `normals`, a `refl_normal_space`.
-     */
-    uint32_t normal_space;
-    /**
-     * Optional reflective mask: 0 = not reflective.
-     */
-    struct refl_image_u8 mask;
-    /**
-     * Optional per-pixel roughness in [0, 1]; pixels above
-     * `refl_ssr_options.max_roughness` (or NaN) are not traced.
-     */
-    struct refl_image_f32 roughness;
-    /**
-     * Optional lit color of the frame (linear RGB), read at the hits.
-     */
-    struct refl_image_vec3 color;
-    /**
-     * Optional back-face depth (same camera and convention as `depth`):
-     * a hit needs the ray between the front and the back depth. A back
-     * texel at the cleared value (far plane) behind a front surface makes
-     * it solid to the far plane (a one-sided floor or wall).
-     */
-    struct refl_image_f32 back_depth;
-} refl_gbuffer;
-
-/**
  * Counts of one `refl_ssr_trace_rows` call.
  */
 typedef struct refl_ssr_stats {
@@ -2199,66 +2492,6 @@ typedef struct refl_ssr_texel {
      */
     float confidence;
 } refl_ssr_texel;
-
-/**
- * A writable image of three-float texels.
- */
-typedef struct refl_image_vec3_mut {
-    /**
-     * Texel (0, 0); texel (x, y) is `data[y * stride + x]`.
-     */
-    struct refl_vec3 *data;
-    /**
-     * Number of texels writable from `data` on (the buffer length).
-     */
-    size_t len;
-    /**
-     * Width in texels, > 0.
-     */
-    uint32_t width;
-    /**
-     * Height in texels, > 0.
-     */
-    uint32_t height;
-    /**
-     * Row stride in texels, >= `width`.
-     */
-    uint32_t stride;
-} refl_image_vec3_mut;
-
-/**
- * A pixel's reflection ray for the host's own tracer.
- */
-typedef struct refl_host_ray {
-    /**
-     * Pixel column.
-     */
-    uint32_t x;
-    /**
-     * Pixel row.
-     */
-    uint32_t y;
-    /**
-     * The surface point (add the host tracer's own offset).
-     */
-    struct refl_vec3 origin;
-    /**
-     * Unit direction.
-     */
-    struct refl_vec3 dir;
-    /**
-     * Trace from this distance (`refl_ssr_options.t_min`).
-     */
-    float t_min;
-    /**
-     * Trace up to this distance (`refl_ssr_options.t_max`).
-     */
-    float t_max;
-    /**
-     * Why the screen did not answer, a `refl_ssr_status`.
-     */
-    uint32_t status;
-} refl_host_ray;
 
 /**
  * Settings of the TCRR passes (refl-core `TcrrParams`); fill with
@@ -3523,6 +3756,108 @@ refl_status refl_epipolar_decide_rows(struct refl_epipolar_decision *out,
                                       uint32_t row_end,
                                       uint32_t frame,
                                       const struct refl_epipolar_params *params);
+
+/**
+ * The pass's defaults: cone tracing with 8 circles, normalized, no
+ * visibility weighting, no fades, the seed's screen-space triangle, sigma
+ * 1; 8 rays for multi-ray; roughness in (0.1, 1]; the mirror pass's axis
+ * defaults (Hi-Z defaults, thickness 0.5, start after 1 pixel, t_min 0,
+ * t_max +infinity, refined hits, back faces and hidden hits refused).
+ */
+struct refl_glossy_options refl_glossy_options_default(void);
+
+/**
+ * Size query: the number of floats of scratch the pass needs for this
+ * G-buffer's size and these options into `*out_len`: the Hi-Z pyramid
+ * (`refl_hiz_len` texels of 2 floats), the color pyramid
+ * (`refl_cone_pyramid_len`'s color texels of 3 floats) and, with
+ * `use_visibility` on for the cone, the visibility pyramid, back to back.
+ *
+ * Returns `REFL_STATUS_NULL_POINTER` if `out_len`, `gbuffer` or `options`
+ * is NULL; `REFL_STATUS_INVALID_ARGUMENT` for an unknown method or an
+ * invalid camera size; the camera's status if it is invalid.
+ *
+ * # Safety
+ * `out_len` NULL or writable; `gbuffer` and `options` NULL or readable.
+ */
+refl_status refl_glossy_scratch_len(size_t *out_len,
+                                    const struct refl_gbuffer *gbuffer,
+                                    const struct refl_glossy_options *options);
+
+/**
+ * Prepares a frame: validates the G-buffer (it needs a lit color and a
+ * roughness image) and the options together, and builds into `scratch`
+ * (`refl_glossy_scratch_len` floats) the Hi-Z pyramid of the depth, the
+ * color pyramid of the lit color (level 0 only for multi-ray) and, when
+ * the options read it, the visibility pyramid; each ends with the stamp
+ * `refl_glossy_trace_rows` checks. Call it once per frame, before any
+ * `refl_glossy_trace_rows`. (The build is single-threaded; a host may
+ * instead build the three parts with `refl_hiz_build_rows`,
+ * `refl_cone_build_color_rows` and `refl_cone_build_visibility_rows` on
+ * its threads, at the offsets 0, 2 x hiz texels and that plus 3 x color
+ * texels.)
+ *
+ * Returns `REFL_STATUS_NULL_POINTER` if `scratch`, `gbuffer`, `options`
+ * or a required image is NULL; `REFL_STATUS_INSUFFICIENT_SIZE` if
+ * `scratch_len` or an image's `len` is too small;
+ * `REFL_STATUS_INVALID_ARGUMENT` for an option out of range, an unknown
+ * method, convention or normal space, a G-buffer without color or
+ * roughness, a non-finite lit color, an image not of the camera's size, a
+ * misaligned pointer, or `scratch` overlapping a G-buffer image; the
+ * camera's status if it is invalid. Nothing is written on error.
+ *
+ * # Safety
+ * `scratch` NULL or writable for `scratch_len` floats; `gbuffer` and
+ * `options` NULL or readable, the images readable for their `len` texels
+ * and not written during the call.
+ */
+refl_status refl_glossy_prepare(float *scratch,
+                                size_t scratch_len,
+                                const struct refl_gbuffer *gbuffer,
+                                const struct refl_glossy_options *options);
+
+/**
+ * Runs the pass over the rows `rows` of the G-buffer: for each pixel of
+ * those rows writes its `refl_glossy_texel` to `out[y * width + x]`
+ * (`out` holds the whole `width x height` image, row stride `width`; only
+ * the band's rows are written), its reflection color (premultiplied: add
+ * `fallback_weight` times your probe) to `color` if `color.data` is not
+ * NULL, and appends the pixels that need the host's tracer to `host` (up
+ * to `host_len`; `host` may be NULL with `host_len` 0) in row-major
+ * order. The counts go to `*out_stats`.
+ *
+ * Bands are independent: split the rows (`refl_row_band`) across threads,
+ * each with its own `host` list. `scratch` is what `refl_glossy_prepare`
+ * built for this G-buffer and these options; pyramids built for another
+ * camera or size, or not built, are refused.
+ *
+ * Returns `REFL_STATUS_NULL_POINTER` if `out_stats`, `out`, `gbuffer`,
+ * `options`, `scratch`, a required image, or `host` with a non-zero
+ * `host_len` is NULL; `REFL_STATUS_INSUFFICIENT_SIZE` if `out_len < width
+ * * height`, `scratch_len` or an image's `len` is too small;
+ * `REFL_STATUS_INVALID_ARGUMENT` for rows reversed or beyond the height,
+ * `color` not of the camera's size, outputs overlapping each other or the
+ * inputs, a scratch not prepared for this G-buffer, and the cases of
+ * `refl_glossy_prepare`. Nothing is written on error.
+ *
+ * # Safety
+ * `out_stats` NULL or writable; `out` NULL or writable for `out_len`
+ * texels; `color.data` NULL or writable for `color.len` texels; `host`
+ * NULL or writable for `host_len` entries; `scratch` NULL or readable for
+ * `scratch_len` floats; the rest as `refl_glossy_prepare`. No other thread
+ * writes the rows of `out` and `color` this call writes.
+ */
+refl_status refl_glossy_trace_rows(struct refl_glossy_stats *out_stats,
+                                   struct refl_glossy_texel *out,
+                                   size_t out_len,
+                                   struct refl_image_vec3_mut color,
+                                   struct refl_host_ray *host,
+                                   size_t host_len,
+                                   const struct refl_gbuffer *gbuffer,
+                                   const struct refl_glossy_options *options,
+                                   const float *scratch,
+                                   size_t scratch_len,
+                                   struct refl_row_range rows);
 
 /**
  * Size query: the number of `refl_vec2` texels of the Hi-Z pyramid of a

@@ -5,54 +5,48 @@
 //!
 //! # Pipeline ([`run`])
 //!
-//! Inputs an engine has at this point: the G-buffer, its depth buffer (the
-//! report uses reversed-Z with an infinite far plane) and the
-//! direct-shaded frame color ([`crate::render::direct_image`]: what the
-//! reflected surfaces look like under the one-bounce rule of
-//! [`crate::shade`]). The timed pass:
+//! Inputs an engine has at this point: the G-buffer (normals, roughness, a
+//! mask of the glossy pixels), its depth buffer (the report uses
+//! reversed-Z with an infinite far plane) and the direct-shaded frame
+//! color ([`crate::render::direct_image`]: what the reflected surfaces look
+//! like under the one-bounce rule of [`crate::shade`]). The timed pass is
+//! refl-core's glossy pass ([`refl_core::glossy`]), as an engine calls it:
 //!
-//! 1. Hi-Z pyramid of the depth buffer ([`crate::screen::build_hiz`], row
-//!    bands in parallel).
-//! 2. Cone: the color pyramid of the frame color and the visibility pyramid
-//!    of the Hi-Z (refl-core [`refl_core::cone`]), row bands in parallel.
-//!    Multi-ray: level 0 of the color pyramid only (a copy of the frame).
-//! 3. Per glossy pixel (reflective, roughness > 0): cone: trace the mirror
-//!    ray with the Hi-Z (hit refined by [`refl_core::trace::refine_hit`]);
-//!    on a hit, cone-trace from the hit with the cone
-//!    angle of the pixel's roughness; a miss takes the fallback. Multi-ray:
-//!    `rays` Hi-Z traces in the cone, Phong-weighted.
+//! 1. [`refl_core::try_prepare_glossy`]: the Hi-Z, color and (if the cone
+//!    reads it) visibility pyramids (multi-ray: level 0 of the color
+//!    pyramid only).
+//! 2. [`refl_core::GlossyPass`] over row bands of 16 rows on the pool: per
+//!    glossy pixel the mirror ray traced and validated as the mirror pass
+//!    does, then the cone over the pyramids (or the multi-ray estimate),
+//!    the fades, and the weight the probe takes.
+//! 3. The probe: `color + fallback_weight * fallback(dir, roughness)`.
 //!
 //! The fallback (seed 004 Sec. 4.4.5: "blend in the rest of the visibility
 //! using, say, cube-maps") is a caller function of the direction and the
-//! pixel's roughness. The cone asks it for the mirror direction and the
-//! pixel's roughness; the report passes the roughness-prefiltered probe
-//! ([`crate::probe::PrefilteredEnv`], built once per scene outside the timed
-//! pass, as an engine prefilters probes at load) and, for one comparison
-//! row, the unfiltered environment map ([`crate::shade::env_map`]).
-//! Multi-ray asks it for each missed ray's own direction with roughness 0:
-//! that ray is already a lobe sample, so its miss takes the unfiltered
-//! environment. Pyramid buffers are allocated outside the timed part, as an
-//! engine keeps them across frames.
+//! pixel's roughness, asked for the pixel's mirror direction; the report
+//! passes the roughness-prefiltered probe ([`crate::probe::PrefilteredEnv`],
+//! built once per scene outside the timed pass, as an engine prefilters
+//! probes at load) and, for one comparison row, the unfiltered environment
+//! map ([`crate::shade::env_map`]). Multi-ray gives the probe the share of
+//! the lobe its missed rays carry. Pyramid and output buffers are allocated
+//! outside the timed part, as an engine keeps them across frames.
 
 use crate::gbuffer::GBuffer;
 use crate::probe::{PrefilteredEnv, ProbeSizes};
 use crate::render::{compare, composite, timed, ImageError, ReflectionImage, Timed};
 use crate::report_out::Row;
-use crate::scene::{phong_exponent, Scene};
-use crate::screen::{
-    build_hiz, build_pyramid_banded, reflection_rays, DepthBuffer, ReflectionRays,
-};
-use crate::shade::{env_map, hash32, Shader};
+use crate::scene::Scene;
+use crate::screen::{reflection_rays, DepthBuffer, PYRAMID_BAND};
+use crate::shade::{env_map, Shader};
 use crate::tracer::Tracer;
-use glam::{Vec2, Vec3};
+use glam::Vec3;
 use rayon::prelude::*;
-use refl_core::cone::{
-    try_build_color_level0_rows, try_build_color_level_rows, try_build_visibility_level0_rows,
-    try_build_visibility_level_rows, Cone, ConeOptions, ConePyramids, Fades, MultiRayOptions,
-    DEFAULT_SIGMA,
+use refl_core::cone::{ConeOptions, Fades};
+use refl_core::hiz::{HiZLayout, HiZTexel};
+use refl_core::{
+    ColorTexel, DepthConvention, DepthImage, GlossyOptions, GlossyPass, GlossyScratch,
+    GlossyScratchMut, GlossyTexel, ImageView, ImageViewMut, MirrorStatus, NormalSpace, RowRange,
 };
-use refl_core::hiz::{HiZLayout, HiZOptions, HiZTexel};
-use refl_core::{ColorTexel, DepthConvention, DepthImage, HiZ, Thickness};
 use std::fmt::Write as _;
 use std::path::Path;
 
@@ -65,8 +59,8 @@ pub enum GlossyMethod {
         options: ConeOptions,
         /// Fades of seed 004 Sec. 4.6.1 (blend toward the fallback).
         fades: Option<Fades>,
-        /// Size the cone from its world travel ([`Cone::travel`]) instead
-        /// of the seed's screen-space triangle.
+        /// Size the cone from its world travel ([`refl_core::Cone::travel`])
+        /// instead of the seed's screen-space triangle.
         view_space: bool,
     },
     /// `rays` Hi-Z traced rays per pixel in the cone, Phong-weighted.
@@ -88,6 +82,33 @@ impl GlossyMethod {
         };
         4.0 + per_texel * texels / (f64::from(width) * f64::from(height))
     }
+
+    /// The glossy pass's options for this method: refl-core's defaults
+    /// (the mirror pass's axis settings) with the method's cone settings,
+    /// every roughness above 0 traced.
+    pub fn options(&self) -> GlossyOptions {
+        let d = GlossyOptions {
+            min_roughness: 0.0,
+            ..GlossyOptions::default()
+        };
+        match *self {
+            GlossyMethod::Cone {
+                options,
+                fades,
+                view_space,
+            } => GlossyOptions {
+                cone: options,
+                fades: fades.unwrap_or_default(),
+                view_space,
+                ..d
+            },
+            GlossyMethod::MultiRay { rays } => GlossyOptions {
+                method: refl_core::GlossyMethod::MultiRay,
+                rays,
+                ..d
+            },
+        }
+    }
 }
 
 /// Counts of one glossy pass.
@@ -98,30 +119,37 @@ pub struct GlossyStats {
     /// Cone: pixels whose mirror ray hit in screen space. Multi-ray: rays
     /// that hit.
     pub hits: usize,
-    /// Cone: sum of the coverage (1 - fallback weight). Multi-ray: rays
-    /// traced.
+    /// Cone: sum of the coverage (1 - fallback weight before fades).
+    /// Multi-ray: rays traced.
     pub coverage_sum: f64,
-    /// Cone: circles taken. Multi-ray: Hi-Z iterations.
+    /// Cone: circles taken. Multi-ray: 0.
     pub work: u64,
 }
 
-/// Buffers a glossy pass writes (allocated once, outside the timing).
+/// Buffers a glossy pass writes (allocated once, outside the timing): the
+/// pass's pyramids and its per-pixel outputs.
 pub struct GlossyBuffers {
     hiz: Vec<HiZTexel>,
     color: Vec<ColorTexel>,
     visibility: Vec<f32>,
+    texels: Vec<GlossyTexel>,
+    rgb: Vec<ColorTexel>,
 }
 
 impl GlossyBuffers {
-    /// Buffers for a `width x height` frame.
+    /// Buffers for a `width x height` frame (the visibility pyramid
+    /// included, whatever the options).
     ///
     /// # Errors
     /// As [`HiZLayout::try_new`].
     pub fn new(width: u32, height: u32) -> Result<Self, refl_core::Error> {
+        let n = width as usize * height as usize;
         Ok(Self {
             hiz: vec![[0.0; 2]; refl_core::hiz::hiz_len(width, height)?],
             color: vec![[0.0; 3]; refl_core::color_pyramid_len(width, height)?],
             visibility: vec![0.0; refl_core::visibility_pyramid_len(width, height)?],
+            texels: vec![GlossyTexel::default(); n],
+            rgb: vec![[0.0; 3]; n],
         })
     }
 }
@@ -133,196 +161,145 @@ pub fn glossy_mask(g: &GBuffer) -> Vec<bool> {
         .collect()
 }
 
-/// Builds the color pyramid of `lit` into `dst` in row bands on `pool`
-/// (all levels, or level 0 only).
-fn build_color(
-    dst: &mut [ColorTexel],
-    lit: &[ColorTexel],
-    width: u32,
-    height: u32,
-    all_levels: bool,
-    pool: &rayon::ThreadPool,
-) -> Result<(), refl_core::Error> {
-    let layout = HiZLayout::try_new(width, height)?;
-    let view = refl_core::ImageView::try_new(lit, width, height, width)?;
-    build_pyramid_banded(
-        dst,
-        &layout,
-        all_levels,
-        pool,
-        |band, rows| try_build_color_level0_rows(band, &view, rows),
-        |band, finer, level, rows| {
-            try_build_color_level_rows(band, finer, &layout, level, rows, DEFAULT_SIGMA)
-        },
-    )?;
-    // Level 0 alone (multi-ray) is still this frame's pyramid, stamped.
-    refl_core::try_stamp_color_pyramid(dst, width, height)
+/// The G-buffer images the glossy pass reads, as refl-core takes them.
+struct PassImages {
+    normals: Vec<[f32; 3]>,
+    mask: Vec<u8>,
+    lit: Vec<ColorTexel>,
 }
 
-/// Builds the visibility pyramid of `hiz` into `dst` in row bands.
-fn build_visibility(
-    dst: &mut [f32],
-    hiz: &HiZ<'_>,
-    pool: &rayon::ThreadPool,
-) -> Result<(), refl_core::Error> {
-    build_pyramid_banded(
-        dst,
-        hiz.layout(),
-        true,
-        pool,
-        |band, rows| try_build_visibility_level0_rows(band, hiz, rows),
-        |band, finer, level, rows| try_build_visibility_level_rows(band, finer, hiz, level, rows),
-    )?;
-    refl_core::try_stamp_visibility_pyramid(dst, hiz)
+impl PassImages {
+    fn new(g: &GBuffer, lit: &[Vec3], mask: &[bool]) -> Self {
+        Self {
+            normals: g.normal.iter().map(|n| n.to_array()).collect(),
+            mask: mask.iter().map(|&m| u8::from(m)).collect(),
+            lit: lit.iter().map(|c| c.to_array()).collect(),
+        }
+    }
+
+    fn gbuffer<'a>(
+        &'a self,
+        g: &'a GBuffer,
+        depth: &DepthImage<'a>,
+    ) -> Result<refl_core::GBuffer<'a>, refl_core::Error> {
+        let (w, h) = (g.width(), g.height());
+        refl_core::GBuffer::try_new(
+            *depth,
+            ImageView::try_new(&self.normals, w, h, w)?,
+            NormalSpace::World,
+        )?
+        .try_with_mask(ImageView::try_new(&self.mask, w, h, w)?)?
+        .try_with_roughness(ImageView::try_new(&g.roughness, w, h, w)?)?
+        .try_with_color(ImageView::try_new(&self.lit, w, h, w)?)
+    }
 }
 
-/// Runs `method` on the glossy pixels of `g` (those of `mask`; `rays` must
-/// hold the reflection rays of `g`, [`reflection_rays`]): timed pass as in
-/// the module docs. `lit` is the direct-shaded frame, `fallback(dir,
-/// roughness)` the color for a direction the screen does not cover (the
-/// cone: mirror direction and the pixel's roughness; multi-ray: each missed
-/// ray's direction and 0).
+/// Runs `method` on the glossy pixels of `g` (those of `mask`) with
+/// refl-core's glossy pass: timed pass as in the module docs. `lit` is the
+/// direct-shaded frame, `fallback(dir, roughness)` the probe, asked for the
+/// pixel's mirror direction and roughness.
 ///
 /// # Errors
-/// A refl-core error (bad buffers or rays).
+/// A refl-core error (bad buffers).
 #[allow(clippy::too_many_arguments)]
 pub fn run(
     method: GlossyMethod,
     g: &GBuffer,
     lit: &[Vec3],
     depth: &DepthImage<'_>,
-    thickness: f32,
-    rays: &ReflectionRays,
     mask: &[bool],
     fallback: impl Fn(Vec3, f32) -> Vec3 + Sync,
     buffers: &mut GlossyBuffers,
     pool: &rayon::ThreadPool,
 ) -> Result<Timed<(ReflectionImage, GlossyStats)>, refl_core::Error> {
-    let lit3: Vec<ColorTexel> = lit.iter().map(|c| c.to_array()).collect();
+    let images = PassImages::new(g, lit, mask);
+    let gb = images.gbuffer(g, depth)?;
+    let options = method.options();
     let (w, h) = (g.width(), g.height());
-    let work: Vec<usize> = (0..rays.len())
-        .filter(|&k| mask[rays.pixel[k] as usize])
-        .collect();
     let t = timed(|| -> Result<_, refl_core::Error> {
         let GlossyBuffers {
             hiz,
             color,
             visibility,
+            texels,
+            rgb,
         } = buffers;
-        build_hiz(hiz, depth, pool)?;
-        let hz = HiZ::try_new(hiz, *depth.camera(), depth.convention())?;
-        let cone = matches!(method, GlossyMethod::Cone { .. });
-        build_color(color, &lit3, w, h, cone, pool)?;
-        if cone {
-            build_visibility(visibility, &hz, pool)?;
-        }
-        // Multi-ray reads no visibility pyramid: bind none.
-        let vis: &[f32] = if cone { visibility } else { &[] };
-        let pyr = ConePyramids::try_new(hz, color, vis)?;
-        let th = Thickness::Constant(thickness);
-        let cam = g.camera;
-        let results: Vec<Result<(Vec3, GlossyStats), refl_core::Error>> = pool.install(|| {
-            work.par_iter()
-                .with_min_len(64)
-                .map(|&k| {
-                    let i = rays.pixel[k] as usize;
-                    let ray = rays.screen_ray[k];
-                    let roughness = g.roughness[i];
-                    let theta = refl_core::try_cone_angle_from_roughness(roughness.min(1.0))?;
-                    let fb = fallback(ray.dir, roughness);
-                    let mut st = GlossyStats {
-                        pixels: 1,
-                        ..GlossyStats::default()
-                    };
-                    match method {
-                        GlossyMethod::Cone {
-                            options,
-                            fades,
-                            view_space,
-                        } => {
-                            let trace = refl_core::try_trace_hiz(
-                                &hz,
-                                th,
-                                ray,
-                                f32::INFINITY,
-                                &HiZOptions::default(),
-                            )?;
-                            let Some(hit) = trace.hit() else {
-                                return Ok((fb, st));
-                            };
-                            // Sub-texel hit (as the report's Hi-Z rows).
-                            let hit = refl_core::trace::refine_hit(depth, &ray, f32::INFINITY, hit);
-                            st.hits = 1;
-                            let apex = cam
-                                .project(ray.origin)
-                                .ok_or(refl_core::Error::DegenerateGeometry)?;
-                            let view = -g.primary_ray(i).dir;
-                            let c = Cone {
-                                apex: apex.truncate(),
-                                apex_depth: apex.z,
-                                hit: hit.pixel,
-                                hit_depth: hit.depth,
-                                theta,
-                                n_dot_v: g.normal[i].dot(view),
-                                travel: if view_space { hit.t } else { 0.0 },
-                            };
-                            let r = refl_core::try_cone_trace(&pyr, &c, fb.to_array(), &options)?;
-                            st.coverage_sum = f64::from(r.coverage);
-                            st.work = u64::from(r.circles);
-                            let mut col = Vec3::from_array(r.color);
-                            if let Some(f) = fades {
-                                let k = f.try_factor(ray.dir, view, hit.pixel, w, h, hit.t)?;
-                                col = Vec3::from_array(refl_core::cone::blend_fade(
-                                    r.color,
-                                    fb.to_array(),
-                                    k,
-                                ));
-                            }
-                            Ok((col, st))
-                        }
-                        GlossyMethod::MultiRay { rays: n } => {
-                            let hsh = hash32(i as u32);
-                            let rotation = Vec2::new(
-                                (hsh & 0xffff) as f32 / 65_536.0,
-                                (hsh >> 16) as f32 / 65_536.0,
-                            );
-                            let opts = MultiRayOptions {
-                                rays: n,
-                                rotation,
-                                hiz: HiZOptions::default(),
-                            };
-                            let power = phong_exponent(roughness).min(1e6);
-                            let r = refl_core::try_multiray(
-                                &pyr,
-                                th,
-                                ray,
-                                g.geo_normal[i],
-                                f32::INFINITY,
-                                theta,
-                                power,
-                                &opts,
-                                |d| fallback(d, 0.0).to_array(),
-                            )?;
-                            st.hits = r.hits as usize;
-                            st.coverage_sum = f64::from(r.traced);
-                            st.work = u64::from(r.iterations);
-                            Ok((Vec3::from_array(r.color), st))
-                        }
+        refl_core::try_prepare_glossy(
+            GlossyScratchMut {
+                hiz,
+                color,
+                visibility,
+            },
+            &gb,
+            &options,
+        )?;
+        let pass = GlossyPass::try_new(
+            gb,
+            options,
+            GlossyScratch {
+                hiz,
+                color,
+                visibility,
+            },
+        )?;
+        let band = PYRAMID_BAND as usize * w as usize;
+        let bands: Vec<refl_core::GlossyStats> = pool.install(|| {
+            texels
+                .par_chunks_mut(band)
+                .zip(rgb.par_chunks_mut(band))
+                .enumerate()
+                .map(|(k, (t, c))| {
+                    let y0 = k as u32 * PYRAMID_BAND;
+                    let rows = RowRange::try_new(y0, (y0 + PYRAMID_BAND).min(h), h)?;
+                    pass.try_run(
+                        &mut ImageViewMut::try_band(t, w, h, w, rows)?,
+                        Some(&mut ImageViewMut::try_band(c, w, h, w, rows)?),
+                        &mut [],
+                    )
+                })
+                .collect::<Result<_, _>>()
+        })?;
+        // The probe takes the rest of each lobe.
+        let texels = &*texels;
+        let rgb = &*rgb;
+        let shaded: Vec<Vec3> = pool.install(|| {
+            (0..g.len())
+                .into_par_iter()
+                .with_min_len(256)
+                .map(|i| {
+                    let t = &texels[i];
+                    let c = Vec3::from_array(rgb[i]);
+                    if t.fallback_weight > 0.0 {
+                        c + t.fallback_weight * fallback(t.dir, g.roughness[i])
+                    } else {
+                        c
                     }
                 })
                 .collect()
         });
         let mut img = ReflectionImage::empty(w, h);
         let mut stats = GlossyStats::default();
-        for (&k, r) in work.iter().zip(results) {
-            let (c, s) = r?;
-            let i = rays.pixel[k] as usize;
+        for (i, (t, c)) in texels.iter().zip(shaded).enumerate() {
+            if matches!(t.status, MirrorStatus::Skipped | MirrorStatus::NoSurface) {
+                continue;
+            }
             img.rgb[i] = c;
             img.handled[i] = true;
-            stats.pixels += s.pixels;
-            stats.hits += s.hits;
-            stats.coverage_sum += s.coverage_sum;
-            stats.work += s.work;
+            stats.pixels += 1;
+            if t.status == MirrorStatus::Hit {
+                stats.coverage_sum += f64::from(t.coverage);
+            }
+        }
+        let lobe_rays: u64 = bands.iter().map(|b| b.lobe_rays).sum();
+        match method {
+            GlossyMethod::Cone { .. } => {
+                stats.hits = bands.iter().map(|b| b.hits as usize).sum();
+                stats.work = bands.iter().map(|b| b.circles).sum();
+            }
+            GlossyMethod::MultiRay { .. } => {
+                stats.hits = bands.iter().map(|b| b.lobe_hits as usize).sum();
+                stats.coverage_sum = lobe_rays as f64;
+            }
         }
         Ok((img, stats))
     });
@@ -394,7 +371,7 @@ pub struct StudySizes {
 /// The cone settings of the study: 4, 8 and 16 circles with the seed's
 /// screen-space triangle and rule (the uncovered rest takes the fallback),
 /// the same normalized ([`ConeOptions::normalize`]), and normalized with the
-/// view-space cone size ([`Cone::travel`]); at 8 circles, normalized:
+/// view-space cone size ([`refl_core::Cone::travel`]); at 8 circles, normalized:
 /// visibility off, anisotropic stretch, fades. `--quick`: 4 and 16 circles,
 /// normalized.
 pub fn cone_settings(quick: bool) -> Vec<(GlossyMethod, String)> {
@@ -619,7 +596,7 @@ pub fn report_rows(
          the Hi-Z, color and visibility pyramids. Where the cone's mirror ray finds no hit on screen, or its \
          circles do not cover the lobe, the cone takes the environment pre-filtered for the pixel's roughness \
          (`src/probe.rs`; the row with `;fallback=unfiltered` takes the unfiltered environment in the mirror \
-         direction instead); multi-ray rays that miss take the environment in their own direction.\n\n",
+         direction instead); multi-ray gives the same probe the lobe share of its rays that miss.\n\n",
     );
     let dims = probe.level_dims();
     let _ = writeln!(
@@ -762,14 +739,13 @@ pub fn report_rows(
         let depth = DepthBuffer::new(&g, DepthConvention::ReversedZ, f32::INFINITY)
             .map_err(|e| e.to_string())?;
         let image = depth.image().map_err(|e| e.to_string())?;
-        let thickness = scene.diameter() * crate::screen::THICKNESS_OF_DIAMETER;
         let mut buffers = GlossyBuffers::new(g.width(), g.height()).map_err(|e| e.to_string())?;
         // The reference time on the same pixels: the converged one, scaled
         // per sample (reported as the reference_ms of every row).
         let truth_ms = truth_t.ms;
         for (name, (method, setting), unfiltered) in settings {
-            // Roughness 0 (multi-ray's own lobe samples) takes the analytic
-            // environment exactly.
+            // The unfiltered rows (and roughness 0, not a glossy pixel) take
+            // the analytic environment.
             let fallback = |d: Vec3, r: f32| {
                 if unfiltered || !(r > 0.0) {
                     env_map(d)
@@ -785,8 +761,6 @@ pub fn report_rows(
                     &g,
                     &direct,
                     &image,
-                    thickness,
-                    &rays,
                     &mask,
                     fallback,
                     &mut buffers,

@@ -39,15 +39,11 @@ pub const SUN_DIRECTION: Vec3 = Vec3::new(0.477_670_4, 0.796_117_3, 0.371_521_4)
 /// Cosine of the sun disc's angular radius (1.5 degrees).
 const SUN_COS_RADIUS: f32 = 0.999_657_3;
 
-/// A 32-bit integer hash (Wellons' "lowbias32"); the only source of
-/// pseudo-randomness in the crate.
-pub fn hash32(mut x: u32) -> u32 {
-    x ^= x >> 16;
-    x = x.wrapping_mul(0x7feb_352d);
-    x ^= x >> 15;
-    x = x.wrapping_mul(0x846c_a68b);
-    x ^= x >> 16;
-    x
+/// A 32-bit integer hash (Wellons' "lowbias32": refl-core's
+/// `glossy::pixel_hash`, with which the glossy pass rotates its multi-ray
+/// sets); the only source of pseudo-randomness in the crate.
+pub fn hash32(x: u32) -> u32 {
+    refl_core::glossy::pixel_hash(x)
 }
 
 /// The environment seen by rays that leave the scene, as a function of the

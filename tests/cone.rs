@@ -10,7 +10,7 @@ use refl_app::cone::{
 use refl_app::gbuffer::GBuffer;
 use refl_app::render::{compare, composite, direct_image, reference_masked, ReflectionImage};
 use refl_app::scene::Scene;
-use refl_app::screen::{reflection_rays, DepthBuffer, ReflectionRays, THICKNESS_OF_DIAMETER};
+use refl_app::screen::DepthBuffer;
 use refl_app::shade::{env_map, Shader};
 use refl_app::tracer::Tracer;
 use refl_core::cone::ConeOptions;
@@ -23,7 +23,6 @@ struct Setup {
     scene: Scene,
     tracer: Tracer,
     g: GBuffer,
-    rays: ReflectionRays,
     depth: DepthBuffer,
     pool: rayon::ThreadPool,
 }
@@ -35,17 +34,14 @@ fn setup(gloss: Glossiness) -> Setup {
         .unwrap();
     let scene = Scene::room(8000);
     let tracer = Tracer::new(&scene);
-    let shader = Shader::new(&scene, &tracer);
     let cam = scene.camera(0, W, H).unwrap();
     let mut g = GBuffer::render(&scene, &tracer, &cam, &pool);
     gloss.apply(&mut g);
-    let rays = reflection_rays(&scene, &tracer, &shader, &g, &pool);
     let depth = DepthBuffer::new(&g, DepthConvention::ReversedZ, f32::INFINITY).unwrap();
     Setup {
         scene,
         tracer,
         g,
-        rays,
         depth,
         pool,
     }
@@ -71,13 +67,10 @@ fn go(
 ) -> (ReflectionImage, GlossyStats) {
     let mask = glossy_mask(&s.g);
     let mut buf = GlossyBuffers::new(W, H).unwrap();
-    let th = s.scene.diameter() * THICKNESS_OF_DIAMETER;
     let image = s.depth.image().unwrap();
-    run(
-        m, &s.g, lit, &image, th, &s.rays, &mask, fallback, &mut buf, &s.pool,
-    )
-    .unwrap()
-    .value
+    run(m, &s.g, lit, &image, &mask, fallback, &mut buf, &s.pool)
+        .unwrap()
+        .value
 }
 
 #[test]
@@ -145,7 +138,7 @@ fn uniform_frame_reflects_its_color_exactly() {
 }
 
 #[test]
-fn cone_fallback_gets_the_pixel_roughness_multiray_gets_zero() {
+fn the_fallback_gets_the_pixel_roughness_and_its_share_of_the_lobe() {
     // A ramp: every glossy pixel has its own roughness. Cone pixels whose
     // mirror ray misses show exactly fallback(dir, their roughness).
     let s = setup(Glossiness::Ramp(0.1, 0.45));
@@ -165,14 +158,22 @@ fn cone_fallback_gets_the_pixel_roughness_multiray_gets_zero() {
         })
         .count();
     assert!(own >= misses, "{own} of {misses} misses");
-    // Multi-ray: each missed ray asks for roughness 0.
+    // Multi-ray: the probe at the pixel's roughness takes the share `w`
+    // of the lobe whose rays missed, the frame's blue the rest: (w r,
+    // w (1 - r), 1 - w).
     let (img, st) = go(&s, GlossyMethod::MultiRay { rays: 8 }, &lit, fb);
     assert!(st.hits < st.coverage_sum as usize, "{st:?}");
+    let mut mixed = 0;
     for i in (0..mask.len()).filter(|&i| mask[i]) {
         let p = img.rgb[i];
-        // A mix of the frame's blue and fallback(_, 0) = green only.
-        assert!(p.x.abs() < 1e-6, "{i}: {p}");
+        let w = p.x + p.y;
+        assert!((w + p.z - 1.0).abs() < 1e-5, "{i}: {p}");
+        if w > 1e-3 {
+            assert!((p.x / w - s.g.roughness[i]).abs() < 1e-4, "{i}: {p}");
+            mixed += usize::from(w < 1.0 - 1e-3);
+        }
     }
+    assert!(mixed > 100, "{mixed}");
 }
 
 #[test]

@@ -1312,6 +1312,12 @@ pub struct MultiRayResult {
     pub hits: u32,
     /// Hi-Z iterations summed over the rays.
     pub iterations: u32,
+    /// The share of the lobe weight that went to `fallback`: the weights of
+    /// the rays that missed over the weights of all traced rays (1 with no
+    /// traced ray, when `color` is the axis's fallback). With a black
+    /// fallback, `color + fallback_weight * probe` blends a probe the
+    /// caller samples once (what `crate::glossy` does).
+    pub fallback_weight: f32,
 }
 
 /// The multi-ray glossy reflection (seed 003 Sec. 3.5): `options.rays`
@@ -1360,6 +1366,7 @@ pub fn try_multiray(
     // mean of finite colors lies between them and fits f32 again.
     let mut sum = [0.0f64; 3];
     let mut wsum = 0.0f64;
+    let mut missed = 0.0f64;
     let (mut traced, mut hits, mut iterations) = (0u32, 0u32, 0u32);
     let n = options.rays;
     for i in 0..n {
@@ -1384,6 +1391,7 @@ pub fn try_multiray(
             &options.hiz,
         )?;
         iterations = iterations.saturating_add(trace.work().iterations);
+        let w = f64::from(phong_lobe_weight(dir.dot(axis), power));
         let c = match trace.hit() {
             Some(h) => {
                 hits += 1;
@@ -1391,27 +1399,33 @@ pub fn try_multiray(
                 let y = (h.pixel.y.max(0.0) as usize).min(l0.height as usize - 1);
                 pyramids.color[y * l0.width as usize + x]
             }
-            None => fallback(dir),
+            None => {
+                missed += w;
+                fallback(dir)
+            }
         };
-        let w = f64::from(phong_lobe_weight(dir.dot(axis), power));
         for k in 0..3 {
             sum[k] += w * f64::from(c[k]);
         }
         wsum += w;
     }
-    let color = if wsum > 0.0 {
-        [
-            (sum[0] / wsum) as f32,
-            (sum[1] / wsum) as f32,
-            (sum[2] / wsum) as f32,
-        ]
+    let (color, fallback_weight) = if wsum > 0.0 {
+        (
+            [
+                (sum[0] / wsum) as f32,
+                (sum[1] / wsum) as f32,
+                (sum[2] / wsum) as f32,
+            ],
+            (missed / wsum) as f32,
+        )
     } else {
-        fallback(axis)
+        (fallback(axis), 1.0)
     };
     Ok(MultiRayResult {
         color,
         traced,
         hits,
         iterations,
+        fallback_weight,
     })
 }

@@ -30,6 +30,8 @@ pub mod epipolar;
 pub mod error;
 #[cfg(any(feature = "depth-image", feature = "hiz"))]
 pub mod gbuffer;
+#[cfg(feature = "cone")]
+pub mod glossy;
 #[cfg(feature = "hiz")]
 pub mod hiz;
 pub mod image;
@@ -70,6 +72,11 @@ pub use cone::{
 };
 #[cfg(any(feature = "depth-image", feature = "hiz"))]
 pub use gbuffer::{GBuffer, NormalSpace, Surface};
+#[cfg(feature = "cone")]
+pub use glossy::{
+    try_glossy_scratch_len, try_prepare_glossy, GlossyMethod, GlossyOptions, GlossyPass,
+    GlossyScratch, GlossyScratchLen, GlossyScratchMut, GlossySink, GlossyStats, GlossyTexel,
+};
 #[cfg(feature = "hiz")]
 pub use hiz::{
     hiz_len, try_build_hiz, try_build_hiz_level0_rows, try_build_hiz_level_rows, try_stamp_hiz,

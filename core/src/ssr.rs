@@ -321,8 +321,28 @@ fn footprint(p: Vec2) -> [(u32, u32); 4] {
 /// A pixel's setup, or the status that ends it early.
 enum Setup {
     Done(MirrorStatus),
+    /// The ray starts at or beyond `t_max`: answered as sky untraced.
+    Sky(MirrorRay),
     Trace(MirrorRay),
     Host(MirrorRay, MirrorStatus),
+}
+
+/// One pixel's mirror ray as [`MirrorPass`] traced it: what the glossy
+/// pass (`crate::glossy`) builds on, so that both passes share one ray
+/// generation, start rule and hit validation.
+#[derive(Clone, Copy, Debug)]
+#[cfg_attr(not(feature = "cone"), allow(dead_code))]
+pub(crate) struct AxisTrace {
+    /// The pixel's texel, as [`MirrorPass::pixel`] gives it.
+    pub texel: MirrorTexel,
+    /// Its host ray, as [`MirrorPass::pixel`] gives it.
+    pub host: Option<HostRay>,
+    /// The reflection ray, for every pixel with one (`None` for
+    /// [`MirrorStatus::Skipped`] and [`MirrorStatus::NoSurface`]).
+    pub ray: Option<MirrorRay>,
+    /// Whether the ray was traced from `ray.t_start` (not handed over or
+    /// answered before tracing).
+    pub traced: bool,
 }
 
 /// The mirror pass over one frame (module docs).
@@ -334,7 +354,7 @@ pub struct MirrorPass<'a> {
     hiz: Option<HiZ<'a>>,
 }
 
-fn validate_options(o: &MirrorOptions) -> Result<(), Error> {
+pub(crate) fn validate_options(o: &MirrorOptions) -> Result<(), Error> {
     let finite_nonneg = |x: f32| x >= 0.0 && x.is_finite();
     let ok = finite_nonneg(o.thickness)
         && finite_nonneg(o.start_pixels)
@@ -464,7 +484,7 @@ impl<'a> MirrorPass<'a> {
             Some(t0) if thickness.is_finite() => {
                 mr.t_start = t0.max(self.options.t_min);
                 if !(mr.t_start < self.options.t_max) {
-                    return Setup::Done(MirrorStatus::Sky);
+                    return Setup::Sky(mr);
                 }
                 Setup::Trace(mr)
             }
@@ -488,7 +508,7 @@ impl<'a> MirrorPass<'a> {
     pub fn host_ray(&self, x: u32, y: u32, status: MirrorStatus) -> Option<HostRay> {
         match self.setup(x, y) {
             Setup::Trace(r) | Setup::Host(r, _) => Some(self.host_entry(x, y, &r, status)),
-            Setup::Done(_) => None,
+            Setup::Done(_) | Setup::Sky(_) => None,
         }
     }
 
@@ -596,15 +616,31 @@ impl<'a> MirrorPass<'a> {
     /// Traces and validates one pixel: its output texel and, for the
     /// statuses of [`MirrorStatus::needs_host`], its host ray.
     pub fn pixel(&self, x: u32, y: u32) -> (MirrorTexel, Option<HostRay>) {
+        let a = self.trace_axis(x, y);
+        (a.texel, a.host)
+    }
+
+    /// [`MirrorPass::pixel`] with the ray it traced.
+    pub(crate) fn trace_axis(&self, x: u32, y: u32) -> AxisTrace {
         let mut out = MirrorTexel::default();
+        let done = |texel, host, ray| AxisTrace {
+            texel,
+            host,
+            ray,
+            traced: false,
+        };
         let r = match self.setup(x, y) {
             Setup::Done(s) => {
                 out.status = s;
-                return (out, None);
+                return done(out, None, None);
+            }
+            Setup::Sky(r) => {
+                out.status = MirrorStatus::Sky;
+                return done(out, None, Some(r));
             }
             Setup::Host(r, s) => {
                 out.status = s;
-                return (out, Some(self.host_entry(x, y, &r, s)));
+                return done(out, Some(self.host_entry(x, y, &r, s)), Some(r));
             }
             Setup::Trace(r) => r,
         };
@@ -670,7 +706,12 @@ impl<'a> MirrorPass<'a> {
         let host = status
             .needs_host()
             .then(|| self.host_entry(x, y, &r, status));
-        (out, host)
+        AxisTrace {
+            texel: out,
+            host,
+            ray: Some(r),
+            traced: true,
+        }
     }
 
     /// Runs the pass over the rows `out` owns (a whole image or a band from
@@ -693,48 +734,14 @@ impl<'a> MirrorPass<'a> {
         color: Option<&mut ImageViewMut<'_, [f32; 3]>>,
         host: &mut [HostRay],
     ) -> Result<MirrorStats, Error> {
-        let (w, h) = (self.gbuffer.width(), self.gbuffer.height());
-        if out.width() != w || out.height() != h {
+        if color.is_some() && self.gbuffer.color().is_none() {
             return Err(Error::InvalidArgument);
         }
-        if let Some(c) = color.as_deref() {
-            if c.width() != w
-                || c.height() != h
-                || c.owned_rows() != out.owned_rows()
-                || self.gbuffer.color().is_none()
-            {
-                return Err(Error::InvalidArgument);
-            }
+        let (w, h) = (self.gbuffer.width(), self.gbuffer.height());
+        match ImageSink::try_new(out, color, host, w, h)? {
+            Some((rows, mut sink)) => Ok(self.run_rows(rows, &mut sink)),
+            None => Ok(MirrorStats::default()),
         }
-        let Some(rows) = out.owned_rows() else {
-            return Ok(MirrorStats::default());
-        };
-        struct Views<'o, 'c, 'h, 'x, 'y> {
-            out: &'o mut ImageViewMut<'x, MirrorTexel>,
-            color: Option<&'c mut ImageViewMut<'y, [f32; 3]>>,
-            host: &'h mut [HostRay],
-        }
-        impl MirrorSink for Views<'_, '_, '_, '_, '_> {
-            fn texel(&mut self, x: u32, y: u32, texel: &MirrorTexel, color: [f32; 3]) {
-                if let Some(p) = self.out.get_mut(x, y) {
-                    *p = *texel;
-                }
-                if let Some(c) = self.color.as_deref_mut().and_then(|c| c.get_mut(x, y)) {
-                    *c = color;
-                }
-            }
-            fn host(&mut self, index: u32, ray: &HostRay) -> bool {
-                match self.host.get_mut(index as usize) {
-                    Some(slot) => {
-                        *slot = *ray;
-                        true
-                    }
-                    None => false,
-                }
-            }
-        }
-        let mut views = Views { out, color, host };
-        Ok(self.run_rows(rows, &mut views))
     }
 
     /// Runs the pass over `rows` (checked against the G-buffer's height)
@@ -799,4 +806,72 @@ pub trait MirrorSink {
     /// counting only those stored); returns `false` if it was not stored
     /// (the list is full).
     fn host(&mut self, index: u32, ray: &HostRay) -> bool;
+}
+
+/// The image outputs of a pass's `try_run` (the mirror and the glossy
+/// pass): texels of type `T`, an optional color image of the same rows,
+/// and the host-ray list.
+pub(crate) struct ImageSink<'o, 'c, 'h, 'x, 'y, T> {
+    out: &'o mut ImageViewMut<'x, T>,
+    color: Option<&'c mut ImageViewMut<'y, [f32; 3]>>,
+    host: &'h mut [HostRay],
+}
+
+impl<'o, 'c, 'h, 'x, 'y, T: Copy> ImageSink<'o, 'c, 'h, 'x, 'y, T> {
+    /// Checks the outputs against a `width x height` G-buffer: the sink
+    /// and the rows `out` owns (`None` if it owns none).
+    ///
+    /// # Errors
+    /// [`Error::InvalidArgument`] if `out` or `color` is not `width x
+    /// height`, or their bands differ.
+    #[allow(clippy::type_complexity)]
+    pub(crate) fn try_new(
+        out: &'o mut ImageViewMut<'x, T>,
+        color: Option<&'c mut ImageViewMut<'y, [f32; 3]>>,
+        host: &'h mut [HostRay],
+        width: u32,
+        height: u32,
+    ) -> Result<Option<(RowRange, Self)>, Error> {
+        if out.width() != width || out.height() != height {
+            return Err(Error::InvalidArgument);
+        }
+        if let Some(c) = color.as_deref() {
+            if c.width() != width || c.height() != height || c.owned_rows() != out.owned_rows() {
+                return Err(Error::InvalidArgument);
+            }
+        }
+        Ok(out
+            .owned_rows()
+            .map(|rows| (rows, Self { out, color, host })))
+    }
+
+    /// Writes pixel `(x, y)`'s texel and color.
+    pub(crate) fn put(&mut self, x: u32, y: u32, texel: &T, color: [f32; 3]) {
+        if let Some(p) = self.out.get_mut(x, y) {
+            *p = *texel;
+        }
+        if let Some(c) = self.color.as_deref_mut().and_then(|c| c.get_mut(x, y)) {
+            *c = color;
+        }
+    }
+
+    /// Stores host ray number `index` if the list holds it.
+    pub(crate) fn put_host(&mut self, index: u32, ray: &HostRay) -> bool {
+        match self.host.get_mut(index as usize) {
+            Some(slot) => {
+                *slot = *ray;
+                true
+            }
+            None => false,
+        }
+    }
+}
+
+impl MirrorSink for ImageSink<'_, '_, '_, '_, '_, MirrorTexel> {
+    fn texel(&mut self, x: u32, y: u32, texel: &MirrorTexel, color: [f32; 3]) {
+        self.put(x, y, texel, color);
+    }
+    fn host(&mut self, index: u32, ray: &HostRay) -> bool {
+        self.put_host(index, ray)
+    }
 }

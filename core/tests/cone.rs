@@ -1344,6 +1344,38 @@ fn multiray_uniform_scene_and_bad_input() {
         .unwrap();
         assert!(r2.color[0] <= c[0] + 1e-6 && r2.color[0] >= 0.0);
         assert_eq!(r2.hits, r.hits);
+        // The fallback's share of the lobe: the mean is linear in the
+        // fallback, so a white fallback adds exactly that share (f64 sums).
+        // A narrow cone hits the wall with every ray, a wide one not.
+        let mut partial = false;
+        for theta in [0.1, 1.2] {
+            let run = |fb: [f32; 3]| {
+                let thick = Thickness::Constant(f32::INFINITY);
+                try_multiray(&p, thick, ray, Vec3::Y, 100.0, theta, 50.0, &opts, |_| fb).unwrap()
+            };
+            let (black, white) = (run([0.0; 3]), run([1.0; 3]));
+            assert!((0.0..=1.0).contains(&black.fallback_weight), "{black:?}");
+            assert_eq!(black.fallback_weight, white.fallback_weight);
+            partial |= black.fallback_weight > 0.0 && black.fallback_weight < 1.0;
+            for k in 0..3 {
+                assert!((white.color[k] - black.color[k] - black.fallback_weight).abs() < 1e-6);
+            }
+        }
+        assert!(partial, "{conv:?}");
+        // No ray above the surface: all fallback.
+        let down = try_multiray(
+            &p,
+            Thickness::Constant(f32::INFINITY),
+            ray,
+            -ray.dir,
+            100.0,
+            0.1,
+            50.0,
+            &opts,
+            |_| c,
+        )
+        .unwrap();
+        assert_eq!((down.traced, down.fallback_weight), (0, 1.0));
         // Bad input.
         let t = Thickness::Constant(1.0);
         assert!(try_multiray(

@@ -189,6 +189,20 @@ pub struct refl_host_ray {
     pub status: u32,
 }
 
+impl From<HostRay> for refl_host_ray {
+    fn from(r: HostRay) -> Self {
+        Self {
+            x: r.x,
+            y: r.y,
+            origin: r.origin.into(),
+            dir: r.dir.into(),
+            t_min: r.t_min,
+            t_max: r.t_max,
+            status: refl_ssr_status::from(r.status) as u32,
+        }
+    }
+}
+
 /// Counts of one `refl_ssr_trace_rows` call.
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
@@ -280,7 +294,7 @@ pub extern "C" fn refl_ssr_options_default() -> refl_ssr_options {
 }
 
 /// The byte ranges of a G-buffer's images (for aliasing checks).
-fn gbuffer_ranges(g: &refl_gbuffer) -> [(usize, usize); 6] {
+pub(crate) fn gbuffer_ranges(g: &refl_gbuffer) -> [(usize, usize); 6] {
     fn r<T>(p: *const T, len: usize) -> (usize, usize) {
         if p.is_null() {
             (0, 0)
@@ -303,7 +317,7 @@ fn gbuffer_ranges(g: &refl_gbuffer) -> [(usize, usize); 6] {
 /// # Safety
 /// Every non-NULL image `data` readable for its `len` texels for `'a` and
 /// not written meanwhile.
-unsafe fn gbuffer<'a>(g: &refl_gbuffer) -> Result<GBuffer<'a>, Error> {
+pub(crate) unsafe fn gbuffer<'a>(g: &refl_gbuffer) -> Result<GBuffer<'a>, Error> {
     // SAFETY: caller contract.
     let depth = unsafe { depth_image(&g.depth) }?;
     let space = match g.normal_space {
@@ -455,53 +469,162 @@ pub unsafe extern "C" fn refl_ssr_prepare(
     })
 }
 
-/// Where a C call's results go.
-struct Sink<'a> {
-    texels: *mut refl_ssr_texel,
+/// The checked outputs of one `*_trace_rows` call of a G-buffer pass
+/// (`refl_ssr_trace_rows`, `refl_glossy_trace_rows`): the band's rows and
+/// where its texels (C structs of type `T`), colors and host rays go.
+pub(crate) struct Band<'a, T> {
+    /// The rows the call runs over.
+    pub rows: RowRange,
+    texels: *mut T,
     width: usize,
     /// Index of the first row's first texel (the band starts there).
     base: usize,
-    first_row: u32,
     color: Option<refl_core::ImageViewMut<'a, [f32; 3]>>,
     host: *mut refl_host_ray,
     host_len: usize,
 }
 
-impl MirrorSink for Sink<'_> {
-    fn texel(&mut self, x: u32, y: u32, t: &MirrorTexel, color: [f32; 3]) {
-        let i = (y - self.first_row) as usize * self.width + x as usize + self.base;
-        let v = refl_ssr_texel {
-            status: refl_ssr_status::from(t.status) as u32,
-            pixel: t.pixel.into(),
-            t: t.t,
-            confidence: t.confidence,
+impl<'a, T> Band<'a, T> {
+    /// Checks a call's outputs against the G-buffer `g` (parsed as `gb`):
+    /// `out` (`out_len >= width * height` texels), `color` (NULL data, or
+    /// the camera's size with a G-buffer color), `host` (NULL with
+    /// `host_len` 0, or `host_len` entries), `rows` within the height, and
+    /// that no output overlaps another or an input (the G-buffer's images,
+    /// `scratch_bytes` bytes at `scratch`, the stats at `stats`).
+    ///
+    /// # Safety
+    /// `out` writable for `out_len` texels, `color.data` for `color.len`
+    /// texels and `host` for `host_len` entries if not NULL; no other
+    /// thread writes the band's rows of `out` and `color` while the band
+    /// is in use.
+    #[allow(clippy::too_many_arguments)]
+    pub(crate) unsafe fn try_new(
+        out: *mut T,
+        out_len: usize,
+        color: refl_image_vec3_mut,
+        host: *mut refl_host_ray,
+        host_len: usize,
+        g: &refl_gbuffer,
+        gb: &GBuffer<'_>,
+        rows: refl_row_range,
+        scratch: (usize, usize),
+        stats: (usize, usize),
+    ) -> Result<Self, Error> {
+        let out_bytes = check_buffer(out.cast_const(), out_len, "out")?;
+        let host_bytes = if host_len == 0 && host.is_null() {
+            0
+        } else {
+            check_buffer(host.cast_const(), host_len, "host")?
         };
-        // SAFETY: `i` indexes the band's texels, writable (checked by the
-        // caller of `try_run_rows` against `out_len`).
+        let (w, h) = (gb.width(), gb.height());
+        let rows = RowRange::try_new(rows.begin, rows.end, h).map_err(|e| {
+            fail(
+                e,
+                format_args!(
+                    "`rows` [{}, {}) is not within [0, {h})",
+                    rows.begin, rows.end
+                ),
+            )
+        })?;
+        let need = (w as usize)
+            .checked_mul(h as usize)
+            .ok_or(Error::InvalidArgument)?;
+        if out_len < need {
+            return Err(fail(
+                Error::InsufficientSize,
+                format_args!("`out_len` is {out_len}, a {w}x{h} image needs {need}"),
+            ));
+        }
+        let color_view = if color.data.is_null() {
+            None
+        } else {
+            if g.color.data.is_null() || color.width != w || color.height != h {
+                return Err(fail(
+                    Error::InvalidArgument,
+                    format_args!("`color` needs a G-buffer color and the camera's size"),
+                ));
+            }
+            // SAFETY: caller contract (the band's rows writable, not
+            // accessed by others during the call).
+            Some(unsafe { color.band_mut(rows) }?)
+        };
+        // Aliasing: the outputs must not overlap each other or the inputs.
+        let color_bytes = if color.data.is_null() {
+            0
+        } else {
+            byte_len::<[f32; 3]>(color.data as usize, color.len)?
+        };
+        let outs = [
+            (out as usize, out_bytes),
+            (host as usize, host_bytes),
+            (color.data as usize, color_bytes),
+            stats,
+        ];
+        let mut ins = [(0usize, 0usize); 7];
+        ins[..6].copy_from_slice(&gbuffer_ranges(g));
+        ins[6] = scratch;
+        for (k, a) in outs.iter().enumerate() {
+            let clash = outs[k + 1..]
+                .iter()
+                .chain(ins.iter())
+                .any(|b| overlaps(a.0, a.1, b.0, b.1));
+            if clash {
+                return Err(fail(
+                    Error::InvalidArgument,
+                    format_args!("the outputs overlap each other or an input"),
+                ));
+            }
+        }
+        Ok(Self {
+            rows,
+            texels: out,
+            width: w as usize,
+            base: rows.start() as usize * w as usize,
+            color: color_view,
+            host,
+            host_len,
+        })
+    }
+
+    /// Writes pixel `(x, y)`'s texel and color.
+    pub(crate) fn put(&mut self, x: u32, y: u32, v: T, color: [f32; 3]) {
+        let i = (y - self.rows.start()) as usize * self.width + x as usize + self.base;
+        // SAFETY: `i` indexes the band's texels (x < width, y in rows),
+        // within `out_len >= width * height` writable texels (checked in
+        // `try_new`, contract).
         unsafe { self.texels.add(i).write(v) };
         if let Some(c) = self.color.as_mut().and_then(|c| c.get_mut(x, y)) {
             *c = color;
         }
     }
 
-    fn host(&mut self, index: u32, r: &HostRay) -> bool {
+    /// Writes host ray number `index`, if the list holds it.
+    pub(crate) fn put_host(&mut self, index: u32, r: &HostRay) -> bool {
         let i = index as usize;
         if i >= self.host_len {
             return false;
         }
-        let v = refl_host_ray {
-            x: r.x,
-            y: r.y,
-            origin: r.origin.into(),
-            dir: r.dir.into(),
-            t_min: r.t_min,
-            t_max: r.t_max,
-            status: refl_ssr_status::from(r.status) as u32,
-        };
+        let v = refl_host_ray::from(*r);
         // SAFETY: `i < host_len`, writable by contract (checked non-null,
         // aligned, size fits isize).
         unsafe { self.host.add(i).write(v) };
         true
+    }
+}
+
+impl MirrorSink for Band<'_, refl_ssr_texel> {
+    fn texel(&mut self, x: u32, y: u32, t: &MirrorTexel, color: [f32; 3]) {
+        let v = refl_ssr_texel {
+            status: refl_ssr_status::from(t.status) as u32,
+            pixel: t.pixel.into(),
+            t: t.t,
+            confidence: t.confidence,
+        };
+        self.put(x, y, v, color);
+    }
+
+    fn host(&mut self, index: u32, r: &HostRay) -> bool {
+        self.put_host(index, r)
     }
 }
 
@@ -552,36 +675,26 @@ pub unsafe extern "C" fn refl_ssr_trace_rows(
 ) -> refl_status {
     guard("refl_ssr_trace_rows", || {
         let stats_out = Out::new(out_stats, "out_stats")?;
-        let out_bytes = check_buffer(out.cast_const(), out_len, "out")?;
-        let host_bytes = if host_len == 0 && host.is_null() {
-            0
-        } else {
-            check_buffer(host.cast_const(), host_len, "host")?
-        };
         // SAFETY: caller contract.
         let (g, o) = unsafe { (read(gbuffer, "gbuffer")?, read(options, "options")?) };
         let opts = self::options(&o)?;
         // SAFETY: caller contract.
         let gb = unsafe { self::gbuffer(&g) }?;
-        let (w, h) = (gb.width(), gb.height());
-        let rows = RowRange::try_new(rows.begin, rows.end, h).map_err(|e| {
-            fail(
-                e,
-                format_args!(
-                    "`rows` [{}, {}) is not within [0, {h})",
-                    rows.begin, rows.end
-                ),
+        // SAFETY: caller contract.
+        let mut band = unsafe {
+            Band::try_new(
+                out,
+                out_len,
+                color,
+                host,
+                host_len,
+                &g,
+                &gb,
+                rows,
+                (scratch as usize, scratch_len.saturating_mul(8)),
+                (out_stats as usize, core::mem::size_of::<refl_ssr_stats>()),
             )
-        })?;
-        let need = (w as usize)
-            .checked_mul(h as usize)
-            .ok_or(Error::InvalidArgument)?;
-        if out_len < need {
-            return Err(fail(
-                Error::InsufficientSize,
-                format_args!("`out_len` is {out_len}, a {w}x{h} image needs {need}"),
-            ));
-        }
+        }?;
         let hiz = match opts.method {
             MirrorMethod::Step => None,
             MirrorMethod::HiZ => {
@@ -596,56 +709,7 @@ pub unsafe extern "C" fn refl_ssr_trace_rows(
             }
         };
         let pass = MirrorPass::try_new(gb, opts, hiz)?;
-        let color_view = if color.data.is_null() {
-            None
-        } else {
-            if g.color.data.is_null() || color.width != w || color.height != h {
-                return Err(fail(
-                    Error::InvalidArgument,
-                    format_args!("`color` needs a G-buffer color and the camera's size"),
-                ));
-            }
-            // SAFETY: caller contract (the band's rows writable, not
-            // accessed by others during the call).
-            Some(unsafe { color.band_mut(rows) }?)
-        };
-        // Aliasing: the outputs must not overlap each other or the inputs.
-        let color_bytes = if color.data.is_null() {
-            0
-        } else {
-            byte_len::<[f32; 3]>(color.data as usize, color.len)?
-        };
-        let outs = [
-            (out as usize, out_bytes),
-            (host as usize, host_bytes),
-            (color.data as usize, color_bytes),
-            (out_stats as usize, core::mem::size_of::<refl_ssr_stats>()),
-        ];
-        let mut ins = [(0usize, 0usize); 7];
-        ins[..6].copy_from_slice(&gbuffer_ranges(&g));
-        ins[6] = (scratch as usize, scratch_len.saturating_mul(8));
-        for (k, a) in outs.iter().enumerate() {
-            let clash = outs[k + 1..]
-                .iter()
-                .chain(ins.iter())
-                .any(|b| overlaps(a.0, a.1, b.0, b.1));
-            if clash {
-                return Err(fail(
-                    Error::InvalidArgument,
-                    format_args!("the outputs overlap each other or an input"),
-                ));
-            }
-        }
-        let mut sink = Sink {
-            texels: out,
-            width: w as usize,
-            base: rows.start() as usize * w as usize,
-            first_row: rows.start(),
-            color: color_view,
-            host,
-            host_len,
-        };
-        let stats = pass.try_run_rows(rows, &mut sink)?;
+        let stats = pass.try_run_rows(band.rows, &mut band)?;
         // SAFETY: caller contract.
         unsafe { stats_out.write(stats.into()) };
         Ok(())

@@ -3,229 +3,16 @@
 //! error paths return their documented status and leave every output
 //! untouched, and no export allocates (a counting global allocator).
 
+#[path = "common/gbuffer.rs"]
+mod common;
+
+use common::{bands_from_threads, color_mut, counted, refused_outputs, render, Shared, H, W};
 use refl::*;
-use refl_core::glam::{Vec2, Vec3};
+use refl_core::glam::Vec3;
 use refl_core::{
-    hiz_len, try_build_hiz, Camera, DepthConvention, DepthImage, GBuffer, HiZ, HiZTexel, HostRay,
-    ImageView, ImageViewMut, MirrorMethod, MirrorOptions, MirrorPass, MirrorTexel, NormalSpace,
+    hiz_len, try_build_hiz, Camera, DepthConvention, HiZ, HiZTexel, HostRay, ImageViewMut,
+    MirrorMethod, MirrorOptions, MirrorPass, MirrorTexel,
 };
-use std::alloc::{GlobalAlloc, Layout, System};
-use std::cell::Cell;
-
-/// Counts allocations made by the current thread while `COUNTING` is set.
-struct Counting;
-
-thread_local! {
-    static COUNTING: Cell<bool> = const { Cell::new(false) };
-    static ALLOCS: Cell<u64> = const { Cell::new(0) };
-}
-
-// SAFETY: forwards to the system allocator; the counters are thread-local
-// cells that do not allocate.
-unsafe impl GlobalAlloc for Counting {
-    unsafe fn alloc(&self, l: Layout) -> *mut u8 {
-        let _ = COUNTING.try_with(|c| {
-            if c.get() {
-                let _ = ALLOCS.try_with(|a| a.set(a.get() + 1));
-            }
-        });
-        // SAFETY: forwarded contract.
-        unsafe { System.alloc(l) }
-    }
-    unsafe fn dealloc(&self, p: *mut u8, l: Layout) {
-        // SAFETY: forwarded contract.
-        unsafe { System.dealloc(p, l) }
-    }
-}
-
-#[global_allocator]
-static GLOBAL: Counting = Counting;
-
-/// Runs `f` and returns its result with the number of allocations it made.
-fn counted<R>(f: impl FnOnce() -> R) -> (R, u64) {
-    ALLOCS.with(|a| a.set(0));
-    COUNTING.with(|c| c.set(true));
-    let r = f();
-    COUNTING.with(|c| c.set(false));
-    (r, ALLOCS.with(|a| a.get()))
-}
-
-const W: u32 = 96;
-const H: u32 = 64;
-
-fn camera() -> Camera {
-    Camera::try_look_at(
-        Vec3::new(0.3, 2.0, 5.5),
-        Vec3::new(0.0, 0.6, 0.0),
-        Vec3::Y,
-        1.0,
-        0.1,
-        50.0,
-        W,
-        H,
-    )
-    .unwrap()
-}
-
-struct Frame {
-    cam: Camera,
-    conv: DepthConvention,
-    depth: Vec<f32>,
-    back: Vec<f32>,
-    normals: Vec<[f32; 3]>,
-    color: Vec<[f32; 3]>,
-}
-
-/// A floor `y = 0` and a unit sphere at `(0, 1, 0)`, rendered exactly.
-fn render(conv: DepthConvention) -> Frame {
-    let cam = camera();
-    let n = (W * H) as usize;
-    let far = cam.encode_depth(cam.far(), conv);
-    let mut f = Frame {
-        cam,
-        conv,
-        depth: vec![far; n],
-        back: vec![far; n],
-        normals: vec![[0.0; 3]; n],
-        color: vec![[0.0; 3]; n],
-    };
-    let eye = cam.eye().as_dvec3();
-    let fwd = -cam.inverse_view().z_axis.truncate().as_dvec3();
-    for y in 0..H {
-        for x in 0..W {
-            let i = (y * W + x) as usize;
-            let d = cam
-                .primary_ray(Vec2::new(x as f32 + 0.5, y as f32 + 0.5))
-                .dir
-                .as_dvec3()
-                .normalize();
-            let c = refl_core::glam::DVec3::new(0.0, 1.0, 0.0);
-            let oc = eye - c;
-            let b = oc.dot(d);
-            let disc = b * b - (oc.dot(oc) - 1.0);
-            let mut best: Option<(f64, f64, refl_core::glam::DVec3, u32)> = None;
-            if disc > 0.0 {
-                let s = disc.sqrt();
-                let t = -b - s;
-                best = Some((t, -b + s, (eye + d * t - c).normalize(), 1));
-            }
-            if d.y < 0.0 {
-                let t = -eye.y / d.y;
-                if best.is_none_or(|(bt, ..)| t < bt) {
-                    best = Some((t, f64::INFINITY, refl_core::glam::DVec3::Y, 0));
-                }
-            }
-            if let Some((t, te, nn, id)) = best {
-                let z = (t * d.dot(fwd)) as f32;
-                let zb = ((te * d.dot(fwd)) as f32).min(cam.far());
-                f.depth[i] = cam.encode_depth(z, conv);
-                f.back[i] = cam.encode_depth(zb, conv);
-                f.normals[i] = nn.as_vec3().to_array();
-                f.color[i] = [id as f32, x as f32 / W as f32, y as f32 / H as f32];
-            }
-        }
-    }
-    f
-}
-
-fn img_f32(d: &[f32]) -> refl_image_f32 {
-    refl_image_f32 {
-        data: d.as_ptr(),
-        len: d.len(),
-        width: W,
-        height: H,
-        stride: W,
-    }
-}
-
-fn img_vec3(d: &[[f32; 3]]) -> refl_image_vec3 {
-    refl_image_vec3 {
-        data: d.as_ptr().cast(),
-        len: d.len(),
-        width: W,
-        height: H,
-        stride: W,
-    }
-}
-
-fn none_f32() -> refl_image_f32 {
-    refl_image_f32 {
-        data: core::ptr::null(),
-        len: 0,
-        width: 0,
-        height: 0,
-        stride: 0,
-    }
-}
-
-fn conv_c(c: DepthConvention) -> u32 {
-    match c {
-        DepthConvention::Linear => 0,
-        DepthConvention::ZeroToOne => 1,
-        DepthConvention::ReversedZ => 2,
-    }
-}
-
-impl Frame {
-    fn gbuffer_c(&self, back: bool) -> refl_gbuffer {
-        refl_gbuffer {
-            depth: refl_depth_image {
-                depth: img_f32(&self.depth),
-                camera: (&self.cam).into(),
-                convention: conv_c(self.conv),
-            },
-            normals: img_vec3(&self.normals),
-            normal_space: refl_normal_space::World as u32,
-            mask: refl_image_u8 {
-                data: core::ptr::null(),
-                len: 0,
-                width: 0,
-                height: 0,
-                stride: 0,
-            },
-            roughness: none_f32(),
-            color: img_vec3(&self.color),
-            back_depth: if back {
-                img_f32(&self.back)
-            } else {
-                none_f32()
-            },
-        }
-    }
-
-    fn gbuffer(&self, back: bool) -> GBuffer<'_> {
-        let d = DepthImage::try_new(
-            ImageView::try_new(&self.depth, W, H, W).unwrap(),
-            self.cam,
-            self.conv,
-        )
-        .unwrap();
-        let g = GBuffer::try_new(
-            d,
-            ImageView::try_new(&self.normals, W, H, W).unwrap(),
-            NormalSpace::World,
-        )
-        .unwrap()
-        .try_with_color(ImageView::try_new(&self.color, W, H, W).unwrap())
-        .unwrap();
-        if back {
-            g.try_with_back_depth(ImageView::try_new(&self.back, W, H, W).unwrap())
-                .unwrap()
-        } else {
-            g
-        }
-    }
-}
-
-fn color_mut(c: &mut [[f32; 3]]) -> refl_image_vec3_mut {
-    refl_image_vec3_mut {
-        data: c.as_mut_ptr().cast(),
-        len: c.len(),
-        width: W,
-        height: H,
-        stride: W,
-    }
-}
 
 fn status(s: refl_core::MirrorStatus) -> u32 {
     s as u32
@@ -401,11 +188,6 @@ fn c_pass_equals_the_rust_pass_bit_for_bit_without_allocating() {
     }
 }
 
-/// Descriptors shared by the band threads (each writes only its rows).
-struct Shared<T>(T);
-// SAFETY: the threads read the G-buffer and write disjoint rows.
-unsafe impl<T> Sync for Shared<T> {}
-
 #[test]
 fn row_bands_from_threads_equal_the_whole_image() {
     let f = render(DepthConvention::ReversedZ);
@@ -417,50 +199,34 @@ fn row_bands_from_threads_equal_the_whole_image() {
     let n = (W * H) as usize;
     let mut texels = vec![refl_ssr_texel::default(); n];
     let mut color = vec![[0.0f32; 3]; n];
-    let bands = 5u32;
-    let tp = texels.as_mut_ptr() as usize;
-    let shared = Shared((g, color_mut(&mut color)));
-    let hosts: Vec<Vec<refl_host_ray>> = std::thread::scope(|s| {
-        let hs: Vec<_> = (0..bands)
-            .map(|b| {
-                let (shared, o, scratch) = (&shared, &o, &scratch);
-                s.spawn(move || {
-                    let (g, c) = shared.0;
-                    let mut rows = refl_row_range::default();
-                    // SAFETY: valid pointer.
-                    assert_eq!(
-                        unsafe { refl_row_band(&mut rows, H, b, bands) },
-                        refl_status::Ok
-                    );
-                    let mut host = vec![refl_host_ray::default(); n];
-                    let mut st = refl_ssr_stats::default();
-                    // SAFETY: each thread writes only its own rows.
-                    let r = unsafe {
-                        refl_ssr_trace_rows(
-                            &mut st,
-                            tp as *mut refl_ssr_texel,
-                            n,
-                            c,
-                            host.as_mut_ptr(),
-                            n,
-                            &g,
-                            o,
-                            scratch.as_ptr(),
-                            scratch.len(),
-                            rows,
-                        )
-                    };
-                    assert_eq!(r, refl_status::Ok);
-                    host.truncate(st.host_rays_written as usize);
-                    host
-                })
-            })
-            .collect();
-        hs.into_iter().map(|h| h.join().unwrap()).collect()
-    });
+    let gs = Shared(g);
+    let runs = bands_from_threads(
+        &mut texels,
+        &mut color,
+        5,
+        &|st, out, out_len, c, host, host_len, rows| {
+            // SAFETY: valid buffers; each band writes only its own rows.
+            unsafe {
+                refl_ssr_trace_rows(
+                    st,
+                    out,
+                    out_len,
+                    c,
+                    host,
+                    host_len,
+                    gs.get(),
+                    &o,
+                    scratch.as_ptr(),
+                    scratch.len(),
+                    rows,
+                )
+            }
+        },
+    );
     assert_eq!(texels, whole.texels);
     assert_eq!(color, whole.color);
-    assert_eq!(hosts.concat(), whole.host);
+    let hosts: Vec<refl_host_ray> = runs.into_iter().flat_map(|r| r.0).collect();
+    assert_eq!(hosts, whole.host);
 }
 
 /// Calls `refl_ssr_trace_rows` with every output filled with sentinels and
@@ -474,64 +240,44 @@ fn refused(
     out_len: usize,
     with_color: bool,
 ) {
-    let n = (W * H) as usize;
-    let sentinel = refl_ssr_texel {
+    let texel = refl_ssr_texel {
         status: 99,
         t: -3.0,
         ..Default::default()
     };
-    let mut texels = vec![sentinel; n];
-    let mut color = vec![[5.0f32; 3]; n];
-    let mut host = vec![
-        refl_host_ray {
-            x: 77,
-            ..Default::default()
-        };
-        8
-    ];
-    let mut st = refl_ssr_stats {
+    let stats = refl_ssr_stats {
         traced: 55,
         ..Default::default()
     };
-    let cm = if with_color {
-        color_mut(&mut color)
-    } else {
-        refl_image_vec3_mut {
-            data: core::ptr::null_mut(),
-            len: 0,
-            width: 0,
-            height: 0,
-            stride: 0,
-        }
-    };
-    let (s, allocs) = counted(|| {
-        // SAFETY: valid buffers (out_len <= n).
-        unsafe {
-            refl_ssr_trace_rows(
-                &mut st,
-                texels.as_mut_ptr(),
-                out_len,
-                cm,
-                host.as_mut_ptr(),
-                host.len(),
-                g,
-                o,
-                if scratch.is_empty() {
-                    core::ptr::null()
-                } else {
-                    scratch.as_ptr()
-                },
-                scratch.len(),
-                rows,
-            )
-        }
-    });
-    assert_eq!(s, want);
-    assert_eq!(allocs, 0, "allocations on the error path");
-    assert!(texels.iter().all(|t| *t == sentinel));
-    assert!(color.iter().all(|c| *c == [5.0; 3]));
-    assert!(host.iter().all(|h| h.x == 77));
-    assert_eq!(st.traced, 55);
+    refused_outputs(
+        want,
+        texel,
+        stats,
+        with_color,
+        |st, out, cm, host, host_len| {
+            let scratch_ptr = if scratch.is_empty() {
+                core::ptr::null()
+            } else {
+                scratch.as_ptr()
+            };
+            // SAFETY: valid buffers (out_len <= n).
+            unsafe {
+                refl_ssr_trace_rows(
+                    st,
+                    out,
+                    out_len,
+                    cm,
+                    host,
+                    host_len,
+                    g,
+                    o,
+                    scratch_ptr,
+                    scratch.len(),
+                    rows,
+                )
+            }
+        },
+    );
 }
 
 #[test]
