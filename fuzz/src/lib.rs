@@ -1037,13 +1037,11 @@ pub fn camera_moderate(c: &refl_camera) -> bool {
 }
 
 /// Pixel tolerance of a projection round trip for a point `dist` away from
-/// the eye of `c`: float rounding, plus the up to 1e-4 orthonormality
-/// defect a valid camera may have (its inverse view is a transpose), which
-/// moves the eye by about 1e-4 |eye|: an angle of 1e-4 |eye| / dist, in
-/// pixels the focal length (pixels per radian, `height / (2 tan(fov_y /
-/// 2))`) times that. The focal length exceeds the image side for a narrow
-/// field of view (campaign finding on `cde7ae4`: fov_y 0.2, a point 2.6
-/// near-plane distances from the eye, 0.94 px off).
+/// the eye of `c`: f32 rounding of the eye and the matrices, an angle of
+/// about 3e-4 |eye| / dist, in pixels the focal length (pixels per radian,
+/// `height / (2 tan(fov_y / 2))`) times that, which exceeds the image side
+/// for a narrow field of view. (Before F20 the eye itself was up to 1e-4
+/// |eye| off for a view orthonormal only within 1e-4.)
 pub fn pixel_tol(c: &refl_camera, dist: f32) -> f32 {
     let e = eye_of(c).map_or(0.0, max_abs3);
     let focal = c.height as f32 / (2.0 * (0.5 * c.fov_y).tan());
