@@ -204,21 +204,13 @@ fn op_validate(b: &mut Bytes, st: &mut State) {
         return;
     }
     // Fixed F3/F5: a camera whose projection scales (tan(fov_y / 2), its
-    // aspect product, and their reciprocals) or whose eye (-R^T t) are not
-    // finite in f32 is refused as InvalidArgument, after the geometry check.
+    // aspect product, and their reciprocals) or whose eye (-R^-1 t, the
+    // exact inverse since F20) are not finite in f32 is refused as
+    // InvalidArgument, after the geometry check.
     let t = (f64::from(c.fov_y) * 0.5).tan();
     let a = t * f64::from(c.width) / f64::from(c.height);
     let scale_ok = [t, a].iter().all(|&v| (v as f32) > 0.0 && (v as f32).is_finite() && (1.0 / v as f32).is_finite());
-    let eye_ok = {
-        let m = &c.view.m;
-        (0..3).all(|i| {
-            // Row i of R^T is column i of R: m[4 * i .. 4 * i + 3].
-            let e = -(f64::from(m[4 * i]) * f64::from(m[12])
-                + f64::from(m[4 * i + 1]) * f64::from(m[13])
-                + f64::from(m[4 * i + 2]) * f64::from(m[14]));
-            (e as f32).is_finite()
-        })
-    };
+    let eye_ok = eye_f64(&c.view.m).iter().all(|e| (*e as f32).is_finite());
     if s == refl_status::InvalidArgument {
         assert!(!(scale_ok && eye_ok), "refl_camera_validate({c:?}): InvalidArgument with finite scales and eye");
         return;
@@ -510,10 +502,8 @@ fn op_matrices(b: &mut Bytes, st: &mut State) {
                 f64::from(ray.origin.z) + f64::from(k * ray.dir.z),
             ];
             let r = mat_mul4(&m, [p[0], p[1], p[2], 1.0]);
-            // f32 rounding of the eye and matrix, and the camera's allowed
-            // orthonormality defect (the ray starts at the transposed
-            // inverse's eye, the matrix projects through the view itself),
-            // scale with |eye| / k (`pixel_tol`).
+            // f32 rounding of the eye and matrix scales with |eye| / k and
+            // the focal length (`pixel_tol`).
             let tol = f64::from(c.width.max(c.height)) * 5e-3 + f64::from(pixel_tol(&c, k));
             assert!(
                 (r[0] / r[3] - f64::from(px.x)).abs() <= tol && (r[1] / r[3] - f64::from(px.y)).abs() <= tol,
@@ -531,6 +521,25 @@ fn op_matrices(b: &mut Bytes, st: &mut State) {
             }
         }
     }
+}
+
+/// The eye of a view matrix (column-major `m`), `-R^-1 t` in f64 with the
+/// exact inverse of the 3x3 part `R` (as `Camera::try_new` computes it).
+fn eye_f64(m: &[f32; 16]) -> [f64; 3] {
+    let r = |row: usize, col: usize| f64::from(m[4 * col + row]);
+    let t = [f64::from(m[12]), f64::from(m[13]), f64::from(m[14])];
+    // Inverse by the adjugate: inv[i][j] = cof[j][i] / det.
+    let cof = |i: usize, j: usize| {
+        let (i1, i2) = ((i + 1) % 3, (i + 2) % 3);
+        let (j1, j2) = ((j + 1) % 3, (j + 2) % 3);
+        r(i1, j1) * r(i2, j2) - r(i1, j2) * r(i2, j1)
+    };
+    let det = r(0, 0) * cof(0, 0) + r(0, 1) * cof(0, 1) + r(0, 2) * cof(0, 2);
+    let mut e = [0.0f64; 3];
+    for (i, ei) in e.iter_mut().enumerate() {
+        *ei = -(0..3).map(|j| cof(j, i) / det * t[j]).sum::<f64>();
+    }
+    e
 }
 
 fn op_eye_mirrored(b: &mut Bytes, st: &mut State) {

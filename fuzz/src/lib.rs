@@ -494,7 +494,7 @@ pub fn strict_for(id: &str) -> bool {
 }
 
 /// Known finding F5 (tolerated unless [`strict`]): `refl_camera_validate`
-/// accepts a view translation near f32::MAX, whose eye (`-R^T t`, rounded
+/// accepts a view translation near f32::MAX, whose eye (`-R^-1 t`, rounded
 /// to f32) overflows: `refl_camera_eye` and `refl_camera_inverse_view`
 /// then return OK with infinite components, and `refl_camera_is_mirrored`
 /// (the sign of the f32 4x4 determinant, which overflows to NaN) answers
