@@ -961,17 +961,18 @@ void layered_functions() {
         CHECK(map_untouched());
     }
 
-    // refl_layered_fill_column
-    const refl_layer_hit good_hits[2] = {{0.5f, 1u, 1u}, {1.5f, 2u, 0u}};
-    const refl_layer_hit nan_hit[1] = {{kNaN, 1u, 1u}};
-    const refl_layer_hit inf_hit[1] = {{kInf, 1u, 0u}};
-    const refl_layer_hit bad_front[1] = {{0.5f, 1u, 2u}};
-    auto fill = [&](const refl_layer_hit* h, size_t n, uint32_t face, uint32_t i) {
+    // refl_layered_fill_column (the hits are the call's scratch: sorted in
+    // place, so they are not const and must not overlap the map).
+    refl_layer_hit good_hits[2] = {{0.5f, 1u, true}, {1.5f, 2u, false}};
+    refl_layer_hit nan_hit[1] = {{kNaN, 1u, true}};
+    refl_layer_hit inf_hit[1] = {{kInf, 1u, false}};
+    auto fill = [&](refl_layer_hit* h, size_t n, uint32_t face, uint32_t i) {
         return [=, &mm](refl_column_fill* o) { return refl_layered_fill_column(o, &mm, face, i, 0, h, n); };
     };
     expect<refl_column_fill>("fill NaN t", REFL_STATUS_INVALID_ARGUMENT, fill(nan_hit, 1, 0, 0));
     expect<refl_column_fill>("fill inf t", REFL_STATUS_INVALID_ARGUMENT, fill(inf_hit, 1, 0, 0));
-    expect<refl_column_fill>("fill front 2", REFL_STATUS_INVALID_ARGUMENT, fill(bad_front, 1, 0, 0));
+    expect<refl_column_fill>("fill hits aliasing the map", REFL_STATUS_INVALID_ARGUMENT,
+                             fill(reinterpret_cast<refl_layer_hit*>(mm.depth), 1, 0, 0));
     expect<refl_column_fill>("fill face 6", REFL_STATUS_INVALID_ARGUMENT, fill(good_hits, 2, 6, 0));
     expect<refl_column_fill>("fill texel 4", REFL_STATUS_INVALID_ARGUMENT, fill(good_hits, 2, 0, 4));
     expect<refl_column_fill>("fill NULL hits", REFL_STATUS_NULL_POINTER, fill(nullptr, 2, 0, 0), false);
@@ -984,7 +985,7 @@ void layered_functions() {
     std::vector<size_t> offsets(17, 0);
     offsets[16] = 2;
     for (size_t k = 1; k < 16; ++k) offsets[k] = 2;
-    auto face_fill = [&](const size_t* offs, size_t n_offs, const refl_layer_hit* h, size_t n) {
+    auto face_fill = [&](const size_t* offs, size_t n_offs, refl_layer_hit* h, size_t n) {
         return [=, &mm](uint32_t* o) { return refl_layered_fill_face(o, &mm, 1, h, n, offs, n_offs); };
     };
     expect<uint32_t>("fill_face short offsets", REFL_STATUS_INSUFFICIENT_SIZE,
@@ -1329,6 +1330,17 @@ void step_functions() {
           &opts);
     batch("t_max count 0", REFL_STATUS_INVALID_ARGUMENT, count, rays.data(), count, t_max.data(), 0, &img, &th,
           &opts);
+    {
+        // The output array is written in place: it must not overlap an input.
+        std::vector<refl_trace_result> out(count);
+        std::memset(static_cast<void*>(out.data()), 0xA5, out.size() * sizeof(refl_trace_result));
+        const auto* aliased = reinterpret_cast<const refl_ray*>(out.data());
+        CHECK_STATUS(refl_step_rays(out.data(), count, aliased, count, t_max.data(), count, &img, &th, &opts),
+                     REFL_STATUS_INVALID_ARGUMENT);
+        CHECK_STATUS(refl_step_rays(out.data(), count, rays.data(), count, reinterpret_cast<const float*>(out.data()),
+                                    count, &img, &th, &opts),
+                     REFL_STATUS_INVALID_ARGUMENT);
+    }
     bad = img;
     bad.convention = 9;
     batch("convention", REFL_STATUS_INVALID_ARGUMENT, count, rays.data(), count, t_max.data(), count, &bad, &th,
@@ -1597,6 +1609,14 @@ void hiz_functions() {
           &th, &opts);
     batch("t_max short", REFL_STATUS_INSUFFICIENT_SIZE, count, rays.data(), count, t_max.data(), 2, &hz, &th,
           &opts);
+    {
+        // The output array is written in place: it must not overlap an input.
+        std::vector<refl_trace_result> out(count);
+        std::memset(static_cast<void*>(out.data()), 0xA5, out.size() * sizeof(refl_trace_result));
+        const auto* aliased = reinterpret_cast<const refl_ray*>(out.data());
+        CHECK_STATUS(refl_hiz_trace_rays(out.data(), count, aliased, count, t_max.data(), count, &hz, &th, &opts),
+                     REFL_STATUS_INVALID_ARGUMENT);
+    }
     batch("t_max count 0", REFL_STATUS_INVALID_ARGUMENT, count, rays.data(), count, t_max.data(), 0, &hz, &th,
           &opts);
     bad = hz;

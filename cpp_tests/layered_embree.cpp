@@ -228,7 +228,7 @@ Map build_map(RTCScene robust, const scene::Mesh& mesh, uint32_t res, uint32_t l
                         const scene::Hit h = scene::trace(robust, o, d, tmin, cr.t_max);
                         if (!h.hit()) break;
                         const bool front = scene::dot(normals[h.prim], dd) < 0.0;
-                        hits[k].push_back({h.t, h.prim, front ? 1u : 0u});
+                        hits[k].push_back({h.t, h.prim, front});
                         ++n;
                         tmin = h.t + eps;
                     }

@@ -208,7 +208,7 @@ fn main() {
                 }
                 for (k, o) in step_opts.iter().enumerate() {
                     let start = words.len();
-                    refl_core::try_step_rays(&mut out, rays, &[f32::INFINITY], &image, th, *o)
+                    refl_core::try_step_rays(&mut out, &image, th, rays, &[f32::INFINITY], *o)
                         .expect("step");
                     for t in &out {
                         encode(&mut words, t);
@@ -313,11 +313,11 @@ fn main() {
     if a.time == "step" || a.time == "both" {
         let opts = StepOptions::default();
         let mut ns = time_it(&mut || {
-            refl_core::try_step_rays(&mut out, rays, &[f32::INFINITY], &image, th, opts)
+            refl_core::try_step_rays(&mut out, &image, th, rays, &[f32::INFINITY], opts)
                 .expect("step");
         });
         if a.reps == 0 {
-            refl_core::try_step_rays(&mut out, rays, &[f32::INFINITY], &image, th, opts)
+            refl_core::try_step_rays(&mut out, &image, th, rays, &[f32::INFINITY], opts)
                 .expect("step");
         }
         report("step", &out, &mut ns);

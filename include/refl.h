@@ -12,7 +12,9 @@
  *    invalid arguments; NaN/Inf parameters, zero or overflowing sizes,
  *    short buffers and unknown enum values are reported, never undefined.
  *  - Outputs are written only on success; a failed call leaves them
- *    byte-for-byte untouched. An output may alias an input.
+ *    byte-for-byte untouched. A single-value output may alias an input;
+ *    an output array must not overlap an input array.
+ *  - No function allocates: arrays are read and written in place.
  *  - Enums are passed as uint32_t and validated.
  *  - Right-handed world, view space looks down -Z; pixel (x, y) has its
  *    center at (x + 0.5, y + 0.5), origin top-left, y down. Matrices are
@@ -1896,7 +1898,8 @@ typedef struct refl_column_fill {
 } refl_column_fill;
 
 /**
- * One surface crossing along a column ray.
+ * One surface crossing along a column ray. The fill functions sort the
+ * caller's array of crossings in place (it is their scratch).
  */
 typedef struct refl_layer_hit {
     /**
@@ -1908,10 +1911,10 @@ typedef struct refl_layer_hit {
      */
     uint32_t id;
     /**
-     * 1 if the surface faces the ray origin (the ray enters the object),
-     * 0 where it leaves; other values are `REFL_STATUS_INVALID_ARGUMENT`.
+     * True if the surface faces the ray origin (the ray enters the
+     * object), false where it leaves.
      */
-    uint32_t front;
+    bool front;
 } refl_layer_hit;
 
 /**
@@ -3662,7 +3665,9 @@ refl_status refl_hiz_trace_ray(struct refl_trace_result *out,
  * (`t_max_count == 1`) or one per ray (`t_max_count >= ray_count`).
  *
  * Every input is validated before anything is written: on any error `out`
- * is untouched. Elements of `out` past `ray_count` are never written.
+ * is untouched. Elements of `out` past `ray_count` are never written;
+ * `out` must not overlap the rays, `t_max`, the pyramid or the back-face
+ * image (`REFL_STATUS_INVALID_ARGUMENT`).
  * Rays are independent: split a batch into chunks and call this from
  * several threads.
  *
@@ -3670,9 +3675,9 @@ refl_status refl_hiz_trace_ray(struct refl_trace_result *out,
  * `hiz->data`, `thickness` or `options` is NULL;
  * `REFL_STATUS_INSUFFICIENT_SIZE` if `out_len < ray_count` or
  * `t_max_count` is neither 1 nor at least `ray_count`;
- * `REFL_STATUS_INVALID_ARGUMENT` if `t_max_count` is 0, or for any ray,
- * `t_max`, pyramid, thickness or option rejected as by
- * `refl_hiz_trace_ray`.
+ * `REFL_STATUS_INVALID_ARGUMENT` if `t_max_count` is 0, `out` overlaps an
+ * input, or for any ray, `t_max`, pyramid, thickness or option rejected
+ * as by `refl_hiz_trace_ray`.
  *
  * # Safety
  * `out` must be NULL or writable for `out_len` results; `rays` NULL or
@@ -3840,26 +3845,26 @@ refl_status refl_layered_clear(const struct refl_layered_map_mut *map);
  * face); with more intervals than layers the smallest gaps are filled.
  * The bound cells that see the column become "never skip" (traces stay
  * correct, only slower, until `refl_layered_build_bounds`). Writes what it
- * did to `*out`.
+ * did to `*out`. `hits` is the call's scratch: on success it is sorted in
+ * place (by `t`); it must not overlap the map or `out`.
  *
  * Returns `REFL_STATUS_NULL_POINTER` if `out`, `map`, one of the map's
  * buffers, or `hits` with a non-zero count is NULL;
  * `REFL_STATUS_INVALID_ARGUMENT` for a face above 5, a texel out of range,
- * a non-finite `t`, a `front` other than 0 or 1, an invalid grid, or
- * misaligned or overlapping buffers; `REFL_STATUS_INSUFFICIENT_SIZE` and
- * `REFL_STATUS_DEGENERATE_GEOMETRY` as for `refl_layered_clear`. On error
- * nothing is written.
+ * a non-finite `t`, an invalid grid, or misaligned or overlapping buffers;
+ * `REFL_STATUS_INSUFFICIENT_SIZE` and `REFL_STATUS_DEGENERATE_GEOMETRY` as
+ * for `refl_layered_clear`. On error nothing is written, `hits` included.
  *
  * # Safety
  * `out` NULL or writable; `map` NULL or readable with writable buffers;
- * `hits` NULL or readable for `hit_count` elements.
+ * `hits` NULL or readable and writable for `hit_count` elements.
  */
 refl_status refl_layered_fill_column(struct refl_column_fill *out,
                                      const struct refl_layered_map_mut *map,
                                      uint32_t face,
                                      uint32_t i,
                                      uint32_t j,
-                                     const struct refl_layer_hit *hits,
+                                     struct refl_layer_hit *hits,
                                      size_t hit_count);
 
 /**
@@ -3871,10 +3876,12 @@ refl_status refl_layered_fill_column(struct refl_column_fill *out,
  * `refl_layered_fill_column`; then the empty-space bounds of `face` and
  * its opposite are rebuilt (as `refl_layered_build_bounds` does). If `out`
  * is not NULL, the number of columns whose gaps had to be filled
- * (approximate columns) is written to it.
+ * (approximate columns) is written to it. `hits` is the call's scratch:
+ * on success each column's crossings are sorted in place; it must not
+ * overlap the map, `offsets` or `out`.
  *
  * Everything is validated before anything is written: on error the map
- * is untouched. Returns `REFL_STATUS_NULL_POINTER` if `map`, its buffers,
+ * and `hits` are untouched. Returns `REFL_STATUS_NULL_POINTER` if `map`, its buffers,
  * `offsets`, or `hits` with a non-zero count is NULL;
  * `REFL_STATUS_INVALID_ARGUMENT` for decreasing offsets or one beyond
  * `hit_count`, and the cases of `refl_layered_fill_column`;
@@ -3883,13 +3890,13 @@ refl_status refl_layered_fill_column(struct refl_column_fill *out,
  *
  * # Safety
  * `out` NULL or writable; `map` NULL or readable with writable buffers;
- * `hits` NULL or readable for `hit_count`, `offsets` NULL or readable for
- * `offset_count` elements.
+ * `hits` NULL or readable and writable for `hit_count`, `offsets` NULL or
+ * readable for `offset_count` elements.
  */
 refl_status refl_layered_fill_face(uint32_t *out,
                                    const struct refl_layered_map_mut *map,
                                    uint32_t face,
-                                   const struct refl_layer_hit *hits,
+                                   struct refl_layer_hit *hits,
                                    size_t hit_count,
                                    const size_t *offsets,
                                    size_t offset_count);
@@ -4565,15 +4572,16 @@ refl_status refl_step_ray(struct refl_trace_result *out,
  *
  * Every input is validated before anything is written: on any error
  * `out` is untouched. Elements of `out` past `ray_count` are never
- * written. Rays are independent: a host splits a large batch into chunks
+ * written; `out` must not overlap the rays, `t_max` or the images
+ * (`REFL_STATUS_INVALID_ARGUMENT`). Rays are independent: a host splits a large batch into chunks
  * (e.g. rows of a reflection buffer) and calls this from its own threads.
  *
  * Returns `REFL_STATUS_NULL_POINTER` if `out`, `rays`, `t_max`, `image`,
  * `image->depth.data`, `thickness` or `options` is NULL;
  * `REFL_STATUS_INSUFFICIENT_SIZE` if `out_len < ray_count` or `t_max_count`
  * is neither 1 nor at least `ray_count`; `REFL_STATUS_INVALID_ARGUMENT` if
- * `t_max_count` is 0, or for any ray, `t_max`, image, thickness or option
- * rejected as by `refl_step_ray`.
+ * `t_max_count` is 0, `out` overlaps an input, or for any ray, `t_max`,
+ * image, thickness or option rejected as by `refl_step_ray`.
  *
  * # Safety
  * `out` must be NULL or writable for `out_len` results; `rays` NULL or

@@ -531,7 +531,7 @@ pub fn run(
                 out.par_chunks_mut(CHUNK)
                     .zip(rays.par_chunks(CHUNK))
                     .try_for_each(|(o, r)| {
-                        refl_core::try_step_rays(o, r, &[f32::INFINITY], depth, thickness, opts)
+                        refl_core::try_step_rays(o, depth, thickness, r, &[f32::INFINITY], opts)
                     })
             }),
             ScreenMethod::HiZ(opts) => {

@@ -172,14 +172,16 @@ pub fn try_count_objects(
 /// `max(1, ceil(max_phi_bins * s))` polar bins (the seed's
 /// `i = MAXTHETABINS * theta / 360 * a_R / n_v` read as a bin count). An
 /// object with no pixel gets none. Writes `out[k]` for every object and
-/// returns the number of cluster ids used (the sum of the bins).
+/// returns the number of cluster ids used (the sum of the bins). `out`
+/// holds [`ObjectBins`] or any type made from one (`From<ObjectBins>`, a
+/// host's or the C ABI's own record).
 ///
 /// # Errors
 /// * [`Error::InvalidArgument`]: invalid `params`, `frame_pixels == 0`, or
 ///   counts summing to more than `frame_pixels`.
 /// * [`Error::InsufficientSize`]: `out.len() < counts.len()`.
-pub fn try_bin_layout(
-    out: &mut [ObjectBins],
+pub fn try_bin_layout<O: From<ObjectBins>>(
+    out: &mut [O],
     counts: &[u32],
     frame_pixels: u64,
     params: &ClusterParams,
@@ -207,7 +209,8 @@ pub fn try_bin_layout(
                 theta_bins: 0,
                 phi_bins: 0,
                 first,
-            };
+            }
+            .into();
             continue;
         }
         let a_r = c as f64 / frame_pixels as f64;
@@ -218,7 +221,8 @@ pub fn try_bin_layout(
             theta_bins: t,
             phi_bins: p,
             first,
-        };
+        }
+        .into();
         first += t * p;
     }
     Ok(first)
@@ -245,17 +249,18 @@ pub fn normal_bin(n: Vec3, theta_bins: u32, phi_bins: u32) -> u32 {
 /// Writes the cluster id of every pixel of the owned rows of `ids`
 /// (seed 003 Sec. 3.2 step 4): `layout[k].first + normal_bin(n, ...)` for a
 /// pixel of object `k` with bins, [`NO_CLUSTER`] for a pixel whose object
-/// id has no bins or lies beyond `layout`.
+/// id has no bins or lies beyond `layout`. `layout` holds [`ObjectBins`]
+/// or any record that converts into one (`Into<ObjectBins>`).
 ///
 /// # Errors
 /// * [`Error::InvalidArgument`]: views of different sizes, or a clustered
 ///   pixel whose normal is not finite and non-zero (`ids` is then
 ///   untouched: every pixel is checked before any is written).
-pub fn try_assign_clusters(
+pub fn try_assign_clusters<L: Copy + Into<ObjectBins>>(
     ids: &mut ImageViewMut<'_, u32>,
     normals: &ImageView<'_, [f32; 3]>,
     objects: &ImageView<'_, u32>,
-    layout: &[ObjectBins],
+    layout: &[L],
 ) -> Result<(), Error> {
     let (w, h) = (ids.width(), ids.height());
     if normals.width() != w
@@ -271,7 +276,8 @@ pub fn try_assign_clusters(
     let bins_of = |id: u32| {
         layout
             .get(id as usize)
-            .filter(|b| b.theta_bins > 0 && b.phi_bins > 0)
+            .map(|&b| b.into())
+            .filter(|b: &ObjectBins| b.theta_bins > 0 && b.phi_bins > 0)
     };
     for y in rows.rows() {
         for x in 0..w {
@@ -1279,7 +1285,9 @@ fn validate_thickness(depth: &DepthImage<'_>, t: &Thickness<'_>) -> Result<(), E
 /// the bilinear color of `color` (same size as `depth`) over the texels
 /// continuing the hit surface; a miss (left the frame, passed behind
 /// geometry, reached the far plane) is a fallback ray whose direction goes
-/// to [`ClusterShade::env_dir`]. `out[k]` is written for `pixels[k]`.
+/// to [`ClusterShade::env_dir`]. `out[k]` is written for `pixels[k]`;
+/// `out` holds [`ClusterShade`]s or any type made from one
+/// (`From<ClusterShade>`, a host's or the C ABI's own record).
 /// Lobe samples below the pixel's surface (normal) are not traced; if none
 /// is above, the mirror ray is traced alone.
 ///
@@ -1298,8 +1306,8 @@ fn validate_thickness(depth: &DepthImage<'_>, t: &Thickness<'_>) -> Result<(), E
 /// # Panics
 /// Never.
 #[allow(clippy::too_many_arguments)]
-pub fn try_finalize_cluster(
-    out: &mut [ClusterShade],
+pub fn try_finalize_cluster<O: From<ClusterShade>>(
+    out: &mut [O],
     input: &ClusterInput<'_>,
     pixels: &[u32],
     eye: Vec3,
@@ -1404,7 +1412,7 @@ pub fn try_finalize_cluster(
         if misses > 0 {
             fallbacks += 1;
         }
-        *o = shade;
+        *o = shade.into();
     }
     Ok(fallbacks)
 }

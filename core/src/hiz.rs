@@ -133,6 +133,17 @@ impl HiZLevel {
     }
 }
 
+/// Where one row-band build of a pyramid level writes and reads
+/// ([`HiZLayout::try_band`]): index ranges of the pyramid buffer.
+#[derive(Clone, Debug, PartialEq, Eq, Hash)]
+pub struct PyramidBand {
+    /// The texels of the band's rows of the level being built.
+    pub band: Range<usize>,
+    /// The whole finer level the band is built from; `None` for level 0
+    /// (built from the image).
+    pub finer: Option<Range<usize>>,
+}
+
 /// The layout of a Hi-Z pyramid for a `width x height` image: level count
 /// and where each level lives in the one caller buffer (levels back to back,
 /// finest first).
@@ -260,6 +271,64 @@ impl HiZLayout {
             let w = l.width as usize;
             l.offset + rows.start() as usize * w..l.offset + rows.end() as usize * w
         })
+    }
+
+    /// Where a row-band build of rows `rows` of level `level` (the
+    /// `*_level0_rows` / `*_level_rows` builds of Hi-Z, color and visibility
+    /// pyramids) writes and reads in a pyramid buffer of `buffer_len`
+    /// texels laid out as `self`: the band's texels and, for `level > 0`,
+    /// the whole finer level `level - 1` it is built from (which lies
+    /// before the band, so the two never overlap). A threaded host (or the
+    /// C ABI, which gets one band per call) turns the ranges into the
+    /// slices of each call; [`HiZLayout::try_split_band`] does it for one
+    /// `&mut` buffer.
+    ///
+    /// # Errors
+    /// * [`Error::InvalidArgument`]: `level` past the last level, or `rows`
+    ///   ending below the level's height.
+    /// * [`Error::InsufficientSize`]: `buffer_len` below [`HiZLayout::len`].
+    pub fn try_band(
+        &self,
+        level: u32,
+        rows: RowRange,
+        buffer_len: usize,
+    ) -> Result<PyramidBand, Error> {
+        let band = self.rows_range(level, rows).ok_or(Error::InvalidArgument)?;
+        if buffer_len < self.len {
+            return Err(Error::InsufficientSize);
+        }
+        let finer = match level {
+            0 => None,
+            _ => Some(self.levels[level as usize - 1].range()),
+        };
+        Ok(PyramidBand { band, finer })
+    }
+
+    /// The band [`HiZLayout::try_band`] describes, as slices of `dst`: the
+    /// rows to write and the finer level to read (`None` for level 0).
+    ///
+    /// # Errors
+    /// As [`HiZLayout::try_band`] with `dst.len()`.
+    ///
+    /// # Examples
+    /// ```
+    /// use refl_core::{HiZLayout, RowRange};
+    /// let layout = HiZLayout::try_new(8, 4).unwrap();
+    /// let mut pyramid = vec![[0.0f32; 2]; layout.len()];
+    /// let rows = RowRange::try_new(0, 1, 2).unwrap();
+    /// let (band, finer) = layout.try_split_band(&mut pyramid, 1, rows).unwrap();
+    /// assert_eq!((band.len(), finer.map(<[_]>::len)), (4, Some(32)));
+    /// ```
+    pub fn try_split_band<'a, T>(
+        &self,
+        dst: &'a mut [T],
+        level: u32,
+        rows: RowRange,
+    ) -> Result<(&'a mut [T], Option<&'a [T]>), Error> {
+        let b = self.try_band(level, rows, dst.len())?;
+        let (head, tail) = dst.split_at_mut(b.band.start);
+        let band = &mut tail[..b.band.end - b.band.start];
+        Ok((band, b.finer.map(|f| &head[f])))
     }
 
     /// The level-0 pixels under texel `(x, y)` of level `level`:
@@ -804,8 +873,13 @@ pub fn try_trace_hiz_stats(
 
 /// Traces `rays[i]` with maximum distance `t_max[i]` (or `t_max[0]` for
 /// every ray when `t_max.len() == 1`) into `out[i]`, as [`try_trace_hiz`]
-/// would. For threads, split `rays`, `out` (and `t_max`) into matching
-/// chunks and call this on each.
+/// would (the same arguments in the same order, the ray and `t_max`
+/// replaced by slices, the result by `out`). For threads, split `rays`,
+/// `out` (and `t_max`) into matching chunks and call this on each.
+///
+/// `out` holds [`Trace`]s or any type made from one (`From<Trace>`), and
+/// `rays` [`Ray`]s or any type that converts into one: a host's (or the C
+/// ABI's) own ray and result records are traced in place, without a copy.
 ///
 /// # Errors
 /// * [`Error::InsufficientSize`]: `out.len() < rays.len()`, or `t_max` is
@@ -818,11 +892,11 @@ pub fn try_trace_hiz_stats(
 ///
 /// # Panics
 /// Never.
-pub fn try_trace_hiz_rays(
-    out: &mut [Trace],
+pub fn try_trace_hiz_rays<O: From<Trace>, R: Copy + Into<Ray>>(
+    out: &mut [O],
     hiz: &HiZ<'_>,
     thickness: Thickness<'_>,
-    rays: &[Ray],
+    rays: &[R],
     t_max: &[f32],
     options: &HiZOptions,
 ) -> Result<(), Error> {
@@ -835,10 +909,12 @@ pub fn try_trace_hiz_rays(
     validate_thickness(hiz, &thickness)?;
     let tm = |i: usize| if t_max.len() == 1 { t_max[0] } else { t_max[i] };
     for (i, r) in rays.iter().enumerate() {
-        validate_ray(r, tm(i))?;
+        validate_ray(&(*r).into(), tm(i))?;
     }
     for (i, (o, r)) in out.iter_mut().zip(rays).enumerate() {
-        *o = trace_valid::<false>(hiz, thickness, r, tm(i), options).0;
+        *o = trace_valid::<false>(hiz, thickness, &(*r).into(), tm(i), options)
+            .0
+            .into();
     }
     Ok(())
 }

@@ -14,7 +14,7 @@
 //! across its own threads; [`ImageViewMut::split_at_row`] hands out disjoint
 //! mutable row bands that keep global row coordinates.
 
-use crate::Error;
+use crate::{Camera, DepthConvention, Error};
 use core::ops::Range;
 
 /// Number of texels a buffer must hold for an image of `width x height` with
@@ -371,5 +371,59 @@ impl<'a, T: Copy> ImageViewMut<'a, T> {
             height: self.height,
             stride: self.stride,
         })
+    }
+}
+
+/// Converts the depth texels of the rows `dst` owns from convention `from`
+/// in `src` to convention `to` in `dst`: `dst = encode_to(decode_from(src))`
+/// texel by texel ([`Camera::decode_depth`], [`Camera::encode_depth`]: only
+/// the camera's near and far planes are used). A NaN texel converts to NaN;
+/// rows `dst` does not own and the padding between rows are not touched.
+/// Threads convert disjoint bands ([`ImageViewMut::split_at_row`]) of one
+/// image at once. [`convert_depth_in_place`] converts an image in place.
+///
+/// # Errors
+/// [`Error::InvalidArgument`] if `dst` and `src` differ in width or height
+/// (strides may differ); `dst` is then untouched.
+pub fn try_convert_depth(
+    dst: &mut ImageViewMut<'_, f32>,
+    src: &ImageView<'_, f32>,
+    camera: &Camera,
+    from: DepthConvention,
+    to: DepthConvention,
+) -> Result<(), Error> {
+    if dst.width() != src.width() || dst.height() != src.height() {
+        return Err(Error::InvalidArgument);
+    }
+    let Some(rows) = dst.owned_rows() else {
+        return Ok(());
+    };
+    for y in rows.rows() {
+        if let (Some(o), Some(i)) = (dst.row_mut(y), src.row(y)) {
+            for (o, &i) in o.iter_mut().zip(i) {
+                *o = camera.encode_depth(camera.decode_depth(i, from), to);
+            }
+        }
+    }
+    Ok(())
+}
+
+/// [`try_convert_depth`] in place: converts the texels of the rows `img`
+/// owns from convention `from` to `to`.
+pub fn convert_depth_in_place(
+    img: &mut ImageViewMut<'_, f32>,
+    camera: &Camera,
+    from: DepthConvention,
+    to: DepthConvention,
+) {
+    let Some(rows) = img.owned_rows() else {
+        return;
+    };
+    for y in rows.rows() {
+        if let Some(row) = img.row_mut(y) {
+            for v in row {
+                *v = camera.encode_depth(camera.decode_depth(*v, from), to);
+            }
+        }
     }
 }

@@ -516,8 +516,10 @@ impl LayeredGrid {
 }
 
 /// One surface crossing of a column ray (input of
-/// [`LayeredMapMut::try_fill_column`]).
+/// [`LayeredMapMut::try_fill_column`]). `#[repr(C)]`: the C ABI's
+/// `refl_layer_hit` is the same record, sorted in place.
 #[derive(Clone, Copy, Debug, PartialEq)]
+#[repr(C)]
 pub struct LayerHit {
     /// Distance along the [`ColumnRay`] (world units, `0..=t_max`; values
     /// outside are clamped).
@@ -1561,6 +1563,50 @@ impl<'a> LayeredMap<'a> {
         t_max: f32,
         params: &LayeredParams,
     ) -> Result<LayeredTrace, Error> {
+        let (o, d) = self.ray_coords(ray, t_max)?;
+        params.validate()?;
+        Ok(self.trace_valid(ray, t_max, o, d, params))
+    }
+
+    /// Traces `rays[k]` up to `t_max` into `out[k]` as
+    /// [`LayeredMap::trace`] would (the same arguments in the same order,
+    /// the ray replaced by a slice and the result by `out`). `out` holds
+    /// [`LayeredTrace`]s or any type made from one (`From<LayeredTrace>`),
+    /// `rays` [`Ray`]s or any type that converts into one: a host's (or the
+    /// C ABI's) own records are traced in place, without a copy.
+    ///
+    /// Every input is validated before anything is written: on `Err` `out`
+    /// is untouched. Elements of `out` past `rays.len()` are not written.
+    ///
+    /// # Errors
+    /// * [`Error::InsufficientSize`]: `out.len() < rays.len()`.
+    /// * [`Error::InvalidArgument`]: any ray, `t_max` or `params` rejected
+    ///   as by [`LayeredMap::trace`].
+    pub fn try_trace_rays<O: From<LayeredTrace>, R: Copy + Into<Ray>>(
+        &self,
+        out: &mut [O],
+        rays: &[R],
+        t_max: f32,
+        params: &LayeredParams,
+    ) -> Result<(), Error> {
+        if out.len() < rays.len() {
+            return Err(Error::InsufficientSize);
+        }
+        for r in rays {
+            self.ray_coords(&(*r).into(), t_max)?;
+        }
+        params.validate()?;
+        for (o, r) in out.iter_mut().zip(rays) {
+            let ray: Ray = (*r).into();
+            let (a, d) = self.ray_coords(&ray, t_max)?;
+            *o = self.trace_valid(&ray, t_max, a, d, params).into();
+        }
+        Ok(())
+    }
+
+    /// The ray's origin and direction in box coordinates, after checking
+    /// the ray and `t_max` ([`LayeredMap::trace`]'s errors but `params`).
+    fn ray_coords(&self, ray: &Ray, t_max: f32) -> Result<(Vec3, Vec3), Error> {
         if !ray.origin.is_finite()
             || !ray.dir.is_finite()
             || !((ray.dir.length_squared() - 1.0).abs() <= 2e-3)
@@ -1568,23 +1614,36 @@ impl<'a> LayeredMap<'a> {
         {
             return Err(Error::InvalidArgument);
         }
-        params.validate()?;
         let g = &self.grid;
         let o = g.box_coords(ray.origin);
         let d = g.local_from_world.transform_vector3(ray.dir) * g.inv_extent;
-        let mut work = LayeredWork::default();
         if !(o.is_finite() && d.is_finite()) {
             return Err(Error::InvalidArgument);
         }
+        Ok((o, d))
+    }
+
+    /// [`LayeredMap::trace`] on validated input (`o`, `d` from
+    /// [`LayeredMap::ray_coords`]).
+    fn trace_valid(
+        &self,
+        ray: &Ray,
+        t_max: f32,
+        o: Vec3,
+        d: Vec3,
+        params: &LayeredParams,
+    ) -> LayeredTrace {
+        let g = &self.grid;
+        let mut work = LayeredWork::default();
         // Slab clip against the unit cube over [0, t_max].
         let (mut t0, mut t1) = (0.0f32, t_max);
         for a in 0..3 {
             if d[a] == 0.0 {
                 if !(o[a] >= 0.0 && o[a] <= 1.0) {
-                    return Ok(LayeredTrace::Miss {
+                    return LayeredTrace::Miss {
                         reason: LayeredMiss::MissedBox,
                         work,
-                    });
+                    };
                 }
                 continue;
             }
@@ -1597,10 +1656,10 @@ impl<'a> LayeredMap<'a> {
             t1 = t1.min(tb);
         }
         if !(t0 <= t1) {
-            return Ok(LayeredTrace::Miss {
+            return LayeredTrace::Miss {
                 reason: LayeredMiss::MissedBox,
                 work,
-            });
+            };
         }
         let ends_in_box = t1 >= t_max;
         let origin_in_box = t0 <= 0.0;
@@ -1632,7 +1691,7 @@ impl<'a> LayeredMap<'a> {
             let idx = g.texel_index(c.face, c.texel[0], c.texel[1]) * g.layers as usize
                 + c.layer as usize;
             work.fetches += 1;
-            return Ok(LayeredTrace::Hit(LayeredHit {
+            return LayeredTrace::Hit(LayeredHit {
                 t: c.t,
                 position: ray.at(c.t),
                 face: c.face,
@@ -1641,7 +1700,7 @@ impl<'a> LayeredMap<'a> {
                 payload: self.payload[idx],
                 mismatch: c.mismatch,
                 work,
-            }));
+            });
         }
         let reason = if started_inside == work.faces {
             LayeredMiss::StartedInside
@@ -1652,7 +1711,7 @@ impl<'a> LayeredMap<'a> {
         } else {
             LayeredMiss::LeftBox
         };
-        Ok(LayeredTrace::Miss { reason, work })
+        LayeredTrace::Miss { reason, work }
     }
 
     /// Linear then binary search on one face (seed 001 Algorithm 1 and the

@@ -74,7 +74,7 @@ pub use gbuffer::{GBuffer, NormalSpace, Surface};
 pub use hiz::{
     hiz_len, try_build_hiz, try_build_hiz_level0_rows, try_build_hiz_level_rows, try_stamp_hiz,
     try_trace_hiz, try_trace_hiz_rays, try_trace_hiz_stats, HiZ, HiZLayout, HiZLevel, HiZOptions,
-    HiZStats, HiZTexel, PyramidStamp, PyramidTexel, HIZ_STAMP_TEXELS,
+    HiZStats, HiZTexel, PyramidBand, PyramidStamp, PyramidTexel, HIZ_STAMP_TEXELS,
 };
 #[cfg(any(feature = "depth-image", feature = "hiz"))]
 pub use ssr::{

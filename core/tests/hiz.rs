@@ -1954,3 +1954,53 @@ fn tiny_near_plane_hit_at_the_segment_end_has_a_finite_depth() {
     }
     assert!(hits > 0);
 }
+
+#[test]
+fn pyramid_bands_are_the_rows_and_the_finer_level() {
+    let layout = HiZLayout::try_new(37, 23).unwrap();
+    let len = layout.len();
+    for level in 0..layout.level_count() {
+        let lv = layout.level(level).unwrap();
+        for (a, b) in [(0, lv.height), (lv.height / 2, lv.height)] {
+            let Ok(rows) = RowRange::try_new(a, b, lv.height) else {
+                continue;
+            };
+            let band = layout.try_band(level, rows, len).unwrap();
+            // Closed form: rows a..b of the level, row stride = its width.
+            let w = lv.width as usize;
+            assert_eq!(
+                band.band,
+                lv.offset + a as usize * w..lv.offset + b as usize * w
+            );
+            let finer = (level > 0).then(|| layout.level(level - 1).unwrap().range());
+            assert_eq!(band.finer, finer);
+            if let Some(f) = &band.finer {
+                assert!(f.end <= band.band.start, "the finer level lies before");
+            }
+            // The slices of one buffer are those ranges.
+            let mut buf: Vec<u32> = (0..len as u32).collect();
+            let (out, fin) = layout.try_split_band(&mut buf, level, rows).unwrap();
+            assert_eq!(out.first().copied(), Some(band.band.start as u32));
+            assert_eq!(out.len(), band.band.len());
+            assert_eq!(
+                fin.map(|f| (f[0], f.len())),
+                finer.map(|f| (f.start as u32, f.len()))
+            );
+        }
+    }
+    // A level past the last, rows beyond the level, a short buffer.
+    let last = layout.level_count();
+    let one = RowRange::try_new(0, 1, 1).unwrap();
+    assert_eq!(layout.try_band(last, one, len), Err(Error::InvalidArgument));
+    let tall = RowRange::try_new(0, 12, 23).unwrap();
+    assert_eq!(layout.try_band(1, tall, len), Err(Error::InvalidArgument));
+    assert_eq!(
+        layout.try_band(0, tall, len - 1),
+        Err(Error::InsufficientSize)
+    );
+    let mut short = vec![0u8; len - 1];
+    assert_eq!(
+        layout.try_split_band(&mut short, 0, tall).err(),
+        Some(Error::InsufficientSize)
+    );
+}

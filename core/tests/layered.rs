@@ -1994,3 +1994,97 @@ fn prr_is_scale_free() {
         }
     }
 }
+
+/// A flat record of a host (or the C ABI) that converts from the core's
+/// trace: what the batch writes in place.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+struct Flat {
+    hit: bool,
+    t: f32,
+    payload: u32,
+}
+
+impl From<LayeredTrace> for Flat {
+    fn from(t: LayeredTrace) -> Self {
+        match t.hit() {
+            Some(h) => Flat {
+                hit: true,
+                t: h.t,
+                payload: h.payload,
+            },
+            None => Flat::default(),
+        }
+    }
+}
+
+#[test]
+fn trace_rays_equals_trace_per_ray_and_writes_nothing_on_error() {
+    let shape = Shape::Sphere {
+        c: DVec3::ZERO,
+        r: 1.0,
+    };
+    let owned = build(&shape, grid_of(&shape, 16, 2, 0.05), MINUS);
+    let map = owned.map();
+    let params = LayeredParams::default();
+    let mut rng = Rng(7);
+    let rays: Vec<Ray> = (0..64)
+        .map(|_| {
+            let o = rng.unit() * 3.0;
+            let target = DVec3::new(rng.next(), rng.next(), rng.next()) - 0.5;
+            Ray {
+                origin: o.as_vec3(),
+                dir: (target - o).normalize().as_vec3(),
+            }
+        })
+        .collect();
+    let single: Vec<LayeredTrace> = rays
+        .iter()
+        .map(|r| map.trace(r, 10.0, &params).unwrap())
+        .collect();
+    assert!(single.iter().filter(|t| t.hit().is_some()).count() > 20);
+    let mut out = vec![
+        LayeredTrace::Miss {
+            reason: LayeredMiss::MissedBox,
+            work: Default::default(),
+        };
+        65
+    ];
+    map.try_trace_rays(&mut out, &rays, 10.0, &params).unwrap();
+    assert_eq!(&out[..64], &single[..]);
+    // Another record type gets the same results, converted.
+    let mut flat = vec![Flat::default(); 64];
+    map.try_trace_rays(&mut flat, &rays, 10.0, &params).unwrap();
+    let expect: Vec<Flat> = single.iter().map(|&t| t.into()).collect();
+    assert_eq!(flat, expect);
+    // A bad ray anywhere, a bad t_max or params, a short output: nothing
+    // written.
+    let sentinel = Flat {
+        hit: true,
+        t: -1.0,
+        payload: 9,
+    };
+    let mut bad = rays.clone();
+    bad[50].dir = Vec3::new(0.0, 2.0, 0.0);
+    let mut out = vec![sentinel; 64];
+    assert_eq!(
+        map.try_trace_rays(&mut out, &bad, 10.0, &params),
+        Err(Error::InvalidArgument)
+    );
+    assert_eq!(
+        map.try_trace_rays(&mut out, &rays, f32::NAN, &params),
+        Err(Error::InvalidArgument)
+    );
+    let bad_params = LayeredParams {
+        step_texels: 0.0,
+        ..params
+    };
+    assert_eq!(
+        map.try_trace_rays(&mut out, &rays, 10.0, &bad_params),
+        Err(Error::InvalidArgument)
+    );
+    assert_eq!(
+        map.try_trace_rays(&mut out[..63], &rays, 10.0, &params),
+        Err(Error::InsufficientSize)
+    );
+    assert!(out.iter().all(|o| *o == sentinel));
+}

@@ -1229,3 +1229,22 @@ fn compose_leaves_far_plane_pixels_diffuse() {
         }
     }
 }
+
+#[test]
+fn frame_bytes_count_every_caller_buffer() {
+    use core::mem::size_of;
+    // Reflection buffers, surfels, offsets, shift's three images, the
+    // warped color, the mask and the re-trace list, one pixel each.
+    let per_pixel = 4 + 12 + 4 + 12 + 4 + size_of::<tcrr::Surfel>() + 8 + (12 + 4 + 1) + 12 + 1 + 4;
+    assert_eq!(tcrr::BYTES_PER_PIXEL, per_pixel);
+    assert_eq!(tcrr::BYTES_PER_PIXEL, 110);
+    assert_eq!(tcrr::try_frame_bytes(640, 360), Ok(640 * 360 * 110));
+    assert_eq!(tcrr::try_frame_bytes(0, 360), Err(Error::InvalidArgument));
+    assert_eq!(tcrr::try_frame_bytes(640, 0), Err(Error::InvalidArgument));
+    if usize::BITS == 64 {
+        assert_eq!(
+            tcrr::try_frame_bytes(u32::MAX, u32::MAX),
+            Err(Error::InvalidArgument)
+        );
+    }
+}

@@ -8,11 +8,15 @@
 //! the host renders depth and color through the camera (geometry strictly
 //! in front of the clip plane only), and `refl_cluster_finalize`.
 //!
-//! Arrays are read into copies and results are computed before any output
-//! is written, so a failed call leaves every output untouched.
+//! Arrays are borrowed in place (nothing is copied or allocated); every
+//! input is validated before the first output is written, so a failed call
+//! leaves every output untouched, and an output array must not overlap an
+//! input (`REFL_STATUS_INVALID_ARGUMENT`).
 
 use crate::image::{refl_image_u32, refl_image_u32_mut, refl_image_vec3, refl_row_range};
-use crate::ptr::{byte_len, overlaps, read, read_vec, Out};
+use crate::ptr::{
+    byte_len, no_overlap, overlaps, range, read, slice_mut, slice_mut_or_empty, slice_or_empty, Out,
+};
 use crate::status::{guard, refl_status};
 use crate::trace::{depth_image, refl_depth_image, refl_step_options, refl_thickness};
 use crate::types::{
@@ -20,10 +24,9 @@ use crate::types::{
     refl_lobe, refl_object_bins, refl_vec3,
 };
 use refl_core::cluster::{
-    self, CameraParams, ClusterCamera, ClusterInput, ClusterParams, ClusterShade, FinalizeParams,
-    ObjectBins,
+    self, CameraParams, ClusterCamera, ClusterInput, ClusterParams, FinalizeParams,
 };
-use refl_core::{Error, ImageView, ImageViewMut, RowRange, Thickness};
+use refl_core::{Error, ImageView, RowRange, Thickness};
 
 /// Per-pixel finalization parameters (`refl_cluster_finalize`).
 #[repr(C)]
@@ -44,19 +47,6 @@ pub struct refl_cluster_finalize_params {
     pub seed: u32,
 }
 
-/// Reads a caller array into a copy (`NullPointer` for NULL with a
-/// non-zero count; an empty array may be NULL).
-///
-/// # Safety
-/// A non-null, aligned `p` must be readable for `count` values of `T`.
-unsafe fn copy_in<T: Copy>(p: *const T, count: usize, name: &str) -> Result<Vec<T>, Error> {
-    if count == 0 {
-        return Ok(Vec::new());
-    }
-    // SAFETY: caller contract.
-    unsafe { read_vec(p, count, name) }
-}
-
 /// Checks an output array: non-null, aligned, a possible length.
 fn check_out<T>(p: *mut T, count: usize) -> Result<(), Error> {
     if p.is_null() {
@@ -67,19 +57,6 @@ fn check_out<T>(p: *mut T, count: usize) -> Result<(), Error> {
     }
     byte_len::<T>(p as usize, count)?;
     Ok(())
-}
-
-/// Copies `values` to the checked output array `p` (at least
-/// `values.len()` long).
-///
-/// # Safety
-/// `p` must have passed `check_out` for `values.len()` and be writable.
-unsafe fn copy_out<T: Copy>(p: *mut T, values: &[T]) {
-    if values.is_empty() {
-        return;
-    }
-    // SAFETY: caller contract.
-    unsafe { core::slice::from_raw_parts_mut(p, values.len()) }.copy_from_slice(values);
 }
 
 fn rows(r: refl_row_range, height: u32) -> Result<RowRange, Error> {
@@ -169,21 +146,22 @@ pub unsafe extern "C" fn refl_cluster_count_objects(
     rows: refl_row_range,
 ) -> refl_status {
     guard("refl_cluster_count_objects", || {
-        // SAFETY: caller contract.
-        let mut c = unsafe { copy_in(counts.cast_const(), counts_len, "counts") }?;
+        if counts_len > 0 {
+            crate::ptr::check_buffer(counts.cast_const(), counts_len, "counts")?;
+        }
         // SAFETY: caller contract.
         let view = unsafe { objects.view() }?;
         let r = self::rows(rows, view.height())?;
-        let c_bytes = counts_len * core::mem::size_of::<u32>();
-        let o_bytes = objects.len.saturating_mul(4);
-        if overlaps(counts as usize, c_bytes, objects.data as usize, o_bytes) {
-            return Err(Error::InvalidArgument);
-        }
-        cluster::try_count_objects(&mut c, &view, r)?;
-        // SAFETY: checked by copy_in (non-null, aligned, length) and
-        // writable by contract.
-        unsafe { copy_out(counts, &c) };
-        Ok(())
+        no_overlap(
+            range(counts, counts_len),
+            &[range(objects.data, objects.len)],
+            "counts",
+        )?;
+        // SAFETY: checked above (non-null, aligned, length), readable and
+        // writable by contract, disjoint from the image (checked).
+        let c = unsafe { slice_mut_or_empty(counts, counts_len, "counts") }?;
+        // Checks every count for overflow before the first write.
+        cluster::try_count_objects(c, &view, r)
     })
 }
 
@@ -215,20 +193,20 @@ pub unsafe extern "C" fn refl_cluster_bin_layout(
         let total_out = Out::new(out_total, "out_total")?;
         check_out(out, out_len)?;
         // SAFETY: caller contract.
-        let c = unsafe { copy_in(counts, counts_len, "counts") }?;
+        let c = unsafe { slice_or_empty(counts, counts_len, "counts") }?;
         // SAFETY: caller contract.
         let p = ClusterParams::from(unsafe { read(params, "params") }?);
-        let mut bins = vec![ObjectBins::default(); out_len.min(counts_len)];
         if out_len < counts_len {
             return Err(Error::InsufficientSize);
         }
-        let total = cluster::try_bin_layout(&mut bins, &c, frame_pixels, &p)?;
-        let flat: Vec<refl_object_bins> = bins.into_iter().map(Into::into).collect();
-        // SAFETY: checked by check_out; writable by contract.
-        unsafe {
-            copy_out(out, &flat);
-            total_out.write(total);
-        }
+        no_overlap(range(out, out_len), &[range(counts, counts_len)], "out")?;
+        // SAFETY: checked by check_out, writable by contract, disjoint from
+        // `counts` (checked).
+        let o = unsafe { slice_mut(out, out_len, "out") }?;
+        // Validates everything before the first write.
+        let total = cluster::try_bin_layout(o, c, frame_pixels, &p)?;
+        // SAFETY: caller contract.
+        unsafe { total_out.write(total) };
         Ok(())
     })
 }
@@ -259,50 +237,26 @@ pub unsafe extern "C" fn refl_cluster_assign(
 ) -> refl_status {
     guard("refl_cluster_assign", || {
         // SAFETY: caller contract.
-        let lay: Vec<ObjectBins> = unsafe { copy_in(layout, layout_len, "layout") }?
-            .into_iter()
-            .map(Into::into)
-            .collect();
+        let lay = unsafe { slice_or_empty(layout, layout_len, "layout") }?;
         // SAFETY: caller contract.
         let (nv, ov) = unsafe { (normals.view()?, objects.view()?) };
         // SAFETY: caller contract (validates the descriptor only).
         unsafe { ids.as_const().view() }?;
         let r = self::rows(rows, ids.height)?;
-        let ids_bytes = ids.len.saturating_mul(4);
-        if overlaps(
-            ids.data as usize,
-            ids_bytes,
-            normals.data as usize,
-            normals.len.saturating_mul(12),
-        ) || overlaps(
-            ids.data as usize,
-            ids_bytes,
-            objects.data as usize,
-            objects.len.saturating_mul(4),
-        ) {
-            return Err(Error::InvalidArgument);
-        }
-        // Into a local band first: the caller's band is written on success.
-        let (w, h) = (ids.width, ids.height);
-        let band_len = if r.is_empty() {
-            0
-        } else {
-            (r.len() as usize - 1) * ids.stride as usize + w as usize
-        };
-        let mut local = vec![0u32; band_len];
-        {
-            let mut v = ImageViewMut::try_band(&mut local, w, h, ids.stride, r)?;
-            cluster::try_assign_clusters(&mut v, &nv, &ov, &lay)?;
-        }
-        // SAFETY: caller contract; checked descriptor.
+        no_overlap(
+            range(ids.data, ids.len),
+            &[
+                range(normals.data, normals.len),
+                range(objects.data, objects.len),
+                range(layout, layout_len),
+            ],
+            "ids",
+        )?;
+        // SAFETY: caller contract; checked descriptor, disjoint from the
+        // inputs (checked). Only the band's rows are borrowed.
         let mut out = unsafe { ids.band_mut(r) }?;
-        for y in r.rows() {
-            let src = &local[(y - r.start()) as usize * ids.stride as usize..][..w as usize];
-            if let Some(dst) = out.row_mut(y) {
-                dst.copy_from_slice(src);
-            }
-        }
-        Ok(())
+        // Checks every pixel of the band before the first write.
+        cluster::try_assign_clusters(&mut out, &nv, &ov, lay)
     })
 }
 
@@ -343,20 +297,21 @@ pub unsafe extern "C" fn refl_cluster_ranges(
         {
             return Err(Error::InvalidArgument);
         }
-        let need_offsets = (clusters as usize).saturating_add(1).min(offsets_len);
-        let mut off = vec![0u32; need_offsets];
-        let pixels = view.width() as usize * view.height() as usize;
-        let mut ord = vec![0u32; order_len.min(pixels)];
         if offsets_len < clusters as usize + 1 {
             return Err(Error::InsufficientSize);
         }
-        let total = cluster::try_cluster_ranges(&mut off, &mut ord, &view, clusters)?;
-        // SAFETY: checked by check_out; writable by contract.
-        unsafe {
-            copy_out(offsets, &off);
-            copy_out(order, &ord[..total as usize]);
-            total_out.write(total);
-        }
+        // SAFETY: checked by check_out, writable by contract, pairwise
+        // disjoint and disjoint from `ids` (checked).
+        let (off, ord) = unsafe {
+            (
+                slice_mut(offsets, offsets_len, "offsets")?,
+                slice_mut(order, order_len, "order")?,
+            )
+        };
+        // Validates every id before the first write.
+        let total = cluster::try_cluster_ranges(off, ord, &view, clusters)?;
+        // SAFETY: caller contract.
+        unsafe { total_out.write(total) };
         Ok(())
     })
 }
@@ -389,7 +344,7 @@ pub unsafe extern "C" fn refl_cluster_build_camera(
     guard("refl_cluster_build_camera", || {
         let out = Out::new(out, "out")?;
         // SAFETY: caller contract.
-        let px = unsafe { copy_in(pixels, pixel_count, "pixels") }?;
+        let px = unsafe { slice_or_empty(pixels, pixel_count, "pixels") }?;
         // SAFETY: caller contract.
         let p = CameraParams::from(unsafe { read(params, "params") }?);
         // SAFETY: caller contract.
@@ -399,7 +354,7 @@ pub unsafe extern "C" fn refl_cluster_build_camera(
                 normals: normals.view()?,
             }
         };
-        let v = cluster::try_cluster_camera(&input, &px, eye.into(), &p)?;
+        let v = cluster::try_cluster_camera(&input, px, eye.into(), &p)?;
         // SAFETY: caller contract.
         unsafe { out.write(refl_cluster_camera::from_view(&v)) };
         Ok(())
@@ -467,7 +422,7 @@ pub unsafe extern "C" fn refl_cluster_finalize(
         let fb_out = Out::new(out_fallbacks, "out_fallbacks")?;
         check_out(out, out_len)?;
         // SAFETY: caller contract.
-        let px = unsafe { copy_in(pixels, pixel_count, "pixels") }?;
+        let px = unsafe { slice_or_empty(pixels, pixel_count, "pixels") }?;
         // SAFETY: caller contract.
         let (cam_c, depth_c, params_c) = unsafe {
             (
@@ -495,26 +450,18 @@ pub unsafe extern "C" fn refl_cluster_finalize(
                 color.view()?,
             )
         };
-        let out_bytes = out_len.saturating_mul(core::mem::size_of::<refl_cluster_shade>());
-        let inputs: [(usize, usize); 5] = [
-            (positions.data as usize, positions.len.saturating_mul(12)),
-            (normals.data as usize, normals.len.saturating_mul(12)),
-            (color.data as usize, color.len.saturating_mul(12)),
-            (
-                depth_c.depth.data as usize,
-                depth_c.depth.len.saturating_mul(4),
+        let inputs = [
+            range(positions.data, positions.len),
+            range(normals.data, normals.len),
+            range(color.data, color.len),
+            range(depth_c.depth.data, depth_c.depth.len),
+            range(
+                params_c.thickness.back_faces.data,
+                params_c.thickness.back_faces.len,
             ),
-            (
-                params_c.thickness.back_faces.data as usize,
-                params_c.thickness.back_faces.len.saturating_mul(4),
-            ),
+            range(pixels, pixel_count),
         ];
-        if inputs
-            .iter()
-            .any(|&(a, l)| overlaps(out as usize, out_bytes, a, l))
-        {
-            return Err(Error::InvalidArgument);
-        }
+        no_overlap(range(out, out_len), &inputs, "out")?;
         let fp = FinalizeParams {
             thickness,
             step: params_c.step.into(),
@@ -523,27 +470,17 @@ pub unsafe extern "C" fn refl_cluster_finalize(
             fade: params_c.fade,
             seed: params_c.seed,
         };
-        let mut shades = vec![ClusterShade::default(); px.len()];
         if out_len < px.len() {
             return Err(Error::InsufficientSize);
         }
         let cv: ImageView<'_, [f32; 3]> = cv;
-        let fell = cluster::try_finalize_cluster(
-            &mut shades,
-            &input,
-            &px,
-            eye.into(),
-            &cam,
-            &di,
-            &cv,
-            &fp,
-        )?;
-        let flat: Vec<refl_cluster_shade> = shades.iter().map(Into::into).collect();
-        // SAFETY: checked by check_out; writable by contract.
-        unsafe {
-            copy_out(out, &flat);
-            fb_out.write(fell);
-        }
+        // SAFETY: checked by check_out, writable by contract, disjoint from
+        // every input (checked).
+        let o = unsafe { slice_mut(out, out_len, "out") }?;
+        // Validates every input and listed pixel before the first write.
+        let fell = cluster::try_finalize_cluster(o, &input, px, eye.into(), &cam, &di, &cv, &fp)?;
+        // SAFETY: caller contract.
+        unsafe { fb_out.write(fell) };
         Ok(())
     })
 }

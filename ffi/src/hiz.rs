@@ -7,13 +7,13 @@
 //! surface). `refl_hiz_len` gives its length and level count,
 //! `refl_hiz_level` where each level lives.
 
-use crate::ptr::{byte_len, check_buffer, overlaps, pyramid_band, read, read_vec, Out};
+use crate::ptr::{
+    byte_len, check_buffer, no_overlap, overlaps, pyramid_band, range, read, slice, slice_mut, Out,
+};
 use crate::status::{fail, guard, refl_status};
 use crate::trace::{depth_image, refl_depth_image, refl_thickness, refl_trace_result};
 use crate::types::{convention, refl_camera, refl_ray, refl_vec2};
-use refl_core::{
-    Error, HiZ, HiZLayout, HiZOptions, HiZTexel, Miss, PyramidStamp, Ray, Thickness, Trace,
-};
+use refl_core::{Error, HiZ, HiZLayout, HiZOptions, HiZTexel, PyramidStamp, Ray, Thickness};
 
 /// Texels after the last level of a Hi-Z pyramid that record the image
 /// size and camera it was built for (counted in `refl_hiz_len`, written by
@@ -371,15 +371,17 @@ pub(crate) fn stamp_mismatch<T: refl_core::PyramidTexel>(
     }
 }
 
-/// Reads a pyramid descriptor, a thickness and options.
+/// Reads a pyramid descriptor, a thickness and options; also returns the
+/// byte ranges of the pyramid and the back-face image.
 ///
 /// # Safety
 /// As `refl_hiz_trace_ray`.
+#[allow(clippy::type_complexity)]
 unsafe fn trace_inputs<'a>(
     hiz: *const refl_hiz,
     thickness: *const refl_thickness,
     options: *const refl_hiz_options,
-) -> Result<(HiZ<'a>, Thickness<'a>, HiZOptions), Error> {
+) -> Result<(HiZ<'a>, Thickness<'a>, HiZOptions, [(usize, usize); 2]), Error> {
     // SAFETY: caller contract.
     let (h, th_c, opts) = unsafe {
         (
@@ -392,7 +394,11 @@ unsafe fn trace_inputs<'a>(
     let hz = unsafe { bind_hiz(&h) }?;
     // SAFETY: caller contract.
     let th = unsafe { crate::trace::thickness(&th_c) }?;
-    Ok((hz, th, opts.into()))
+    let ranges = [
+        range(h.data, h.len),
+        range(th_c.back_faces.data, th_c.back_faces.len),
+    ];
+    Ok((hz, th, opts.into(), ranges))
 }
 
 /// Traces one ray against a Hi-Z pyramid (seed 004 Sec. 4.4.3 with the
@@ -438,7 +444,7 @@ pub unsafe extern "C" fn refl_hiz_trace_ray(
     guard("refl_hiz_trace_ray", || {
         let out = Out::new(out, "out")?;
         // SAFETY: caller contract.
-        let (hz, th, opts) = unsafe { trace_inputs(hiz, thickness, options) }?;
+        let (hz, th, opts, _) = unsafe { trace_inputs(hiz, thickness, options) }?;
         let ray = Ray {
             origin: ray.origin.into(),
             dir: ray.dir.into(),
@@ -455,7 +461,9 @@ pub unsafe extern "C" fn refl_hiz_trace_ray(
 /// (`t_max_count == 1`) or one per ray (`t_max_count >= ray_count`).
 ///
 /// Every input is validated before anything is written: on any error `out`
-/// is untouched. Elements of `out` past `ray_count` are never written.
+/// is untouched. Elements of `out` past `ray_count` are never written;
+/// `out` must not overlap the rays, `t_max`, the pyramid or the back-face
+/// image (`REFL_STATUS_INVALID_ARGUMENT`).
 /// Rays are independent: split a batch into chunks and call this from
 /// several threads.
 ///
@@ -463,9 +471,9 @@ pub unsafe extern "C" fn refl_hiz_trace_ray(
 /// `hiz->data`, `thickness` or `options` is NULL;
 /// `REFL_STATUS_INSUFFICIENT_SIZE` if `out_len < ray_count` or
 /// `t_max_count` is neither 1 nor at least `ray_count`;
-/// `REFL_STATUS_INVALID_ARGUMENT` if `t_max_count` is 0, or for any ray,
-/// `t_max`, pyramid, thickness or option rejected as by
-/// `refl_hiz_trace_ray`.
+/// `REFL_STATUS_INVALID_ARGUMENT` if `t_max_count` is 0, `out` overlaps an
+/// input, or for any ray, `t_max`, pyramid, thickness or option rejected
+/// as by `refl_hiz_trace_ray`.
 ///
 /// # Safety
 /// `out` must be NULL or writable for `out_len` results; `rays` NULL or
@@ -490,39 +498,38 @@ pub unsafe extern "C" fn refl_hiz_trace_rays(
             (t_max.is_null(), "t_max"),
         ])?;
         // SAFETY: caller contract.
-        let (hz, th, opts) = unsafe { trace_inputs(hiz, thickness, options) }?;
+        let (hz, th, opts, inputs) = unsafe { trace_inputs(hiz, thickness, options) }?;
         if !out.is_aligned() || t_max_count == 0 {
             return Err(Error::InvalidArgument);
         }
         if out_len < ray_count || (t_max_count != 1 && t_max_count < ray_count) {
             return Err(Error::InsufficientSize);
         }
-        byte_len::<refl_trace_result>(out as usize, ray_count)?;
-        // SAFETY: caller contract; copied before any output is written, so
-        // `out` may alias the inputs.
-        let rays_c = unsafe { read_vec(rays, ray_count, "rays") }?;
-        // SAFETY: caller contract.
-        let tms = unsafe { read_vec(t_max, t_max_count.min(ray_count).max(1), "t_max") }?;
-        let rays: Vec<Ray> = rays_c
-            .iter()
-            .map(|r| Ray {
-                origin: r.origin.into(),
-                dir: r.dir.into(),
-            })
-            .collect();
-        let mut traces = vec![
-            Trace::Miss {
-                reason: Miss::OutOfSteps,
-                work: Default::default(),
-            };
-            ray_count
-        ];
-        refl_core::try_trace_hiz_rays(&mut traces, &hz, th, &rays, &tms, &opts)?;
-        for (i, t) in traces.into_iter().enumerate() {
-            // SAFETY: `out` is non-null, aligned and writable for
-            // `out_len >= ray_count` results (caller contract).
-            unsafe { out.add(i).write(t.into()) };
-        }
-        Ok(())
+        let out_bytes = byte_len::<refl_trace_result>(out as usize, ray_count)?;
+        let t_max_len = t_max_count.min(ray_count).max(1);
+        // SAFETY: caller contract; `out` overlaps neither (checked below
+        // before it is borrowed).
+        let (rays_s, tms) = unsafe {
+            (
+                slice(rays, ray_count, "rays")?,
+                slice(t_max, t_max_len, "t_max")?,
+            )
+        };
+        no_overlap(
+            (out as usize, out_bytes),
+            &[
+                range(rays, ray_count),
+                range(t_max, t_max_len),
+                inputs[0],
+                inputs[1],
+            ],
+            "out",
+        )?;
+        // SAFETY: non-null, aligned, writable for out_len >= ray_count
+        // results (caller contract), disjoint from every input (checked).
+        let out = unsafe { slice_mut(out, ray_count, "out") }?;
+        // Validates every ray before the first write: `out` is untouched
+        // on error.
+        refl_core::try_trace_hiz_rays(out, &hz, th, rays_s, tms, &opts)
     })
 }

@@ -521,29 +521,21 @@ pub unsafe extern "C" fn refl_convert_depth(
         let rows = RowRange::try_new(row_begin, row_end, dst.height)?;
         let (d0, dl) = byte_range(dst.data.cast_const(), dst_need);
         let (s0, sl) = byte_range(src.data, src_need);
-        let convert = |v: f32| cam.encode_depth(cam.decode_depth(v, from), to);
         if overlaps(d0, dl, s0, sl) {
             if d0 != s0 || dst.stride != src.stride {
                 return Err(Error::InvalidArgument);
             }
-            // In place: one mutable view, no aliasing read view.
+            // In place: one mutable view of the band, no aliasing read view.
             // SAFETY: caller contract; validated by checked_len.
-            let mut img = unsafe { dst.view_mut() }?;
-            for y in rows.rows() {
-                if let Some(row) = img.row_mut(y) {
-                    row.iter_mut().for_each(|v| *v = convert(*v));
-                }
-            }
+            let mut band = unsafe { dst.band_mut(rows) }?;
+            refl_core::image::convert_depth_in_place(&mut band, &cam, from, to);
         } else {
-            // SAFETY: caller contract; the two byte ranges are disjoint.
-            let mut out = unsafe { dst.view_mut() }?;
+            // SAFETY: caller contract; the two byte ranges are disjoint, and
+            // only the band's rows of `dst` are borrowed.
+            let mut band = unsafe { dst.band_mut(rows) }?;
             // SAFETY: caller contract.
             let inp = unsafe { src.view() }?;
-            for y in rows.rows() {
-                if let (Some(o), Some(i)) = (out.row_mut(y), inp.row(y)) {
-                    o.iter_mut().zip(i).for_each(|(o, i)| *o = convert(*i));
-                }
-            }
+            refl_core::image::try_convert_depth(&mut band, &inp, &cam, from, to)?;
         }
         Ok(())
     })

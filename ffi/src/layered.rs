@@ -14,7 +14,7 @@
 //! the box; texel axes of axis a are u = (a + 1) % 3, v = (a + 2) % 3.
 //! Depths are normalized to [0, 1] from the face.
 
-use crate::ptr::{byte_len, overlaps, read, Out};
+use crate::ptr::{byte_len, no_overlap, overlaps, range, read, slice, slice_mut, Out};
 use crate::status::{fail, fail_str, guard, refl_status};
 use crate::types::{refl_mat4, refl_ray, refl_vec3};
 use refl_core::glam::{Affine3A, Mat4, Vec3};
@@ -22,7 +22,7 @@ use refl_core::layered::{
     layered_len, prr_classify, ColumnFill, Face, LayerHit, LayeredGrid, LayeredMap, LayeredMapMut,
     LayeredMiss, LayeredParams, LayeredStamp, LayeredTrace, PrrClass,
 };
-use refl_core::{Error, Ray};
+use refl_core::Error;
 
 /// Words after a layered map's per-texel counts that record the grid it
 /// was cleared for (counted in `refl_layered_len`'s `counts`).
@@ -125,7 +125,8 @@ pub struct refl_column_ray {
     pub t_max: f32,
 }
 
-/// One surface crossing along a column ray.
+/// One surface crossing along a column ray. The fill functions sort the
+/// caller's array of crossings in place (it is their scratch).
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
 pub struct refl_layer_hit {
@@ -133,10 +134,21 @@ pub struct refl_layer_hit {
     pub t: f32,
     /// Payload of the surface (primitive id, packed color, ...).
     pub id: u32,
-    /// 1 if the surface faces the ray origin (the ray enters the object),
-    /// 0 where it leaves; other values are `REFL_STATUS_INVALID_ARGUMENT`.
-    pub front: u32,
+    /// True if the surface faces the ray origin (the ray enters the
+    /// object), false where it leaves.
+    pub front: bool,
 }
+
+// refl_layer_hit is refl-core's `LayerHit` (`#[repr(C)]`), field for field:
+// the fill functions sort the caller's array in place as core records.
+const _: () = {
+    use core::mem::{align_of, offset_of, size_of};
+    assert!(size_of::<refl_layer_hit>() == size_of::<LayerHit>());
+    assert!(align_of::<refl_layer_hit>() == align_of::<LayerHit>());
+    assert!(offset_of!(refl_layer_hit, t) == offset_of!(LayerHit, t));
+    assert!(offset_of!(refl_layer_hit, id) == offset_of!(LayerHit, id));
+    assert!(offset_of!(refl_layer_hit, front) == offset_of!(LayerHit, front));
+};
 
 /// What filling a column did.
 #[repr(C)]
@@ -464,35 +476,30 @@ impl refl_layered_map_mut {
     }
 }
 
-/// Reads a C hit buffer into `out` (cleared first), validating `front`
-/// and finiteness. `NullPointer` for a null pointer with a non-zero count.
+/// The caller's crossings as refl-core records, borrowed in place (an
+/// empty array may be NULL); checks that they overlap neither the map's
+/// buffers nor `out` (`out_bytes` bytes at `out`).
 ///
 /// # Safety
-/// `hits` must be NULL or readable for `count` elements.
-unsafe fn read_hits(
-    hits: *const refl_layer_hit,
+/// `hits` NULL or readable and writable for `count` elements, not accessed
+/// through another pointer during `'a`.
+unsafe fn hits_mut<'a>(
+    hits: *mut refl_layer_hit,
     count: usize,
-    out: &mut Vec<LayerHit>,
-) -> Result<(), Error> {
-    out.clear();
+    map: &refl_layered_map_mut,
+    out: (usize, usize),
+) -> Result<&'a mut [LayerHit], Error> {
     if count == 0 {
-        return Ok(());
+        return Ok(&mut []);
     }
-    buffer(hits, count)?;
-    // SAFETY: non-null, aligned, size fits isize (checked); readability by
-    // the caller's contract.
-    let raw = unsafe { core::slice::from_raw_parts(hits, count) };
-    for h in raw {
-        if h.front > 1 || !h.t.is_finite() {
-            return Err(Error::InvalidArgument);
-        }
-        out.push(LayerHit {
-            t: h.t,
-            id: h.id,
-            front: h.front == 1,
-        });
-    }
-    Ok(())
+    let r = buffer(hits.cast_const(), count)?;
+    let m = map.ranges();
+    no_overlap(r, &[m[0], m[1], m[2], m[3], out], "hits")?;
+    // SAFETY: non-null, aligned, size fits isize (checked); readable and
+    // writable by the caller's contract, disjoint from the map and `out`
+    // (checked); refl_layer_hit is LayerHit field for field (asserted
+    // above).
+    Ok(unsafe { core::slice::from_raw_parts_mut(hits.cast::<LayerHit>(), count) })
 }
 
 /// Writes to `*out` the element counts of the depth, payload, count and
@@ -620,19 +627,19 @@ pub unsafe extern "C" fn refl_layered_clear(map: *const refl_layered_map_mut) ->
 /// face); with more intervals than layers the smallest gaps are filled.
 /// The bound cells that see the column become "never skip" (traces stay
 /// correct, only slower, until `refl_layered_build_bounds`). Writes what it
-/// did to `*out`.
+/// did to `*out`. `hits` is the call's scratch: on success it is sorted in
+/// place (by `t`); it must not overlap the map or `out`.
 ///
 /// Returns `REFL_STATUS_NULL_POINTER` if `out`, `map`, one of the map's
 /// buffers, or `hits` with a non-zero count is NULL;
 /// `REFL_STATUS_INVALID_ARGUMENT` for a face above 5, a texel out of range,
-/// a non-finite `t`, a `front` other than 0 or 1, an invalid grid, or
-/// misaligned or overlapping buffers; `REFL_STATUS_INSUFFICIENT_SIZE` and
-/// `REFL_STATUS_DEGENERATE_GEOMETRY` as for `refl_layered_clear`. On error
-/// nothing is written.
+/// a non-finite `t`, an invalid grid, or misaligned or overlapping buffers;
+/// `REFL_STATUS_INSUFFICIENT_SIZE` and `REFL_STATUS_DEGENERATE_GEOMETRY` as
+/// for `refl_layered_clear`. On error nothing is written, `hits` included.
 ///
 /// # Safety
 /// `out` NULL or writable; `map` NULL or readable with writable buffers;
-/// `hits` NULL or readable for `hit_count` elements.
+/// `hits` NULL or readable and writable for `hit_count` elements.
 #[no_mangle]
 pub unsafe extern "C" fn refl_layered_fill_column(
     out: *mut refl_column_fill,
@@ -640,7 +647,7 @@ pub unsafe extern "C" fn refl_layered_fill_column(
     face: u32,
     i: u32,
     j: u32,
-    hits: *const refl_layer_hit,
+    hits: *mut refl_layer_hit,
     hit_count: usize,
 ) -> refl_status {
     let out_at = out as usize;
@@ -648,9 +655,6 @@ pub unsafe extern "C" fn refl_layered_fill_column(
         let out = Out::new(out, "out")?;
         // SAFETY: caller contract.
         let desc = unsafe { read(map, "map") }?;
-        let mut scratch = Vec::new();
-        // SAFETY: caller contract.
-        unsafe { read_hits(hits, hit_count, &mut scratch) }?;
         let out_range = (out_at, core::mem::size_of::<refl_column_fill>());
         if desc
             .ranges()
@@ -659,9 +663,13 @@ pub unsafe extern "C" fn refl_layered_fill_column(
         {
             return Err(Error::InvalidArgument);
         }
+        let face = self::face(face)?;
+        // SAFETY: caller contract.
+        let hits = unsafe { hits_mut(hits, hit_count, &desc, out_range) }?;
         // SAFETY: caller contract.
         let mut m = unsafe { desc.view_mut() }?;
-        let f: ColumnFill = m.try_fill_column(self::face(face)?, i, j, &mut scratch)?;
+        // Validates the texel and every crossing before sorting or writing.
+        let f: ColumnFill = m.try_fill_column(face, i, j, hits)?;
         // SAFETY: caller contract.
         unsafe {
             out.write(refl_column_fill {
@@ -681,10 +689,12 @@ pub unsafe extern "C" fn refl_layered_fill_column(
 /// `refl_layered_fill_column`; then the empty-space bounds of `face` and
 /// its opposite are rebuilt (as `refl_layered_build_bounds` does). If `out`
 /// is not NULL, the number of columns whose gaps had to be filled
-/// (approximate columns) is written to it.
+/// (approximate columns) is written to it. `hits` is the call's scratch:
+/// on success each column's crossings are sorted in place; it must not
+/// overlap the map, `offsets` or `out`.
 ///
 /// Everything is validated before anything is written: on error the map
-/// is untouched. Returns `REFL_STATUS_NULL_POINTER` if `map`, its buffers,
+/// and `hits` are untouched. Returns `REFL_STATUS_NULL_POINTER` if `map`, its buffers,
 /// `offsets`, or `hits` with a non-zero count is NULL;
 /// `REFL_STATUS_INVALID_ARGUMENT` for decreasing offsets or one beyond
 /// `hit_count`, and the cases of `refl_layered_fill_column`;
@@ -693,26 +703,22 @@ pub unsafe extern "C" fn refl_layered_fill_column(
 ///
 /// # Safety
 /// `out` NULL or writable; `map` NULL or readable with writable buffers;
-/// `hits` NULL or readable for `hit_count`, `offsets` NULL or readable for
-/// `offset_count` elements.
+/// `hits` NULL or readable and writable for `hit_count`, `offsets` NULL or
+/// readable for `offset_count` elements.
 #[no_mangle]
 #[allow(clippy::too_many_arguments)]
 pub unsafe extern "C" fn refl_layered_fill_face(
     out: *mut u32,
     map: *const refl_layered_map_mut,
     face: u32,
-    hits: *const refl_layer_hit,
+    hits: *mut refl_layer_hit,
     hit_count: usize,
     offsets: *const usize,
     offset_count: usize,
 ) -> refl_status {
     let out_at = out as usize;
     guard("refl_layered_fill_face", || {
-        let out = if out.is_null() {
-            None
-        } else {
-            Some(Out::new(out, "out")?)
-        };
+        let out = Out::optional(out, "out")?;
         // SAFETY: caller contract.
         let desc = unsafe { read(map, "map") }?;
         let face = self::face(face)?;
@@ -725,21 +731,30 @@ pub unsafe extern "C" fn refl_layered_fill_face(
         if offset_count < need {
             return Err(Error::InsufficientSize);
         }
-        // SAFETY: non-null, aligned, size checked; readability by contract.
-        let offs = unsafe { core::slice::from_raw_parts(offsets, need) };
-        let mut all = Vec::new();
-        // SAFETY: caller contract.
-        unsafe { read_hits(hits, hit_count, &mut all) }?;
-        if out.is_some() {
-            let r = (out_at, 4);
-            if desc.ranges().iter().any(|x| overlaps(x.0, x.1, r.0, r.1)) {
-                return Err(Error::InvalidArgument);
-            }
+        let out_range = if out.is_some() { (out_at, 4) } else { (0, 0) };
+        if desc
+            .ranges()
+            .iter()
+            .any(|x| overlaps(x.0, x.1, out_range.0, out_range.1))
+        {
+            return Err(Error::InvalidArgument);
         }
+        let m = desc.ranges();
+        no_overlap(
+            range(offsets, need),
+            &[m[0], m[1], m[2], m[3], range(hits, hit_count)],
+            "offsets",
+        )?;
+        // SAFETY: non-null, aligned, size checked; readable by contract and
+        // disjoint from everything the call writes (checked).
+        let offs = unsafe { slice(offsets, need, "offsets") }?;
+        // SAFETY: caller contract.
+        let hits = unsafe { hits_mut(hits, hit_count, &desc, out_range) }?;
         // SAFETY: caller contract.
         let mut m = unsafe { desc.view_mut() }?;
-        // Validates everything (offsets, every column ray) before writing.
-        let approx = m.try_fill_face(face, &mut all, offs)?;
+        // Validates everything (offsets, every crossing, every column ray)
+        // before sorting or writing.
+        let approx = m.try_fill_face(face, hits, offs)?;
         if let Some(o) = out {
             // SAFETY: caller contract.
             unsafe { o.write(approx) };
@@ -812,11 +827,7 @@ pub unsafe extern "C" fn refl_layered_trace(
         }
         // SAFETY: caller contract.
         let m = unsafe { desc.view() }?;
-        let ray = Ray {
-            origin: ray.origin.into(),
-            dir: ray.dir.into(),
-        };
-        let res = m.trace(&ray, t_max, &params)?;
+        let res = m.trace(&ray.into(), t_max, &params)?;
         // SAFETY: caller contract.
         unsafe { out.write(res.into()) };
         Ok(())
@@ -870,24 +881,13 @@ pub unsafe extern "C" fn refl_layered_trace_rays(
         // SAFETY: caller contract.
         let m = unsafe { desc.view() }?;
         // SAFETY: non-null, aligned, size checked; readable by contract.
-        let rays = unsafe { core::slice::from_raw_parts(rays, ray_count) };
-        let rays: Vec<Ray> = rays
-            .iter()
-            .map(|r| Ray {
-                origin: r.origin.into(),
-                dir: r.dir.into(),
-            })
-            .collect();
-        // Validate everything (rays, t_max, params) before writing.
-        let mut results = Vec::with_capacity(rays.len());
-        for ray in &rays {
-            results.push(refl_layered_result::from(m.trace(ray, t_max, &params)?));
-        }
+        let rays = unsafe { slice(rays, ray_count, "rays") }?;
         // SAFETY: non-null, aligned, out_len >= ray_count, disjoint from
         // the inputs (checked); writable by contract.
-        let dst = unsafe { core::slice::from_raw_parts_mut(out, ray_count) };
-        dst.copy_from_slice(&results);
-        Ok(())
+        let out = unsafe { slice_mut(out, ray_count, "out") }?;
+        // Validates every ray, t_max and the parameters before the first
+        // write.
+        m.try_trace_rays(out, rays, t_max, &params)
     })
 }
 

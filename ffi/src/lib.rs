@@ -18,9 +18,12 @@
 //!   last-error message names it). (This read "NULL pointers first" until
 //!   the fuzz targets showed exports that check a misaligned output, a row
 //!   range or a face before a later NULL.)
-//! * Outputs are written only on success: results are computed into locals
-//!   and stored last, so a failed call leaves every output byte untouched,
-//!   and an output may alias an input.
+//! * Outputs are written only on success: every input is validated before
+//!   the first output byte is written, so a failed call leaves every output
+//!   byte untouched. Single-value outputs are computed into locals and
+//!   stored last, so they may alias an input; arrays are borrowed in place
+//!   (nothing is copied: no export allocates, `tests/alloc.rs`), so an
+//!   output array must not overlap an input (`REFL_STATUS_INVALID_ARGUMENT`).
 //! * Enums cross the boundary as `uint32_t` and are validated: an unknown
 //!   value is `REFL_STATUS_INVALID_ARGUMENT`, never undefined behavior.
 //! * No panic crosses the boundary: each call runs inside `catch_unwind`

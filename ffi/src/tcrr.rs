@@ -248,6 +248,8 @@ pub struct refl_tcrr_warp_stats {
 /// distance 4), surfels 32, offsets 8, intermediate color 12, depth 4 and
 /// coverage 1, warped color 12, mask 1, re-trace list 4 (worst case).
 pub const REFL_TCRR_BYTES_PER_PIXEL: usize = 110;
+// The header's constant is refl-core's.
+const _: () = assert!(REFL_TCRR_BYTES_PER_PIXEL == tcrr::BYTES_PER_PIXEL);
 
 /// # Safety
 /// `p` NULL or readable.
@@ -337,13 +339,7 @@ pub unsafe extern "C" fn refl_tcrr_frame_bytes(
 ) -> refl_status {
     guard("refl_tcrr_frame_bytes", || {
         let out = Out::new(out_bytes, "out_bytes")?;
-        if width == 0 || height == 0 {
-            return Err(Error::InvalidArgument);
-        }
-        let n = (width as usize)
-            .checked_mul(height as usize)
-            .and_then(|n| n.checked_mul(REFL_TCRR_BYTES_PER_PIXEL))
-            .ok_or(Error::InvalidArgument)?;
+        let n = tcrr::try_frame_bytes(width, height)?;
         // SAFETY: caller contract.
         unsafe { out.write(n) };
         Ok(())

@@ -7,7 +7,7 @@
 //! (`refl_miss`), never a sentinel NaN.
 
 use crate::image::refl_image_f32;
-use crate::ptr::{byte_len, read, read_vec, Out};
+use crate::ptr::{byte_len, no_overlap, range, read, slice, slice_mut, Out};
 use crate::status::{guard, refl_status};
 use crate::types::{convention, refl_camera, refl_ray, refl_vec2};
 use refl_core::{DepthImage, Error, Miss, Ray, StepOptions, Thickness, Trace};
@@ -178,15 +178,34 @@ pub(crate) unsafe fn thickness<'a>(t: &refl_thickness) -> Result<Thickness<'a>, 
     }
 }
 
-/// Reads the three by-pointer inputs shared by the stepping exports.
+/// The byte ranges of the caller memory a depth image and a thickness
+/// read (the stated `len` of each image; a NULL back-face image is empty).
+pub(crate) fn depth_ranges(img: &refl_depth_image, th: &refl_thickness) -> [(usize, usize); 2] {
+    [
+        range(img.depth.data, img.depth.len),
+        range(th.back_faces.data, th.back_faces.len),
+    ]
+}
+
+/// Reads the three by-pointer inputs shared by the stepping exports; also
+/// returns the byte ranges the image and thickness read.
 ///
 /// # Safety
 /// As `refl_step_ray`.
+#[allow(clippy::type_complexity)]
 unsafe fn step_inputs<'a>(
     image: *const refl_depth_image,
     thickness: *const refl_thickness,
     options: *const refl_step_options,
-) -> Result<(DepthImage<'a>, Thickness<'a>, StepOptions), Error> {
+) -> Result<
+    (
+        DepthImage<'a>,
+        Thickness<'a>,
+        StepOptions,
+        [(usize, usize); 2],
+    ),
+    Error,
+> {
     // SAFETY: caller contract.
     let (img_c, th_c, opts) = unsafe {
         (
@@ -199,7 +218,7 @@ unsafe fn step_inputs<'a>(
     let img = unsafe { depth_image(&img_c) }?;
     // SAFETY: caller contract.
     let th = unsafe { self::thickness(&th_c) }?;
-    Ok((img, th, opts.into()))
+    Ok((img, th, opts.into(), depth_ranges(&img_c, &th_c)))
 }
 
 /// Traces one ray against a depth image by per-pixel stepping along its
@@ -240,7 +259,7 @@ pub unsafe extern "C" fn refl_step_ray(
     guard("refl_step_ray", || {
         let out = Out::new(out, "out")?;
         // SAFETY: caller contract.
-        let (img, th, opts) = unsafe { step_inputs(image, thickness, options) }?;
+        let (img, th, opts, _) = unsafe { step_inputs(image, thickness, options) }?;
         let ray = Ray {
             origin: ray.origin.into(),
             dir: ray.dir.into(),
@@ -258,15 +277,16 @@ pub unsafe extern "C" fn refl_step_ray(
 ///
 /// Every input is validated before anything is written: on any error
 /// `out` is untouched. Elements of `out` past `ray_count` are never
-/// written. Rays are independent: a host splits a large batch into chunks
+/// written; `out` must not overlap the rays, `t_max` or the images
+/// (`REFL_STATUS_INVALID_ARGUMENT`). Rays are independent: a host splits a large batch into chunks
 /// (e.g. rows of a reflection buffer) and calls this from its own threads.
 ///
 /// Returns `REFL_STATUS_NULL_POINTER` if `out`, `rays`, `t_max`, `image`,
 /// `image->depth.data`, `thickness` or `options` is NULL;
 /// `REFL_STATUS_INSUFFICIENT_SIZE` if `out_len < ray_count` or `t_max_count`
 /// is neither 1 nor at least `ray_count`; `REFL_STATUS_INVALID_ARGUMENT` if
-/// `t_max_count` is 0, or for any ray, `t_max`, image, thickness or option
-/// rejected as by `refl_step_ray`.
+/// `t_max_count` is 0, `out` overlaps an input, or for any ray, `t_max`,
+/// image, thickness or option rejected as by `refl_step_ray`.
 ///
 /// # Safety
 /// `out` must be NULL or writable for `out_len` results; `rays` NULL or
@@ -291,7 +311,7 @@ pub unsafe extern "C" fn refl_step_rays(
             (t_max.is_null(), "t_max"),
         ])?;
         // SAFETY: caller contract.
-        let (img, th, opts) = unsafe { step_inputs(image, thickness, options) }?;
+        let (img, th, opts, inputs) = unsafe { step_inputs(image, thickness, options) }?;
         if !out.is_aligned() {
             return Err(Error::InvalidArgument);
         }
@@ -301,33 +321,32 @@ pub unsafe extern "C" fn refl_step_rays(
         if out_len < ray_count || (t_max_count != 1 && t_max_count < ray_count) {
             return Err(Error::InsufficientSize);
         }
-        byte_len::<refl_trace_result>(out as usize, ray_count)?;
-        // SAFETY: caller contract; copied before any output is written, so
-        // `out` may alias the inputs.
-        let rays_c = unsafe { read_vec(rays, ray_count, "rays") }?;
-        // SAFETY: caller contract.
-        let tms = unsafe { read_vec(t_max, t_max_count.min(ray_count).max(1), "t_max") }?;
-        let rays: Vec<Ray> = rays_c
-            .iter()
-            .map(|r| Ray {
-                origin: r.origin.into(),
-                dir: r.dir.into(),
-            })
-            .collect();
-        let mut traces = vec![
-            Trace::Miss {
-                reason: Miss::OutOfSteps,
-                work: Default::default(),
-            };
-            ray_count
-        ];
-        refl_core::try_step_rays(&mut traces, &rays, &tms, &img, th, opts)?;
-        for (i, t) in traces.into_iter().enumerate() {
-            // SAFETY: `out` is non-null, aligned and writable for
-            // `out_len >= ray_count` results (caller contract).
-            unsafe { out.add(i).write(t.into()) };
-        }
-        Ok(())
+        let out_bytes = byte_len::<refl_trace_result>(out as usize, ray_count)?;
+        let t_max_len = t_max_count.min(ray_count).max(1);
+        // SAFETY: caller contract; `out` overlaps neither (checked below
+        // before it is borrowed).
+        let (rays_s, tms) = unsafe {
+            (
+                slice(rays, ray_count, "rays")?,
+                slice(t_max, t_max_len, "t_max")?,
+            )
+        };
+        no_overlap(
+            (out as usize, out_bytes),
+            &[
+                range(rays, ray_count),
+                range(t_max, t_max_len),
+                inputs[0],
+                inputs[1],
+            ],
+            "out",
+        )?;
+        // SAFETY: non-null, aligned, writable for out_len >= ray_count
+        // results (caller contract), disjoint from every input (checked).
+        let out = unsafe { slice_mut(out, ray_count, "out") }?;
+        // Validates every ray before the first write: `out` is untouched
+        // on error.
+        refl_core::try_step_rays(out, &img, th, rays_s, tms, opts)
     })
 }
 

@@ -215,6 +215,15 @@ impl From<Ray> for refl_ray {
     }
 }
 
+impl From<refl_ray> for Ray {
+    fn from(r: refl_ray) -> Self {
+        Self {
+            origin: r.origin.into(),
+            dir: r.dir.into(),
+        }
+    }
+}
+
 impl From<&Camera> for refl_camera {
     fn from(c: &Camera) -> Self {
         Self {
@@ -620,6 +629,12 @@ pub struct refl_cluster_shade {
     pub fetches: u32,
     /// Steps over all rays.
     pub steps: u32,
+}
+
+impl From<refl_core::cluster::ClusterShade> for refl_cluster_shade {
+    fn from(s: refl_core::cluster::ClusterShade) -> Self {
+        (&s).into()
+    }
 }
 
 impl From<&refl_core::cluster::ClusterShade> for refl_cluster_shade {

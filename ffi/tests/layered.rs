@@ -110,7 +110,7 @@ fn build_c(g: refl_layered_grid) -> Bufs {
                     hits.push(refl_layer_hit {
                         t,
                         id: (j * res + i) * 4 + k as u32,
-                        front: f as u32,
+                        front: f,
                     });
                 }
                 offs.push(hits.len());
@@ -121,7 +121,7 @@ fn build_c(g: refl_layered_grid) -> Bufs {
                 o,
                 &m,
                 face,
-                hits.as_ptr(),
+                hits.as_mut_ptr(),
                 hits.len(),
                 offs.as_ptr(),
                 offs.len(),
@@ -256,20 +256,20 @@ fn filling_through_the_abi_equals_filling_in_rust() {
     let mut b = Bufs::new(&g);
     let m = b.map_mut(g);
     assert_eq!(unsafe { refl_layered_clear(&m) }, refl_status::Ok);
-    let hits = [
+    let mut hits = [
         refl_layer_hit {
             t: 1.5,
             id: 9,
-            front: 0,
+            front: false,
         },
         refl_layer_hit {
             t: 0.5,
             id: 8,
-            front: 1,
+            front: true,
         },
     ];
     let f: refl_column_fill =
-        ok(|o| unsafe { refl_layered_fill_column(o, &m, 1, 2, 3, hits.as_ptr(), hits.len()) });
+        ok(|o| unsafe { refl_layered_fill_column(o, &m, 1, 2, 3, hits.as_mut_ptr(), hits.len()) });
     assert_eq!((f.intervals, f.stored), (1, 1));
     let base = (24 + 3) * 24 + 2; // face 1, j 3, i 2
     assert_eq!(b.counts[base], 1);
@@ -337,60 +337,60 @@ fn fill_errors_leave_the_map_untouched() {
         b.bounds.clone(),
     );
     let m = b.map_mut(g);
-    let good = [refl_layer_hit {
+    let mut good = [refl_layer_hit {
         t: 0.5,
         id: 1,
-        front: 1,
+        front: true,
     }];
     let mut fill = refl_column_fill {
         intervals: 77,
         stored: 77,
     };
     let call = |m: &refl_layered_map_mut,
-                hits: &[refl_layer_hit],
+                hits: &mut [refl_layer_hit],
                 face: u32,
                 fill: &mut refl_column_fill| unsafe {
-        refl_layered_fill_column(fill, m, face, 0, 0, hits.as_ptr(), hits.len())
+        refl_layered_fill_column(fill, m, face, 0, 0, hits.as_mut_ptr(), hits.len())
     };
-    let nan = [refl_layer_hit {
+    let mut nan = [refl_layer_hit {
         t: f32::NAN,
         id: 1,
-        front: 1,
+        front: true,
     }];
-    let front2 = [refl_layer_hit {
-        t: 0.5,
-        id: 1,
-        front: 2,
-    }];
-    assert_eq!(call(&m, &nan, 0, &mut fill), refl_status::InvalidArgument);
     assert_eq!(
-        call(&m, &front2, 0, &mut fill),
+        call(&m, &mut nan, 0, &mut fill),
         refl_status::InvalidArgument
     );
-    assert_eq!(call(&m, &good, 6, &mut fill), refl_status::InvalidArgument);
+    assert_eq!(
+        call(&m, &mut good, 6, &mut fill),
+        refl_status::InvalidArgument
+    );
     let mut short = m;
     short.counts_len -= 1;
     assert_eq!(
-        call(&short, &good, 0, &mut fill),
+        call(&short, &mut good, 0, &mut fill),
         refl_status::InsufficientSize
     );
     let mut short = m;
     short.bounds_len -= 1;
     assert_eq!(
-        call(&short, &good, 0, &mut fill),
+        call(&short, &mut good, 0, &mut fill),
         refl_status::InsufficientSize
     );
     let mut null = m;
     null.payload = core::ptr::null_mut();
-    assert_eq!(call(&null, &good, 0, &mut fill), refl_status::NullPointer);
+    assert_eq!(
+        call(&null, &mut good, 0, &mut fill),
+        refl_status::NullPointer
+    );
     let mut alias = m;
     alias.payload = alias.counts; // overlapping buffers
     assert_eq!(
-        call(&alias, &good, 0, &mut fill),
+        call(&alias, &mut good, 0, &mut fill),
         refl_status::InvalidArgument
     );
     assert_eq!(
-        unsafe { refl_layered_fill_column(&mut fill, &m, 0, 0, 0, core::ptr::null(), 1) },
+        unsafe { refl_layered_fill_column(&mut fill, &m, 0, 0, 0, core::ptr::null_mut(), 1) },
         refl_status::NullPointer
     );
     // Face fill: bad offsets.
@@ -402,7 +402,7 @@ fn fill_errors_leave_the_map_untouched() {
                 &mut approx,
                 &m,
                 0,
-                good.as_ptr(),
+                good.as_mut_ptr(),
                 1,
                 offs_bad.as_ptr(),
                 offs_bad.len(),
@@ -417,7 +417,7 @@ fn fill_errors_leave_the_map_untouched() {
                 &mut approx,
                 &m,
                 0,
-                good.as_ptr(),
+                good.as_mut_ptr(),
                 1,
                 offs_far.as_ptr(),
                 offs_far.len(),
@@ -428,7 +428,15 @@ fn fill_errors_leave_the_map_untouched() {
     let offs_ok = [0usize; 17];
     assert_eq!(
         unsafe {
-            refl_layered_fill_face(&mut approx, &m, 0, good.as_ptr(), 1, offs_ok.as_ptr(), 16)
+            refl_layered_fill_face(
+                &mut approx,
+                &m,
+                0,
+                good.as_mut_ptr(),
+                1,
+                offs_ok.as_ptr(),
+                16,
+            )
         },
         refl_status::InsufficientSize
     );

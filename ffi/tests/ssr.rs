@@ -1,7 +1,8 @@
 //! refl_ssr_*: the C pass equals refl-core's `MirrorPass` bit for bit (both
 //! methods, every convention, whole image and row bands from threads),
 //! error paths return their documented status and leave every output
-//! untouched, and no export allocates (a counting global allocator).
+//! untouched, and no export allocates (the counting global allocator of
+//! `tests/common`; `tests/alloc.rs` covers every export).
 
 use refl::*;
 use refl_core::glam::{Vec2, Vec3};
@@ -9,46 +10,11 @@ use refl_core::{
     hiz_len, try_build_hiz, Camera, DepthConvention, DepthImage, GBuffer, HiZ, HiZTexel, HostRay,
     ImageView, ImageViewMut, MirrorMethod, MirrorOptions, MirrorPass, MirrorTexel, NormalSpace,
 };
-use std::alloc::{GlobalAlloc, Layout, System};
-use std::cell::Cell;
-
-/// Counts allocations made by the current thread while `COUNTING` is set.
-struct Counting;
-
-thread_local! {
-    static COUNTING: Cell<bool> = const { Cell::new(false) };
-    static ALLOCS: Cell<u64> = const { Cell::new(0) };
-}
-
-// SAFETY: forwards to the system allocator; the counters are thread-local
-// cells that do not allocate.
-unsafe impl GlobalAlloc for Counting {
-    unsafe fn alloc(&self, l: Layout) -> *mut u8 {
-        let _ = COUNTING.try_with(|c| {
-            if c.get() {
-                let _ = ALLOCS.try_with(|a| a.set(a.get() + 1));
-            }
-        });
-        // SAFETY: forwarded contract.
-        unsafe { System.alloc(l) }
-    }
-    unsafe fn dealloc(&self, p: *mut u8, l: Layout) {
-        // SAFETY: forwarded contract.
-        unsafe { System.dealloc(p, l) }
-    }
-}
+mod common;
+use common::counted;
 
 #[global_allocator]
-static GLOBAL: Counting = Counting;
-
-/// Runs `f` and returns its result with the number of allocations it made.
-fn counted<R>(f: impl FnOnce() -> R) -> (R, u64) {
-    ALLOCS.with(|a| a.set(0));
-    COUNTING.with(|c| c.set(true));
-    let r = f();
-    COUNTING.with(|c| c.set(false));
-    (r, ALLOCS.with(|a| a.get()))
-}
+static GLOBAL: common::Counting = common::Counting;
 
 const W: u32 = 96;
 const H: u32 = 64;

@@ -224,10 +224,7 @@ fn hits(b: &mut Bytes, t_max: f32) -> Vec<refl_layer_hit> {
         .map(|_| refl_layer_hit {
             t: if b.chance(16) { b.f32_special() } else { b.f32_fine(-0.2, t_max * 1.2) },
             id: b.u32(),
-            front: match b.u8() % 16 {
-                0 => 2 + b.below(4),
-                k => u32::from(k & 1),
-            },
+            front: b.u8() & 1 == 1,
         })
         .collect()
 }
@@ -236,6 +233,27 @@ fn face_ray(g: &refl_layered_grid, f: u32, i: u32, j: u32) -> Option<refl_column
     let mut r = refl_column_ray::default();
     // SAFETY: pointers valid.
     (unsafe { refl_layered_face_ray(&mut r, g, f, i, j) } == refl_status::Ok).then_some(r)
+}
+
+/// The key of a crossing (its padding bytes are not compared).
+fn hit_key(h: &refl_layer_hit) -> (u32, u32, bool) {
+    (h.t.to_bits(), h.id, h.front)
+}
+
+/// `hb` holds `hs` unchanged (a failed fill leaves the caller's scratch
+/// alone).
+fn same_hits(hb: &Buf<refl_layer_hit>, hs: &[refl_layer_hit]) -> bool {
+    hs.iter().enumerate().all(|(i, h)| hit_key(&hb.get(i)) == hit_key(h))
+}
+
+/// `hb` holds `hs` reordered (the fills sort the caller's crossings in
+/// place).
+fn is_permutation(hb: &Buf<refl_layer_hit>, hs: &[refl_layer_hit]) -> bool {
+    let mut a: Vec<_> = (0..hs.len()).map(|i| hit_key(&hb.get(i))).collect();
+    let mut b: Vec<_> = hs.iter().map(hit_key).collect();
+    a.sort_unstable();
+    b.sort_unstable();
+    a == b
 }
 
 fn texel_index(res: u32, face: u32, i: u32, j: u32) -> usize {
@@ -248,20 +266,22 @@ fn fill_column(b: &mut Bytes, m: &mut Map) {
     let (i, j) = (b.below(res.saturating_add(1).min(64)), b.below(res.saturating_add(1).min(64)));
     let tm = face_ray(&m.grid, face.min(5), i.min(res.max(1) - 1), j.min(res.max(1) - 1)).map_or(2.0, |r| r.t_max);
     let hs = hits(b, tm);
-    let hb = Buf::from_slice(&hs, if hs.is_empty() || !b.chance(16) { PtrKind::Valid } else { b.ptr_kind() });
+    let mut hb = Buf::from_slice(&hs, if hs.is_empty() || !b.chance(16) { PtrKind::Valid } else { b.ptr_kind() });
     let mut out = out1::<refl_column_fill>(b.ptr_kind());
     let d = m.desc_mut();
     let snap = m.snap();
     // SAFETY: pointers NULL, misaligned or valid.
-    let s = unsafe { refl_layered_fill_column(out.ptr(), &d, face, i, j, hb.cptr(), hs.len()) };
+    let s = unsafe { refl_layered_fill_column(out.ptr(), &d, face, i, j, hb.ptr(), hs.len()) };
     let null = out.is_null() || m.any_null() || (hb.is_null() && !hs.is_empty());
     null_rules_m(s, out.is_null(), null, out.kind() == PtrKind::Misaligned, "refl_layered_fill_column");
-    on_error_untouched(s, &[("map", m.same(&snap)), ("out", out.is_sentinel(0))], "refl_layered_fill_column");
+    let hits_kept = !hb.usable() || same_hits(&hb, &hs);
+    on_error_untouched(s, &[("map", m.same(&snap)), ("out", out.is_sentinel(0)), ("hits", hits_kept)], "refl_layered_fill_column");
     if s != refl_status::Ok {
         return;
     }
     assert!(face < 6 && i < res && j < res, "fill_column accepted face {face} texel ({i}, {j}) of res {res}");
-    assert!(hs.iter().all(|h| h.t.is_finite() && h.front <= 1), "fill_column accepted a bad hit");
+    assert!(hs.iter().all(|h| h.t.is_finite()), "fill_column accepted a bad hit");
+    assert!(hs.is_empty() || is_permutation(&hb, &hs), "fill_column changed the hits beyond reordering them");
     let f = out.get(0);
     let layers = m.grid.layers;
     assert_eq!(f.stored, f.intervals.min(layers), "fill result {f:?}");
@@ -310,7 +330,7 @@ fn fill_face(b: &mut Bytes, m: &mut Map) -> bool {
     }
     let off_count = if b.chance(16) { b.len_for(offsets.len()) } else { offsets.len() };
     let ob = Buf::from_fn(off_count, if b.chance(16) { b.ptr_kind() } else { PtrKind::Valid }, |i| offsets.get(i).copied().unwrap_or(0));
-    let hb = Buf::from_slice(&all, PtrKind::Valid);
+    let mut hb = Buf::from_slice(&all, PtrKind::Valid);
     let mut out = out1::<u32>(match b.u8() % 8 {
         0 => PtrKind::Null,
         1 => PtrKind::Misaligned,
@@ -327,12 +347,12 @@ fn fill_face(b: &mut Bytes, m: &mut Map) -> bool {
     let d = m.desc_mut();
     let snap = m.snap();
     // SAFETY: pointers NULL, misaligned or valid for their lengths.
-    let s = unsafe { refl_layered_fill_face(out.ptr(), &d, face, hb.cptr(), all.len(), ob.cptr(), off_count) };
+    let s = unsafe { refl_layered_fill_face(out.ptr(), &d, face, hb.ptr(), all.len(), ob.cptr(), off_count) };
     let null = m.any_null() || ob.is_null();
     // F1's rule: a bad face may be reported rather than a NULL `offsets`.
     let f1 = face >= 6 && s == refl_status::InvalidArgument;
     null_rules_m(s, null && !f1, null || out.is_null(), out.kind() == PtrKind::Misaligned || m.any_misaligned(), "refl_layered_fill_face");
-    on_error_untouched(s, &[("map", m.same(&snap)), ("out", out.is_sentinel(0))], "refl_layered_fill_face");
+    on_error_untouched(s, &[("map", m.same(&snap)), ("out", out.is_sentinel(0)), ("hits", same_hits(&hb, &all))], "refl_layered_fill_face");
     if s != refl_status::Ok {
         return false;
     }
@@ -340,11 +360,11 @@ fn fill_face(b: &mut Bytes, m: &mut Map) -> bool {
     let mut approx = 0;
     for c in 0..cols {
         let (i, j) = (c as u32 % res, c as u32 / res);
-        let col = &all[offsets[c]..offsets[c + 1]];
+        let mut col = all[offsets[c]..offsets[c + 1]].to_vec();
         let mut f = refl_column_fill::default();
         let rd = reference.desc_mut();
         // SAFETY: valid pointers.
-        let s1 = unsafe { refl_layered_fill_column(&mut f, &rd, face, i, j, col.as_ptr(), col.len()) };
+        let s1 = unsafe { refl_layered_fill_column(&mut f, &rd, face, i, j, col.as_mut_ptr(), col.len()) };
         assert_eq!(s1, refl_status::Ok, "fill_column refuses a column fill_face accepted");
         approx += u32::from(f.stored < f.intervals);
     }

@@ -58,6 +58,7 @@ pub mod shift;
 pub mod warp;
 
 use crate::{Camera, DepthConvention, Error, ImageView, ImageViewMut};
+use core::mem::size_of;
 use glam::Vec3;
 
 pub use search::{search, SearchStats};
@@ -66,6 +67,36 @@ pub use warp::{
     compose, fresnel_weight, retrace_count, retrace_list, warp, CurrentView, Fresnel, WarpStats,
     MASK_NONE, MASK_RETRACE, MASK_REUSED,
 };
+
+/// Caller-buffer bytes per pixel of one TCRR frame besides the host's own
+/// G-buffer: the key frame's reflection buffers (depth 4, normal 12,
+/// specular 4, color 12, distance 4), its [`Surfel`]s (32), the offsets
+/// (8), the intermediate image of [`shift`] (color 12, depth 4, coverage
+/// 1), the warped color (12), the re-trace mask (1) and the re-trace list
+/// of [`retrace_list`] (4, worst case).
+pub const BYTES_PER_PIXEL: usize = 4 * size_of::<f32>() // depth, specular, distance, shifted depth
+    + 4 * size_of::<[f32; 3]>() // normal, color, shifted color, warped color
+    + size_of::<Surfel>()
+    + size_of::<[f32; 2]>() // offsets
+    + 2 * size_of::<u8>() // coverage, mask
+    + size_of::<u32>(); // re-trace list
+
+/// The caller-buffer bytes TCRR needs for a `width x height` frame with
+/// tightly packed rows: `width * height * `[`BYTES_PER_PIXEL`] (size each
+/// image with [`crate::image::required_len`]).
+///
+/// # Errors
+/// [`Error::InvalidArgument`] for a zero size or a count that does not fit
+/// in `usize`.
+pub fn try_frame_bytes(width: u32, height: u32) -> Result<usize, Error> {
+    if width == 0 || height == 0 {
+        return Err(Error::InvalidArgument);
+    }
+    (width as usize)
+        .checked_mul(height as usize)
+        .and_then(|n| n.checked_mul(BYTES_PER_PIXEL))
+        .ok_or(Error::InvalidArgument)
+}
 
 /// The offset-buffer value of a pixel without a match (seed 000 Alg. 2,
 /// "INVALID"). Any offset with a non-finite component reads as invalid.
