@@ -290,9 +290,8 @@ int main() {
     const refl_image_vec3 limg{lit.data(), n, kW, kH, kW};
     const refl_hiz hiz{hz.data(), hz_len, cam_inf, REFL_DEPTH_CONVENTION_REVERSED_Z};
     const refl_cone_pyramids pyr{hiz, color.data(), pyr_len, vis.data(), vis_len};
-    refl_hiz_options hopts{};
-    REQUIRE(refl_hiz_default_options(&hopts) == REFL_STATUS_OK);
-    const refl_thickness thick{0.06f, {nullptr, 0, 0, 0, 0}};
+    refl_hiz_options hopts = refl_hiz_options_default();
+    const refl_trace_thickness thick{0.06f, {nullptr, 0, 0, 0, 0}};
     float theta = 0;
     REQUIRE(refl_cone_angle_from_roughness(&theta, float(kRoughness)) == REFL_STATUS_OK);
 
@@ -300,8 +299,7 @@ int main() {
         REQUIRE(refl_hiz_build(hz.data(), hz_len, &dimg) == REFL_STATUS_OK);
         REQUIRE(refl_cone_build_color(color.data(), pyr_len, &limg, 1.0f) == REFL_STATUS_OK);
         REQUIRE(refl_cone_build_visibility(vis.data(), vis_len, &hiz) == REFL_STATUS_OK);
-        refl_cone_options co{};
-        REQUIRE(refl_cone_default_options(&co) == REFL_STATUS_OK);
+        refl_cone_options co = refl_cone_options_default();
         co.max_circles = circles;
         co.normalize = 1;
         size_t hits = 0;
@@ -315,7 +313,7 @@ int main() {
             refl_trace_result tr{};
             REQUIRE(refl_hiz_trace_ray(&tr, &hiz, &thick, ray, kInf, &hopts) == REFL_STATUS_OK);
             const V3 fb = env(px.mirror);
-            if (tr.miss != REFL_MISS_NONE) {
+            if (tr.miss != REFL_TRACE_MISS_NONE) {
                 out[k] = fb;
                 continue;
             }

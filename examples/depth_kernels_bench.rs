@@ -160,7 +160,7 @@ fn main() {
                 })
                 .collect();
             let back = ImageView::try_new(&back, a.width, a.height, a.width).expect("back");
-            let mut pyr = vec![[0.0f32; 2]; hiz::hiz_len(a.width, a.height).expect("len")];
+            let mut pyr = vec![[0.0f32; 2]; hiz::try_hiz_len(a.width, a.height).expect("len")];
             hiz::try_build_hiz(&mut pyr, &image).expect("build");
             let hz = hiz::HiZ::try_new(&pyr, depth.camera, c).expect("hiz");
             let thicknesses = [
@@ -259,7 +259,7 @@ fn main() {
     // Timing: reversed-Z, infinite far, constant thickness, defaults.
     let depth = DepthBuffer::new(&g, DepthConvention::ReversedZ, f32::INFINITY).expect("depth");
     let image = depth.image().expect("image");
-    let mut pyr = vec![[0.0f32; 2]; hiz::hiz_len(a.width, a.height).expect("len")];
+    let mut pyr = vec![[0.0f32; 2]; hiz::try_hiz_len(a.width, a.height).expect("len")];
     hiz::try_build_hiz(&mut pyr, &image).expect("build");
     let hz = hiz::HiZ::try_new(&pyr, depth.camera, depth.convention).expect("hiz");
     let th = Thickness::Constant(thick);

@@ -93,7 +93,7 @@
 //! texel's hit slab hits at `t = 0`. Start reflection rays slightly off the
 //! surface (the seed crosses one cell first for the same reason).
 
-use crate::trace::{validate_ray, DepthHit, DepthImage, Miss, Thickness, Trace, Work};
+use crate::trace::{try_validate_ray, DepthHit, DepthImage, Miss, Thickness, Trace, Work};
 use crate::{Camera, DepthConvention, Error, Ray, RowRange};
 use core::ops::Range;
 use glam::{Mat4, Vec2, Vec4};
@@ -363,12 +363,12 @@ fn cell_span(c: u32, level: u32, cells: u32, full: u32) -> Range<u32> {
 ///
 /// # Errors
 /// As [`HiZLayout::try_new`].
-pub fn hiz_len(width: u32, height: u32) -> Result<usize, Error> {
-    pyramid_len::<HiZTexel>(width, height)
+pub fn try_hiz_len(width: u32, height: u32) -> Result<usize, Error> {
+    try_pyramid_len::<HiZTexel>(width, height)
 }
 
 /// Texels after the last level of a Hi-Z pyramid that hold its
-/// [`PyramidStamp`]; counted in [`hiz_len`].
+/// [`PyramidStamp`]; counted in [`try_hiz_len`].
 pub const HIZ_STAMP_TEXELS: usize = <HiZTexel as PyramidTexel>::STAMP_TEXELS;
 
 mod sealed {
@@ -431,12 +431,12 @@ impl PyramidTexel for f32 {
 
 /// Elements of a pyramid of texel type `T` for a `width x height` image:
 /// its levels ([`HiZLayout::len`]) and then `T::STAMP_TEXELS`. What
-/// [`hiz_len`], `cone::color_pyramid_len` and
-/// `cone::visibility_pyramid_len` return.
+/// [`try_hiz_len`], `cone::try_color_pyramid_len` and
+/// `cone::try_visibility_pyramid_len` return.
 ///
 /// # Errors
 /// As [`HiZLayout::try_new`].
-pub fn pyramid_len<T: PyramidTexel>(width: u32, height: u32) -> Result<usize, Error> {
+pub fn try_pyramid_len<T: PyramidTexel>(width: u32, height: u32) -> Result<usize, Error> {
     HiZLayout::try_new(width, height)?
         .len()
         .checked_add(T::STAMP_TEXELS)
@@ -514,7 +514,7 @@ impl PyramidStamp {
     ///
     /// # Errors
     /// [`Error::InsufficientSize`] if `pyramid` is shorter than
-    /// [`pyramid_len`]; [`Error::InvalidArgument`] for a zero size.
+    /// [`try_pyramid_len`]; [`Error::InvalidArgument`] for a zero size.
     /// Nothing is written on error.
     pub fn try_write<T: PyramidTexel>(&self, pyramid: &mut [T]) -> Result<(), Error> {
         let at = HiZLayout::try_new(self.width, self.height)?.len();
@@ -540,7 +540,7 @@ impl PyramidStamp {
 ///
 /// # Errors
 /// [`Error::InsufficientSize`] if `dst` holds fewer than
-/// [`hiz_len`]`(camera.width(), camera.height())` texels. Nothing is
+/// [`try_hiz_len`]`(camera.width(), camera.height())` texels. Nothing is
 /// written on error.
 ///
 /// # Panics
@@ -663,13 +663,13 @@ fn cell_children(c: u32, coarse: u32, fine: u32) -> Range<u32> {
 ///
 /// # Errors
 /// [`Error::InsufficientSize`] if `dst` holds fewer than
-/// [`hiz_len`]`(width, height)` texels. Nothing is written on error.
+/// [`try_hiz_len`]`(width, height)` texels. Nothing is written on error.
 ///
 /// # Panics
 /// Never.
 pub fn try_build_hiz(dst: &mut [HiZTexel], depth: &DepthImage<'_>) -> Result<(), Error> {
     let layout = HiZLayout::try_new(depth.width(), depth.height())?;
-    if dst.len() < hiz_len(depth.width(), depth.height())? {
+    if dst.len() < try_hiz_len(depth.width(), depth.height())? {
         return Err(Error::InsufficientSize);
     }
     let l0 = layout.levels[0];
@@ -711,7 +711,7 @@ impl<'a> HiZ<'a> {
     ///
     /// # Errors
     /// * [`Error::InsufficientSize`] if `data` holds fewer than
-    ///   [`hiz_len`]`(camera.width(), camera.height())` texels.
+    ///   [`try_hiz_len`]`(camera.width(), camera.height())` texels.
     /// * [`Error::InvalidArgument`] if the pyramid's [`PyramidStamp`] is not
     ///   `camera`'s: built for another image size or another camera, or not
     ///   built (or not stamped, after a row-band build) at all.
@@ -721,7 +721,7 @@ impl<'a> HiZ<'a> {
         convention: DepthConvention,
     ) -> Result<Self, Error> {
         let layout = HiZLayout::try_new(camera.width(), camera.height())?;
-        if data.len() < hiz_len(camera.width(), camera.height())? {
+        if data.len() < try_hiz_len(camera.width(), camera.height())? {
             return Err(Error::InsufficientSize);
         }
         if PyramidStamp::read(data, camera.width(), camera.height())
@@ -730,7 +730,7 @@ impl<'a> HiZ<'a> {
             return Err(Error::InvalidArgument);
         }
         // The x, y and w rows do not depend on the depth convention.
-        let to_pixel = camera.world_to_pixel(DepthConvention::ZeroToOne)?;
+        let to_pixel = camera.try_world_to_pixel(DepthConvention::ZeroToOne)?;
         Ok(Self {
             data,
             layout,
@@ -837,7 +837,7 @@ pub struct HiZStats {
 ///
 /// # Errors
 /// [`Error::InvalidArgument`] for a ray or `t_max` rejected by
-/// [`validate_ray`], a negative or NaN constant
+/// [`try_validate_ray`], a negative or NaN constant
 /// thickness, or a back-face image whose size differs from the pyramid's.
 ///
 /// # Panics
@@ -866,7 +866,7 @@ pub fn try_trace_hiz_stats(
     t_max: f32,
     options: &HiZOptions,
 ) -> Result<(Trace, HiZStats), Error> {
-    validate_ray(&ray, t_max)?;
+    try_validate_ray(&ray, t_max)?;
     validate_thickness(hiz, &thickness)?;
     Ok(trace_valid::<true>(hiz, thickness, &ray, t_max, options))
 }
@@ -909,7 +909,7 @@ pub fn try_trace_hiz_rays<O: From<Trace>, R: Copy + Into<Ray>>(
     validate_thickness(hiz, &thickness)?;
     let tm = |i: usize| if t_max.len() == 1 { t_max[0] } else { t_max[i] };
     for (i, r) in rays.iter().enumerate() {
-        validate_ray(&(*r).into(), tm(i))?;
+        try_validate_ray(&(*r).into(), tm(i))?;
     }
     for (i, (o, r)) in out.iter_mut().zip(rays).enumerate() {
         *o = trace_valid::<false>(hiz, thickness, &(*r).into(), tm(i), options)

@@ -91,7 +91,7 @@
 //! Hosts tracing reflection rays from surfaces of the same image offset the
 //! origin (e.g. along the normal) or start it one texel further.
 
-use crate::trace::validate_ray;
+use crate::trace::try_validate_ray;
 use crate::{DepthConvention, DepthHit, DepthImage, Error, Miss, Ray, Thickness, Trace, Work};
 use glam::{Vec2, Vec3};
 
@@ -630,7 +630,7 @@ fn validate_options(opts: &StepOptions) -> Result<(), Error> {
 ///
 /// # Errors
 /// [`Error::InvalidArgument`] for a ray or `t_max` rejected by
-/// [`validate_ray`], a `stride` of 0, a
+/// [`try_validate_ray`], a `stride` of 0, a
 /// constant thickness that is NaN or negative, or a back-face image whose
 /// size differs from the depth image's.
 ///
@@ -643,7 +643,7 @@ pub fn try_step(
     t_max: f32,
     opts: StepOptions,
 ) -> Result<Trace, Error> {
-    validate_ray(&ray, t_max)?;
+    try_validate_ray(&ray, t_max)?;
     validate_thickness(image, &thickness)?;
     validate_options(&opts)?;
     let pr = Projector::new(image);
@@ -700,7 +700,7 @@ pub fn try_step_rays<O: From<Trace>, R: Copy + Into<Ray>>(
     validate_options(&opts)?;
     let tm = |i: usize| if t_max.len() == 1 { t_max[0] } else { t_max[i] };
     for (i, ray) in rays.iter().enumerate() {
-        validate_ray(&(*ray).into(), tm(i))?;
+        try_validate_ray(&(*ray).into(), tm(i))?;
     }
     let pr = Projector::new(image);
     let args = (&pr, image, thickness, rays, t_max, opts);

@@ -3,19 +3,19 @@
 use proptest::prelude::*;
 
 mod common;
-use refl_core::image::required_len;
+use refl_core::image::try_required_len;
 use refl_core::{Error, ImageView, ImageViewMut, RowRange};
 
 #[test]
 fn required_len_validates_and_never_overflows() {
-    assert_eq!(required_len(1, 1, 1), Ok(1));
-    assert_eq!(required_len(3, 2, 4), Ok(7));
-    assert_eq!(required_len(16384, 16384, 16384), Ok(16384 * 16384));
-    assert_eq!(required_len(0, 4, 4), Err(Error::InvalidArgument));
-    assert_eq!(required_len(4, 0, 4), Err(Error::InvalidArgument));
-    assert_eq!(required_len(5, 4, 4), Err(Error::InvalidArgument));
+    assert_eq!(try_required_len(1, 1, 1), Ok(1));
+    assert_eq!(try_required_len(3, 2, 4), Ok(7));
+    assert_eq!(try_required_len(16384, 16384, 16384), Ok(16384 * 16384));
+    assert_eq!(try_required_len(0, 4, 4), Err(Error::InvalidArgument));
+    assert_eq!(try_required_len(4, 0, 4), Err(Error::InvalidArgument));
+    assert_eq!(try_required_len(5, 4, 4), Err(Error::InvalidArgument));
     // u32::MAX x u32::MAX: 64-bit arithmetic, no wrap-around.
-    let big = required_len(u32::MAX, u32::MAX, u32::MAX);
+    let big = try_required_len(u32::MAX, u32::MAX, u32::MAX);
     if usize::BITS >= 64 {
         assert_eq!(big, Ok(u32::MAX as usize * u32::MAX as usize));
     } else {
@@ -61,8 +61,8 @@ fn accessors_are_bounds_checked_and_stride_aware() {
 fn split_bands_are_disjoint_and_keep_global_coordinates() {
     let mut buf = [0u8; 5 * 6];
     let img = ImageViewMut::try_new(&mut buf, 5, 6, 5).unwrap();
-    let (mut top, rest) = img.split_at_row(2).unwrap();
-    let (mut mid, mut bottom) = rest.split_at_row(5).unwrap();
+    let (mut top, rest) = img.try_split_at_row(2).unwrap();
+    let (mut mid, mut bottom) = rest.try_split_at_row(5).unwrap();
     assert_eq!(top.owned_rows(), RowRange::try_new(0, 2, 6).ok());
     assert_eq!(mid.owned_rows(), RowRange::try_new(2, 5, 6).ok());
     assert!(top.get_mut(0, 2).is_none());
@@ -72,7 +72,7 @@ fn split_bands_are_disjoint_and_keep_global_coordinates() {
     *bottom.get_mut(4, 5).unwrap() = 3;
     assert!(bottom.as_view().is_none());
     // A split outside the band is refused and hands the view back.
-    let (e, bottom) = bottom.split_at_row(1).unwrap_err();
+    let (e, bottom) = bottom.try_split_at_row(1).unwrap_err();
     assert_eq!(e, Error::InvalidArgument);
     assert_eq!(bottom.get(4, 5), Some(3));
     assert_eq!(&buf[..10], &[1; 10]);
@@ -128,7 +128,7 @@ fn convert_depth_converts_owned_rows_only_and_matches_f64() {
     use refl_core::image::{convert_depth_in_place, try_convert_depth};
     use refl_core::DepthConvention::{Linear, ReversedZ, ZeroToOne};
     let (w, h, stride) = (5u32, 4u32, 7u32);
-    let len = required_len(w, h, stride).unwrap();
+    let len = try_required_len(w, h, stride).unwrap();
     for far in [40.0f32, f32::INFINITY] {
         let cam = depth_camera(far);
         let src: Vec<f32> = (0..len)
@@ -146,8 +146,8 @@ fn convert_depth_converts_owned_rows_only_and_matches_f64() {
             {
                 let v = ImageViewMut::try_new(&mut dst, w, h, stride).unwrap();
                 // Only rows 1..3 are owned by the band converted.
-                let (_, rest) = v.split_at_row(1).unwrap();
-                let (mut band, _) = rest.split_at_row(3).unwrap();
+                let (_, rest) = v.try_split_at_row(1).unwrap();
+                let (mut band, _) = rest.try_split_at_row(3).unwrap();
                 try_convert_depth(&mut band, &sv, &cam, Linear, to).unwrap();
             }
             for y in 0..h {

@@ -7,8 +7,8 @@
 use refl_core::glam::{DVec3, Vec2, Vec3};
 use refl_core::trace::{ray_start_t, refine_hit};
 use refl_core::{
-    hiz_len, try_build_hiz, try_step, try_trace_hiz, Camera, DepthConvention, DepthImage, Error,
-    GBuffer, HiZ, HiZTexel, HostRay, ImageView, ImageViewMut, MirrorMethod, MirrorOptions,
+    try_build_hiz, try_hiz_len, try_step, try_trace_hiz, Camera, DepthConvention, DepthImage,
+    Error, GBuffer, HiZ, HiZTexel, HostRay, ImageView, ImageViewMut, MirrorMethod, MirrorOptions,
     MirrorPass, MirrorStatus, MirrorTexel, NormalSpace, Ray, RowRange, Thickness, Trace,
 };
 
@@ -188,7 +188,7 @@ impl Frame {
 
     fn pyramid(&self) -> Vec<HiZTexel> {
         let g = self.gbuffer(false);
-        let mut p = vec![HiZTexel::default(); hiz_len(g.width(), g.height()).unwrap()];
+        let mut p = vec![HiZTexel::default(); try_hiz_len(g.width(), g.height()).unwrap()];
         try_build_hiz(&mut p, g.depth()).unwrap();
         p
     }

@@ -18,28 +18,31 @@ use crate::ptr::{
     byte_len, no_overlap, overlaps, range, read, slice_mut, slice_mut_or_empty, slice_or_empty, Out,
 };
 use crate::status::{guard, refl_status};
-use crate::trace::{depth_image, refl_depth_image, refl_step_options, refl_thickness};
+use crate::trace::{depth_image, refl_depth_image, refl_step_options, refl_trace_thickness};
 use crate::types::{
-    refl_cluster_camera, refl_cluster_camera_params, refl_cluster_params, refl_cluster_shade,
-    refl_lobe, refl_object_bins, refl_vec3,
+    refl_cluster_camera, refl_cluster_camera_options, refl_cluster_lobe, refl_cluster_object_bins,
+    refl_cluster_options, refl_cluster_shade, refl_vec3,
 };
 use refl_core::cluster::{
-    self, CameraParams, ClusterCamera, ClusterInput, ClusterParams, FinalizeParams,
+    self, ClusterCamera, ClusterCameraOptions, ClusterInput, ClusterOptions, FinalizeInput,
 };
 use refl_core::{Error, ImageView, RowRange, Thickness};
 
-/// Per-pixel finalization parameters (`refl_cluster_finalize`).
+/// What `refl_cluster_finalize` needs besides the cluster's pixels, camera
+/// and images (`refl_core::cluster::FinalizeInput`): the depth image's
+/// thickness and how to trace and weight each pixel's rays. A bundle of
+/// per-call inputs, not settings with defaults.
 #[repr(C)]
 #[derive(Clone, Copy, Debug)]
-pub struct refl_cluster_finalize_params {
+pub struct refl_cluster_finalize_input {
     /// Surface thickness of the depth image.
-    pub thickness: refl_thickness,
+    pub thickness: refl_trace_thickness,
     /// Stepping options (`stride >= 1`).
     pub step: refl_step_options,
     /// Refine hits to sub-texel accuracy.
     pub refine: bool,
     /// The rays per pixel.
-    pub lobe: refl_lobe,
+    pub lobe: refl_cluster_lobe,
     /// Glossy fade: a hit's weight falls from 1 on the image plane to 0 at
     /// the far plane (the missing weight is the host's diffuse color).
     pub fade: bool,
@@ -63,63 +66,40 @@ fn rows(r: refl_row_range, height: u32) -> Result<RowRange, Error> {
     RowRange::try_new(r.begin, r.end, height)
 }
 
-/// Writes the seed's clustering constants (13 x 8 bins, gain 1) to `*out`.
-///
-/// Returns `REFL_STATUS_NULL_POINTER` if `out` is NULL.
-///
-/// # Safety
-/// `out` must be NULL or writable.
+/// The seed's clustering constants (13 x 8 bins, gain 1).
 #[no_mangle]
-pub unsafe extern "C" fn refl_cluster_params_default(out: *mut refl_cluster_params) -> refl_status {
-    guard("refl_cluster_params_default", || {
-        let out = Out::new(out, "out")?;
-        // SAFETY: caller contract.
-        unsafe { out.write(ClusterParams::default().into()) };
-        Ok(())
-    })
+pub extern "C" fn refl_cluster_options_default() -> refl_cluster_options {
+    ClusterOptions::default().into()
 }
 
-/// Writes the default cluster camera parameters (D = 100, mirror, 1x
-/// resolution, at most 2048 texels a side, clusters of at least 4 pixels,
-/// f <= 16) to `*out`.
-///
-/// Returns `REFL_STATUS_NULL_POINTER` if `out` is NULL.
-///
-/// # Safety
-/// `out` must be NULL or writable.
+/// The default cluster camera options (D = 100, mirror, 1x resolution, at
+/// most 2048 texels a side, clusters of at least 4 pixels, f <= 16).
 #[no_mangle]
-pub unsafe extern "C" fn refl_cluster_camera_params_default(
-    out: *mut refl_cluster_camera_params,
-) -> refl_status {
-    guard("refl_cluster_camera_params_default", || {
-        let out = Out::new(out, "out")?;
-        // SAFETY: caller contract.
-        unsafe { out.write(CameraParams::default().into()) };
-        Ok(())
-    })
+pub extern "C" fn refl_cluster_camera_options_default() -> refl_cluster_camera_options {
+    ClusterCameraOptions::default().into()
 }
 
 /// Writes to `*out` the most clusters a frame with `objects` reflective
 /// objects can have (`objects * max_theta_bins * max_phi_bins`): size the
 /// `offsets` of `refl_cluster_ranges` one larger.
 ///
-/// Returns `REFL_STATUS_NULL_POINTER` if `out` or `params` is NULL;
-/// `REFL_STATUS_INVALID_ARGUMENT` for invalid params or a count that does
+/// Returns `REFL_STATUS_NULL_POINTER` if `out` or `options` is NULL;
+/// `REFL_STATUS_INVALID_ARGUMENT` for invalid options or a count that does
 /// not fit in `uint32_t`.
 ///
 /// # Safety
-/// `out` NULL or writable; `params` NULL or readable.
+/// `out` NULL or writable; `options` NULL or readable.
 #[no_mangle]
 pub unsafe extern "C" fn refl_cluster_bins_max(
     out: *mut u32,
     objects: u32,
-    params: *const refl_cluster_params,
+    options: *const refl_cluster_options,
 ) -> refl_status {
     guard("refl_cluster_bins_max", || {
         let out = Out::new(out, "out")?;
         // SAFETY: caller contract.
-        let p = ClusterParams::from(unsafe { read(params, "params") }?);
-        let n = cluster::cluster_bins_max(objects, &p)?;
+        let p = ClusterOptions::from(unsafe { read(options, "options") }?);
+        let n = cluster::try_cluster_bins_max(objects, &p)?;
         // SAFETY: caller contract.
         unsafe { out.write(n) };
         Ok(())
@@ -170,24 +150,24 @@ pub unsafe extern "C" fn refl_cluster_count_objects(
 /// objects) and its first cluster id; writes `out[k]` for every object and
 /// the total number of cluster ids to `*out_total`.
 ///
-/// Returns `REFL_STATUS_NULL_POINTER` for a NULL output, `params`, or a
+/// Returns `REFL_STATUS_NULL_POINTER` for a NULL output, `options`, or a
 /// NULL array with a non-zero length; `REFL_STATUS_INVALID_ARGUMENT` for
-/// invalid params, `frame_pixels == 0`, or counts summing above it;
+/// invalid options, `frame_pixels == 0`, or counts summing above it;
 /// `REFL_STATUS_INSUFFICIENT_SIZE` if `out_len < counts_len`.
 ///
 /// # Safety
 /// `out_total` NULL or writable; `out` NULL or writable for `out_len`
-/// values; `counts` NULL or readable for `counts_len`; `params` NULL or
+/// values; `counts` NULL or readable for `counts_len`; `options` NULL or
 /// readable.
 #[no_mangle]
 pub unsafe extern "C" fn refl_cluster_bin_layout(
     out_total: *mut u32,
-    out: *mut refl_object_bins,
+    out: *mut refl_cluster_object_bins,
     out_len: usize,
     counts: *const u32,
     counts_len: usize,
     frame_pixels: u64,
-    params: *const refl_cluster_params,
+    options: *const refl_cluster_options,
 ) -> refl_status {
     guard("refl_cluster_bin_layout", || {
         let total_out = Out::new(out_total, "out_total")?;
@@ -195,7 +175,7 @@ pub unsafe extern "C" fn refl_cluster_bin_layout(
         // SAFETY: caller contract.
         let c = unsafe { slice_or_empty(counts, counts_len, "counts") }?;
         // SAFETY: caller contract.
-        let p = ClusterParams::from(unsafe { read(params, "params") }?);
+        let p = ClusterOptions::from(unsafe { read(options, "options") }?);
         if out_len < counts_len {
             return Err(Error::InsufficientSize);
         }
@@ -232,7 +212,7 @@ pub unsafe extern "C" fn refl_cluster_assign(
     rows: refl_row_range,
     normals: refl_image_vec3,
     objects: refl_image_u32,
-    layout: *const refl_object_bins,
+    layout: *const refl_cluster_object_bins,
     layout_len: usize,
 ) -> refl_status {
     guard("refl_cluster_assign", || {
@@ -317,15 +297,15 @@ pub unsafe extern "C" fn refl_cluster_ranges(
 }
 
 /// The cluster camera of seed 003 Sec. 3.3 (Eq. 1) for the pixels
-/// `pixels[0 .. pixel_count]` (indices y * width + x into `positions` and
+/// `pixels[0 .. pixels_len]` (indices y * width + x into `positions` and
 /// `normals`, e.g. one range of `refl_cluster_ranges`) seen from `eye`.
 /// Writes a camera, or a fallback reason (`refl_cluster_fallback`), to
 /// `*out`. Planar clusters come out with f = 1 and the camera eye exactly
 /// at the mirrored eye.
 ///
-/// Returns `REFL_STATUS_NULL_POINTER` for a NULL `out`, `params`, image, or
+/// Returns `REFL_STATUS_NULL_POINTER` for a NULL `out`, `options`, image, or
 /// `pixels` with a non-zero count; `REFL_STATUS_INVALID_ARGUMENT` for
-/// invalid params, a non-finite eye, images of different sizes, a pixel
+/// invalid options, a non-finite eye, images of different sizes, a pixel
 /// outside the image, a non-finite position or a non-unit normal;
 /// `REFL_STATUS_DEGENERATE_GEOMETRY` if the camera is not representable.
 ///
@@ -337,16 +317,16 @@ pub unsafe extern "C" fn refl_cluster_build_camera(
     positions: refl_image_vec3,
     normals: refl_image_vec3,
     pixels: *const u32,
-    pixel_count: usize,
+    pixels_len: usize,
     eye: refl_vec3,
-    params: *const refl_cluster_camera_params,
+    options: *const refl_cluster_camera_options,
 ) -> refl_status {
     guard("refl_cluster_build_camera", || {
         let out = Out::new(out, "out")?;
         // SAFETY: caller contract.
-        let px = unsafe { slice_or_empty(pixels, pixel_count, "pixels") }?;
+        let px = unsafe { slice_or_empty(pixels, pixels_len, "pixels") }?;
         // SAFETY: caller contract.
-        let p = CameraParams::from(unsafe { read(params, "params") }?);
+        let p = ClusterCameraOptions::from(unsafe { read(options, "options") }?);
         // SAFETY: caller contract.
         let input = unsafe {
             ClusterInput {
@@ -371,17 +351,21 @@ pub unsafe extern "C" fn refl_cluster_build_camera(
 /// # Safety
 /// `out` NULL or writable.
 #[no_mangle]
-pub unsafe extern "C" fn refl_lobe_angle(out: *mut f32, exponent: f32, energy: f32) -> refl_status {
-    guard("refl_lobe_angle", || {
+pub unsafe extern "C" fn refl_cluster_lobe_angle(
+    out: *mut f32,
+    exponent: f32,
+    energy: f32,
+) -> refl_status {
+    guard("refl_cluster_lobe_angle", || {
         let out = Out::new(out, "out")?;
-        let a = cluster::lobe_angle(exponent, energy)?;
+        let a = cluster::try_lobe_angle(exponent, energy)?;
         // SAFETY: caller contract.
         unsafe { out.write(a) };
         Ok(())
     })
 }
 
-/// Finalizes the reflection of the pixels `pixels[0 .. pixel_count]` of one
+/// Finalizes the reflection of the pixels `pixels[0 .. pixels_len]` of one
 /// cluster (seed 003 Sec. 3.4, 3.5): each pixel's mirror ray (or lobe
 /// samples) is stepped through the cluster depth image `depth` (rendered
 /// through `camera->camera`) up to the far plane; hits take the bilinear
@@ -396,7 +380,7 @@ pub unsafe extern "C" fn refl_lobe_angle(out: *mut f32, exponent: f32, energy: f
 /// color image of another size than the depth image, a non-finite eye, a
 /// listed pixel outside the input or with a non-finite position or
 /// non-unit normal, an unknown convention, or `out` overlapping an input;
-/// `REFL_STATUS_INSUFFICIENT_SIZE` if `out_len < pixel_count` or an image
+/// `REFL_STATUS_INSUFFICIENT_SIZE` if `out_len < pixels_len` or an image
 /// is short.
 ///
 /// # Safety
@@ -411,34 +395,34 @@ pub unsafe extern "C" fn refl_cluster_finalize(
     positions: refl_image_vec3,
     normals: refl_image_vec3,
     pixels: *const u32,
-    pixel_count: usize,
+    pixels_len: usize,
     eye: refl_vec3,
     camera: *const refl_cluster_camera,
     depth: *const refl_depth_image,
     color: refl_image_vec3,
-    params: *const refl_cluster_finalize_params,
+    input: *const refl_cluster_finalize_input,
 ) -> refl_status {
     guard("refl_cluster_finalize", || {
         let fb_out = Out::new(out_fallbacks, "out_fallbacks")?;
         check_out(out, out_len)?;
         // SAFETY: caller contract.
-        let px = unsafe { slice_or_empty(pixels, pixel_count, "pixels") }?;
+        let px = unsafe { slice_or_empty(pixels, pixels_len, "pixels") }?;
         // SAFETY: caller contract.
-        let (cam_c, depth_c, params_c) = unsafe {
+        let (cam_c, depth_c, input_c) = unsafe {
             (
                 read(camera, "camera")?,
                 read(depth, "depth")?,
-                read(params, "params")?,
+                read(input, "input")?,
             )
         };
         let cam = ClusterCamera::try_from(&cam_c)?;
         // SAFETY: caller contract.
         let di = unsafe { depth_image(&depth_c) }?;
-        let thickness = if params_c.thickness.back_faces.data.is_null() {
-            Thickness::Constant(params_c.thickness.constant)
+        let thickness = if input_c.thickness.back_faces.data.is_null() {
+            Thickness::Constant(input_c.thickness.constant)
         } else {
             // SAFETY: caller contract.
-            Thickness::BackFaces(unsafe { params_c.thickness.back_faces.view() }?)
+            Thickness::BackFaces(unsafe { input_c.thickness.back_faces.view() }?)
         };
         // SAFETY: caller contract.
         let (input, cv) = unsafe {
@@ -456,19 +440,19 @@ pub unsafe extern "C" fn refl_cluster_finalize(
             range(color.data, color.len),
             range(depth_c.depth.data, depth_c.depth.len),
             range(
-                params_c.thickness.back_faces.data,
-                params_c.thickness.back_faces.len,
+                input_c.thickness.back_faces.data,
+                input_c.thickness.back_faces.len,
             ),
-            range(pixels, pixel_count),
+            range(pixels, pixels_len),
         ];
         no_overlap(range(out, out_len), &inputs, "out")?;
-        let fp = FinalizeParams {
+        let fin = FinalizeInput {
             thickness,
-            step: params_c.step.into(),
-            refine: params_c.refine,
-            lobe: params_c.lobe.into(),
-            fade: params_c.fade,
-            seed: params_c.seed,
+            step: input_c.step.into(),
+            refine: input_c.refine,
+            lobe: input_c.lobe.into(),
+            fade: input_c.fade,
+            seed: input_c.seed,
         };
         if out_len < px.len() {
             return Err(Error::InsufficientSize);
@@ -478,7 +462,7 @@ pub unsafe extern "C" fn refl_cluster_finalize(
         // every input (checked).
         let o = unsafe { slice_mut(out, out_len, "out") }?;
         // Validates every input and listed pixel before the first write.
-        let fell = cluster::try_finalize_cluster(o, &input, px, eye.into(), &cam, &di, &cv, &fp)?;
+        let fell = cluster::try_finalize_cluster(o, &input, px, eye.into(), &cam, &di, &cv, &fin)?;
         // SAFETY: caller contract.
         unsafe { fb_out.write(fell) };
         Ok(())

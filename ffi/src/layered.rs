@@ -19,8 +19,8 @@ use crate::status::{fail, fail_str, guard, refl_status};
 use crate::types::{refl_mat4, refl_ray, refl_vec3};
 use refl_core::glam::{Affine3A, Mat4, Vec3};
 use refl_core::layered::{
-    layered_len, prr_classify, ColumnFill, Face, LayerHit, LayeredGrid, LayeredMap, LayeredMapMut,
-    LayeredMiss, LayeredParams, LayeredStamp, LayeredTrace, PrrClass,
+    try_layered_len, try_prr_classify, ColumnFill, Face, LayerHit, LayeredGrid, LayeredMap,
+    LayeredMapMut, LayeredMiss, LayeredOptions, LayeredStamp, LayeredTrace, PrrClass,
 };
 use refl_core::Error;
 
@@ -52,15 +52,15 @@ pub struct refl_layered_grid {
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 pub struct refl_layered_sizes {
     /// Floats of the depth buffer: `6 * res * res * layers`.
-    pub depth: usize,
+    pub depth_len: usize,
     /// uint32_t of the payload buffer: `6 * res * res * layers`.
-    pub payload: usize,
+    pub payload_len: usize,
     /// uint32_t of the layer-count buffer: `6 * res * res`.
-    pub counts: usize,
+    pub counts_len: usize,
     /// Floats of the empty-space bound buffer: per face, levels
     /// `1..=ceil(log2 res)` of `ceil(res / 2^l)^2` cells, `2 * layers`
     /// floats each (0 for res 1).
-    pub bounds: usize,
+    pub bounds_len: usize,
 }
 
 /// A read-only layered depth cube map: grid plus caller buffers.
@@ -116,7 +116,7 @@ pub struct refl_layered_map_mut {
 /// every surface of the object.
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
-pub struct refl_column_ray {
+pub struct refl_layered_column_ray {
     /// Start on the face plane at the texel center, world space.
     pub origin: refl_vec3,
     /// Unit direction into the box, world space.
@@ -129,7 +129,7 @@ pub struct refl_column_ray {
 /// caller's array of crossings in place (it is their scratch).
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
-pub struct refl_layer_hit {
+pub struct refl_layered_layer_hit {
     /// Distance along the column ray, finite (clamped to `[0, t_max]`).
     pub t: f32,
     /// Payload of the surface (primitive id, packed color, ...).
@@ -139,21 +139,21 @@ pub struct refl_layer_hit {
     pub front: bool,
 }
 
-// refl_layer_hit is refl-core's `LayerHit` (`#[repr(C)]`), field for field:
+// refl_layered_layer_hit is refl-core's `LayerHit` (`#[repr(C)]`), field for field:
 // the fill functions sort the caller's array in place as core records.
 const _: () = {
     use core::mem::{align_of, offset_of, size_of};
-    assert!(size_of::<refl_layer_hit>() == size_of::<LayerHit>());
-    assert!(align_of::<refl_layer_hit>() == align_of::<LayerHit>());
-    assert!(offset_of!(refl_layer_hit, t) == offset_of!(LayerHit, t));
-    assert!(offset_of!(refl_layer_hit, id) == offset_of!(LayerHit, id));
-    assert!(offset_of!(refl_layer_hit, front) == offset_of!(LayerHit, front));
+    assert!(size_of::<refl_layered_layer_hit>() == size_of::<LayerHit>());
+    assert!(align_of::<refl_layered_layer_hit>() == align_of::<LayerHit>());
+    assert!(offset_of!(refl_layered_layer_hit, t) == offset_of!(LayerHit, t));
+    assert!(offset_of!(refl_layered_layer_hit, id) == offset_of!(LayerHit, id));
+    assert!(offset_of!(refl_layered_layer_hit, front) == offset_of!(LayerHit, front));
 };
 
 /// What filling a column did.
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
-pub struct refl_column_fill {
+pub struct refl_layered_column_fill {
     /// Solid intervals found along the column.
     pub intervals: u32,
     /// Layers stored: `min(intervals, layers)`; fewer than `intervals`
@@ -161,10 +161,11 @@ pub struct refl_column_fill {
     pub stored: u32,
 }
 
-/// Parameters of the layered trace (seed 001 Sec. 3.3, Algorithm 1).
+/// Settings of the layered trace (seed 001 Sec. 3.3, Algorithm 1);
+/// `refl_layered_options_default` gives the defaults.
 #[repr(C)]
 #[derive(Clone, Copy, Debug, PartialEq)]
-pub struct refl_layered_params {
+pub struct refl_layered_options {
     /// Linear-search step in texels, > 0 and finite.
     pub step_texels: f32,
     /// Cap on linear-search steps plus bound cells visited per face, >= 1.
@@ -206,8 +207,8 @@ pub enum refl_layered_miss {
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
 pub struct refl_layered_result {
-    /// 1 for a hit, 0 for a miss.
-    pub hit: u32,
+    /// True for a hit, false for a miss.
+    pub hit: bool,
     /// A `refl_layered_miss` value (0 for a hit).
     pub miss: u32,
     /// World distance along the ray of the hit (0 for a miss).
@@ -240,7 +241,7 @@ pub struct refl_layered_result {
 /// test (seed 001 Sec. 3.2).
 #[repr(u32)]
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
-pub enum refl_prr_class {
+pub enum refl_layered_prr_class {
     /// No reflection of the bounding sphere on the triangle.
     Outside = 0,
     /// The mirrored sphere is on the camera's side of the plane.
@@ -255,8 +256,8 @@ pub enum refl_prr_class {
     Ellipse = 5,
 }
 
-impl From<LayeredParams> for refl_layered_params {
-    fn from(p: LayeredParams) -> Self {
+impl From<LayeredOptions> for refl_layered_options {
+    fn from(p: LayeredOptions) -> Self {
         Self {
             step_texels: p.step_texels,
             max_steps: p.max_steps,
@@ -268,8 +269,8 @@ impl From<LayeredParams> for refl_layered_params {
     }
 }
 
-impl From<refl_layered_params> for LayeredParams {
-    fn from(p: refl_layered_params) -> Self {
+impl From<refl_layered_options> for LayeredOptions {
+    fn from(p: refl_layered_options) -> Self {
         Self {
             step_texels: p.step_texels,
             max_steps: p.max_steps,
@@ -281,7 +282,7 @@ impl From<refl_layered_params> for LayeredParams {
     }
 }
 
-impl From<PrrClass> for refl_prr_class {
+impl From<PrrClass> for refl_layered_prr_class {
     fn from(c: PrrClass) -> Self {
         match c {
             PrrClass::Outside => Self::Outside,
@@ -306,7 +307,7 @@ impl From<LayeredTrace> for refl_layered_result {
         };
         match t {
             LayeredTrace::Hit(h) => {
-                r.hit = 1;
+                r.hit = true;
                 r.t = h.t;
                 r.position = h.position.into();
                 r.face = h.face as u32;
@@ -484,7 +485,7 @@ impl refl_layered_map_mut {
 /// `hits` NULL or readable and writable for `count` elements, not accessed
 /// through another pointer during `'a`.
 unsafe fn hits_mut<'a>(
-    hits: *mut refl_layer_hit,
+    hits: *mut refl_layered_layer_hit,
     count: usize,
     map: &refl_layered_map_mut,
     out: (usize, usize),
@@ -497,7 +498,7 @@ unsafe fn hits_mut<'a>(
     no_overlap(r, &[m[0], m[1], m[2], m[3], out], "hits")?;
     // SAFETY: non-null, aligned, size fits isize (checked); readable and
     // writable by the caller's contract, disjoint from the map and `out`
-    // (checked); refl_layer_hit is LayerHit field for field (asserted
+    // (checked); refl_layered_layer_hit is LayerHit field for field (asserted
     // above).
     Ok(unsafe { core::slice::from_raw_parts_mut(hits.cast::<LayerHit>(), count) })
 }
@@ -520,37 +521,26 @@ pub unsafe extern "C" fn refl_layered_len(
 ) -> refl_status {
     guard("refl_layered_len", || {
         let out = Out::new(out, "out")?;
-        let l = layered_len(face_res, layers)?;
+        let l = try_layered_len(face_res, layers)?;
         // SAFETY: caller contract.
         unsafe {
             out.write(refl_layered_sizes {
-                depth: l.depth,
-                payload: l.payload,
-                counts: l.counts,
-                bounds: l.bounds,
+                depth_len: l.depth,
+                payload_len: l.payload,
+                counts_len: l.counts,
+                bounds_len: l.bounds,
             })
         };
         Ok(())
     })
 }
 
-/// Writes to `*out` the default trace parameters: half-texel steps (at
-/// most 4096 steps and skipped cells per face), 16 binary iterations down
-/// to 1/16 texel, early stop at one texel, depth interpolated across steps
-/// of up to 4 texels.
-///
-/// Returns `REFL_STATUS_NULL_POINTER` if `out` is NULL.
-///
-/// # Safety
-/// `out` must be NULL or point to a writable `refl_layered_params`.
+/// The default trace options: half-texel steps (at most 4096 steps and
+/// skipped cells per face), 16 binary iterations down to 1/16 texel, early
+/// stop at one texel, depth interpolated across steps of up to 4 texels.
 #[no_mangle]
-pub unsafe extern "C" fn refl_layered_params_default(out: *mut refl_layered_params) -> refl_status {
-    guard("refl_layered_params_default", || {
-        let out = Out::new(out, "out")?;
-        // SAFETY: caller contract.
-        unsafe { out.write(LayeredParams::default().into()) };
-        Ok(())
-    })
+pub extern "C" fn refl_layered_options_default() -> refl_layered_options {
+    LayeredOptions::default().into()
 }
 
 /// Writes to `*out` the world-space orthographic ray of texel `(i, j)` of
@@ -570,7 +560,7 @@ pub unsafe extern "C" fn refl_layered_params_default(out: *mut refl_layered_para
 /// `out` must be NULL or writable; `grid` NULL or readable.
 #[no_mangle]
 pub unsafe extern "C" fn refl_layered_face_ray(
-    out: *mut refl_column_ray,
+    out: *mut refl_layered_column_ray,
     grid: *const refl_layered_grid,
     face: u32,
     i: u32,
@@ -580,10 +570,10 @@ pub unsafe extern "C" fn refl_layered_face_ray(
         let out = Out::new(out, "out")?;
         // SAFETY: caller contract.
         let grid = LayeredGrid::try_from(&unsafe { read(grid, "grid") }?)?;
-        let r = grid.face_ray(self::face(face)?, i, j)?;
+        let r = grid.try_face_ray(self::face(face)?, i, j)?;
         // SAFETY: caller contract.
         unsafe {
-            out.write(refl_column_ray {
+            out.write(refl_layered_column_ray {
                 origin: r.origin.into(),
                 dir: r.dir.into(),
                 t_max: r.t_max,
@@ -619,7 +609,7 @@ pub unsafe extern "C" fn refl_layered_clear(map: *const refl_layered_map_mut) ->
 }
 
 /// Fills texel `(i, j)` of `face` and of its opposite face from all
-/// `hit_count` crossings `hits` of the column ray `refl_layered_face_ray`
+/// `hits_len` crossings `hits` of the column ray `refl_layered_face_ray`
 /// `(face, i, j)`, in any order (seed 001 Sec. 3.4: front layers with their
 /// back faces found through the opposite face). Crossings become solid
 /// intervals (a front hit while outside opens one, a back hit while inside
@@ -639,23 +629,23 @@ pub unsafe extern "C" fn refl_layered_clear(map: *const refl_layered_map_mut) ->
 ///
 /// # Safety
 /// `out` NULL or writable; `map` NULL or readable with writable buffers;
-/// `hits` NULL or readable and writable for `hit_count` elements.
+/// `hits` NULL or readable and writable for `hits_len` elements.
 #[no_mangle]
 pub unsafe extern "C" fn refl_layered_fill_column(
-    out: *mut refl_column_fill,
+    out: *mut refl_layered_column_fill,
     map: *const refl_layered_map_mut,
     face: u32,
     i: u32,
     j: u32,
-    hits: *mut refl_layer_hit,
-    hit_count: usize,
+    hits: *mut refl_layered_layer_hit,
+    hits_len: usize,
 ) -> refl_status {
     let out_at = out as usize;
     guard("refl_layered_fill_column", || {
         let out = Out::new(out, "out")?;
         // SAFETY: caller contract.
         let desc = unsafe { read(map, "map") }?;
-        let out_range = (out_at, core::mem::size_of::<refl_column_fill>());
+        let out_range = (out_at, core::mem::size_of::<refl_layered_column_fill>());
         if desc
             .ranges()
             .iter()
@@ -665,14 +655,14 @@ pub unsafe extern "C" fn refl_layered_fill_column(
         }
         let face = self::face(face)?;
         // SAFETY: caller contract.
-        let hits = unsafe { hits_mut(hits, hit_count, &desc, out_range) }?;
+        let hits = unsafe { hits_mut(hits, hits_len, &desc, out_range) }?;
         // SAFETY: caller contract.
         let mut m = unsafe { desc.view_mut() }?;
         // Validates the texel and every crossing before sorting or writing.
         let f: ColumnFill = m.try_fill_column(face, i, j, hits)?;
         // SAFETY: caller contract.
         unsafe {
-            out.write(refl_column_fill {
+            out.write(refl_layered_column_fill {
                 intervals: f.intervals,
                 stored: f.stored,
             })
@@ -685,7 +675,7 @@ pub unsafe extern "C" fn refl_layered_fill_column(
 /// column rays: the crossings of texel `(i, j)` are
 /// `hits[offsets[j * res + i] .. offsets[j * res + i + 1]]`, so `offsets`
 /// holds `res * res + 1` non-decreasing values with the last at most
-/// `hit_count` (a CSR layout). Each column is filled as by
+/// `hits_len` (a CSR layout). Each column is filled as by
 /// `refl_layered_fill_column`; then the empty-space bounds of `face` and
 /// its opposite are rebuilt (as `refl_layered_build_bounds` does). If `out`
 /// is not NULL, the number of columns whose gaps had to be filled
@@ -697,24 +687,24 @@ pub unsafe extern "C" fn refl_layered_fill_column(
 /// and `hits` are untouched. Returns `REFL_STATUS_NULL_POINTER` if `map`, its buffers,
 /// `offsets`, or `hits` with a non-zero count is NULL;
 /// `REFL_STATUS_INVALID_ARGUMENT` for decreasing offsets or one beyond
-/// `hit_count`, and the cases of `refl_layered_fill_column`;
-/// `REFL_STATUS_INSUFFICIENT_SIZE` if `offset_count < res * res + 1` or a
+/// `hits_len`, and the cases of `refl_layered_fill_column`;
+/// `REFL_STATUS_INSUFFICIENT_SIZE` if `offsets_len < res * res + 1` or a
 /// map buffer is short.
 ///
 /// # Safety
 /// `out` NULL or writable; `map` NULL or readable with writable buffers;
-/// `hits` NULL or readable and writable for `hit_count`, `offsets` NULL or
-/// readable for `offset_count` elements.
+/// `hits` NULL or readable and writable for `hits_len`, `offsets` NULL or
+/// readable for `offsets_len` elements.
 #[no_mangle]
 #[allow(clippy::too_many_arguments)]
 pub unsafe extern "C" fn refl_layered_fill_face(
     out: *mut u32,
     map: *const refl_layered_map_mut,
     face: u32,
-    hits: *mut refl_layer_hit,
-    hit_count: usize,
+    hits: *mut refl_layered_layer_hit,
+    hits_len: usize,
     offsets: *const usize,
-    offset_count: usize,
+    offsets_len: usize,
 ) -> refl_status {
     let out_at = out as usize;
     guard("refl_layered_fill_face", || {
@@ -727,8 +717,8 @@ pub unsafe extern "C" fn refl_layered_fill_face(
             .checked_mul(res)
             .and_then(|n| n.checked_add(1))
             .ok_or(Error::InvalidArgument)?;
-        buffer(offsets, offset_count)?;
-        if offset_count < need {
+        buffer(offsets, offsets_len)?;
+        if offsets_len < need {
             return Err(Error::InsufficientSize);
         }
         let out_range = if out.is_some() { (out_at, 4) } else { (0, 0) };
@@ -742,14 +732,14 @@ pub unsafe extern "C" fn refl_layered_fill_face(
         let m = desc.ranges();
         no_overlap(
             range(offsets, need),
-            &[m[0], m[1], m[2], m[3], range(hits, hit_count)],
+            &[m[0], m[1], m[2], m[3], range(hits, hits_len)],
             "offsets",
         )?;
         // SAFETY: non-null, aligned, size checked; readable by contract and
         // disjoint from everything the call writes (checked).
         let offs = unsafe { slice(offsets, need, "offsets") }?;
         // SAFETY: caller contract.
-        let hits = unsafe { hits_mut(hits, hit_count, &desc, out_range) }?;
+        let hits = unsafe { hits_mut(hits, hits_len, &desc, out_range) }?;
         // SAFETY: caller contract.
         let mut m = unsafe { desc.view_mut() }?;
         // Validates everything (offsets, every crossing, every column ray)
@@ -796,7 +786,7 @@ pub unsafe extern "C" fn refl_layered_build_bounds(
 /// result to `*out`.
 ///
 /// Returns `REFL_STATUS_NULL_POINTER` if `out`, `map`, a map buffer or
-/// `params` is NULL; `REFL_STATUS_INVALID_ARGUMENT` for a non-finite ray,
+/// `options` is NULL; `REFL_STATUS_INVALID_ARGUMENT` for a non-finite ray,
 /// a direction whose length is not 1 (within 1e-3), `t_max` NaN or not
 /// positive, invalid parameters or grid; `REFL_STATUS_INSUFFICIENT_SIZE`
 /// for a short map buffer; `REFL_STATUS_DEGENERATE_GEOMETRY` for a
@@ -804,49 +794,49 @@ pub unsafe extern "C" fn refl_layered_build_bounds(
 ///
 /// # Safety
 /// `out` NULL or writable; `map` NULL or readable with readable buffers;
-/// `params` NULL or readable.
+/// `options` NULL or readable.
 #[no_mangle]
-pub unsafe extern "C" fn refl_layered_trace(
+pub unsafe extern "C" fn refl_layered_trace_ray(
     out: *mut refl_layered_result,
     map: *const refl_layered_map,
     ray: refl_ray,
     t_max: f32,
-    params: *const refl_layered_params,
+    options: *const refl_layered_options,
 ) -> refl_status {
     let out_at = out as usize;
-    guard("refl_layered_trace", || {
+    guard("refl_layered_trace_ray", || {
         let out = Out::new(out, "out")?;
-        crate::ptr::no_nulls(&[(map.is_null(), "map"), (params.is_null(), "params")])?;
+        crate::ptr::no_nulls(&[(map.is_null(), "map"), (options.is_null(), "options")])?;
         // SAFETY: caller contract.
         let desc = unsafe { read(map, "map") }?;
         // SAFETY: caller contract.
-        let params = LayeredParams::from(unsafe { read(params, "params") }?);
+        let options = LayeredOptions::from(unsafe { read(options, "options") }?);
         let r = (out_at, core::mem::size_of::<refl_layered_result>());
         if desc.ranges().iter().any(|x| overlaps(x.0, x.1, r.0, r.1)) {
             return Err(Error::InvalidArgument);
         }
         // SAFETY: caller contract.
         let m = unsafe { desc.view() }?;
-        let res = m.trace(&ray.into(), t_max, &params)?;
+        let res = m.try_trace(&ray.into(), t_max, &options)?;
         // SAFETY: caller contract.
         unsafe { out.write(res.into()) };
         Ok(())
     })
 }
 
-/// Traces `ray_count` rays (as `refl_layered_trace`, one `t_max` for all)
+/// Traces `rays_len` rays (as `refl_layered_trace_ray`, one `t_max` for all)
 /// and writes result `k` to `out[k]`. All rays are validated first: on
 /// error nothing is written.
 ///
-/// Returns `REFL_STATUS_NULL_POINTER` if `map`, a map buffer or `params`
+/// Returns `REFL_STATUS_NULL_POINTER` if `map`, a map buffer or `options`
 /// is NULL, or `out` / `rays` with a non-zero count;
-/// `REFL_STATUS_INSUFFICIENT_SIZE` if `out_len < ray_count` or a map buffer
-/// is short; `REFL_STATUS_INVALID_ARGUMENT` as for `refl_layered_trace`,
+/// `REFL_STATUS_INSUFFICIENT_SIZE` if `out_len < rays_len` or a map buffer
+/// is short; `REFL_STATUS_INVALID_ARGUMENT` as for `refl_layered_trace_ray`,
 /// for any invalid ray, or for `out` overlapping `rays` or the map.
 ///
 /// # Safety
 /// `out` NULL or writable for `out_len` results; `rays` NULL or readable
-/// for `ray_count`; `map` and `params` as for `refl_layered_trace`.
+/// for `rays_len`; `map` and `options` as for `refl_layered_trace_ray`.
 #[no_mangle]
 #[allow(clippy::too_many_arguments)]
 pub unsafe extern "C" fn refl_layered_trace_rays(
@@ -854,25 +844,25 @@ pub unsafe extern "C" fn refl_layered_trace_rays(
     out_len: usize,
     map: *const refl_layered_map,
     rays: *const refl_ray,
-    ray_count: usize,
+    rays_len: usize,
     t_max: f32,
-    params: *const refl_layered_params,
+    options: *const refl_layered_options,
 ) -> refl_status {
     guard("refl_layered_trace_rays", || {
-        crate::ptr::no_nulls(&[(map.is_null(), "map"), (params.is_null(), "params")])?;
-        if ray_count == 0 {
+        crate::ptr::no_nulls(&[(map.is_null(), "map"), (options.is_null(), "options")])?;
+        if rays_len == 0 {
             return Ok(());
         }
         let o = buffer(out.cast_const(), out_len)?;
-        let r = buffer(rays, ray_count)?;
-        if out_len < ray_count {
+        let r = buffer(rays, rays_len)?;
+        if out_len < rays_len {
             return Err(Error::InsufficientSize);
         }
         // SAFETY: caller contract.
         let desc = unsafe { read(map, "map") }?;
         // SAFETY: caller contract.
-        let params = LayeredParams::from(unsafe { read(params, "params") }?);
-        let o = (o.0, ray_count * core::mem::size_of::<refl_layered_result>());
+        let options = LayeredOptions::from(unsafe { read(options, "options") }?);
+        let o = (o.0, rays_len * core::mem::size_of::<refl_layered_result>());
         if overlaps(o.0, o.1, r.0, r.1)
             || desc.ranges().iter().any(|x| overlaps(x.0, x.1, o.0, o.1))
         {
@@ -881,13 +871,13 @@ pub unsafe extern "C" fn refl_layered_trace_rays(
         // SAFETY: caller contract.
         let m = unsafe { desc.view() }?;
         // SAFETY: non-null, aligned, size checked; readable by contract.
-        let rays = unsafe { slice(rays, ray_count, "rays") }?;
-        // SAFETY: non-null, aligned, out_len >= ray_count, disjoint from
+        let rays = unsafe { slice(rays, rays_len, "rays") }?;
+        // SAFETY: non-null, aligned, out_len >= rays_len, disjoint from
         // the inputs (checked); writable by contract.
-        let out = unsafe { slice_mut(out, ray_count, "out") }?;
+        let out = unsafe { slice_mut(out, rays_len, "out") }?;
         // Validates every ray, t_max and the parameters before the first
         // write.
-        m.try_trace_rays(out, rays, t_max, &params)
+        m.try_trace_rays(out, rays, t_max, &options)
     })
 }
 
@@ -895,7 +885,7 @@ pub unsafe extern "C" fn refl_layered_trace_rays(
 /// reflected object with bounding sphere (`center`, `radius`) with the
 /// potential-reflection-region test of seed 001 Sec. 3.2 (camera cone
 /// around the mirrored sphere against the triangle: corner inside, edge
-/// crossing, section inside) and writes a `refl_prr_class` to `*out`.
+/// crossing, section inside) and writes a `refl_layered_prr_class` to `*out`.
 /// Classes 2-5 may show a reflection; 0 and 1 cannot.
 ///
 /// Returns `REFL_STATUS_NULL_POINTER` if `out` is NULL;
@@ -906,7 +896,7 @@ pub unsafe extern "C" fn refl_layered_trace_rays(
 /// # Safety
 /// `out` must be NULL or point to a writable `uint32_t`.
 #[no_mangle]
-pub unsafe extern "C" fn refl_prr_classify(
+pub unsafe extern "C" fn refl_layered_prr_classify(
     out: *mut u32,
     eye: refl_vec3,
     center: refl_vec3,
@@ -915,16 +905,16 @@ pub unsafe extern "C" fn refl_prr_classify(
     p1: refl_vec3,
     p2: refl_vec3,
 ) -> refl_status {
-    guard("refl_prr_classify", || {
+    guard("refl_layered_prr_classify", || {
         let out = Out::new(out, "out")?;
-        let c = prr_classify(
+        let c = try_prr_classify(
             eye.into(),
             center.into(),
             radius,
             [p0, p1, p2].map(Vec3::from),
         )?;
         // SAFETY: caller contract.
-        unsafe { out.write(refl_prr_class::from(c) as u32) };
+        unsafe { out.write(refl_layered_prr_class::from(c) as u32) };
         Ok(())
     })
 }

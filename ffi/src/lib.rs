@@ -6,12 +6,17 @@
 //! it is stale (`REFL_BLESS_HEADER=1 cargo test -p refl-ffi --test header`
 //! rewrites it).
 //!
-//! Conventions of every export (meshoptimizer / rustls-ffi style):
+//! Conventions of every export (meshoptimizer / rustls-ffi style; the
+//! naming and signature rules are `docs/api.md`'s, enforced on the header by
+//! `tests/conventions.rs`):
 //!
 //! * Outputs first, then inputs. Small values (vectors, rays, image
 //!   descriptors) are passed by value; cameras, planes and matrices by
 //!   pointer.
-//! * Every function returns a [`refl_status`]; `REFL_STATUS_OK` is 0. Each
+//! * Every function returns a [`refl_status`] (except the library-level
+//!   `refl_version*`, `refl_status_string`, `refl_last_error_message` and
+//!   the `refl_<module>_options_default(void)` functions, which return
+//!   their value); `REFL_STATUS_OK` is 0. Each
 //!   pointer is checked (NULL, then alignment) before it is read, and
 //!   `REFL_STATUS_NULL_POINTER` comes only with a NULL pointer; when several
 //!   arguments are bad, which one is reported is not specified (the

@@ -217,7 +217,7 @@ pub(crate) fn no_overlap(
 /// 0) and the band's rows: what [`pyramid_band`] returns.
 pub(crate) type PyramidBand<'a, T> = (&'a mut [T], Option<&'a [T]>, refl_core::RowRange);
 
-/// The rows `row_start..row_end` of level `level` of a pyramid laid out as
+/// The rows `rows` of level `level` of a pyramid laid out as
 /// `layout` in the caller buffer `dst` of `dst_len` texels (checked with
 /// [`check_buffer`]), and for `level > 0` the whole finer level they are
 /// built from ([`refl_core::HiZLayout::try_band`]): the slices of every
@@ -237,11 +237,10 @@ pub(crate) unsafe fn pyramid_band<'a, T>(
     dst_len: usize,
     layout: &refl_core::hiz::HiZLayout,
     level: u32,
-    row_start: u32,
-    row_end: u32,
+    rows: crate::image::refl_row_range,
 ) -> Result<PyramidBand<'a, T>, Error> {
     let lv = layout.level(level).ok_or(Error::InvalidArgument)?;
-    let rows = refl_core::RowRange::try_new(row_start, row_end, lv.height)?;
+    let rows = refl_core::RowRange::try_new(rows.begin, rows.end, lv.height)?;
     let b = layout.try_band(level, rows, dst_len)?;
     // SAFETY: `b.band` lies within the first layout.len() <= dst_len
     // texels, writable by contract and not touched by other threads.

@@ -7,8 +7,9 @@
 use refl::*;
 use refl_core::glam::{Vec2, Vec3};
 use refl_core::{
-    hiz_len, try_build_hiz, Camera, DepthConvention, DepthImage, GBuffer, HiZ, HiZTexel, HostRay,
-    ImageView, ImageViewMut, MirrorMethod, MirrorOptions, MirrorPass, MirrorTexel, NormalSpace,
+    try_build_hiz, try_hiz_len, Camera, DepthConvention, DepthImage, GBuffer, HiZ, HiZTexel,
+    HostRay, ImageView, ImageViewMut, MirrorMethod, MirrorOptions, MirrorPass, MirrorTexel,
+    NormalSpace,
 };
 mod common;
 use common::counted;
@@ -295,7 +296,7 @@ fn c_pass_equals_the_rust_pass_bit_for_bit_without_allocating() {
                 assert_eq!(s, refl_status::Ok);
                 assert_eq!((a_prep, a_run), (0, 0), "allocations in refl_ssr_*");
                 // The Rust pass.
-                let mut pyr = vec![HiZTexel::default(); hiz_len(W, H).unwrap()];
+                let mut pyr = vec![HiZTexel::default(); try_hiz_len(W, H).unwrap()];
                 let gb = f.gbuffer(back);
                 try_build_hiz(&mut pyr, gb.depth()).unwrap();
                 if method == MirrorMethod::HiZ {
@@ -395,7 +396,7 @@ fn row_bands_from_threads_equal_the_whole_image() {
                     let mut rows = refl_row_range::default();
                     // SAFETY: valid pointer.
                     assert_eq!(
-                        unsafe { refl_row_band(&mut rows, H, b, bands) },
+                        unsafe { refl_image_row_band(&mut rows, H, b, bands) },
                         refl_status::Ok
                     );
                     let mut host = vec![refl_host_ray::default(); n];
