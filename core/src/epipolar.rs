@@ -1340,14 +1340,18 @@ pub fn try_decide_rows(
         rows.start() as usize * width as usize,
         rows.end() as usize * width as usize,
     );
-    if out.len() < end {
-        options.try_validate()?;
-        if width == 0 {
-            return Err(Error::InvalidArgument);
-        }
-        return Err(Error::InsufficientSize);
+    check_decide(width, options)?;
+    let band = out.get_mut(start..end).ok_or(Error::InsufficientSize)?;
+    try_decide_band(band, aip, width, rows, frame, options)
+}
+
+/// The checks shared by [`try_decide_rows`] and [`try_decide_band`].
+fn check_decide(width: u32, options: &EpipolarOptions) -> Result<(), Error> {
+    options.try_validate()?;
+    if width == 0 {
+        return Err(Error::InvalidArgument);
     }
-    try_decide_band(&mut out[start..end], aip, width, rows, frame, options)
+    Ok(())
 }
 
 /// [`decide`] for the rows `rows` of a `width`-wide image into the band
@@ -1369,10 +1373,7 @@ pub fn try_decide_band<O: From<Decision>>(
     frame: u32,
     options: &EpipolarOptions,
 ) -> Result<(), Error> {
-    options.try_validate()?;
-    if width == 0 {
-        return Err(Error::InvalidArgument);
-    }
+    check_decide(width, options)?;
     let w = width as usize;
     if aip.len() < rows.end() as usize * w || band.len() < rows.len() as usize * w {
         return Err(Error::InsufficientSize);

@@ -110,100 +110,28 @@ fn rows(begin: u32, end: u32) -> refl_row_range {
     refl_row_range { begin, end }
 }
 
-fn img<T, I>(data: &[T], make: impl FnOnce(*const T, usize) -> I) -> I {
-    make(data.as_ptr(), data.len())
+/// Image descriptors of `W x H` texels, tightly packed, over test buffers:
+/// `name(&[texel])` (read-only) and `name_mut(&mut [texel])`.
+macro_rules! images {
+    ($($f:ident, $fm:ident: $texel:ty => $c:ident, $cm:ident;)*) => {$(
+        fn $f(d: &[$texel]) -> $c {
+            $c { data: d.as_ptr().cast(), len: d.len(), width: W, height: H, stride: W }
+        }
+        #[allow(dead_code)]
+        fn $fm(d: &mut [$texel]) -> $cm {
+            $cm { data: d.as_mut_ptr().cast(), len: d.len(), width: W, height: H, stride: W }
+        }
+    )*};
 }
 
-fn f32_img(d: &[f32]) -> refl_image_f32 {
-    img(d, |data, len| refl_image_f32 {
-        data,
-        len,
-        width: W,
-        height: H,
-        stride: W,
-    })
+images! {
+    f32_img, f32_mut: f32 => refl_image_f32, refl_image_f32_mut;
+    vec3_img, vec3_mut: [f32; 3] => refl_image_vec3, refl_image_vec3_mut;
+    vec2_img, vec2_mut: [f32; 2] => refl_image_vec2, refl_image_vec2_mut;
+    u8_img, u8_mut: u8 => refl_image_u8, refl_image_u8_mut;
+    u32_img, u32_mut: u32 => refl_image_u32, refl_image_u32_mut;
 }
-fn f32_mut(d: &mut [f32]) -> refl_image_f32_mut {
-    refl_image_f32_mut {
-        data: d.as_mut_ptr(),
-        len: d.len(),
-        width: W,
-        height: H,
-        stride: W,
-    }
-}
-fn vec3_img(d: &[[f32; 3]]) -> refl_image_vec3 {
-    refl_image_vec3 {
-        data: d.as_ptr().cast(),
-        len: d.len(),
-        width: W,
-        height: H,
-        stride: W,
-    }
-}
-fn vec3_mut(d: &mut [[f32; 3]]) -> refl_image_vec3_mut {
-    refl_image_vec3_mut {
-        data: d.as_mut_ptr().cast(),
-        len: d.len(),
-        width: W,
-        height: H,
-        stride: W,
-    }
-}
-fn vec2_img(d: &[[f32; 2]]) -> refl_image_vec2 {
-    refl_image_vec2 {
-        data: d.as_ptr().cast(),
-        len: d.len(),
-        width: W,
-        height: H,
-        stride: W,
-    }
-}
-fn vec2_mut(d: &mut [[f32; 2]]) -> refl_image_vec2_mut {
-    refl_image_vec2_mut {
-        data: d.as_mut_ptr().cast(),
-        len: d.len(),
-        width: W,
-        height: H,
-        stride: W,
-    }
-}
-fn u8_img(d: &[u8]) -> refl_image_u8 {
-    refl_image_u8 {
-        data: d.as_ptr(),
-        len: d.len(),
-        width: W,
-        height: H,
-        stride: W,
-    }
-}
-fn u8_mut(d: &mut [u8]) -> refl_image_u8_mut {
-    refl_image_u8_mut {
-        data: d.as_mut_ptr(),
-        len: d.len(),
-        width: W,
-        height: H,
-        stride: W,
-    }
-}
-fn u32_img(d: &[u32]) -> refl_image_u32 {
-    refl_image_u32 {
-        data: d.as_ptr(),
-        len: d.len(),
-        width: W,
-        height: H,
-        stride: W,
-    }
-}
-fn u32_mut(d: &mut [u32]) -> refl_image_u32_mut {
-    refl_image_u32_mut {
-        data: d.as_mut_ptr(),
-        len: d.len(),
-        width: W,
-        height: H,
-        stride: W,
-    }
-}
+
 fn no_f32() -> refl_image_f32 {
     refl_image_f32 {
         data: core::ptr::null(),
