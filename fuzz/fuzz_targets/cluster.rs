@@ -344,6 +344,6 @@ fuzz_target!(|data: &[u8]| {
         assert!((len3(sh.mirror_dir) - 1.0).abs() < 1e-3, "mirror dir {:?}", sh.mirror_dir);
     }
     for i in px.len()..out_len {
-        assert!(shades.is_sentinel(i), "finalize wrote past pixel_count");
+        assert!(shades.is_sentinel(i), "finalize wrote past pixels_len");
     }
 });

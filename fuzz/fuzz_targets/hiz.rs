@@ -350,7 +350,7 @@ fn trace_batch(b: &mut Bytes, t: &Trace, opts: &refl_hiz_options) {
     let untouched = (0..out_len).all(|i| out.is_sentinel(i));
     on_error_untouched(s, &[("out", untouched)], "refl_hiz_trace_rays");
     for i in n..out_len {
-        assert!(out.is_sentinel(i), "refl_hiz_trace_rays wrote out[{i}] past ray_count {n}");
+        assert!(out.is_sentinel(i), "refl_hiz_trace_rays wrote out[{i}] past rays_len {n}");
     }
     if s != refl_status::Ok {
         return;

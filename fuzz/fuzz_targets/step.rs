@@ -129,9 +129,9 @@ fn step_batch(b: &mut Bytes, s: &Setup) {
     null_rules_m(st, null, null, mis, "refl_step_rays");
     let untouched = (0..out_len).all(|i| out.is_sentinel(i));
     on_error_untouched(st, &[("out", untouched)], "refl_step_rays");
-    // "Elements of out past ray_count are never written."
+    // "Elements of out past rays_len are never written."
     for i in n..out_len {
-        assert!(out.is_sentinel(i), "refl_step_rays wrote out[{i}] past ray_count {n}");
+        assert!(out.is_sentinel(i), "refl_step_rays wrote out[{i}] past rays_len {n}");
     }
     let ptrs_ok = [out.kind(), rb.kind(), tb.kind(), image.kind(), th.kind(), opts.kind()]
         .iter()
@@ -147,7 +147,7 @@ fn step_batch(b: &mut Bytes, s: &Setup) {
         if ptrs_ok && tcount == 0 && !null && s.valid() {
             assert!(
                 matches!(st, refl_status::InvalidArgument | refl_status::InsufficientSize),
-                "t_max_count 0: {st:?}"
+                "t_max_len 0: {st:?}"
             );
         }
         return;
