@@ -293,13 +293,12 @@ Row run(RTCDevice device, size_t target) {
     // refl: clustering.
     const refl_image_vec3 pv{pos.data(), N, W, H, W}, nv{nrm.data(), N, W, H, W};
     const refl_image_u32 ov{obj.data(), N, W, H, W};
-    refl_cluster_params cp;
-    refl_cluster_params_default(&cp);
+    refl_cluster_options cp = refl_cluster_options_default();
     cp.gain = 64.0f;
     t0 = Clock::now();
     std::vector<uint32_t> counts(w.meshes.size(), 0);
     CHECK_STATUS(refl_cluster_count_objects(counts.data(), counts.size(), ov, refl_row_range{0, H}), REFL_STATUS_OK);
-    std::vector<refl_object_bins> layout(counts.size());
+    std::vector<refl_cluster_object_bins> layout(counts.size());
     uint32_t bins = 0;
     CHECK_STATUS(refl_cluster_bin_layout(&bins, layout.data(), layout.size(), counts.data(), counts.size(), N, &cp),
                  REFL_STATUS_OK);
@@ -315,10 +314,9 @@ Row run(RTCDevice device, size_t target) {
     row.clustering_ms = ms_since(t0);
     CHECK_EQ(size_t(clustered), row.reflective);
 
-    refl_cluster_camera_params kp;
-    refl_cluster_camera_params_default(&kp);
+    refl_cluster_camera_options kp = refl_cluster_camera_options_default();
     kp.far_distance = 30.0f;
-    const refl_cluster_finalize_params fp{{0.05f, {nullptr, 0, 0, 0, 0}}, {1, 0xFFFFFFFFu}, true, {1, 0.0f, 0.0f},
+    const refl_cluster_finalize_input fp{{0.05f, {nullptr, 0, 0, 0, 0}}, {1, 0xFFFFFFFFu}, true, {1, 0.0f, 0.0f},
                                           false, 0};
     std::vector<float> depth;
     std::vector<uint32_t> texel_obj;

@@ -1,5 +1,5 @@
-// convert_depth: the whole-image pass refl_convert_depth, split into row
-// bands (refl_row_band) across threads, against one call over all rows and
+// convert_depth: the whole-image pass refl_image_convert_depth, split into row
+// bands (refl_image_row_band) across threads, against one call over all rows and
 // against the per-texel functions, for every pair of depth conventions,
 // finite and infinite far planes, padded strides and in-place conversion.
 #include <cmath>
@@ -50,8 +50,8 @@ void run(const refl_camera& cam, const char* name) {
             const size_t dst_len = size_t(kH - 1) * kDstStride + kW;
             std::vector<float> one(dst_len + 8, 7.0f), banded(dst_len + 8, 7.0f);
             // One call over all rows.
-            CHECK_STATUS(refl_convert_depth(refl_image_f32_mut{one.data(), dst_len, kW, kH, kDstStride}, src_img,
-                                            &cam, from, to, 0, kH),
+            CHECK_STATUS(refl_image_convert_depth(refl_image_f32_mut{one.data(), dst_len, kW, kH, kDstStride}, src_img,
+                                            &cam, from, to, refl_row_range{0, kH}),
                          REFL_STATUS_OK);
             // kThreads bands on kThreads threads.
             std::vector<std::thread> threads;
@@ -59,9 +59,9 @@ void run(const refl_camera& cam, const char* name) {
             for (uint32_t t = 0; t < kThreads; ++t) {
                 threads.emplace_back([&, t] {
                     refl_row_range band;
-                    if (refl_row_band(&band, kH, t, kThreads) != REFL_STATUS_OK) return;
-                    status[t] = refl_convert_depth(refl_image_f32_mut{banded.data(), dst_len, kW, kH, kDstStride},
-                                                   src_img, &cam, from, to, band.begin, band.end);
+                    if (refl_image_row_band(&band, kH, t, kThreads) != REFL_STATUS_OK) return;
+                    status[t] = refl_image_convert_depth(refl_image_f32_mut{banded.data(), dst_len, kW, kH, kDstStride},
+                                                   src_img, &cam, from, to, refl_row_range{band.begin, band.end});
                 });
             }
             for (auto& th : threads) th.join();
@@ -94,12 +94,12 @@ void run(const refl_camera& cam, const char* name) {
     std::vector<float> buf = linear;
     const refl_image_f32_mut m{buf.data(), buf.size(), kW, kH, kSrcStride};
     const refl_image_f32 c{buf.data(), buf.size(), kW, kH, kSrcStride};
-    CHECK_STATUS(refl_convert_depth(m, c, &cam, REFL_DEPTH_CONVENTION_LINEAR, REFL_DEPTH_CONVENTION_ZERO_TO_ONE, 0, kH),
+    CHECK_STATUS(refl_image_convert_depth(m, c, &cam, REFL_DEPTH_CONVENTION_LINEAR, REFL_DEPTH_CONVENTION_ZERO_TO_ONE, refl_row_range{0, kH}),
                  REFL_STATUS_OK);
     CHECK_STATUS(
-        refl_convert_depth(m, c, &cam, REFL_DEPTH_CONVENTION_ZERO_TO_ONE, REFL_DEPTH_CONVENTION_REVERSED_Z, 0, kH),
+        refl_image_convert_depth(m, c, &cam, REFL_DEPTH_CONVENTION_ZERO_TO_ONE, REFL_DEPTH_CONVENTION_REVERSED_Z, refl_row_range{0, kH}),
         REFL_STATUS_OK);
-    CHECK_STATUS(refl_convert_depth(m, c, &cam, REFL_DEPTH_CONVENTION_REVERSED_Z, REFL_DEPTH_CONVENTION_LINEAR, 0, kH),
+    CHECK_STATUS(refl_image_convert_depth(m, c, &cam, REFL_DEPTH_CONVENTION_REVERSED_Z, REFL_DEPTH_CONVENTION_LINEAR, refl_row_range{0, kH}),
                  REFL_STATUS_OK);
     double worst_in_place = 0.0;
     for (uint32_t y = 0; y < kH; ++y)

@@ -28,7 +28,7 @@
 //    projection. False hit: a hit on a ray whose reference is not visible.
 //  * Kernels: stepping with stride 1, 4, 16; Hi-Z with its default options
 //    and three variants; stride 1 and default Hi-Z again with
-//    refl_refine_hit on every hit; constant thickness 0.005 scene diameters;
+//    refl_trace_refine_hit on every hit; constant thickness 0.005 scene diameters;
 //    every convention. Timed on one thread and on all hardware threads (std::thread
 //    chunks), next to rtcIntersect1 on the same (original) rays.
 //
@@ -337,7 +337,7 @@ void finish_rays(Rays& r, const View& v, RTCScene s, double diameter, unsigned t
 struct Kernel {
     std::string kind, setting;
     bool hiz = false;
-    bool refine = false;  // refl_refine_hit on every hit (inside the timed pass)
+    bool refine = false;  // refl_trace_refine_hit on every hit (inside the timed pass)
     refl_step_options step{1, UINT32_MAX};
     refl_hiz_options hopt{};
 };
@@ -351,8 +351,7 @@ std::vector<Kernel> kernels() {
         x.step = {s, UINT32_MAX};
         k.push_back(x);
     }
-    refl_hiz_options def{};
-    REQUIRE(refl_hiz_default_options(&def) == REFL_STATUS_OK);
+    refl_hiz_options def = refl_hiz_options_default();
     auto hiz = [&](const std::string& name, refl_hiz_options o) {
         Kernel x;
         x.kind = "hiz";
@@ -390,18 +389,18 @@ std::vector<Kernel> kernels() {
 struct Target {
     refl_depth_image image{};
     refl_hiz hiz{};
-    refl_thickness thickness{};
+    refl_trace_thickness thickness{};
 };
 
 uint32_t trace_chunk(const Kernel& k, const Target& t, const refl_ray* rays, size_t n, refl_trace_result* out) {
     const float tmax = kInf;
-    const refl_status s = k.hiz ? refl_hiz_trace_rays(out, n, rays, n, &tmax, 1, &t.hiz, &t.thickness, &k.hopt)
-                                : refl_step_rays(out, n, rays, n, &tmax, 1, &t.image, &t.thickness, &k.step);
+    const refl_status s = k.hiz ? refl_hiz_trace_rays(out, n, &t.hiz, &t.thickness, rays, n, &tmax, 1, &k.hopt)
+                                : refl_step_rays(out, n, &t.image, &t.thickness, rays, n, &tmax, 1, &k.step);
     if (s != REFL_STATUS_OK || !k.refine) return s;
     for (size_t i = 0; i < n; ++i) {
-        if (out[i].miss != REFL_MISS_NONE) continue;
+        if (out[i].miss != REFL_TRACE_MISS_NONE) continue;
         const refl_trace_result hit = out[i];
-        const refl_status r = refl_refine_hit(&out[i], &t.image, rays[i], tmax, &hit);
+        const refl_status r = refl_trace_refine_hit(&out[i], &t.image, rays[i], tmax, &hit);
         if (r != REFL_STATUS_OK) return r;
     }
     return REFL_STATUS_OK;
@@ -437,7 +436,7 @@ Stats evaluate(const Rays& r, const std::vector<refl_trace_result>& t) {
     for (size_t i = 0; i < t.size(); ++i) {
         s.fetches += t[i].fetches;
         s.nan += !finite_result(t[i]);
-        const bool hit = t[i].miss == REFL_MISS_NONE, vis = r.visible[i] != 0;
+        const bool hit = t[i].miss == REFL_TRACE_MISS_NONE, vis = r.visible[i] != 0;
         s.visible += vis;
         if (hit && vis) {
             const double err = std::hypot(double(t[i].pixel.x) - r.ref_px[i], double(t[i].pixel.y) - r.ref_py[i]);
@@ -456,7 +455,7 @@ Stats evaluate(const Rays& r, const std::vector<refl_trace_result>& t) {
 
 // Both miss, or both hit within one pixel of each other.
 bool same_hit(const refl_trace_result& a, const refl_trace_result& b) {
-    const bool ha = a.miss == REFL_MISS_NONE, hb = b.miss == REFL_MISS_NONE;
+    const bool ha = a.miss == REFL_TRACE_MISS_NONE, hb = b.miss == REFL_TRACE_MISS_NONE;
     if (ha != hb) return false;
     return !ha || std::hypot(double(a.pixel.x) - b.pixel.x, double(a.pixel.y) - b.pixel.y) <= 1.0;
 }
@@ -478,7 +477,7 @@ LongRays long_rays(const View& v, const std::vector<refl_ray>& rays, const std::
                    const std::vector<refl_trace_result>& hiz) {
     LongRays l;
     for (size_t i = 0; i < rays.size(); ++i) {
-        if (step[i].miss != REFL_MISS_NONE || !same_hit(step[i], hiz[i])) continue;
+        if (step[i].miss != REFL_TRACE_MISS_NONE || !same_hit(step[i], hiz[i])) continue;
         refl_projection p{};
         if (refl_camera_project(&p, &v.cam, rays[i].origin) != REFL_STATUS_OK || !p.valid) continue;
         if (std::hypot(double(step[i].pixel.x) - p.x, double(step[i].pixel.y) - p.y) <= kLongRayPx) continue;
@@ -532,7 +531,7 @@ Pyramid build_pyramid(const DepthBuf& db, unsigned threads) {
             CHECK_STATUS(refl_hiz_level(&info, db.cam.width, db.cam.height, level), REFL_STATUS_OK);
             std::atomic<size_t> bad{0};
             parallel_for(info.height, threads, [&](size_t b, size_t e) {
-                if (refl_hiz_build_rows(bands.data(), bands.size(), &im, level, uint32_t(b), uint32_t(e)) !=
+                if (refl_hiz_build_rows(bands.data(), bands.size(), &im, level, refl_row_range{uint32_t(b), uint32_t(e)}) !=
                     REFL_STATUS_OK)
                     ++bad;
             });

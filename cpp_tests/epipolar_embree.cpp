@@ -137,8 +137,7 @@ int main() {
         objects.push_back(std::make_unique<scene::Scene>(dev.device, one));
     }
 
-    refl_epipolar_params params;
-    REQUIRE(refl_epipolar_params_default(&params) == REFL_STATUS_OK);
+    refl_epipolar_options params = refl_epipolar_options_default();
     const size_t n = size_t(kW) * kH;
     size_t scratch_len = 0;
     REQUIRE(refl_epipolar_scratch_len(&scratch_len, kW, kH) == REFL_STATUS_OK);
@@ -176,7 +175,7 @@ int main() {
             frustum_failed += stats.frustum_failed;
         }
         const double t_rep = now_ms() - t0;
-        CHECK_STATUS(refl_epipolar_decide_rows(decisions.data(), n, aip.data(), n, kW, 0, kH, uint32_t(f), &params),
+        CHECK_STATUS(refl_epipolar_decide_rows(decisions.data(), n, aip.data(), n, kW, refl_row_range{0, kH}, uint32_t(f), &params),
                      REFL_STATUS_OK);
         long f_resolved = 0, f_failed = 0, f_resampled = 0;
         for (size_t i = 0; i < n; ++i) {

@@ -40,7 +40,7 @@ int main() {
 
     // The camera mirrored in that plane.
     refl_camera virtual_camera;
-    if (!ok(refl_mirrored_camera(&virtual_camera, &camera, &mirror), "refl_mirrored_camera")) return 1;
+    if (!ok(refl_mirror_camera(&virtual_camera, &camera, &mirror), "refl_mirror_camera")) return 1;
     bool flipped = false;
     refl_camera_is_mirrored(&flipped, &virtual_camera);
     std::printf("mirrored camera: flip the front-face test: %s\n", flipped ? "yes" : "no");

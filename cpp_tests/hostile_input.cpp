@@ -252,8 +252,8 @@ void camera_functions() {
     });
     // Two-camera functions: a bad camera in either position.
     per_camera("reprojection_matrix", [&](const refl_camera* c, refl_status st, const char* n, bool okay) {
-        auto f1 = [&](refl_mat4* o) { return refl_reprojection_matrix(o, c, &g, REFL_DEPTH_CONVENTION_ZERO_TO_ONE); };
-        auto f2 = [&](refl_mat4* o) { return refl_reprojection_matrix(o, &g, c, REFL_DEPTH_CONVENTION_REVERSED_Z); };
+        auto f1 = [&](refl_mat4* o) { return refl_camera_reprojection_matrix(o, c, &g, REFL_DEPTH_CONVENTION_ZERO_TO_ONE); };
+        auto f2 = [&](refl_mat4* o) { return refl_camera_reprojection_matrix(o, &g, c, REFL_DEPTH_CONVENTION_REVERSED_Z); };
         if (okay) {
             expect_ok<refl_mat4>(n, f1);
             expect_ok<refl_mat4>(n, f2);
@@ -263,8 +263,8 @@ void camera_functions() {
         }
     });
     per_camera("reproject", [&](const refl_camera* c, refl_status st, const char* n, bool okay) {
-        auto f1 = [&](refl_projection* o) { return refl_reproject(o, c, &g, px, 0.5f, REFL_DEPTH_CONVENTION_ZERO_TO_ONE); };
-        auto f2 = [&](refl_projection* o) { return refl_reproject(o, &g, c, px, 3.0f, REFL_DEPTH_CONVENTION_LINEAR); };
+        auto f1 = [&](refl_projection* o) { return refl_camera_reproject(o, c, &g, px, 0.5f, REFL_DEPTH_CONVENTION_ZERO_TO_ONE); };
+        auto f2 = [&](refl_projection* o) { return refl_camera_reproject(o, &g, c, px, 3.0f, REFL_DEPTH_CONVENTION_LINEAR); };
         if (okay) {
             expect_ok<refl_projection>(n, f1);
             expect_ok<refl_projection>(n, f2);
@@ -281,7 +281,7 @@ void camera_functions() {
         expect<refl_vec3>("unproject pixel", REFL_STATUS_INVALID_ARGUMENT,
                           [&](refl_vec3* o) { return refl_camera_unproject(o, &g, b, 0.5f, 1); });
         expect<refl_projection>("reproject pixel", REFL_STATUS_INVALID_ARGUMENT,
-                                [&](refl_projection* o) { return refl_reproject(o, &g, &g, b, 0.5f, 1); });
+                                [&](refl_projection* o) { return refl_camera_reproject(o, &g, &g, b, 0.5f, 1); });
     }
     expect<refl_ray>("primary_ray huge pixel", REFL_STATUS_INVALID_ARGUMENT,
                      [&](refl_ray* o) { return refl_camera_primary_ray(o, &g, v2(3e38f, -3e38f)); });
@@ -295,7 +295,7 @@ void camera_functions() {
         expect<refl_vec3>("unproject depth", REFL_STATUS_INVALID_ARGUMENT,
                           [&](refl_vec3* o) { return refl_camera_unproject(o, &g, px, d, 0); });
         expect<refl_projection>("reproject depth", REFL_STATUS_INVALID_ARGUMENT,
-                                [&](refl_projection* o) { return refl_reproject(o, &g, &g, px, d, 0); });
+                                [&](refl_projection* o) { return refl_camera_reproject(o, &g, &g, px, d, 0); });
     }
     expect<float>("encode NaN", REFL_STATUS_INVALID_ARGUMENT,
                   [&](float* o) { return refl_camera_encode_depth(o, &g, kNaN, 1); });
@@ -316,9 +316,9 @@ void camera_functions() {
         expect<refl_mat4>("world_to_pixel convention", REFL_STATUS_INVALID_ARGUMENT,
                           [&](refl_mat4* o) { return refl_camera_world_to_pixel_matrix(o, &g, c); });
         expect<refl_mat4>("reprojection convention", REFL_STATUS_INVALID_ARGUMENT,
-                          [&](refl_mat4* o) { return refl_reprojection_matrix(o, &g, &g, c); });
+                          [&](refl_mat4* o) { return refl_camera_reprojection_matrix(o, &g, &g, c); });
         expect<refl_projection>("reproject convention", REFL_STATUS_INVALID_ARGUMENT,
-                                [&](refl_projection* o) { return refl_reproject(o, &g, &g, px, 0.5f, c); });
+                                [&](refl_projection* o) { return refl_camera_reproject(o, &g, &g, px, 0.5f, c); });
     }
     // LINEAR is not projective.
     expect<refl_mat4>("projection LINEAR", REFL_STATUS_INVALID_ARGUMENT,
@@ -327,7 +327,7 @@ void camera_functions() {
         return refl_camera_world_to_pixel_matrix(o, &g, REFL_DEPTH_CONVENTION_LINEAR);
     });
     expect<refl_mat4>("reprojection LINEAR", REFL_STATUS_INVALID_ARGUMENT, [&](refl_mat4* o) {
-        return refl_reprojection_matrix(o, &g, &g, REFL_DEPTH_CONVENTION_LINEAR);
+        return refl_camera_reprojection_matrix(o, &g, &g, REFL_DEPTH_CONVENTION_LINEAR);
     });
     // The far plane at infinity has no finite point.
     refl_camera inf_far = g;
@@ -336,25 +336,25 @@ void camera_functions() {
         return refl_camera_unproject(o, &inf_far, px, 0.0f, REFL_DEPTH_CONVENTION_REVERSED_Z);
     });
 
-    // refl_apply_reprojection
+    // refl_camera_apply_reprojection
     const refl_mat4 m = expect_ok<refl_mat4>("reprojection_matrix", [&](refl_mat4* o) {
-        return refl_reprojection_matrix(o, &g, &g, REFL_DEPTH_CONVENTION_ZERO_TO_ONE);
+        return refl_camera_reprojection_matrix(o, &g, &g, REFL_DEPTH_CONVENTION_ZERO_TO_ONE);
     });
-    expect_ok<refl_projection>("apply", [&](refl_projection* o) { return refl_apply_reprojection(o, &m, px, 0.5f); });
+    expect_ok<refl_projection>("apply", [&](refl_projection* o) { return refl_camera_apply_reprojection(o, &m, px, 0.5f); });
     expect<refl_projection>("apply NULL matrix", REFL_STATUS_NULL_POINTER,
-                            [&](refl_projection* o) { return refl_apply_reprojection(o, nullptr, px, 0.5f); });
+                            [&](refl_projection* o) { return refl_camera_apply_reprojection(o, nullptr, px, 0.5f); });
     for (int i = 0; i < 16; i += 5) {
         refl_mat4 bm = m;
         bm.m[i] = (i % 2) ? kInf : kNaN;
         expect<refl_projection>("apply bad matrix", REFL_STATUS_INVALID_ARGUMENT,
-                                [&](refl_projection* o) { return refl_apply_reprojection(o, &bm, px, 0.5f); });
+                                [&](refl_projection* o) { return refl_camera_apply_reprojection(o, &bm, px, 0.5f); });
     }
     for (refl_vec2 b : kBadVec2)
         expect<refl_projection>("apply pixel", REFL_STATUS_INVALID_ARGUMENT,
-                                [&](refl_projection* o) { return refl_apply_reprojection(o, &m, b, 0.5f); });
+                                [&](refl_projection* o) { return refl_camera_apply_reprojection(o, &m, b, 0.5f); });
     for (float d : {kNaN, kInf})
         expect<refl_projection>("apply depth", REFL_STATUS_INVALID_ARGUMENT,
-                                [&](refl_projection* o) { return refl_apply_reprojection(o, &m, px, d); });
+                                [&](refl_projection* o) { return refl_camera_apply_reprojection(o, &m, px, d); });
 }
 
 void plane_functions() {
@@ -375,9 +375,9 @@ void plane_functions() {
         expect<refl_plane>("point_normal normal", REFL_STATUS_INVALID_ARGUMENT,
                            [&](refl_plane* o) { return refl_plane_from_point_normal(o, v3(0, 0, 0), b); });
         expect<refl_vec3>("reflect v", REFL_STATUS_INVALID_ARGUMENT,
-                          [&](refl_vec3* o) { return refl_reflect(o, b, v3(0, 1, 0)); });
+                          [&](refl_vec3* o) { return refl_mirror_reflect(o, b, v3(0, 1, 0)); });
         expect<refl_vec3>("reflect n", REFL_STATUS_INVALID_ARGUMENT,
-                          [&](refl_vec3* o) { return refl_reflect(o, v3(0, 1, 0), b); });
+                          [&](refl_vec3* o) { return refl_mirror_reflect(o, v3(0, 1, 0), b); });
     }
     expect<refl_plane>("triangle zero area", REFL_STATUS_DEGENERATE_GEOMETRY,
                        [&](refl_plane* o) { return refl_plane_from_triangle(o, v3(1, 1, 1), v3(1, 1, 1), v3(1, 1, 1)); });
@@ -389,20 +389,20 @@ void plane_functions() {
     expect<refl_plane>("point_normal zero normal", REFL_STATUS_DEGENERATE_GEOMETRY,
                        [&](refl_plane* o) { return refl_plane_from_point_normal(o, v3(0, 0, 0), v3(0, 0, 0)); });
     expect<refl_vec3>("reflect overflow", REFL_STATUS_INVALID_ARGUMENT,
-                      [&](refl_vec3* o) { return refl_reflect(o, v3(3e38f, 3e38f, 0), v3(1, 1, 0)); });
-    expect_ok<refl_vec3>("reflect", [&](refl_vec3* o) { return refl_reflect(o, v3(0, 1, 0), v3(0, 1, 0)); });
+                      [&](refl_vec3* o) { return refl_mirror_reflect(o, v3(3e38f, 3e38f, 0), v3(1, 1, 0)); });
+    expect_ok<refl_vec3>("reflect", [&](refl_vec3* o) { return refl_mirror_reflect(o, v3(0, 1, 0), v3(0, 1, 0)); });
     // A zero normal has no reflection (it used to return OK with -v); a
     // non-unit one is refused rather than silently scaling the result.
     expect<refl_vec3>("reflect zero normal", REFL_STATUS_DEGENERATE_GEOMETRY,
-                      [&](refl_vec3* o) { return refl_reflect(o, v3(1, 1, 0), v3(0, 0, 0)); });
+                      [&](refl_vec3* o) { return refl_mirror_reflect(o, v3(1, 1, 0), v3(0, 0, 0)); });
     expect<refl_vec3>("reflect non-unit normal", REFL_STATUS_INVALID_ARGUMENT,
-                      [&](refl_vec3* o) { return refl_reflect(o, v3(1, 1, 0), v3(0, 2, 0)); });
+                      [&](refl_vec3* o) { return refl_mirror_reflect(o, v3(1, 1, 0), v3(0, 2, 0)); });
     {
         refl_vec3 o{};
-        CHECK_STATUS(refl_reflect(&o, v3(1, 1, 0), v3(0, 0, 0)), REFL_STATUS_DEGENERATE_GEOMETRY);
+        CHECK_STATUS(refl_mirror_reflect(&o, v3(1, 1, 0), v3(0, 0, 0)), REFL_STATUS_DEGENERATE_GEOMETRY);
         char msg[128];
         refl_last_error_message(msg, sizeof msg);
-        CHECK(std::strstr(msg, "refl_reflect: degenerate geometry: `n` is the zero vector") == msg);
+        CHECK(std::strstr(msg, "refl_mirror_reflect: degenerate geometry: `n` is the zero vector") == msg);
     }
 
     // Functions taking a plane: NULL, non-finite and zero-normal planes.
@@ -443,37 +443,37 @@ void plane_functions() {
         else expect<refl_vec3>(n, st, f);
     });
     per_plane("mirrored_camera", [&](const refl_plane* pl, refl_status st, const char* n) {
-        auto f = [&](refl_camera* o) { return refl_mirrored_camera(o, &g, pl); };
+        auto f = [&](refl_camera* o) { return refl_mirror_camera(o, &g, pl); };
         if (st == REFL_STATUS_OK) expect_ok<refl_camera>(n, f);
         else expect<refl_camera>(n, st, f);
     });
     for (const BadCamera& b : bad_cameras())
-        expect<refl_camera>(b.name, b.status, [&](refl_camera* o) { return refl_mirrored_camera(o, &b.cam, &good); });
+        expect<refl_camera>(b.name, b.status, [&](refl_camera* o) { return refl_mirror_camera(o, &b.cam, &good); });
     expect<refl_camera>("mirrored NULL camera", REFL_STATUS_NULL_POINTER,
-                        [&](refl_camera* o) { return refl_mirrored_camera(o, nullptr, &good); });
+                        [&](refl_camera* o) { return refl_mirror_camera(o, nullptr, &good); });
     // Oblique near plane: the mirrored camera with the mirror plane is valid;
     // the real camera has its eye on the kept side.
     refl_camera mirrored;
-    REQUIRE(refl_mirrored_camera(&mirrored, &g, &good) == REFL_STATUS_OK);
+    REQUIRE(refl_mirror_camera(&mirrored, &g, &good) == REFL_STATUS_OK);
     per_plane("oblique_projection", [&](const refl_plane* pl, refl_status st, const char* n) {
         auto f = [&](refl_mat4* o) {
-            return refl_oblique_projection(o, &mirrored, pl, REFL_DEPTH_CONVENTION_REVERSED_Z);
+            return refl_mirror_oblique_projection(o, &mirrored, pl, REFL_DEPTH_CONVENTION_REVERSED_Z);
         };
         if (st == REFL_STATUS_OK) expect_ok<refl_mat4>(n, f);
         else expect<refl_mat4>(n, st, f);
     });
     for (const BadCamera& b : bad_cameras())
         expect<refl_mat4>(b.name, b.status, [&](refl_mat4* o) {
-            return refl_oblique_projection(o, &b.cam, &good, REFL_DEPTH_CONVENTION_ZERO_TO_ONE);
+            return refl_mirror_oblique_projection(o, &b.cam, &good, REFL_DEPTH_CONVENTION_ZERO_TO_ONE);
         });
     expect<refl_mat4>("oblique NULL camera", REFL_STATUS_NULL_POINTER, [&](refl_mat4* o) {
-        return refl_oblique_projection(o, nullptr, &good, REFL_DEPTH_CONVENTION_ZERO_TO_ONE);
+        return refl_mirror_oblique_projection(o, nullptr, &good, REFL_DEPTH_CONVENTION_ZERO_TO_ONE);
     });
     for (uint32_t c : {uint32_t(REFL_DEPTH_CONVENTION_LINEAR), 3u, 0xFFFFFFFFu})
         expect<refl_mat4>("oblique convention", REFL_STATUS_INVALID_ARGUMENT,
-                          [&](refl_mat4* o) { return refl_oblique_projection(o, &mirrored, &good, c); });
+                          [&](refl_mat4* o) { return refl_mirror_oblique_projection(o, &mirrored, &good, c); });
     expect<refl_mat4>("oblique eye on the kept side", REFL_STATUS_DEGENERATE_GEOMETRY, [&](refl_mat4* o) {
-        return refl_oblique_projection(o, &g, &good, REFL_DEPTH_CONVENTION_ZERO_TO_ONE);
+        return refl_mirror_oblique_projection(o, &g, &good, REFL_DEPTH_CONVENTION_ZERO_TO_ONE);
     });
     for (refl_vec3 b : kBadVec3) {
         expect<float>("signed_distance point", REFL_STATUS_INVALID_ARGUMENT,
@@ -497,7 +497,7 @@ void plane_functions() {
             REFL_STATUS_OK);
     const refl_plane offset{v3(0, 1, 0), 3e38f};
     expect<refl_camera>("mirrored overflow", REFL_STATUS_INVALID_ARGUMENT,
-                        [&](refl_camera* o) { return refl_mirrored_camera(o, &far_cam, &offset); });
+                        [&](refl_camera* o) { return refl_mirror_camera(o, &far_cam, &offset); });
 }
 
 // An image buffer with padding, prefilled with distinct values;
@@ -527,19 +527,19 @@ void image_functions() {
         expect<size_t>("required_len bad", REFL_STATUS_INVALID_ARGUMENT,
                        [&](size_t* o) { return refl_image_required_len(o, s[0], s[1], s[2]); });
 
-    // refl_row_band
+    // refl_image_row_band
     const refl_row_range band =
-        expect_ok<refl_row_range>("row_band", [](refl_row_range* o) { return refl_row_band(o, 10, 3, 4); });
+        expect_ok<refl_row_range>("row_band", [](refl_row_range* o) { return refl_image_row_band(o, 10, 3, 4); });
     CHECK(band.begin == 8 && band.end == 10);
     const refl_row_range empty =
-        expect_ok<refl_row_range>("row_band empty", [](refl_row_range* o) { return refl_row_band(o, 2, 3, 4); });
+        expect_ok<refl_row_range>("row_band empty", [](refl_row_range* o) { return refl_image_row_band(o, 2, 3, 4); });
     CHECK(empty.begin == empty.end);
     const uint32_t bad_bands[][3] = {{0, 0, 1}, {4, 0, 0}, {4, 1, 1}, {4, kMax, kMax}, {kMax, 5, 5}};
     for (const auto& b : bad_bands)
         expect<refl_row_range>("row_band bad", REFL_STATUS_INVALID_ARGUMENT,
-                               [&](refl_row_range* o) { return refl_row_band(o, b[0], b[1], b[2]); });
+                               [&](refl_row_range* o) { return refl_image_row_band(o, b[0], b[1], b[2]); });
 
-    // refl_convert_depth: dst is the output; it must stay untouched on error.
+    // refl_image_convert_depth: dst is the output; it must stay untouched on error.
     const uint32_t w = 5, h = 4, stride = 7;
     const size_t len = size_t(h - 1) * stride + w;  // 26
     std::vector<float> src_data(len, 0.5f);
@@ -555,12 +555,12 @@ void image_functions() {
                             check::status_name(want) + (dst.untouched() ? "" : ", and dst was written"));
     };
     auto conv = [&](refl_image_f32 s, const refl_camera* c, uint32_t from, uint32_t to, uint32_t b, uint32_t e) {
-        return [=](refl_image_f32_mut d) { return refl_convert_depth(d, s, c, from, to, b, e); };
+        return [=](refl_image_f32_mut d) { return refl_image_convert_depth(d, s, c, from, to, refl_row_range{b, e}); };
     };
     {
         Buffer dst(64);
         const refl_image_f32_mut d{dst.data.data(), len, w, h, stride};
-        CHECK_STATUS(refl_convert_depth(d, src, &g, 0, 1, 1, 3), REFL_STATUS_OK);
+        CHECK_STATUS(refl_image_convert_depth(d, src, &g, 0, 1, refl_row_range{1, 3}), REFL_STATUS_OK);
         CHECK(!dst.untouched());
         CHECK(dst.data[stride - 1] == -1000.0f - float(stride - 1));  // padding untouched
         CHECK(dst.data[0] == -1000.0f);                                // row 0 outside the range
@@ -569,7 +569,7 @@ void image_functions() {
     run("NULL src", REFL_STATUS_NULL_POINTER, conv(refl_image_f32{nullptr, len, w, h, stride}, &g, 0, 1, 0, h));
     run("NULL dst", REFL_STATUS_NULL_POINTER, [&](refl_image_f32_mut d) {
         d.data = nullptr;
-        return refl_convert_depth(d, src, &g, 0, 1, 0, h);
+        return refl_image_convert_depth(d, src, &g, 0, 1, refl_row_range{0, h});
     });
     for (const BadCamera& b : bad_cameras()) run(b.name, b.status, conv(src, &b.cam, 0, 1, 0, h));
     for (uint32_t c : kBadConventions) {
@@ -602,7 +602,7 @@ void image_functions() {
     auto with_dst = [&](auto edit) {
         return [=](refl_image_f32_mut d) {
             edit(d);
-            return refl_convert_depth(d, src, &g, 0, 1, 0, h);
+            return refl_image_convert_depth(d, src, &g, 0, 1, refl_row_range{0, h});
         };
     };
     run("dst short", REFL_STATUS_INSUFFICIENT_SIZE, with_dst([](refl_image_f32_mut& d) { d.len -= 1; }));
@@ -619,18 +619,18 @@ void image_functions() {
         }));
     // Overlap: src one texel into dst, or the same memory with another stride.
     run("partial overlap", REFL_STATUS_INVALID_ARGUMENT, [&](refl_image_f32_mut d) {
-        return refl_convert_depth(d, refl_image_f32{d.data + 1, len, w, h, stride}, &g, 0, 1, 0, h);
+        return refl_image_convert_depth(d, refl_image_f32{d.data + 1, len, w, h, stride}, &g, 0, 1, refl_row_range{0, h});
     });
     run("same memory, other stride", REFL_STATUS_INVALID_ARGUMENT, [&](refl_image_f32_mut d) {
-        return refl_convert_depth(d, refl_image_f32{d.data, 64, w, h, stride + 1}, &g, 0, 1, 0, h);
+        return refl_image_convert_depth(d, refl_image_f32{d.data, 64, w, h, stride + 1}, &g, 0, 1, refl_row_range{0, h});
     });
     // In place is allowed.
     {
         Buffer dst(64);
         const refl_image_f32_mut d{dst.data.data(), len, w, h, stride};
         for (size_t i = 0; i < len; ++i) dst.data[i] = 2.0f;
-        CHECK_STATUS(refl_convert_depth(d, refl_image_f32{d.data, d.len, w, h, stride}, &g,
-                                        REFL_DEPTH_CONVENTION_LINEAR, REFL_DEPTH_CONVENTION_LINEAR, 0, h),
+        CHECK_STATUS(refl_image_convert_depth(d, refl_image_f32{d.data, d.len, w, h, stride}, &g,
+                                        REFL_DEPTH_CONVENTION_LINEAR, REFL_DEPTH_CONVENTION_LINEAR, refl_row_range{0, h}),
                      REFL_STATUS_OK);
         CHECK_EQ(dst.data[0], 2.0f);
     }
@@ -643,12 +643,8 @@ void epipolar_functions() {
     const uint32_t w = g.width, h = g.height;
     const size_t n = size_t(w) * h;
 
-    const refl_epipolar_params p =
-        expect_ok<refl_epipolar_params>("epipolar_params_default", [](refl_epipolar_params* o) {
-            return refl_epipolar_params_default(o);
-        });
+    const refl_epipolar_options p = refl_epipolar_options_default();
     CHECK(p.m_cnt == 5 && p.splat_radius == 1 && p.resample_period == 9);
-    CHECK_STATUS(refl_epipolar_params_default(nullptr), REFL_STATUS_NULL_POINTER);
 
     const size_t sl = expect_ok<size_t>("epipolar_scratch_len",
                                         [&](size_t* o) { return refl_epipolar_scratch_len(o, w, h); });
@@ -695,7 +691,7 @@ void epipolar_functions() {
                             ", expected " + check::status_name(want) + (untouched ? "" : ", and aip was written"));
     };
     auto rep = [&](size_t aip_len, size_t scratch_len, const refl_epipolar_pos_entry* pp, size_t pos_len,
-                   const refl_camera* prev, const refl_camera* cur, const refl_epipolar_params* par) {
+                   const refl_camera* prev, const refl_camera* cur, const refl_epipolar_options* par) {
         return [=](AipCase& c) {
             return refl_epipolar_reproject(c.aip.data(), aip_len, c.scratch.data(), scratch_len, &c.stats, pp,
                                            pos_len, prev, cur, par);
@@ -734,26 +730,22 @@ void epipolar_functions() {
     other_size.width = w + 1;
     reproject("camera sizes differ", REFL_STATUS_INVALID_ARGUMENT,
               rep(n + 1, sl + 1, pos.data(), n, &g, &other_size, &p));
-    std::vector<refl_epipolar_params> bad_params;
+    std::vector<refl_epipolar_options> bad_params;
     auto bad_param = [&](auto edit) {
-        refl_epipolar_params q = p;
+        refl_epipolar_options q = p;
         edit(q);
         bad_params.push_back(q);
     };
-    bad_param([](refl_epipolar_params& q) { q.m_cnt = 0; });
-    bad_param([](refl_epipolar_params& q) { q.splat_radius = REFL_EPIPOLAR_MAX_SPLAT_RADIUS + 1; });
-    bad_param([](refl_epipolar_params& q) { q.splat_radius = kMax; });
-    bad_param([](refl_epipolar_params& q) { q.depth_guard = 2; });
-    bad_param([](refl_epipolar_params& q) { q.frustum_check = kMax; });
-    bad_param([](refl_epipolar_params& q) { q.occlusion_check = 0x80000000u; });
-    bad_param([](refl_epipolar_params& q) { q.shift_origin = 3; });
-    bad_param([](refl_epipolar_params& q) { q.shift_epsilon = kNaN; });
-    bad_param([](refl_epipolar_params& q) { q.shift_epsilon = kInf; });
-    bad_param([](refl_epipolar_params& q) { q.shift_epsilon = -1.0f; });
-    bad_param([](refl_epipolar_params& q) { q.guard_margin = kNaN; });
-    bad_param([](refl_epipolar_params& q) { q.guard_window = REFL_EPIPOLAR_MAX_SPLAT_RADIUS + 1; });
-    bad_param([](refl_epipolar_params& q) { q.guard_margin = 1.0f; });
-    bad_param([](refl_epipolar_params& q) { q.guard_margin = -0.5f; });
+    bad_param([](refl_epipolar_options& q) { q.m_cnt = 0; });
+    bad_param([](refl_epipolar_options& q) { q.splat_radius = REFL_EPIPOLAR_MAX_SPLAT_RADIUS + 1; });
+    bad_param([](refl_epipolar_options& q) { q.splat_radius = kMax; });
+    bad_param([](refl_epipolar_options& q) { q.shift_epsilon = kNaN; });
+    bad_param([](refl_epipolar_options& q) { q.shift_epsilon = kInf; });
+    bad_param([](refl_epipolar_options& q) { q.shift_epsilon = -1.0f; });
+    bad_param([](refl_epipolar_options& q) { q.guard_margin = kNaN; });
+    bad_param([](refl_epipolar_options& q) { q.guard_window = REFL_EPIPOLAR_MAX_SPLAT_RADIUS + 1; });
+    bad_param([](refl_epipolar_options& q) { q.guard_margin = 1.0f; });
+    bad_param([](refl_epipolar_options& q) { q.guard_margin = -0.5f; });
     for (const auto& q : bad_params)
         reproject("bad params", REFL_STATUS_INVALID_ARGUMENT, rep(n, sl, pos.data(), n, &g, &g2, &q));
     reproject("scratch overlaps aip", REFL_STATUS_INVALID_ARGUMENT, [&](AipCase& c) {
@@ -792,14 +784,14 @@ void epipolar_functions() {
                             ", expected " + check::status_name(want) + (untouched ? "" : ", and out was written"));
     };
     auto dec = [&](size_t out_len, const refl_epipolar_aip_entry* a, size_t aip_len, uint32_t width, uint32_t b,
-                   uint32_t e, const refl_epipolar_params* par) {
+                   uint32_t e, const refl_epipolar_options* par) {
         return [=](refl_epipolar_decision* o) {
-            return refl_epipolar_decide_rows(o, out_len, a, aip_len, width, b, e, 0, par);
+            return refl_epipolar_decide_rows(o, out_len, a, aip_len, width, refl_row_range{b, e}, 0, par);
         };
     };
     {
         std::vector<refl_epipolar_decision> out(n, dsent);
-        CHECK_STATUS(refl_epipolar_decide_rows(out.data(), n, aip.data(), n, w, 1, 3, 0, &p), REFL_STATUS_OK);
+        CHECK_STATUS(refl_epipolar_decide_rows(out.data(), n, aip.data(), n, w, refl_row_range{1, 3}, 0, &p), REFL_STATUS_OK);
         CHECK(out[0].reason == 99u && out[w].reason == REFL_EPIPOLAR_REASON_UNAVAILABLE &&
               out[3 * w].reason == 99u);
     }
@@ -819,7 +811,7 @@ void epipolar_functions() {
     for (const auto& q : bad_params) decide("bad params", REFL_STATUS_INVALID_ARGUMENT, dec(n, aip.data(), n, w, 0, h, &q));
     decide("out overlaps aip", REFL_STATUS_INVALID_ARGUMENT, [&](refl_epipolar_decision*) {
         return refl_epipolar_decide_rows(reinterpret_cast<refl_epipolar_decision*>(aip.data()), n, aip.data(), n, w,
-                                         0, h, 0, &p);
+                                         refl_row_range{0, h}, 0, &p);
     });
 }
 
@@ -837,8 +829,8 @@ void layered_functions() {
     // refl_layered_len
     const refl_layered_sizes len =
         expect_ok<refl_layered_sizes>("layered_len", [](refl_layered_sizes* o) { return refl_layered_len(o, 4, 2); });
-    CHECK_EQ(len.counts, size_t(6 * 16) + REFL_LAYERED_STAMP_LEN);
-    CHECK_EQ(len.depth, size_t(6 * 16 * 2));
+    CHECK_EQ(len.counts_len, size_t(6 * 16) + REFL_LAYERED_STAMP_LEN);
+    CHECK_EQ(len.depth_len, size_t(6 * 16 * 2));
     expect<refl_layered_sizes>("layered_len res 0", REFL_STATUS_INVALID_ARGUMENT,
                              [](refl_layered_sizes* o) { return refl_layered_len(o, 0, 2); });
     expect<refl_layered_sizes>("layered_len layers 0", REFL_STATUS_INVALID_ARGUMENT,
@@ -847,26 +839,24 @@ void layered_functions() {
         expect<refl_layered_sizes>("layered_len overflow", REFL_STATUS_INVALID_ARGUMENT,
                                  [](refl_layered_sizes* o) { return refl_layered_len(o, kMax, kMax); });
 
-    // refl_layered_params_default
-    const refl_layered_params params = expect_ok<refl_layered_params>(
-        "params_default", [](refl_layered_params* o) { return refl_layered_params_default(o); });
+    // refl_layered_options_default
+    const refl_layered_options params = refl_layered_options_default();
     CHECK(params.step_texels > 0.0f && params.max_steps > 0);
-    CHECK_STATUS(refl_layered_params_default(nullptr), REFL_STATUS_NULL_POINTER);
 
     // refl_layered_face_ray
-    const refl_column_ray col = expect_ok<refl_column_ray>(
-        "face_ray", [&](refl_column_ray* o) { return refl_layered_face_ray(o, &grid, 1, 0, 3); });
+    const refl_layered_column_ray col = expect_ok<refl_layered_column_ray>(
+        "face_ray", [&](refl_layered_column_ray* o) { return refl_layered_face_ray(o, &grid, 1, 0, 3); });
     CHECK_EQ(col.origin.x, -1.0f);
     CHECK_EQ(col.dir.x, 1.0f);
     CHECK_EQ(col.t_max, 2.0f);
-    expect<refl_column_ray>("face_ray face 6", REFL_STATUS_INVALID_ARGUMENT,
-                            [&](refl_column_ray* o) { return refl_layered_face_ray(o, &grid, 6, 0, 0); });
-    expect<refl_column_ray>("face_ray face max", REFL_STATUS_INVALID_ARGUMENT,
-                            [&](refl_column_ray* o) { return refl_layered_face_ray(o, &grid, kMax, 0, 0); });
-    expect<refl_column_ray>("face_ray texel", REFL_STATUS_INVALID_ARGUMENT,
-                            [&](refl_column_ray* o) { return refl_layered_face_ray(o, &grid, 0, 4, 0); });
-    expect<refl_column_ray>("face_ray NULL grid", REFL_STATUS_NULL_POINTER,
-                            [&](refl_column_ray* o) { return refl_layered_face_ray(o, nullptr, 0, 0, 0); }, false);
+    expect<refl_layered_column_ray>("face_ray face 6", REFL_STATUS_INVALID_ARGUMENT,
+                            [&](refl_layered_column_ray* o) { return refl_layered_face_ray(o, &grid, 6, 0, 0); });
+    expect<refl_layered_column_ray>("face_ray face max", REFL_STATUS_INVALID_ARGUMENT,
+                            [&](refl_layered_column_ray* o) { return refl_layered_face_ray(o, &grid, kMax, 0, 0); });
+    expect<refl_layered_column_ray>("face_ray texel", REFL_STATUS_INVALID_ARGUMENT,
+                            [&](refl_layered_column_ray* o) { return refl_layered_face_ray(o, &grid, 0, 4, 0); });
+    expect<refl_layered_column_ray>("face_ray NULL grid", REFL_STATUS_NULL_POINTER,
+                            [&](refl_layered_column_ray* o) { return refl_layered_face_ray(o, nullptr, 0, 0, 0); }, false);
     const struct {
         const char* what;
         void (*edit)(refl_layered_grid&);
@@ -887,12 +877,12 @@ void layered_functions() {
     for (const auto& b : bad_grids) {
         refl_layered_grid g = grid;
         b.edit(g);
-        expect<refl_column_ray>(b.what, b.st, [&](refl_column_ray* o) { return refl_layered_face_ray(o, &g, 0, 0, 0); });
+        expect<refl_layered_column_ray>(b.what, b.st, [&](refl_layered_column_ray* o) { return refl_layered_face_ray(o, &g, 0, 0, 0); });
     }
 
     // The map buffers.
-    std::vector<float> depth(len.depth, -7.0f), bounds(len.bounds, -7.0f);
-    std::vector<uint32_t> payload(len.payload, 7u), counts(len.counts, 7u);
+    std::vector<float> depth(len.depth_len, -7.0f), bounds(len.bounds_len, -7.0f);
+    std::vector<uint32_t> payload(len.payload_len, 7u), counts(len.counts_len, 7u);
     const refl_layered_map_mut mm{grid,          depth.data(),  depth.size(),  payload.data(), payload.size(),
                                   counts.data(), counts.size(), bounds.data(), bounds.size()};
     auto map_untouched = [&]() {
@@ -961,21 +951,22 @@ void layered_functions() {
         CHECK(map_untouched());
     }
 
-    // refl_layered_fill_column
-    const refl_layer_hit good_hits[2] = {{0.5f, 1u, 1u}, {1.5f, 2u, 0u}};
-    const refl_layer_hit nan_hit[1] = {{kNaN, 1u, 1u}};
-    const refl_layer_hit inf_hit[1] = {{kInf, 1u, 0u}};
-    const refl_layer_hit bad_front[1] = {{0.5f, 1u, 2u}};
-    auto fill = [&](const refl_layer_hit* h, size_t n, uint32_t face, uint32_t i) {
-        return [=, &mm](refl_column_fill* o) { return refl_layered_fill_column(o, &mm, face, i, 0, h, n); };
+    // refl_layered_fill_column (the hits are the call's scratch: sorted in
+    // place, so they are not const and must not overlap the map).
+    refl_layered_layer_hit good_hits[2] = {{0.5f, 1u, true}, {1.5f, 2u, false}};
+    refl_layered_layer_hit nan_hit[1] = {{kNaN, 1u, true}};
+    refl_layered_layer_hit inf_hit[1] = {{kInf, 1u, false}};
+    auto fill = [&](refl_layered_layer_hit* h, size_t n, uint32_t face, uint32_t i) {
+        return [=, &mm](refl_layered_column_fill* o) { return refl_layered_fill_column(o, &mm, face, i, 0, h, n); };
     };
-    expect<refl_column_fill>("fill NaN t", REFL_STATUS_INVALID_ARGUMENT, fill(nan_hit, 1, 0, 0));
-    expect<refl_column_fill>("fill inf t", REFL_STATUS_INVALID_ARGUMENT, fill(inf_hit, 1, 0, 0));
-    expect<refl_column_fill>("fill front 2", REFL_STATUS_INVALID_ARGUMENT, fill(bad_front, 1, 0, 0));
-    expect<refl_column_fill>("fill face 6", REFL_STATUS_INVALID_ARGUMENT, fill(good_hits, 2, 6, 0));
-    expect<refl_column_fill>("fill texel 4", REFL_STATUS_INVALID_ARGUMENT, fill(good_hits, 2, 0, 4));
-    expect<refl_column_fill>("fill NULL hits", REFL_STATUS_NULL_POINTER, fill(nullptr, 2, 0, 0), false);
-    expect<refl_column_fill>("fill NULL map", REFL_STATUS_NULL_POINTER, [&](refl_column_fill* o) {
+    expect<refl_layered_column_fill>("fill NaN t", REFL_STATUS_INVALID_ARGUMENT, fill(nan_hit, 1, 0, 0));
+    expect<refl_layered_column_fill>("fill inf t", REFL_STATUS_INVALID_ARGUMENT, fill(inf_hit, 1, 0, 0));
+    expect<refl_layered_column_fill>("fill hits aliasing the map", REFL_STATUS_INVALID_ARGUMENT,
+                             fill(reinterpret_cast<refl_layered_layer_hit*>(mm.depth), 1, 0, 0));
+    expect<refl_layered_column_fill>("fill face 6", REFL_STATUS_INVALID_ARGUMENT, fill(good_hits, 2, 6, 0));
+    expect<refl_layered_column_fill>("fill texel 4", REFL_STATUS_INVALID_ARGUMENT, fill(good_hits, 2, 0, 4));
+    expect<refl_layered_column_fill>("fill NULL hits", REFL_STATUS_NULL_POINTER, fill(nullptr, 2, 0, 0), false);
+    expect<refl_layered_column_fill>("fill NULL map", REFL_STATUS_NULL_POINTER, [&](refl_layered_column_fill* o) {
         return refl_layered_fill_column(o, nullptr, 0, 0, 0, good_hits, 2);
     }, false);
     CHECK(map_untouched());
@@ -984,7 +975,7 @@ void layered_functions() {
     std::vector<size_t> offsets(17, 0);
     offsets[16] = 2;
     for (size_t k = 1; k < 16; ++k) offsets[k] = 2;
-    auto face_fill = [&](const size_t* offs, size_t n_offs, const refl_layer_hit* h, size_t n) {
+    auto face_fill = [&](const size_t* offs, size_t n_offs, refl_layered_layer_hit* h, size_t n) {
         return [=, &mm](uint32_t* o) { return refl_layered_fill_face(o, &mm, 1, h, n, offs, n_offs); };
     };
     expect<uint32_t>("fill_face short offsets", REFL_STATUS_INSUFFICIENT_SIZE,
@@ -1007,7 +998,7 @@ void layered_functions() {
     // Every texel of the -X face gets the column [0.5, 1.5]: texel k's hits
     // are all_hits[2k .. 2k + 2).
     CHECK_STATUS(refl_layered_clear(&mm), REFL_STATUS_OK);
-    std::vector<refl_layer_hit> all_hits;
+    std::vector<refl_layered_layer_hit> all_hits;
     std::vector<size_t> all_offsets(17, 0);
     for (size_t k = 0; k < 16; ++k) {
         all_hits.push_back(good_hits[0]);
@@ -1019,19 +1010,19 @@ void layered_functions() {
         refl_layered_fill_face(&approximate, &mm, 1, all_hits.data(), all_hits.size(), all_offsets.data(), 17),
         REFL_STATUS_OK);
     CHECK_EQ(approximate, 0u);  // one interval per column fits the layers
-    const refl_column_fill f = expect_ok<refl_column_fill>(
-        "fill_column", [&](refl_column_fill* o) { return refl_layered_fill_column(o, &mm, 3, 1, 1, good_hits, 2); });
+    const refl_layered_column_fill f = expect_ok<refl_layered_column_fill>(
+        "fill_column", [&](refl_layered_column_fill* o) { return refl_layered_fill_column(o, &mm, 3, 1, 1, good_hits, 2); });
     CHECK(f.intervals == 1 && f.stored == 1);
     // Exact bounds again after the single-column fill: NaN-free.
     CHECK_STATUS(refl_layered_build_bounds(&mm), REFL_STATUS_OK);
     for (float b : bounds) CHECK(!std::isnan(b));
 
-    // refl_layered_trace
+    // refl_layered_trace_ray
     const refl_layered_map map{grid,          depth.data(),  depth.size(),  payload.data(), payload.size(),
                                counts.data(), counts.size(), bounds.data(), bounds.size()};
     const refl_ray ray{v3(-3, 0.1f, 0.2f), v3(1, 0, 0)};
     const refl_layered_result r = expect_ok<refl_layered_result>(
-        "trace", [&](refl_layered_result* o) { return refl_layered_trace(o, &map, ray, kInf, &params); });
+        "trace", [&](refl_layered_result* o) { return refl_layered_trace_ray(o, &map, ray, kInf, &params); });
     CHECK(r.hit == 1);
     CHECK(std::fabs(r.t - 2.5f) < 0.6f);
     {
@@ -1040,19 +1031,19 @@ void layered_functions() {
         refl_layered_map other = map;
         other.grid.layers = 1;
         expect<refl_layered_result>("trace map of another grid", REFL_STATUS_INVALID_ARGUMENT,
-                                    [&](refl_layered_result* o) { return refl_layered_trace(o, &other, ray, kInf, &params); });
+                                    [&](refl_layered_result* o) { return refl_layered_trace_ray(o, &other, ray, kInf, &params); });
         refl_layered_result rr{};
-        CHECK_STATUS(refl_layered_trace(&rr, &other, ray, kInf, &params), REFL_STATUS_INVALID_ARGUMENT);
+        CHECK_STATUS(refl_layered_trace_ray(&rr, &other, ray, kInf, &params), REFL_STATUS_INVALID_ARGUMENT);
         char msg[256];
         refl_last_error_message(msg, sizeof msg);
-        CHECK(std::strstr(msg, "refl_layered_trace: ") == msg && std::strstr(msg, "`map`") != nullptr);
+        CHECK(std::strstr(msg, "refl_layered_trace_ray: ") == msg && std::strstr(msg, "`map`") != nullptr);
         other = map;
         other.grid.max.x += 1.0f;
         expect<refl_layered_result>("trace map of another box", REFL_STATUS_INVALID_ARGUMENT,
-                                    [&](refl_layered_result* o) { return refl_layered_trace(o, &other, ray, kInf, &params); });
+                                    [&](refl_layered_result* o) { return refl_layered_trace_ray(o, &other, ray, kInf, &params); });
     }
-    auto trace = [&](refl_ray rr, float t_max, const refl_layered_params* p) {
-        return [=, &map](refl_layered_result* o) { return refl_layered_trace(o, &map, rr, t_max, p); };
+    auto trace = [&](refl_ray rr, float t_max, const refl_layered_options* p) {
+        return [=, &map](refl_layered_result* o) { return refl_layered_trace_ray(o, &map, rr, t_max, p); };
     };
     for (const refl_vec3& b : kBadVec3) {
         expect<refl_layered_result>("trace bad origin", REFL_STATUS_INVALID_ARGUMENT, trace({b, ray.dir}, kInf, &params));
@@ -1062,7 +1053,7 @@ void layered_functions() {
                                 trace({ray.origin, v3(2, 0, 0)}, kInf, &params));
     for (float t : {kNaN, 0.0f, -1.0f, -kInf})
         expect<refl_layered_result>("trace t_max", REFL_STATUS_INVALID_ARGUMENT, trace(ray, t, &params));
-    refl_layered_params bad_p = params;
+    refl_layered_options bad_p = params;
     bad_p.step_texels = kNaN;
     expect<refl_layered_result>("trace step NaN", REFL_STATUS_INVALID_ARGUMENT, trace(ray, kInf, &bad_p));
     bad_p = params;
@@ -1078,23 +1069,23 @@ void layered_functions() {
     }
     expect<refl_layered_result>("trace NULL params", REFL_STATUS_NULL_POINTER, trace(ray, kInf, nullptr), false);
     expect<refl_layered_result>("trace NULL map", REFL_STATUS_NULL_POINTER, [&](refl_layered_result* o) {
-        return refl_layered_trace(o, nullptr, ray, kInf, &params);
+        return refl_layered_trace_ray(o, nullptr, ray, kInf, &params);
     }, false);
     {
         refl_layered_map m = map;
         m.payload_len = 3;
         expect<refl_layered_result>("trace short payload", REFL_STATUS_INSUFFICIENT_SIZE, [&](refl_layered_result* o) {
-            return refl_layered_trace(o, &m, ray, kInf, &params);
+            return refl_layered_trace_ray(o, &m, ray, kInf, &params);
         }, false);
         m = map;
         m.bounds_len = 3;
         expect<refl_layered_result>("trace short bounds", REFL_STATUS_INSUFFICIENT_SIZE, [&](refl_layered_result* o) {
-            return refl_layered_trace(o, &m, ray, kInf, &params);
+            return refl_layered_trace_ray(o, &m, ray, kInf, &params);
         }, false);
         m = map;
         m.bounds = nullptr;
         expect<refl_layered_result>("trace NULL bounds", REFL_STATUS_NULL_POINTER, [&](refl_layered_result* o) {
-            return refl_layered_trace(o, &m, ray, kInf, &params);
+            return refl_layered_trace_ray(o, &m, ray, kInf, &params);
         }, false);
     }
 
@@ -1118,23 +1109,23 @@ void layered_functions() {
     CHECK_STATUS(refl_layered_trace_rays(nullptr, 1, &map, rays, 1, kInf, &params), REFL_STATUS_NULL_POINTER);
     CHECK_STATUS(refl_layered_trace_rays(nullptr, 1, nullptr, rays, 1, kInf, &params), REFL_STATUS_NULL_POINTER);
 
-    // refl_prr_classify
+    // refl_layered_prr_classify
     const refl_vec3 t0 = v3(-10, 0, -10), t1 = v3(10, 0, -10), t2 = v3(0, 0, 10);
     const uint32_t cls = expect_ok<uint32_t>("prr_classify", [&](uint32_t* o) {
-        return refl_prr_classify(o, v3(0, 3, 5), v3(0, 1, 0), 0.3f, t0, t1, t2);
+        return refl_layered_prr_classify(o, v3(0, 3, 5), v3(0, 1, 0), 0.3f, t0, t1, t2);
     });
-    CHECK_EQ(cls, uint32_t(REFL_PRR_CLASS_ELLIPSE));
+    CHECK_EQ(cls, uint32_t(REFL_LAYERED_PRR_CLASS_ELLIPSE));
     for (const refl_vec3& b : kBadVec3) {
         expect<uint32_t>("prr bad eye", REFL_STATUS_INVALID_ARGUMENT,
-                         [&](uint32_t* o) { return refl_prr_classify(o, b, v3(0, 1, 0), 0.3f, t0, t1, t2); });
+                         [&](uint32_t* o) { return refl_layered_prr_classify(o, b, v3(0, 1, 0), 0.3f, t0, t1, t2); });
         expect<uint32_t>("prr bad vertex", REFL_STATUS_INVALID_ARGUMENT,
-                         [&](uint32_t* o) { return refl_prr_classify(o, v3(0, 3, 5), v3(0, 1, 0), 0.3f, t0, b, t2); });
+                         [&](uint32_t* o) { return refl_layered_prr_classify(o, v3(0, 3, 5), v3(0, 1, 0), 0.3f, t0, b, t2); });
     }
     for (float r : {kNaN, 0.0f, -1.0f, kInf})
         expect<uint32_t>("prr radius", REFL_STATUS_INVALID_ARGUMENT,
-                         [&](uint32_t* o) { return refl_prr_classify(o, v3(0, 3, 5), v3(0, 1, 0), r, t0, t1, t2); });
+                         [&](uint32_t* o) { return refl_layered_prr_classify(o, v3(0, 3, 5), v3(0, 1, 0), r, t0, t1, t2); });
     expect<uint32_t>("prr degenerate", REFL_STATUS_DEGENERATE_GEOMETRY,
-                     [&](uint32_t* o) { return refl_prr_classify(o, v3(0, 3, 5), v3(0, 1, 0), 0.3f, t0, t0, t2); });
+                     [&](uint32_t* o) { return refl_layered_prr_classify(o, v3(0, 3, 5), v3(0, 1, 0), 0.3f, t0, t0, t2); });
 }
 
 // Per-pixel stepping: refl_step_ray (one ray) and refl_step_rays (a batch).
@@ -1145,30 +1136,32 @@ void refine_functions() {
     std::vector<float> depth(n, 0.5f);
     const refl_depth_image img{{depth.data(), n, w, h, w}, g, REFL_DEPTH_CONVENTION_ZERO_TO_ONE};
     const refl_image_f32 none{nullptr, 0, 0, 0, 0};
-    const refl_thickness th{0.5f, none};
+    const refl_trace_thickness th{0.5f, none};
+    const refl_step_options defaults = refl_step_options_default();
+    CHECK(defaults.stride == 1 && defaults.max_steps == UINT32_MAX);
     const refl_step_options opts{1, 1000};
     const float dx = -1.0f, dy = -1.5f, dz = -5.0f;
     const float inv = 1.0f / std::sqrt(dx * dx + dy * dy + dz * dz);
     const refl_ray ray{v3(1, 2, 5), v3(dx * inv, dy * inv, dz * inv)};
     const refl_trace_result hit = expect_ok<refl_trace_result>(
         "refine: step_ray", [&](refl_trace_result* o) { return refl_step_ray(o, &img, &th, ray, kInf, &opts); });
-    CHECK_EQ(hit.miss, uint32_t(REFL_MISS_NONE));
+    CHECK_EQ(hit.miss, uint32_t(REFL_TRACE_MISS_NONE));
     // A flat depth image: the refined hit stays on the ray, in the image.
     const refl_trace_result r = expect_ok<refl_trace_result>(
-        "refine_hit", [&](refl_trace_result* o) { return refl_refine_hit(o, &img, ray, kInf, &hit); });
-    CHECK_EQ(r.miss, uint32_t(REFL_MISS_NONE));
+        "refine_hit", [&](refl_trace_result* o) { return refl_trace_refine_hit(o, &img, ray, kInf, &hit); });
+    CHECK_EQ(r.miss, uint32_t(REFL_TRACE_MISS_NONE));
     CHECK(r.pixel.x >= 0.0f && r.pixel.x < float(w) && r.pixel.y >= 0.0f && r.pixel.y < float(h));
     CHECK(r.fetches >= hit.fetches);
     // A miss passes through unchanged.
     refl_trace_result miss = hit;
-    miss.miss = REFL_MISS_LEFT_IMAGE;
+    miss.miss = REFL_TRACE_MISS_LEFT_IMAGE;
     const refl_trace_result m = expect_ok<refl_trace_result>(
-        "refine miss", [&](refl_trace_result* o) { return refl_refine_hit(o, &img, ray, kInf, &miss); });
+        "refine miss", [&](refl_trace_result* o) { return refl_trace_refine_hit(o, &img, ray, kInf, &miss); });
     CHECK(std::memcmp(&m, &miss, sizeof m) == 0);
     auto one = [&](const char* what, refl_status want, const refl_depth_image* i, refl_ray rr, float t_max,
                    const refl_trace_result* in) {
         expect<refl_trace_result>(what, want,
-                                  [=](refl_trace_result* o) { return refl_refine_hit(o, i, rr, t_max, in); });
+                                  [=](refl_trace_result* o) { return refl_trace_refine_hit(o, i, rr, t_max, in); });
     };
     one("refine NULL image", REFL_STATUS_NULL_POINTER, nullptr, ray, kInf, &hit);
     one("refine NULL hit", REFL_STATUS_NULL_POINTER, &img, ray, kInf, nullptr);
@@ -1215,21 +1208,21 @@ void step_functions() {
     std::vector<float> depth(n, 0.5f), back(n, 0.6f);
     const refl_image_f32 none{nullptr, 0, 0, 0, 0};
     const refl_depth_image img{{depth.data(), n, w, h, w}, g, REFL_DEPTH_CONVENTION_ZERO_TO_ONE};
-    const refl_thickness th{0.5f, none};
-    const refl_thickness thb{0.0f, {back.data(), n, w, h, w}};
+    const refl_trace_thickness th{0.5f, none};
+    const refl_trace_thickness thb{0.0f, {back.data(), n, w, h, w}};
     const refl_step_options opts{1, 1000};
     // From the eye toward the camera's target: the planar case.
     const float dx = -1.0f, dy = -1.5f, dz = -5.0f;
     const float inv = 1.0f / std::sqrt(dx * dx + dy * dy + dz * dz);
     const refl_ray ray{v3(1, 2, 5), v3(dx * inv, dy * inv, dz * inv)};
 
-    for (const refl_thickness* t : {&th, &thb}) {
+    for (const refl_trace_thickness* t : {&th, &thb}) {
         const refl_trace_result r = expect_ok<refl_trace_result>(
             "step_ray", [&](refl_trace_result* o) { return refl_step_ray(o, &img, t, ray, kInf, &opts); });
-        CHECK_EQ(r.miss, uint32_t(REFL_MISS_NONE));
+        CHECK_EQ(r.miss, uint32_t(REFL_TRACE_MISS_NONE));
         CHECK(r.steps >= 1 && r.steps <= 2);
     }
-    auto one = [&](const char* what, refl_status want, const refl_depth_image* i, const refl_thickness* t,
+    auto one = [&](const char* what, refl_status want, const refl_depth_image* i, const refl_trace_thickness* t,
                    refl_ray r, float t_max, const refl_step_options* o) {
         expect<refl_trace_result>(what, want,
                                   [=](refl_trace_result* out) { return refl_step_ray(out, i, t, r, t_max, o); });
@@ -1276,10 +1269,10 @@ void step_functions() {
     const refl_step_options zero_stride{0, 1000};
     one("step stride 0", REFL_STATUS_INVALID_ARGUMENT, &img, &th, ray, kInf, &zero_stride);
     for (float c : {kNaN, -1.0f, -kInf}) {
-        const refl_thickness t{c, none};
+        const refl_trace_thickness t{c, none};
         one("step thickness", REFL_STATUS_INVALID_ARGUMENT, &img, &t, ray, kInf, &opts);
     }
-    refl_thickness tb = thb;
+    refl_trace_thickness tb = thb;
     tb.back_faces.width = w - 1;
     one("step back faces size", REFL_STATUS_INVALID_ARGUMENT, &img, &tb, ray, kInf, &opts);
     tb = thb;
@@ -1292,13 +1285,13 @@ void step_functions() {
     rays[1].origin = v3(0.5f, 1.0f, 2.0f);
     std::vector<float> t_max(count, 50.0f);
     auto batch = [&](const char* what, refl_status want, size_t out_len, const refl_ray* r, size_t rc,
-                     const float* t, size_t tc, const refl_depth_image* i, const refl_thickness* tk,
+                     const float* t, size_t tc, const refl_depth_image* i, const refl_trace_thickness* tk,
                      const refl_step_options* o, bool null_out = false) {
         std::vector<refl_trace_result> out(count + 1);
         std::memset(static_cast<void*>(out.data()), 0xA5, out.size() * sizeof(refl_trace_result));
         std::vector<unsigned char> before(out.size() * sizeof(refl_trace_result));
         std::memcpy(before.data(), out.data(), before.size());
-        const uint32_t got = refl_step_rays(null_out ? nullptr : out.data(), out_len, r, rc, t, tc, i, tk, o);
+        const uint32_t got = refl_step_rays(null_out ? nullptr : out.data(), out_len, i, tk, r, rc, t, tc, o);
         ++check::checks();
         const bool same = std::memcmp(before.data(), out.data(), before.size()) == 0;
         if (got != static_cast<uint32_t>(want) || (want != REFL_STATUS_OK && !same) ||
@@ -1329,6 +1322,17 @@ void step_functions() {
           &opts);
     batch("t_max count 0", REFL_STATUS_INVALID_ARGUMENT, count, rays.data(), count, t_max.data(), 0, &img, &th,
           &opts);
+    {
+        // The output array is written in place: it must not overlap an input.
+        std::vector<refl_trace_result> out(count);
+        std::memset(static_cast<void*>(out.data()), 0xA5, out.size() * sizeof(refl_trace_result));
+        const auto* aliased = reinterpret_cast<const refl_ray*>(out.data());
+        CHECK_STATUS(refl_step_rays(out.data(), count, &img, &th, aliased, count, t_max.data(), count, &opts),
+                     REFL_STATUS_INVALID_ARGUMENT);
+        CHECK_STATUS(refl_step_rays(out.data(), count, &img, &th, rays.data(), count,
+                                    reinterpret_cast<const float*>(out.data()), count, &opts),
+                     REFL_STATUS_INVALID_ARGUMENT);
+    }
     bad = img;
     bad.convention = 9;
     batch("convention", REFL_STATUS_INVALID_ARGUMENT, count, rays.data(), count, t_max.data(), count, &bad, &th,
@@ -1390,10 +1394,8 @@ void hiz_functions() {
                                     [=](refl_hiz_level_info* o) { return refl_hiz_level(o, w, h, lv); });
     expect<refl_hiz_level_info>("hiz_level zero size", REFL_STATUS_INVALID_ARGUMENT,
                                 [=](refl_hiz_level_info* o) { return refl_hiz_level(o, 0, h, 0); });
-    const refl_hiz_options opts = expect_ok<refl_hiz_options>(
-        "hiz_default_options", [](refl_hiz_options* o) { return refl_hiz_default_options(o); });
+    const refl_hiz_options opts = refl_hiz_options_default();
     CHECK(opts.start_level == 2 && opts.stop_level == 0 && opts.max_iterations == 1024 && opts.prologue_steps == 4);
-    CHECK_STATUS(refl_hiz_default_options(nullptr), REFL_STATUS_NULL_POINTER);
 
     // Builds: on error the whole destination stays byte-identical.
     std::vector<refl_vec2> pyr(len);
@@ -1408,7 +1410,7 @@ void hiz_functions() {
         other.height = h / 2;
         const refl_hiz wrong{pyr.data(), len, other, REFL_DEPTH_CONVENTION_ZERO_TO_ONE};
         refl_trace_result r{};
-        const refl_thickness t1{1.0f, none};
+        const refl_trace_thickness t1{1.0f, none};
         CHECK_STATUS(refl_hiz_trace_ray(&r, &wrong, &t1, refl_ray{v3(0, 0, 0), v3(0, 0, -1)}, kInf, &opts),
                      REFL_STATUS_INVALID_ARGUMENT);
         char msg[256];
@@ -1433,7 +1435,7 @@ void hiz_functions() {
         unsigned char* base = buf.data() + (16 - reinterpret_cast<uintptr_t>(buf.data()) % 16);
         refl_vec2* dst = mode == 1 ? nullptr : reinterpret_cast<refl_vec2*>(base + (mode == 2 ? 1 : 0));
         const uint32_t got =
-            level == kMax ? refl_hiz_build(dst, dl, i) : refl_hiz_build_rows(dst, dl, i, level, r0, r1);
+            level == kMax ? refl_hiz_build(dst, dl, i) : refl_hiz_build_rows(dst, dl, i, level, refl_row_range{r0, r1});
         ++check::checks();
         if (got != static_cast<uint32_t>(want) || buf != before)
             check::fail(__FILE__, __LINE__,
@@ -1487,7 +1489,7 @@ void hiz_functions() {
             refl_hiz_level_info li{};
             CHECK_STATUS(refl_hiz_level(&li, w, h, lv), REFL_STATUS_OK);
             for (uint32_t r = 0; r < li.height; r += 2)
-                CHECK_STATUS(refl_hiz_build_rows(banded.data(), len, &img, lv, r, r + 2 < li.height ? r + 2 : li.height),
+                CHECK_STATUS(refl_hiz_build_rows(banded.data(), len, &img, lv, refl_row_range{r, r + 2 < li.height ? r + 2 : li.height}),
                              REFL_STATUS_OK);
         }
         CHECK(std::memcmp(banded.data(), pyr.data(), len * sizeof(refl_vec2)) == 0);
@@ -1495,18 +1497,18 @@ void hiz_functions() {
 
     // One ray.
     const refl_hiz hz{pyr.data(), len, g, REFL_DEPTH_CONVENTION_ZERO_TO_ONE};
-    const refl_thickness th{0.5f, none};
-    const refl_thickness thb{0.0f, {back.data(), n, w, h, w}};
+    const refl_trace_thickness th{0.5f, none};
+    const refl_trace_thickness thb{0.0f, {back.data(), n, w, h, w}};
     const float dx = -1.0f, dy = -1.5f, dz = -5.0f;
     const float inv = 1.0f / std::sqrt(dx * dx + dy * dy + dz * dz);
     const refl_ray ray{v3(1, 2, 5), v3(dx * inv, dy * inv, dz * inv)};
-    for (const refl_thickness* t : {&th, &thb}) {
+    for (const refl_trace_thickness* t : {&th, &thb}) {
         const refl_trace_result r = expect_ok<refl_trace_result>(
             "hiz_trace_ray", [&](refl_trace_result* o) { return refl_hiz_trace_ray(o, &hz, t, ray, kInf, &opts); });
-        CHECK_EQ(r.miss, uint32_t(REFL_MISS_NONE));
+        CHECK_EQ(r.miss, uint32_t(REFL_TRACE_MISS_NONE));
         CHECK(r.fetches >= 1);
     }
-    auto one = [&](const char* what, refl_status want, const refl_hiz* z, const refl_thickness* t, refl_ray r,
+    auto one = [&](const char* what, refl_status want, const refl_hiz* z, const refl_trace_thickness* t, refl_ray r,
                    float t_max, const refl_hiz_options* o) {
         expect<refl_trace_result>(
             what, want, [=](refl_trace_result* out) { return refl_hiz_trace_ray(out, z, t, r, t_max, o); });
@@ -1546,10 +1548,10 @@ void hiz_functions() {
     for (float t : {kNaN, 0.0f, -1.0f, -kInf})
         one("hiz t_max", REFL_STATUS_INVALID_ARGUMENT, &hz, &th, ray, t, &opts);
     for (float c : {kNaN, -1.0f, -kInf}) {
-        const refl_thickness t{c, none};
+        const refl_trace_thickness t{c, none};
         one("hiz thickness", REFL_STATUS_INVALID_ARGUMENT, &hz, &t, ray, kInf, &opts);
     }
-    refl_thickness tb = thb;
+    refl_trace_thickness tb = thb;
     tb.back_faces.width = w - 1;
     one("hiz back faces size", REFL_STATUS_INVALID_ARGUMENT, &hz, &tb, ray, kInf, &opts);
     tb = thb;
@@ -1562,13 +1564,13 @@ void hiz_functions() {
     rays[1].origin = v3(0.5f, 1.0f, 2.0f);
     std::vector<float> t_max(count, 50.0f);
     auto batch = [&](const char* what, refl_status want, size_t out_len, const refl_ray* r, size_t rc,
-                     const float* t, size_t tc, const refl_hiz* z, const refl_thickness* tk,
+                     const float* t, size_t tc, const refl_hiz* z, const refl_trace_thickness* tk,
                      const refl_hiz_options* o, bool null_out = false) {
         std::vector<refl_trace_result> out(count + 1);
         std::memset(static_cast<void*>(out.data()), 0xA5, out.size() * sizeof(refl_trace_result));
         std::vector<unsigned char> before(out.size() * sizeof(refl_trace_result));
         std::memcpy(before.data(), out.data(), before.size());
-        const uint32_t got = refl_hiz_trace_rays(null_out ? nullptr : out.data(), out_len, r, rc, t, tc, z, tk, o);
+        const uint32_t got = refl_hiz_trace_rays(null_out ? nullptr : out.data(), out_len, z, tk, r, rc, t, tc, o);
         ++check::checks();
         const bool same = std::memcmp(before.data(), out.data(), before.size()) == 0;
         if (got != static_cast<uint32_t>(want) || (want != REFL_STATUS_OK && !same) ||
@@ -1597,6 +1599,14 @@ void hiz_functions() {
           &th, &opts);
     batch("t_max short", REFL_STATUS_INSUFFICIENT_SIZE, count, rays.data(), count, t_max.data(), 2, &hz, &th,
           &opts);
+    {
+        // The output array is written in place: it must not overlap an input.
+        std::vector<refl_trace_result> out(count);
+        std::memset(static_cast<void*>(out.data()), 0xA5, out.size() * sizeof(refl_trace_result));
+        const auto* aliased = reinterpret_cast<const refl_ray*>(out.data());
+        CHECK_STATUS(refl_hiz_trace_rays(out.data(), count, &hz, &th, aliased, count, t_max.data(), count, &opts),
+                     REFL_STATUS_INVALID_ARGUMENT);
+    }
     batch("t_max count 0", REFL_STATUS_INVALID_ARGUMENT, count, rays.data(), count, t_max.data(), 0, &hz, &th,
           &opts);
     bad = hz;
@@ -1623,11 +1633,8 @@ void hiz_functions() {
 // bad row ranges; image outputs must stay byte-identical on every error.
 void tcrr_functions() {
     // Scalars.
-    const refl_tcrr_params dp =
-        expect_ok<refl_tcrr_params>("tcrr default params", [](refl_tcrr_params* o) { return refl_tcrr_default_params(o); });
+    const refl_tcrr_options dp = refl_tcrr_options_default();
     CHECK_EQ(dp.max_iterations, 64u);
-    expect<refl_tcrr_params>("tcrr default params NULL", REFL_STATUS_NULL_POINTER,
-                             [](refl_tcrr_params*) { return refl_tcrr_default_params(nullptr); }, false);
     CHECK_EQ(expect_ok<size_t>("tcrr frame bytes", [](size_t* o) { return refl_tcrr_frame_bytes(o, 4, 3); }),
              size_t(12) * REFL_TCRR_BYTES_PER_PIXEL);
     expect<size_t>("tcrr frame bytes 0", REFL_STATUS_INVALID_ARGUMENT,
@@ -1664,13 +1671,12 @@ void tcrr_functions() {
     for (uint32_t m : {2u, kMax})
         expect<float>("tcrr fresnel mode", REFL_STATUS_INVALID_ARGUMENT,
                       [&](float* o) { return refl_tcrr_fresnel_weight(o, 0.5f, 0.5f, m); });
-    CHECK_EQ(expect_ok<uint32_t>("tcrr key frame", [](uint32_t* o) { return refl_tcrr_needs_key_frame(o, 0.3f, 31, 100); }),
-             1u);
+    CHECK(expect_ok<bool>("tcrr key frame", [](bool* o) { return refl_tcrr_needs_key_frame(o, 0.3f, 31, 100); }));
     for (float t : {kNaN, -0.1f, 1.5f, kInf})
-        expect<uint32_t>("tcrr key frame threshold", REFL_STATUS_INVALID_ARGUMENT,
-                         [&](uint32_t* o) { return refl_tcrr_needs_key_frame(o, t, 1, 2); });
-    expect<uint32_t>("tcrr key frame retrace > reflective", REFL_STATUS_INVALID_ARGUMENT,
-                     [](uint32_t* o) { return refl_tcrr_needs_key_frame(o, 0.3f, 3, 2); });
+        expect<bool>("tcrr key frame threshold", REFL_STATUS_INVALID_ARGUMENT,
+                     [&](bool* o) { return refl_tcrr_needs_key_frame(o, t, 1, 2); });
+    expect<bool>("tcrr key frame retrace > reflective", REFL_STATUS_INVALID_ARGUMENT,
+                 [](bool* o) { return refl_tcrr_needs_key_frame(o, 0.3f, 3, 2); });
 
     // A small key frame: a mirror plane facing the camera.
     const refl_camera g = good_camera();
@@ -1708,20 +1714,19 @@ void tcrr_functions() {
     bad_key([](refl_tcrr_key& k) { k.distance.stride = 1; });
     bad_key([](refl_tcrr_key& k) { k.camera.fov_y = kNaN; });
     bad_key([](refl_tcrr_key& k) { k.specular.height = 0; });
-    std::vector<refl_tcrr_params> bad_params;
+    std::vector<refl_tcrr_options> bad_params;
     auto bad_param = [&](auto edit) {
-        refl_tcrr_params p = dp;
+        refl_tcrr_options p = dp;
         edit(p);
         bad_params.push_back(p);
     };
-    bad_param([](refl_tcrr_params& p) { p.max_iterations = 0; });
-    bad_param([](refl_tcrr_params& p) { p.magnification = kNaN; });
-    bad_param([](refl_tcrr_params& p) { p.magnification = 0.5f; });
-    bad_param([](refl_tcrr_params& p) { p.discontinuity = -1.0f; });
-    bad_param([](refl_tcrr_params& p) { p.reflected_discontinuity = kInf; });
-    bad_param([](refl_tcrr_params& p) { p.subpixel = 2; });
-    bad_param([](refl_tcrr_params& p) { p.retrace_contrast = kNaN; });
-    bad_param([](refl_tcrr_params& p) { p.retrace_contrast = 0.0f; });
+    bad_param([](refl_tcrr_options& p) { p.max_iterations = 0; });
+    bad_param([](refl_tcrr_options& p) { p.magnification = kNaN; });
+    bad_param([](refl_tcrr_options& p) { p.magnification = 0.5f; });
+    bad_param([](refl_tcrr_options& p) { p.discontinuity = -1.0f; });
+    bad_param([](refl_tcrr_options& p) { p.reflected_discontinuity = kInf; });
+    bad_param([](refl_tcrr_options& p) { p.retrace_contrast = kNaN; });
+    bad_param([](refl_tcrr_options& p) { p.retrace_contrast = 0.0f; });
 
     // Runs `f` on sentinel-filled image outputs and checks they stay intact.
     auto intact = [](const char* what, refl_status want, auto& bufs, auto f) {
@@ -1780,7 +1785,7 @@ void tcrr_functions() {
                [&] { return refl_tcrr_reset_offsets({offsets.data(), N - 1, W, H, W}, all); });
         for (const refl_row_range& rr : bad_rows)
             intact("tcrr reset rows", REFL_STATUS_INVALID_ARGUMENT, bufs, [&] { return refl_tcrr_reset_offsets(good, rr); });
-        auto search = [&](refl_image_vec2_mut o, const refl_tcrr_key* k, refl_vec3 e, const refl_tcrr_params* p,
+        auto search = [&](refl_image_vec2_mut o, const refl_tcrr_key* k, refl_vec3 e, const refl_tcrr_options* p,
                           refl_row_range rr) { return [=] { return refl_tcrr_search(o, nullptr, k, e, p, rr); }; };
         const refl_vec3 e = v3(1.1f, 2.0f, 4.9f);
         intact("tcrr search NULL key", REFL_STATUS_NULL_POINTER, bufs, search(good, nullptr, e, &dp, all));
@@ -1793,7 +1798,7 @@ void tcrr_functions() {
             intact("tcrr search eye", REFL_STATUS_INVALID_ARGUMENT, bufs, search(good, &key, b, &dp, all));
         for (const refl_row_range& rr : bad_rows)
             intact("tcrr search rows", REFL_STATUS_INVALID_ARGUMENT, bufs, search(good, &key, e, &dp, rr));
-        for (const refl_tcrr_params& p : bad_params)
+        for (const refl_tcrr_options& p : bad_params)
             intact("tcrr search params", REFL_STATUS_INVALID_ARGUMENT, bufs, search(good, &key, e, &p, all));
         for (const refl_tcrr_key& k : bad_keys) {
             for (auto* b : bufs) std::memset(b->data(), 0x5A, b->size() * sizeof((*b)[0]));
@@ -1815,7 +1820,7 @@ void tcrr_functions() {
     std::vector<uint8_t> coverage(N);
     {
         auto shift = [&](refl_image_vec3_mut c, refl_image_f32_mut d, refl_image_u8_mut v, const refl_tcrr_key* k,
-                         refl_image_vec2 o, const refl_tcrr_params* p, refl_row_range rr) {
+                         refl_image_vec2 o, const refl_tcrr_options* p, refl_row_range rr) {
             return [=] { return refl_tcrr_shift(c, d, v, nullptr, k, o, p, rr); };
         };
         const refl_image_vec3_mut c{inter.data(), N, W, H, W};
@@ -1856,7 +1861,7 @@ void tcrr_functions() {
                    shift(c, {idepth.data(), N, W - 1, H, W}, v, &key, o, &dp, all));
         for (const refl_row_range& rr : bad_rows)
             all_intact("tcrr shift rows", REFL_STATUS_INVALID_ARGUMENT, shift(c, d, v, &key, o, &dp, rr));
-        for (const refl_tcrr_params& p : bad_params)
+        for (const refl_tcrr_options& p : bad_params)
             all_intact("tcrr shift params", REFL_STATUS_INVALID_ARGUMENT, shift(c, d, v, &key, o, &p, all));
         for (const refl_tcrr_key& k : bad_keys) CHECK(shift(c, d, v, &k, o, &dp, all)() != REFL_STATUS_OK);
         CHECK_STATUS(shift(c, d, v, &fast, o, &dp, all)(), REFL_STATUS_OK);
@@ -1872,7 +1877,7 @@ void tcrr_functions() {
         const refl_image_f32 sd{idepth.data(), N, W, H, W};
         const refl_image_u8 cov{coverage.data(), N, W, H, W};
         auto warp = [&](refl_image_vec3_mut cc, refl_image_u8_mut mm, const refl_tcrr_current* cu,
-                        const refl_tcrr_key* k, refl_image_u8 cv, const refl_tcrr_params* p, refl_row_range rr) {
+                        const refl_tcrr_key* k, refl_image_u8 cv, const refl_tcrr_options* p, refl_row_range rr) {
             return [=] { return refl_tcrr_warp(cc, mm, nullptr, cu, k, src, sd, cv, p, rr); };
         };
         std::vector<std::vector<refl_vec3>*> b1{&warped};
@@ -1900,7 +1905,7 @@ void tcrr_functions() {
         both_intact("tcrr warp size mismatch", REFL_STATUS_INVALID_ARGUMENT, warp(c, m, &bad_cur, &key, cov, &dp, all));
         for (const refl_row_range& rr : bad_rows)
             both_intact("tcrr warp rows", REFL_STATUS_INVALID_ARGUMENT, warp(c, m, &cur, &key, cov, &dp, rr));
-        for (const refl_tcrr_params& p : bad_params)
+        for (const refl_tcrr_options& p : bad_params)
             both_intact("tcrr warp params", REFL_STATUS_INVALID_ARGUMENT, warp(c, m, &cur, &key, cov, &p, all));
         for (const refl_tcrr_key& k : bad_keys) CHECK(warp(c, m, &cur, &k, cov, &dp, all)() != REFL_STATUS_OK);
         refl_tcrr_warp_stats ws{};
@@ -1983,14 +1988,9 @@ void cluster_functions() {
     };
 
     // Defaults and bins.
-    const refl_cluster_params cp = expect_ok<refl_cluster_params>(
-        "cluster params default", [](refl_cluster_params* o) { return refl_cluster_params_default(o); });
+    const refl_cluster_options cp = refl_cluster_options_default();
     CHECK(cp.max_theta_bins == 13 && cp.max_phi_bins == 8 && cp.gain == 1.0f);
-    CHECK_STATUS(refl_cluster_params_default(nullptr), REFL_STATUS_NULL_POINTER);
-    refl_cluster_camera_params kp = expect_ok<refl_cluster_camera_params>(
-        "cluster camera params default",
-        [](refl_cluster_camera_params* o) { return refl_cluster_camera_params_default(o); });
-    CHECK_STATUS(refl_cluster_camera_params_default(nullptr), REFL_STATUS_NULL_POINTER);
+    refl_cluster_camera_options kp = refl_cluster_camera_options_default();
     kp.far_distance = 20.0f;
     const uint32_t bmax = expect_ok<uint32_t>("bins max", [&](uint32_t* o) { return refl_cluster_bins_max(o, 1, &cp); });
     CHECK_EQ(bmax, 104u);
@@ -1999,13 +1999,13 @@ void cluster_functions() {
     expect<uint32_t>("bins max NULL params", REFL_STATUS_NULL_POINTER,
                      [&](uint32_t* o) { return refl_cluster_bins_max(o, 1, nullptr); }, false);
     for (float g : {kNaN, kInf, 0.0f, -1.0f}) {
-        refl_cluster_params b = cp;
+        refl_cluster_options b = cp;
         b.gain = g;
         expect<uint32_t>("bins max gain", REFL_STATUS_INVALID_ARGUMENT,
                          [&](uint32_t* o) { return refl_cluster_bins_max(o, 1, &b); }, false);
     }
     for (uint32_t t : {0u, 1025u, kMax}) {
-        refl_cluster_params b = cp;
+        refl_cluster_options b = cp;
         b.max_theta_bins = t;
         expect<uint32_t>("bins max theta", REFL_STATUS_INVALID_ARGUMENT,
                          [&](uint32_t* o) { return refl_cluster_bins_max(o, 1, &b); }, false);
@@ -2038,13 +2038,13 @@ void cluster_functions() {
     });
 
     // Layout.
-    refl_object_bins layout[1];
+    refl_cluster_object_bins layout[1];
     uint32_t total = 0;
     CHECK_STATUS(refl_cluster_bin_layout(&total, layout, 1, counts.data(), 1, N, &cp), REFL_STATUS_OK);
     CHECK(total >= 1 && total <= bmax);
-    std::vector<refl_object_bins> lbuf(2);
+    std::vector<refl_cluster_object_bins> lbuf(2);
     uint32_t tbuf = 0;
-    const Region lr{lbuf.data(), lbuf.size() * sizeof(refl_object_bins)}, tr{&tbuf, 4};
+    const Region lr{lbuf.data(), lbuf.size() * sizeof(refl_cluster_object_bins)}, tr{&tbuf, 4};
     intact("layout NULL total", REFL_STATUS_NULL_POINTER, {lr},
            [&] { return refl_cluster_bin_layout(nullptr, lbuf.data(), 2, counts.data(), 1, N, &cp); });
     intact("layout NULL out", REFL_STATUS_NULL_POINTER, {tr},
@@ -2137,7 +2137,7 @@ void cluster_functions() {
         "cluster camera one pixel", [&](refl_cluster_camera* o) { return refl_cluster_build_camera(o, pv, nv, px, 1, eye, &kp); });
     CHECK(one.fallback == REFL_CLUSTER_FALLBACK_TOO_FEW_PIXELS);
     auto camera_call = [&](const char* what, refl_status want, refl_image_vec3 p, refl_image_vec3 n, const uint32_t* x,
-                           size_t count, refl_vec3 e, const refl_cluster_camera_params* k) {
+                           size_t count, refl_vec3 e, const refl_cluster_camera_options* k) {
         expect<refl_cluster_camera>(what, want,
                                     [=](refl_cluster_camera* o) { return refl_cluster_build_camera(o, p, n, x, count, e, k); });
     };
@@ -2157,7 +2157,7 @@ void cluster_functions() {
     camera_call("camera size mismatch", REFL_STATUS_INVALID_ARGUMENT, pv, {nrm.data(), N, W, H - 1, W}, px, pc, eye,
                 &kp);
     for (int k = 0; k < 6; ++k) {
-        refl_cluster_camera_params b = kp;
+        refl_cluster_camera_options b = kp;
         if (k == 0) b.far_distance = kInf;
         if (k == 1) b.far_distance = 0.0f;
         if (k == 2) b.cone_half_angle = kNaN;
@@ -2168,14 +2168,14 @@ void cluster_functions() {
     }
 
     // Lobe angle.
-    const float a = expect_ok<float>("lobe angle", [](float* o) { return refl_lobe_angle(o, 40.0f, 0.95f); });
+    const float a = expect_ok<float>("lobe angle", [](float* o) { return refl_cluster_lobe_angle(o, 40.0f, 0.95f); });
     CHECK(a > 0.0f && a < 1.0f);
     for (float e : {kNaN, -1.0f, kInf})
         expect<float>("lobe angle exponent", REFL_STATUS_INVALID_ARGUMENT,
-                      [=](float* o) { return refl_lobe_angle(o, e, 0.5f); });
+                      [=](float* o) { return refl_cluster_lobe_angle(o, e, 0.5f); });
     for (float e : {kNaN, 0.0f, 1.0f})
         expect<float>("lobe angle energy", REFL_STATUS_INVALID_ARGUMENT,
-                      [=](float* o) { return refl_lobe_angle(o, 10.0f, e); }, false);
+                      [=](float* o) { return refl_cluster_lobe_angle(o, 10.0f, e); }, false);
 
     // Finalize against a flat depth image of the cluster camera.
     const uint32_t dw = cam.camera.width, dh = cam.camera.height;
@@ -2185,7 +2185,7 @@ void cluster_functions() {
     const refl_image_f32 none{nullptr, 0, 0, 0, 0};
     const refl_depth_image di{{depth.data(), dn, dw, dh, dw}, cam.camera, REFL_DEPTH_CONVENTION_LINEAR};
     const refl_image_vec3 cv{color.data(), dn, dw, dh, dw};
-    const refl_cluster_finalize_params fp{{kInf, none}, {1, kMax}, false, {1, 0.0f, 0.0f}, false, 0};
+    const refl_cluster_finalize_input fp{{kInf, none}, {1, kMax}, false, {1, 0.0f, 0.0f}, false, 0};
     std::vector<refl_cluster_shade> shades(pc);
     uint32_t fell = 0;
     CHECK_STATUS(refl_cluster_finalize(&fell, shades.data(), pc, pv, nv, px, pc, eye, &cam, &di, cv, &fp),
@@ -2195,7 +2195,7 @@ void cluster_functions() {
     uint32_t fbuf = 0;
     const Region sr{sbuf.data(), pc * sizeof(refl_cluster_shade)}, fr{&fbuf, 4};
     auto fin = [&](const char* what, refl_status want, size_t out_len, refl_vec3 e, const refl_cluster_camera* c,
-                   const refl_depth_image* d, refl_image_vec3 col, const refl_cluster_finalize_params* p) {
+                   const refl_depth_image* d, refl_image_vec3 col, const refl_cluster_finalize_input* p) {
         intact(what, want, {sr, fr},
                [&] { return refl_cluster_finalize(&fbuf, sbuf.data(), out_len, pv, nv, px, pc, e, c, d, col, p); });
     };
@@ -2226,7 +2226,7 @@ void cluster_functions() {
         &fp);
     fin("finalize NULL color", REFL_STATUS_NULL_POINTER, pc, eye, &cam, &di, {nullptr, dn, dw, dh, dw}, &fp);
     for (int k = 0; k < 6; ++k) {
-        refl_cluster_finalize_params b = fp;
+        refl_cluster_finalize_input b = fp;
         if (k == 0) b.lobe.rays = 0;
         if (k == 1) b.lobe = {65, 1.0f, 0.5f};
         if (k == 2) b.lobe = {8, kNaN, 0.5f};
@@ -2305,12 +2305,12 @@ void cone_functions() {
     nan_frame[n / 2] = v3(kNaN, 0, 0);
     const refl_image_vec3 nan_img{nan_frame.data(), n, w, h, w};
     color_build("cone color NaN texel", REFL_STATUS_INVALID_ARGUMENT, [&](refl_vec3* d) { return refl_cone_build_color(d, len, &nan_img, 1.0f); });
-    color_build("cone color rows ok", REFL_STATUS_OK, [&](refl_vec3* d) { return refl_cone_build_color_rows(d, len, &img, 0, 0, h, 1.0f); });
-    color_build("cone color rows NULL", REFL_STATUS_NULL_POINTER, [&](refl_vec3* d) { return refl_cone_build_color_rows(d, len, nullptr, 0, 0, h, 1.0f); });
-    color_build("cone color rows short", REFL_STATUS_INSUFFICIENT_SIZE, [&](refl_vec3* d) { return refl_cone_build_color_rows(d, len - 1, &img, 1, 0, 1, 1.0f); });
-    color_build("cone color rows level", REFL_STATUS_INVALID_ARGUMENT, [&](refl_vec3* d) { return refl_cone_build_color_rows(d, len, &img, 99, 0, 1, 1.0f); });
-    color_build("cone color rows reversed", REFL_STATUS_INVALID_ARGUMENT, [&](refl_vec3* d) { return refl_cone_build_color_rows(d, len, &img, 0, 3, 2, 1.0f); });
-    color_build("cone color rows NaN sigma", REFL_STATUS_INVALID_ARGUMENT, [&](refl_vec3* d) { return refl_cone_build_color_rows(d, len, &img, 1, 0, 1, kNaN); });
+    color_build("cone color rows ok", REFL_STATUS_OK, [&](refl_vec3* d) { return refl_cone_build_color_rows(d, len, &img, 0, refl_row_range{0, h}, 1.0f); });
+    color_build("cone color rows NULL", REFL_STATUS_NULL_POINTER, [&](refl_vec3* d) { return refl_cone_build_color_rows(d, len, nullptr, 0, refl_row_range{0, h}, 1.0f); });
+    color_build("cone color rows short", REFL_STATUS_INSUFFICIENT_SIZE, [&](refl_vec3* d) { return refl_cone_build_color_rows(d, len - 1, &img, 1, refl_row_range{0, 1}, 1.0f); });
+    color_build("cone color rows level", REFL_STATUS_INVALID_ARGUMENT, [&](refl_vec3* d) { return refl_cone_build_color_rows(d, len, &img, 99, refl_row_range{0, 1}, 1.0f); });
+    color_build("cone color rows reversed", REFL_STATUS_INVALID_ARGUMENT, [&](refl_vec3* d) { return refl_cone_build_color_rows(d, len, &img, 0, refl_row_range{3, 2}, 1.0f); });
+    color_build("cone color rows NaN sigma", REFL_STATUS_INVALID_ARGUMENT, [&](refl_vec3* d) { return refl_cone_build_color_rows(d, len, &img, 1, refl_row_range{0, 1}, kNaN); });
 
     // Visibility pyramid builds.
     auto vis_build = [&](const char* what, refl_status want, auto call) {
@@ -2330,10 +2330,10 @@ void cone_functions() {
         const refl_hiz bad{hz.data(), hiz_len, g, c};
         vis_build("cone vis convention", REFL_STATUS_INVALID_ARGUMENT, [&](float* d) { return refl_cone_build_visibility(d, vlen, &bad); });
     }
-    vis_build("cone vis rows ok", REFL_STATUS_OK, [&](float* d) { return refl_cone_build_visibility_rows(d, vlen, &hiz, 0, 0, h); });
-    vis_build("cone vis rows NULL", REFL_STATUS_NULL_POINTER, [&](float* d) { return refl_cone_build_visibility_rows(d, vlen, nullptr, 0, 0, h); });
-    vis_build("cone vis rows short", REFL_STATUS_INSUFFICIENT_SIZE, [&](float* d) { return refl_cone_build_visibility_rows(d, vlen - 1, &hiz, 1, 0, 1); });
-    vis_build("cone vis rows level", REFL_STATUS_INVALID_ARGUMENT, [&](float* d) { return refl_cone_build_visibility_rows(d, vlen, &hiz, 99, 0, 1); });
+    vis_build("cone vis rows ok", REFL_STATUS_OK, [&](float* d) { return refl_cone_build_visibility_rows(d, vlen, &hiz, 0, refl_row_range{0, h}); });
+    vis_build("cone vis rows NULL", REFL_STATUS_NULL_POINTER, [&](float* d) { return refl_cone_build_visibility_rows(d, vlen, nullptr, 0, refl_row_range{0, h}); });
+    vis_build("cone vis rows short", REFL_STATUS_INSUFFICIENT_SIZE, [&](float* d) { return refl_cone_build_visibility_rows(d, vlen - 1, &hiz, 1, refl_row_range{0, 1}); });
+    vis_build("cone vis rows level", REFL_STATUS_INVALID_ARGUMENT, [&](float* d) { return refl_cone_build_visibility_rows(d, vlen, &hiz, 99, refl_row_range{0, 1}); });
 
     // Cone trace.
     std::vector<refl_vec3> color(len);
@@ -2341,10 +2341,8 @@ void cone_functions() {
     CHECK_STATUS(refl_cone_build_color(color.data(), len, &img, 1.0f), REFL_STATUS_OK);
     CHECK_STATUS(refl_cone_build_visibility(vis.data(), vlen, &hiz), REFL_STATUS_OK);
     const refl_cone_pyramids pyr{hiz, color.data(), len, vis.data(), vlen};
-    const refl_cone_options opts =
-        expect_ok<refl_cone_options>("cone default options", [](refl_cone_options* o) { return refl_cone_default_options(o); });
-    CHECK(opts.max_circles == 8 && opts.use_visibility == 1 && opts.max_stretch == 1.0f);
-    CHECK_STATUS(refl_cone_default_options(nullptr), REFL_STATUS_NULL_POINTER);
+    const refl_cone_options opts = refl_cone_options_default();
+    CHECK(opts.max_circles == 8 && opts.use_visibility && opts.max_stretch == 1.0f);
     const refl_cone cone{v2(10, 40), 2.0f, v2(30, 10), 3.0f, 0.2f, 0.8f, 4.0f};
     const refl_vec3 fb = v3(0.1f, 0.2f, 0.3f);
     const refl_cone_result r = expect_ok<refl_cone_result>(
@@ -2422,8 +2420,7 @@ void cone_functions() {
     }
 
     // Fades.
-    const refl_cone_fades fades{REFL_FADE_TOWARD_CAMERA | REFL_FADE_BORDER | REFL_FADE_TRAVEL, {0.0f, 0.5f}, {0.8f, 1.0f},
-                                {2.0f, 6.0f}};
+    const refl_cone_fades fades{{true, 0.0f, 0.5f}, {true, 0.8f, 1.0f}, {true, 2.0f, 6.0f}};
     CHECK(expect_ok<float>("cone fade", [&](float* o) {
               return refl_cone_fade(o, &fades, v3(1, 0, 0), v3(0, 0, 1), v2(32, 24), w, h, 1.0f);
           }) == 1.0f);
@@ -2436,33 +2433,35 @@ void cone_functions() {
     for (const refl_vec2& bad : kBadVec2) fade("cone fade bad hit", REFL_STATUS_INVALID_ARGUMENT, &fades, v3(1, 0, 0), bad, w, 1.0f);
     fade("cone fade zero width", REFL_STATUS_INVALID_ARGUMENT, &fades, v3(1, 0, 0), v2(1, 1), 0, 1.0f);
     fade("cone fade NaN t", REFL_STATUS_INVALID_ARGUMENT, &fades, v3(1, 0, 0), v2(1, 1), w, kNaN);
-    for (uint32_t bits : {8u, kMax}) {
-        refl_cone_fades f = fades;
-        f.enabled = bits;
-        fade("cone fade bits", REFL_STATUS_INVALID_ARGUMENT, &f, v3(1, 0, 0), v2(1, 1), w, 1.0f);
-    }
     {
         refl_cone_fades f = fades;
-        f.border = {1.0f, 1.0f};
+        f.border = {true, 1.0f, 1.0f};
         fade("cone fade empty range", REFL_STATUS_INVALID_ARGUMENT, &f, v3(1, 0, 0), v2(1, 1), w, 1.0f);
         f = fades;
-        f.travel = {kNaN, 1.0f};
+        f.travel = {true, kNaN, 1.0f};
         fade("cone fade NaN range", REFL_STATUS_INVALID_ARGUMENT, &f, v3(1, 0, 0), v2(1, 1), w, 1.0f);
+        // A disabled range is not read, however bad.
+        f.travel.enabled = false;
+        CHECK(expect_ok<float>("cone fade disabled NaN range", [&](float* o) {
+                  return refl_cone_fade(o, &f, v3(1, 0, 0), v3(0, 0, 1), v2(32, 24), w, h, 1.0f);
+              }) == 1.0f);
     }
 
     // Multi-ray.
     const refl_image_f32 none{nullptr, 0, 0, 0, 0};
-    const refl_thickness thick{0.5f, none};
-    const refl_multiray_options mo{8, v2(0.25f, 0.5f), 2, 0, 256, 4};
+    const refl_trace_thickness thick{0.5f, none};
+    refl_cone_multiray_options mo = refl_cone_multiray_options_default();
+    mo.rotation = v2(0.25f, 0.5f);
+    mo.hiz.max_iterations = 256;
     const refl_ray ray{v3(1, 1, 3), v3(0, 0, -1)};
-    const refl_multiray_result mr = expect_ok<refl_multiray_result>("cone multiray", [&](refl_multiray_result* o) {
+    const refl_cone_multiray_result mr = expect_ok<refl_cone_multiray_result>("cone multiray", [&](refl_cone_multiray_result* o) {
         return refl_cone_multiray(o, &pyr, &thick, ray, v3(0, 1, 0), kInf, 0.2f, 20.0f, &mo, fb);
     });
     CHECK(mr.traced <= 8);
-    auto multi = [&](const char* what, refl_status want, const refl_cone_pyramids* p, const refl_thickness* tk,
+    auto multi = [&](const char* what, refl_status want, const refl_cone_pyramids* p, const refl_trace_thickness* tk,
                      refl_ray ry, refl_vec3 nrm, float t_max, float theta, float power,
-                     const refl_multiray_options* o, refl_vec3 f) {
-        expect<refl_multiray_result>(what, want, [=](refl_multiray_result* out) {
+                     const refl_cone_multiray_options* o, refl_vec3 f) {
+        expect<refl_cone_multiray_result>(what, want, [=](refl_cone_multiray_result* out) {
             return refl_cone_multiray(out, p, tk, ry, nrm, t_max, theta, power, o, f);
         });
     };
@@ -2482,14 +2481,14 @@ void cone_functions() {
         multi("cone multiray bad power", REFL_STATUS_INVALID_ARGUMENT, &pyr, &thick, ray, up, kInf, 0.2f, p, &mo, fb);
     multi("cone multiray NaN t_max", REFL_STATUS_INVALID_ARGUMENT, &pyr, &thick, ray, up, kNaN, 0.2f, 20.0f, &mo, fb);
     {
-        refl_multiray_options o = mo;
+        refl_cone_multiray_options o = mo;
         o.rays = 0;
         multi("cone multiray zero rays", REFL_STATUS_INVALID_ARGUMENT, &pyr, &thick, ray, up, kInf, 0.2f, 20.0f, &o, fb);
         o = mo;
         o.rotation = v2(kNaN, 0);
         multi("cone multiray NaN rotation", REFL_STATUS_INVALID_ARGUMENT, &pyr, &thick, ray, up, kInf, 0.2f, 20.0f, &o, fb);
     }
-    const refl_thickness nan_thick{kNaN, none};
+    const refl_trace_thickness nan_thick{kNaN, none};
     multi("cone multiray NaN thickness", REFL_STATUS_INVALID_ARGUMENT, &pyr, &nan_thick, ray, up, kInf, 0.2f, 20.0f, &mo, fb);
 }
 

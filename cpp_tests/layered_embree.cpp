@@ -193,10 +193,10 @@ Map build_map(RTCScene robust, const scene::Mesh& mesh, uint32_t res, uint32_t l
     for (int k = 0; k < 16; ++k) map.grid.world_from_local.m[k] = (k % 5 == 0) ? 1.0f : 0.0f;
     refl_layered_sizes sz{};
     REQUIRE(refl_layered_len(&sz, res, layers) == REFL_STATUS_OK);
-    map.depth.assign(sz.depth, 0.0f);
-    map.payload.assign(sz.payload, 0u);
-    map.counts.assign(sz.counts, 0u);
-    map.bounds.assign(sz.bounds, 0.0f);
+    map.depth.assign(sz.depth_len, 0.0f);
+    map.payload.assign(sz.payload_len, 0u);
+    map.counts.assign(sz.counts_len, 0u);
+    map.bounds.assign(sz.bounds_len, 0.0f);
     const refl_layered_map_mut mm{map.grid,          map.depth.data(),  map.depth.size(),
                                   map.payload.data(), map.payload.size(), map.counts.data(),
                                   map.counts.size(),  map.bounds.data(), map.bounds.size()};
@@ -207,13 +207,13 @@ Map build_map(RTCScene robust, const scene::Mesh& mesh, uint32_t res, uint32_t l
     const size_t tris = mesh.triangle_count();
     for (uint32_t face : {1u, 3u, 5u}) {
         // Each thread casts a band of rows into its own CSR piece.
-        std::vector<std::vector<refl_layer_hit>> hits(threads);
+        std::vector<std::vector<refl_layered_layer_hit>> hits(threads);
         std::vector<std::vector<uint32_t>> count(threads);
         std::atomic<size_t> bad{0};
         parallel_for(res, threads, [&](unsigned k, size_t j0, size_t j1) {
             for (size_t j = j0; j < j1; ++j)
                 for (uint32_t i = 0; i < res; ++i) {
-                    refl_column_ray cr{};
+                    refl_layered_column_ray cr{};
                     if (refl_layered_face_ray(&cr, &map.grid, face, i, uint32_t(j)) != REFL_STATUS_OK) {
                         ++bad;
                         count[k].push_back(0);
@@ -228,7 +228,7 @@ Map build_map(RTCScene robust, const scene::Mesh& mesh, uint32_t res, uint32_t l
                         const scene::Hit h = scene::trace(robust, o, d, tmin, cr.t_max);
                         if (!h.hit()) break;
                         const bool front = scene::dot(normals[h.prim], dd) < 0.0;
-                        hits[k].push_back({h.t, h.prim, front ? 1u : 0u});
+                        hits[k].push_back({h.t, h.prim, front});
                         ++n;
                         tmin = h.t + eps;
                     }
@@ -237,7 +237,7 @@ Map build_map(RTCScene robust, const scene::Mesh& mesh, uint32_t res, uint32_t l
                 }
         });
         CHECK(bad == 0);
-        std::vector<refl_layer_hit> all;
+        std::vector<refl_layered_layer_hit> all;
         std::vector<size_t> offsets{0};
         for (unsigned k = 0; k < threads; ++k) {
             all.insert(all.end(), hits[k].begin(), hits[k].end());
@@ -314,8 +314,7 @@ double texel_size(const Map& m) {
 }
 
 Agreement compare(const Map& map, RTCScene robust, const std::vector<refl_ray>& rays, unsigned threads) {
-    refl_layered_params params{};
-    CHECK_STATUS(refl_layered_params_default(&params), REFL_STATUS_OK);
+    refl_layered_options params = refl_layered_options_default();
     const refl_layered_map view = map.view();
     std::vector<refl_layered_result> got(rays.size());
     std::atomic<size_t> bad{0};
@@ -460,8 +459,7 @@ int main() {
         CHECK(a.rate() >= 0.99);
         CHECK(a.nan == 0);
 
-        refl_layered_params params{};
-        CHECK_STATUS(refl_layered_params_default(&params), REFL_STATUS_OK);
+        refl_layered_options params = refl_layered_options_default();
         const refl_layered_map view = m.view();
         std::vector<refl_layered_result> got(n_timed);
         bool ok = true;

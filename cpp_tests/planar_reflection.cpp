@@ -8,7 +8,7 @@
 //   reference: the primary ray's exact intersection P with the mirror plane
 //              (double precision) and its reflection r = d - 2 (d.n) n
 //              (double), traced from P with Embree;
-//   refl:      the primary ray of refl_mirrored_camera through the same
+//   refl:      the primary ray of refl_mirror_camera through the same
 //              pixel (refl_camera_primary_ray), traced from the mirror plane
 //              on (tnear = refl_plane_intersect_ray: geometry behind the
 //              mirror is excluded).
@@ -53,7 +53,7 @@ ViewStats run_view(const char* name, RTCScene all, RTCScene objects, double diam
     REQUIRE(refl_camera_look_at(&cam, rv(eye), rv(target), refl_vec3{0.0f, 1.0f, 0.0f}, 0.9f, 0.05f, 100.0f,
                                 kWidth, kHeight) == REFL_STATUS_OK);
     refl_camera mirrored;
-    REQUIRE(refl_mirrored_camera(&mirrored, &cam, &plane) == REFL_STATUS_OK);
+    REQUIRE(refl_mirror_camera(&mirrored, &cam, &plane) == REFL_STATUS_OK);
     bool is_mirrored = false;
     CHECK_STATUS(refl_camera_is_mirrored(&is_mirrored, &mirrored), REFL_STATUS_OK);
     CHECK(is_mirrored);

@@ -358,7 +358,7 @@ void add(refl_tcrr_warp_stats& a, const refl_tcrr_warp_stats& b) {
 // other; each call owns its rows, as host threads would). `p.offsets` holds
 // the previous frame's offsets on entry. Per-pass times go to ms[0..3].
 void run_passes(Passes& p, const refl_tcrr_key& key, const refl_tcrr_current& cur, const refl_vec3 eye,
-                const refl_tcrr_params& params, uint32_t bands, double ms[3]) {
+                const refl_tcrr_options& params, uint32_t bands, double ms[3]) {
     p.inter.assign(kN, refl_vec3{0, 0, 0});
     p.color.assign(kN, refl_vec3{0, 0, 0});
     p.idepth.assign(kN, 0.0f);
@@ -368,7 +368,7 @@ void run_passes(Passes& p, const refl_tcrr_key& key, const refl_tcrr_current& cu
     p.shift = {};
     p.warp = {};
     std::vector<refl_row_range> rows(bands);
-    for (uint32_t b = 0; b < bands; ++b) REQUIRE(refl_row_band(&rows[b], kH, b, bands) == REFL_STATUS_OK);
+    for (uint32_t b = 0; b < bands; ++b) REQUIRE(refl_image_row_band(&rows[b], kH, b, bands) == REFL_STATUS_OK);
     Clock::time_point t0 = Clock::now();
     for (const refl_row_range& r : rows) {
         refl_tcrr_search_stats s{};
@@ -548,7 +548,7 @@ struct PathResult {
     double interval() const { return double(frames) / double(std::max(1, key_frames)); }
 };
 
-PathResult run_path(const char* name, CameraPath path, const World& w, RTCScene s, const refl_tcrr_params& params,
+PathResult run_path(const char* name, CameraPath path, const World& w, RTCScene s, const refl_tcrr_options& params,
                     bool check_bands, bool is_stationary) {
     PathResult res;
     res.name = name;
@@ -559,7 +559,7 @@ PathResult run_path(const char* name, CameraPath path, const World& w, RTCScene 
     p.offsets.assign(kN, refl_vec2{INFINITY, INFINITY});
     std::vector<refl_vec3> ref_color(kN);
     std::vector<float> ref_dist(kN);
-    refl_tcrr_params naive_params = params;
+    refl_tcrr_options naive_params = params;
     naive_params.retrace_contrast = INFINITY;
     std::vector<float> naive_depth(kN);
     std::vector<uint8_t> naive_cov(kN);
@@ -621,10 +621,10 @@ PathResult run_path(const char* name, CameraPath path, const World& w, RTCScene 
                                   same_bits(banded.color, p.color) && same_bits(banded.mask, p.mask);
                 if (!same) ++res.band_mismatch;
             }
-            uint32_t need = 0;
+            bool need = false;
             CHECK_STATUS(refl_tcrr_needs_key_frame(&need, kThreshold, p.warp.retrace, p.warp.reflective),
                          REFL_STATUS_OK);
-            is_key = need != 0;
+            is_key = need;
             if (!is_key) {
                 retraced = long(list.size());
                 tcrr_color = p.color;
@@ -725,8 +725,7 @@ int main() {
     }
     scene::Scene sc(dev.device, all);
 
-    refl_tcrr_params params{};
-    REQUIRE(refl_tcrr_default_params(&params) == REFL_STATUS_OK);
+    refl_tcrr_options params = refl_tcrr_options_default();
     size_t bytes = 0;
     CHECK_STATUS(refl_tcrr_frame_bytes(&bytes, kW, kH), REFL_STATUS_OK);
     CHECK_EQ(bytes, size_t(REFL_TCRR_BYTES_PER_PIXEL) * kN);

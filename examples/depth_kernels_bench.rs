@@ -160,7 +160,7 @@ fn main() {
                 })
                 .collect();
             let back = ImageView::try_new(&back, a.width, a.height, a.width).expect("back");
-            let mut pyr = vec![[0.0f32; 2]; hiz::hiz_len(a.width, a.height).expect("len")];
+            let mut pyr = vec![[0.0f32; 2]; hiz::try_hiz_len(a.width, a.height).expect("len")];
             hiz::try_build_hiz(&mut pyr, &image).expect("build");
             let hz = hiz::HiZ::try_new(&pyr, depth.camera, c).expect("hiz");
             let thicknesses = [
@@ -208,7 +208,7 @@ fn main() {
                 }
                 for (k, o) in step_opts.iter().enumerate() {
                     let start = words.len();
-                    refl_core::try_step_rays(&mut out, rays, &[f32::INFINITY], &image, th, *o)
+                    refl_core::try_step_rays(&mut out, &image, th, rays, &[f32::INFINITY], *o)
                         .expect("step");
                     for t in &out {
                         encode(&mut words, t);
@@ -259,7 +259,7 @@ fn main() {
     // Timing: reversed-Z, infinite far, constant thickness, defaults.
     let depth = DepthBuffer::new(&g, DepthConvention::ReversedZ, f32::INFINITY).expect("depth");
     let image = depth.image().expect("image");
-    let mut pyr = vec![[0.0f32; 2]; hiz::hiz_len(a.width, a.height).expect("len")];
+    let mut pyr = vec![[0.0f32; 2]; hiz::try_hiz_len(a.width, a.height).expect("len")];
     hiz::try_build_hiz(&mut pyr, &image).expect("build");
     let hz = hiz::HiZ::try_new(&pyr, depth.camera, depth.convention).expect("hiz");
     let th = Thickness::Constant(thick);
@@ -313,11 +313,11 @@ fn main() {
     if a.time == "step" || a.time == "both" {
         let opts = StepOptions::default();
         let mut ns = time_it(&mut || {
-            refl_core::try_step_rays(&mut out, rays, &[f32::INFINITY], &image, th, opts)
+            refl_core::try_step_rays(&mut out, &image, th, rays, &[f32::INFINITY], opts)
                 .expect("step");
         });
         if a.reps == 0 {
-            refl_core::try_step_rays(&mut out, rays, &[f32::INFINITY], &image, th, opts)
+            refl_core::try_step_rays(&mut out, &image, th, rays, &[f32::INFINITY], opts)
                 .expect("step");
         }
         report("step", &out, &mut ns);

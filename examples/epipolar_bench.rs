@@ -16,7 +16,7 @@
 use refl_app::epipolar::{background_radius, path_cameras, PathSizes};
 use refl_app::scene::Scene;
 use refl_app::tracer::Tracer;
-use refl_core::epipolar::{scratch_len, try_reproject, AipEntry, Params, PosEntry};
+use refl_core::epipolar::{try_reproject, try_scratch_len, AipEntry, EpipolarOptions, PosEntry};
 
 fn cpu_ms() -> f64 {
     let mut t = libc::timespec {
@@ -67,11 +67,11 @@ fn main() {
     let (w, h) = (sizes.width, sizes.height);
     let n = (w * h) as usize;
     let radius = background_radius(&scene);
-    let mut scratch = vec![0.0f32; scratch_len(w, h).expect("scratch_len")];
+    let mut scratch = vec![0.0f32; try_scratch_len(w, h).expect("try_scratch_len")];
     let mut aip = vec![AipEntry::EMPTY; n];
-    let guard_off = Params {
+    let guard_off = EpipolarOptions {
         guard_window: 0,
-        ..Params::default()
+        ..EpipolarOptions::default()
     };
     println!("frame | ORSA ms | reproject ms | reproject (guard_window=0) ms | reproject / ORSA");
     let (mut sum_orsa, mut sum_rep, mut sum_off) = (0.0, 0.0, 0.0);
@@ -103,7 +103,7 @@ fn main() {
                     prev_pos,
                     prev,
                     cam,
-                    &Params::default(),
+                    &EpipolarOptions::default(),
                 )
                 .expect("reproject");
             });

@@ -27,7 +27,7 @@ use refl_app::scene::Scene;
 use refl_app::shade::Shader;
 use refl_app::tcrr::{handled_mask, path_cameras, trace_mirror};
 use refl_app::tracer::Tracer;
-use refl_core::tcrr::{self, CurrentView, ReflectionBuffers, TcrrParams, INVALID_OFFSET};
+use refl_core::tcrr::{self, CurrentView, ReflectionBuffers, TcrrOptions, INVALID_OFFSET};
 use refl_core::{DepthConvention, ImageView, ImageViewMut};
 use std::path::PathBuf;
 use std::time::Instant;
@@ -120,7 +120,7 @@ fn main() {
         .build()
         .expect("pool");
     let cams = path_cameras(&scene, a.frames, (0.0, a.span), w, h).expect("cameras");
-    let params = TcrrParams::default();
+    let params = TcrrOptions::default();
 
     // Key frame 0: trace every mirror pixel.
     let g0 = GBuffer::render(&scene, &tracer, &cams[0], &pool);
@@ -148,7 +148,7 @@ fn main() {
     .unwrap();
     let mut surfels = vec![tcrr::Surfel::default(); n];
     let t = Clock::now();
-    tcrr::prepare(
+    tcrr::try_prepare(
         &mut ImageViewMut::try_new(&mut surfels, w, h, w).unwrap(),
         &buffers,
     )
@@ -190,7 +190,7 @@ fn main() {
             offsets.copy_from_slice(&start_offsets);
             let t = Clock::now();
             let mut ov = ImageViewMut::try_new(&mut offsets, w, h, w).unwrap();
-            sstats = tcrr::search(&mut ov, &buffers, eye, &params).unwrap();
+            sstats = tcrr::try_search(&mut ov, &buffers, eye, &params).unwrap();
             t_search += ms(t);
 
             let t = Clock::now();
@@ -198,7 +198,7 @@ fn main() {
             let mut c = ImageViewMut::try_new(&mut inter, w, h, w).unwrap();
             let mut d = ImageViewMut::try_new(&mut idepth, w, h, w).unwrap();
             let mut v = ImageViewMut::try_new(&mut coverage, w, h, w).unwrap();
-            tcrr::shift(&mut c, &mut d, &mut v, &buffers, &ov, &params).unwrap();
+            tcrr::try_shift(&mut c, &mut d, &mut v, &buffers, &ov, &params).unwrap();
             t_shift += ms(t);
 
             let t = Clock::now();
@@ -211,7 +211,7 @@ fn main() {
             .unwrap();
             let mut c = ImageViewMut::try_new(&mut color, w, h, w).unwrap();
             let mut m = ImageViewMut::try_new(&mut mask, w, h, w).unwrap();
-            tcrr::warp(
+            tcrr::try_warp(
                 &mut c,
                 &mut m,
                 &current,
@@ -227,7 +227,7 @@ fn main() {
             let t = Clock::now();
             let mv = ImageView::try_new(&mask, w, h, w).unwrap();
             list = vec![0u32; tcrr::retrace_count(&mv)];
-            tcrr::retrace_list(&mut list, &mv).unwrap();
+            tcrr::try_retrace_list(&mut list, &mv).unwrap();
             t_list += ms(t);
         }
         let reps = a.reps as f64;

@@ -7,19 +7,25 @@
  *
  * Conventions of every function:
  *  - Outputs first, then inputs; every function returns a refl_status,
- *    REFL_STATUS_OK (0) on success.
+ *    REFL_STATUS_OK (0) on success, except refl_version, refl_version_number,
+ *    refl_status_string, refl_last_error_message and the
+ *    refl_<module>_options_default(void) functions. Names and signatures
+ *    follow docs/api.md (module prefixes, *_options with their defaults,
+ *    (pointer, x_len) pairs, bool flags, refl_row_range rows).
  *  - NULL pointers are reported first (REFL_STATUS_NULL_POINTER), then
  *    invalid arguments; NaN/Inf parameters, zero or overflowing sizes,
  *    short buffers and unknown enum values are reported, never undefined.
  *  - Outputs are written only on success; a failed call leaves them
- *    byte-for-byte untouched. An output may alias an input.
+ *    byte-for-byte untouched. A single-value output may alias an input;
+ *    an output array must not overlap an input array.
+ *  - No function allocates: arrays are read and written in place.
  *  - Enums are passed as uint32_t and validated.
  *  - Right-handed world, view space looks down -Z; pixel (x, y) has its
  *    center at (x + 0.5, y + 0.5), origin top-left, y down. Matrices are
  *    column-major.
  *  - Thread safety: every function is reentrant; there is no global state.
  */
-/* refl 0.2.0 */
+/* refl 0.3.0 */
 
 #ifndef REFL_H
 #define REFL_H
@@ -56,7 +62,7 @@
 #define REFL_EPIPOLAR_BACKGROUND_OBJECT 4294967294
 
 /**
- * Largest splat radius (`refl_epipolar_params.splat_radius`): 7x7.
+ * Largest splat radius (`refl_epipolar_options.splat_radius`): 7x7.
  */
 #define REFL_EPIPOLAR_MAX_SPLAT_RADIUS 3
 
@@ -116,7 +122,7 @@
 /**
  * Minor version of the header.
  */
-#define REFL_VERSION_MINOR 2
+#define REFL_VERSION_MINOR 3
 
 /**
  * Patch version of the header.
@@ -181,22 +187,6 @@
  * coverage 1, warped color 12, mask 1, re-trace list 4 (worst case).
  */
 #define REFL_TCRR_BYTES_PER_PIXEL 110
-
-/**
- * Bit of `refl_cone_fades::enabled`: fade rays reflected back toward the
- * camera.
- */
-#define REFL_FADE_TOWARD_CAMERA 1
-
-/**
- * Bit of `refl_cone_fades::enabled`: fade hits near the screen border.
- */
-#define REFL_FADE_BORDER 2
-
-/**
- * Bit of `refl_cone_fades::enabled`: fade by travel distance.
- */
-#define REFL_FADE_TRAVEL 4
 
 /**
  * The result of every fallible refl function. `REFL_STATUS_OK` is zero;
@@ -285,9 +275,9 @@ typedef uint32_t refl_depth_convention;
 #endif // __cplusplus
 
 /**
- * Why a traced ray found no surface; `REFL_MISS_NONE` for a hit.
+ * Why a traced ray found no surface; `REFL_TRACE_MISS_NONE` for a hit.
  */
-enum refl_miss
+enum refl_trace_miss
 #if defined(__cplusplus) || __STDC_VERSION__ >= 202311L
   : uint32_t
 #endif // defined(__cplusplus) || __STDC_VERSION__ >= 202311L
@@ -295,37 +285,37 @@ enum refl_miss
     /**
      * The ray hit the depth image.
      */
-    REFL_MISS_NONE = 0,
+    REFL_TRACE_MISS_NONE = 0,
     /**
      * The projected ray left the image rectangle (or, coming toward the
      * camera, the near plane) before hitting anything.
      */
-    REFL_MISS_LEFT_IMAGE = 1,
+    REFL_TRACE_MISS_LEFT_IMAGE = 1,
     /**
      * The walk ended while the ray was behind geometry deeper than its
      * thickness: what it hits is hidden from this image.
      */
-    REFL_MISS_BEHIND_GEOMETRY = 2,
+    REFL_TRACE_MISS_BEHIND_GEOMETRY = 2,
     /**
      * The step or iteration cap was reached.
      */
-    REFL_MISS_OUT_OF_STEPS = 3,
+    REFL_TRACE_MISS_OUT_OF_STEPS = 3,
     /**
      * The ray ended (`t_max`, the far plane, or its vanishing point under
      * an infinite far plane) in front of every surface.
      */
-    REFL_MISS_END_OF_RAY = 4,
+    REFL_TRACE_MISS_END_OF_RAY = 4,
     /**
      * Nothing of the ray projects into the view (entirely behind the near
      * plane, beyond the far plane, or outside the image's frustum).
      */
-    REFL_MISS_DEGENERATE_PROJECTION = 5,
+    REFL_TRACE_MISS_DEGENERATE_PROJECTION = 5,
 };
 #ifndef __cplusplus
 #if __STDC_VERSION__ >= 202311L
-typedef enum refl_miss refl_miss;
+typedef enum refl_trace_miss refl_trace_miss;
 #else
-typedef uint32_t refl_miss;
+typedef uint32_t refl_trace_miss;
 #endif // __STDC_VERSION__ >= 202311L
 #endif // __cplusplus
 
@@ -374,7 +364,7 @@ typedef uint32_t refl_layered_miss;
  * The class of a reflector triangle in the potential-reflection-region
  * test (seed 001 Sec. 3.2).
  */
-enum refl_prr_class
+enum refl_layered_prr_class
 #if defined(__cplusplus) || __STDC_VERSION__ >= 202311L
   : uint32_t
 #endif // defined(__cplusplus) || __STDC_VERSION__ >= 202311L
@@ -382,33 +372,33 @@ enum refl_prr_class
     /**
      * No reflection of the bounding sphere on the triangle.
      */
-    REFL_PRR_CLASS_OUTSIDE = 0,
+    REFL_LAYERED_PRR_CLASS_OUTSIDE = 0,
     /**
      * The mirrored sphere is on the camera's side of the plane.
      */
-    REFL_PRR_CLASS_WRONG_SIDE = 1,
+    REFL_LAYERED_PRR_CLASS_WRONG_SIDE = 1,
     /**
      * The camera is inside the mirrored sphere (conservatively reflects).
      */
-    REFL_PRR_CLASS_CAMERA_INSIDE = 2,
+    REFL_LAYERED_PRR_CLASS_CAMERA_INSIDE = 2,
     /**
      * Seed case 1: a corner lies inside the cone.
      */
-    REFL_PRR_CLASS_VERTEX = 3,
+    REFL_LAYERED_PRR_CLASS_VERTEX = 3,
     /**
      * Seed case 2: an edge crosses the cone.
      */
-    REFL_PRR_CLASS_EDGE = 4,
+    REFL_LAYERED_PRR_CLASS_EDGE = 4,
     /**
      * Seed case 3: the conic section lies inside the triangle.
      */
-    REFL_PRR_CLASS_ELLIPSE = 5,
+    REFL_LAYERED_PRR_CLASS_ELLIPSE = 5,
 };
 #ifndef __cplusplus
 #if __STDC_VERSION__ >= 202311L
-typedef enum refl_prr_class refl_prr_class;
+typedef enum refl_layered_prr_class refl_layered_prr_class;
 #else
-typedef uint32_t refl_prr_class;
+typedef uint32_t refl_layered_prr_class;
 #endif // __STDC_VERSION__ >= 202311L
 #endif // __cplusplus
 
@@ -692,7 +682,7 @@ typedef struct refl_mat4 {
 /**
  * A pinhole camera: world-to-view transform, symmetric perspective
  * projection and image size. A plain value: fill it yourself or get one
- * from `refl_camera_look_at` / `refl_mirrored_camera`. Every function that
+ * from `refl_camera_look_at` / `refl_mirror_camera`. Every function that
  * takes a camera validates it (`refl_camera_validate` states the rules).
  *
  * Conventions: right-handed world, view space looks down -Z; pixel (x, y)
@@ -789,8 +779,8 @@ typedef struct refl_projection {
      */
     float y;
     /**
-     * Linear depth (`refl_camera_project`, `refl_reproject`) or stored
-     * depth in the matrix's convention (`refl_apply_reprojection`); 0 when
+     * Linear depth (`refl_camera_project`, `refl_camera_reproject`) or stored
+     * depth in the matrix's convention (`refl_camera_apply_reprojection`); 0 when
      * `valid` is false.
      */
     float depth;
@@ -803,10 +793,10 @@ typedef struct refl_projection {
 } refl_projection;
 
 /**
- * Clustering parameters (seed 003 Sec. 3.2). Defaults:
- * `refl_cluster_params_default`.
+ * Clustering options (seed 003 Sec. 3.2). Defaults:
+ * `refl_cluster_options_default`.
  */
-typedef struct refl_cluster_params {
+typedef struct refl_cluster_options {
     /**
      * Azimuth bins of an object covering the whole frame alone (seed: 13),
      * 1..=1024.
@@ -822,13 +812,13 @@ typedef struct refl_cluster_params {
      * > 0: larger gives more, smaller clusters.
      */
     float gain;
-} refl_cluster_params;
+} refl_cluster_options;
 
 /**
- * Cluster camera parameters (seed 003 Sec. 3.3, 3.5). Defaults:
- * `refl_cluster_camera_params_default`.
+ * Cluster camera options (seed 003 Sec. 3.3, 3.5). Defaults:
+ * `refl_cluster_camera_options_default`.
  */
-typedef struct refl_cluster_camera_params {
+typedef struct refl_cluster_camera_options {
     /**
      * D: distance from the image plane to the far plane (the scene
      * diameter for mirrors, nearer for glossy clusters), finite and > 0.
@@ -856,7 +846,7 @@ typedef struct refl_cluster_camera_params {
      * Upper bound of f (Eq. 1), >= 1; also f when d_F <= d_n.
      */
     float max_f;
-} refl_cluster_camera_params;
+} refl_cluster_camera_options;
 
 /**
  * A read-only image of `uint32_t` texels (e.g. ids, masks, counts).
@@ -901,7 +891,7 @@ typedef struct refl_row_range {
 /**
  * The bins of one reflective object in the current frame.
  */
-typedef struct refl_object_bins {
+typedef struct refl_cluster_object_bins {
     /**
      * Azimuth bins (0 if the object is not visible).
      */
@@ -914,7 +904,7 @@ typedef struct refl_object_bins {
      * Cluster id of the object's first bin.
      */
     uint32_t first;
-} refl_object_bins;
+} refl_cluster_object_bins;
 
 /**
  * A writable image of `uint32_t` texels.
@@ -1133,7 +1123,7 @@ typedef struct refl_depth_image {
 /**
  * How far behind the front-most surface a ray may pass and still hit it.
  */
-typedef struct refl_thickness {
+typedef struct refl_trace_thickness {
     /**
      * Thickness of every surface in linear depth (world units along the
      * view axis), >= 0, may be +infinity (everything behind a surface is
@@ -1147,11 +1137,12 @@ typedef struct refl_thickness {
      * ignored).
      */
     struct refl_image_f32 back_faces;
-} refl_thickness;
+} refl_trace_thickness;
 
 /**
- * Options of the per-pixel stepping kernel (`refl_step_ray`). The
- * defaults are `stride = 1`, `max_steps = UINT32_MAX`.
+ * Options of the per-pixel stepping kernel (`refl_step_ray`);
+ * `refl_step_options_default` gives the defaults (`stride = 1`,
+ * `max_steps = UINT32_MAX`).
  */
 typedef struct refl_step_options {
     /**
@@ -1163,7 +1154,7 @@ typedef struct refl_step_options {
     uint32_t stride;
     /**
      * The most steps (coarse plus refinement) spent on one ray; reaching it
-     * gives `REFL_MISS_OUT_OF_STEPS`. 0 allows none.
+     * gives `REFL_TRACE_MISS_OUT_OF_STEPS`. 0 allows none.
      */
     uint32_t max_steps;
 } refl_step_options;
@@ -1172,7 +1163,7 @@ typedef struct refl_step_options {
  * The reflected rays per pixel (seed 003 Sec. 3.5): one mirror ray, or a
  * truncated Phong lobe.
  */
-typedef struct refl_lobe {
+typedef struct refl_cluster_lobe {
     /**
      * Rays per pixel: 1 = the mirror ray only; 2..=64 sample the lobe.
      */
@@ -1184,19 +1175,22 @@ typedef struct refl_lobe {
     float exponent;
     /**
      * Truncation half-angle in radians, (0, 1.5) (ignored for one ray);
-     * `refl_lobe_angle` gives the angle holding a share of the energy.
+     * `refl_cluster_lobe_angle` gives the angle holding a share of the energy.
      */
     float max_angle;
-} refl_lobe;
+} refl_cluster_lobe;
 
 /**
- * Per-pixel finalization parameters (`refl_cluster_finalize`).
+ * What `refl_cluster_finalize` needs besides the cluster's pixels, camera
+ * and images (`refl_core::cluster::FinalizeInput`): the depth image's
+ * thickness and how to trace and weight each pixel's rays. A bundle of
+ * per-call inputs, not settings with defaults.
  */
-typedef struct refl_cluster_finalize_params {
+typedef struct refl_cluster_finalize_input {
     /**
      * Surface thickness of the depth image.
      */
-    struct refl_thickness thickness;
+    struct refl_trace_thickness thickness;
     /**
      * Stepping options (`stride >= 1`).
      */
@@ -1208,7 +1202,7 @@ typedef struct refl_cluster_finalize_params {
     /**
      * The rays per pixel.
      */
-    struct refl_lobe lobe;
+    struct refl_cluster_lobe lobe;
     /**
      * Glossy fade: a hit's weight falls from 1 on the image plane to 0 at
      * the far plane (the missing weight is the host's diffuse color).
@@ -1218,7 +1212,7 @@ typedef struct refl_cluster_finalize_params {
      * Rotates each pixel's lobe samples.
      */
     uint32_t seed;
-} refl_cluster_finalize_params;
+} refl_cluster_finalize_input;
 
 /**
  * A built Hi-Z pyramid with the camera of its depth image.
@@ -1247,7 +1241,7 @@ typedef struct refl_hiz {
 
 /**
  * Settings of the cone trace (`refl_core::cone::ConeOptions`);
- * `refl_cone_default_options` gives 8 circles, bias 0, visibility on,
+ * `refl_cone_options_default` gives 8 circles, bias 0, visibility on,
  * isotropic, 1% depth tolerance.
  */
 typedef struct refl_cone_options {
@@ -1261,9 +1255,9 @@ typedef struct refl_cone_options {
      */
     float level_bias;
     /**
-     * Nonzero: weight samples by the pre-integrated visibility.
+     * Weight samples by the pre-integrated visibility.
      */
-    uint32_t use_visibility;
+    bool use_visibility;
     /**
      * Largest anisotropic stretch at grazing angles (seed 004
      * Sec. 4.6.8), `>= 1`; 1 is isotropic.
@@ -1274,11 +1268,62 @@ typedef struct refl_cone_options {
      */
     float depth_tolerance;
     /**
-     * Nonzero: divide by the accumulated coverage (a weighted mean of the
-     * samples); zero: the uncovered rest blends the fallback (the seed).
+     * Divide by the accumulated coverage (a weighted mean of the samples);
+     * false: the uncovered rest blends the fallback (the seed).
      */
-    uint32_t normalize;
+    bool normalize;
 } refl_cone_options;
+
+/**
+ * Settings of the Hi-Z traversal; `refl_hiz_options_default` gives the
+ * defaults (start level 2, stop level 0, 1024 iterations, 4 prologue
+ * steps).
+ * Every setting returns the same first hit; they trade iterations for
+ * fetches.
+ */
+typedef struct refl_hiz_options {
+    /**
+     * Level the hierarchical walk starts at after the prologue; clamped to
+     * the last level and raised to `stop_level` if below it.
+     */
+    uint32_t start_level;
+    /**
+     * Finest level of the hierarchical walk: 0 resolves hits in the
+     * hierarchy; L > 0 resolves a level-L cell by unit steps through its
+     * pixels (still exact). Clamped to the last level.
+     */
+    uint32_t stop_level;
+    /**
+     * Cap on hierarchical loop iterations; reaching it gives
+     * `REFL_TRACE_MISS_OUT_OF_STEPS`.
+     */
+    uint32_t max_iterations;
+    /**
+     * One-pixel steps before the hierarchy; `UINT32_MAX` gives plain
+     * per-pixel stepping.
+     */
+    uint32_t prologue_steps;
+} refl_hiz_options;
+
+/**
+ * Settings of `refl_cone_multiray` (`refl_core::cone::MultiRayOptions`);
+ * `refl_cone_multiray_options_default` gives the defaults.
+ */
+typedef struct refl_cone_multiray_options {
+    /**
+     * Rays per pixel, > 0 (seed 003 Sec. 3.5 uses 8 to 49).
+     */
+    uint32_t rays;
+    /**
+     * Cranley-Patterson rotation of the Hammersley set, finite (e.g.
+     * hashed from the pixel index).
+     */
+    struct refl_vec2 rotation;
+    /**
+     * Hi-Z settings of each ray.
+     */
+    struct refl_hiz_options hiz;
+} refl_cone_multiray_options;
 
 /**
  * What `refl_cone_trace` returns.
@@ -1372,11 +1417,15 @@ typedef struct refl_cone {
 } refl_cone;
 
 /**
- * A linear fade range of the cone-tracing fades (seed 004 Listing 4.8):
+ * One fade of the cone tracing (seed 004 Listing 4.8), when `enabled`:
  * the factor is 1 at or below `start`, 0 at or above `end`, linear
  * between.
  */
-typedef struct refl_fade_range {
+typedef struct refl_cone_fade_range {
+    /**
+     * Whether this fade applies.
+     */
+    bool enabled;
     /**
      * Where the fade begins.
      */
@@ -1385,36 +1434,32 @@ typedef struct refl_fade_range {
      * Where it reaches 0; must be greater than `start`.
      */
     float end;
-} refl_fade_range;
+} refl_cone_fade_range;
 
 /**
- * The fades of seed 004 Sec. 4.6.1 (`refl_core::cone::Fades`).
+ * The fades of seed 004 Sec. 4.6.1 (`refl_core::cone::Fades`); a fade
+ * whose `enabled` is false is left out.
  */
 typedef struct refl_cone_fades {
     /**
-     * Which fades apply: a combination of `REFL_FADE_TOWARD_CAMERA`,
-     * `REFL_FADE_BORDER` and `REFL_FADE_TRAVEL`; other bits are invalid.
-     */
-    uint32_t enabled;
-    /**
      * Over `dot(reflected, toward_eye)` in [-1, 1].
      */
-    struct refl_fade_range toward_camera;
+    struct refl_cone_fade_range toward_camera;
     /**
      * Over `max(|2u - 1|, |2v - 1|)` of the normalized hit position (1 on
      * the border).
      */
-    struct refl_fade_range border;
+    struct refl_cone_fade_range border;
     /**
      * Over the ray's travel distance in world units.
      */
-    struct refl_fade_range travel;
+    struct refl_cone_fade_range travel;
 } refl_cone_fades;
 
 /**
  * What `refl_cone_multiray` returns.
  */
-typedef struct refl_multiray_result {
+typedef struct refl_cone_multiray_result {
     /**
      * The Phong-weighted mean color.
      */
@@ -1431,45 +1476,13 @@ typedef struct refl_multiray_result {
      * Hi-Z iterations summed over the rays.
      */
     uint32_t iterations;
-} refl_multiray_result;
+} refl_cone_multiray_result;
 
 /**
- * Settings of `refl_cone_multiray`.
+ * Settings of the reprojection and rendering phases
+ * (`refl_epipolar_options_default` gives the defaults).
  */
-typedef struct refl_multiray_options {
-    /**
-     * Rays per pixel, > 0 (seed 003 Sec. 3.5 uses 8 to 49).
-     */
-    uint32_t rays;
-    /**
-     * Cranley-Patterson rotation of the Hammersley set, finite (e.g.
-     * hashed from the pixel index).
-     */
-    struct refl_vec2 rotation;
-    /**
-     * Hi-Z settings of each ray: start level.
-     */
-    uint32_t hiz_start_level;
-    /**
-     * Hi-Z stop level.
-     */
-    uint32_t hiz_stop_level;
-    /**
-     * Hi-Z iteration cap.
-     */
-    uint32_t hiz_max_iterations;
-    /**
-     * Hi-Z prologue steps.
-     */
-    uint32_t hiz_prologue_steps;
-} refl_multiray_options;
-
-/**
- * Parameters of the reprojection and rendering phases
- * (`refl_epipolar_params_default` gives the defaults). Booleans are
- * `uint32_t` 0 or 1; any other value is `REFL_STATUS_INVALID_ARGUMENT`.
- */
-typedef struct refl_epipolar_params {
+typedef struct refl_epipolar_options {
     /**
      * `m_cnt` of Sec. 3.3: a pixel is resolved by one ray/object test when
      * at least this many points of its object reached it. >= 1; default 5.
@@ -1481,10 +1494,10 @@ typedef struct refl_epipolar_params {
      */
     uint32_t splat_radius;
     /**
-     * Depth guard (default 1): the one-object test only accepts a hit
+     * Depth guard (default on): the one-object test only accepts a hit
      * nearer than `refl_epipolar_aip_entry.t_other`.
      */
-    uint32_t depth_guard;
+    bool depth_guard;
     /**
      * Relative margin of the depth guard, in [0, 1); default 0.01: the
      * one-object test accepts hits nearer than `t_other * (1 - margin)`.
@@ -1498,13 +1511,13 @@ typedef struct refl_epipolar_params {
      */
     uint32_t guard_window;
     /**
-     * View-frustum check of Sec. 4.1 (default 1).
+     * View-frustum check of Sec. 4.1 (default on).
      */
-    uint32_t frustum_check;
+    bool frustum_check;
     /**
-     * Epipolar ordering and occlusion check of Sec. 4.2 (default 1).
+     * Epipolar ordering and occlusion check of Sec. 4.2 (default on).
      */
-    uint32_t occlusion_check;
+    bool occlusion_check;
     /**
      * N of regular resampling (Sec. 4.3); 0 turns it off. Default 9.
      */
@@ -1514,14 +1527,14 @@ typedef struct refl_epipolar_params {
      */
     uint32_t abrupt_frames;
     /**
-     * Shifted ray origin of Sec. 5.3 for fallback rays (default 0).
+     * Shifted ray origin of Sec. 5.3 for fallback rays (default off).
      */
-    uint32_t shift_origin;
+    bool shift_origin;
     /**
      * The epsilon of Sec. 5.3, world units, finite and >= 0.
      */
     float shift_epsilon;
-} refl_epipolar_params;
+} refl_epipolar_options;
 
 /**
  * One entry of the AIP buffer (seed 002 Sec. 3.1, Alg. 1), written by
@@ -1584,13 +1597,13 @@ typedef struct refl_epipolar_stats {
      */
     uint32_t abrupt_rejected;
     /**
-     * 1 if the view-frustum check failed and nothing was reprojected.
+     * The view-frustum check failed and nothing was reprojected.
      */
-    uint32_t frustum_failed;
+    bool frustum_failed;
     /**
-     * 1 if the eyes coincide (pure rotation; no occlusion check needed).
+     * The eyes coincide (pure rotation; no occlusion check needed).
      */
-    uint32_t no_baseline;
+    bool no_baseline;
 } refl_epipolar_stats;
 
 /**
@@ -1661,36 +1674,6 @@ typedef struct refl_glossy_fade {
      */
     float end;
 } refl_glossy_fade;
-
-/**
- * Settings of the Hi-Z traversal. `refl_hiz_default_options` gives the
- * defaults: start level 2, stop level 0, 1024 iterations, 4 prologue steps.
- * Every setting returns the same first hit; they trade iterations for
- * fetches.
- */
-typedef struct refl_hiz_options {
-    /**
-     * Level the hierarchical walk starts at after the prologue; clamped to
-     * the last level and raised to `stop_level` if below it.
-     */
-    uint32_t start_level;
-    /**
-     * Finest level of the hierarchical walk: 0 resolves hits in the
-     * hierarchy; L > 0 resolves a level-L cell by unit steps through its
-     * pixels (still exact). Clamped to the last level.
-     */
-    uint32_t stop_level;
-    /**
-     * Cap on hierarchical loop iterations; reaching it gives
-     * `REFL_MISS_OUT_OF_STEPS`.
-     */
-    uint32_t max_iterations;
-    /**
-     * One-pixel steps before the hierarchy; `UINT32_MAX` gives plain
-     * per-pixel stepping.
-     */
-    uint32_t prologue_steps;
-} refl_hiz_options;
 
 /**
  * Settings of the glossy pass; `refl_glossy_options_default` gives the
@@ -2033,7 +2016,7 @@ typedef struct refl_hiz_level_info {
  */
 typedef struct refl_trace_result {
     /**
-     * `REFL_MISS_NONE` (0) for a hit, otherwise the `refl_miss` reason.
+     * `REFL_TRACE_MISS_NONE` (0) for a hit, otherwise the `refl_trace_miss` reason.
      */
     uint32_t miss;
     /**
@@ -2101,27 +2084,28 @@ typedef struct refl_layered_sizes {
     /**
      * Floats of the depth buffer: `6 * res * res * layers`.
      */
-    size_t depth;
+    size_t depth_len;
     /**
      * uint32_t of the payload buffer: `6 * res * res * layers`.
      */
-    size_t payload;
+    size_t payload_len;
     /**
      * uint32_t of the layer-count buffer: `6 * res * res`.
      */
-    size_t counts;
+    size_t counts_len;
     /**
      * Floats of the empty-space bound buffer: per face, levels
      * `1..=ceil(log2 res)` of `ceil(res / 2^l)^2` cells, `2 * layers`
      * floats each (0 for res 1).
      */
-    size_t bounds;
+    size_t bounds_len;
 } refl_layered_sizes;
 
 /**
- * Parameters of the layered trace (seed 001 Sec. 3.3, Algorithm 1).
+ * Settings of the layered trace (seed 001 Sec. 3.3, Algorithm 1);
+ * `refl_layered_options_default` gives the defaults.
  */
-typedef struct refl_layered_params {
+typedef struct refl_layered_options {
     /**
      * Linear-search step in texels, > 0 and finite.
      */
@@ -2151,13 +2135,13 @@ typedef struct refl_layered_params {
      * reads the nearest texel only. >= 0 and finite.
      */
     float smooth_texels;
-} refl_layered_params;
+} refl_layered_options;
 
 /**
  * The world-space orthographic ray of one face texel, to be cast through
  * every surface of the object.
  */
-typedef struct refl_column_ray {
+typedef struct refl_layered_column_ray {
     /**
      * Start on the face plane at the texel center, world space.
      */
@@ -2170,7 +2154,7 @@ typedef struct refl_column_ray {
      * World length of the column (the ray leaves the box at `t_max`).
      */
     float t_max;
-} refl_column_ray;
+} refl_layered_column_ray;
 
 /**
  * The geometry of a layered depth cube map.
@@ -2244,7 +2228,7 @@ typedef struct refl_layered_map_mut {
 /**
  * What filling a column did.
  */
-typedef struct refl_column_fill {
+typedef struct refl_layered_column_fill {
     /**
      * Solid intervals found along the column.
      */
@@ -2254,12 +2238,13 @@ typedef struct refl_column_fill {
      * means the thinnest gaps were filled (approximate column).
      */
     uint32_t stored;
-} refl_column_fill;
+} refl_layered_column_fill;
 
 /**
- * One surface crossing along a column ray.
+ * One surface crossing along a column ray. The fill functions sort the
+ * caller's array of crossings in place (it is their scratch).
  */
-typedef struct refl_layer_hit {
+typedef struct refl_layered_layer_hit {
     /**
      * Distance along the column ray, finite (clamped to `[0, t_max]`).
      */
@@ -2269,20 +2254,20 @@ typedef struct refl_layer_hit {
      */
     uint32_t id;
     /**
-     * 1 if the surface faces the ray origin (the ray enters the object),
-     * 0 where it leaves; other values are `REFL_STATUS_INVALID_ARGUMENT`.
+     * True if the surface faces the ray origin (the ray enters the
+     * object), false where it leaves.
      */
-    uint32_t front;
-} refl_layer_hit;
+    bool front;
+} refl_layered_layer_hit;
 
 /**
  * The result of tracing one ray against a layered depth cube map.
  */
 typedef struct refl_layered_result {
     /**
-     * 1 for a hit, 0 for a miss.
+     * True for a hit, false for a miss.
      */
-    uint32_t hit;
+    bool hit;
     /**
      * A `refl_layered_miss` value (0 for a hit).
      */
@@ -2427,7 +2412,7 @@ typedef struct refl_ssr_options {
      */
     float border_fade;
     /**
-     * Refine hits to sub-pixel precision (`refl_refine_hit`). Default true.
+     * Refine hits to sub-pixel precision (`refl_trace_refine_hit`). Default true.
      */
     bool refine;
     /**
@@ -2494,10 +2479,10 @@ typedef struct refl_ssr_texel {
 } refl_ssr_texel;
 
 /**
- * Settings of the TCRR passes (refl-core `TcrrParams`); fill with
- * `refl_tcrr_default_params`.
+ * Settings of the TCRR passes (refl-core `TcrrOptions`); fill with
+ * `refl_tcrr_options_default`.
  */
-typedef struct refl_tcrr_params {
+typedef struct refl_tcrr_options {
     /**
      * Iteration cap of the neighborhood search, >= 1 (default 64).
      */
@@ -2517,16 +2502,16 @@ typedef struct refl_tcrr_params {
      */
     float reflected_discontinuity;
     /**
-     * 1: sub-pixel offsets (default); 0: the seed's whole-pixel offsets.
+     * Sub-pixel offsets (default); false: the seed's whole-pixel offsets.
      */
-    uint32_t subpixel;
+    bool subpixel;
     /**
      * Warping re-traces a pixel whose bilinear taps differ by more than
      * this in a linear RGB channel (a reflected edge); > 0, +inf turns
      * the test off (default 0.1).
      */
     float retrace_contrast;
-} refl_tcrr_params;
+} refl_tcrr_options;
 
 /**
  * A key-frame texel back-projected once per key frame
@@ -3184,22 +3169,22 @@ refl_status refl_camera_is_mirrored(bool *out, const struct refl_camera *camera)
  * 4.6.4): for a pixel position (px, py) of `from` with stored depth d,
  * `M (px, py, d, 1) = (qx w, qy w, e w, w)` with (qx, qy) the same world
  * point's pixel position in `to` and e its stored depth there; drop
- * results with w <= 0 (`refl_apply_reprojection` does). Composed in double
+ * results with w <= 0 (`refl_camera_apply_reprojection` does). Composed in double
  * precision, rounded once.
  *
  * Returns `REFL_STATUS_NULL_POINTER` if `out`, `from` or `to` is NULL;
  * `REFL_STATUS_INVALID_ARGUMENT` for an unknown convention or
- * `REFL_DEPTH_CONVENTION_LINEAR` (use `refl_reproject`); a camera's status
+ * `REFL_DEPTH_CONVENTION_LINEAR` (use `refl_camera_reproject`); a camera's status
  * if one is invalid; `REFL_STATUS_DEGENERATE_GEOMETRY` if the composed
  * matrix is not finite.
  *
  * # Safety
  * `out` must be NULL or writable; `from` and `to` NULL or readable.
  */
-refl_status refl_reprojection_matrix(struct refl_mat4 *out,
-                                     const struct refl_camera *from,
-                                     const struct refl_camera *to,
-                                     uint32_t convention);
+refl_status refl_camera_reprojection_matrix(struct refl_mat4 *out,
+                                            const struct refl_camera *from,
+                                            const struct refl_camera *to,
+                                            uint32_t convention);
 
 /**
  * Reprojects the pixel position `pixel` of camera `from` with stored depth
@@ -3215,15 +3200,15 @@ refl_status refl_reprojection_matrix(struct refl_mat4 *out,
  * # Safety
  * `out` must be NULL or writable; `from` and `to` NULL or readable.
  */
-refl_status refl_reproject(struct refl_projection *out,
-                           const struct refl_camera *from,
-                           const struct refl_camera *to,
-                           struct refl_vec2 pixel,
-                           float depth,
-                           uint32_t convention);
+refl_status refl_camera_reproject(struct refl_projection *out,
+                                  const struct refl_camera *from,
+                                  const struct refl_camera *to,
+                                  struct refl_vec2 pixel,
+                                  float depth,
+                                  uint32_t convention);
 
 /**
- * Applies a reprojection matrix (from `refl_reprojection_matrix`) to the
+ * Applies a reprojection matrix (from `refl_camera_reprojection_matrix`) to the
  * pixel position `pixel` with stored depth `depth`: writes to `*out` the
  * pixel position and stored depth after the homogeneous divide, or
  * `valid = false` when w <= 0 (behind the target eye) or the result is not
@@ -3236,48 +3221,37 @@ refl_status refl_reproject(struct refl_projection *out,
  * # Safety
  * `out` must be NULL or writable; `matrix` NULL or readable.
  */
-refl_status refl_apply_reprojection(struct refl_projection *out,
-                                    const struct refl_mat4 *matrix,
-                                    struct refl_vec2 pixel,
-                                    float depth);
+refl_status refl_camera_apply_reprojection(struct refl_projection *out,
+                                           const struct refl_mat4 *matrix,
+                                           struct refl_vec2 pixel,
+                                           float depth);
 
 /**
- * Writes the seed's clustering constants (13 x 8 bins, gain 1) to `*out`.
- *
- * Returns `REFL_STATUS_NULL_POINTER` if `out` is NULL.
- *
- * # Safety
- * `out` must be NULL or writable.
+ * The seed's clustering constants (13 x 8 bins, gain 1).
  */
-refl_status refl_cluster_params_default(struct refl_cluster_params *out);
+struct refl_cluster_options refl_cluster_options_default(void);
 
 /**
- * Writes the default cluster camera parameters (D = 100, mirror, 1x
- * resolution, at most 2048 texels a side, clusters of at least 4 pixels,
- * f <= 16) to `*out`.
- *
- * Returns `REFL_STATUS_NULL_POINTER` if `out` is NULL.
- *
- * # Safety
- * `out` must be NULL or writable.
+ * The default cluster camera options (D = 100, mirror, 1x resolution, at
+ * most 2048 texels a side, clusters of at least 4 pixels, f <= 16).
  */
-refl_status refl_cluster_camera_params_default(struct refl_cluster_camera_params *out);
+struct refl_cluster_camera_options refl_cluster_camera_options_default(void);
 
 /**
  * Writes to `*out` the most clusters a frame with `objects` reflective
  * objects can have (`objects * max_theta_bins * max_phi_bins`): size the
  * `offsets` of `refl_cluster_ranges` one larger.
  *
- * Returns `REFL_STATUS_NULL_POINTER` if `out` or `params` is NULL;
- * `REFL_STATUS_INVALID_ARGUMENT` for invalid params or a count that does
+ * Returns `REFL_STATUS_NULL_POINTER` if `out` or `options` is NULL;
+ * `REFL_STATUS_INVALID_ARGUMENT` for invalid options or a count that does
  * not fit in `uint32_t`.
  *
  * # Safety
- * `out` NULL or writable; `params` NULL or readable.
+ * `out` NULL or writable; `options` NULL or readable.
  */
 refl_status refl_cluster_bins_max(uint32_t *out,
                                   uint32_t objects,
-                                  const struct refl_cluster_params *params);
+                                  const struct refl_cluster_options *options);
 
 /**
  * Adds, for every pixel of `rows` whose object id is below `counts_len`,
@@ -3304,23 +3278,23 @@ refl_status refl_cluster_count_objects(uint32_t *counts,
  * objects) and its first cluster id; writes `out[k]` for every object and
  * the total number of cluster ids to `*out_total`.
  *
- * Returns `REFL_STATUS_NULL_POINTER` for a NULL output, `params`, or a
+ * Returns `REFL_STATUS_NULL_POINTER` for a NULL output, `options`, or a
  * NULL array with a non-zero length; `REFL_STATUS_INVALID_ARGUMENT` for
- * invalid params, `frame_pixels == 0`, or counts summing above it;
+ * invalid options, `frame_pixels == 0`, or counts summing above it;
  * `REFL_STATUS_INSUFFICIENT_SIZE` if `out_len < counts_len`.
  *
  * # Safety
  * `out_total` NULL or writable; `out` NULL or writable for `out_len`
- * values; `counts` NULL or readable for `counts_len`; `params` NULL or
+ * values; `counts` NULL or readable for `counts_len`; `options` NULL or
  * readable.
  */
 refl_status refl_cluster_bin_layout(uint32_t *out_total,
-                                    struct refl_object_bins *out,
+                                    struct refl_cluster_object_bins *out,
                                     size_t out_len,
                                     const uint32_t *counts,
                                     size_t counts_len,
                                     uint64_t frame_pixels,
-                                    const struct refl_cluster_params *params);
+                                    const struct refl_cluster_options *options);
 
 /**
  * Writes the cluster id of every pixel in `rows` of `ids` (seed 003 Sec.
@@ -3343,7 +3317,7 @@ refl_status refl_cluster_assign(struct refl_image_u32_mut ids,
                                 struct refl_row_range rows,
                                 struct refl_image_vec3 normals,
                                 struct refl_image_u32 objects,
-                                const struct refl_object_bins *layout,
+                                const struct refl_cluster_object_bins *layout,
                                 size_t layout_len);
 
 /**
@@ -3371,15 +3345,15 @@ refl_status refl_cluster_ranges(uint32_t *out_total,
 
 /**
  * The cluster camera of seed 003 Sec. 3.3 (Eq. 1) for the pixels
- * `pixels[0 .. pixel_count]` (indices y * width + x into `positions` and
+ * `pixels[0 .. pixels_len]` (indices y * width + x into `positions` and
  * `normals`, e.g. one range of `refl_cluster_ranges`) seen from `eye`.
  * Writes a camera, or a fallback reason (`refl_cluster_fallback`), to
  * `*out`. Planar clusters come out with f = 1 and the camera eye exactly
  * at the mirrored eye.
  *
- * Returns `REFL_STATUS_NULL_POINTER` for a NULL `out`, `params`, image, or
+ * Returns `REFL_STATUS_NULL_POINTER` for a NULL `out`, `options`, image, or
  * `pixels` with a non-zero count; `REFL_STATUS_INVALID_ARGUMENT` for
- * invalid params, a non-finite eye, images of different sizes, a pixel
+ * invalid options, a non-finite eye, images of different sizes, a pixel
  * outside the image, a non-finite position or a non-unit normal;
  * `REFL_STATUS_DEGENERATE_GEOMETRY` if the camera is not representable.
  *
@@ -3390,9 +3364,9 @@ refl_status refl_cluster_build_camera(struct refl_cluster_camera *out,
                                       struct refl_image_vec3 positions,
                                       struct refl_image_vec3 normals,
                                       const uint32_t *pixels,
-                                      size_t pixel_count,
+                                      size_t pixels_len,
                                       struct refl_vec3 eye,
-                                      const struct refl_cluster_camera_params *params);
+                                      const struct refl_cluster_camera_options *options);
 
 /**
  * Writes to `*out` the half-angle (radians) of the Phong lobe cos^n that
@@ -3405,10 +3379,10 @@ refl_status refl_cluster_build_camera(struct refl_cluster_camera *out,
  * # Safety
  * `out` NULL or writable.
  */
-refl_status refl_lobe_angle(float *out, float exponent, float energy);
+refl_status refl_cluster_lobe_angle(float *out, float exponent, float energy);
 
 /**
- * Finalizes the reflection of the pixels `pixels[0 .. pixel_count]` of one
+ * Finalizes the reflection of the pixels `pixels[0 .. pixels_len]` of one
  * cluster (seed 003 Sec. 3.4, 3.5): each pixel's mirror ray (or lobe
  * samples) is stepped through the cluster depth image `depth` (rendered
  * through `camera->camera`) up to the far plane; hits take the bilinear
@@ -3423,7 +3397,7 @@ refl_status refl_lobe_angle(float *out, float exponent, float energy);
  * color image of another size than the depth image, a non-finite eye, a
  * listed pixel outside the input or with a non-finite position or
  * non-unit normal, an unknown convention, or `out` overlapping an input;
- * `REFL_STATUS_INSUFFICIENT_SIZE` if `out_len < pixel_count` or an image
+ * `REFL_STATUS_INSUFFICIENT_SIZE` if `out_len < pixels_len` or an image
  * is short.
  *
  * # Safety
@@ -3436,12 +3410,12 @@ refl_status refl_cluster_finalize(uint32_t *out_fallbacks,
                                   struct refl_image_vec3 positions,
                                   struct refl_image_vec3 normals,
                                   const uint32_t *pixels,
-                                  size_t pixel_count,
+                                  size_t pixels_len,
                                   struct refl_vec3 eye,
                                   const struct refl_cluster_camera *camera,
                                   const struct refl_depth_image *depth,
                                   struct refl_image_vec3 color,
-                                  const struct refl_cluster_finalize_params *params);
+                                  const struct refl_cluster_finalize_input *input);
 
 /**
  * The cone half-angle for a Phong specular power (seed 004 Eq. 4.1 with
@@ -3490,7 +3464,7 @@ refl_status refl_cone_pyramid_len(size_t *out_color_len,
                                   uint32_t height);
 
 /**
- * Builds rows `[row_start, row_end)` of level `level` of the color
+ * Builds the rows `rows` of level `level` of the color
  * pyramid of `*image` in `dst` (level 0 copies the image; level L blurs
  * level L - 1 with a normalized Gaussian of standard deviation `sigma`
  * finer texels and halves it). Build level by level; row bands of one
@@ -3513,8 +3487,7 @@ refl_status refl_cone_build_color_rows(struct refl_vec3 *dst,
                                        size_t dst_len,
                                        const struct refl_image_vec3 *image,
                                        uint32_t level,
-                                       uint32_t row_start,
-                                       uint32_t row_end,
+                                       struct refl_row_range rows,
                                        float sigma);
 
 /**
@@ -3533,7 +3506,7 @@ refl_status refl_cone_build_color(struct refl_vec3 *dst,
                                   float sigma);
 
 /**
- * Builds rows `[row_start, row_end)` of level `level` of the visibility
+ * Builds the rows `rows` of level `level` of the visibility
  * pyramid of `*hiz` in `dst` (level 0: 1 where a foreground surface is,
  * 0 elsewhere; level L from level L - 1 and the Hi-Z, seed 004
  * Sec. 4.4.2 / Listing 4.4 as `refl_core::cone` reads it). Build level by
@@ -3555,8 +3528,7 @@ refl_status refl_cone_build_visibility_rows(float *dst,
                                             size_t dst_len,
                                             const struct refl_hiz *hiz,
                                             uint32_t level,
-                                            uint32_t row_start,
-                                            uint32_t row_end);
+                                            struct refl_row_range rows);
 
 /**
  * Builds the whole visibility pyramid of `*hiz` into `dst`.
@@ -3569,14 +3541,16 @@ refl_status refl_cone_build_visibility_rows(float *dst,
 refl_status refl_cone_build_visibility(float *dst, size_t dst_len, const struct refl_hiz *hiz);
 
 /**
- * The default cone options into `*out`.
- *
- * Returns `REFL_STATUS_NULL_POINTER` if `out` is NULL.
- *
- * # Safety
- * `out` must be NULL or writable.
+ * The default cone options: 8 circles, bias 0, visibility on,
+ * isotropic, 1% depth tolerance, no normalization.
  */
-refl_status refl_cone_default_options(struct refl_cone_options *out);
+struct refl_cone_options refl_cone_options_default(void);
+
+/**
+ * The default multi-ray options: 8 rays (the low end of seed 003
+ * Sec. 3.5's 8 to 49), no rotation, the Hi-Z defaults.
+ */
+struct refl_cone_multiray_options refl_cone_multiray_options_default(void);
 
 /**
  * Integrates the cone `*cone` over the pyramids (seed 004 Sec. 4.4.5 /
@@ -3612,9 +3586,8 @@ refl_status refl_cone_trace(struct refl_cone_result *out,
  * `fallback + fade * (color - fallback)`.
  *
  * Returns `REFL_STATUS_NULL_POINTER` if `out` or `fades` is NULL;
- * `REFL_STATUS_INVALID_ARGUMENT` for unknown bits in `enabled`, an enabled
- * range that is not finite with `end > start`, a zero size or non-finite
- * inputs.
+ * `REFL_STATUS_INVALID_ARGUMENT` for an enabled range that is not finite
+ * with `end > start`, a zero size or non-finite inputs.
  *
  * # Safety
  * `out` NULL or writable; `fades` NULL or readable.
@@ -3649,28 +3622,23 @@ refl_status refl_cone_fade(float *out,
  * As `refl_cone_trace`; `thickness` NULL or readable, a back-face image
  * readable for its length.
  */
-refl_status refl_cone_multiray(struct refl_multiray_result *out,
+refl_status refl_cone_multiray(struct refl_cone_multiray_result *out,
                                const struct refl_cone_pyramids *pyramids,
-                               const struct refl_thickness *thickness,
+                               const struct refl_trace_thickness *thickness,
                                struct refl_ray ray,
                                struct refl_vec3 normal,
                                float t_max,
                                float theta,
                                float power,
-                               const struct refl_multiray_options *options,
+                               const struct refl_cone_multiray_options *options,
                                struct refl_vec3 fallback);
 
 /**
- * Writes to `*out` the default parameters (m_cnt 5, 3x3 splat, depth
- * guard, view-frustum and occlusion checks on, N = 9 for resampling and
- * the abrupt-motion test, no shifted origin, epsilon 1e-3).
- *
- * Returns `REFL_STATUS_NULL_POINTER` if `out` is NULL.
- *
- * # Safety
- * `out` must be NULL or point to a writable `refl_epipolar_params`.
+ * The defaults (m_cnt 5, 3x3 splat, depth guard, view-frustum and
+ * occlusion checks on, N = 9 for resampling and the abrupt-motion test, no
+ * shifted origin, epsilon 1e-3).
  */
-refl_status refl_epipolar_params_default(struct refl_epipolar_params *out);
+struct refl_epipolar_options refl_epipolar_options_default(void);
 
 /**
  * Writes to `*out_len` the number of floats of scratch
@@ -3698,8 +3666,8 @@ refl_status refl_epipolar_scratch_len(size_t *out_len, uint32_t width, uint32_t 
  * epipolar order is); `refl_epipolar_decide_rows` then runs per row band.
  *
  * Returns `REFL_STATUS_NULL_POINTER` if any pointer is NULL;
- * `REFL_STATUS_INVALID_ARGUMENT` for invalid params (a boolean not 0/1,
- * `m_cnt == 0`, a splat radius above the maximum, a bad epsilon), cameras
+ * `REFL_STATUS_INVALID_ARGUMENT` for invalid options (`m_cnt == 0`, a
+ * splat radius above the maximum, a bad epsilon), cameras
  * of different sizes, a misaligned pointer or overlapping buffers;
  * `REFL_STATUS_INSUFFICIENT_SIZE` if `aip_len` or `pos_len` is below
  * `width * height` or `scratch_len` below `refl_epipolar_scratch_len`;
@@ -3720,14 +3688,14 @@ refl_status refl_epipolar_reproject(struct refl_epipolar_aip_entry *aip,
                                     size_t pos_len,
                                     const struct refl_camera *previous,
                                     const struct refl_camera *current,
-                                    const struct refl_epipolar_params *params);
+                                    const struct refl_epipolar_options *options);
 
 /**
- * The rendering-phase decisions (seed 002 Alg. 2) of rows
- * `[row_begin, row_end)` of frame `frame` of a `width`-wide image:
- * `out[y * width + x]` from `aip[y * width + x]` (other entries are not
- * touched). Hosts split the image into row bands (`refl_row_band`) and
- * decide and trace them on their own threads.
+ * The rendering-phase decisions (seed 002 Alg. 2) of the rows `rows` of
+ * frame `frame` of a `width`-wide image: `out[y * width + x]` from
+ * `aip[y * width + x]` (other entries are not touched, and only the band's
+ * entries of `out` are accessed). Hosts split the image into row bands
+ * (`refl_image_row_band`) and decide and trace them on their own threads.
  *
  * Per pixel: no reprojection -> full traversal (`UNAVAILABLE`); the
  * pixel's regular-resampling slot is `frame mod N` -> full traversal
@@ -3737,25 +3705,24 @@ refl_status refl_epipolar_reproject(struct refl_epipolar_aip_entry *aip,
  * (`FAILED`).
  *
  * Returns `REFL_STATUS_NULL_POINTER` if a pointer is NULL;
- * `REFL_STATUS_INVALID_ARGUMENT` for invalid params, a zero width, an
+ * `REFL_STATUS_INVALID_ARGUMENT` for invalid options, a zero width, an
  * empty or reversed row range, a misaligned pointer or overlapping
  * buffers; `REFL_STATUS_INSUFFICIENT_SIZE` if `out_len` or `aip_len` is
- * below `row_end * width`. On error nothing is written.
+ * below `rows.end * width`. On error nothing is written.
  *
  * # Safety
  * `out` must be writable for `out_len` entries and `aip` readable for
- * `aip_len` entries, `params` NULL or readable, for the duration of the
- * call; no other thread may write the rows of `out` in the range.
+ * `aip_len` entries, `options` NULL or readable, for the duration of the
+ * call; no other thread may access the rows of `out` in the range.
  */
 refl_status refl_epipolar_decide_rows(struct refl_epipolar_decision *out,
                                       size_t out_len,
                                       const struct refl_epipolar_aip_entry *aip,
                                       size_t aip_len,
                                       uint32_t width,
-                                      uint32_t row_begin,
-                                      uint32_t row_end,
+                                      struct refl_row_range rows,
                                       uint32_t frame,
-                                      const struct refl_epipolar_params *params);
+                                      const struct refl_epipolar_options *options);
 
 /**
  * The pass's defaults: cone tracing with 8 circles, normalized, no
@@ -3826,7 +3793,7 @@ refl_status refl_glossy_prepare(float *scratch,
  * to `host_len`; `host` may be NULL with `host_len` 0) in row-major
  * order. The counts go to `*out_stats`.
  *
- * Bands are independent: split the rows (`refl_row_band`) across threads,
+ * Bands are independent: split the rows (`refl_image_row_band`) across threads,
  * each with its own `host` list. `scratch` is what `refl_glossy_prepare`
  * built for this G-buffer and these options; pyramids built for another
  * camera or size, or not built, are refused.
@@ -3891,14 +3858,10 @@ refl_status refl_hiz_level(struct refl_hiz_level_info *out,
                            uint32_t level);
 
 /**
- * The default traversal options into `*out`.
- *
- * Returns `REFL_STATUS_NULL_POINTER` if `out` is NULL.
- *
- * # Safety
- * `out` must be NULL or writable.
+ * The default traversal options: start level 2, stop level 0, 1024
+ * iterations, 4 prologue steps.
  */
-refl_status refl_hiz_default_options(struct refl_hiz_options *out);
+struct refl_hiz_options refl_hiz_options_default(void);
 
 /**
  * Builds the whole Hi-Z pyramid of `*image` into `dst` (seed 004
@@ -3926,7 +3889,7 @@ refl_status refl_hiz_build(struct refl_vec2 *dst,
                            const struct refl_depth_image *image);
 
 /**
- * Builds rows `[row_start, row_end)` of level `level` of the pyramid in
+ * Builds the rows `rows` of level `level` of the pyramid in
  * `dst`, for hosts that split the build across threads: build level 0
  * (from `*image`) completely, then level 1 (from level 0 in `dst`), and so
  * on; the row bands of one level may run concurrently on different
@@ -3948,8 +3911,7 @@ refl_status refl_hiz_build_rows(struct refl_vec2 *dst,
                                 size_t dst_len,
                                 const struct refl_depth_image *image,
                                 uint32_t level,
-                                uint32_t row_start,
-                                uint32_t row_end);
+                                struct refl_row_range rows);
 
 /**
  * Traces one ray against a Hi-Z pyramid (seed 004 Sec. 4.4.3 with the
@@ -3986,48 +3948,50 @@ refl_status refl_hiz_build_rows(struct refl_vec2 *dst,
  */
 refl_status refl_hiz_trace_ray(struct refl_trace_result *out,
                                const struct refl_hiz *hiz,
-                               const struct refl_thickness *thickness,
+                               const struct refl_trace_thickness *thickness,
                                struct refl_ray ray,
                                float t_max,
                                const struct refl_hiz_options *options);
 
 /**
- * Traces `ray_count` rays as `refl_hiz_trace_ray` would, writing result
- * `i` to `out[i]`. `t_max` holds one value for every ray
- * (`t_max_count == 1`) or one per ray (`t_max_count >= ray_count`).
+ * Traces `rays_len` rays as `refl_hiz_trace_ray` would, writing result
+ * `i` to `out[i]`: the arguments of `refl_hiz_trace_ray` in the same
+ * order, the ray, `t_max` and the result replaced by arrays. `t_max`
+ * holds one value for every ray (`t_max_len == 1`) or one per ray
+ * (`t_max_len >= rays_len`).
  *
  * Every input is validated before anything is written: on any error `out`
- * is untouched. Elements of `out` past `ray_count` are never written.
- * Rays are independent: split a batch into chunks and call this from
- * several threads.
+ * is untouched. Elements of `out` past `rays_len` are never written;
+ * `out` must not overlap the rays, `t_max`, the pyramid or the back-face
+ * image (`REFL_STATUS_INVALID_ARGUMENT`). Rays are independent: split a
+ * batch into chunks and call this from several threads.
  *
  * Returns `REFL_STATUS_NULL_POINTER` if `out`, `rays`, `t_max`, `hiz`,
  * `hiz->data`, `thickness` or `options` is NULL;
- * `REFL_STATUS_INSUFFICIENT_SIZE` if `out_len < ray_count` or
- * `t_max_count` is neither 1 nor at least `ray_count`;
- * `REFL_STATUS_INVALID_ARGUMENT` if `t_max_count` is 0, or for any ray,
- * `t_max`, pyramid, thickness or option rejected as by
- * `refl_hiz_trace_ray`.
+ * `REFL_STATUS_INSUFFICIENT_SIZE` if `out_len < rays_len` or `t_max_len`
+ * is neither 1 nor at least `rays_len`; `REFL_STATUS_INVALID_ARGUMENT` if
+ * `t_max_len` is 0, `out` overlaps an input, or for any ray, `t_max`,
+ * pyramid, thickness or option rejected as by `refl_hiz_trace_ray`.
  *
  * # Safety
  * `out` must be NULL or writable for `out_len` results; `rays` NULL or
- * readable for `ray_count` rays; `t_max` NULL or readable for
- * `t_max_count` floats; the rest as `refl_hiz_trace_ray`.
+ * readable for `rays_len` rays; `t_max` NULL or readable for `t_max_len`
+ * floats; the rest as `refl_hiz_trace_ray`.
  */
 refl_status refl_hiz_trace_rays(struct refl_trace_result *out,
                                 size_t out_len,
-                                const struct refl_ray *rays,
-                                size_t ray_count,
-                                const float *t_max,
-                                size_t t_max_count,
                                 const struct refl_hiz *hiz,
-                                const struct refl_thickness *thickness,
+                                const struct refl_trace_thickness *thickness,
+                                const struct refl_ray *rays,
+                                size_t rays_len,
+                                const float *t_max,
+                                size_t t_max_len,
                                 const struct refl_hiz_options *options);
 
 /**
  * Writes to `*out` the `index`-th of `count` contiguous, near-equal bands
  * of the rows `[0, height)` (the first `height % count` bands get one row
- * more), for splitting a whole-image pass such as `refl_convert_depth`
+ * more), for splitting a whole-image pass such as `refl_image_convert_depth`
  * across `count` threads. When there are more bands than rows, the bands
  * past the last row are empty (`begin == end`): skip them.
  *
@@ -4038,10 +4002,10 @@ refl_status refl_hiz_trace_rays(struct refl_trace_result *out,
  * # Safety
  * `out` must be NULL or point to a writable `refl_row_range`.
  */
-refl_status refl_row_band(struct refl_row_range *out,
-                          uint32_t height,
-                          uint32_t index,
-                          uint32_t count);
+refl_status refl_image_row_band(struct refl_row_range *out,
+                                uint32_t height,
+                                uint32_t index,
+                                uint32_t count);
 
 /**
  * Writes to `*out_len` the number of texels an image of `width x height`
@@ -4061,7 +4025,7 @@ refl_status refl_image_required_len(size_t *out_len,
                                     uint32_t stride);
 
 /**
- * Converts rows `[row_begin, row_end)` of the depth image `src`, stored in
+ * Converts the rows `rows` of the depth image `src`, stored in
  * convention `from`, to convention `to`, writing them to the same rows of
  * `dst`: `dst = encode_to(decode_from(src))` texel by texel, with the near
  * and far planes of `camera` (its view and image size are not used; the
@@ -4090,13 +4054,12 @@ refl_status refl_image_required_len(size_t *out_len,
  * `dst.len` floats, for the duration of the call, and no other thread
  * may write them meanwhile.
  */
-refl_status refl_convert_depth(struct refl_image_f32_mut dst,
-                               struct refl_image_f32 src,
-                               const struct refl_camera *camera,
-                               uint32_t from,
-                               uint32_t to,
-                               uint32_t row_begin,
-                               uint32_t row_end);
+refl_status refl_image_convert_depth(struct refl_image_f32_mut dst,
+                                     struct refl_image_f32 src,
+                                     const struct refl_camera *camera,
+                                     uint32_t from,
+                                     uint32_t to,
+                                     struct refl_row_range rows);
 
 /**
  * Writes to `*out` the element counts of the depth, payload, count and
@@ -4113,17 +4076,11 @@ refl_status refl_convert_depth(struct refl_image_f32_mut dst,
 refl_status refl_layered_len(struct refl_layered_sizes *out, uint32_t face_res, uint32_t layers);
 
 /**
- * Writes to `*out` the default trace parameters: half-texel steps (at
- * most 4096 steps and skipped cells per face), 16 binary iterations down
- * to 1/16 texel, early stop at one texel, depth interpolated across steps
- * of up to 4 texels.
- *
- * Returns `REFL_STATUS_NULL_POINTER` if `out` is NULL.
- *
- * # Safety
- * `out` must be NULL or point to a writable `refl_layered_params`.
+ * The default trace options: half-texel steps (at most 4096 steps and
+ * skipped cells per face), 16 binary iterations down to 1/16 texel, early
+ * stop at one texel, depth interpolated across steps of up to 4 texels.
  */
-refl_status refl_layered_params_default(struct refl_layered_params *out);
+struct refl_layered_options refl_layered_options_default(void);
 
 /**
  * Writes to `*out` the world-space orthographic ray of texel `(i, j)` of
@@ -4142,7 +4099,7 @@ refl_status refl_layered_params_default(struct refl_layered_params *out);
  * # Safety
  * `out` must be NULL or writable; `grid` NULL or readable.
  */
-refl_status refl_layered_face_ray(struct refl_column_ray *out,
+refl_status refl_layered_face_ray(struct refl_layered_column_ray *out,
                                   const struct refl_layered_grid *grid,
                                   uint32_t face,
                                   uint32_t i,
@@ -4167,7 +4124,7 @@ refl_status refl_layered_clear(const struct refl_layered_map_mut *map);
 
 /**
  * Fills texel `(i, j)` of `face` and of its opposite face from all
- * `hit_count` crossings `hits` of the column ray `refl_layered_face_ray`
+ * `hits_len` crossings `hits` of the column ray `refl_layered_face_ray`
  * `(face, i, j)`, in any order (seed 001 Sec. 3.4: front layers with their
  * back faces found through the opposite face). Crossings become solid
  * intervals (a front hit while outside opens one, a back hit while inside
@@ -4175,59 +4132,61 @@ refl_status refl_layered_clear(const struct refl_layered_map_mut *map);
  * face); with more intervals than layers the smallest gaps are filled.
  * The bound cells that see the column become "never skip" (traces stay
  * correct, only slower, until `refl_layered_build_bounds`). Writes what it
- * did to `*out`.
+ * did to `*out`. `hits` is the call's scratch: on success it is sorted in
+ * place (by `t`); it must not overlap the map or `out`.
  *
  * Returns `REFL_STATUS_NULL_POINTER` if `out`, `map`, one of the map's
  * buffers, or `hits` with a non-zero count is NULL;
  * `REFL_STATUS_INVALID_ARGUMENT` for a face above 5, a texel out of range,
- * a non-finite `t`, a `front` other than 0 or 1, an invalid grid, or
- * misaligned or overlapping buffers; `REFL_STATUS_INSUFFICIENT_SIZE` and
- * `REFL_STATUS_DEGENERATE_GEOMETRY` as for `refl_layered_clear`. On error
- * nothing is written.
+ * a non-finite `t`, an invalid grid, or misaligned or overlapping buffers;
+ * `REFL_STATUS_INSUFFICIENT_SIZE` and `REFL_STATUS_DEGENERATE_GEOMETRY` as
+ * for `refl_layered_clear`. On error nothing is written, `hits` included.
  *
  * # Safety
  * `out` NULL or writable; `map` NULL or readable with writable buffers;
- * `hits` NULL or readable for `hit_count` elements.
+ * `hits` NULL or readable and writable for `hits_len` elements.
  */
-refl_status refl_layered_fill_column(struct refl_column_fill *out,
+refl_status refl_layered_fill_column(struct refl_layered_column_fill *out,
                                      const struct refl_layered_map_mut *map,
                                      uint32_t face,
                                      uint32_t i,
                                      uint32_t j,
-                                     const struct refl_layer_hit *hits,
-                                     size_t hit_count);
+                                     struct refl_layered_layer_hit *hits,
+                                     size_t hits_len);
 
 /**
  * Fills a whole face (and its opposite) from the crossings of all its
  * column rays: the crossings of texel `(i, j)` are
  * `hits[offsets[j * res + i] .. offsets[j * res + i + 1]]`, so `offsets`
  * holds `res * res + 1` non-decreasing values with the last at most
- * `hit_count` (a CSR layout). Each column is filled as by
+ * `hits_len` (a CSR layout). Each column is filled as by
  * `refl_layered_fill_column`; then the empty-space bounds of `face` and
  * its opposite are rebuilt (as `refl_layered_build_bounds` does). If `out`
  * is not NULL, the number of columns whose gaps had to be filled
- * (approximate columns) is written to it.
+ * (approximate columns) is written to it. `hits` is the call's scratch:
+ * on success each column's crossings are sorted in place; it must not
+ * overlap the map, `offsets` or `out`.
  *
  * Everything is validated before anything is written: on error the map
- * is untouched. Returns `REFL_STATUS_NULL_POINTER` if `map`, its buffers,
+ * and `hits` are untouched. Returns `REFL_STATUS_NULL_POINTER` if `map`, its buffers,
  * `offsets`, or `hits` with a non-zero count is NULL;
  * `REFL_STATUS_INVALID_ARGUMENT` for decreasing offsets or one beyond
- * `hit_count`, and the cases of `refl_layered_fill_column`;
- * `REFL_STATUS_INSUFFICIENT_SIZE` if `offset_count < res * res + 1` or a
+ * `hits_len`, and the cases of `refl_layered_fill_column`;
+ * `REFL_STATUS_INSUFFICIENT_SIZE` if `offsets_len < res * res + 1` or a
  * map buffer is short.
  *
  * # Safety
  * `out` NULL or writable; `map` NULL or readable with writable buffers;
- * `hits` NULL or readable for `hit_count`, `offsets` NULL or readable for
- * `offset_count` elements.
+ * `hits` NULL or readable and writable for `hits_len`, `offsets` NULL or
+ * readable for `offsets_len` elements.
  */
 refl_status refl_layered_fill_face(uint32_t *out,
                                    const struct refl_layered_map_mut *map,
                                    uint32_t face,
-                                   const struct refl_layer_hit *hits,
-                                   size_t hit_count,
+                                   struct refl_layered_layer_hit *hits,
+                                   size_t hits_len,
                                    const size_t *offsets,
-                                   size_t offset_count);
+                                   size_t offsets_len);
 
 /**
  * Builds the empty-space bounds of all six faces from the filled map: per
@@ -4253,7 +4212,7 @@ refl_status refl_layered_build_bounds(const struct refl_layered_map_mut *map);
  * result to `*out`.
  *
  * Returns `REFL_STATUS_NULL_POINTER` if `out`, `map`, a map buffer or
- * `params` is NULL; `REFL_STATUS_INVALID_ARGUMENT` for a non-finite ray,
+ * `options` is NULL; `REFL_STATUS_INVALID_ARGUMENT` for a non-finite ray,
  * a direction whose length is not 1 (within 1e-3), `t_max` NaN or not
  * positive, invalid parameters or grid; `REFL_STATUS_INSUFFICIENT_SIZE`
  * for a short map buffer; `REFL_STATUS_DEGENERATE_GEOMETRY` for a
@@ -4261,43 +4220,43 @@ refl_status refl_layered_build_bounds(const struct refl_layered_map_mut *map);
  *
  * # Safety
  * `out` NULL or writable; `map` NULL or readable with readable buffers;
- * `params` NULL or readable.
+ * `options` NULL or readable.
  */
-refl_status refl_layered_trace(struct refl_layered_result *out,
-                               const struct refl_layered_map *map,
-                               struct refl_ray ray,
-                               float t_max,
-                               const struct refl_layered_params *params);
+refl_status refl_layered_trace_ray(struct refl_layered_result *out,
+                                   const struct refl_layered_map *map,
+                                   struct refl_ray ray,
+                                   float t_max,
+                                   const struct refl_layered_options *options);
 
 /**
- * Traces `ray_count` rays (as `refl_layered_trace`, one `t_max` for all)
+ * Traces `rays_len` rays (as `refl_layered_trace_ray`, one `t_max` for all)
  * and writes result `k` to `out[k]`. All rays are validated first: on
  * error nothing is written.
  *
- * Returns `REFL_STATUS_NULL_POINTER` if `map`, a map buffer or `params`
+ * Returns `REFL_STATUS_NULL_POINTER` if `map`, a map buffer or `options`
  * is NULL, or `out` / `rays` with a non-zero count;
- * `REFL_STATUS_INSUFFICIENT_SIZE` if `out_len < ray_count` or a map buffer
- * is short; `REFL_STATUS_INVALID_ARGUMENT` as for `refl_layered_trace`,
+ * `REFL_STATUS_INSUFFICIENT_SIZE` if `out_len < rays_len` or a map buffer
+ * is short; `REFL_STATUS_INVALID_ARGUMENT` as for `refl_layered_trace_ray`,
  * for any invalid ray, or for `out` overlapping `rays` or the map.
  *
  * # Safety
  * `out` NULL or writable for `out_len` results; `rays` NULL or readable
- * for `ray_count`; `map` and `params` as for `refl_layered_trace`.
+ * for `rays_len`; `map` and `options` as for `refl_layered_trace_ray`.
  */
 refl_status refl_layered_trace_rays(struct refl_layered_result *out,
                                     size_t out_len,
                                     const struct refl_layered_map *map,
                                     const struct refl_ray *rays,
-                                    size_t ray_count,
+                                    size_t rays_len,
                                     float t_max,
-                                    const struct refl_layered_params *params);
+                                    const struct refl_layered_options *options);
 
 /**
  * Classifies reflector triangle `p0 p1 p2` for a camera at `eye` and a
  * reflected object with bounding sphere (`center`, `radius`) with the
  * potential-reflection-region test of seed 001 Sec. 3.2 (camera cone
  * around the mirrored sphere against the triangle: corner inside, edge
- * crossing, section inside) and writes a `refl_prr_class` to `*out`.
+ * crossing, section inside) and writes a `refl_layered_prr_class` to `*out`.
  * Classes 2-5 may show a reflection; 0 and 1 cannot.
  *
  * Returns `REFL_STATUS_NULL_POINTER` if `out` is NULL;
@@ -4308,13 +4267,13 @@ refl_status refl_layered_trace_rays(struct refl_layered_result *out,
  * # Safety
  * `out` must be NULL or point to a writable `uint32_t`.
  */
-refl_status refl_prr_classify(uint32_t *out,
-                              struct refl_vec3 eye,
-                              struct refl_vec3 center,
-                              float radius,
-                              struct refl_vec3 p0,
-                              struct refl_vec3 p1,
-                              struct refl_vec3 p2);
+refl_status refl_layered_prr_classify(uint32_t *out,
+                                      struct refl_vec3 eye,
+                                      struct refl_vec3 center,
+                                      float radius,
+                                      struct refl_vec3 p0,
+                                      struct refl_vec3 p1,
+                                      struct refl_vec3 p2);
 
 /**
  * Writes to `*out` the reflection of `v` about the unit normal `n`:
@@ -4332,7 +4291,7 @@ refl_status refl_prr_classify(uint32_t *out,
  * # Safety
  * `out` must be NULL or point to a writable `refl_vec3`.
  */
-refl_status refl_reflect(struct refl_vec3 *out, struct refl_vec3 v, struct refl_vec3 n);
+refl_status refl_mirror_reflect(struct refl_vec3 *out, struct refl_vec3 v, struct refl_vec3 n);
 
 /**
  * Writes to `*out` the plane of triangle `p1 p2 p3` (seed 001 appendix),
@@ -4451,15 +4410,15 @@ refl_status refl_mirror_point(struct refl_vec3 *out,
  * # Safety
  * `out` must be NULL or writable; `camera` and `plane` NULL or readable.
  */
-refl_status refl_mirrored_camera(struct refl_camera *out,
-                                 const struct refl_camera *camera,
-                                 const struct refl_plane *plane);
+refl_status refl_mirror_camera(struct refl_camera *out,
+                               const struct refl_camera *camera,
+                               const struct refl_plane *plane);
 
 /**
  * Writes to `*out` the projection matrix of `camera` for the
  * post-projection convention `convention` with its near plane replaced by
  * the world-space plane `clip` (an oblique near plane, Lengyel 2005): used
- * with a camera from `refl_mirrored_camera` and the mirror plane oriented
+ * with a camera from `refl_mirror_camera` and the mirror plane oriented
  * toward the real eye, depth clipping discards everything behind the mirror
  * without a user clip plane. The x, y and w rows are those of
  * `refl_camera_projection_matrix`; stored depth is the near value exactly on
@@ -4475,16 +4434,16 @@ refl_status refl_mirrored_camera(struct refl_camera *out,
  * # Safety
  * `out` must be NULL or writable; `camera` and `clip` NULL or readable.
  */
-refl_status refl_oblique_projection(struct refl_mat4 *out,
-                                    const struct refl_camera *camera,
-                                    const struct refl_plane *clip,
-                                    uint32_t convention);
+refl_status refl_mirror_oblique_projection(struct refl_mat4 *out,
+                                           const struct refl_camera *camera,
+                                           const struct refl_plane *clip,
+                                           uint32_t convention);
 
 /**
  * The pass's defaults: stepping, thickness 0.5 of the pixel's depth,
  * start after 1 pixel, t_min 0, t_max +infinity, roughness up to 0.1, a
  * 5% border fade, refined hits, back faces and hidden hits refused; the
- * kernels' own defaults (`refl_hiz_default_options`, stride 1).
+ * kernels' own defaults (`refl_hiz_options_default`, stride 1).
  */
 struct refl_ssr_options refl_ssr_options_default(void);
 
@@ -4539,7 +4498,7 @@ refl_status refl_ssr_prepare(struct refl_vec2 *scratch,
  * host's tracer to `host` (up to `host_len`; `host` may be NULL with
  * `host_len` 0) in row-major order. The counts go to `*out_stats`.
  *
- * Bands are independent: split the rows (`refl_row_band`) across threads,
+ * Bands are independent: split the rows (`refl_image_row_band`) across threads,
  * each with its own `host` list. `scratch` is what `refl_ssr_prepare`
  * built for this G-buffer (Hi-Z; NULL for stepping); a pyramid built for
  * another camera or size is refused.
@@ -4583,7 +4542,7 @@ const char *refl_status_string(uint32_t status);
 
 /**
  * The library version as a static, NUL-terminated string such as
- * "0.2.0". Never NULL; must not be freed.
+ * "0.3.0". Never NULL; must not be freed.
  */
 const char *refl_version(void);
 
@@ -4618,16 +4577,11 @@ uint32_t refl_version_number(void);
 size_t refl_last_error_message(char *dst, size_t dst_len);
 
 /**
- * Writes to `*out` the default TCRR settings (iteration cap 64,
- * magnification 16 as in seed 000 Sec. 4.1, discontinuity 0.02, reflected
- * discontinuity 0.1, sub-pixel offsets on, re-trace contrast 0.1).
- *
- * Returns `REFL_STATUS_NULL_POINTER` if `out` is NULL.
- *
- * # Safety
- * `out` must be NULL or point to a writable `refl_tcrr_params`.
+ * The default TCRR settings (iteration cap 64, magnification 16 as in
+ * seed 000 Sec. 4.1, discontinuity 0.02, reflected discontinuity 0.1,
+ * sub-pixel offsets on, re-trace contrast 0.1).
  */
-refl_status refl_tcrr_default_params(struct refl_tcrr_params *out);
+struct refl_tcrr_options refl_tcrr_options_default(void);
 
 /**
  * Writes to `*out_bytes` the caller-buffer bytes TCRR needs for a
@@ -4712,7 +4666,7 @@ refl_status refl_tcrr_reset_offsets(struct refl_image_vec2_mut offsets, struct r
  * current eye `eye` (INVALID, i.e. non-finite, where none). Counts go to
  * `*out_stats` if it is not NULL.
  *
- * Returns `REFL_STATUS_NULL_POINTER` for NULL `key`, `params` or image
+ * Returns `REFL_STATUS_NULL_POINTER` for NULL `key`, `options` or image
  * data; `REFL_STATUS_INVALID_ARGUMENT` for a bad camera, convention,
  * descriptor, size mismatch, row range, non-finite `eye` or parameter
  * out of range; `REFL_STATUS_INSUFFICIENT_SIZE` for a short buffer.
@@ -4726,7 +4680,7 @@ refl_status refl_tcrr_search(struct refl_image_vec2_mut offsets,
                              struct refl_tcrr_search_stats *out_stats,
                              const struct refl_tcrr_key *key,
                              struct refl_vec3 eye,
-                             const struct refl_tcrr_params *params,
+                             const struct refl_tcrr_options *options,
                              struct refl_row_range rows);
 
 /**
@@ -4748,7 +4702,7 @@ refl_status refl_tcrr_shift(struct refl_image_vec3_mut color,
                             struct refl_tcrr_shift_stats *out_stats,
                             const struct refl_tcrr_key *key,
                             struct refl_image_vec2 offsets,
-                            const struct refl_tcrr_params *params,
+                            const struct refl_tcrr_options *options,
                             struct refl_row_range rows);
 
 /**
@@ -4757,7 +4711,7 @@ refl_status refl_tcrr_shift(struct refl_image_vec3_mut color,
  * `[rows.begin, rows.end)` of the current view: `color` gets the reused
  * reflection, `mask` `REFL_TCRR_MASK_{NONE,REUSED,RETRACE}`. For the
  * naive baseline pass the key frame's own colors, `s.d + s.r` and its
- * reflective mask (coverage 1), with `params->retrace_contrast = +inf`. Counts go to `*out_stats` if not NULL.
+ * reflective mask (coverage 1), with `options->retrace_contrast = +inf`. Counts go to `*out_stats` if not NULL.
  *
  * Returns as `refl_tcrr_search`, also for NULL `current` (outputs
  * untouched on error).
@@ -4774,27 +4728,27 @@ refl_status refl_tcrr_warp(struct refl_image_vec3_mut color,
                            struct refl_image_vec3 source,
                            struct refl_image_f32 source_depth,
                            struct refl_image_u8 coverage,
-                           const struct refl_tcrr_params *params,
+                           const struct refl_tcrr_options *options,
                            struct refl_row_range rows);
 
 /**
  * Writes the pixel indices `y * width + x` of the `REFL_TCRR_MASK_RETRACE`
- * pixels of `mask`, row-major, to `list[0..count)` and the count to
- * `*out_count` (the compact list for the host's ray tracer). With `list`
- * NULL only the count is written (size query).
+ * pixels of `mask`, row-major, to `list[0..n)` and their number `n` to
+ * `*out_len` (the compact list for the host's ray tracer). With `list`
+ * NULL only the number is written (size query).
  *
- * Returns `REFL_STATUS_NULL_POINTER` if `out_count` or `mask.data` is
+ * Returns `REFL_STATUS_NULL_POINTER` if `out_len` or `mask.data` is
  * NULL; `REFL_STATUS_INVALID_ARGUMENT` for a bad descriptor or an image
  * with more than 2^32 pixels; `REFL_STATUS_INSUFFICIENT_SIZE` (nothing
- * written) if `list_len` is below the count.
+ * written) if `list_len` is below the number of pixels.
  *
  * # Safety
- * `list` NULL or writable for `list_len` `uint32_t`; `out_count` NULL or
+ * `list` NULL or writable for `list_len` `uint32_t`; `out_len` NULL or
  * writable; `mask` readable.
  */
 refl_status refl_tcrr_retrace_list(uint32_t *list,
                                    size_t list_len,
-                                   size_t *out_count,
+                                   size_t *out_len,
                                    struct refl_image_u8 mask);
 
 /**
@@ -4841,22 +4795,28 @@ refl_status refl_tcrr_compose(struct refl_image_vec3_mut out,
 refl_status refl_tcrr_fresnel_weight(float *out, float f, float cos_theta, uint32_t fresnel);
 
 /**
- * The key-frame policy of seed 000 Sec. 4.3/4.4: writes 1 to `*out` if
- * `retrace` re-traced pixels out of `reflective` exceed the share
- * `threshold` (0.3 in the seed), else 0 (always 0 without reflective
- * pixels).
+ * The key-frame policy of seed 000 Sec. 4.3/4.4: writes true to `*out`
+ * if `retrace` re-traced pixels out of `reflective` exceed the share
+ * `threshold` (0.3 in the seed), else false (always false without
+ * reflective pixels).
  *
  * Returns `REFL_STATUS_NULL_POINTER` if `out` is NULL;
  * `REFL_STATUS_INVALID_ARGUMENT` for a threshold outside [0, 1] or NaN,
  * or `retrace > reflective`.
  *
  * # Safety
- * `out` must be NULL or point to a writable `uint32_t`.
+ * `out` must be NULL or point to a writable `bool`.
  */
-refl_status refl_tcrr_needs_key_frame(uint32_t *out,
+refl_status refl_tcrr_needs_key_frame(bool *out,
                                       float threshold,
                                       uint64_t retrace,
                                       uint64_t reflective);
+
+/**
+ * The stepping defaults: `stride = 1`, `max_steps = UINT32_MAX` (the walk
+ * is still bounded by the `width + height` texels a segment can touch).
+ */
+struct refl_step_options refl_step_options_default(void);
 
 /**
  * Traces one ray against a depth image by per-pixel stepping along its
@@ -4888,41 +4848,45 @@ refl_status refl_tcrr_needs_key_frame(uint32_t *out,
  */
 refl_status refl_step_ray(struct refl_trace_result *out,
                           const struct refl_depth_image *image,
-                          const struct refl_thickness *thickness,
+                          const struct refl_trace_thickness *thickness,
                           struct refl_ray ray,
                           float t_max,
                           const struct refl_step_options *options);
 
 /**
- * Traces `ray_count` rays as `refl_step_ray` would, writing result `i` to
- * `out[i]`. `t_max` holds either one value for every ray
- * (`t_max_count == 1`) or one per ray (`t_max_count >= ray_count`).
+ * Traces `rays_len` rays as `refl_step_ray` would, writing result `i` to
+ * `out[i]`: the arguments of `refl_step_ray` in the same order, the ray,
+ * `t_max` and the result replaced by arrays. `t_max` holds either one
+ * value for every ray (`t_max_len == 1`) or one per ray
+ * (`t_max_len >= rays_len`).
  *
  * Every input is validated before anything is written: on any error
- * `out` is untouched. Elements of `out` past `ray_count` are never
- * written. Rays are independent: a host splits a large batch into chunks
- * (e.g. rows of a reflection buffer) and calls this from its own threads.
+ * `out` is untouched. Elements of `out` past `rays_len` are never
+ * written; `out` must not overlap the rays, `t_max` or the images
+ * (`REFL_STATUS_INVALID_ARGUMENT`). Rays are independent: a host splits a
+ * large batch into chunks (e.g. rows of a reflection buffer) and calls
+ * this from its own threads.
  *
  * Returns `REFL_STATUS_NULL_POINTER` if `out`, `rays`, `t_max`, `image`,
  * `image->depth.data`, `thickness` or `options` is NULL;
- * `REFL_STATUS_INSUFFICIENT_SIZE` if `out_len < ray_count` or `t_max_count`
- * is neither 1 nor at least `ray_count`; `REFL_STATUS_INVALID_ARGUMENT` if
- * `t_max_count` is 0, or for any ray, `t_max`, image, thickness or option
- * rejected as by `refl_step_ray`.
+ * `REFL_STATUS_INSUFFICIENT_SIZE` if `out_len < rays_len` or `t_max_len`
+ * is neither 1 nor at least `rays_len`; `REFL_STATUS_INVALID_ARGUMENT` if
+ * `t_max_len` is 0, `out` overlaps an input, or for any ray, `t_max`,
+ * image, thickness or option rejected as by `refl_step_ray`.
  *
  * # Safety
  * `out` must be NULL or writable for `out_len` results; `rays` NULL or
- * readable for `ray_count` rays; `t_max` NULL or readable for
- * `t_max_count` floats; the rest as `refl_step_ray`.
+ * readable for `rays_len` rays; `t_max` NULL or readable for `t_max_len`
+ * floats; the rest as `refl_step_ray`.
  */
 refl_status refl_step_rays(struct refl_trace_result *out,
                            size_t out_len,
-                           const struct refl_ray *rays,
-                           size_t ray_count,
-                           const float *t_max,
-                           size_t t_max_count,
                            const struct refl_depth_image *image,
-                           const struct refl_thickness *thickness,
+                           const struct refl_trace_thickness *thickness,
+                           const struct refl_ray *rays,
+                           size_t rays_len,
+                           const float *t_max,
+                           size_t t_max_len,
                            const struct refl_step_options *options);
 
 /**
@@ -4947,11 +4911,11 @@ refl_status refl_step_rays(struct refl_trace_result *out,
  * `out` NULL or writable; `image` and `hit` NULL or readable; the image's
  * `data` readable for `len` floats and not written during the call.
  */
-refl_status refl_refine_hit(struct refl_trace_result *out,
-                            const struct refl_depth_image *image,
-                            struct refl_ray ray,
-                            float t_max,
-                            const struct refl_trace_result *hit);
+refl_status refl_trace_refine_hit(struct refl_trace_result *out,
+                                  const struct refl_depth_image *image,
+                                  struct refl_ray ray,
+                                  float t_max,
+                                  const struct refl_trace_result *hit);
 
 #ifdef __cplusplus
 }  // extern "C"

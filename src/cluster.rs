@@ -37,8 +37,8 @@ use crate::shade::{env_map, reflection_dir, Shader};
 use glam::{Vec2, Vec3};
 use rayon::prelude::*;
 use refl_core::cluster::{
-    self, CameraParams, ClusterCamera, ClusterInput, ClusterParams, ClusterShade, ClusterView,
-    FinalizeParams, Lobe, ObjectBins, NO_CLUSTER, NO_OBJECT,
+    self, ClusterCamera, ClusterCameraOptions, ClusterInput, ClusterOptions, ClusterShade,
+    ClusterView, FinalizeInput, Lobe, ObjectBins, NO_CLUSTER, NO_OBJECT,
 };
 use refl_core::{
     DepthConvention, DepthImage, Error, ImageView, ImageViewMut, Plane, RowRange, StepOptions,
@@ -279,9 +279,9 @@ pub fn run(
                 },
             )
     })?;
-    let params = ClusterParams {
+    let params = ClusterOptions {
         gain: settings.gain,
-        ..ClusterParams::default()
+        ..ClusterOptions::default()
     };
     let mut layout = vec![ObjectBins::default(); object_count];
     let bins = cluster::try_bin_layout(&mut layout, &counts, n as u64, &params)?;
@@ -320,7 +320,7 @@ pub fn run(
         let m = &scene.materials[scene.objects[object_of(c) as usize].material as usize];
         if m.roughness > 0.0 && settings.glossy_rays > 1 {
             let exponent = phong_exponent(m.roughness);
-            let angle = cluster::lobe_angle(exponent, LOBE_ENERGY)?;
+            let angle = cluster::try_lobe_angle(exponent, LOBE_ENERGY)?;
             Ok((
                 Lobe {
                     rays: settings.glossy_rays,
@@ -338,11 +338,11 @@ pub fn run(
             .par_iter()
             .map(|&c| {
                 let (_, angle) = lobe_of(c)?;
-                let cp = CameraParams {
+                let cp = ClusterCameraOptions {
                     far_distance: scene.diameter(),
                     cone_half_angle: angle,
                     resolution_scale: settings.resolution_scale,
-                    ..CameraParams::default()
+                    ..ClusterCameraOptions::default()
                 };
                 cluster::try_cluster_camera(&input, pixels_of(c), eye, &cp).map(|v| (c, v))
             })
@@ -440,7 +440,7 @@ pub fn run(
         )?;
         let cv = ImageView::try_new(&color, dw, dh, dw)?;
         let (lobe, _) = lobe_of(*c)?;
-        let fp = FinalizeParams {
+        let fp = FinalizeInput {
             thickness,
             step: StepOptions::default(),
             refine: true,

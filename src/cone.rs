@@ -145,9 +145,9 @@ impl GlossyBuffers {
     pub fn new(width: u32, height: u32) -> Result<Self, refl_core::Error> {
         let n = width as usize * height as usize;
         Ok(Self {
-            hiz: vec![[0.0; 2]; refl_core::hiz::hiz_len(width, height)?],
-            color: vec![[0.0; 3]; refl_core::color_pyramid_len(width, height)?],
-            visibility: vec![0.0; refl_core::visibility_pyramid_len(width, height)?],
+            hiz: vec![[0.0; 2]; refl_core::hiz::try_hiz_len(width, height)?],
+            color: vec![[0.0; 3]; refl_core::try_color_pyramid_len(width, height)?],
+            visibility: vec![0.0; refl_core::try_visibility_pyramid_len(width, height)?],
             texels: vec![GlossyTexel::default(); n],
             rgb: vec![[0.0; 3]; n],
         })

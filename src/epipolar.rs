@@ -22,7 +22,7 @@ use crate::tracer::{Hit, Tracer};
 use glam::Vec3;
 use rayon::prelude::*;
 use refl_core::epipolar::{
-    decide, scratch_len, try_reproject, AipEntry, Decision, Params, PosEntry, Reason,
+    decide, try_reproject, try_scratch_len, AipEntry, Decision, EpipolarOptions, PosEntry, Reason,
     BACKGROUND_OBJECT,
 };
 use refl_core::Camera;
@@ -109,25 +109,25 @@ pub struct Variant {
     /// The `setting` column.
     pub setting: String,
     /// The parameters.
-    pub params: Params,
+    pub params: EpipolarOptions,
 }
 
 /// The settings swept for error against run time: the default (m_cnt = 5,
 /// N = 9, 3x3 splat, occlusion check, depth guard), then one change at a
 /// time.
 pub fn variants() -> Vec<Variant> {
-    let d = Params::default();
-    let v = |setting: &str, params: Params| Variant {
+    let d = EpipolarOptions::default();
+    let v = |setting: &str, params: EpipolarOptions| Variant {
         setting: setting.to_string(),
         params,
     };
     vec![
         v("default", d),
-        v("m_cnt=3", Params { m_cnt: 3, ..d }),
-        v("m_cnt=7", Params { m_cnt: 7, ..d }),
+        v("m_cnt=3", EpipolarOptions { m_cnt: 3, ..d }),
+        v("m_cnt=7", EpipolarOptions { m_cnt: 7, ..d }),
         v(
             "N=4",
-            Params {
+            EpipolarOptions {
                 resample_period: 4,
                 abrupt_frames: 4,
                 ..d
@@ -135,7 +135,7 @@ pub fn variants() -> Vec<Variant> {
         ),
         v(
             "N=16",
-            Params {
+            EpipolarOptions {
                 resample_period: 16,
                 abrupt_frames: 16,
                 ..d
@@ -143,14 +143,14 @@ pub fn variants() -> Vec<Variant> {
         ),
         v(
             "resampling=off",
-            Params {
+            EpipolarOptions {
                 resample_period: 0,
                 ..d
             },
         ),
         v(
             "splat=1x1;m_cnt=1",
-            Params {
+            EpipolarOptions {
                 splat_radius: 0,
                 m_cnt: 1,
                 ..d
@@ -158,7 +158,7 @@ pub fn variants() -> Vec<Variant> {
         ),
         v(
             "splat=5x5;m_cnt=13",
-            Params {
+            EpipolarOptions {
                 splat_radius: 2,
                 m_cnt: 13,
                 ..d
@@ -166,35 +166,35 @@ pub fn variants() -> Vec<Variant> {
         ),
         v(
             "occlusion_check=off",
-            Params {
+            EpipolarOptions {
                 occlusion_check: false,
                 ..d
             },
         ),
         v(
             "depth_guard=off",
-            Params {
+            EpipolarOptions {
                 depth_guard: false,
                 ..d
             },
         ),
         v(
             "guard_margin=0",
-            Params {
+            EpipolarOptions {
                 guard_margin: 0.0,
                 ..d
             },
         ),
         v(
             "guard_window=0",
-            Params {
+            EpipolarOptions {
                 guard_window: 0,
                 ..d
             },
         ),
         v(
             "shift_origin=on",
-            Params {
+            EpipolarOptions {
                 shift_origin: true,
                 ..d
             },
@@ -396,7 +396,7 @@ fn method_frame(
     objects: &ObjectTracers,
     camera: &Camera,
     frame: u32,
-    params: &Params,
+    params: &EpipolarOptions,
     state: &mut State,
     pool: &rayon::ThreadPool,
 ) -> Result<Vec<PixelOut>, String> {
@@ -628,7 +628,8 @@ pub fn run(
                 aip: vec![AipEntry::UNAVAILABLE; n],
                 scratch: vec![
                     0.0;
-                    scratch_len(sizes.width, sizes.height).map_err(|e| e.to_string())?
+                    try_scratch_len(sizes.width, sizes.height)
+                        .map_err(|e| e.to_string())?
                 ],
                 previous: None,
             };

@@ -135,7 +135,7 @@ pub fn measure(
         let (step_ms, step_traces) = kernel(ScreenMethod::Step(StepOptions::default()))?;
         let (hiz_ms, _) = kernel(ScreenMethod::HiZ(HiZOptions::default()))?;
         let ls = LayeredScene::build(&scene, 64, 4, pool).map_err(|e| e.to_string())?;
-        let params = refl_core::layered::LayeredParams::default();
+        let params = refl_core::layered::LayeredOptions::default();
         let mut layered = Vec::new();
         for _ in 0..runs.max(1) {
             let t = timed(|| ls.trace(&g, &rays, &params, pool));

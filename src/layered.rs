@@ -2,7 +2,7 @@
 //! host side of refl-core's `layered` module.
 //!
 //! [`build`] makes the map of one object by casting every orthographic
-//! column ray of the `-X`, `-Y` and `-Z` faces ([`LayeredGrid::face_ray`])
+//! column ray of the `-X`, `-Y` and `-Z` faces ([`LayeredGrid::try_face_ray`])
 //! through **all** surfaces of that object with obvhs (the depth peeling of
 //! seed 001 Sec. 3.4, done by ray casting): a [`Tracer`] over the object's
 //! triangles alone is re-traced from just past each hit until the column is
@@ -19,7 +19,7 @@ use crate::tracer::Tracer;
 use glam::Vec3;
 use rayon::prelude::*;
 use refl_core::layered::{
-    ColumnRay, Face, LayerHit, LayeredGrid, LayeredMap, LayeredMapMut, LayeredParams, LayeredTrace,
+    ColumnRay, Face, LayerHit, LayeredGrid, LayeredMap, LayeredMapMut, LayeredOptions, LayeredTrace,
 };
 use refl_core::{Error, Ray};
 use std::time::Instant;
@@ -168,7 +168,7 @@ pub fn build(
             .map(|k| {
                 let (f, ij) = (k / (res * res), k % (res * res));
                 let (i, j) = ((ij % res) as u32, (ij / res) as u32);
-                grid.face_ray(faces[f], i, j)
+                grid.try_face_ray(faces[f], i, j)
                     .map(|r| column_hits(&tracer, tris, first, &r, eps))
                     .unwrap_or_default()
             })
@@ -207,19 +207,19 @@ pub fn build(
 /// in parallel on `pool`, one result per ray.
 ///
 /// # Errors
-/// The first error of [`LayeredMap::trace`] (a non-finite or non-unit ray,
+/// The first error of [`LayeredMap::try_trace`] (a non-finite or non-unit ray,
 /// a bad `t_max` or bad parameters).
 pub fn trace_rays(
     obj: &LayeredObject,
     rays: &[Ray],
     t_max: f32,
-    params: &LayeredParams,
+    params: &LayeredOptions,
     pool: &rayon::ThreadPool,
 ) -> Result<Vec<LayeredTrace>, Error> {
     let map = obj.map();
     pool.install(|| {
         rays.par_iter()
-            .map(|r| map.trace(r, t_max, params))
+            .map(|r| map.try_trace(r, t_max, params))
             .collect()
     })
 }

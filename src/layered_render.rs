@@ -18,7 +18,7 @@ use crate::screen::ReflectionRays;
 use crate::shade::Shader;
 use crate::tracer::ray_triangle_plane;
 use rayon::prelude::*;
-use refl_core::layered::{LayeredHit, LayeredParams};
+use refl_core::layered::{LayeredHit, LayeredOptions};
 use refl_core::Error;
 
 /// Largest reflected object, as a share of the scene diameter (larger
@@ -98,7 +98,7 @@ impl LayeredScene {
         &self,
         ray: &refl_core::Ray,
         skip: u32,
-        params: &LayeredParams,
+        params: &LayeredOptions,
     ) -> Result<LayeredResult, Error> {
         let mut best: Option<(u32, LayeredHit)> = None;
         let mut fetches = 0;
@@ -111,7 +111,7 @@ impl LayeredScene {
                 // A hit at the ray's origin: nothing can be nearer.
                 break;
             }
-            let tr = o.map().trace(ray, t_max, params)?;
+            let tr = o.map().try_trace(ray, t_max, params)?;
             fetches += tr.work().fetches;
             if let Some(h) = tr.hit() {
                 if best.is_none_or(|(_, b)| h.t < b.t) {
@@ -131,7 +131,7 @@ impl LayeredScene {
         &self,
         g: &GBuffer,
         rays: &ReflectionRays,
-        params: &LayeredParams,
+        params: &LayeredOptions,
         pool: &rayon::ThreadPool,
     ) -> Result<Vec<LayeredResult>, Error> {
         pool.install(|| {

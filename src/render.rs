@@ -237,7 +237,7 @@ pub fn envmap(g: &GBuffer, pool: &rayon::ThreadPool) -> ReflectionImage {
 
 /// Planar reflections: for each planar reflector object with a
 /// perfect-mirror material that covers pixels of `g`, the scene is
-/// rasterized ([`rasterize`]) through [`refl_core::mirrored_camera`] with the
+/// rasterized ([`rasterize`]) through [`refl_core::try_mirrored_camera`] with the
 /// mirror plane (oriented toward the eye) as clip plane, the reflector itself
 /// excluded and the scissor set to the reflector's pixel bounds; each of the
 /// reflector's pixels then shades the hit of the mirrored camera's primary
@@ -252,7 +252,7 @@ pub fn envmap(g: &GBuffer, pool: &rayon::ThreadPool) -> ReflectionImage {
 /// inside surfaces, wrong only where a silhouette crosses the coarse pixel.
 ///
 /// # Errors
-/// [`refl_core::mirrored_camera`]'s error for a plane that produces a
+/// [`refl_core::try_mirrored_camera`]'s error for a plane that produces a
 /// non-finite camera; [`Error::InvalidArgument`] for `scale == 0`.
 pub fn planar_mirror(
     shader: &Shader,
@@ -283,7 +283,7 @@ pub fn planar_mirror(
         } else {
             plane
         };
-        let mirrored = refl_core::mirrored_camera(&g.camera, &plane)?;
+        let mirrored = refl_core::try_mirrored_camera(&g.camera, &plane)?;
         // The same frustum at the reduced resolution (same fov, same aspect
         // up to the rounding of the size).
         let coarse = refl_core::Camera::try_new(

@@ -1062,7 +1062,7 @@ pub fn run(opts: &Options) -> Result<PathBuf, String> {
                                 .find(|(k, _)| *k == key)
                                 .ok_or("layered maps")?
                                 .1;
-                            let params = refl_core::layered::LayeredParams::default();
+                            let params = refl_core::layered::LayeredOptions::default();
                             let trace = |p: &rayon::ThreadPool| {
                                 let t = timed(|| ls.trace(g, &sf.rays, &params, p));
                                 t.value.map(|v| Timed { value: v, ms: t.ms })

@@ -407,7 +407,7 @@ impl ScreenMethod {
         match self {
             ScreenMethod::Step(_) => 4.0,
             ScreenMethod::HiZ(_) => {
-                let texels = refl_core::hiz::hiz_len(width, height).unwrap_or(0) as f64;
+                let texels = refl_core::hiz::try_hiz_len(width, height).unwrap_or(0) as f64;
                 4.0 + texels * std::mem::size_of::<refl_core::hiz::HiZTexel>() as f64 / pixels
             }
         }
@@ -426,7 +426,7 @@ pub fn build_hiz(
 ) -> Result<(), refl_core::Error> {
     use refl_core::hiz::{try_build_hiz_level0_rows, try_build_hiz_level_rows, HiZLayout};
     let layout = HiZLayout::try_new(depth.width(), depth.height())?;
-    if dst.len() < refl_core::hiz::hiz_len(depth.width(), depth.height())? {
+    if dst.len() < refl_core::hiz::try_hiz_len(depth.width(), depth.height())? {
         return Err(refl_core::Error::InsufficientSize);
     }
     build_pyramid_banded(
@@ -521,7 +521,7 @@ pub fn run(
     let mut out = vec![miss; rays.len()];
     let mut pyramid = match method {
         ScreenMethod::HiZ(_) => {
-            vec![[0.0f32; 2]; refl_core::hiz::hiz_len(depth.width(), depth.height())?]
+            vec![[0.0f32; 2]; refl_core::hiz::try_hiz_len(depth.width(), depth.height())?]
         }
         ScreenMethod::Step(_) => Vec::new(),
     };
@@ -531,7 +531,7 @@ pub fn run(
                 out.par_chunks_mut(CHUNK)
                     .zip(rays.par_chunks(CHUNK))
                     .try_for_each(|(o, r)| {
-                        refl_core::try_step_rays(o, r, &[f32::INFINITY], depth, thickness, opts)
+                        refl_core::try_step_rays(o, depth, thickness, r, &[f32::INFINITY], opts)
                     })
             }),
             ScreenMethod::HiZ(opts) => {

@@ -29,7 +29,7 @@ use crate::shade::{env_map, reflection_dir, Shader};
 use glam::Vec3;
 use rayon::prelude::*;
 use refl_core::tcrr::{
-    self, CurrentView, KeyFramePolicy, ReflectionBuffers, TcrrParams, INVALID_OFFSET, MASK_RETRACE,
+    self, CurrentView, KeyFramePolicy, ReflectionBuffers, TcrrOptions, INVALID_OFFSET, MASK_RETRACE,
 };
 use refl_core::{Camera, DepthConvention, Error, ImageView, ImageViewMut};
 use std::fmt::Write as _;
@@ -70,7 +70,7 @@ pub struct Setting {
     /// Key-frame threshold on the re-trace share.
     pub threshold: f32,
     /// Kernel parameters.
-    pub params: TcrrParams,
+    pub params: TcrrOptions,
 }
 
 impl Setting {
@@ -133,7 +133,7 @@ impl Key {
             let r: Result<Vec<_>, Error> = pool.install(|| {
                 split(ImageViewMut::try_new(&mut surfels, w, h, w)?, nb)
                     .into_par_iter()
-                    .map(|mut band| tcrr::prepare(&mut band, &b))
+                    .map(|mut band| tcrr::try_prepare(&mut band, &b))
                     .collect()
             });
             r?;
@@ -221,7 +221,7 @@ fn split<T: Copy>(view: ImageViewMut<'_, T>, n: u32) -> Vec<ImageViewMut<'_, T>>
     let mut out = Vec::with_capacity(n as usize);
     let mut rest = view;
     for k in 1..n {
-        let (a, b) = match rest.split_at_row(k * h / n) {
+        let (a, b) = match rest.try_split_at_row(k * h / n) {
             Ok(p) => p,
             Err((_, r)) => {
                 rest = r;
@@ -253,7 +253,7 @@ fn reuse_frame(
     g: &GBuffer,
     handled_spec: &[f32],
     shader: &Shader,
-    params: &TcrrParams,
+    params: &TcrrOptions,
     pool: &rayon::ThreadPool,
 ) -> Result<Reused, Error> {
     let (w, h) = (g.width(), g.height());
@@ -271,7 +271,7 @@ fn reuse_frame(
             let stats: Result<Vec<_>, Error> = pool.install(|| {
                 split(ImageViewMut::try_new(offsets, w, h, w)?, nb)
                     .into_par_iter()
-                    .map(|mut band| tcrr::search(&mut band, &buffers, eye, params))
+                    .map(|mut band| tcrr::try_search(&mut band, &buffers, eye, params))
                     .collect()
             });
             stats?;
@@ -287,7 +287,7 @@ fn reuse_frame(
                     .zip(d)
                     .zip(v)
                     .map(|((mut c, mut d), mut v)| {
-                        tcrr::shift(&mut c, &mut d, &mut v, &buffers, &ov, params)
+                        tcrr::try_shift(&mut c, &mut d, &mut v, &buffers, &ov, params)
                     })
                     .collect()
             });
@@ -321,7 +321,7 @@ fn reuse_frame(
     // Naive warping is the seed's baseline: no re-trace contrast test.
     let warp_params = match scheme {
         Scheme::Tcrr => *params,
-        Scheme::NaiveWarp => TcrrParams {
+        Scheme::NaiveWarp => TcrrOptions {
             retrace_contrast: f32::INFINITY,
             ..*params
         },
@@ -330,7 +330,7 @@ fn reuse_frame(
         c.into_par_iter()
             .zip(m)
             .map(|(mut c, mut m)| {
-                tcrr::warp(
+                tcrr::try_warp(
                     &mut c,
                     &mut m,
                     &current,
@@ -348,7 +348,7 @@ fn reuse_frame(
         .fold(tcrr::WarpStats::default(), tcrr::WarpStats::merged);
     let mv = ImageView::try_new(&mask, w, h, w)?;
     let mut list = vec![0u32; tcrr::retrace_count(&mv)];
-    tcrr::retrace_list(&mut list, &mv)?;
+    tcrr::try_retrace_list(&mut list, &mv)?;
     let traced: Vec<Vec3> = pool.install(|| {
         list.par_iter()
             .map(|&i| trace_mirror(shader, g, i as usize).0)
@@ -671,7 +671,7 @@ fn save(dir: &Path, name: &str, g: &GBuffer, rgb: &[Vec3]) -> Result<(), String>
 /// contrast and the magnification threshold each varied at threshold 0.3; naive warping at
 /// every threshold. `quick` runs the seed's setting only.
 pub fn report_settings(quick: bool, tcrr: bool, naive: bool) -> Vec<Setting> {
-    let base = TcrrParams::default();
+    let base = TcrrOptions::default();
     let thresholds: &[f32] = if quick {
         &[0.3]
     } else {
@@ -691,7 +691,7 @@ pub fn report_settings(quick: bool, tcrr: bool, naive: bool) -> Vec<Setting> {
             v.push(Setting {
                 scheme: Scheme::Tcrr,
                 threshold: 0.3,
-                params: TcrrParams {
+                params: TcrrOptions {
                     max_iterations: c,
                     ..base
                 },
@@ -703,7 +703,7 @@ pub fn report_settings(quick: bool, tcrr: bool, naive: bool) -> Vec<Setting> {
             v.push(Setting {
                 scheme: Scheme::Tcrr,
                 threshold: 0.3,
-                params: TcrrParams {
+                params: TcrrOptions {
                     retrace_contrast: c,
                     ..base
                 },
@@ -714,7 +714,7 @@ pub fn report_settings(quick: bool, tcrr: bool, naive: bool) -> Vec<Setting> {
             v.push(Setting {
                 scheme: Scheme::Tcrr,
                 threshold: 0.3,
-                params: TcrrParams {
+                params: TcrrOptions {
                     magnification: m,
                     ..base
                 },

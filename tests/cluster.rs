@@ -126,7 +126,7 @@ fn chunk_culling_changes_no_pixel() {
     use refl_app::raster::{
         rasterize, rasterize_into_culled, ChunkBounds, RasterOptions, VisBuffer,
     };
-    use refl_core::cluster::{try_cluster_camera, CameraParams, ClusterInput, ClusterView};
+    use refl_core::cluster::{try_cluster_camera, ClusterCameraOptions, ClusterInput, ClusterView};
     use refl_core::{ImageView, Plane};
     let pool = pool();
     let scene = Scene::room(60_000);
@@ -161,9 +161,9 @@ fn chunk_culling_changes_no_pixel() {
         if px.len() < 4 {
             continue;
         }
-        let cp = CameraParams {
+        let cp = ClusterCameraOptions {
             far_distance: scene.diameter(),
-            ..CameraParams::default()
+            ..ClusterCameraOptions::default()
         };
         let Ok(ClusterView::Camera(cc)) = try_cluster_camera(&input, &px, g.camera.eye(), &cp)
         else {

@@ -5,7 +5,7 @@
 use glam::Vec3;
 use refl_app::layered::{build, object_tracer, trace_rays};
 use refl_app::scene::Scene;
-use refl_core::layered::LayeredParams;
+use refl_core::layered::LayeredOptions;
 use refl_core::Ray;
 
 fn pool() -> rayon::ThreadPool {
@@ -75,7 +75,7 @@ fn compare(scene: &Scene, name: &str, res: u32, layers: u32, n: usize) -> Agreem
             }
         })
         .collect();
-    let params = LayeredParams::default();
+    let params = LayeredOptions::default();
     let got = trace_rays(&obj, &rays, f32::INFINITY, &params, &pool).unwrap();
     let tex = ((obj.grid.max() - obj.grid.min()).max_element() / res as f32).max(1e-30);
     let mut a = Agreement {

@@ -152,7 +152,7 @@ fn mirrored_raster_keeps_only_the_front_of_the_clip_plane() {
         .unwrap();
     let plane = floor.planar.unwrap();
     assert!(plane.signed_distance(cam.eye()) > 0.0);
-    let mirrored = refl_core::mirrored_camera(&cam, &plane).unwrap();
+    let mirrored = refl_core::try_mirrored_camera(&cam, &plane).unwrap();
     assert!(mirrored.is_mirrored());
     let options = RasterOptions {
         clip_plane: Some(plane),

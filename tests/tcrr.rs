@@ -6,7 +6,7 @@ use refl_app::scene::Scene;
 use refl_app::shade::Shader;
 use refl_app::tcrr::{path_cameras, run_path, Scheme, Setting};
 use refl_app::tracer::Tracer;
-use refl_core::TcrrParams;
+use refl_core::TcrrOptions;
 
 fn pool() -> rayon::ThreadPool {
     rayon::ThreadPoolBuilder::new()
@@ -19,7 +19,7 @@ fn setting(scheme: Scheme) -> Setting {
     Setting {
         scheme,
         threshold: 0.3,
-        params: TcrrParams::default(),
+        params: TcrrOptions::default(),
     }
 }
 
@@ -74,9 +74,9 @@ fn tcrr_beats_naive_warping_on_the_room_path() {
     // warping; then the default contrast test, which re-traces reflected
     // edges.
     let seed = Setting {
-        params: TcrrParams {
+        params: TcrrOptions {
             retrace_contrast: f32::INFINITY,
-            ..TcrrParams::default()
+            ..TcrrOptions::default()
         },
         ..setting(Scheme::Tcrr)
     };

@@ -72,7 +72,7 @@ impl Ray {
 ///
 /// The view transform maps world to view space. Its 3x3 part must be
 /// orthonormal (a rotation, or a rotation times a reflection for a mirrored
-/// camera, see `mirror::mirrored_camera`, feature `mirror`), so that
+/// camera, see `mirror::try_mirrored_camera`, feature `mirror`), so that
 /// view-space lengths are world-space lengths and linear depth is a distance.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Camera {
@@ -469,7 +469,7 @@ impl Camera {
     /// # Errors
     /// [`Error::InvalidArgument`] for [`DepthConvention::Linear`], which is
     /// not a projective coordinate.
-    pub fn projection(&self, c: DepthConvention) -> Result<Mat4, Error> {
+    pub fn try_projection(&self, c: DepthConvention) -> Result<Mat4, Error> {
         self.projection_f64(c).map(|m| m.as_mat4())
     }
 
@@ -478,8 +478,8 @@ impl Camera {
     /// and `d` its stored depth in convention `c`.
     ///
     /// # Errors
-    /// As [`Camera::projection`].
-    pub fn world_to_pixel(&self, c: DepthConvention) -> Result<Mat4, Error> {
+    /// As [`Camera::try_projection`].
+    pub fn try_world_to_pixel(&self, c: DepthConvention) -> Result<Mat4, Error> {
         self.world_to_pixel_f64(c).map(|m| m.as_mat4())
     }
 }
@@ -498,7 +498,11 @@ impl Camera {
 /// # Errors
 /// [`Error::InvalidArgument`] for [`DepthConvention::Linear`] (linear depth
 /// is not projective: use [`reproject`]).
-pub fn reprojection_matrix(from: &Camera, to: &Camera, c: DepthConvention) -> Result<Mat4, Error> {
+pub fn try_reprojection_matrix(
+    from: &Camera,
+    to: &Camera,
+    c: DepthConvention,
+) -> Result<Mat4, Error> {
     let to_m = to.world_to_pixel_f64(c)?;
     let from_m = from.world_to_pixel_f64(c)?;
     Ok((to_m * from_m.inverse()).as_mat4())

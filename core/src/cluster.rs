@@ -16,7 +16,7 @@
 //! 2. [`try_bin_layout`]: per object, the `theta x phi` bin resolution from
 //!    its screen share `a_R` and the number of visible reflective objects
 //!    `n_v` (Sec. 3.2), and where its bins start; a cluster id is a bin
-//!    index, at most [`cluster_bins_max`].
+//!    index, at most [`try_cluster_bins_max`].
 //! 3. [`try_assign_clusters`]: the cluster id of every pixel (per row band;
 //!    a pure function of the pixel's normal and object).
 //! 4. [`try_cluster_ranges`]: a counting sort of the pixels by cluster:
@@ -58,12 +58,12 @@ pub const MAX_THETA_BINS: u32 = 13;
 /// See [`MAX_THETA_BINS`].
 pub const MAX_PHI_BINS: u32 = 8;
 
-/// Largest bin count per axis accepted by [`ClusterParams`].
+/// Largest bin count per axis accepted by [`ClusterOptions`].
 pub const BINS_LIMIT: u32 = 1024;
 
 /// Clustering parameters (seed 003 Sec. 3.2).
 #[derive(Clone, Copy, Debug, PartialEq)]
-pub struct ClusterParams {
+pub struct ClusterOptions {
     /// Azimuth bins of an object covering the whole frame alone (seed: 13).
     pub max_theta_bins: u32,
     /// Polar bins of an object covering the whole frame alone (seed: 8).
@@ -76,7 +76,7 @@ pub struct ClusterParams {
     pub gain: f32,
 }
 
-impl Default for ClusterParams {
+impl Default for ClusterOptions {
     /// The seed's constants, gain 1.
     fn default() -> Self {
         Self {
@@ -87,7 +87,7 @@ impl Default for ClusterParams {
     }
 }
 
-impl ClusterParams {
+impl ClusterOptions {
     fn validate(&self) -> Result<(), Error> {
         if self.max_theta_bins == 0
             || self.max_phi_bins == 0
@@ -118,11 +118,12 @@ pub struct ObjectBins {
 /// `offsets` of [`try_cluster_ranges`] one larger.
 ///
 /// # Errors
-/// [`Error::InvalidArgument`] for invalid `params` or a count that does not
+/// [`Error::InvalidArgument`] for invalid `options` or a count that does not
 /// fit in `u32` (ids are `u32`, [`NO_CLUSTER`] excluded).
-pub fn cluster_bins_max(objects: u32, params: &ClusterParams) -> Result<u32, Error> {
-    params.validate()?;
-    let n = u64::from(objects) * u64::from(params.max_theta_bins) * u64::from(params.max_phi_bins);
+pub fn try_cluster_bins_max(objects: u32, options: &ClusterOptions) -> Result<u32, Error> {
+    options.validate()?;
+    let n =
+        u64::from(objects) * u64::from(options.max_theta_bins) * u64::from(options.max_phi_bins);
     if n >= u64::from(NO_CLUSTER) {
         return Err(Error::InvalidArgument);
     }
@@ -172,19 +173,21 @@ pub fn try_count_objects(
 /// `max(1, ceil(max_phi_bins * s))` polar bins (the seed's
 /// `i = MAXTHETABINS * theta / 360 * a_R / n_v` read as a bin count). An
 /// object with no pixel gets none. Writes `out[k]` for every object and
-/// returns the number of cluster ids used (the sum of the bins).
+/// returns the number of cluster ids used (the sum of the bins). `out`
+/// holds [`ObjectBins`] or any type made from one (`From<ObjectBins>`, a
+/// host's or the C ABI's own record).
 ///
 /// # Errors
-/// * [`Error::InvalidArgument`]: invalid `params`, `frame_pixels == 0`, or
+/// * [`Error::InvalidArgument`]: invalid `options`, `frame_pixels == 0`, or
 ///   counts summing to more than `frame_pixels`.
 /// * [`Error::InsufficientSize`]: `out.len() < counts.len()`.
-pub fn try_bin_layout(
-    out: &mut [ObjectBins],
+pub fn try_bin_layout<O: From<ObjectBins>>(
+    out: &mut [O],
     counts: &[u32],
     frame_pixels: u64,
-    params: &ClusterParams,
+    options: &ClusterOptions,
 ) -> Result<u32, Error> {
-    params.validate()?;
+    options.validate()?;
     if frame_pixels == 0 {
         return Err(Error::InvalidArgument);
     }
@@ -195,7 +198,7 @@ pub fn try_bin_layout(
     if total > frame_pixels {
         return Err(Error::InvalidArgument);
     }
-    cluster_bins_max(counts.len().min(u32::MAX as usize) as u32, params)?;
+    try_cluster_bins_max(counts.len().min(u32::MAX as usize) as u32, options)?;
     if counts.len() > u32::MAX as usize {
         return Err(Error::InvalidArgument);
     }
@@ -207,18 +210,20 @@ pub fn try_bin_layout(
                 theta_bins: 0,
                 phi_bins: 0,
                 first,
-            };
+            }
+            .into();
             continue;
         }
         let a_r = c as f64 / frame_pixels as f64;
-        let s = (f64::from(params.gain) * a_r / n_v).min(1.0);
+        let s = (f64::from(options.gain) * a_r / n_v).min(1.0);
         let bins = |max: u32| (libm::ceil(f64::from(max) * s) as u32).clamp(1, max);
-        let (t, p) = (bins(params.max_theta_bins), bins(params.max_phi_bins));
+        let (t, p) = (bins(options.max_theta_bins), bins(options.max_phi_bins));
         *o = ObjectBins {
             theta_bins: t,
             phi_bins: p,
             first,
-        };
+        }
+        .into();
         first += t * p;
     }
     Ok(first)
@@ -245,17 +250,18 @@ pub fn normal_bin(n: Vec3, theta_bins: u32, phi_bins: u32) -> u32 {
 /// Writes the cluster id of every pixel of the owned rows of `ids`
 /// (seed 003 Sec. 3.2 step 4): `layout[k].first + normal_bin(n, ...)` for a
 /// pixel of object `k` with bins, [`NO_CLUSTER`] for a pixel whose object
-/// id has no bins or lies beyond `layout`.
+/// id has no bins or lies beyond `layout`. `layout` holds [`ObjectBins`]
+/// or any record that converts into one (`Into<ObjectBins>`).
 ///
 /// # Errors
 /// * [`Error::InvalidArgument`]: views of different sizes, or a clustered
 ///   pixel whose normal is not finite and non-zero (`ids` is then
 ///   untouched: every pixel is checked before any is written).
-pub fn try_assign_clusters(
+pub fn try_assign_clusters<L: Copy + Into<ObjectBins>>(
     ids: &mut ImageViewMut<'_, u32>,
     normals: &ImageView<'_, [f32; 3]>,
     objects: &ImageView<'_, u32>,
-    layout: &[ObjectBins],
+    layout: &[L],
 ) -> Result<(), Error> {
     let (w, h) = (ids.width(), ids.height());
     if normals.width() != w
@@ -271,7 +277,8 @@ pub fn try_assign_clusters(
     let bins_of = |id: u32| {
         layout
             .get(id as usize)
-            .filter(|b| b.theta_bins > 0 && b.phi_bins > 0)
+            .map(|&b| b.into())
+            .filter(|b: &ObjectBins| b.theta_bins > 0 && b.phi_bins > 0)
     };
     for y in rows.rows() {
         for x in 0..w {
@@ -416,7 +423,7 @@ impl ClusterInput<'_> {
 
 /// Cluster camera parameters (seed 003 Sec. 3.3 and 3.5).
 #[derive(Clone, Copy, Debug, PartialEq)]
-pub struct CameraParams {
+pub struct ClusterCameraOptions {
     /// `D`: distance from the image plane to the far plane; the scene
     /// diameter for mirrors, nearer for glossy clusters (Sec. 3.5).
     pub far_distance: f32,
@@ -438,7 +445,7 @@ pub struct CameraParams {
     pub max_f: f32,
 }
 
-impl Default for CameraParams {
+impl Default for ClusterCameraOptions {
     /// `D = 100`, mirror, resolution 1x, at most 2048 texels a side,
     /// clusters of at least 4 pixels, `f <= 16`.
     fn default() -> Self {
@@ -453,7 +460,7 @@ impl Default for CameraParams {
     }
 }
 
-impl CameraParams {
+impl ClusterCameraOptions {
     fn validate(&self) -> Result<(), Error> {
         let ok = self.far_distance > 0.0
             && self.far_distance.is_finite()
@@ -527,7 +534,7 @@ pub struct ClusterCamera {
 /// map).
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
 pub enum ClusterFallback {
-    /// Fewer than [`CameraParams::min_pixels`] pixels.
+    /// Fewer than [`ClusterCameraOptions::min_pixels`] pixels.
     TooFewPixels,
     /// The normals cancel out, or their mean faces away from the eye (the
     /// eye is not in front of the image plane).
@@ -666,8 +673,8 @@ fn cone_octagon(r: Vec3, alpha: f32) -> [Vec3; 8] {
 ///    their mirror rays' far endpoints if those are closer (diverging rays
 ///    of convex clusters), (if no pixels are adjacent: the frame's area per
 ///    pixel), divided by
-///    [`CameraParams::resolution_scale`]; at most
-///    [`CameraParams::max_resolution`] texels a side.
+///    [`ClusterCameraOptions::resolution_scale`]; at most
+///    [`ClusterCameraOptions::max_resolution`] texels a side.
 ///
 /// The clip plane ([`ClusterCamera::clip`]) is the image plane for a planar
 /// cluster, else the parallel plane through the cluster point farthest in
@@ -692,7 +699,7 @@ fn cone_octagon(r: Vec3, alpha: f32) -> [Vec3; 8] {
 ///   [`ClusterFallback::TooWide`].
 ///
 /// # Errors
-/// [`Error::InvalidArgument`] for invalid `params`, a non-finite `eye`,
+/// [`Error::InvalidArgument`] for invalid `options`, a non-finite `eye`,
 /// mismatched input views, a pixel index outside the image, or a listed
 /// pixel with a non-finite position or a normal that is not unit length
 /// (within 1e-2); [`Error::DegenerateGeometry`] if the resulting camera is
@@ -704,14 +711,14 @@ pub fn try_cluster_camera(
     input: &ClusterInput<'_>,
     pixels: &[u32],
     eye: Vec3,
-    params: &CameraParams,
+    options: &ClusterCameraOptions,
 ) -> Result<ClusterView, Error> {
-    params.validate()?;
+    options.validate()?;
     if !eye.is_finite() {
         return Err(Error::InvalidArgument);
     }
     input.validate(pixels)?;
-    if (pixels.len() as u64) < u64::from(params.min_pixels) {
+    if (pixels.len() as u64) < u64::from(options.min_pixels) {
         return Ok(ClusterView::Fallback(ClusterFallback::TooFewPixels));
     }
     // Step 1, in f64 (sums over many pixels).
@@ -737,7 +744,7 @@ pub fn try_cluster_camera(
     let (pc, nc, e0) = (pc_d.as_vec3(), nc_d.as_vec3(), e0_d.as_vec3());
     let (u, v) = nc.any_orthonormal_pair();
     let frame = Frame { c: pc, n: nc, u, v };
-    let d_far = params.far_distance;
+    let d_far = options.far_distance;
 
     // Planarity and the near/far boxes from e_0.
     let tol = 1e-5f32;
@@ -783,11 +790,11 @@ pub fn try_cluster_camera(
     let f = if planar || !(d_f > 0.0) || (d_f - d_n).abs() <= 1e-6 * d_f {
         1.0
     } else if !(d_big_f - d_n > 0.0) {
-        params.max_f
+        options.max_f
     } else {
         let f =
             f64::from(d_n) * f64::from(d_big_f - d_f) / (f64::from(d_f) * f64::from(d_big_f - d_n));
-        (f as f32).clamp(1.0 / params.max_f, params.max_f)
+        (f as f32).clamp(1.0 / options.max_f, options.max_f)
     };
     let e_c = if f == 1.0 {
         e0
@@ -804,7 +811,7 @@ pub fn try_cluster_camera(
     // the near and far ray endpoints (glossy cones included) that holds
     // every endpoint; its rows follow the output image's rows (the mean
     // direction of the lower rows minus that of the upper rows is "down").
-    let alpha = params.cone_half_angle;
+    let alpha = options.cone_half_angle;
     let s_clip = if planar { 0.0 } else { s_max.max(0.0) };
     let visit = |visit_point: &mut dyn FnMut(Vec3)| {
         for &p in pixels {
@@ -887,7 +894,7 @@ pub fn try_cluster_camera(
             v
         }
     };
-    let fa = fit(&visit, input, pixels, eye, e_c, up, axis, MAX_TAN, params)?;
+    let fa = fit(&visit, input, pixels, eye, e_c, up, axis, MAX_TAN, options)?;
     let fb = fit(
         &visit,
         input,
@@ -897,7 +904,7 @@ pub fn try_cluster_camera(
         up_b,
         nc,
         MAX_TAN_PLANE,
-        params,
+        options,
     )?;
     let chosen = match (fa, fb) {
         (Some(a), Some(b)) => {
@@ -921,7 +928,7 @@ pub fn try_cluster_camera(
     } = chosen;
     // A frame of one direction grows to one texel.
     let (tx, ty) = (tx.max(0.5 * texel), ty.max(0.5 * texel));
-    let max_res = params.max_resolution as f32;
+    let max_res = options.max_resolution as f32;
     let res = |t: f32| libm::ceilf((2.0 * t / texel).min(max_res)).max(1.0);
     let (wf, hf) = (res(tx), res(ty));
     let tan_y = ty.max(tx * hf / wf);
@@ -990,7 +997,7 @@ fn fit(
     up: Vec3,
     axis: Vec3,
     max_tan: f32,
-    params: &CameraParams,
+    options: &ClusterCameraOptions,
 ) -> Result<Option<Fit>, Error> {
     let up = if up.cross(axis).length_squared() > 1e-8 {
         up
@@ -1023,7 +1030,7 @@ fn fit(
     let width = input.positions.width();
     let far_end = |pos: Vec3, n: Vec3| -> Option<Vec3> {
         let r = reflected(eye, pos, n)?;
-        (r.dot(axis) > 1e-6).then_some(pos + r * params.far_distance)
+        (r.dot(axis) > 1e-6).then_some(pos + r * options.far_distance)
     };
     let (mut near_sp, mut far_sp) = ((0.0f64, 0u32), (0.0f64, 0u32));
     for pair in pixels.windows(2) {
@@ -1066,7 +1073,7 @@ fn fit(
         ty,
         zmin,
         zmax,
-        texel: (texel / params.resolution_scale).max(1e-30),
+        texel: (texel / options.resolution_scale).max(1e-30),
     }))
 }
 
@@ -1088,7 +1095,7 @@ pub struct Lobe {
     /// Half-angle (radians) the lobe is truncated to: directions are drawn
     /// from `cos^n` restricted to `theta <= max_angle` (so that the cluster
     /// camera's frame, widened by the same angle, holds them). Use
-    /// [`lobe_angle`] for the angle holding a share of the lobe's energy.
+    /// [`try_lobe_angle`] for the angle holding a share of the lobe's energy.
     pub max_angle: f32,
 }
 
@@ -1125,7 +1132,7 @@ impl Lobe {
 /// # Errors
 /// [`Error::InvalidArgument`] for a negative or non-finite exponent or an
 /// `energy` outside `(0, 1)`.
-pub fn lobe_angle(exponent: f32, energy: f32) -> Result<f32, Error> {
+pub fn try_lobe_angle(exponent: f32, energy: f32) -> Result<f32, Error> {
     if !(exponent >= 0.0 && exponent.is_finite() && energy > 0.0 && energy < 1.0) {
         return Err(Error::InvalidArgument);
     }
@@ -1133,9 +1140,12 @@ pub fn lobe_angle(exponent: f32, energy: f32) -> Result<f32, Error> {
     Ok(libm::acosf(c.clamp(-1.0, 1.0)))
 }
 
-/// Per-pixel finalization parameters.
+/// What [`try_finalize_cluster`] needs besides the cluster's pixels, its
+/// camera and its images: the depth image's thickness and how to trace
+/// and weight each pixel's rays. A bundle of per-call inputs (it holds a
+/// borrowed back-face image), not settings with defaults.
 #[derive(Clone, Copy, Debug)]
-pub struct FinalizeParams<'a> {
+pub struct FinalizeInput<'a> {
     /// Surface thickness of the depth image (as [`try_step`]).
     pub thickness: Thickness<'a>,
     /// Stepping options.
@@ -1279,7 +1289,9 @@ fn validate_thickness(depth: &DepthImage<'_>, t: &Thickness<'_>) -> Result<(), E
 /// the bilinear color of `color` (same size as `depth`) over the texels
 /// continuing the hit surface; a miss (left the frame, passed behind
 /// geometry, reached the far plane) is a fallback ray whose direction goes
-/// to [`ClusterShade::env_dir`]. `out[k]` is written for `pixels[k]`.
+/// to [`ClusterShade::env_dir`]. `out[k]` is written for `pixels[k]`;
+/// `out` holds [`ClusterShade`]s or any type made from one
+/// (`From<ClusterShade>`, a host's or the C ABI's own record).
 /// Lobe samples below the pixel's surface (normal) are not traced; if none
 /// is above, the mirror ray is traced alone.
 ///
@@ -1298,15 +1310,15 @@ fn validate_thickness(depth: &DepthImage<'_>, t: &Thickness<'_>) -> Result<(), E
 /// # Panics
 /// Never.
 #[allow(clippy::too_many_arguments)]
-pub fn try_finalize_cluster(
-    out: &mut [ClusterShade],
+pub fn try_finalize_cluster<O: From<ClusterShade>>(
+    out: &mut [O],
     input: &ClusterInput<'_>,
     pixels: &[u32],
     eye: Vec3,
     cam: &ClusterCamera,
     depth: &DepthImage<'_>,
     color: &ImageView<'_, [f32; 3]>,
-    params: &FinalizeParams<'_>,
+    finalize: &FinalizeInput<'_>,
 ) -> Result<u32, Error> {
     if out.len() < pixels.len() {
         return Err(Error::InsufficientSize);
@@ -1314,9 +1326,9 @@ pub fn try_finalize_cluster(
     if !eye.is_finite() || color.width() != depth.width() || color.height() != depth.height() {
         return Err(Error::InvalidArgument);
     }
-    params.lobe.validate()?;
-    validate_thickness(depth, &params.thickness)?;
-    if params.step.stride == 0 {
+    finalize.lobe.validate()?;
+    validate_thickness(depth, &finalize.thickness)?;
+    if finalize.step.stride == 0 {
         return Err(Error::InvalidArgument);
     }
     input.validate(pixels)?;
@@ -1339,7 +1351,7 @@ pub fn try_finalize_cluster(
             ..ClusterShade::default()
         };
         let (mut env_dir, mut misses) = (Vec3::ZERO, 0u32);
-        let h = hash32(p ^ hash32(params.seed));
+        let h = hash32(p ^ hash32(finalize.seed));
         let rot = Vec2::new((h & 0xffff) as f32 / 65_536.0, (h >> 16) as f32 / 65_536.0);
         let mut trace = |dir: Vec3, shade: &mut ClusterShade| {
             shade.rays += 1;
@@ -1351,12 +1363,12 @@ pub fn try_finalize_cluster(
             };
             let ray = Ray { origin: pos, dir };
             let result = if t_max > 0.0 {
-                try_step(depth, params.thickness, ray, t_max, params.step).ok()
+                try_step(depth, finalize.thickness, ray, t_max, finalize.step).ok()
             } else {
                 None
             };
             let hit = match result {
-                Some(Trace::Hit(hit)) => Some(if params.refine {
+                Some(Trace::Hit(hit)) => Some(if finalize.refine {
                     refine_hit(depth, &ray, t_max, &hit)
                 } else {
                     hit
@@ -1370,7 +1382,7 @@ pub fn try_finalize_cluster(
             }
             match hit {
                 Some(hit) => {
-                    let wgt = if params.fade {
+                    let wgt = if finalize.fade {
                         (1.0 - (s + dn * hit.t) / d_far).clamp(0.0, 1.0)
                     } else {
                         1.0
@@ -1385,9 +1397,9 @@ pub fn try_finalize_cluster(
                 }
             }
         };
-        if params.lobe.rays > 1 {
-            for k in 0..params.lobe.rays {
-                let dir = lobe_dir(&params.lobe, axis, k, rot);
+        if finalize.lobe.rays > 1 {
+            for k in 0..finalize.lobe.rays {
+                let dir = lobe_dir(&finalize.lobe, axis, k, rot);
                 if dir.dot(n) > 0.0 && dir.is_finite() {
                     trace(dir, &mut shade);
                 }
@@ -1404,7 +1416,7 @@ pub fn try_finalize_cluster(
         if misses > 0 {
             fallbacks += 1;
         }
-        *o = shade;
+        *o = shade.into();
     }
     Ok(fallbacks)
 }

@@ -9,11 +9,11 @@
 //! 1. Hi-Z pyramid of the frame's depth ([`crate::hiz`]).
 //! 2. [`try_build_color_pyramid`]: the lit frame, blurred with a normalized
 //!    Gaussian and halved per level (same level sizes as the Hi-Z,
-//!    [`HiZLayout`]), into a caller buffer of [`color_pyramid_len`] texels
+//!    [`HiZLayout`]), into a caller buffer of [`try_color_pyramid_len`] texels
 //!    ending with its [`PyramidStamp`].
 //! 3. [`try_build_visibility_pyramid`]: per texel, the pre-integrated share
 //!    of the cell that blocks rays (module section "Visibility"), into a
-//!    caller buffer of [`visibility_pyramid_len`] floats ending with its
+//!    caller buffer of [`try_visibility_pyramid_len`] floats ending with its
 //!    [`PyramidStamp`]; [`ConePyramids::try_new`] checks both stamps
 //!    against the Hi-Z's camera.
 //! 4. Per glossy pixel: trace the mirror ray with [`crate::try_trace_hiz`];
@@ -102,7 +102,9 @@
 //! (slanted surfaces at coarse levels, silhouettes), and the seed's rule
 //! gives the rest to the fallback.
 
-use crate::hiz::{pyramid_len, try_trace_hiz, HiZ, HiZLayout, HiZOptions, HiZTexel, PyramidStamp};
+use crate::hiz::{
+    try_pyramid_len, try_trace_hiz, HiZ, HiZLayout, HiZOptions, HiZTexel, PyramidStamp,
+};
 use crate::trace::Thickness;
 use crate::{Error, ImageView, Ray, RowRange};
 use glam::{Vec2, Vec3};
@@ -317,8 +319,8 @@ pub fn cone_mip_level(radius: f32, bias: f32) -> f32 {
 ///
 /// # Errors
 /// As [`HiZLayout::try_new`].
-pub fn color_pyramid_len(width: u32, height: u32) -> Result<usize, Error> {
-    pyramid_len::<ColorTexel>(width, height)
+pub fn try_color_pyramid_len(width: u32, height: u32) -> Result<usize, Error> {
+    try_pyramid_len::<ColorTexel>(width, height)
 }
 
 /// Floats of the visibility pyramid of a `width x height` frame: the
@@ -327,8 +329,8 @@ pub fn color_pyramid_len(width: u32, height: u32) -> Result<usize, Error> {
 ///
 /// # Errors
 /// As [`HiZLayout::try_new`].
-pub fn visibility_pyramid_len(width: u32, height: u32) -> Result<usize, Error> {
-    pyramid_len::<f32>(width, height)
+pub fn try_visibility_pyramid_len(width: u32, height: u32) -> Result<usize, Error> {
+    try_pyramid_len::<f32>(width, height)
 }
 
 /// Texels after the color pyramid's last level that hold its stamp (the
@@ -345,7 +347,7 @@ pub const VISIBILITY_STAMP_LEN: usize = <f32 as crate::hiz::PyramidTexel>::STAMP
 ///
 /// # Errors
 /// [`Error::InsufficientSize`] if `dst` is shorter than
-/// [`color_pyramid_len`]; [`Error::InvalidArgument`] for a zero size.
+/// [`try_color_pyramid_len`]; [`Error::InvalidArgument`] for a zero size.
 pub fn try_stamp_color_pyramid(
     dst: &mut [ColorTexel],
     width: u32,
@@ -360,7 +362,7 @@ pub fn try_stamp_color_pyramid(
 ///
 /// # Errors
 /// [`Error::InsufficientSize`] if `dst` is shorter than
-/// [`visibility_pyramid_len`].
+/// [`try_visibility_pyramid_len`].
 pub fn try_stamp_visibility_pyramid(dst: &mut [f32], hiz: &HiZ<'_>) -> Result<(), Error> {
     PyramidStamp::of(hiz.camera()).try_write(dst)
 }
@@ -533,7 +535,7 @@ pub fn try_build_color_level_rows(
 ///
 /// # Errors
 /// [`Error::InsufficientSize`] if `dst` is shorter than
-/// [`color_pyramid_len`]; [`Error::InvalidArgument`] for a non-finite
+/// [`try_color_pyramid_len`]; [`Error::InvalidArgument`] for a non-finite
 /// texel or sigma. Nothing is written on error.
 ///
 /// # Panics
@@ -545,7 +547,7 @@ pub fn try_build_color_pyramid(
 ) -> Result<(), Error> {
     validate_sigma(sigma)?;
     let layout = HiZLayout::try_new(color.width(), color.height())?;
-    if dst.len() < color_pyramid_len(color.width(), color.height())? {
+    if dst.len() < try_color_pyramid_len(color.width(), color.height())? {
         return Err(Error::InsufficientSize);
     }
     let l0 = layout.level(0).ok_or(Error::InvalidArgument)?;
@@ -691,13 +693,13 @@ fn children(c: u32, coarse: u32, fine: u32) -> core::ops::Range<u32> {
 ///
 /// # Errors
 /// [`Error::InsufficientSize`] if `dst` is shorter than
-/// [`visibility_pyramid_len`]. Nothing is written on error.
+/// [`try_visibility_pyramid_len`]. Nothing is written on error.
 ///
 /// # Panics
 /// Never.
 pub fn try_build_visibility_pyramid(dst: &mut [f32], hiz: &HiZ<'_>) -> Result<(), Error> {
     let layout = *hiz.layout();
-    if dst.len() < visibility_pyramid_len(layout.width(), layout.height())? {
+    if dst.len() < try_visibility_pyramid_len(layout.width(), layout.height())? {
         return Err(Error::InsufficientSize);
     }
     let l0 = layout.level(0).ok_or(Error::InvalidArgument)?;
@@ -739,8 +741,8 @@ impl<'a> ConePyramids<'a> {
     ///
     /// # Errors
     /// * [`Error::InsufficientSize`] if `color` is shorter than
-    ///   [`color_pyramid_len`] or a non-empty `visibility` than
-    ///   [`visibility_pyramid_len`] for the Hi-Z's size.
+    ///   [`try_color_pyramid_len`] or a non-empty `visibility` than
+    ///   [`try_visibility_pyramid_len`] for the Hi-Z's size.
     /// * [`Error::InvalidArgument`] if a pyramid's [`PyramidStamp`] is not
     ///   this frame's: the color pyramid built for another size, the
     ///   visibility pyramid from another Hi-Z camera, or either not built.
@@ -752,8 +754,8 @@ impl<'a> ConePyramids<'a> {
         let cam = hiz.camera();
         let (w, h) = (cam.width(), cam.height());
         let with_vis = !visibility.is_empty();
-        if color.len() < color_pyramid_len(w, h)?
-            || (with_vis && visibility.len() < visibility_pyramid_len(w, h)?)
+        if color.len() < try_color_pyramid_len(w, h)?
+            || (with_vis && visibility.len() < try_visibility_pyramid_len(w, h)?)
         {
             return Err(Error::InsufficientSize);
         }
@@ -1301,6 +1303,18 @@ pub struct MultiRayOptions {
     pub hiz: HiZOptions,
 }
 
+impl Default for MultiRayOptions {
+    /// 8 rays (the low end of seed 003 Sec. 3.5's 8 to 49), no rotation,
+    /// the Hi-Z defaults.
+    fn default() -> Self {
+        Self {
+            rays: 8,
+            rotation: Vec2::ZERO,
+            hiz: HiZOptions::default(),
+        }
+    }
+}
+
 /// What [`try_multiray`] returns.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct MultiRayResult {
@@ -1357,7 +1371,7 @@ pub fn try_multiray(
     {
         return Err(Error::InvalidArgument);
     }
-    crate::trace::validate_ray(&ray, t_max)?;
+    crate::trace::try_validate_ray(&ray, t_max)?;
     let axis = ray.dir.normalize();
     let hiz = pyramids.hiz();
     let l0 = hiz.layout().level(0).ok_or(Error::InvalidArgument)?;

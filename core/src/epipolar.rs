@@ -24,12 +24,12 @@
 //!   angular bin of the lines, [`line_bins`]) behind a point nearer the
 //!   camera ([`OCCLUDER_GAP`]) is discarded;
 //! * undersampling (Sec. 4.3): regular resampling ([`resample_slot`]) and
-//!   the abrupt-motion test (Sec. 4.3.1, [`Params::abrupt_frames`]);
+//!   the abrupt-motion test (Sec. 4.3.1, [`EpipolarOptions::abrupt_frames`]);
 //! * background (Sec. 5.2): empty pixels store a point of a camera-centered
 //!   sphere with the reserved object [`BACKGROUND_OBJECT`]
 //!   ([`PosEntry::background`]);
 //! * shifted ray origin (Sec. 5.3): fallback rays may start at the AIP
-//!   distance minus epsilon ([`Params::shift_origin`]).
+//!   distance minus epsilon ([`EpipolarOptions::shift_origin`]).
 //!
 //! The method is conservative but not a proof: exactness rests on the
 //! samples of the last frame (an object thinner than a pixel that was missed
@@ -40,7 +40,7 @@
 //!
 //! All buffers belong to the caller: `POS` ([`PosEntry`], one per pixel of
 //! the previous frame), `AIP` ([`AipEntry`], one per pixel of the new
-//! frame) and the reprojection scratch ([`scratch_len`] floats).
+//! frame) and the reprojection scratch ([`try_scratch_len`] floats).
 
 use crate::{Camera, Error, RowRange};
 use glam::{DVec3, Vec2, Vec3};
@@ -55,7 +55,7 @@ pub const INVALID_OBJECT: u32 = u32::MAX;
 /// ray always hits the sphere).
 pub const BACKGROUND_OBJECT: u32 = u32::MAX - 1;
 
-/// Largest supported splat radius ([`Params::splat_radius`]): a 7x7 kernel.
+/// Largest supported splat radius ([`EpipolarOptions::splat_radius`]): a 7x7 kernel.
 pub const MAX_SPLAT_RADIUS: u32 = 3;
 
 /// One entry of the `POS` buffer (seed 002 Sec. 3.1): the point `P` a
@@ -119,7 +119,7 @@ pub struct AipEntry {
     pub t: f32,
     /// Number of points of `object` splatted here.
     pub cnt: u32,
-    /// Depth guard (our addition to Alg. 1, see [`Params::depth_guard`]):
+    /// Depth guard (our addition to Alg. 1, see [`EpipolarOptions::depth_guard`]):
     /// the smallest signed distance of a point of another object splatted
     /// here, or discarded by the occlusion check with its splat covering
     /// this pixel (or of `object` itself before it became the nearest,
@@ -142,7 +142,7 @@ impl AipEntry {
     /// abrupt-motion test (Sec. 4.3.1).
     pub const ABRUPT_REJECTED: u32 = 4;
     /// First of the four surround bits (our addition to Alg. 1, used by
-    /// [`Params::depth_guard`]): bit `SURROUND_UP_LEFT << q` is set when a
+    /// [`EpipolarOptions::depth_guard`]): bit `SURROUND_UP_LEFT << q` is set when a
     /// splatted point of `object` landed in quadrant `q` around the pixel
     /// center (`q = (dx >= 0) + 2 (dy >= 0)` for the point's offset
     /// `(dx, dy)` from the center). The bits restart when a closer object
@@ -176,7 +176,7 @@ impl AipEntry {
 
 /// Parameters of the reprojection and rendering phases.
 #[derive(Clone, Copy, Debug, PartialEq)]
-pub struct Params {
+pub struct EpipolarOptions {
     /// `m_cnt` of Sec. 3.3 / Alg. 2: a pixel is resolved by one ray/object
     /// test when at least this many points of its object reached it
     /// (`cnt >= m_cnt`). Default 5, "a majority from 9". At least 1.
@@ -214,7 +214,7 @@ pub struct Params {
     /// behind the other one. Such pixels take full traversal instead.
     pub guard_margin: f32,
     /// Guard window radius `g` (default 3, at most [`MAX_SPLAT_RADIUS`];
-    /// 0 turns it off; used with [`Params::depth_guard`]): after the splat,
+    /// 0 turns it off; used with [`EpipolarOptions::depth_guard`]): after the splat,
     /// [`AipEntry::t_other`] of each pixel is lowered to the distance `t` of
     /// every entry within `g` pixels (Chebyshev) that holds another object.
     /// A sub-pixel sliver of an object growing out from behind another
@@ -256,9 +256,9 @@ pub struct Params {
     pub shift_epsilon: f32,
 }
 
-impl Default for Params {
+impl Default for EpipolarOptions {
     fn default() -> Self {
-        Params {
+        EpipolarOptions {
             m_cnt: 5,
             splat_radius: 1,
             depth_guard: true,
@@ -274,7 +274,7 @@ impl Default for Params {
     }
 }
 
-impl Params {
+impl EpipolarOptions {
     /// Checks the ranges documented on the fields.
     ///
     /// # Errors
@@ -282,7 +282,7 @@ impl Params {
     /// [`MAX_SPLAT_RADIUS`], a negative or non-finite `shift_epsilon` or a
     /// `guard_margin` outside `[0, 1)` or a `guard_window` above
     /// [`MAX_SPLAT_RADIUS`].
-    pub fn validate(&self) -> Result<(), Error> {
+    pub fn try_validate(&self) -> Result<(), Error> {
         if self.m_cnt == 0
             || self.splat_radius > MAX_SPLAT_RADIUS
             || !(self.shift_epsilon >= 0.0 && self.shift_epsilon.is_finite())
@@ -583,11 +583,11 @@ impl Quadrants {
 ///   `w + h + 4 MAX_SPLAT_RADIUS` angular bins of the epipolar lines
 ///   ([`line_bins`]), about one bin per border pixel;
 /// * the guard window's ring of `2 MAX_SPLAT_RADIUS + 1` rows of
-///   row-window summaries, 3 floats per pixel ([`Params::guard_window`]).
+///   row-window summaries, 3 floats per pixel ([`EpipolarOptions::guard_window`]).
 ///
 /// # Errors
 /// [`Error::InvalidArgument`] for a zero size or an overflowing count.
-pub fn scratch_len(width: u32, height: u32) -> Result<usize, Error> {
+pub fn try_scratch_len(width: u32, height: u32) -> Result<usize, Error> {
     if width == 0 || height == 0 {
         return Err(Error::InvalidArgument);
     }
@@ -600,7 +600,7 @@ pub fn scratch_len(width: u32, height: u32) -> Result<usize, Error> {
 /// Angular bins of the occlusion check's epipolar-line records for a
 /// `width x height` image: `w + h + 4 MAX_SPLAT_RADIUS`, about one per
 /// border pixel of the padded image (each bin takes 2 floats of
-/// [`scratch_len`]).
+/// [`try_scratch_len`]).
 pub fn line_bin_count(width: u32, height: u32) -> usize {
     let pad = 2 * MAX_SPLAT_RADIUS as usize;
     width as usize + pad + height as usize + pad
@@ -658,14 +658,14 @@ pub fn frustum_contains(previous: &Camera, eye: Vec3) -> bool {
 /// `aip` (the `current` camera's `width x height` pixels, row-major) from
 /// `pos` (the `previous` camera's pixels, row-major).
 ///
-/// * With [`Params::frustum_check`], if `current`'s eye is outside
+/// * With [`EpipolarOptions::frustum_check`], if `current`'s eye is outside
 ///   `previous`'s view pyramid ([`frustum_contains`]), every AIP entry becomes
 ///   [`AipEntry::UNAVAILABLE`].
 /// * Otherwise every stored point is reprojected with the per-frame
 ///   [`Reprojector`]; points behind the new eye are dropped; with
-///   [`Params::abrupt_frames`] `= N > 0` a point at signed distance `t` is
+///   [`EpipolarOptions::abrupt_frames`] `= N > 0` a point at signed distance `t` is
 ///   discarded if the eye moved more than `t / 2 / N`; with
-///   [`Params::occlusion_check`] the points are visited in the epipolar
+///   [`EpipolarOptions::occlusion_check`] the points are visited in the epipolar
 ///   order of [`Quadrants`]; each angular bin of the epipolar lines through
 ///   the new epipole ([`line_bins`]) records the distance from the epipole
 ///   and the signed distance `t` of the last point kept on it, and a point
@@ -685,14 +685,14 @@ pub fn frustum_contains(previous: &Camera, eye: Vec3) -> bool {
 ///   nearest distance of the points that lost (the overwritten object's
 ///   nearest point, farther points of other objects).
 ///
-/// `scratch` holds [`scratch_len`] floats (contents ignored and
+/// `scratch` holds [`try_scratch_len`] floats (contents ignored and
 /// overwritten).
 ///
 /// # Errors
-/// * [`Error::InvalidArgument`]: the cameras differ in size, or `params`
-///   fails [`Params::validate`].
+/// * [`Error::InvalidArgument`]: the cameras differ in size, or `options`
+///   fails [`EpipolarOptions::try_validate`].
 /// * [`Error::InsufficientSize`]: `pos` or `aip` shorter than
-///   `width * height`, `scratch` shorter than [`scratch_len`].
+///   `width * height`, `scratch` shorter than [`try_scratch_len`].
 ///
 /// Nothing is written on error.
 pub fn try_reproject(
@@ -701,20 +701,20 @@ pub fn try_reproject(
     pos: &[PosEntry],
     previous: &Camera,
     current: &Camera,
-    params: &Params,
+    options: &EpipolarOptions,
 ) -> Result<ReprojectStats, Error> {
-    params.validate()?;
+    options.try_validate()?;
     let (w, h) = (current.width(), current.height());
     if previous.width() != w || previous.height() != h {
         return Err(Error::InvalidArgument);
     }
     let n = w as usize * h as usize;
-    if pos.len() < n || aip.len() < n || scratch.len() < scratch_len(w, h)? {
+    if pos.len() < n || aip.len() < n || scratch.len() < try_scratch_len(w, h)? {
         return Err(Error::InsufficientSize);
     }
     let aip = &mut aip[..n];
     let mut stats = ReprojectStats::default();
-    if params.frustum_check && !frustum_contains(previous, current.eye()) {
+    if options.frustum_check && !frustum_contains(previous, current.eye()) {
         aip.fill(AipEntry::UNAVAILABLE);
         stats.frustum_failed = true;
         stats.points = pos[..n]
@@ -732,12 +732,12 @@ pub fn try_reproject(
         aip,
         width: w,
         height: h,
-        radius: params.splat_radius as i64,
+        radius: options.splat_radius as i64,
         proj,
         moved,
-        abrupt_frames: params.abrupt_frames,
+        abrupt_frames: options.abrupt_frames,
     };
-    match (params.occlusion_check, epipoles) {
+    match (options.occlusion_check, epipoles) {
         (true, Some(e)) => {
             let mut records = LineRecords::new(scratch, w, h, e.current.pixel, e.increasing());
             let quads = Quadrants::new(w, h, e.previous.pixel, e.outward());
@@ -774,8 +774,8 @@ pub fn try_reproject(
             }
         }
     }
-    if params.depth_guard && params.guard_window > 0 {
-        guard_window(ctx.aip, scratch, w, h, params.guard_window);
+    if options.depth_guard && options.guard_window > 0 {
+        guard_window(ctx.aip, scratch, w, h, options.guard_window);
     }
     Ok(stats)
 }
@@ -862,12 +862,12 @@ impl Nearest2 {
     }
 }
 
-/// The guard window of [`Params::guard_window`]: lowers `t_other` of every
+/// The guard window of [`EpipolarOptions::guard_window`]: lowers `t_other` of every
 /// entry to the `t` of the entries within `g` pixels holding another
 /// object. Reads only `object` and `t`, which it does not change, so it
 /// works in place. Separable ([`Nearest2`]): `scratch` holds a ring of
 /// `2g + 1` rows of horizontal window summaries (at least
-/// `(2g + 1) * 3 * w` floats, which [`scratch_len`] covers).
+/// `(2g + 1) * 3 * w` floats, which [`try_scratch_len`] covers).
 fn guard_window(aip: &mut [AipEntry], scratch: &mut [f32], w: u32, h: u32, g: u32) {
     let (w, h, g) = (w as usize, h as usize, g as usize);
     let ring_rows = 2 * g + 1;
@@ -1188,10 +1188,10 @@ pub struct Decision {
     pub object: u32,
     /// End of the interval of the one-object test: the depth guard
     /// `t_other * (1 - guard_margin)` ([`AipEntry::t_other`],
-    /// [`Params::guard_margin`]) with [`Params::depth_guard`], else `+inf`.
+    /// [`EpipolarOptions::guard_margin`]) with [`EpipolarOptions::depth_guard`], else `+inf`.
     pub tmax: f32,
     /// Ray distance at which a full traversal of this pixel may start:
-    /// 0, or with [`Params::shift_origin`] the AIP distance minus epsilon
+    /// 0, or with [`EpipolarOptions::shift_origin`] the AIP distance minus epsilon
     /// (Sec. 5.3).
     pub tmin: f32,
     /// Why.
@@ -1250,20 +1250,20 @@ fn gcd(mut a: u32, mut b: u32) -> u32 {
 ///    instead;
 /// 5. otherwise full traversal ([`Reason::Failed`]).
 ///
-/// With [`Params::shift_origin`], a full traversal of a pixel whose entry
+/// With [`EpipolarOptions::shift_origin`], a full traversal of a pixel whose entry
 /// holds a scene object starts at `max(0, aip.t - shift_epsilon)` (Sec. 5.3).
 /// The paper's argument is that no hit lies nearer than the nearest
 /// reprojected point; that holds only where the reprojection is complete
 /// (a newly disoccluded object nearer than `aip.t` would be skipped), which
 /// is why it is off by default. Background entries never shift.
-pub fn decide(aip: &AipEntry, x: u32, y: u32, frame: u32, params: &Params) -> Decision {
+pub fn decide(aip: &AipEntry, x: u32, y: u32, frame: u32, options: &EpipolarOptions) -> Decision {
     let traverse = |reason| {
-        let tmin = if params.shift_origin
+        let tmin = if options.shift_origin
             && aip.object != INVALID_OBJECT
             && aip.object != BACKGROUND_OBJECT
             && aip.t.is_finite()
         {
-            (aip.t - params.shift_epsilon).max(0.0)
+            (aip.t - options.shift_epsilon).max(0.0)
         } else {
             0.0
         };
@@ -1282,7 +1282,7 @@ pub fn decide(aip: &AipEntry, x: u32, y: u32, frame: u32, params: &Params) -> De
             reason: Reason::Unavailable,
         };
     }
-    let n = params.resample_period;
+    let n = options.resample_period;
     if n > 0 && resample_slot(x, y, n) == frame % n {
         return traverse(Reason::Resampled);
     }
@@ -1293,21 +1293,21 @@ pub fn decide(aip: &AipEntry, x: u32, y: u32, frame: u32, params: &Params) -> De
     if aip.flags & AipEntry::ABRUPT_REJECTED != 0 {
         return traverse(Reason::Abrupt);
     }
-    if aip.object != INVALID_OBJECT && aip.cnt >= params.m_cnt {
-        let tmax = if params.depth_guard {
-            aip.t_other * (1.0 - params.guard_margin)
+    if aip.object != INVALID_OBJECT && aip.cnt >= options.m_cnt {
+        let tmax = if options.depth_guard {
+            aip.t_other * (1.0 - options.guard_margin)
         } else {
             f32::INFINITY
         };
         // A background decision has no ray/object test to bound: with the
         // depth guard, any other object's point in the splat sends the pixel
         // to full traversal.
-        if aip.object == BACKGROUND_OBJECT && params.depth_guard && aip.t_other.is_finite() {
+        if aip.object == BACKGROUND_OBJECT && options.depth_guard && aip.t_other.is_finite() {
             return traverse(Reason::Failed);
         }
         // Just outside the object's silhouette (its points on one side of
         // the center only) the pixel may show a surface never sampled.
-        if params.depth_guard && aip.flags & AipEntry::SURROUNDED != AipEntry::SURROUNDED {
+        if options.depth_guard && aip.flags & AipEntry::SURROUNDED != AipEntry::SURROUNDED {
             return traverse(Reason::Failed);
         }
         return Decision {
@@ -1322,9 +1322,10 @@ pub fn decide(aip: &AipEntry, x: u32, y: u32, frame: u32, params: &Params) -> De
 
 /// [`decide`] for the rows `rows` of a `width`-wide image: `out[i]` for
 /// pixel index `i = y * width + x` (only the rows in `rows` are written).
+/// [`try_decide_band`] writes a band-sized buffer instead.
 ///
 /// # Errors
-/// [`Error::InvalidArgument`] for a zero width or invalid `params`;
+/// [`Error::InvalidArgument`] for a zero width or invalid `options`;
 /// [`Error::InsufficientSize`] if `aip` or `out` is shorter than
 /// `rows.end() * width`. Nothing is written on error.
 pub fn try_decide_rows(
@@ -1333,21 +1334,54 @@ pub fn try_decide_rows(
     width: u32,
     rows: RowRange,
     frame: u32,
-    params: &Params,
+    options: &EpipolarOptions,
 ) -> Result<(), Error> {
-    params.validate()?;
+    let (start, end) = (
+        rows.start() as usize * width as usize,
+        rows.end() as usize * width as usize,
+    );
+    check_decide(width, options)?;
+    let band = out.get_mut(start..end).ok_or(Error::InsufficientSize)?;
+    try_decide_band(band, aip, width, rows, frame, options)
+}
+
+/// The checks shared by [`try_decide_rows`] and [`try_decide_band`].
+fn check_decide(width: u32, options: &EpipolarOptions) -> Result<(), Error> {
+    options.try_validate()?;
     if width == 0 {
         return Err(Error::InvalidArgument);
     }
-    let end = rows.end() as usize * width as usize;
-    if aip.len() < end || out.len() < end {
+    Ok(())
+}
+
+/// [`decide`] for the rows `rows` of a `width`-wide image into the band
+/// `band`: `band[i - rows.start() * width]` for pixel index
+/// `i = y * width + x`, so that threads deciding disjoint bands each hold
+/// only their rows. `band` holds [`Decision`]s or any type made from one
+/// (`From<Decision>`, the C ABI's record).
+///
+/// # Errors
+/// [`Error::InvalidArgument`] for a zero width or invalid `options`;
+/// [`Error::InsufficientSize`] if `aip` is shorter than
+/// `rows.end() * width` or `band` than `rows.len() * width`. Nothing is
+/// written on error.
+pub fn try_decide_band<O: From<Decision>>(
+    band: &mut [O],
+    aip: &[AipEntry],
+    width: u32,
+    rows: RowRange,
+    frame: u32,
+    options: &EpipolarOptions,
+) -> Result<(), Error> {
+    check_decide(width, options)?;
+    let w = width as usize;
+    if aip.len() < rows.end() as usize * w || band.len() < rows.len() as usize * w {
         return Err(Error::InsufficientSize);
     }
-    for y in rows.rows() {
-        let row = y as usize * width as usize;
-        for x in 0..width {
-            let i = row + x as usize;
-            out[i] = decide(&aip[i], x, y, frame, params);
+    for (o, y) in band.chunks_exact_mut(w).zip(rows.rows()) {
+        let row = y as usize * w;
+        for (x, o) in (0..width).zip(o) {
+            *o = decide(&aip[row + x as usize], x, y, frame, options).into();
         }
     }
     Ok(())

@@ -71,12 +71,12 @@
 //! [`MirrorStatus::NoSurface`]) have color 0 and weight 0.
 
 use crate::cone::{
-    blend_fade, color_pyramid_len, try_build_color_level0_rows, try_build_visibility_pyramid,
+    blend_fade, try_color_pyramid_len, try_build_color_level0_rows, try_build_visibility_pyramid,
     try_cone_angle_from_roughness, try_cone_trace, try_multiray, try_phong_power_from_roughness,
-    try_stamp_color_pyramid, visibility_pyramid_len, ColorTexel, Cone, ConeOptions, ConePyramids,
+    try_stamp_color_pyramid, try_visibility_pyramid_len, ColorTexel, Cone, ConeOptions, ConePyramids,
     Fades, MultiRayOptions, DEFAULT_SIGMA,
 };
-use crate::hiz::{hiz_len, try_build_hiz, HiZ, HiZLayout, HiZOptions, HiZTexel};
+use crate::hiz::{try_hiz_len, try_build_hiz, HiZ, HiZLayout, HiZOptions, HiZTexel};
 use crate::ssr::{AxisTrace, ImageSink};
 use crate::{
     Error, GBuffer, HostRay, ImageViewMut, MirrorMethod, MirrorOptions, MirrorPass, MirrorRay,
@@ -246,11 +246,11 @@ impl GlossyOptions {
 /// ([`try_glossy_scratch_len`]).
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash)]
 pub struct GlossyScratchLen {
-    /// Hi-Z texels ([`crate::hiz::hiz_len`]).
+    /// Hi-Z texels ([`crate::hiz::try_hiz_len`]).
     pub hiz: usize,
-    /// Color pyramid texels ([`crate::cone::color_pyramid_len`]).
+    /// Color pyramid texels ([`crate::cone::try_color_pyramid_len`]).
     pub color: usize,
-    /// Visibility pyramid floats ([`crate::cone::visibility_pyramid_len`],
+    /// Visibility pyramid floats ([`crate::cone::try_visibility_pyramid_len`],
     /// or 0 when the options read none: [`GlossyOptions::uses_visibility`]).
     pub visibility: usize,
 }
@@ -300,10 +300,10 @@ pub fn try_glossy_scratch_len(
     options: &GlossyOptions,
 ) -> Result<GlossyScratchLen, Error> {
     Ok(GlossyScratchLen {
-        hiz: hiz_len(width, height)?,
-        color: color_pyramid_len(width, height)?,
+        hiz: try_hiz_len(width, height)?,
+        color: try_color_pyramid_len(width, height)?,
         visibility: if options.uses_visibility() {
-            visibility_pyramid_len(width, height)?
+            try_visibility_pyramid_len(width, height)?
         } else {
             0
         },

@@ -93,7 +93,7 @@
 //! texel's hit slab hits at `t = 0`. Start reflection rays slightly off the
 //! surface (the seed crosses one cell first for the same reason).
 
-use crate::trace::{validate_ray, DepthHit, DepthImage, Miss, Thickness, Trace, Work};
+use crate::trace::{try_validate_ray, DepthHit, DepthImage, Miss, Thickness, Trace, Work};
 use crate::{Camera, DepthConvention, Error, Ray, RowRange};
 use core::ops::Range;
 use glam::{Mat4, Vec2, Vec4};
@@ -131,6 +131,17 @@ impl HiZLevel {
     pub const fn range(&self) -> Range<usize> {
         self.offset..self.offset + self.len()
     }
+}
+
+/// Where one row-band build of a pyramid level writes and reads
+/// ([`HiZLayout::try_band`]): index ranges of the pyramid buffer.
+#[derive(Clone, Debug, PartialEq, Eq, Hash)]
+pub struct PyramidBand {
+    /// The texels of the band's rows of the level being built.
+    pub band: Range<usize>,
+    /// The whole finer level the band is built from; `None` for level 0
+    /// (built from the image).
+    pub finer: Option<Range<usize>>,
 }
 
 /// The layout of a Hi-Z pyramid for a `width x height` image: level count
@@ -262,6 +273,64 @@ impl HiZLayout {
         })
     }
 
+    /// Where a row-band build of rows `rows` of level `level` (the
+    /// `*_level0_rows` / `*_level_rows` builds of Hi-Z, color and visibility
+    /// pyramids) writes and reads in a pyramid buffer of `buffer_len`
+    /// texels laid out as `self`: the band's texels and, for `level > 0`,
+    /// the whole finer level `level - 1` it is built from (which lies
+    /// before the band, so the two never overlap). A threaded host (or the
+    /// C ABI, which gets one band per call) turns the ranges into the
+    /// slices of each call; [`HiZLayout::try_split_band`] does it for one
+    /// `&mut` buffer.
+    ///
+    /// # Errors
+    /// * [`Error::InvalidArgument`]: `level` past the last level, or `rows`
+    ///   ending below the level's height.
+    /// * [`Error::InsufficientSize`]: `buffer_len` below [`HiZLayout::len`].
+    pub fn try_band(
+        &self,
+        level: u32,
+        rows: RowRange,
+        buffer_len: usize,
+    ) -> Result<PyramidBand, Error> {
+        let band = self.rows_range(level, rows).ok_or(Error::InvalidArgument)?;
+        if buffer_len < self.len {
+            return Err(Error::InsufficientSize);
+        }
+        let finer = match level {
+            0 => None,
+            _ => Some(self.levels[level as usize - 1].range()),
+        };
+        Ok(PyramidBand { band, finer })
+    }
+
+    /// The band [`HiZLayout::try_band`] describes, as slices of `dst`: the
+    /// rows to write and the finer level to read (`None` for level 0).
+    ///
+    /// # Errors
+    /// As [`HiZLayout::try_band`] with `dst.len()`.
+    ///
+    /// # Examples
+    /// ```
+    /// use refl_core::{HiZLayout, RowRange};
+    /// let layout = HiZLayout::try_new(8, 4).unwrap();
+    /// let mut pyramid = vec![[0.0f32; 2]; layout.len()];
+    /// let rows = RowRange::try_new(0, 1, 2).unwrap();
+    /// let (band, finer) = layout.try_split_band(&mut pyramid, 1, rows).unwrap();
+    /// assert_eq!((band.len(), finer.map(<[_]>::len)), (4, Some(32)));
+    /// ```
+    pub fn try_split_band<'a, T>(
+        &self,
+        dst: &'a mut [T],
+        level: u32,
+        rows: RowRange,
+    ) -> Result<(&'a mut [T], Option<&'a [T]>), Error> {
+        let b = self.try_band(level, rows, dst.len())?;
+        let (head, tail) = dst.split_at_mut(b.band.start);
+        let band = &mut tail[..b.band.end - b.band.start];
+        Ok((band, b.finer.map(|f| &head[f])))
+    }
+
     /// The level-0 pixels under texel `(x, y)` of level `level`:
     /// `[x 2^L, (x + 1) 2^L) x [y 2^L, (y + 1) 2^L)`, the last column and row
     /// reaching the image edge. `None` outside the level.
@@ -294,12 +363,12 @@ fn cell_span(c: u32, level: u32, cells: u32, full: u32) -> Range<u32> {
 ///
 /// # Errors
 /// As [`HiZLayout::try_new`].
-pub fn hiz_len(width: u32, height: u32) -> Result<usize, Error> {
-    pyramid_len::<HiZTexel>(width, height)
+pub fn try_hiz_len(width: u32, height: u32) -> Result<usize, Error> {
+    try_pyramid_len::<HiZTexel>(width, height)
 }
 
 /// Texels after the last level of a Hi-Z pyramid that hold its
-/// [`PyramidStamp`]; counted in [`hiz_len`].
+/// [`PyramidStamp`]; counted in [`try_hiz_len`].
 pub const HIZ_STAMP_TEXELS: usize = <HiZTexel as PyramidTexel>::STAMP_TEXELS;
 
 mod sealed {
@@ -362,12 +431,12 @@ impl PyramidTexel for f32 {
 
 /// Elements of a pyramid of texel type `T` for a `width x height` image:
 /// its levels ([`HiZLayout::len`]) and then `T::STAMP_TEXELS`. What
-/// [`hiz_len`], `cone::color_pyramid_len` and
-/// `cone::visibility_pyramid_len` return.
+/// [`try_hiz_len`], `cone::try_color_pyramid_len` and
+/// `cone::try_visibility_pyramid_len` return.
 ///
 /// # Errors
 /// As [`HiZLayout::try_new`].
-pub fn pyramid_len<T: PyramidTexel>(width: u32, height: u32) -> Result<usize, Error> {
+pub fn try_pyramid_len<T: PyramidTexel>(width: u32, height: u32) -> Result<usize, Error> {
     HiZLayout::try_new(width, height)?
         .len()
         .checked_add(T::STAMP_TEXELS)
@@ -445,7 +514,7 @@ impl PyramidStamp {
     ///
     /// # Errors
     /// [`Error::InsufficientSize`] if `pyramid` is shorter than
-    /// [`pyramid_len`]; [`Error::InvalidArgument`] for a zero size.
+    /// [`try_pyramid_len`]; [`Error::InvalidArgument`] for a zero size.
     /// Nothing is written on error.
     pub fn try_write<T: PyramidTexel>(&self, pyramid: &mut [T]) -> Result<(), Error> {
         let at = HiZLayout::try_new(self.width, self.height)?.len();
@@ -471,7 +540,7 @@ impl PyramidStamp {
 ///
 /// # Errors
 /// [`Error::InsufficientSize`] if `dst` holds fewer than
-/// [`hiz_len`]`(camera.width(), camera.height())` texels. Nothing is
+/// [`try_hiz_len`]`(camera.width(), camera.height())` texels. Nothing is
 /// written on error.
 ///
 /// # Panics
@@ -594,13 +663,13 @@ fn cell_children(c: u32, coarse: u32, fine: u32) -> Range<u32> {
 ///
 /// # Errors
 /// [`Error::InsufficientSize`] if `dst` holds fewer than
-/// [`hiz_len`]`(width, height)` texels. Nothing is written on error.
+/// [`try_hiz_len`]`(width, height)` texels. Nothing is written on error.
 ///
 /// # Panics
 /// Never.
 pub fn try_build_hiz(dst: &mut [HiZTexel], depth: &DepthImage<'_>) -> Result<(), Error> {
     let layout = HiZLayout::try_new(depth.width(), depth.height())?;
-    if dst.len() < hiz_len(depth.width(), depth.height())? {
+    if dst.len() < try_hiz_len(depth.width(), depth.height())? {
         return Err(Error::InsufficientSize);
     }
     let l0 = layout.levels[0];
@@ -642,7 +711,7 @@ impl<'a> HiZ<'a> {
     ///
     /// # Errors
     /// * [`Error::InsufficientSize`] if `data` holds fewer than
-    ///   [`hiz_len`]`(camera.width(), camera.height())` texels.
+    ///   [`try_hiz_len`]`(camera.width(), camera.height())` texels.
     /// * [`Error::InvalidArgument`] if the pyramid's [`PyramidStamp`] is not
     ///   `camera`'s: built for another image size or another camera, or not
     ///   built (or not stamped, after a row-band build) at all.
@@ -652,7 +721,7 @@ impl<'a> HiZ<'a> {
         convention: DepthConvention,
     ) -> Result<Self, Error> {
         let layout = HiZLayout::try_new(camera.width(), camera.height())?;
-        if data.len() < hiz_len(camera.width(), camera.height())? {
+        if data.len() < try_hiz_len(camera.width(), camera.height())? {
             return Err(Error::InsufficientSize);
         }
         if PyramidStamp::read(data, camera.width(), camera.height())
@@ -661,7 +730,7 @@ impl<'a> HiZ<'a> {
             return Err(Error::InvalidArgument);
         }
         // The x, y and w rows do not depend on the depth convention.
-        let to_pixel = camera.world_to_pixel(DepthConvention::ZeroToOne)?;
+        let to_pixel = camera.try_world_to_pixel(DepthConvention::ZeroToOne)?;
         Ok(Self {
             data,
             layout,
@@ -768,7 +837,7 @@ pub struct HiZStats {
 ///
 /// # Errors
 /// [`Error::InvalidArgument`] for a ray or `t_max` rejected by
-/// [`validate_ray`], a negative or NaN constant
+/// [`try_validate_ray`], a negative or NaN constant
 /// thickness, or a back-face image whose size differs from the pyramid's.
 ///
 /// # Panics
@@ -797,15 +866,20 @@ pub fn try_trace_hiz_stats(
     t_max: f32,
     options: &HiZOptions,
 ) -> Result<(Trace, HiZStats), Error> {
-    validate_ray(&ray, t_max)?;
+    try_validate_ray(&ray, t_max)?;
     validate_thickness(hiz, &thickness)?;
     Ok(trace_valid::<true>(hiz, thickness, &ray, t_max, options))
 }
 
 /// Traces `rays[i]` with maximum distance `t_max[i]` (or `t_max[0]` for
 /// every ray when `t_max.len() == 1`) into `out[i]`, as [`try_trace_hiz`]
-/// would. For threads, split `rays`, `out` (and `t_max`) into matching
-/// chunks and call this on each.
+/// would (the same arguments in the same order, the ray and `t_max`
+/// replaced by slices, the result by `out`). For threads, split `rays`,
+/// `out` (and `t_max`) into matching chunks and call this on each.
+///
+/// `out` holds [`Trace`]s or any type made from one (`From<Trace>`), and
+/// `rays` [`Ray`]s or any type that converts into one: a host's (or the C
+/// ABI's) own ray and result records are traced in place, without a copy.
 ///
 /// # Errors
 /// * [`Error::InsufficientSize`]: `out.len() < rays.len()`, or `t_max` is
@@ -818,11 +892,11 @@ pub fn try_trace_hiz_stats(
 ///
 /// # Panics
 /// Never.
-pub fn try_trace_hiz_rays(
-    out: &mut [Trace],
+pub fn try_trace_hiz_rays<O: From<Trace>, R: Copy + Into<Ray>>(
+    out: &mut [O],
     hiz: &HiZ<'_>,
     thickness: Thickness<'_>,
-    rays: &[Ray],
+    rays: &[R],
     t_max: &[f32],
     options: &HiZOptions,
 ) -> Result<(), Error> {
@@ -835,10 +909,12 @@ pub fn try_trace_hiz_rays(
     validate_thickness(hiz, &thickness)?;
     let tm = |i: usize| if t_max.len() == 1 { t_max[0] } else { t_max[i] };
     for (i, r) in rays.iter().enumerate() {
-        validate_ray(r, tm(i))?;
+        try_validate_ray(&(*r).into(), tm(i))?;
     }
     for (i, (o, r)) in out.iter_mut().zip(rays).enumerate() {
-        *o = trace_valid::<false>(hiz, thickness, r, tm(i), options).0;
+        *o = trace_valid::<false>(hiz, thickness, &(*r).into(), tm(i), options)
+            .0
+            .into();
     }
     Ok(())
 }

@@ -2,7 +2,7 @@
 //!
 //! An image is `width x height` texels stored row by row with a row stride
 //! (in texels, `stride >= width`). The last row needs only `width` texels, so
-//! the smallest valid buffer holds [`required_len`] texels. Construction
+//! the smallest valid buffer holds [`try_required_len`] texels. Construction
 //! validates sizes in 64-bit arithmetic (no `u32 * u32` overflow) and every
 //! accessor is bounds-checked, so a kernel can never read or write outside the
 //! caller's slice.
@@ -11,10 +11,10 @@
 //! `[f32; 2]`, `[f32; 3]`, `[f32; 4]`, `[u8; 4]` and `u32`.
 //!
 //! Whole-image passes take a [`RowRange`] so that a host can split an image
-//! across its own threads; [`ImageViewMut::split_at_row`] hands out disjoint
+//! across its own threads; [`ImageViewMut::try_split_at_row`] hands out disjoint
 //! mutable row bands that keep global row coordinates.
 
-use crate::Error;
+use crate::{Camera, DepthConvention, Error};
 use core::ops::Range;
 
 /// Number of texels a buffer must hold for an image of `width x height` with
@@ -23,7 +23,7 @@ use core::ops::Range;
 /// # Errors
 /// [`Error::InvalidArgument`] if `width` or `height` is zero, if
 /// `stride < width`, or if the count does not fit in `usize`.
-pub fn required_len(width: u32, height: u32, stride: u32) -> Result<usize, Error> {
+pub fn try_required_len(width: u32, height: u32, stride: u32) -> Result<usize, Error> {
     if width == 0 || height == 0 || stride < width {
         return Err(Error::InvalidArgument);
     }
@@ -123,9 +123,9 @@ impl<'a, T: Copy> ImageView<'a, T> {
     /// # Errors
     /// [`Error::InvalidArgument`] for a zero size, `stride < width` or an
     /// overflowing texel count; [`Error::InsufficientSize`] if `data` holds
-    /// fewer than [`required_len`] texels.
+    /// fewer than [`try_required_len`] texels.
     pub fn try_new(data: &'a [T], width: u32, height: u32, stride: u32) -> Result<Self, Error> {
-        let len = required_len(width, height, stride)?;
+        let len = try_required_len(width, height, stride)?;
         if data.len() < len {
             return Err(Error::InsufficientSize);
         }
@@ -196,7 +196,7 @@ impl<'a, T: Copy> ImageView<'a, T> {
 /// A mutable image over caller memory that owns a band of rows.
 ///
 /// A view made by [`ImageViewMut::try_new`] owns every row; after
-/// [`split_at_row`](ImageViewMut::split_at_row) each part owns a disjoint
+/// [`try_split_at_row`](ImageViewMut::try_split_at_row) each part owns a disjoint
 /// band but keeps the image's global coordinates, so a kernel writes pixel
 /// `(x, y)` the same way whichever band it was handed. Accessors return `None`
 /// for rows the view does not own.
@@ -216,7 +216,7 @@ impl<'a, T: Copy> ImageViewMut<'a, T> {
     /// # Errors
     /// As [`ImageView::try_new`].
     pub fn try_new(data: &'a mut [T], width: u32, height: u32, stride: u32) -> Result<Self, Error> {
-        let len = required_len(width, height, stride)?;
+        let len = try_required_len(width, height, stride)?;
         if data.len() < len {
             return Err(Error::InsufficientSize);
         }
@@ -247,12 +247,12 @@ impl<'a, T: Copy> ImageViewMut<'a, T> {
         stride: u32,
         rows: RowRange,
     ) -> Result<Self, Error> {
-        required_len(width, height, stride)?;
+        try_required_len(width, height, stride)?;
         if rows.end() > height {
             return Err(Error::InvalidArgument);
         }
         if !rows.is_empty() {
-            let need = required_len(width, rows.len(), stride)?;
+            let need = try_required_len(width, rows.len(), stride)?;
             if data.len() < need {
                 return Err(Error::InsufficientSize);
             }
@@ -332,7 +332,7 @@ impl<'a, T: Copy> ImageViewMut<'a, T> {
     /// # Errors
     /// [`Error::InvalidArgument`] unless `y` lies within the owned band
     /// (its ends included); `self` is returned unchanged in that case.
-    pub fn split_at_row(self, y: u32) -> Result<(Self, Self), (Error, Self)> {
+    pub fn try_split_at_row(self, y: u32) -> Result<(Self, Self), (Error, Self)> {
         if y < self.rows.start || y > self.rows.end {
             return Err((Error::InvalidArgument, self));
         }
@@ -371,5 +371,59 @@ impl<'a, T: Copy> ImageViewMut<'a, T> {
             height: self.height,
             stride: self.stride,
         })
+    }
+}
+
+/// Converts the depth texels of the rows `dst` owns from convention `from`
+/// in `src` to convention `to` in `dst`: `dst = encode_to(decode_from(src))`
+/// texel by texel ([`Camera::decode_depth`], [`Camera::encode_depth`]: only
+/// the camera's near and far planes are used). A NaN texel converts to NaN;
+/// rows `dst` does not own and the padding between rows are not touched.
+/// Threads convert disjoint bands ([`ImageViewMut::try_split_at_row`]) of one
+/// image at once. [`convert_depth_in_place`] converts an image in place.
+///
+/// # Errors
+/// [`Error::InvalidArgument`] if `dst` and `src` differ in width or height
+/// (strides may differ); `dst` is then untouched.
+pub fn try_convert_depth(
+    dst: &mut ImageViewMut<'_, f32>,
+    src: &ImageView<'_, f32>,
+    camera: &Camera,
+    from: DepthConvention,
+    to: DepthConvention,
+) -> Result<(), Error> {
+    if dst.width() != src.width() || dst.height() != src.height() {
+        return Err(Error::InvalidArgument);
+    }
+    let Some(rows) = dst.owned_rows() else {
+        return Ok(());
+    };
+    for y in rows.rows() {
+        if let (Some(o), Some(i)) = (dst.row_mut(y), src.row(y)) {
+            for (o, &i) in o.iter_mut().zip(i) {
+                *o = camera.encode_depth(camera.decode_depth(i, from), to);
+            }
+        }
+    }
+    Ok(())
+}
+
+/// [`try_convert_depth`] in place: converts the texels of the rows `img`
+/// owns from convention `from` to `to`.
+pub fn convert_depth_in_place(
+    img: &mut ImageViewMut<'_, f32>,
+    camera: &Camera,
+    from: DepthConvention,
+    to: DepthConvention,
+) {
+    let Some(rows) = img.owned_rows() else {
+        return;
+    };
+    for y in rows.rows() {
+        if let Some(row) = img.row_mut(y) {
+            for v in row {
+                *v = camera.encode_depth(camera.decode_depth(*v, from), to);
+            }
+        }
     }
 }

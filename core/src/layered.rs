@@ -15,7 +15,7 @@
 //! space with a per-face pyramid of per-layer depth hulls
 //! ([`LayeredMapMut::build_bounds`]), and the binary search reads depth
 //! bilinearly interpolated between texel centers where the surface is
-//! continuous ([`LayeredParams::smooth_texels`]), accepting an inside
+//! continuous ([`LayeredOptions::smooth_texels`]), accepting an inside
 //! sample of the linear search only where the interpolated depth confirms
 //! it. At 512 x 512 texels per face this brings hit points from about 1.5
 //! texels (99th percentile) to about 0.1 and reads about 10x fewer texels
@@ -56,7 +56,7 @@
 //!
 //! # Buffers
 //!
-//! All data lives in four caller buffers whose sizes [`layered_len`] gives:
+//! All data lives in four caller buffers whose sizes [`try_layered_len`] gives:
 //!
 //! * `depth: [f32]`, index `((face * res + j) * res + i) * L + k`;
 //! * `payload: [u32]`, same index (the id of the surface of layer `k`);
@@ -200,7 +200,7 @@ fn bounds_per_face(res: u32) -> u64 {
 /// # Errors
 /// [`Error::InvalidArgument`] if `face_res` or `layers` is zero or the
 /// element count overflows `usize`.
-pub fn layered_len(face_res: u32, layers: u32) -> Result<LayeredLen, Error> {
+pub fn try_layered_len(face_res: u32, layers: u32) -> Result<LayeredLen, Error> {
     if face_res == 0 || layers == 0 {
         return Err(Error::InvalidArgument);
     }
@@ -285,7 +285,7 @@ pub struct LayeredGrid {
 }
 
 /// A world-space orthographic ray of one face texel, for the host to cast
-/// through *all* surfaces of the object (see [`LayeredGrid::face_ray`]).
+/// through *all* surfaces of the object (see [`LayeredGrid::try_face_ray`]).
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct ColumnRay {
     /// Start point on the face plane at the texel center, world space.
@@ -304,7 +304,7 @@ impl LayeredGrid {
     /// # Errors
     /// * [`Error::InvalidArgument`]: a non-finite corner, `face_res` or
     ///   `layers` zero, or buffer sizes overflowing `usize`
-    ///   ([`layered_len`]).
+    ///   ([`try_layered_len`]).
     /// * [`Error::DegenerateGeometry`]: `max <= min` on some axis (a box of
     ///   zero or negative extent), or an extent so small relative to the
     ///   corners that its inverse overflows.
@@ -312,7 +312,7 @@ impl LayeredGrid {
         if !(min.is_finite() && max.is_finite()) {
             return Err(Error::InvalidArgument);
         }
-        layered_len(face_res, layers)?;
+        try_layered_len(face_res, layers)?;
         let ext = max - min;
         if !ext.is_finite() {
             return Err(Error::InvalidArgument);
@@ -418,7 +418,7 @@ impl LayeredGrid {
     /// The buffer sizes of this grid.
     pub fn len(&self) -> LayeredLen {
         // Validated at construction.
-        layered_len(self.res, self.layers).unwrap_or(LayeredLen {
+        try_layered_len(self.res, self.layers).unwrap_or(LayeredLen {
             depth: 0,
             payload: 0,
             counts: 0,
@@ -449,7 +449,7 @@ impl LayeredGrid {
     /// [`Error::InvalidArgument`] if `i` or `j` is not below the resolution;
     /// [`Error::DegenerateGeometry`] if the transformed column is not
     /// finite or has zero length.
-    pub fn face_ray(&self, face: Face, i: u32, j: u32) -> Result<ColumnRay, Error> {
+    pub fn try_face_ray(&self, face: Face, i: u32, j: u32) -> Result<ColumnRay, Error> {
         if i >= self.res || j >= self.res {
             return Err(Error::InvalidArgument);
         }
@@ -516,8 +516,10 @@ impl LayeredGrid {
 }
 
 /// One surface crossing of a column ray (input of
-/// [`LayeredMapMut::try_fill_column`]).
+/// [`LayeredMapMut::try_fill_column`]). `#[repr(C)]`: the C ABI's
+/// `refl_layered_layer_hit` is the same record, sorted in place.
 #[derive(Clone, Copy, Debug, PartialEq)]
+#[repr(C)]
 pub struct LayerHit {
     /// Distance along the [`ColumnRay`] (world units, `0..=t_max`; values
     /// outside are clamped).
@@ -550,7 +552,7 @@ pub struct LayeredMapMut<'a> {
 }
 
 impl<'a> LayeredMapMut<'a> {
-    /// Binds the four buffers (sizes from [`layered_len`]; longer buffers
+    /// Binds the four buffers (sizes from [`try_layered_len`]; longer buffers
     /// are fine, only the prefix is used) to `grid`. The contents are left
     /// as they are; call [`LayeredMapMut::clear`] before filling.
     ///
@@ -638,7 +640,7 @@ impl<'a> LayeredMapMut<'a> {
     /// the cell's hull of layer `k`, and the depth the trace interpolates at
     /// a point comes from the (at most four) texel centers within one texel
     /// of it; so a ray whose depth range while crossing the cell misses
-    /// every hull meets no solid there, and [`LayeredMap::trace`] skips the
+    /// every hull meets no solid there, and [`LayeredMap::try_trace`] skips the
     /// cell (in front of the object, behind it, or in a gap between
     /// layers of a concave object).
     ///
@@ -726,7 +728,7 @@ impl<'a> LayeredMapMut<'a> {
     }
 
     /// Fills texel `(i, j)` of `face` **and of its opposite face** from all
-    /// surface crossings `hits` of the column ray [`LayeredGrid::face_ray`]
+    /// surface crossings `hits` of the column ray [`LayeredGrid::try_face_ray`]
     /// `(face, i, j)`, in any order (the buffer is sorted in place; it is
     /// the caller's scratch).
     ///
@@ -758,7 +760,7 @@ impl<'a> LayeredMapMut<'a> {
         j: u32,
         hits: &mut [LayerHit],
     ) -> Result<ColumnFill, Error> {
-        let ray = self.grid.face_ray(face, i, j)?;
+        let ray = self.grid.try_face_ray(face, i, j)?;
         if hits.iter().any(|h| !h.t.is_finite()) {
             return Err(Error::InvalidArgument);
         }
@@ -837,7 +839,7 @@ impl<'a> LayeredMapMut<'a> {
     /// * [`Error::InvalidArgument`]: decreasing offsets, one beyond
     ///   `hits.len()`, a NaN or infinite `t`.
     /// * [`Error::DegenerateGeometry`]: the column ray of some texel of
-    ///   `face` is degenerate ([`LayeredGrid::face_ray`]).
+    ///   `face` is degenerate ([`LayeredGrid::try_face_ray`]).
     pub fn try_fill_face(
         &mut self,
         face: Face,
@@ -861,7 +863,7 @@ impl<'a> LayeredMapMut<'a> {
         }
         for j in 0..self.grid.res {
             for i in 0..self.grid.res {
-                self.grid.face_ray(face, i, j)?;
+                self.grid.try_face_ray(face, i, j)?;
             }
         }
         let mut approx = 0u32;
@@ -956,9 +958,9 @@ pub struct LayeredMap<'a> {
     bounds: &'a [f32],
 }
 
-/// Parameters of [`LayeredMap::trace`] (seed 001 Sec. 3.3 and Algorithm 1).
+/// Parameters of [`LayeredMap::try_trace`] (seed 001 Sec. 3.3 and Algorithm 1).
 #[derive(Clone, Copy, Debug, PartialEq)]
-pub struct LayeredParams {
+pub struct LayeredOptions {
     /// Linear-search step length in texels (the step's largest component
     /// in box coordinates times `face_res`), `> 0`. Below 1 no texel is
     /// skipped; the seed marches "at an equal distance".
@@ -988,7 +990,7 @@ pub struct LayeredParams {
     pub smooth_texels: f32,
 }
 
-impl Default for LayeredParams {
+impl Default for LayeredOptions {
     /// Half-texel steps (up to 4096 steps and cells per face), 16 binary
     /// iterations down to 1/16 texel, early stop at one texel,
     /// interpolation across depth steps up to 4 texels.
@@ -1004,7 +1006,7 @@ impl Default for LayeredParams {
     }
 }
 
-impl LayeredParams {
+impl LayeredOptions {
     fn validate(&self) -> Result<(), Error> {
         if !(self.step_texels > 0.0 && self.step_texels.is_finite())
             || self.max_steps == 0
@@ -1066,7 +1068,7 @@ pub enum LayeredMiss {
     LeftBox,
     /// The ray ended (`t_max`) inside the box before reaching the object.
     EndOfRay,
-    /// A face's step cap ([`LayeredParams::max_steps`]) was reached with
+    /// A face's step cap ([`LayeredOptions::max_steps`]) was reached with
     /// no face finding a hit.
     OutOfSteps,
     /// The ray starts inside the object (for every face that was
@@ -1121,20 +1123,20 @@ struct Candidate {
     texel: [u32; 2],
     layer: u32,
     mismatch: f32,
-    /// The hit lies on interpolated depth (see [`LayeredParams::smooth_texels`]).
+    /// The hit lies on interpolated depth (see [`LayeredOptions::smooth_texels`]).
     smooth: bool,
 }
 
 impl Candidate {
     /// Whether the seed's early stop accepts it: on interpolated depth and
     /// within the threshold of the surface.
-    fn confident(&self, p: &LayeredParams) -> bool {
+    fn confident(&self, p: &LayeredOptions) -> bool {
         self.smooth && self.mismatch <= p.early_stop_texels
     }
 
     /// Ranking between faces: confident hits first, then hits on
     /// interpolated depth, then the seed's smallest `|h - z|`.
-    fn better_than(&self, o: &Candidate, p: &LayeredParams) -> bool {
+    fn better_than(&self, o: &Candidate, p: &LayeredOptions) -> bool {
         let key = |c: &Candidate| (!c.confident(p), !c.smooth);
         match key(self).cmp(&key(o)) {
             core::cmp::Ordering::Less => true,
@@ -1171,7 +1173,7 @@ struct Sample {
 }
 
 impl<'a> LayeredMap<'a> {
-    /// Binds read-only buffers (sizes from [`layered_len`]) to `grid`.
+    /// Binds read-only buffers (sizes from [`try_layered_len`]) to `grid`.
     /// `bounds` must hold what [`LayeredMapMut::build_bounds`] (or the
     /// "never skip" marks of [`LayeredMapMut::try_fill_column`]) left
     /// there; bounds that claim emptiness where the map has surfaces make
@@ -1293,7 +1295,7 @@ impl<'a> LayeredMap<'a> {
 
     /// The inside test at box point `q` for `face` with depths bilinearly
     /// interpolated between the four nearest texel centers where they are
-    /// continuous (our addition, [`LayeredParams::smooth_texels`]; within a
+    /// continuous (our addition, [`LayeredOptions::smooth_texels`]; within a
     /// texel the seed reads one depth). Elsewhere, and with `tau <= 0`, it
     /// is [`LayeredMap::sample`]. `tau`: the continuity threshold in
     /// normalized depth.
@@ -1529,16 +1531,16 @@ impl<'a> LayeredMap<'a> {
     ///    direction (for each axis, the face the ray moves away from, whose
     ///    depth `h` grows along the ray), the axis with the largest
     ///    direction component first. On each, a linear search with steps
-    ///    of [`LayeredParams::step_texels`] looks for the first sample inside
+    ///    of [`LayeredOptions::step_texels`] looks for the first sample inside
     ///    the object with Algorithm 1's layer loop; a binary search then
     ///    refines between that sample and the previous one. Ours: the
     ///    linear search jumps over cells of the bound pyramid the ray
     ///    crosses outside every layer's hull
     ///    ([`LayeredMapMut::build_bounds`]), and the binary search runs on
-    ///    interpolated depth ([`LayeredParams::smooth_texels`]), started
+    ///    interpolated depth ([`LayeredOptions::smooth_texels`]), started
     ///    only where the interpolated depth confirms the inside sample.
     /// 3. The seed's early stop: a face whose hit has `|h - z|` within
-    ///    [`LayeredParams::early_stop_texels`] is accepted at once (ours:
+    ///    [`LayeredOptions::early_stop_texels`] is accepted at once (ours:
     ///    if the hit lies on interpolated depth); otherwise hits on
     ///    interpolated depth win over nearest-texel ones, then the smallest
     ///    mismatch over the searched faces (the face that sees the surface,
@@ -1553,14 +1555,58 @@ impl<'a> LayeredMap<'a> {
     /// # Errors
     /// [`Error::InvalidArgument`] for a non-finite origin or direction, a
     /// direction whose length differs from 1 by more than 1e-3, a `t_max`
-    /// that is NaN or not positive, or invalid `params` (see
-    /// [`LayeredParams`]).
-    pub fn trace(
+    /// that is NaN or not positive, or invalid `options` (see
+    /// [`LayeredOptions`]).
+    pub fn try_trace(
         &self,
         ray: &Ray,
         t_max: f32,
-        params: &LayeredParams,
+        options: &LayeredOptions,
     ) -> Result<LayeredTrace, Error> {
+        let (o, d) = self.ray_coords(ray, t_max)?;
+        options.validate()?;
+        Ok(self.trace_valid(ray, t_max, o, d, options))
+    }
+
+    /// Traces `rays[k]` up to `t_max` into `out[k]` as
+    /// [`LayeredMap::try_trace`] would (the same arguments in the same order,
+    /// the ray replaced by a slice and the result by `out`). `out` holds
+    /// [`LayeredTrace`]s or any type made from one (`From<LayeredTrace>`),
+    /// `rays` [`Ray`]s or any type that converts into one: a host's (or the
+    /// C ABI's) own records are traced in place, without a copy.
+    ///
+    /// Every input is validated before anything is written: on `Err` `out`
+    /// is untouched. Elements of `out` past `rays.len()` are not written.
+    ///
+    /// # Errors
+    /// * [`Error::InsufficientSize`]: `out.len() < rays.len()`.
+    /// * [`Error::InvalidArgument`]: any ray, `t_max` or `options` rejected
+    ///   as by [`LayeredMap::try_trace`].
+    pub fn try_trace_rays<O: From<LayeredTrace>, R: Copy + Into<Ray>>(
+        &self,
+        out: &mut [O],
+        rays: &[R],
+        t_max: f32,
+        options: &LayeredOptions,
+    ) -> Result<(), Error> {
+        if out.len() < rays.len() {
+            return Err(Error::InsufficientSize);
+        }
+        for r in rays {
+            self.ray_coords(&(*r).into(), t_max)?;
+        }
+        options.validate()?;
+        for (o, r) in out.iter_mut().zip(rays) {
+            let ray: Ray = (*r).into();
+            let (a, d) = self.ray_coords(&ray, t_max)?;
+            *o = self.trace_valid(&ray, t_max, a, d, options).into();
+        }
+        Ok(())
+    }
+
+    /// The ray's origin and direction in box coordinates, after checking
+    /// the ray and `t_max` ([`LayeredMap::try_trace`]'s errors but `options`).
+    fn ray_coords(&self, ray: &Ray, t_max: f32) -> Result<(Vec3, Vec3), Error> {
         if !ray.origin.is_finite()
             || !ray.dir.is_finite()
             || !((ray.dir.length_squared() - 1.0).abs() <= 2e-3)
@@ -1568,23 +1614,36 @@ impl<'a> LayeredMap<'a> {
         {
             return Err(Error::InvalidArgument);
         }
-        params.validate()?;
         let g = &self.grid;
         let o = g.box_coords(ray.origin);
         let d = g.local_from_world.transform_vector3(ray.dir) * g.inv_extent;
-        let mut work = LayeredWork::default();
         if !(o.is_finite() && d.is_finite()) {
             return Err(Error::InvalidArgument);
         }
+        Ok((o, d))
+    }
+
+    /// [`LayeredMap::try_trace`] on validated input (`o`, `d` from
+    /// [`LayeredMap::ray_coords`]).
+    fn trace_valid(
+        &self,
+        ray: &Ray,
+        t_max: f32,
+        o: Vec3,
+        d: Vec3,
+        options: &LayeredOptions,
+    ) -> LayeredTrace {
+        let g = &self.grid;
+        let mut work = LayeredWork::default();
         // Slab clip against the unit cube over [0, t_max].
         let (mut t0, mut t1) = (0.0f32, t_max);
         for a in 0..3 {
             if d[a] == 0.0 {
                 if !(o[a] >= 0.0 && o[a] <= 1.0) {
-                    return Ok(LayeredTrace::Miss {
+                    return LayeredTrace::Miss {
                         reason: LayeredMiss::MissedBox,
                         work,
-                    });
+                    };
                 }
                 continue;
             }
@@ -1597,10 +1656,10 @@ impl<'a> LayeredMap<'a> {
             t1 = t1.min(tb);
         }
         if !(t0 <= t1) {
-            return Ok(LayeredTrace::Miss {
+            return LayeredTrace::Miss {
                 reason: LayeredMiss::MissedBox,
                 work,
-            });
+            };
         }
         let ends_in_box = t1 >= t_max;
         let origin_in_box = t0 <= 0.0;
@@ -1615,12 +1674,12 @@ impl<'a> LayeredMap<'a> {
         for &a in axes.iter() {
             let face = Face::of_axis(a as u32, d[a] < 0.0);
             work.faces += 1;
-            match self.search_face(face, o, d, dmax, t0, t1, origin_in_box, params, &mut work) {
+            match self.search_face(face, o, d, dmax, t0, t1, origin_in_box, options, &mut work) {
                 FaceOutcome::Hit(c) => {
-                    if best.is_none_or(|b| c.better_than(&b, params)) {
+                    if best.is_none_or(|b| c.better_than(&b, options)) {
                         best = Some(c);
                     }
-                    if c.confident(params) {
+                    if c.confident(options) {
                         break;
                     }
                 }
@@ -1632,7 +1691,7 @@ impl<'a> LayeredMap<'a> {
             let idx = g.texel_index(c.face, c.texel[0], c.texel[1]) * g.layers as usize
                 + c.layer as usize;
             work.fetches += 1;
-            return Ok(LayeredTrace::Hit(LayeredHit {
+            return LayeredTrace::Hit(LayeredHit {
                 t: c.t,
                 position: ray.at(c.t),
                 face: c.face,
@@ -1641,7 +1700,7 @@ impl<'a> LayeredMap<'a> {
                 payload: self.payload[idx],
                 mismatch: c.mismatch,
                 work,
-            }));
+            });
         }
         let reason = if started_inside == work.faces {
             LayeredMiss::StartedInside
@@ -1652,7 +1711,7 @@ impl<'a> LayeredMap<'a> {
         } else {
             LayeredMiss::LeftBox
         };
-        Ok(LayeredTrace::Miss { reason, work })
+        LayeredTrace::Miss { reason, work }
     }
 
     /// Linear then binary search on one face (seed 001 Algorithm 1 and the
@@ -1673,7 +1732,7 @@ impl<'a> LayeredMap<'a> {
         t0: f32,
         t1: f32,
         origin_in_box: bool,
-        p: &LayeredParams,
+        p: &LayeredOptions,
         work: &mut LayeredWork,
     ) -> FaceOutcome {
         let res = self.grid.res as f32;
@@ -1779,7 +1838,7 @@ impl<'a> LayeredMap<'a> {
         mut last: (Sample, Inside),
         dt: f32,
         tau: f32,
-        p: &LayeredParams,
+        p: &LayeredOptions,
         work: &mut LayeredWork,
     ) -> Candidate {
         let at = |s: f32| ob + d * s;
@@ -1905,7 +1964,7 @@ impl PrrClass {
 ///   positive.
 /// * [`Error::DegenerateGeometry`]: a zero-area (or numerically collinear)
 ///   triangle.
-pub fn prr_classify(
+pub fn try_prr_classify(
     eye: Vec3,
     center: Vec3,
     radius: f32,

@@ -4,7 +4,7 @@
 //!
 //! * `#![no_std]`, no allocation: every image, pyramid and scratch buffer is a
 //!   view over caller memory ([`ImageView`], [`ImageViewMut`]); size queries
-//!   such as [`image::required_len`] say how much to allocate.
+//!   such as [`image::try_required_len`] say how much to allocate.
 //! * f32 kernels (what a GPU port would run); the tests carry f64 oracles.
 //! * One module per algorithm family, each behind a Cargo feature so that an
 //!   engine compiles only what its scenes need. `mirror` is on by default.
@@ -53,20 +53,21 @@ pub use error::Error;
 pub use image::{ImageView, ImageViewMut, RowRange};
 #[cfg(feature = "layered")]
 pub use layered::{
-    layered_len, prr_classify, ColumnFill, ColumnRay, Face, LayerHit, LayeredGrid, LayeredHit,
-    LayeredLen, LayeredMap, LayeredMapMut, LayeredMiss, LayeredParams, LayeredStamp, LayeredTrace,
-    LayeredWork, PrrClass, LAYERED_STAMP_LEN,
+    try_layered_len, try_prr_classify, ColumnFill, ColumnRay, Face, LayerHit, LayeredGrid,
+    LayeredHit, LayeredLen, LayeredMap, LayeredMapMut, LayeredMiss, LayeredOptions, LayeredStamp,
+    LayeredTrace, LayeredWork, PrrClass, LAYERED_STAMP_LEN,
 };
 #[cfg(feature = "mirror")]
 pub use mirror::{
-    mirror_matrix, mirror_point, mirrored_camera, oblique_projection, reflect, try_reflect, Plane,
+    mirror_matrix, mirror_point, reflect, try_mirrored_camera, try_oblique_projection, try_reflect,
+    Plane,
 };
 
 #[cfg(feature = "cone")]
 pub use cone::{
-    color_pyramid_len, try_build_color_pyramid, try_build_visibility_pyramid,
+    try_build_color_pyramid, try_build_visibility_pyramid, try_color_pyramid_len,
     try_cone_angle_from_phong, try_cone_angle_from_roughness, try_cone_trace, try_multiray,
-    try_stamp_color_pyramid, try_stamp_visibility_pyramid, visibility_pyramid_len, ColorTexel,
+    try_stamp_color_pyramid, try_stamp_visibility_pyramid, try_visibility_pyramid_len, ColorTexel,
     Cone, ConeOptions, ConePyramids, ConeResult, FadeRange, Fades, MultiRayOptions, MultiRayResult,
     COLOR_STAMP_TEXELS, VISIBILITY_STAMP_LEN,
 };
@@ -79,9 +80,9 @@ pub use glossy::{
 };
 #[cfg(feature = "hiz")]
 pub use hiz::{
-    hiz_len, try_build_hiz, try_build_hiz_level0_rows, try_build_hiz_level_rows, try_stamp_hiz,
+    try_build_hiz, try_build_hiz_level0_rows, try_build_hiz_level_rows, try_hiz_len, try_stamp_hiz,
     try_trace_hiz, try_trace_hiz_rays, try_trace_hiz_stats, HiZ, HiZLayout, HiZLevel, HiZOptions,
-    HiZStats, HiZTexel, PyramidStamp, PyramidTexel, HIZ_STAMP_TEXELS,
+    HiZStats, HiZTexel, PyramidBand, PyramidStamp, PyramidTexel, HIZ_STAMP_TEXELS,
 };
 #[cfg(any(feature = "depth-image", feature = "hiz"))]
 pub use ssr::{
@@ -95,7 +96,7 @@ pub use trace::{DepthHit, DepthImage, Miss, Thickness, Trace, Work};
 
 #[cfg(feature = "tcrr")]
 pub use tcrr::{
-    reflection_distance, KeyFramePolicy, Reflected, ReflectionBuffers, TcrrParams, INVALID_OFFSET,
+    reflection_distance, KeyFramePolicy, Reflected, ReflectionBuffers, TcrrOptions, INVALID_OFFSET,
 };
 
 /// Re-export of the glam version refl-core is built against, so that callers

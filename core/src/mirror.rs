@@ -3,7 +3,7 @@
 //!
 //! Seed 001 (appendix) builds the "virtual object" of a planar reflector with
 //! a mirror matrix; seed 004 Sec. 4.4.3 gives the reflection vector. Rendering
-//! the scene through [`mirrored_camera`] produces, at each pixel of the
+//! the scene through [`try_mirrored_camera`] produces, at each pixel of the
 //! mirror, exactly what the reflected primary ray sees.
 
 use crate::{Camera, DepthConvention, Error};
@@ -268,7 +268,7 @@ pub fn mirror_point(plane: &Plane, p: Vec3) -> Vec3 {
 /// Never for a valid camera and plane in practice; forwards
 /// [`Camera::try_new`]'s errors if the product is not finite (e.g. huge
 /// coordinates overflowing f32).
-pub fn mirrored_camera(cam: &Camera, plane: &Plane) -> Result<Camera, Error> {
+pub fn try_mirrored_camera(cam: &Camera, plane: &Plane) -> Result<Camera, Error> {
     let view = (cam.view().as_dmat4() * plane.mirror_matrix_f64()).as_mat4();
     Camera::try_new(
         view,
@@ -284,10 +284,10 @@ pub fn mirrored_camera(cam: &Camera, plane: &Plane) -> Result<Camera, Error> {
 /// its near plane replaced by the world-space plane `clip` (an oblique near
 /// plane, after E. Lengyel, "Oblique View Frustum Depth Projection and
 /// Clipping", Journal of Game Development 1(2), 2005, Sec. 2-3), so that a
-/// rasterizer drawing through a [`mirrored_camera`] discards everything
+/// rasterizer drawing through a [`try_mirrored_camera`] discards everything
 /// behind the mirror without a user clip plane.
 ///
-/// Contract: x, y and w rows are those of [`Camera::projection`]; the depth
+/// Contract: x, y and w rows are those of [`Camera::try_projection`]; the depth
 /// row is replaced so that stored depth is the near value (0, or 1 for
 /// reversed-Z) exactly on `clip`, grows toward the far value on the side the
 /// normal points to, reaches the far value (1, or 0 for reversed-Z) at the
@@ -312,7 +312,11 @@ pub fn mirrored_camera(cam: &Camera, plane: &Plane) -> Result<Camera, Error> {
 ///   negative side of `clip` (the plane would cut away the eye's side or
 ///   pass through the eye), or the plane does not cross the view direction's
 ///   far side (`C . Q <= 0`, nothing in front would be kept).
-pub fn oblique_projection(cam: &Camera, clip: &Plane, c: DepthConvention) -> Result<Mat4, Error> {
+pub fn try_oblique_projection(
+    cam: &Camera,
+    clip: &Plane,
+    c: DepthConvention,
+) -> Result<Mat4, Error> {
     let proj = cam.projection_f64(c)?;
     // Planes transform with the inverse transpose: C_view^T = C_world^T V^-1.
     let world = DVec4::new(

@@ -91,7 +91,7 @@
 //! Hosts tracing reflection rays from surfaces of the same image offset the
 //! origin (e.g. along the normal) or start it one texel further.
 
-use crate::trace::validate_ray;
+use crate::trace::try_validate_ray;
 use crate::{DepthConvention, DepthHit, DepthImage, Error, Miss, Ray, Thickness, Trace, Work};
 use glam::{Vec2, Vec3};
 
@@ -630,7 +630,7 @@ fn validate_options(opts: &StepOptions) -> Result<(), Error> {
 ///
 /// # Errors
 /// [`Error::InvalidArgument`] for a ray or `t_max` rejected by
-/// [`validate_ray`], a `stride` of 0, a
+/// [`try_validate_ray`], a `stride` of 0, a
 /// constant thickness that is NaN or negative, or a back-face image whose
 /// size differs from the depth image's.
 ///
@@ -643,7 +643,7 @@ pub fn try_step(
     t_max: f32,
     opts: StepOptions,
 ) -> Result<Trace, Error> {
-    validate_ray(&ray, t_max)?;
+    try_validate_ray(&ray, t_max)?;
     validate_thickness(image, &thickness)?;
     validate_options(&opts)?;
     let pr = Projector::new(image);
@@ -661,7 +661,13 @@ pub fn try_step(
 }
 
 /// Traces `rays[i]` with maximum distance `t_max[i]` (or `t_max[0]` for
-/// every ray when `t_max.len() == 1`) into `out[i]`, as [`try_step`] would.
+/// every ray when `t_max.len() == 1`) into `out[i]`, as [`try_step`] would
+/// (the same arguments in the same order, the ray and `t_max` replaced by
+/// slices and the result by `out`).
+///
+/// `out` holds [`Trace`]s or any type made from one (`From<Trace>`), and
+/// `rays` [`Ray`]s or any type that converts into one: a host's (or the C
+/// ABI's) own ray and result records are traced in place, without a copy.
 ///
 /// Every input is validated before anything is written, so on `Err` `out`
 /// is untouched. Elements of `out` past `rays.len()` are not written, nor
@@ -676,12 +682,12 @@ pub fn try_step(
 ///
 /// # Panics
 /// Never.
-pub fn try_step_rays(
-    out: &mut [Trace],
-    rays: &[Ray],
-    t_max: &[f32],
+pub fn try_step_rays<O: From<Trace>, R: Copy + Into<Ray>>(
+    out: &mut [O],
     image: &DepthImage<'_>,
     thickness: Thickness<'_>,
+    rays: &[R],
+    t_max: &[f32],
     opts: StepOptions,
 ) -> Result<(), Error> {
     if t_max.is_empty() {
@@ -694,34 +700,34 @@ pub fn try_step_rays(
     validate_options(&opts)?;
     let tm = |i: usize| if t_max.len() == 1 { t_max[0] } else { t_max[i] };
     for (i, ray) in rays.iter().enumerate() {
-        validate_ray(ray, tm(i))?;
+        try_validate_ray(&(*ray).into(), tm(i))?;
     }
     let pr = Projector::new(image);
     let args = (&pr, image, thickness, rays, t_max, opts);
     match image.convention() {
-        DepthConvention::Linear => step_all::<LINEAR>(out, args),
-        DepthConvention::ZeroToOne => step_all::<ZERO_TO_ONE>(out, args),
-        DepthConvention::ReversedZ => step_all::<REVERSED_Z>(out, args),
+        DepthConvention::Linear => step_all::<LINEAR, O, R>(out, args),
+        DepthConvention::ZeroToOne => step_all::<ZERO_TO_ONE, O, R>(out, args),
+        DepthConvention::ReversedZ => step_all::<REVERSED_Z, O, R>(out, args),
     }
     Ok(())
 }
 
 /// [`try_step_rays`] after validation, for an image of convention
 /// [`convention::<C>()`](convention).
-fn step_all<const C: u8>(
-    out: &mut [Trace],
+fn step_all<const C: u8, O: From<Trace>, R: Copy + Into<Ray>>(
+    out: &mut [O],
     (pr, image, thickness, rays, t_max, opts): (
         &Projector,
         &DepthImage<'_>,
         Thickness<'_>,
-        &[Ray],
+        &[R],
         &[f32],
         StepOptions,
     ),
 ) {
     let tm = |i: usize| if t_max.len() == 1 { t_max[0] } else { t_max[i] };
     for (i, (o, ray)) in out.iter_mut().zip(rays).enumerate() {
-        *o = step_unchecked::<C>(pr, image, thickness, ray, tm(i), opts);
+        *o = step_unchecked::<C>(pr, image, thickness, &(*ray).into(), tm(i), opts).into();
     }
 }
 

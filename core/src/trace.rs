@@ -187,7 +187,7 @@ impl Trace {
 /// [`Error::InvalidArgument`] for a non-finite origin or direction, a
 /// direction whose length differs from 1 by more than 1e-3, or a `t_max`
 /// that is NaN or not positive (`+inf` is allowed).
-pub fn validate_ray(ray: &Ray, t_max: f32) -> Result<(), Error> {
+pub fn try_validate_ray(ray: &Ray, t_max: f32) -> Result<(), Error> {
     if !ray.origin.is_finite()
         || !ray.dir.is_finite()
         || !((ray.dir.length_squared() - 1.0).abs() <= 2e-3)

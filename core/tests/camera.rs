@@ -4,7 +4,7 @@ use glam::{DVec3, Mat4, Vec2, Vec3};
 use proptest::prelude::*;
 
 mod common;
-use refl_core::camera::{apply_reprojection, reproject, reprojection_matrix};
+use refl_core::camera::{apply_reprojection, reproject, try_reprojection_matrix};
 use refl_core::{Camera, DepthConvention, Error};
 
 const EPS: f64 = f32::EPSILON as f64;
@@ -175,7 +175,7 @@ fn world_to_pixel_matrix_matches_project() {
     for far in FARS {
         let c = cam(0.1, far);
         for conv in [DepthConvention::ZeroToOne, DepthConvention::ReversedZ] {
-            let m = c.world_to_pixel(conv).unwrap();
+            let m = c.try_world_to_pixel(conv).unwrap();
             for p in [
                 Vec3::new(0.0, 0.0, -2.0),
                 Vec3::new(3.0, -1.0, -40.0),
@@ -192,11 +192,11 @@ fn world_to_pixel_matrix_matches_project() {
             }
         }
         assert_eq!(
-            c.world_to_pixel(DepthConvention::Linear),
+            c.try_world_to_pixel(DepthConvention::Linear),
             Err(Error::InvalidArgument)
         );
         assert_eq!(
-            c.projection(DepthConvention::Linear),
+            c.try_projection(DepthConvention::Linear),
             Err(Error::InvalidArgument)
         );
     }
@@ -250,7 +250,7 @@ fn reprojection_matrix_agrees_with_unproject_project() {
             (a, b)
         };
         for conv in [DepthConvention::ZeroToOne, DepthConvention::ReversedZ] {
-            let m = reprojection_matrix(&a, &b, conv).unwrap();
+            let m = try_reprojection_matrix(&a, &b, conv).unwrap();
             for &(px, py, z) in &[
                 (100.5f32, 80.5f32, 2.0f32),
                 (320.0, 180.0, 6.0),
@@ -272,7 +272,7 @@ fn reprojection_matrix_agrees_with_unproject_project() {
             }
         }
         assert_eq!(
-            reprojection_matrix(&a, &b, DepthConvention::Linear),
+            try_reprojection_matrix(&a, &b, DepthConvention::Linear),
             Err(Error::InvalidArgument)
         );
     }
@@ -299,7 +299,7 @@ fn reprojection_drops_points_behind_the_new_camera() {
         let d = a.encode_depth(q.z, conv);
         assert_eq!(reproject(&a, &b, q.truncate(), d, conv), None, "{conv:?}");
         if conv != DepthConvention::Linear {
-            let m = reprojection_matrix(&a, &b, conv).unwrap();
+            let m = try_reprojection_matrix(&a, &b, conv).unwrap();
             assert_eq!(apply_reprojection(&m, q.truncate(), d), None);
         }
     }

@@ -156,7 +156,7 @@ fn normal_bins_match_f64_oracle_away_from_bin_edges() {
 
 #[test]
 fn bin_layout_follows_screen_share_and_visible_count() {
-    let params = ClusterParams::default();
+    let params = ClusterOptions::default();
     // 4 objects on a 1000-pixel frame; object 2 invisible.
     let counts = [1000 - 300 - 50, 300, 0, 50];
     let mut out = [ObjectBins::default(); 4];
@@ -186,14 +186,14 @@ fn bin_layout_follows_screen_share_and_visible_count() {
     let mut one = [ObjectBins::default(); 1];
     assert_eq!(try_bin_layout(&mut one, &[500], 500, &params).unwrap(), 104);
     // More gain, more bins; never more than the worst case.
-    let big = ClusterParams {
+    let big = ClusterOptions {
         gain: 64.0,
         ..params
     };
     let mut out2 = [ObjectBins::default(); 4];
     let total2 = try_bin_layout(&mut out2, &counts, 1000, &big).unwrap();
     assert!(total2 > total);
-    assert!(total2 <= cluster_bins_max(4, &big).unwrap());
+    assert!(total2 <= try_cluster_bins_max(4, &big).unwrap());
     // Errors leave the output alone.
     let mut keep = [ObjectBins {
         theta_bins: 9,
@@ -212,7 +212,7 @@ fn bin_layout_follows_screen_share_and_visible_count() {
         try_bin_layout(&mut keep[..2], &counts, 1000, &params),
         Err(Error::InsufficientSize)
     );
-    let bad = ClusterParams {
+    let bad = ClusterOptions {
         gain: f32::NAN,
         ..params
     };
@@ -222,7 +222,7 @@ fn bin_layout_follows_screen_share_and_visible_count() {
     );
     assert!(keep.iter().all(|b| b.first == 9));
     assert_eq!(
-        cluster_bins_max(u32::MAX, &params),
+        try_cluster_bins_max(u32::MAX, &params),
         Err(Error::InvalidArgument)
     );
 }
@@ -241,9 +241,9 @@ fn assign_count_and_ranges_agree_with_brute_force() {
     try_count_objects(&mut c2, &objects, RowRange::try_new(20, H, H).unwrap()).unwrap();
     let visible = f.objects.iter().filter(|&&o| o == 0).count() as u32;
     assert_eq!(c1[0] + c2[0], visible);
-    let params = ClusterParams {
+    let params = ClusterOptions {
         gain: 8.0,
-        ..ClusterParams::default()
+        ..ClusterOptions::default()
     };
     let mut layout = [ObjectBins::default(); 1];
     let bins = try_bin_layout(&mut layout, &[visible], u64::from(W * H), &params).unwrap();
@@ -368,9 +368,9 @@ fn planar_cluster_is_the_mirrored_camera_exactly() {
     let f = gbuffer(&cam, &Reflector::Floor);
     let pixels = pixels_of(&f);
     let eye = cam.eye();
-    let params = CameraParams {
+    let params = ClusterCameraOptions {
         far_distance: 30.0,
-        ..CameraParams::default()
+        ..ClusterCameraOptions::default()
     };
     let cc = camera_of(try_cluster_camera(&input(&f), &pixels, eye, &params).unwrap());
     assert!(cc.planar);
@@ -459,9 +459,9 @@ fn curved_cluster_follows_eq1_and_holds_every_ray() {
     let normals_flat = arr(&f.normals);
     let normals = ImageView::try_new(&normals_flat, W, H, W).unwrap();
     let visible = f.objects.iter().filter(|&&o| o == 0).count() as u32;
-    let params = ClusterParams {
+    let params = ClusterOptions {
         gain: 6.0,
-        ..ClusterParams::default()
+        ..ClusterOptions::default()
     };
     let mut layout = [ObjectBins::default(); 1];
     let bins = try_bin_layout(&mut layout, &[visible], u64::from(W * H), &params).unwrap();
@@ -486,10 +486,10 @@ fn curved_cluster_follows_eq1_and_holds_every_ray() {
     let d = 40.0;
     let mut tested = 0;
     for glossy in [0.0f32, 0.2] {
-        let cp = CameraParams {
+        let cp = ClusterCameraOptions {
             far_distance: d,
             cone_half_angle: glossy,
-            ..CameraParams::default()
+            ..ClusterCameraOptions::default()
         };
         for c in 0..bins as usize {
             let px = &order[offsets[c] as usize..offsets[c + 1] as usize];
@@ -533,19 +533,19 @@ fn degenerate_clusters_have_defined_outcomes() {
     let f = gbuffer(&cam, &Reflector::Floor);
     let pixels = pixels_of(&f);
     let eye = cam.eye();
-    let p = CameraParams::default();
+    let p = ClusterCameraOptions::default();
     // One pixel (and fewer than min_pixels).
     assert_eq!(
         try_cluster_camera(&input(&f), &pixels[..1], eye, &p).unwrap(),
         ClusterView::Fallback(ClusterFallback::TooFewPixels)
     );
-    let two = CameraParams { min_pixels: 2, ..p };
+    let two = ClusterCameraOptions { min_pixels: 2, ..p };
     assert_eq!(
         try_cluster_camera(&input(&f), &pixels[..1], eye, &two).unwrap(),
         ClusterView::Fallback(ClusterFallback::TooFewPixels)
     );
     // min_pixels below 2 is refused: one pixel has no spacing.
-    let one = CameraParams { min_pixels: 1, ..p };
+    let one = ClusterCameraOptions { min_pixels: 1, ..p };
     assert_eq!(
         try_cluster_camera(&input(&f), &pixels, eye, &one),
         Err(Error::InvalidArgument)
@@ -676,27 +676,27 @@ fn degenerate_clusters_have_defined_outcomes() {
         Err(Error::InvalidArgument)
     );
     for bad in [
-        CameraParams {
+        ClusterCameraOptions {
             far_distance: f32::INFINITY,
             ..p
         },
-        CameraParams {
+        ClusterCameraOptions {
             far_distance: 0.0,
             ..p
         },
-        CameraParams {
+        ClusterCameraOptions {
             cone_half_angle: f32::NAN,
             ..p
         },
-        CameraParams {
+        ClusterCameraOptions {
             resolution_scale: 0.0,
             ..p
         },
-        CameraParams {
+        ClusterCameraOptions {
             max_resolution: 0,
             ..p
         },
-        CameraParams { max_f: 0.5, ..p },
+        ClusterCameraOptions { max_f: 0.5, ..p },
     ] {
         assert_eq!(
             try_cluster_camera(&input(&f), &pixels, eye, &bad),
@@ -765,9 +765,9 @@ fn planar_finalization_is_one_lookup_and_matches_the_f64_reflection() {
     let f = gbuffer(&cam, &Reflector::Floor);
     let pixels = pixels_of(&f);
     let eye = cam.eye();
-    let cp = CameraParams {
+    let cp = ClusterCameraOptions {
         far_distance: 60.0,
-        ..CameraParams::default()
+        ..ClusterCameraOptions::default()
     };
     let cc = camera_of(try_cluster_camera(&input(&f), &pixels, eye, &cp).unwrap());
     for conv in [
@@ -784,7 +784,7 @@ fn planar_finalization_is_one_lookup_and_matches_the_f64_reflection() {
         )
         .unwrap();
         let cv = ImageView::try_new(&color, dw, dh, dw).unwrap();
-        let params = FinalizeParams {
+        let params = FinalizeInput {
             thickness: Thickness::Constant(0.5),
             step: StepOptions::default(),
             refine: false,
@@ -842,13 +842,13 @@ fn glossy_finalization_weights_and_hostile_input() {
     let f = gbuffer(&cam, &Reflector::Floor);
     let pixels = pixels_of(&f);
     let eye = cam.eye();
-    let angle = lobe_angle(40.0, 0.95).unwrap();
+    let angle = try_lobe_angle(40.0, 0.95).unwrap();
     // Oracle: P(cos >= c) = 1 - c^(n+1) = 0.95.
     assert!(((angle as f64).cos().powf(41.0) - 0.05).abs() < 1e-4);
-    let cp = CameraParams {
+    let cp = ClusterCameraOptions {
         far_distance: 60.0,
         cone_half_angle: angle,
-        ..CameraParams::default()
+        ..ClusterCameraOptions::default()
     };
     let cc = camera_of(try_cluster_camera(&input(&f), &pixels, eye, &cp).unwrap());
     let conv = DepthConvention::ReversedZ;
@@ -862,7 +862,7 @@ fn glossy_finalization_weights_and_hostile_input() {
     .unwrap();
     let cv = ImageView::try_new(&color, dw, dh, dw).unwrap();
     for (rays, fade) in [(8u32, false), (49, false), (16, true)] {
-        let params = FinalizeParams {
+        let params = FinalizeInput {
             thickness: Thickness::Constant(0.5),
             step: StepOptions::default(),
             refine: true,
@@ -903,7 +903,7 @@ fn glossy_finalization_weights_and_hostile_input() {
         ..ClusterShade::default()
     };
     let mut out = vec![sentinel; pixels.len()];
-    let base = FinalizeParams {
+    let base = FinalizeInput {
         thickness: Thickness::Constant(0.5),
         step: StepOptions::default(),
         refine: false,
@@ -911,7 +911,7 @@ fn glossy_finalization_weights_and_hostile_input() {
         fade: false,
         seed: 0,
     };
-    let e = |out: &mut [ClusterShade], p: &FinalizeParams, eye: Vec3, inp: &ClusterInput| {
+    let e = |out: &mut [ClusterShade], p: &FinalizeInput, eye: Vec3, inp: &ClusterInput| {
         try_finalize_cluster(out, inp, &pixels, eye, &cc, &di, &cv, p)
     };
     assert_eq!(
@@ -923,25 +923,25 @@ fn glossy_finalization_weights_and_hostile_input() {
         Err(Error::InvalidArgument)
     );
     for bad in [
-        FinalizeParams {
+        FinalizeInput {
             thickness: Thickness::Constant(f32::NAN),
             ..base
         },
-        FinalizeParams {
+        FinalizeInput {
             step: StepOptions {
                 stride: 0,
                 max_steps: 4,
             },
             ..base
         },
-        FinalizeParams {
+        FinalizeInput {
             lobe: Lobe {
                 rays: 0,
                 ..Lobe::MIRROR
             },
             ..base
         },
-        FinalizeParams {
+        FinalizeInput {
             lobe: Lobe {
                 rays: 65,
                 exponent: 1.0,
@@ -949,7 +949,7 @@ fn glossy_finalization_weights_and_hostile_input() {
             },
             ..base
         },
-        FinalizeParams {
+        FinalizeInput {
             lobe: Lobe {
                 rays: 8,
                 exponent: f32::NAN,
@@ -957,7 +957,7 @@ fn glossy_finalization_weights_and_hostile_input() {
             },
             ..base
         },
-        FinalizeParams {
+        FinalizeInput {
             lobe: Lobe {
                 rays: 8,
                 exponent: 10.0,
@@ -988,5 +988,5 @@ fn glossy_finalization_weights_and_hostile_input() {
         Err(Error::InvalidArgument)
     );
     assert!(out.iter().all(|o| *o == sentinel));
-    assert!(lobe_angle(f32::NAN, 0.5).is_err() && lobe_angle(1.0, 1.0).is_err());
+    assert!(try_lobe_angle(f32::NAN, 0.5).is_err() && try_lobe_angle(1.0, 1.0).is_err());
 }

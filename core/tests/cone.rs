@@ -12,11 +12,11 @@ use refl_core::cone::{
     try_phong_power_from_roughness, ConeCircles, CONE_XI, DEFAULT_SIGMA,
 };
 use refl_core::{
-    color_pyramid_len, try_build_color_pyramid, try_build_hiz, try_build_visibility_pyramid,
+    try_build_color_pyramid, try_build_hiz, try_build_visibility_pyramid, try_color_pyramid_len,
     try_cone_angle_from_phong, try_cone_angle_from_roughness, try_cone_trace, try_multiray,
-    visibility_pyramid_len, Camera, ColorTexel, Cone, ConeOptions, ConePyramids, DepthConvention,
-    DepthImage, Error, FadeRange, Fades, HiZ, HiZLayout, HiZOptions, HiZTexel, ImageView,
-    MultiRayOptions, PyramidStamp, Ray, RowRange, Thickness,
+    try_visibility_pyramid_len, Camera, ColorTexel, Cone, ConeOptions, ConePyramids,
+    DepthConvention, DepthImage, Error, FadeRange, Fades, HiZ, HiZLayout, HiZOptions, HiZTexel,
+    ImageView, MultiRayOptions, PyramidStamp, Ray, RowRange, Thickness,
 };
 use refl_core::{
     try_stamp_color_pyramid, try_stamp_visibility_pyramid, COLOR_STAMP_TEXELS, VISIBILITY_STAMP_LEN,
@@ -111,18 +111,18 @@ impl Frame {
             .flat_map(|y| (0..w).map(move |x| (x, y)))
             .map(|(x, y)| paint(x, y))
             .collect();
-        let mut hiz = vec![[0.0; 2]; refl_core::hiz_len(w, h).unwrap()];
+        let mut hiz = vec![[0.0; 2]; refl_core::try_hiz_len(w, h).unwrap()];
         let di =
             DepthImage::try_new(ImageView::try_new(&depth, w, h, w).unwrap(), cam, conv).unwrap();
         try_build_hiz(&mut hiz, &di).unwrap();
-        let mut color = vec![[0.0; 3]; color_pyramid_len(w, h).unwrap()];
+        let mut color = vec![[0.0; 3]; try_color_pyramid_len(w, h).unwrap()];
         try_build_color_pyramid(
             &mut color,
             &ImageView::try_new(&img, w, h, w).unwrap(),
             DEFAULT_SIGMA,
         )
         .unwrap();
-        let mut vis = vec![0.0; visibility_pyramid_len(w, h).unwrap()];
+        let mut vis = vec![0.0; try_visibility_pyramid_len(w, h).unwrap()];
         {
             let hz = HiZ::try_new(&hiz, cam, conv).unwrap();
             try_build_visibility_pyramid(&mut vis, &hz).unwrap();
@@ -381,7 +381,7 @@ fn color_pyramid_matches_f64_convolution_and_keeps_constants() {
             .map(|_| [rng.f(), rng.f() * 4.0, rng.f() - 0.5])
             .collect();
         let layout = HiZLayout::try_new(w, h).unwrap();
-        let mut pyr = vec![[9.0; 3]; color_pyramid_len(w, h).unwrap()];
+        let mut pyr = vec![[9.0; 3]; try_color_pyramid_len(w, h).unwrap()];
         try_build_color_pyramid(&mut pyr, &ImageView::try_new(&img, w, h, w).unwrap(), 1.0)
             .unwrap();
         assert_eq!(&pyr[..(w * h) as usize], &img[..]);
@@ -426,7 +426,7 @@ fn color_pyramid_matches_f64_convolution_and_keeps_constants() {
 fn color_pyramid_rejects_bad_input_and_writes_nothing() {
     let (w, h) = (8u32, 6u32);
     let mut img = vec![[0.5f32; 3]; 48];
-    let n = color_pyramid_len(w, h).unwrap();
+    let n = try_color_pyramid_len(w, h).unwrap();
     let mut dst = vec![[7.0f32; 3]; n];
     assert_eq!(
         try_build_color_pyramid(
@@ -502,9 +502,9 @@ fn row_bands_equal_whole_builds() {
     let img: Vec<ColorTexel> = (0..w * h).map(|_| [rng.f(), rng.f(), rng.f()]).collect();
     let view = ImageView::try_new(&img, w, h, w).unwrap();
     let layout = HiZLayout::try_new(w, h).unwrap();
-    let mut whole = vec![[0.0; 3]; color_pyramid_len(w, h).unwrap()];
+    let mut whole = vec![[0.0; 3]; try_color_pyramid_len(w, h).unwrap()];
     try_build_color_pyramid(&mut whole, &view, 1.0).unwrap();
-    let mut banded = vec![[0.0; 3]; color_pyramid_len(w, h).unwrap()];
+    let mut banded = vec![[0.0; 3]; try_color_pyramid_len(w, h).unwrap()];
     let l0 = layout.level(0).unwrap();
     for (a, b) in [(0u32, 5u32), (5, 13)] {
         let r = layout
@@ -546,7 +546,7 @@ fn row_bands_equal_whole_builds() {
     // Visibility, banded vs whole, on the floor/wall frame.
     let fr = Frame::new(w, h, 8.0, DepthConvention::ReversedZ, |_, _| [1.0; 3]);
     let hz = HiZ::try_new(&fr.hiz, fr.cam, fr.conv).unwrap();
-    let mut vb = vec![0.0f32; visibility_pyramid_len(w, h).unwrap()];
+    let mut vb = vec![0.0f32; try_visibility_pyramid_len(w, h).unwrap()];
     for (a, b) in [(0u32, 7u32), (7, 13)] {
         let r = layout
             .rows_range(0, RowRange::try_new(a, b, h).unwrap())
@@ -1061,7 +1061,7 @@ fn cone_trace_rejects_bad_input() {
 fn visibility_build_rejects_short_buffers() {
     let fr = Frame::new(16, 8, 5.0, DepthConvention::Linear, |_, _| [1.0; 3]);
     let hz = HiZ::try_new(&fr.hiz, fr.cam, fr.conv).unwrap();
-    let n = visibility_pyramid_len(16, 8).unwrap();
+    let n = try_visibility_pyramid_len(16, 8).unwrap();
     let mut v = vec![3.0f32; n];
     assert_eq!(
         try_build_visibility_pyramid(&mut v[..n - 1], &hz),

@@ -7,9 +7,9 @@
 
 use glam::{DVec3, Vec2, Vec3};
 use refl_core::epipolar::{
-    decide, frustum_contains, line_bin_count, line_bins, resample_slot, scratch_len,
-    try_decide_rows, try_reproject, AipEntry, Decision, Epipole, Epipoles, Params, PosEntry,
-    Quadrants, Reason, Reprojector, BACKGROUND_OBJECT, INVALID_OBJECT, OCCLUDER_GAP,
+    decide, frustum_contains, line_bin_count, line_bins, resample_slot, try_decide_rows,
+    try_reproject, try_scratch_len, AipEntry, Decision, EpipolarOptions, Epipole, Epipoles,
+    PosEntry, Quadrants, Reason, Reprojector, BACKGROUND_OBJECT, INVALID_OBJECT, OCCLUDER_GAP,
 };
 use refl_core::{Camera, Error, RowRange};
 
@@ -101,11 +101,11 @@ struct Outcome {
     occlusion_rejected: u32,
 }
 
-fn run_pair(scene: &[Boxed], c0: &Camera, c1: &Camera, params: &Params) -> Outcome {
+fn run_pair(scene: &[Boxed], c0: &Camera, c1: &Camera, params: &EpipolarOptions) -> Outcome {
     let pos = render_pos(scene, c0);
     let (w, h) = (c1.width(), c1.height());
     let mut aip = vec![AipEntry::EMPTY; (w * h) as usize];
-    let mut scratch = vec![0.0; scratch_len(w, h).unwrap()];
+    let mut scratch = vec![0.0; try_scratch_len(w, h).unwrap()];
     let stats = try_reproject(&mut aip, &mut scratch, &pos, c0, c1, params).unwrap();
     let mut out = Outcome {
         pixels: (w * h) as usize,
@@ -147,8 +147,8 @@ fn run_pair(scene: &[Boxed], c0: &Camera, c1: &Camera, params: &Params) -> Outco
 /// Only the occlusion check under test: no resampling, no abrupt-motion
 /// test, no frustum check (the backward and sideways cases leave the
 /// previous pyramid).
-fn check_only(occlusion_check: bool) -> Params {
-    Params {
+fn check_only(occlusion_check: bool) -> EpipolarOptions {
+    EpipolarOptions {
         // The depth guard's margin and ring catch some occlusion errors
         // too; here the occlusion check alone is under test.
         guard_margin: 0.0,
@@ -157,7 +157,7 @@ fn check_only(occlusion_check: bool) -> Params {
         abrupt_frames: 0,
         frustum_check: false,
         occlusion_check,
-        ..Params::default()
+        ..EpipolarOptions::default()
     }
 }
 
@@ -245,7 +245,7 @@ fn pure_rotation_has_no_epipoles_and_no_occlusion_error() {
     assert!(Epipoles::of(&c0, &c1).is_none());
     assert!(frustum_contains(&c0, c1.eye()));
     let scene = occluder_scene();
-    let o = run_pair(&scene, &c0, &c1, &Params::default());
+    let o = run_pair(&scene, &c0, &c1, &EpipolarOptions::default());
     assert_eq!(o.errors, 0);
     // 1/9 resampled; the guard window (3 px around every silhouette of a
     // nearer object) and the surround test take about 30% more.
@@ -374,7 +374,12 @@ fn quadrant_traversal_is_the_sorted_epipolar_order() {
 
 /// Alg. 1 with the occlusion check, brute force: the checks compare with a
 /// scan over every earlier kept point of the quadrant instead of records.
-fn reproject_brute(pos: &[PosEntry], c0: &Camera, c1: &Camera, p: &Params) -> Vec<AipEntry> {
+fn reproject_brute(
+    pos: &[PosEntry],
+    c0: &Camera,
+    c1: &Camera,
+    p: &EpipolarOptions,
+) -> Vec<AipEntry> {
     let (w, h) = (c1.width(), c1.height());
     let mut aip = vec![AipEntry::EMPTY; (w * h) as usize];
     let e = Epipoles::of(c0, c1).unwrap();
@@ -526,15 +531,15 @@ fn reprojection_matches_brute_force_alg1_with_occlusion_check() {
         let c0 = camera(e0, e0 + Vec3::new(0.05, -0.1, -10.0), w, h);
         let c1 = camera(e1, e1 + Vec3::new(0.0, 0.0, -10.0), w, h);
         for radius in [0, 1, 2] {
-            let params = Params {
+            let params = EpipolarOptions {
                 frustum_check: false,
                 splat_radius: radius,
                 abrupt_frames: if abrupt { 9 } else { 0 },
-                ..Params::default()
+                ..EpipolarOptions::default()
             };
             let pos = render_pos(&scene, &c0);
             let mut aip = vec![AipEntry::EMPTY; (w * h) as usize];
-            let mut scratch = vec![0.0; scratch_len(w, h).unwrap()];
+            let mut scratch = vec![0.0; try_scratch_len(w, h).unwrap()];
             try_reproject(&mut aip, &mut scratch, &pos, &c0, &c1, &params).unwrap();
             let brute = reproject_brute(&pos, &c0, &c1, &params);
             assert_eq!(aip, brute, "{e0} -> {e1}, radius {radius}");
@@ -555,11 +560,11 @@ fn splat_counts_and_closer_object_overwrite() {
     pos[2] = at(12.0, 7);
     pos[3] = at(6.0, 3);
     let mut aip = vec![AipEntry::EMPTY; 81];
-    let mut scratch = vec![0.0; scratch_len(9, 9).unwrap()];
-    let params = Params {
+    let mut scratch = vec![0.0; try_scratch_len(9, 9).unwrap()];
+    let params = EpipolarOptions {
         abrupt_frames: 0,
         guard_window: 0,
-        ..Params::default()
+        ..EpipolarOptions::default()
     };
     // Pure rotation (same eye): no occlusion ordering, row order.
     let s = try_reproject(&mut aip, &mut scratch, &pos, &cam, &cam, &params).unwrap();
@@ -587,7 +592,7 @@ fn splat_counts_and_closer_object_overwrite() {
         4,
         4,
         1,
-        &Params {
+        &EpipolarOptions {
             m_cnt: 2,
             resample_period: 0,
             depth_guard: false,
@@ -604,7 +609,7 @@ fn splat_counts_and_closer_object_overwrite() {
         4,
         4,
         1,
-        &Params {
+        &EpipolarOptions {
             m_cnt: 2,
             resample_period: 0,
             ..params
@@ -616,7 +621,7 @@ fn splat_counts_and_closer_object_overwrite() {
         4,
         4,
         1,
-        &Params {
+        &EpipolarOptions {
             m_cnt: 3,
             resample_period: 0,
             depth_guard: false,
@@ -635,10 +640,10 @@ fn points_behind_the_new_eye_are_dropped() {
     pos[28] = PosEntry::hit(Vec3::ZERO, Vec3::new(0.0, 0.0, -1.0), 5.0, 1);
     pos[36] = PosEntry::hit(Vec3::ZERO, Vec3::new(0.0, 0.0, -1.0), 9.0, 2);
     let mut aip = vec![AipEntry::EMPTY; 64];
-    let mut scratch = vec![0.0; scratch_len(8, 8).unwrap()];
-    let params = Params {
+    let mut scratch = vec![0.0; try_scratch_len(8, 8).unwrap()];
+    let params = EpipolarOptions {
         abrupt_frames: 0,
-        ..Params::default()
+        ..EpipolarOptions::default()
     };
     let s = try_reproject(&mut aip, &mut scratch, &pos, &c0, &c1, &params).unwrap();
     assert_eq!((s.points, s.behind, s.splatted), (3, 2, 1));
@@ -657,11 +662,19 @@ fn frustum_check_skips_reprojection() {
     assert!(!frustum_contains(&c0, Vec3::NAN));
     let pos = render_pos(&scene, &c0);
     let mut aip = vec![AipEntry::EMPTY; 32 * 24];
-    let mut scratch = vec![0.0; scratch_len(32, 24).unwrap()];
-    let s = try_reproject(&mut aip, &mut scratch, &pos, &c0, &c1, &Params::default()).unwrap();
+    let mut scratch = vec![0.0; try_scratch_len(32, 24).unwrap()];
+    let s = try_reproject(
+        &mut aip,
+        &mut scratch,
+        &pos,
+        &c0,
+        &c1,
+        &EpipolarOptions::default(),
+    )
+    .unwrap();
     assert!(s.frustum_failed);
     assert!(aip.iter().all(|a| *a == AipEntry::UNAVAILABLE));
-    let d = decide(&aip[0], 0, 0, 3, &Params::default());
+    let d = decide(&aip[0], 0, 0, 3, &EpipolarOptions::default());
     assert_eq!(
         (d.object, d.tmin, d.reason),
         (INVALID_OBJECT, 0.0, Reason::Unavailable)
@@ -679,11 +692,11 @@ fn abrupt_motion_discards_near_points() {
     pos[27] = PosEntry::hit(Vec3::ZERO, dir, 1.5, 1);
     pos[36] = PosEntry::hit(Vec3::ZERO, dir, 3.0, 2);
     let mut aip = vec![AipEntry::EMPTY; 64];
-    let mut scratch = vec![0.0; scratch_len(8, 8).unwrap()];
+    let mut scratch = vec![0.0; try_scratch_len(8, 8).unwrap()];
     for (n, rejected) in [(4, 1), (9, 2), (0, 0)] {
-        let params = Params {
+        let params = EpipolarOptions {
             abrupt_frames: n,
-            ..Params::default()
+            ..EpipolarOptions::default()
         };
         let s = try_reproject(&mut aip, &mut scratch, &pos, &c0, &c1, &params).unwrap();
         assert_eq!(s.abrupt_rejected, rejected, "N = {n}");
@@ -698,7 +711,7 @@ fn abrupt_motion_discards_near_points() {
                 4,
                 4,
                 1,
-                &Params {
+                &EpipolarOptions {
                     resample_period: 0,
                     ..params
                 },
@@ -744,7 +757,7 @@ fn regular_resampling_slots_are_disjoint_and_cover_the_image() {
         t_other: f32::INFINITY,
         flags: AipEntry::SURROUNDED,
     };
-    let p = Params::default();
+    let p = EpipolarOptions::default();
     let mut resampled = 0;
     for frame in 0..9 {
         let d = decide(&aip, 4, 7, frame, &p);
@@ -767,11 +780,11 @@ fn shifted_origin_for_fallback_rays() {
         t_other: 9.0,
         flags: 0,
     };
-    let p = Params {
+    let p = EpipolarOptions {
         shift_origin: true,
         shift_epsilon: 0.25,
         resample_period: 0,
-        ..Params::default()
+        ..EpipolarOptions::default()
     };
     let d = decide(&aip, 0, 0, 0, &p);
     assert_eq!(
@@ -785,7 +798,7 @@ fn shifted_origin_for_fallback_rays() {
             0,
             0,
             0,
-            &Params {
+            &EpipolarOptions {
                 shift_origin: false,
                 ..p
             }
@@ -814,10 +827,10 @@ fn background_sphere_is_reprojected_like_an_object() {
         .iter()
         .all(|p| p.object == BACKGROUND_OBJECT && p.t == BACKGROUND_RADIUS));
     let mut aip = vec![AipEntry::EMPTY; 40 * 30];
-    let mut scratch = vec![0.0; scratch_len(40, 30).unwrap()];
-    let p = Params {
+    let mut scratch = vec![0.0; try_scratch_len(40, 30).unwrap()];
+    let p = EpipolarOptions {
         resample_period: 0,
-        ..Params::default()
+        ..EpipolarOptions::default()
     };
     try_reproject(&mut aip, &mut scratch, &pos, &c0, &c1, &p).unwrap();
     for y in 1..29 {
@@ -876,8 +889,8 @@ fn bad_input_is_refused_and_outputs_untouched() {
         };
         64
     ];
-    let mut scratch = vec![0.0; scratch_len(8, 8).unwrap()];
-    let p = Params::default();
+    let mut scratch = vec![0.0; try_scratch_len(8, 8).unwrap()];
+    let p = EpipolarOptions::default();
     let before = aip.clone();
     assert_eq!(
         try_reproject(&mut aip, &mut scratch, &pos[..63], &c0, &c0, &p),
@@ -897,20 +910,20 @@ fn bad_input_is_refused_and_outputs_untouched() {
         Err(Error::InvalidArgument)
     );
     for bad in [
-        Params { m_cnt: 0, ..p },
-        Params {
+        EpipolarOptions { m_cnt: 0, ..p },
+        EpipolarOptions {
             splat_radius: 4,
             ..p
         },
-        Params {
+        EpipolarOptions {
             shift_epsilon: f32::NAN,
             ..p
         },
-        Params {
+        EpipolarOptions {
             shift_epsilon: -1.0,
             ..p
         },
-        Params {
+        EpipolarOptions {
             shift_epsilon: f32::INFINITY,
             ..p
         },
@@ -921,7 +934,7 @@ fn bad_input_is_refused_and_outputs_untouched() {
         );
     }
     assert_eq!(aip, before);
-    assert_eq!(scratch_len(0, 4), Err(Error::InvalidArgument));
+    assert_eq!(try_scratch_len(0, 4), Err(Error::InvalidArgument));
     // Decisions for a row band.
     let empty = Decision {
         object: 9,
@@ -953,9 +966,9 @@ fn bad_input_is_refused_and_outputs_untouched() {
 
 #[test]
 fn depth_guard_margin_and_background_guard() {
-    let p = Params {
+    let p = EpipolarOptions {
         resample_period: 0,
-        ..Params::default()
+        ..EpipolarOptions::default()
     };
     let entry = AipEntry {
         object: 3,
@@ -975,7 +988,7 @@ fn depth_guard_margin_and_background_guard() {
         0,
         0,
         0,
-        &Params {
+        &EpipolarOptions {
             guard_margin: 0.0,
             ..p
         },
@@ -999,11 +1012,11 @@ fn depth_guard_margin_and_background_guard() {
     );
     // Out-of-range margins are refused.
     for m in [f32::NAN, 1.0, -0.1, f32::INFINITY] {
-        let bad = Params {
+        let bad = EpipolarOptions {
             guard_margin: m,
             ..p
         };
-        assert!(bad.validate().is_err(), "{m}");
+        assert!(bad.try_validate().is_err(), "{m}");
     }
 }
 
@@ -1025,13 +1038,13 @@ fn predictions_must_surround_the_pixel_center() {
             }
         }
     }
-    let params = Params {
+    let params = EpipolarOptions {
         resample_period: 0,
         abrupt_frames: 0,
-        ..Params::default()
+        ..EpipolarOptions::default()
     };
     let mut aip = vec![AipEntry::EMPTY; (w * h) as usize];
-    let mut scratch = vec![0.0; scratch_len(w, h).unwrap()];
+    let mut scratch = vec![0.0; try_scratch_len(w, h).unwrap()];
     try_reproject(&mut aip, &mut scratch, &pos, &cam, &cam, &params).unwrap();
     let corner = aip[(4 * w + 4) as usize];
     assert_eq!((corner.object, corner.cnt), (1, 5));
@@ -1039,7 +1052,7 @@ fn predictions_must_surround_the_pixel_center() {
     assert_eq!(corner.flags & AipEntry::SURROUNDED, 16 | 32 | 64);
     let d = decide(&corner, 4, 4, 0, &params);
     assert_eq!((d.object, d.reason), (INVALID_OBJECT, Reason::Failed));
-    let unguarded = Params {
+    let unguarded = EpipolarOptions {
         depth_guard: false,
         ..params
     };

@@ -18,8 +18,8 @@ use refl_core::cone::{
 use refl_core::glam::{Vec2, Vec3};
 use refl_core::glossy::{multiray_rotation, MULTIRAY_MAX_POWER};
 use refl_core::{
-    color_pyramid_len, hiz_len, try_build_hiz, try_cone_angle_from_roughness, try_cone_trace,
-    try_glossy_scratch_len, try_multiray, try_prepare_glossy, visibility_pyramid_len,
+    try_color_pyramid_len, try_hiz_len, try_build_hiz, try_cone_angle_from_roughness, try_cone_trace,
+    try_glossy_scratch_len, try_multiray, try_prepare_glossy, try_visibility_pyramid_len,
     DepthConvention, Error, GBuffer, GlossyMethod, GlossyOptions, GlossyPass, GlossyScratch,
     GlossyScratchMut, GlossyStats, GlossyTexel, HiZ, HiZTexel, HostRay, ImageView, ImageViewMut,
     MirrorMethod, MirrorOptions, MirrorPass, MirrorStatus, RowRange, Thickness,
@@ -165,9 +165,9 @@ fn color_bits(c: ColorTexel) -> [u32; 3] {
 /// The pyramids built here with the kernels.
 fn pyramids_by_hand(g: &GBuffer<'_>, o: &GlossyOptions) -> Scratch {
     let (w, h) = (g.width(), g.height());
-    let mut hz = vec![[0.0; 2]; hiz_len(w, h).unwrap()];
+    let mut hz = vec![[0.0; 2]; try_hiz_len(w, h).unwrap()];
     try_build_hiz(&mut hz, g.depth()).unwrap();
-    let mut color = vec![[0.0; 3]; color_pyramid_len(w, h).unwrap()];
+    let mut color = vec![[0.0; 3]; try_color_pyramid_len(w, h).unwrap()];
     if o.method == GlossyMethod::Cone {
         try_build_color_pyramid(&mut color, g.color().unwrap(), o.sigma).unwrap();
     } else {
@@ -180,7 +180,7 @@ fn pyramids_by_hand(g: &GBuffer<'_>, o: &GlossyOptions) -> Scratch {
         refl_core::try_stamp_color_pyramid(&mut color, w, h).unwrap();
     }
     let vis = if o.method == GlossyMethod::Cone && o.cone.use_visibility {
-        let mut v = vec![0.0; visibility_pyramid_len(w, h).unwrap()];
+        let mut v = vec![0.0; try_visibility_pyramid_len(w, h).unwrap()];
         let hiz = HiZ::try_new(&hz, *g.camera(), g.convention()).unwrap();
         try_build_visibility_pyramid(&mut v, &hiz).unwrap();
         v

@@ -9,7 +9,7 @@ use proptest::prelude::*;
 mod common;
 use refl_core::hiz::MAX_LEVELS;
 use refl_core::{
-    hiz_len, try_build_hiz, try_build_hiz_level0_rows, try_build_hiz_level_rows, try_stamp_hiz,
+    try_build_hiz, try_build_hiz_level0_rows, try_build_hiz_level_rows, try_hiz_len, try_stamp_hiz,
     try_trace_hiz, try_trace_hiz_rays, try_trace_hiz_stats, Camera, DepthConvention, DepthImage,
     Error, HiZ, HiZLayout, HiZOptions, HiZTexel, ImageView, Miss, PyramidStamp, Ray, RowRange,
     Thickness, Trace, HIZ_STAMP_TEXELS,
@@ -191,7 +191,7 @@ impl Img {
     }
 
     fn pyramid(&self) -> Vec<HiZTexel> {
-        let mut p = vec![[0.0; 2]; hiz_len(self.cam.width(), self.cam.height()).unwrap()];
+        let mut p = vec![[0.0; 2]; try_hiz_len(self.cam.width(), self.cam.height()).unwrap()];
         try_build_hiz(&mut p, &self.depth_image()).unwrap();
         p
     }
@@ -535,7 +535,7 @@ fn check_pyramid(depth: &[f32], w: u32, h: u32, cam: &Camera, conv: DepthConvent
     let view = ImageView::try_new(depth, w, h, w).unwrap();
     let img = DepthImage::try_new(view, *cam, conv).unwrap();
     let layout = HiZLayout::try_new(w, h).unwrap();
-    let mut pyr = vec![[7.0f32; 2]; hiz_len(w, h).unwrap()];
+    let mut pyr = vec![[7.0f32; 2]; try_hiz_len(w, h).unwrap()];
     try_build_hiz(&mut pyr, &img).unwrap();
     let hiz = HiZ::try_new(&pyr, *cam, conv).unwrap();
     let (n, f) = (cam.near() as f64, cam.far() as f64);
@@ -634,13 +634,13 @@ fn random_depths(rng: &mut Rng, w: u32, h: u32, cam: &Camera, conv: DepthConvent
 fn layout_sizes_offsets_and_errors() {
     // The levels, then the stamp (HIZ_STAMP_TEXELS).
     assert_eq!(HIZ_STAMP_TEXELS, 2);
-    assert_eq!(hiz_len(1, 1), Ok(1 + 2));
-    assert_eq!(hiz_len(2, 2), Ok(5 + 2));
-    assert_eq!(hiz_len(3, 5), Ok(15 + 2 + 1 + 2));
-    assert_eq!(hiz_len(1, 7), Ok(7 + 3 + 1 + 2));
+    assert_eq!(try_hiz_len(1, 1), Ok(1 + 2));
+    assert_eq!(try_hiz_len(2, 2), Ok(5 + 2));
+    assert_eq!(try_hiz_len(3, 5), Ok(15 + 2 + 1 + 2));
+    assert_eq!(try_hiz_len(1, 7), Ok(7 + 3 + 1 + 2));
     assert_eq!(HiZLayout::try_new(3, 5).unwrap().len(), 15 + 2 + 1);
-    assert_eq!(hiz_len(0, 4), Err(Error::InvalidArgument));
-    assert_eq!(hiz_len(4, 0), Err(Error::InvalidArgument));
+    assert_eq!(try_hiz_len(0, 4), Err(Error::InvalidArgument));
+    assert_eq!(try_hiz_len(4, 0), Err(Error::InvalidArgument));
     let l = HiZLayout::try_new(640, 480).unwrap();
     assert_eq!(l.level_count(), 10);
     let mut off = 0;
@@ -724,7 +724,7 @@ fn row_band_build_threaded_equals_whole_build() {
     );
     let whole = img.pyramid();
     let layout = HiZLayout::try_new(203, 117).unwrap();
-    let mut banded = vec![[0.0f32; 2]; hiz_len(203, 117).unwrap()];
+    let mut banded = vec![[0.0f32; 2]; try_hiz_len(203, 117).unwrap()];
     let di = img.depth_image();
     for level in 0..layout.level_count() {
         let lv = layout.level(level).unwrap();
@@ -777,7 +777,7 @@ fn build_rejects_bad_input_and_writes_nothing() {
         DepthConvention::Linear,
         room(1.0),
     );
-    let n = hiz_len(9, 7).unwrap();
+    let n = try_hiz_len(9, 7).unwrap();
     let mut short = vec![[5.0f32; 2]; n - 1];
     assert_eq!(
         try_build_hiz(&mut short, &img.depth_image()),
@@ -1512,7 +1512,7 @@ fn one_by_one_image() {
             1,
         );
         let img = Img::new(cam, conv, vec![Prim::Plane(DVec3::Z, 0.0)]);
-        assert_eq!(hiz_len(1, 1), Ok(1 + HIZ_STAMP_TEXELS));
+        assert_eq!(try_hiz_len(1, 1), Ok(1 + HIZ_STAMP_TEXELS));
         let pyr = img.pyramid();
         assert_eq!(pyr.len(), 1 + HIZ_STAMP_TEXELS);
         assert!((pyr[0][0] - 5.0).abs() < 1e-4 && pyr[0][0] == pyr[0][1]);
@@ -1796,7 +1796,7 @@ fn pyramid_stamp_refuses_another_camera() {
     );
     let img = Img::new(big, conv, room(1.0));
     let pyr = img.pyramid();
-    assert_eq!(pyr.len(), hiz_len(512, 384).unwrap());
+    assert_eq!(pyr.len(), try_hiz_len(512, 384).unwrap());
     assert!(HiZ::try_new(&pyr, big, conv).is_ok());
     // The buffer is long enough for the small camera, but not its pyramid.
     assert_eq!(
@@ -1840,7 +1840,7 @@ fn pyramid_stamp_refuses_another_camera() {
     long.extend_from_slice(&[[1.0, 2.0]; 9]);
     assert!(HiZ::try_new(&long, big, conv).is_ok());
     // Stamping a too-short buffer writes nothing.
-    let mut short = vec![[5.0f32; 2]; hiz_len(512, 384).unwrap() - 1];
+    let mut short = vec![[5.0f32; 2]; try_hiz_len(512, 384).unwrap() - 1];
     assert_eq!(
         try_stamp_hiz(&mut short, &big),
         Err(Error::InsufficientSize)
@@ -1936,7 +1936,7 @@ fn tiny_near_plane_hit_at_the_segment_end_has_a_finite_depth() {
         let depth = vec![cam.encode_depth(9.56353, conv); 100];
         let img = DepthImage::try_new(ImageView::try_new(&depth, 10, 10, 10).unwrap(), cam, conv)
             .unwrap();
-        let mut pyr = vec![[0.0; 2]; hiz_len(10, 10).unwrap()];
+        let mut pyr = vec![[0.0; 2]; try_hiz_len(10, 10).unwrap()];
         try_build_hiz(&mut pyr, &img).unwrap();
         let hiz = HiZ::try_new(&pyr, cam, conv).unwrap();
         for t_max in [49.804314f32, 20.0, 15.0, 12.0, f32::INFINITY] {
@@ -1965,4 +1965,54 @@ fn tiny_near_plane_hit_at_the_segment_end_has_a_finite_depth() {
         }
     }
     assert!(hits > 0);
+}
+
+#[test]
+fn pyramid_bands_are_the_rows_and_the_finer_level() {
+    let layout = HiZLayout::try_new(37, 23).unwrap();
+    let len = layout.len();
+    for level in 0..layout.level_count() {
+        let lv = layout.level(level).unwrap();
+        for (a, b) in [(0, lv.height), (lv.height / 2, lv.height)] {
+            let Ok(rows) = RowRange::try_new(a, b, lv.height) else {
+                continue;
+            };
+            let band = layout.try_band(level, rows, len).unwrap();
+            // Closed form: rows a..b of the level, row stride = its width.
+            let w = lv.width as usize;
+            assert_eq!(
+                band.band,
+                lv.offset + a as usize * w..lv.offset + b as usize * w
+            );
+            let finer = (level > 0).then(|| layout.level(level - 1).unwrap().range());
+            assert_eq!(band.finer, finer);
+            if let Some(f) = &band.finer {
+                assert!(f.end <= band.band.start, "the finer level lies before");
+            }
+            // The slices of one buffer are those ranges.
+            let mut buf: Vec<u32> = (0..len as u32).collect();
+            let (out, fin) = layout.try_split_band(&mut buf, level, rows).unwrap();
+            assert_eq!(out.first().copied(), Some(band.band.start as u32));
+            assert_eq!(out.len(), band.band.len());
+            assert_eq!(
+                fin.map(|f| (f[0], f.len())),
+                finer.map(|f| (f.start as u32, f.len()))
+            );
+        }
+    }
+    // A level past the last, rows beyond the level, a short buffer.
+    let last = layout.level_count();
+    let one = RowRange::try_new(0, 1, 1).unwrap();
+    assert_eq!(layout.try_band(last, one, len), Err(Error::InvalidArgument));
+    let tall = RowRange::try_new(0, 12, 23).unwrap();
+    assert_eq!(layout.try_band(1, tall, len), Err(Error::InvalidArgument));
+    assert_eq!(
+        layout.try_band(0, tall, len - 1),
+        Err(Error::InsufficientSize)
+    );
+    let mut short = vec![0u8; len - 1];
+    assert_eq!(
+        layout.try_split_band(&mut short, 0, tall).err(),
+        Some(Error::InsufficientSize)
+    );
 }

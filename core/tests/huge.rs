@@ -6,7 +6,7 @@
 #![cfg(all(feature = "depth-image", feature = "hiz"))]
 
 use glam::{DVec3, Vec3};
-use refl_core::hiz::{hiz_len, try_build_hiz, try_trace_hiz, HiZ, HiZOptions};
+use refl_core::hiz::{try_build_hiz, try_hiz_len, try_trace_hiz, HiZ, HiZOptions};
 use refl_core::{
     try_step, Camera, DepthConvention, DepthImage, ImageView, Ray, StepOptions, Thickness, Trace,
 };
@@ -72,7 +72,7 @@ fn image_16384_squared_steps_and_hiz_without_overflow() {
     }
     // The levels, then the stamp.
     expect += refl_core::HIZ_STAMP_TEXELS;
-    assert_eq!(hiz_len(N, N).expect("len"), expect);
+    assert_eq!(try_hiz_len(N, N).expect("len"), expect);
     let mut pyramid = vec![[0.0f32; 2]; expect];
     try_build_hiz(&mut pyramid, &img).expect("build");
     let hiz = HiZ::try_new(&pyramid, cam, DepthConvention::Linear).expect("hiz");

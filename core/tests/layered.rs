@@ -11,8 +11,9 @@ mod common;
 use refl_core::glam::{Affine3A, DVec3, Quat, Vec3};
 use refl_core::layered::NO_PAYLOAD;
 use refl_core::{
-    layered_len, prr_classify, Error, Face, LayerHit, LayeredGrid, LayeredMap, LayeredMapMut,
-    LayeredMiss, LayeredParams, LayeredStamp, LayeredTrace, PrrClass, Ray, LAYERED_STAMP_LEN,
+    try_layered_len, try_prr_classify, Error, Face, LayerHit, LayeredGrid, LayeredMap,
+    LayeredMapMut, LayeredMiss, LayeredOptions, LayeredStamp, LayeredTrace, PrrClass, Ray,
+    LAYERED_STAMP_LEN,
 };
 
 // ---------------------------------------------------------------- oracles
@@ -255,7 +256,7 @@ fn build_unbounded(shape: &Shape, grid: LayeredGrid, faces: [Face; 3]) -> Owned 
         for face in faces {
             for j in 0..res {
                 for i in 0..res {
-                    let ray = grid.face_ray(face, i, j).unwrap();
+                    let ray = grid.try_face_ray(face, i, j).unwrap();
                     let mut hits: Vec<LayerHit> = shape
                         .crossings(ray.origin.as_dvec3(), ray.dir.as_dvec3(), ray.t_max as f64)
                         .iter()
@@ -349,7 +350,7 @@ fn texel(grid: &LayeredGrid) -> f64 {
 
 /// Traces `n` rays from a sphere of radius 2.5 x size around the shape
 /// toward random points of its box (a quarter starting inside the box).
-fn run(shape: &Shape, owned: &Owned, n: usize, seed: u64, params: &LayeredParams) -> Stats {
+fn run(shape: &Shape, owned: &Owned, n: usize, seed: u64, params: &LayeredOptions) -> Stats {
     let map = owned.map();
     let (lo, hi) = shape.bounds();
     let c = (lo + hi) * 0.5;
@@ -380,7 +381,7 @@ fn run(shape: &Shape, owned: &Owned, n: usize, seed: u64, params: &LayeredParams
         };
         let (o64, d64) = (ray.origin.as_dvec3(), ray.dir.as_dvec3());
         let truth = shape.first_hit(o64, d64, 10.0 * shape.size());
-        let got = map.trace(&ray, f32::INFINITY, params).unwrap();
+        let got = map.try_trace(&ray, f32::INFINITY, params).unwrap();
         st.rays += 1;
         st.fetches += got.work().fetches as u64;
         match (truth, got.hit()) {
@@ -419,7 +420,7 @@ fn report(name: &str, st: &Stats) {
 
 #[test]
 fn layered_len_counts_and_rejects_bad_sizes() {
-    let l = layered_len(4, 3).unwrap();
+    let l = try_layered_len(4, 3).unwrap();
     // The counts, then the stamp.
     assert_eq!(l.counts, 6 * 16 + LAYERED_STAMP_LEN);
     assert_eq!(l.depth, 6 * 16 * 3);
@@ -427,12 +428,15 @@ fn layered_len_counts_and_rejects_bad_sizes() {
     // Bound pyramid: levels 1 (2x2 cells) and 2 (1 cell), 2 * 3 values each.
     assert_eq!(l.bounds, 6 * (4 + 1) * 2 * 3);
     // Non-power-of-two: 5 -> levels of 3, 2, 1 cells a side; 1 -> none.
-    assert_eq!(layered_len(5, 1).unwrap().bounds, 6 * (9 + 4 + 1) * 2);
-    assert_eq!(layered_len(1, 2).unwrap().bounds, 0);
-    assert_eq!(layered_len(0, 3), Err(Error::InvalidArgument));
-    assert_eq!(layered_len(4, 0), Err(Error::InvalidArgument));
+    assert_eq!(try_layered_len(5, 1).unwrap().bounds, 6 * (9 + 4 + 1) * 2);
+    assert_eq!(try_layered_len(1, 2).unwrap().bounds, 0);
+    assert_eq!(try_layered_len(0, 3), Err(Error::InvalidArgument));
+    assert_eq!(try_layered_len(4, 0), Err(Error::InvalidArgument));
     if usize::BITS == 64 {
-        assert_eq!(layered_len(u32::MAX, u32::MAX), Err(Error::InvalidArgument));
+        assert_eq!(
+            try_layered_len(u32::MAX, u32::MAX),
+            Err(Error::InvalidArgument)
+        );
     }
 }
 
@@ -577,7 +581,7 @@ fn face_rays_start_at_texel_centers_and_run_inward() {
         let a = face.axis();
         let (u, v) = face.uv_axes();
         for (i, j) in [(0, 0), (3, 1), (2, 3)] {
-            let r = g.face_ray(face, i, j).unwrap();
+            let r = g.try_face_ray(face, i, j).unwrap();
             let expect_u = lo[u] as f64 + ext[u] as f64 * (i as f64 + 0.5) / res as f64;
             let expect_v = lo[v] as f64 + ext[v] as f64 * (j as f64 + 0.5) / res as f64;
             assert!((r.origin[u] as f64 - expect_u).abs() < 1e-5);
@@ -588,12 +592,18 @@ fn face_rays_start_at_texel_centers_and_run_inward() {
             assert_eq!(r.dir[a], sign);
             assert!((r.t_max - ext[a]).abs() < 1e-6);
             // Same column for the opposite face.
-            let o = g.face_ray(face.opposite(), i, j).unwrap();
+            let o = g.try_face_ray(face.opposite(), i, j).unwrap();
             assert_eq!((o.origin[u], o.origin[v]), (r.origin[u], r.origin[v]));
         }
     }
-    assert_eq!(g.face_ray(Face::PosX, res, 0), Err(Error::InvalidArgument));
-    assert_eq!(g.face_ray(Face::PosX, 0, res), Err(Error::InvalidArgument));
+    assert_eq!(
+        g.try_face_ray(Face::PosX, res, 0),
+        Err(Error::InvalidArgument)
+    );
+    assert_eq!(
+        g.try_face_ray(Face::PosX, 0, res),
+        Err(Error::InvalidArgument)
+    );
     // A transformed grid: the ray is the image of the local column.
     let xf = Affine3A::from_scale_rotation_translation(
         Vec3::splat(2.0),
@@ -601,8 +611,8 @@ fn face_rays_start_at_texel_centers_and_run_inward() {
         Vec3::new(5.0, -1.0, 2.0),
     );
     let gt = g.try_with_transform(xf).unwrap();
-    let r = gt.face_ray(Face::NegZ, 1, 2).unwrap();
-    let l = g.face_ray(Face::NegZ, 1, 2).unwrap();
+    let r = gt.try_face_ray(Face::NegZ, 1, 2).unwrap();
+    let l = g.try_face_ray(Face::NegZ, 1, 2).unwrap();
     assert!((r.origin - xf.transform_point3(l.origin)).length() < 1e-4);
     assert!((r.t_max - 2.0 * l.t_max).abs() < 1e-4);
     assert!((r.dir - xf.transform_vector3(l.dir) / 2.0).length() < 1e-5);
@@ -817,7 +827,7 @@ fn fill_face_equals_its_columns_and_rebuilds_both_faces_bounds() {
     let (mut all, mut offsets) = (Vec::new(), vec![0usize]);
     for j in 0..16 {
         for i in 0..16 {
-            let r = grid.face_ray(face, i, j).unwrap();
+            let r = grid.try_face_ray(face, i, j).unwrap();
             let (o, d) = (r.origin.as_dvec3(), r.dir.as_dvec3());
             let b = o.dot(d);
             let disc = b * b - (o.dot(o) - 1.0);
@@ -880,10 +890,10 @@ fn fill_face_validates_every_column_before_writing() {
         Face::NegZ,
     ]
     .into_iter()
-    .find(|&f| g.face_ray(f, 0, 0).is_ok() && g.face_ray(f, 1, 1).is_err())
+    .find(|&f| g.try_face_ray(f, 0, 0).is_ok() && g.try_face_ray(f, 1, 1).is_err())
     .expect("a face with both finite and non-finite column rays");
     assert_eq!(
-        g.face_ray(face, 1, 1).err(),
+        g.try_face_ray(face, 1, 1).err(),
         Some(Error::DegenerateGeometry)
     );
     let l = g.len();
@@ -933,12 +943,12 @@ fn sphere_one_layer_agrees_with_the_analytic_sphere() {
     // Disagreements are rays within a fraction of a texel of the
     // silhouette: at 64 texels about 1%, at 128 about half of that.
     let owned = build(&shape, grid_of(&shape, 64, 1, 0.02), MINUS);
-    let st = run(&shape, &owned, 6000, 1, &LayeredParams::default());
+    let st = run(&shape, &owned, 6000, 1, &LayeredOptions::default());
     report("sphere res 64 L=1", &st);
     assert!(st.agreement() >= 0.98, "{st:?}");
     assert!(st.err_quantile(0.99) <= 1.0);
     let owned = build(&shape, grid_of(&shape, 128, 1, 0.02), MINUS);
-    let st = run(&shape, &owned, 6000, 1, &LayeredParams::default());
+    let st = run(&shape, &owned, 6000, 1, &LayeredOptions::default());
     report("sphere res 128 L=1", &st);
     assert!(st.agreement() >= 0.99, "{st:?}");
     assert!(st.err_quantile(0.5) <= 0.1);
@@ -956,7 +966,7 @@ fn sphere_error_shrinks_with_resolution() {
     let mut med = Vec::new();
     for res in [16, 64] {
         let owned = build(&shape, grid_of(&shape, res, 1, 0.02), MIXED);
-        let st = run(&shape, &owned, 2000, 7, &LayeredParams::default());
+        let st = run(&shape, &owned, 2000, 7, &LayeredOptions::default());
         report(&format!("sphere res {res}"), &st);
         med.push(st.err_quantile(0.5) * texel(&owned.grid));
     }
@@ -971,7 +981,7 @@ fn torus_with_two_layers_agrees_and_one_layer_is_approximate() {
         big: 1.0,
         small: 0.35,
     };
-    let params = LayeredParams::default();
+    let params = LayeredOptions::default();
     let two = build(&shape, grid_of(&shape, 192, 2, 0.02), MIXED);
     let st2 = run(&shape, &two, 6000, 3, &params);
     report("torus res 192 L=2", &st2);
@@ -997,13 +1007,13 @@ fn torus_with_two_layers_agrees_and_one_layer_is_approximate() {
     };
     assert!(two
         .map()
-        .trace(&ray, f32::INFINITY, &params)
+        .try_trace(&ray, f32::INFINITY, &params)
         .unwrap()
         .hit()
         .is_none());
     assert!(one
         .map()
-        .trace(&ray, f32::INFINITY, &params)
+        .try_trace(&ray, f32::INFINITY, &params)
         .unwrap()
         .hit()
         .is_some());
@@ -1015,7 +1025,7 @@ fn cup_cavity_needs_two_layers() {
         c: DVec3::new(-0.4, 0.0, 0.2),
         s: 1.0,
     };
-    let params = LayeredParams::default();
+    let params = LayeredOptions::default();
     let two = build(&shape, grid_of(&shape, 80, 2, 0.03), MINUS);
     let st = run(&shape, &two, 5000, 11, &params);
     report("cup res 80 L=2", &st);
@@ -1028,7 +1038,7 @@ fn cup_cavity_needs_two_layers() {
     };
     let h = *two
         .map()
-        .trace(&ray, f32::INFINITY, &params)
+        .try_trace(&ray, f32::INFINITY, &params)
         .unwrap()
         .hit()
         .unwrap();
@@ -1044,7 +1054,7 @@ fn cup_cavity_needs_two_layers() {
     };
     let h = *two
         .map()
-        .trace(&ray, f32::INFINITY, &params)
+        .try_trace(&ray, f32::INFINITY, &params)
         .unwrap()
         .hit()
         .unwrap();
@@ -1058,7 +1068,7 @@ fn cup_cavity_needs_two_layers() {
     };
     let h = *two
         .map()
-        .trace(&ray, f32::INFINITY, &params)
+        .try_trace(&ray, f32::INFINITY, &params)
         .unwrap()
         .hit()
         .unwrap();
@@ -1117,7 +1127,7 @@ fn transformed_map_traces_in_the_objects_frame() {
         for face in MINUS {
             for j in 0..128 {
                 for i in 0..128 {
-                    let r = grid.face_ray(face, i, j).unwrap();
+                    let r = grid.try_face_ray(face, i, j).unwrap();
                     let mut hits: Vec<_> =
                         world(r.origin.as_dvec3(), r.dir.as_dvec3(), r.t_max as f64)
                             .into_iter()
@@ -1148,7 +1158,7 @@ fn transformed_map_traces_in_the_objects_frame() {
             .first()
             .map(|x| x.0);
         let got = map
-            .trace(&ray, f32::INFINITY, &LayeredParams::default())
+            .try_trace(&ray, f32::INFINITY, &LayeredOptions::default())
             .unwrap();
         n += 1;
         match (truth, got.hit()) {
@@ -1188,7 +1198,7 @@ fn tiny_and_huge_scales_behave_like_unit_scale() {
             r: scale,
         };
         let owned = build(&shape, grid_of(&shape, 128, 1, 0.02), MINUS);
-        let st = run(&shape, &owned, 3000, 13, &LayeredParams::default());
+        let st = run(&shape, &owned, 3000, 13, &LayeredOptions::default());
         report(&format!("sphere scale {name}"), &st);
         assert!(st.agreement() >= 0.99, "{name}: {st:?}");
         assert!(st.err_quantile(0.95) <= 0.25, "{name}");
@@ -1216,7 +1226,7 @@ fn axis_aligned_rays_hit_the_poles() {
             dir: -axis,
         };
         let h = *map
-            .trace(&ray, f32::INFINITY, &LayeredParams::default())
+            .try_trace(&ray, f32::INFINITY, &LayeredOptions::default())
             .unwrap()
             .hit()
             .unwrap();
@@ -1228,7 +1238,7 @@ fn axis_aligned_rays_hit_the_poles() {
             dir: -axis,
         };
         let h = *map
-            .trace(&ray, f32::INFINITY, &LayeredParams::default())
+            .try_trace(&ray, f32::INFINITY, &LayeredOptions::default())
             .unwrap()
             .hit()
             .unwrap();
@@ -1255,7 +1265,7 @@ fn grazing_rays_are_decided_outside_a_two_texel_band() {
                 dir: tdir,
             };
             let got = map
-                .trace(&ray, f32::INFINITY, &LayeredParams::default())
+                .try_trace(&ray, f32::INFINITY, &LayeredOptions::default())
                 .unwrap();
             assert_eq!(
                 got.hit().is_some(),
@@ -1271,7 +1281,7 @@ fn rays_starting_inside_the_box_and_inside_the_object() {
     let (shape, owned) = unit_sphere_map(64);
     let map = owned.map();
     let tex = texel(&owned.grid);
-    let params = LayeredParams::default();
+    let params = LayeredOptions::default();
     // In a box corner (outside the sphere) toward the center.
     let o = Vec3::splat(0.95);
     let ray = Ray {
@@ -1279,7 +1289,7 @@ fn rays_starting_inside_the_box_and_inside_the_object() {
         dir: -o.normalize(),
     };
     let h = *map
-        .trace(&ray, f32::INFINITY, &params)
+        .try_trace(&ray, f32::INFINITY, &params)
         .unwrap()
         .hit()
         .unwrap();
@@ -1293,7 +1303,7 @@ fn rays_starting_inside_the_box_and_inside_the_object() {
         dir: o.normalize(),
     };
     assert!(matches!(
-        map.trace(&ray, f32::INFINITY, &params).unwrap(),
+        map.try_trace(&ray, f32::INFINITY, &params).unwrap(),
         LayeredTrace::Miss {
             reason: LayeredMiss::LeftBox,
             ..
@@ -1305,7 +1315,7 @@ fn rays_starting_inside_the_box_and_inside_the_object() {
         dir: Vec3::Y,
     };
     assert!(matches!(
-        map.trace(&ray, f32::INFINITY, &params).unwrap(),
+        map.try_trace(&ray, f32::INFINITY, &params).unwrap(),
         LayeredTrace::Miss {
             reason: LayeredMiss::StartedInside,
             ..
@@ -1317,8 +1327,9 @@ fn rays_starting_inside_the_box_and_inside_the_object() {
 fn misses_say_why() {
     let (_, owned) = unit_sphere_map(32);
     let map = owned.map();
-    let params = LayeredParams::default();
-    let reason = |r: Ray, t_max: f32, p: &LayeredParams| match map.trace(&r, t_max, p).unwrap() {
+    let params = LayeredOptions::default();
+    let reason = |r: Ray, t_max: f32, p: &LayeredOptions| match map.try_trace(&r, t_max, p).unwrap()
+    {
         LayeredTrace::Miss { reason, work } => Some((reason, work)),
         LayeredTrace::Hit(_) => None,
     };
@@ -1359,7 +1370,7 @@ fn misses_say_why() {
     };
     // Box entry at t = 3.98, sphere at t = 4.56.
     assert_eq!(reason(r, 4.3, &params).unwrap().0, LayeredMiss::EndOfRay);
-    assert!(map.trace(&r, 4.7, &params).unwrap().hit().is_some());
+    assert!(map.try_trace(&r, 4.7, &params).unwrap().hit().is_some());
     // Crosses the box corner region only.
     let r = Ray {
         origin: Vec3::new(-5.0, 0.97, 0.97),
@@ -1370,7 +1381,7 @@ fn misses_say_why() {
     assert_eq!(work.faces, 3);
     assert!(work.steps > 0 && work.fetches > 0);
     // Step cap.
-    let capped = LayeredParams {
+    let capped = LayeredOptions {
         max_steps: 4,
         ..params
     };
@@ -1384,78 +1395,78 @@ fn misses_say_why() {
 fn invalid_rays_and_params_are_errors() {
     let (_, owned) = unit_sphere_map(8);
     let map = owned.map();
-    let p = LayeredParams::default();
+    let p = LayeredOptions::default();
     let good = Ray {
         origin: Vec3::new(0.0, 0.0, 3.0),
         dir: -Vec3::Z,
     };
-    assert!(map.trace(&good, f32::INFINITY, &p).is_ok());
+    assert!(map.try_trace(&good, f32::INFINITY, &p).is_ok());
     for bad in [f32::NAN, f32::INFINITY, f32::NEG_INFINITY] {
         let r = Ray {
             origin: Vec3::new(bad, 0.0, 3.0),
             dir: -Vec3::Z,
         };
-        assert_eq!(map.trace(&r, 1.0, &p), Err(Error::InvalidArgument));
+        assert_eq!(map.try_trace(&r, 1.0, &p), Err(Error::InvalidArgument));
         let r = Ray {
             origin: good.origin,
             dir: Vec3::new(0.0, bad, -1.0),
         };
-        assert_eq!(map.trace(&r, 1.0, &p), Err(Error::InvalidArgument));
+        assert_eq!(map.try_trace(&r, 1.0, &p), Err(Error::InvalidArgument));
     }
     let r = Ray {
         origin: good.origin,
         dir: Vec3::new(0.0, 0.0, -2.0),
     };
-    assert_eq!(map.trace(&r, 1.0, &p), Err(Error::InvalidArgument));
+    assert_eq!(map.try_trace(&r, 1.0, &p), Err(Error::InvalidArgument));
     for t in [f32::NAN, 0.0, -1.0] {
-        assert_eq!(map.trace(&good, t, &p), Err(Error::InvalidArgument));
+        assert_eq!(map.try_trace(&good, t, &p), Err(Error::InvalidArgument));
     }
     let bads = [
-        LayeredParams {
+        LayeredOptions {
             step_texels: 0.0,
             ..p
         },
-        LayeredParams {
+        LayeredOptions {
             step_texels: f32::NAN,
             ..p
         },
-        LayeredParams {
+        LayeredOptions {
             step_texels: f32::INFINITY,
             ..p
         },
-        LayeredParams { max_steps: 0, ..p },
-        LayeredParams {
+        LayeredOptions { max_steps: 0, ..p },
+        LayeredOptions {
             binary_steps: 65,
             ..p
         },
-        LayeredParams {
+        LayeredOptions {
             texel_fraction: f32::NAN,
             ..p
         },
-        LayeredParams {
+        LayeredOptions {
             texel_fraction: -1.0,
             ..p
         },
-        LayeredParams {
+        LayeredOptions {
             early_stop_texels: f32::NAN,
             ..p
         },
-        LayeredParams {
+        LayeredOptions {
             smooth_texels: f32::NAN,
             ..p
         },
-        LayeredParams {
+        LayeredOptions {
             smooth_texels: -1.0,
             ..p
         },
-        LayeredParams {
+        LayeredOptions {
             smooth_texels: f32::INFINITY,
             ..p
         },
     ];
     for b in bads {
         assert_eq!(
-            map.trace(&good, 10.0, &b),
+            map.try_trace(&good, 10.0, &b),
             Err(Error::InvalidArgument),
             "{b:?}"
         );
@@ -1471,7 +1482,7 @@ fn payload_identifies_the_surface_sample_hit() {
         dir: -Vec3::Z,
     };
     let h = *map
-        .trace(&ray, f32::INFINITY, &LayeredParams::default())
+        .try_trace(&ray, f32::INFINITY, &LayeredOptions::default())
         .unwrap()
         .hit()
         .unwrap();
@@ -1490,11 +1501,11 @@ fn payload_identifies_the_surface_sample_hit() {
 #[test]
 fn fetches_per_ray_are_reported() {
     let (shape, owned) = unit_sphere_map(64);
-    let coarse = LayeredParams {
+    let coarse = LayeredOptions {
         step_texels: 2.0,
-        ..LayeredParams::default()
+        ..LayeredOptions::default()
     };
-    let fine = run(&shape, &owned, 1000, 31, &LayeredParams::default());
+    let fine = run(&shape, &owned, 1000, 31, &LayeredOptions::default());
     let fast = run(&shape, &owned, 1000, 31, &coarse);
     report("sphere res 64 half-texel steps", &fine);
     report("sphere res 64 two-texel steps", &fast);
@@ -1514,12 +1525,12 @@ fn interpolated_depth_brings_the_error_within_a_texel() {
         small: 0.4,
     };
     let owned = build(&shape, grid_of(&shape, 96, 2, 0.02), MIXED);
-    let seed = LayeredParams {
+    let seed = LayeredOptions {
         smooth_texels: 0.0,
-        ..LayeredParams::default()
+        ..LayeredOptions::default()
     };
     let nearest = run(&shape, &owned, 4000, 41, &seed);
-    let smooth = run(&shape, &owned, 4000, 41, &LayeredParams::default());
+    let smooth = run(&shape, &owned, 4000, 41, &LayeredOptions::default());
     report("torus res 96 L=2 nearest texel", &nearest);
     report("torus res 96 L=2 interpolated", &smooth);
     assert!(smooth.agreement() >= nearest.agreement());
@@ -1598,7 +1609,7 @@ fn skipping_changes_the_cost_not_the_hits() {
     let fast = build(&shape, grid, MINUS);
     let slow = build_unbounded(&shape, grid, MINUS);
     assert!(slow.bounds.contains(&f32::NEG_INFINITY));
-    let p = LayeredParams::default();
+    let p = LayeredOptions::default();
     let tex = texel(&grid) as f32;
     let (mut same, mut n, mut f_fast, mut f_slow) = (0, 0, 0u64, 0u64);
     let mut rng = Rng(77);
@@ -1610,8 +1621,8 @@ fn skipping_changes_the_cost_not_the_hits() {
             origin: o,
             dir: (target - o).normalize(),
         };
-        let a = fast.map().trace(&ray, f32::INFINITY, &p).unwrap();
-        let b = slow.map().trace(&ray, f32::INFINITY, &p).unwrap();
+        let a = fast.map().try_trace(&ray, f32::INFINITY, &p).unwrap();
+        let b = slow.map().try_trace(&ray, f32::INFINITY, &p).unwrap();
         f_fast += a.work().fetches as u64;
         f_slow += b.work().fetches as u64;
         n += 1;
@@ -1635,14 +1646,14 @@ fn skipping_changes_the_cost_not_the_hits() {
 #[test]
 fn refilled_columns_are_never_skipped_until_the_bounds_are_rebuilt() {
     let (_, mut o) = unit_sphere_map(64);
-    let p = LayeredParams::default();
+    let p = LayeredOptions::default();
     // A ray along +x at y = z = 0.99 misses the unit sphere (and, built,
     // skips everything).
     let ray = Ray {
         origin: Vec3::new(-3.0, 0.99, 0.99),
         dir: Vec3::X,
     };
-    let before = o.map().trace(&ray, f32::INFINITY, &p).unwrap();
+    let before = o.map().try_trace(&ray, f32::INFINITY, &p).unwrap();
     assert!(before.hit().is_none());
     // Add a slab x in [0.2, 0.3] to the -X column through (y, z) = 0.99.
     let grid = o.grid;
@@ -1651,7 +1662,7 @@ fn refilled_columns_are_never_skipped_until_the_bounds_are_rebuilt() {
         (q.y * 64.0) as u32, // -X face: u = y, v = z
         (q.z * 64.0) as u32,
     );
-    let col = grid.face_ray(Face::NegX, i, j).unwrap();
+    let col = grid.try_face_ray(Face::NegX, i, j).unwrap();
     let t = |x: f32| x - col.origin.x;
     {
         let mut m = LayeredMapMut::try_new(
@@ -1667,7 +1678,7 @@ fn refilled_columns_are_never_skipped_until_the_bounds_are_rebuilt() {
     }
     let stale = *o
         .map()
-        .trace(&ray, f32::INFINITY, &p)
+        .try_trace(&ray, f32::INFINITY, &p)
         .unwrap()
         .hit()
         .unwrap();
@@ -1688,7 +1699,7 @@ fn refilled_columns_are_never_skipped_until_the_bounds_are_rebuilt() {
     }
     let rebuilt = *o
         .map()
-        .trace(&ray, f32::INFINITY, &p)
+        .try_trace(&ray, f32::INFINITY, &p)
         .unwrap()
         .hit()
         .unwrap();
@@ -1705,7 +1716,7 @@ fn refilled_columns_are_never_skipped_until_the_bounds_are_rebuilt() {
         .unwrap();
         m.clear();
     }
-    let empty = o.map().trace(&ray, f32::INFINITY, &p).unwrap();
+    let empty = o.map().try_trace(&ray, f32::INFINITY, &p).unwrap();
     assert!(empty.hit().is_none());
     assert!(empty.work().steps <= 3 * 8, "{empty:?}");
 }
@@ -1732,7 +1743,7 @@ proptest! {
         let ray = Ray { origin: o.as_vec3(), dir: d.as_vec3() };
         let (o, d) = (ray.origin.as_dvec3(), ray.dir.as_dvec3());
         let min = shape.min_sdf(o, d, 8.0);
-        let got = owned.map().trace(&ray, f32::INFINITY, &LayeredParams::default()).unwrap();
+        let got = owned.map().try_trace(&ray, f32::INFINITY, &LayeredOptions::default()).unwrap();
         if min < -2.0 * tex {
             let h = got.hit();
             prop_assert!(h.is_some(), "robust hit missed: {:?}", got);
@@ -1854,7 +1865,7 @@ fn prr_classification_matches_brute_force() {
             continue;
         }
         let t32 = tri.map(|p| p.as_vec3());
-        let class = prr_classify(eye.as_vec3(), c.as_vec3(), r as f32, t32).unwrap();
+        let class = try_prr_classify(eye.as_vec3(), c.as_vec3(), r as f32, t32).unwrap();
         *by_class.entry(class).or_insert(0) += 1;
         checked += 1;
         let margin = prr_oracle(eye, c, r, tri);
@@ -1902,7 +1913,10 @@ fn prr_cases_of_the_seed() {
     let eye = Vec3::new(0.0, 3.0, 5.0);
     let ball = Vec3::new(0.0, 1.0, 0.0);
     // Case 3: the small reflection lies inside the big floor triangle.
-    assert_eq!(prr_classify(eye, ball, 0.3, floor), Ok(PrrClass::Ellipse));
+    assert_eq!(
+        try_prr_classify(eye, ball, 0.3, floor),
+        Ok(PrrClass::Ellipse)
+    );
     // Case 1: a small triangle around the reflection point.
     let hit_point = Vec3::new(0.0, 0.0, 5.0 * 1.0 / 4.0); // eye (y 3) to mirrored ball (y -1)
     let small = [
@@ -1910,29 +1924,32 @@ fn prr_cases_of_the_seed() {
         hit_point + Vec3::new(0.01, 0.0, -0.01),
         hit_point + Vec3::new(0.0, 0.0, 0.01),
     ];
-    assert_eq!(prr_classify(eye, ball, 0.3, small), Ok(PrrClass::Vertex));
+    assert_eq!(
+        try_prr_classify(eye, ball, 0.3, small),
+        Ok(PrrClass::Vertex)
+    );
     // Case 2: a thin sliver crossing the reflection, corners outside.
     let sliver = [
         hit_point + Vec3::new(-3.0, 0.0, 0.0),
         hit_point + Vec3::new(3.0, 0.0, 0.001),
         hit_point + Vec3::new(3.0, 0.0, -0.001),
     ];
-    assert_eq!(prr_classify(eye, ball, 0.3, sliver), Ok(PrrClass::Edge));
+    assert_eq!(try_prr_classify(eye, ball, 0.3, sliver), Ok(PrrClass::Edge));
     // Far away on the floor: outside.
     let far = small.map(|p| p + Vec3::new(5.0, 0.0, 0.0));
-    assert_eq!(prr_classify(eye, ball, 0.3, far), Ok(PrrClass::Outside));
+    assert_eq!(try_prr_classify(eye, ball, 0.3, far), Ok(PrrClass::Outside));
     // The ball under the floor, or the eye under it: no reflection.
     assert_eq!(
-        prr_classify(eye, -ball, 0.3, floor),
+        try_prr_classify(eye, -ball, 0.3, floor),
         Ok(PrrClass::WrongSide)
     );
     assert_eq!(
-        prr_classify(-eye, ball, 0.3, floor),
+        try_prr_classify(-eye, ball, 0.3, floor),
         Ok(PrrClass::WrongSide)
     );
     // The eye inside the mirrored sphere.
     assert_eq!(
-        prr_classify(
+        try_prr_classify(
             Vec3::new(0.0, -0.9, 0.0),
             Vec3::new(0.0, 0.5, 0.0),
             0.6,
@@ -1942,24 +1959,24 @@ fn prr_cases_of_the_seed() {
     );
     // Errors.
     assert_eq!(
-        prr_classify(eye, ball, 0.0, floor),
+        try_prr_classify(eye, ball, 0.0, floor),
         Err(Error::InvalidArgument)
     );
     assert_eq!(
-        prr_classify(eye, ball, f32::NAN, floor),
+        try_prr_classify(eye, ball, f32::NAN, floor),
         Err(Error::InvalidArgument)
     );
     assert_eq!(
-        prr_classify(Vec3::splat(f32::INFINITY), ball, 0.3, floor),
+        try_prr_classify(Vec3::splat(f32::INFINITY), ball, 0.3, floor),
         Err(Error::InvalidArgument)
     );
     let line = [Vec3::ZERO, Vec3::X, Vec3::X * 2.0];
     assert_eq!(
-        prr_classify(eye, ball, 0.3, line),
+        try_prr_classify(eye, ball, 0.3, line),
         Err(Error::DegenerateGeometry)
     );
     assert_eq!(
-        prr_classify(eye, ball, 0.3, [Vec3::ONE; 3]),
+        try_prr_classify(eye, ball, 0.3, [Vec3::ONE; 3]),
         Err(Error::DegenerateGeometry)
     );
 }
@@ -1969,14 +1986,14 @@ fn prr_is_scale_free() {
     let mut rng = Rng(7);
     for _ in 0..500 {
         let (eye, c, r, tri) = prr_case(&mut rng);
-        let base = prr_classify(
+        let base = try_prr_classify(
             eye.as_vec3(),
             c.as_vec3(),
             r as f32,
             tri.map(|p| p.as_vec3()),
         );
         for s in [1e-3, 1e4] {
-            let got = prr_classify(
+            let got = try_prr_classify(
                 (eye * s).as_vec3(),
                 (c * s).as_vec3(),
                 (r * s) as f32,
@@ -1993,4 +2010,98 @@ fn prr_is_scale_free() {
             }
         }
     }
+}
+
+/// A flat record of a host (or the C ABI) that converts from the core's
+/// trace: what the batch writes in place.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+struct Flat {
+    hit: bool,
+    t: f32,
+    payload: u32,
+}
+
+impl From<LayeredTrace> for Flat {
+    fn from(t: LayeredTrace) -> Self {
+        match t.hit() {
+            Some(h) => Flat {
+                hit: true,
+                t: h.t,
+                payload: h.payload,
+            },
+            None => Flat::default(),
+        }
+    }
+}
+
+#[test]
+fn trace_rays_equals_trace_per_ray_and_writes_nothing_on_error() {
+    let shape = Shape::Sphere {
+        c: DVec3::ZERO,
+        r: 1.0,
+    };
+    let owned = build(&shape, grid_of(&shape, 16, 2, 0.05), MINUS);
+    let map = owned.map();
+    let params = LayeredOptions::default();
+    let mut rng = Rng(7);
+    let rays: Vec<Ray> = (0..64)
+        .map(|_| {
+            let o = rng.unit() * 3.0;
+            let target = DVec3::new(rng.next(), rng.next(), rng.next()) - 0.5;
+            Ray {
+                origin: o.as_vec3(),
+                dir: (target - o).normalize().as_vec3(),
+            }
+        })
+        .collect();
+    let single: Vec<LayeredTrace> = rays
+        .iter()
+        .map(|r| map.try_trace(r, 10.0, &params).unwrap())
+        .collect();
+    assert!(single.iter().filter(|t| t.hit().is_some()).count() > 20);
+    let mut out = vec![
+        LayeredTrace::Miss {
+            reason: LayeredMiss::MissedBox,
+            work: Default::default(),
+        };
+        65
+    ];
+    map.try_trace_rays(&mut out, &rays, 10.0, &params).unwrap();
+    assert_eq!(&out[..64], &single[..]);
+    // Another record type gets the same results, converted.
+    let mut flat = vec![Flat::default(); 64];
+    map.try_trace_rays(&mut flat, &rays, 10.0, &params).unwrap();
+    let expect: Vec<Flat> = single.iter().map(|&t| t.into()).collect();
+    assert_eq!(flat, expect);
+    // A bad ray anywhere, a bad t_max or params, a short output: nothing
+    // written.
+    let sentinel = Flat {
+        hit: true,
+        t: -1.0,
+        payload: 9,
+    };
+    let mut bad = rays.clone();
+    bad[50].dir = Vec3::new(0.0, 2.0, 0.0);
+    let mut out = vec![sentinel; 64];
+    assert_eq!(
+        map.try_trace_rays(&mut out, &bad, 10.0, &params),
+        Err(Error::InvalidArgument)
+    );
+    assert_eq!(
+        map.try_trace_rays(&mut out, &rays, f32::NAN, &params),
+        Err(Error::InvalidArgument)
+    );
+    let bad_params = LayeredOptions {
+        step_texels: 0.0,
+        ..params
+    };
+    assert_eq!(
+        map.try_trace_rays(&mut out, &rays, 10.0, &bad_params),
+        Err(Error::InvalidArgument)
+    );
+    assert_eq!(
+        map.try_trace_rays(&mut out[..63], &rays, 10.0, &params),
+        Err(Error::InsufficientSize)
+    );
+    assert!(out.iter().all(|o| *o == sentinel));
 }

@@ -3,7 +3,7 @@
 //! oracles, including stiff and degenerate cases.
 
 use glam::{DVec3, Vec2, Vec3};
-use refl_core::{mirror_matrix, mirror_point, mirrored_camera, reflect, Camera, Error, Plane};
+use refl_core::{mirror_matrix, mirror_point, reflect, try_mirrored_camera, Camera, Error, Plane};
 
 fn reflect64(v: DVec3, n: DVec3) -> DVec3 {
     2.0 * v.dot(n) * n - v
@@ -158,7 +158,7 @@ fn camera() -> Camera {
 /// The mirrored camera's rays are the reflected rays, pixel for pixel,
 /// checked against an f64 reflection at the mirror hit point.
 fn check_mirrored_rays(plane: Plane, cam: &Camera) {
-    let m = mirrored_camera(cam, &plane).unwrap();
+    let m = try_mirrored_camera(cam, &plane).unwrap();
     assert!(m.is_mirrored() && !cam.is_mirrored());
     let n = plane.normal().as_dvec3();
     let mut checked = 0;
@@ -225,12 +225,12 @@ fn mirroring_twice_restores_the_camera() {
     let plane =
         Plane::try_from_point_normal(Vec3::new(0.0, -0.5, 0.0), Vec3::new(0.2, 1.0, 0.1)).unwrap();
     let cam = camera();
-    let twice = mirrored_camera(&mirrored_camera(&cam, &plane).unwrap(), &plane).unwrap();
+    let twice = try_mirrored_camera(&try_mirrored_camera(&cam, &plane).unwrap(), &plane).unwrap();
     let (a, b) = (cam.view().to_cols_array(), twice.view().to_cols_array());
     assert!(a.iter().zip(b).all(|(x, y)| (x - y).abs() < 1e-5));
     assert!(!twice.is_mirrored());
     assert!(
-        mirrored_camera(&cam, &plane)
+        try_mirrored_camera(&cam, &plane)
             .unwrap()
             .eye()
             .distance(mirror_point(&plane, cam.eye()))

@@ -3,7 +3,9 @@
 //! side: depth clipping must do exactly the mirror-plane clipping.
 
 use glam::{DVec4, Vec3};
-use refl_core::{mirrored_camera, oblique_projection, Camera, DepthConvention, Error, Plane};
+use refl_core::{
+    try_mirrored_camera, try_oblique_projection, Camera, DepthConvention, Error, Plane,
+};
 
 fn setup(far: f32) -> (Camera, Plane) {
     let cam = Camera::try_look_at(
@@ -19,7 +21,7 @@ fn setup(far: f32) -> (Camera, Plane) {
     .unwrap();
     // Floor mirror y = 0.25, oriented toward the real eye (normal +Y).
     let plane = Plane::try_from_point_normal(Vec3::new(0.0, 0.25, 0.0), Vec3::Y).unwrap();
-    (mirrored_camera(&cam, &plane).unwrap(), plane)
+    (try_mirrored_camera(&cam, &plane).unwrap(), plane)
 }
 
 /// Stored depth of world point `p` through view + oblique projection, in f64.
@@ -54,8 +56,8 @@ fn depth_clipping_is_mirror_plane_clipping() {
     for far in [60.0f32, f32::INFINITY] {
         let (cam, plane) = setup(far);
         for conv in [DepthConvention::ZeroToOne, DepthConvention::ReversedZ] {
-            let m = oblique_projection(&cam, &plane, conv).unwrap();
-            let std = cam.projection(conv).unwrap();
+            let m = try_oblique_projection(&cam, &plane, conv).unwrap();
+            let std = cam.try_projection(conv).unwrap();
             // x, y and w rows are the standard projection's.
             for (a, b) in [
                 (m.row(0), std.row(0)),
@@ -134,18 +136,18 @@ fn depth_clipping_is_mirror_plane_clipping() {
 fn oblique_projection_refuses_what_it_cannot_do() {
     let (cam, plane) = setup(100.0);
     assert_eq!(
-        oblique_projection(&cam, &plane, DepthConvention::Linear),
+        try_oblique_projection(&cam, &plane, DepthConvention::Linear),
         Err(Error::InvalidArgument)
     );
     // The eye on the kept side: wrong orientation.
     assert_eq!(
-        oblique_projection(&cam, &plane.flipped(), DepthConvention::ZeroToOne),
+        try_oblique_projection(&cam, &plane.flipped(), DepthConvention::ZeroToOne),
         Err(Error::DegenerateGeometry)
     );
     // Through the eye.
     let through = Plane::try_from_point_normal(cam.eye(), Vec3::Y).unwrap();
     assert_eq!(
-        oblique_projection(&cam, &through, DepthConvention::ReversedZ),
+        try_oblique_projection(&cam, &through, DepthConvention::ReversedZ),
         Err(Error::DegenerateGeometry)
     );
 }

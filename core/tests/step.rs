@@ -1767,43 +1767,43 @@ fn step_rays_matches_step_and_leaves_outputs_on_error() {
         work: Default::default(),
     };
     let mut out = vec![sentinel; 101];
-    try_step_rays(&mut out, &rays, &tms, &d, th, opts).unwrap();
+    try_step_rays(&mut out, &d, th, &rays, &tms, opts).unwrap();
     for i in 0..100 {
         assert_eq!(out[i], try_step(&d, th, rays[i], tms[i], opts).unwrap());
     }
     assert_eq!(out[100], sentinel, "past rays.len() untouched");
     // One t_max for all rays.
-    try_step_rays(&mut out, &rays, &[7.0], &d, th, opts).unwrap();
+    try_step_rays(&mut out, &d, th, &rays, &[7.0], opts).unwrap();
     assert_eq!(out[3], try_step(&d, th, rays[3], 7.0, opts).unwrap());
     // Errors leave `out` alone.
     let mut out = vec![sentinel; 100];
     assert_eq!(
-        try_step_rays(&mut out[..99], &rays, &tms, &d, th, opts),
+        try_step_rays(&mut out[..99], &d, th, &rays, &tms, opts),
         Err(Error::InsufficientSize)
     );
     assert_eq!(
-        try_step_rays(&mut out, &rays, &tms[..50], &d, th, opts),
+        try_step_rays(&mut out, &d, th, &rays, &tms[..50], opts),
         Err(Error::InsufficientSize)
     );
     assert_eq!(
-        try_step_rays(&mut out, &rays, &[], &d, th, opts),
+        try_step_rays(&mut out, &d, th, &rays, &[], opts),
         Err(Error::InvalidArgument)
     );
     let mut bad = rays.clone();
     bad[77].dir = Vec3::NAN;
     assert_eq!(
-        try_step_rays(&mut out, &bad, &tms, &d, th, opts),
+        try_step_rays(&mut out, &d, th, &bad, &tms, opts),
         Err(Error::InvalidArgument)
     );
     let mut bad_t = tms.clone();
     bad_t[99] = f32::NAN;
     assert_eq!(
-        try_step_rays(&mut out, &rays, &bad_t, &d, th, opts),
+        try_step_rays(&mut out, &d, th, &rays, &bad_t, opts),
         Err(Error::InvalidArgument)
     );
     assert!(out.iter().all(|o| *o == sentinel));
     // Empty input is fine.
-    try_step_rays(&mut [], &[], &[1.0], &d, th, opts).unwrap();
+    try_step_rays::<Trace, Ray>(&mut [], &d, th, &[], &[1.0], opts).unwrap();
 }
 
 // ---------------------------------------------------------------------------

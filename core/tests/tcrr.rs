@@ -9,9 +9,9 @@
 
 use refl_core::glam::{DVec3, Vec2, Vec3};
 use refl_core::tcrr::{
-    self, compose, fresnel_weight, offset_is_valid, reflection_distance, retrace_count,
-    retrace_list, CurrentView, Fresnel, KeyFramePolicy, Reflected, ReflectionBuffers, TcrrParams,
-    INVALID_OFFSET, MASK_NONE, MASK_RETRACE, MASK_REUSED,
+    self, fresnel_weight, offset_is_valid, reflection_distance, retrace_count, try_compose,
+    try_retrace_list, CurrentView, Fresnel, KeyFramePolicy, Reflected, ReflectionBuffers,
+    TcrrOptions, INVALID_OFFSET, MASK_NONE, MASK_RETRACE, MASK_REUSED,
 };
 use refl_core::{Camera, DepthConvention, Error, ImageView, ImageViewMut};
 
@@ -349,7 +349,7 @@ struct Out {
 
 /// Search + shift + warp of `cur` from key frame `key`, in `bands` row
 /// bands (each pass split the same way).
-fn run(key: &Frame, cur: &Frame, p: &TcrrParams, prev: Option<&[[f32; 2]]>, bands: u32) -> Out {
+fn run(key: &Frame, cur: &Frame, p: &TcrrOptions, prev: Option<&[[f32; 2]]>, bands: u32) -> Out {
     run_with(key, cur, p, prev, bands, false)
 }
 
@@ -358,7 +358,7 @@ fn run(key: &Frame, cur: &Frame, p: &TcrrParams, prev: Option<&[[f32; 2]]>, band
 fn run_with(
     key: &Frame,
     cur: &Frame,
-    p: &TcrrParams,
+    p: &TcrrOptions,
     prev: Option<&[[f32; 2]]>,
     bands: u32,
     surfels: bool,
@@ -372,8 +372,8 @@ fn run_with(
         let mut rest = ImageViewMut::try_new(&mut cache, w, h, w).unwrap();
         let mut reflective = 0;
         for k in 1..=bands {
-            let (mut band, r) = rest.split_at_row(split(h, k)).map_err(|e| e.0).unwrap();
-            reflective += tcrr::prepare(&mut band, &b).unwrap();
+            let (mut band, r) = rest.try_split_at_row(split(h, k)).map_err(|e| e.0).unwrap();
+            reflective += tcrr::try_prepare(&mut band, &b).unwrap();
             rest = r;
         }
         let expected = (0..h)
@@ -394,8 +394,8 @@ fn run_with(
     {
         let mut rest = ImageViewMut::try_new(&mut offsets, w, h, w).unwrap();
         for k in 1..=bands {
-            let (mut band, r) = rest.split_at_row(split(h, k)).map_err(|e| e.0).unwrap();
-            search = search.merged(tcrr::search(&mut band, &b, cur.cam.eye(), p).unwrap());
+            let (mut band, r) = rest.try_split_at_row(split(h, k)).map_err(|e| e.0).unwrap();
+            search = search.merged(tcrr::try_search(&mut band, &b, cur.cam.eye(), p).unwrap());
             rest = r;
         }
     }
@@ -410,10 +410,10 @@ fn run_with(
         let mut v = ImageViewMut::try_new(&mut coverage, w, h, w).unwrap();
         for k in 1..=bands {
             let at = split(h, k);
-            let (mut c1, c2) = c.split_at_row(at).map_err(|e| e.0).unwrap();
-            let (mut d1, d2) = d.split_at_row(at).map_err(|e| e.0).unwrap();
-            let (mut v1, v2) = v.split_at_row(at).map_err(|e| e.0).unwrap();
-            let s = tcrr::shift(&mut c1, &mut d1, &mut v1, &b, &ov, p).unwrap();
+            let (mut c1, c2) = c.try_split_at_row(at).map_err(|e| e.0).unwrap();
+            let (mut d1, d2) = d.try_split_at_row(at).map_err(|e| e.0).unwrap();
+            let (mut v1, v2) = v.try_split_at_row(at).map_err(|e| e.0).unwrap();
+            let s = tcrr::try_shift(&mut c1, &mut d1, &mut v1, &b, &ov, p).unwrap();
             shift.drawn += s.drawn;
             shift.magnified += s.magnified;
             shift.covered += s.covered;
@@ -434,9 +434,10 @@ fn run_with(
         let mut m = ImageViewMut::try_new(&mut mask, cw, ch, cw).unwrap();
         for k in 1..=bands {
             let at = split(ch, k);
-            let (mut c1, c2) = c.split_at_row(at).map_err(|e| e.0).unwrap();
-            let (mut m1, m2) = m.split_at_row(at).map_err(|e| e.0).unwrap();
-            warp = warp.merged(tcrr::warp(&mut c1, &mut m1, &cv, &b, &src, &sd, &cov, p).unwrap());
+            let (mut c1, c2) = c.try_split_at_row(at).map_err(|e| e.0).unwrap();
+            let (mut m1, m2) = m.try_split_at_row(at).map_err(|e| e.0).unwrap();
+            warp =
+                warp.merged(tcrr::try_warp(&mut c1, &mut m1, &cv, &b, &src, &sd, &cov, p).unwrap());
             (c, m) = (c2, m2);
         }
     }
@@ -453,7 +454,7 @@ fn run_with(
 }
 
 /// Naive warping of the key frame's reflection colors (seed 000 Figs. 1, 6).
-fn naive(key: &Frame, cur: &Frame, p: &TcrrParams) -> (Vec<[f32; 3]>, Vec<u8>) {
+fn naive(key: &Frame, cur: &Frame, p: &TcrrOptions) -> (Vec<[f32; 3]>, Vec<u8>) {
     let (w, h) = key.size();
     let cov: Vec<u8> = key.spec.iter().map(|&s| u8::from(s > 0.0)).collect();
     let path: Vec<f32> = (0..key.depth.len())
@@ -462,7 +463,7 @@ fn naive(key: &Frame, cur: &Frame, p: &TcrrParams) -> (Vec<[f32; 3]>, Vec<u8>) {
     let (cw, ch) = cur.size();
     let mut color = vec![[0.0; 3]; (cw * ch) as usize];
     let mut mask = vec![0u8; (cw * ch) as usize];
-    tcrr::warp(
+    tcrr::try_warp(
         &mut ImageViewMut::try_new(&mut color, cw, ch, cw).unwrap(),
         &mut ImageViewMut::try_new(&mut mask, cw, ch, cw).unwrap(),
         &cur.current(),
@@ -536,9 +537,9 @@ fn search_matches_the_planar_closed_form_in_every_convention() {
         let eye = eye0() + Vec3::new(0.35, -0.1, -0.2);
         let cur = render(camera(eye, target0(), conv, W, H), conv);
         for subpixel in [true, false] {
-            let p = TcrrParams {
+            let p = TcrrOptions {
                 subpixel,
-                ..TcrrParams::default()
+                ..TcrrOptions::default()
             };
             let out = run(&key, &cur, &p, None, 1);
             let (mut worst, mut matched) = (0.0f64, 0);
@@ -586,7 +587,7 @@ fn search_leaves_the_silhouette_as_invalid_and_respects_the_cap() {
     // A large step sideways: many matches leave the reflective patch.
     let eye = eye0() + Vec3::new(2.5, 0.0, 0.0);
     let cur = render(camera(eye, target0(), conv, W, H), conv);
-    let out = run(&key, &cur, &TcrrParams::default(), None, 1);
+    let out = run(&key, &cur, &TcrrOptions::default(), None, 1);
     let mut outside_invalid = 0;
     for i in 0..out.offsets.len() {
         if key.spec[i] == 0.0 {
@@ -623,9 +624,9 @@ fn search_leaves_the_silhouette_as_invalid_and_respects_the_cap() {
     let capped = run(
         &key,
         &cur,
-        &TcrrParams {
+        &TcrrOptions {
             max_iterations: 1,
-            ..TcrrParams::default()
+            ..TcrrOptions::default()
         },
         None,
         1,
@@ -648,7 +649,7 @@ fn warm_start_from_previous_offsets_saves_iterations() {
     let e2 = eye0() + Vec3::new(0.33, 0.0, 0.0);
     let f1 = render(camera(e1, target0(), conv, W, H), conv);
     let f2 = render(camera(e2, target0(), conv, W, H), conv);
-    let p = TcrrParams::default();
+    let p = TcrrOptions::default();
     let first = run(&key, &f1, &p, None, 1);
     let cold = run(&key, &f2, &p, None, 1);
     let warm = run(&key, &f2, &p, Some(&first.offsets), 1);
@@ -670,7 +671,7 @@ fn warm_start_from_previous_offsets_saves_iterations() {
 fn stationary_camera_reproduces_the_key_frame_exactly() {
     for conv in DepthConvention::ALL {
         let key = render(camera(eye0(), target0(), conv, W, H), conv);
-        let out = run(&key, &key, &TcrrParams::default(), None, 1);
+        let out = run(&key, &key, &TcrrOptions::default(), None, 1);
         let mut reflective = 0;
         for i in 0..out.offsets.len() {
             if key.spec[i] > 0.0 {
@@ -698,7 +699,7 @@ fn rotation_only_keeps_zero_offsets_and_matches_the_truth() {
         camera(eye0(), target0() + Vec3::new(0.6, -0.2, 0.0), conv, W, H),
         conv,
     );
-    let out = run(&key, &cur, &TcrrParams::default(), None, 1);
+    let out = run(&key, &cur, &TcrrOptions::default(), None, 1);
     for i in 0..out.offsets.len() {
         if key.spec[i] > 0.0 {
             assert_eq!(out.offsets[i], [0.0, 0.0]);
@@ -719,9 +720,9 @@ fn retrace_contrast_trades_re_tracing_for_error() {
     );
     let mut last: Option<(u32, f64, Vec<u8>)> = None;
     for limit in [f32::INFINITY, 0.2, 0.1, 0.05, 0.01] {
-        let p = TcrrParams {
+        let p = TcrrOptions {
             retrace_contrast: limit,
-            ..TcrrParams::default()
+            ..TcrrOptions::default()
         };
         let out = run(&key, &cur, &p, None, 1);
         let (err, _) = mean_err(&cur, &out.color, &out.mask);
@@ -738,9 +739,9 @@ fn retrace_contrast_trades_re_tracing_for_error() {
         last = Some((out.warp.retrace, err, out.mask));
     }
     let (retrace_inf, err_inf) = {
-        let p = TcrrParams {
+        let p = TcrrOptions {
             retrace_contrast: f32::INFINITY,
-            ..TcrrParams::default()
+            ..TcrrOptions::default()
         };
         let out = run(&key, &cur, &p, None, 1);
         (out.warp.retrace, mean_err(&cur, &out.color, &out.mask).0)
@@ -755,7 +756,7 @@ fn translation_tcrr_is_far_closer_to_the_truth_than_naive_warping() {
         let key = render(camera(eye0(), target0(), conv, W, H), conv);
         let eye = eye0() + Vec3::new(0.4, 0.1, -0.3);
         let cur = render(camera(eye, target0(), conv, W, H), conv);
-        let p = TcrrParams::default();
+        let p = TcrrOptions::default();
         let out = run(&key, &cur, &p, None, 1);
         let (e_tcrr, n_tcrr) = mean_err(&cur, &out.color, &out.mask);
         let (nc, nm) = naive(&key, &cur, &p);
@@ -768,7 +769,7 @@ fn translation_tcrr_is_far_closer_to_the_truth_than_naive_warping() {
         // Every reflective pixel is either reused or listed for re-tracing.
         let cov = ImageView::try_new(&out.mask, W, H, W).unwrap();
         let mut list = vec![0u32; retrace_count(&cov)];
-        let n = retrace_list(&mut list, &cov).unwrap();
+        let n = try_retrace_list(&mut list, &cov).unwrap();
         assert_eq!(n as u32, out.warp.retrace);
         let brute: Vec<u32> = (0..out.mask.len() as u32)
             .filter(|&i| out.mask[i as usize] == MASK_RETRACE)
@@ -789,7 +790,7 @@ fn grazing_views_of_the_floor_converge() {
     let key = render(camera(e0, t, conv, W, H), conv);
     let e1 = e0 + Vec3::new(0.05, 0.01, -0.05);
     let cur = render(camera(e1, t, conv, W, H), conv);
-    let out = run(&key, &cur, &TcrrParams::default(), None, 1);
+    let out = run(&key, &cur, &TcrrOptions::default(), None, 1);
     assert!(out.search.reflective > 400);
     assert!(
         out.search.matched * 10 > out.search.reflective * 8,
@@ -808,13 +809,13 @@ fn moving_toward_the_reflector_magnifies_and_the_threshold_discards() {
     // frame's grid.
     let eye = Vec3::new(0.2, 0.5, 2.0);
     let cur = render(camera(eye, target0(), conv, W, H), conv);
-    let loose = run(&key, &cur, &TcrrParams::default(), None, 1);
+    let loose = run(&key, &cur, &TcrrOptions::default(), None, 1);
     let tight = run(
         &key,
         &cur,
-        &TcrrParams {
+        &TcrrOptions {
             magnification: 1.0,
-            ..TcrrParams::default()
+            ..TcrrOptions::default()
         },
         None,
         1,
@@ -855,10 +856,10 @@ fn shifting_an_affine_offset_field_interpolates_exactly() {
             ];
         }
     }
-    let p = TcrrParams::default();
+    let p = TcrrOptions::default();
     let n = (w * h) as usize;
     let (mut c, mut d, mut v) = (vec![[0.0; 3]; n], vec![0.0; n], vec![0u8; n]);
-    let stats = tcrr::shift(
+    let stats = tcrr::try_shift(
         &mut ImageViewMut::try_new(&mut c, w, h, w).unwrap(),
         &mut ImageViewMut::try_new(&mut d, w, h, w).unwrap(),
         &mut ImageViewMut::try_new(&mut v, w, h, w).unwrap(),
@@ -929,13 +930,13 @@ fn shifting_depth_test_keeps_the_shorter_reflected_path() {
             }
         }
         let (mut c, mut d, mut v) = (vec![[0.0; 3]; n], vec![0.0; n], vec![0u8; n]);
-        tcrr::shift(
+        tcrr::try_shift(
             &mut ImageViewMut::try_new(&mut c, w, h, w).unwrap(),
             &mut ImageViewMut::try_new(&mut d, w, h, w).unwrap(),
             &mut ImageViewMut::try_new(&mut v, w, h, w).unwrap(),
             &key.buffers(),
             &ImageView::try_new(&offsets, w, h, w).unwrap(),
-            &TcrrParams::default(),
+            &TcrrOptions::default(),
         )
         .unwrap();
         // Columns w/2-6 .. w/2-2 are covered by both halves.
@@ -967,7 +968,7 @@ fn banded_passes_equal_the_whole_image() {
         camera(eye0() + Vec3::new(-0.3, 0.2, 0.1), target0(), conv, W, H),
         conv,
     );
-    let p = TcrrParams::default();
+    let p = TcrrOptions::default();
     let whole = run(&key, &cur, &p, None, 1);
     for bands in [2, 5] {
         let banded = run(&key, &cur, &p, None, bands);
@@ -994,9 +995,9 @@ fn prepared_surfels_give_identical_results() {
             conv,
         );
         for subpixel in [true, false] {
-            let p = TcrrParams {
+            let p = TcrrOptions {
                 subpixel,
-                ..TcrrParams::default()
+                ..TcrrOptions::default()
             };
             let plain = run(&key, &cur, &p, None, 1);
             let fast = run_with(&key, &cur, &p, None, 3, true);
@@ -1024,7 +1025,7 @@ fn prepared_surfels_give_identical_results() {
     let mut small = vec![tcrr::Surfel::default(); 4];
     let mut v = ImageViewMut::try_new(&mut small, 2, 2, 2).unwrap();
     assert_eq!(
-        tcrr::prepare(&mut v, &key.buffers()),
+        tcrr::try_prepare(&mut v, &key.buffers()),
         Err(Error::InvalidArgument)
     );
     assert_eq!(small, vec![tcrr::Surfel::default(); 4]);
@@ -1035,7 +1036,7 @@ fn bad_input_is_refused_and_outputs_stay_untouched() {
     let conv = DepthConvention::Linear;
     let key = render(camera(eye0(), target0(), conv, W, H), conv);
     let b = key.buffers();
-    let p = TcrrParams::default();
+    let p = TcrrOptions::default();
     // Buffers of mismatched size.
     let small = vec![0.0f32; 4];
     assert_eq!(
@@ -1053,31 +1054,31 @@ fn bad_input_is_refused_and_outputs_stay_untouched() {
     );
     let mut offsets = vec![[3.0f32, 4.0]; (W * H) as usize];
     let bad_params = [
-        TcrrParams {
+        TcrrOptions {
             max_iterations: 0,
             ..p
         },
-        TcrrParams {
+        TcrrOptions {
             magnification: f32::NAN,
             ..p
         },
-        TcrrParams {
+        TcrrOptions {
             magnification: 0.5,
             ..p
         },
-        TcrrParams {
+        TcrrOptions {
             discontinuity: -1.0,
             ..p
         },
-        TcrrParams {
+        TcrrOptions {
             reflected_discontinuity: f32::INFINITY,
             ..p
         },
-        TcrrParams {
+        TcrrOptions {
             retrace_contrast: f32::NAN,
             ..p
         },
-        TcrrParams {
+        TcrrOptions {
             retrace_contrast: 0.0,
             ..p
         },
@@ -1085,19 +1086,19 @@ fn bad_input_is_refused_and_outputs_stay_untouched() {
     for bp in bad_params {
         let mut o = ImageViewMut::try_new(&mut offsets, W, H, W).unwrap();
         assert_eq!(
-            tcrr::search(&mut o, &b, Vec3::ONE, &bp),
+            tcrr::try_search(&mut o, &b, Vec3::ONE, &bp),
             Err(Error::InvalidArgument)
         );
     }
     {
         let mut o = ImageViewMut::try_new(&mut offsets, W, H, W).unwrap();
         assert_eq!(
-            tcrr::search(&mut o, &b, Vec3::new(f32::NAN, 0.0, 0.0), &p),
+            tcrr::try_search(&mut o, &b, Vec3::new(f32::NAN, 0.0, 0.0), &p),
             Err(Error::InvalidArgument)
         );
         let mut o2 = ImageViewMut::try_new(&mut offsets, W - 1, H, W).unwrap();
         assert_eq!(
-            tcrr::search(&mut o2, &b, Vec3::ONE, &p),
+            tcrr::try_search(&mut o2, &b, Vec3::ONE, &p),
             Err(Error::InvalidArgument)
         );
     }
@@ -1107,8 +1108,8 @@ fn bad_input_is_refused_and_outputs_stay_untouched() {
     let (mut c, mut d, mut v) = (vec![[2.0f32; 3]; n], vec![2.0f32; n], vec![2u8; n]);
     {
         let cv = ImageViewMut::try_new(&mut c, W, H, W).unwrap();
-        let (mut c1, _) = cv.split_at_row(10).map_err(|e| e.0).unwrap();
-        let r = tcrr::shift(
+        let (mut c1, _) = cv.try_split_at_row(10).map_err(|e| e.0).unwrap();
+        let r = tcrr::try_shift(
             &mut c1,
             &mut ImageViewMut::try_new(&mut d, W, H, W).unwrap(),
             &mut ImageViewMut::try_new(&mut v, W, H, W).unwrap(),
@@ -1123,7 +1124,7 @@ fn bad_input_is_refused_and_outputs_stay_untouched() {
     // Warp with a coverage of the wrong size.
     let cov = vec![1u8; 4];
     {
-        let r = tcrr::warp(
+        let r = tcrr::try_warp(
             &mut ImageViewMut::try_new(&mut c, W, H, W).unwrap(),
             &mut ImageViewMut::try_new(&mut v, W, H, W).unwrap(),
             &key.current(),
@@ -1140,7 +1141,10 @@ fn bad_input_is_refused_and_outputs_stay_untouched() {
     let mask = vec![MASK_RETRACE; 6];
     let mv = ImageView::try_new(&mask, 3, 2, 3).unwrap();
     let mut list = [77u32; 5];
-    assert_eq!(retrace_list(&mut list, &mv), Err(Error::InsufficientSize));
+    assert_eq!(
+        try_retrace_list(&mut list, &mv),
+        Err(Error::InsufficientSize)
+    );
     assert_eq!(list, [77; 5]);
     // Key-frame policy range.
     assert!(KeyFramePolicy::try_new(f32::NAN).is_err());
@@ -1194,7 +1198,7 @@ fn compose_constant(key: &Frame) -> (Rgb, Rgb, Rgb) {
     let diffuse = vec![[0.2f32, 0.4, 0.6]; n];
     let refl = vec![[1.0f32, 0.0, 0.5]; n];
     let mut out = vec![[0.0f32; 3]; n];
-    compose(
+    try_compose(
         &mut ImageViewMut::try_new(&mut out, W, H, W).unwrap(),
         &ImageView::try_new(&diffuse, W, H, W).unwrap(),
         &ImageView::try_new(&refl, W, H, W).unwrap(),
@@ -1227,5 +1231,24 @@ fn compose_leaves_far_plane_pixels_diffuse() {
                 "{conv:?}: background pixel {i} composed"
             );
         }
+    }
+}
+
+#[test]
+fn frame_bytes_count_every_caller_buffer() {
+    use core::mem::size_of;
+    // Reflection buffers, surfels, offsets, shift's three images, the
+    // warped color, the mask and the re-trace list, one pixel each.
+    let per_pixel = 4 + 12 + 4 + 12 + 4 + size_of::<tcrr::Surfel>() + 8 + (12 + 4 + 1) + 12 + 1 + 4;
+    assert_eq!(tcrr::BYTES_PER_PIXEL, per_pixel);
+    assert_eq!(tcrr::BYTES_PER_PIXEL, 110);
+    assert_eq!(tcrr::try_frame_bytes(640, 360), Ok(640 * 360 * 110));
+    assert_eq!(tcrr::try_frame_bytes(0, 360), Err(Error::InvalidArgument));
+    assert_eq!(tcrr::try_frame_bytes(640, 0), Err(Error::InvalidArgument));
+    if usize::BITS == 64 {
+        assert_eq!(
+            tcrr::try_frame_bytes(u32::MAX, u32::MAX),
+            Err(Error::InvalidArgument)
+        );
     }
 }

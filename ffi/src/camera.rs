@@ -10,7 +10,7 @@ use crate::status::{guard, refl_status};
 use crate::types::{
     convention, refl_camera, refl_mat4, refl_projection, refl_ray, refl_vec2, refl_vec3,
 };
-use refl_core::camera::{apply_reprojection, reprojection_matrix};
+use refl_core::camera::{apply_reprojection, try_reprojection_matrix};
 use refl_core::glam::{Mat4, Vec2, Vec3};
 use refl_core::{Camera, Error};
 
@@ -332,7 +332,7 @@ pub unsafe extern "C" fn refl_camera_projection_matrix(
         let out = Out::new(out, "out")?;
         // SAFETY: caller contract.
         let cam = unsafe { self::camera(camera, "camera") }?;
-        let m = finite_mat(cam.projection(self::convention(convention)?)?)?;
+        let m = finite_mat(cam.try_projection(self::convention(convention)?)?)?;
         // SAFETY: caller contract.
         unsafe { out.write(m) };
         Ok(())
@@ -357,7 +357,7 @@ pub unsafe extern "C" fn refl_camera_world_to_pixel_matrix(
         let out = Out::new(out, "out")?;
         // SAFETY: caller contract.
         let cam = unsafe { self::camera(camera, "camera") }?;
-        let m = finite_mat(cam.world_to_pixel(self::convention(convention)?)?)?;
+        let m = finite_mat(cam.try_world_to_pixel(self::convention(convention)?)?)?;
         // SAFETY: caller contract.
         unsafe { out.write(m) };
         Ok(())
@@ -438,30 +438,30 @@ pub unsafe extern "C" fn refl_camera_is_mirrored(
 /// 4.6.4): for a pixel position (px, py) of `from` with stored depth d,
 /// `M (px, py, d, 1) = (qx w, qy w, e w, w)` with (qx, qy) the same world
 /// point's pixel position in `to` and e its stored depth there; drop
-/// results with w <= 0 (`refl_apply_reprojection` does). Composed in double
+/// results with w <= 0 (`refl_camera_apply_reprojection` does). Composed in double
 /// precision, rounded once.
 ///
 /// Returns `REFL_STATUS_NULL_POINTER` if `out`, `from` or `to` is NULL;
 /// `REFL_STATUS_INVALID_ARGUMENT` for an unknown convention or
-/// `REFL_DEPTH_CONVENTION_LINEAR` (use `refl_reproject`); a camera's status
+/// `REFL_DEPTH_CONVENTION_LINEAR` (use `refl_camera_reproject`); a camera's status
 /// if one is invalid; `REFL_STATUS_DEGENERATE_GEOMETRY` if the composed
 /// matrix is not finite.
 ///
 /// # Safety
 /// `out` must be NULL or writable; `from` and `to` NULL or readable.
 #[no_mangle]
-pub unsafe extern "C" fn refl_reprojection_matrix(
+pub unsafe extern "C" fn refl_camera_reprojection_matrix(
     out: *mut refl_mat4,
     from: *const refl_camera,
     to: *const refl_camera,
     convention: u32,
 ) -> refl_status {
-    guard("refl_reprojection_matrix", || {
+    guard("refl_camera_reprojection_matrix", || {
         let out = Out::new(out, "out")?;
         crate::ptr::no_nulls(&[(from.is_null(), "from"), (to.is_null(), "to")])?;
         // SAFETY: caller contract.
         let (from, to) = unsafe { (camera(from, "from")?, camera(to, "to")?) };
-        let m = finite_mat(reprojection_matrix(
+        let m = finite_mat(try_reprojection_matrix(
             &from,
             &to,
             self::convention(convention)?,
@@ -485,7 +485,7 @@ pub unsafe extern "C" fn refl_reprojection_matrix(
 /// # Safety
 /// `out` must be NULL or writable; `from` and `to` NULL or readable.
 #[no_mangle]
-pub unsafe extern "C" fn refl_reproject(
+pub unsafe extern "C" fn refl_camera_reproject(
     out: *mut refl_projection,
     from: *const refl_camera,
     to: *const refl_camera,
@@ -493,7 +493,7 @@ pub unsafe extern "C" fn refl_reproject(
     depth: f32,
     convention: u32,
 ) -> refl_status {
-    guard("refl_reproject", || {
+    guard("refl_camera_reproject", || {
         let out = Out::new(out, "out")?;
         crate::ptr::no_nulls(&[(from.is_null(), "from"), (to.is_null(), "to")])?;
         // SAFETY: caller contract.
@@ -510,7 +510,7 @@ pub unsafe extern "C" fn refl_reproject(
     })
 }
 
-/// Applies a reprojection matrix (from `refl_reprojection_matrix`) to the
+/// Applies a reprojection matrix (from `refl_camera_reprojection_matrix`) to the
 /// pixel position `pixel` with stored depth `depth`: writes to `*out` the
 /// pixel position and stored depth after the homogeneous divide, or
 /// `valid = false` when w <= 0 (behind the target eye) or the result is not
@@ -523,13 +523,13 @@ pub unsafe extern "C" fn refl_reproject(
 /// # Safety
 /// `out` must be NULL or writable; `matrix` NULL or readable.
 #[no_mangle]
-pub unsafe extern "C" fn refl_apply_reprojection(
+pub unsafe extern "C" fn refl_camera_apply_reprojection(
     out: *mut refl_projection,
     matrix: *const refl_mat4,
     pixel: refl_vec2,
     depth: f32,
 ) -> refl_status {
-    guard("refl_apply_reprojection", || {
+    guard("refl_camera_apply_reprojection", || {
         let out = Out::new(out, "out")?;
         // SAFETY: caller contract.
         let m = Mat4::from(unsafe { read(matrix, "matrix") }?);

@@ -8,53 +8,46 @@
 //! the host renders depth and color through the camera (geometry strictly
 //! in front of the clip plane only), and `refl_cluster_finalize`.
 //!
-//! Arrays are read into copies and results are computed before any output
-//! is written, so a failed call leaves every output untouched.
+//! Arrays are borrowed in place (nothing is copied or allocated); every
+//! input is validated before the first output is written, so a failed call
+//! leaves every output untouched, and an output array must not overlap an
+//! input (`REFL_STATUS_INVALID_ARGUMENT`).
 
 use crate::image::{refl_image_u32, refl_image_u32_mut, refl_image_vec3, refl_row_range};
-use crate::ptr::{byte_len, overlaps, read, read_vec, Out};
+use crate::ptr::{
+    byte_len, no_overlap, overlaps, range, read, slice_mut, slice_mut_or_empty, slice_or_empty, Out,
+};
 use crate::status::{guard, refl_status};
-use crate::trace::{depth_image, refl_depth_image, refl_step_options, refl_thickness};
+use crate::trace::{depth_image, refl_depth_image, refl_step_options, refl_trace_thickness};
 use crate::types::{
-    refl_cluster_camera, refl_cluster_camera_params, refl_cluster_params, refl_cluster_shade,
-    refl_lobe, refl_object_bins, refl_vec3,
+    refl_cluster_camera, refl_cluster_camera_options, refl_cluster_lobe, refl_cluster_object_bins,
+    refl_cluster_options, refl_cluster_shade, refl_vec3,
 };
 use refl_core::cluster::{
-    self, CameraParams, ClusterCamera, ClusterInput, ClusterParams, ClusterShade, FinalizeParams,
-    ObjectBins,
+    self, ClusterCamera, ClusterCameraOptions, ClusterInput, ClusterOptions, FinalizeInput,
 };
-use refl_core::{Error, ImageView, ImageViewMut, RowRange, Thickness};
+use refl_core::{Error, ImageView, RowRange, Thickness};
 
-/// Per-pixel finalization parameters (`refl_cluster_finalize`).
+/// What `refl_cluster_finalize` needs besides the cluster's pixels, camera
+/// and images (`refl_core::cluster::FinalizeInput`): the depth image's
+/// thickness and how to trace and weight each pixel's rays. A bundle of
+/// per-call inputs, not settings with defaults.
 #[repr(C)]
 #[derive(Clone, Copy, Debug)]
-pub struct refl_cluster_finalize_params {
+pub struct refl_cluster_finalize_input {
     /// Surface thickness of the depth image.
-    pub thickness: refl_thickness,
+    pub thickness: refl_trace_thickness,
     /// Stepping options (`stride >= 1`).
     pub step: refl_step_options,
     /// Refine hits to sub-texel accuracy.
     pub refine: bool,
     /// The rays per pixel.
-    pub lobe: refl_lobe,
+    pub lobe: refl_cluster_lobe,
     /// Glossy fade: a hit's weight falls from 1 on the image plane to 0 at
     /// the far plane (the missing weight is the host's diffuse color).
     pub fade: bool,
     /// Rotates each pixel's lobe samples.
     pub seed: u32,
-}
-
-/// Reads a caller array into a copy (`NullPointer` for NULL with a
-/// non-zero count; an empty array may be NULL).
-///
-/// # Safety
-/// A non-null, aligned `p` must be readable for `count` values of `T`.
-unsafe fn copy_in<T: Copy>(p: *const T, count: usize, name: &str) -> Result<Vec<T>, Error> {
-    if count == 0 {
-        return Ok(Vec::new());
-    }
-    // SAFETY: caller contract.
-    unsafe { read_vec(p, count, name) }
 }
 
 /// Checks an output array: non-null, aligned, a possible length.
@@ -69,80 +62,44 @@ fn check_out<T>(p: *mut T, count: usize) -> Result<(), Error> {
     Ok(())
 }
 
-/// Copies `values` to the checked output array `p` (at least
-/// `values.len()` long).
-///
-/// # Safety
-/// `p` must have passed `check_out` for `values.len()` and be writable.
-unsafe fn copy_out<T: Copy>(p: *mut T, values: &[T]) {
-    if values.is_empty() {
-        return;
-    }
-    // SAFETY: caller contract.
-    unsafe { core::slice::from_raw_parts_mut(p, values.len()) }.copy_from_slice(values);
-}
-
 fn rows(r: refl_row_range, height: u32) -> Result<RowRange, Error> {
     RowRange::try_new(r.begin, r.end, height)
 }
 
-/// Writes the seed's clustering constants (13 x 8 bins, gain 1) to `*out`.
-///
-/// Returns `REFL_STATUS_NULL_POINTER` if `out` is NULL.
-///
-/// # Safety
-/// `out` must be NULL or writable.
+/// The seed's clustering constants (13 x 8 bins, gain 1).
 #[no_mangle]
-pub unsafe extern "C" fn refl_cluster_params_default(out: *mut refl_cluster_params) -> refl_status {
-    guard("refl_cluster_params_default", || {
-        let out = Out::new(out, "out")?;
-        // SAFETY: caller contract.
-        unsafe { out.write(ClusterParams::default().into()) };
-        Ok(())
-    })
+pub extern "C" fn refl_cluster_options_default() -> refl_cluster_options {
+    ClusterOptions::default().into()
 }
 
-/// Writes the default cluster camera parameters (D = 100, mirror, 1x
-/// resolution, at most 2048 texels a side, clusters of at least 4 pixels,
-/// f <= 16) to `*out`.
-///
-/// Returns `REFL_STATUS_NULL_POINTER` if `out` is NULL.
-///
-/// # Safety
-/// `out` must be NULL or writable.
+/// The default cluster camera options (D = 100, mirror, 1x resolution, at
+/// most 2048 texels a side, clusters of at least 4 pixels, f <= 16).
 #[no_mangle]
-pub unsafe extern "C" fn refl_cluster_camera_params_default(
-    out: *mut refl_cluster_camera_params,
-) -> refl_status {
-    guard("refl_cluster_camera_params_default", || {
-        let out = Out::new(out, "out")?;
-        // SAFETY: caller contract.
-        unsafe { out.write(CameraParams::default().into()) };
-        Ok(())
-    })
+pub extern "C" fn refl_cluster_camera_options_default() -> refl_cluster_camera_options {
+    ClusterCameraOptions::default().into()
 }
 
 /// Writes to `*out` the most clusters a frame with `objects` reflective
 /// objects can have (`objects * max_theta_bins * max_phi_bins`): size the
 /// `offsets` of `refl_cluster_ranges` one larger.
 ///
-/// Returns `REFL_STATUS_NULL_POINTER` if `out` or `params` is NULL;
-/// `REFL_STATUS_INVALID_ARGUMENT` for invalid params or a count that does
+/// Returns `REFL_STATUS_NULL_POINTER` if `out` or `options` is NULL;
+/// `REFL_STATUS_INVALID_ARGUMENT` for invalid options or a count that does
 /// not fit in `uint32_t`.
 ///
 /// # Safety
-/// `out` NULL or writable; `params` NULL or readable.
+/// `out` NULL or writable; `options` NULL or readable.
 #[no_mangle]
 pub unsafe extern "C" fn refl_cluster_bins_max(
     out: *mut u32,
     objects: u32,
-    params: *const refl_cluster_params,
+    options: *const refl_cluster_options,
 ) -> refl_status {
     guard("refl_cluster_bins_max", || {
         let out = Out::new(out, "out")?;
         // SAFETY: caller contract.
-        let p = ClusterParams::from(unsafe { read(params, "params") }?);
-        let n = cluster::cluster_bins_max(objects, &p)?;
+        let p = ClusterOptions::from(unsafe { read(options, "options") }?);
+        let n = cluster::try_cluster_bins_max(objects, &p)?;
         // SAFETY: caller contract.
         unsafe { out.write(n) };
         Ok(())
@@ -169,21 +126,22 @@ pub unsafe extern "C" fn refl_cluster_count_objects(
     rows: refl_row_range,
 ) -> refl_status {
     guard("refl_cluster_count_objects", || {
-        // SAFETY: caller contract.
-        let mut c = unsafe { copy_in(counts.cast_const(), counts_len, "counts") }?;
+        if counts_len > 0 {
+            crate::ptr::check_buffer(counts.cast_const(), counts_len, "counts")?;
+        }
         // SAFETY: caller contract.
         let view = unsafe { objects.view() }?;
         let r = self::rows(rows, view.height())?;
-        let c_bytes = counts_len * core::mem::size_of::<u32>();
-        let o_bytes = objects.len.saturating_mul(4);
-        if overlaps(counts as usize, c_bytes, objects.data as usize, o_bytes) {
-            return Err(Error::InvalidArgument);
-        }
-        cluster::try_count_objects(&mut c, &view, r)?;
-        // SAFETY: checked by copy_in (non-null, aligned, length) and
-        // writable by contract.
-        unsafe { copy_out(counts, &c) };
-        Ok(())
+        no_overlap(
+            range(counts, counts_len),
+            &[range(objects.data, objects.len)],
+            "counts",
+        )?;
+        // SAFETY: checked above (non-null, aligned, length), readable and
+        // writable by contract, disjoint from the image (checked).
+        let c = unsafe { slice_mut_or_empty(counts, counts_len, "counts") }?;
+        // Checks every count for overflow before the first write.
+        cluster::try_count_objects(c, &view, r)
     })
 }
 
@@ -192,43 +150,43 @@ pub unsafe extern "C" fn refl_cluster_count_objects(
 /// objects) and its first cluster id; writes `out[k]` for every object and
 /// the total number of cluster ids to `*out_total`.
 ///
-/// Returns `REFL_STATUS_NULL_POINTER` for a NULL output, `params`, or a
+/// Returns `REFL_STATUS_NULL_POINTER` for a NULL output, `options`, or a
 /// NULL array with a non-zero length; `REFL_STATUS_INVALID_ARGUMENT` for
-/// invalid params, `frame_pixels == 0`, or counts summing above it;
+/// invalid options, `frame_pixels == 0`, or counts summing above it;
 /// `REFL_STATUS_INSUFFICIENT_SIZE` if `out_len < counts_len`.
 ///
 /// # Safety
 /// `out_total` NULL or writable; `out` NULL or writable for `out_len`
-/// values; `counts` NULL or readable for `counts_len`; `params` NULL or
+/// values; `counts` NULL or readable for `counts_len`; `options` NULL or
 /// readable.
 #[no_mangle]
 pub unsafe extern "C" fn refl_cluster_bin_layout(
     out_total: *mut u32,
-    out: *mut refl_object_bins,
+    out: *mut refl_cluster_object_bins,
     out_len: usize,
     counts: *const u32,
     counts_len: usize,
     frame_pixels: u64,
-    params: *const refl_cluster_params,
+    options: *const refl_cluster_options,
 ) -> refl_status {
     guard("refl_cluster_bin_layout", || {
         let total_out = Out::new(out_total, "out_total")?;
         check_out(out, out_len)?;
         // SAFETY: caller contract.
-        let c = unsafe { copy_in(counts, counts_len, "counts") }?;
+        let c = unsafe { slice_or_empty(counts, counts_len, "counts") }?;
         // SAFETY: caller contract.
-        let p = ClusterParams::from(unsafe { read(params, "params") }?);
-        let mut bins = vec![ObjectBins::default(); out_len.min(counts_len)];
+        let p = ClusterOptions::from(unsafe { read(options, "options") }?);
         if out_len < counts_len {
             return Err(Error::InsufficientSize);
         }
-        let total = cluster::try_bin_layout(&mut bins, &c, frame_pixels, &p)?;
-        let flat: Vec<refl_object_bins> = bins.into_iter().map(Into::into).collect();
-        // SAFETY: checked by check_out; writable by contract.
-        unsafe {
-            copy_out(out, &flat);
-            total_out.write(total);
-        }
+        no_overlap(range(out, out_len), &[range(counts, counts_len)], "out")?;
+        // SAFETY: checked by check_out, writable by contract, disjoint from
+        // `counts` (checked).
+        let o = unsafe { slice_mut(out, out_len, "out") }?;
+        // Validates everything before the first write.
+        let total = cluster::try_bin_layout(o, c, frame_pixels, &p)?;
+        // SAFETY: caller contract.
+        unsafe { total_out.write(total) };
         Ok(())
     })
 }
@@ -254,55 +212,31 @@ pub unsafe extern "C" fn refl_cluster_assign(
     rows: refl_row_range,
     normals: refl_image_vec3,
     objects: refl_image_u32,
-    layout: *const refl_object_bins,
+    layout: *const refl_cluster_object_bins,
     layout_len: usize,
 ) -> refl_status {
     guard("refl_cluster_assign", || {
         // SAFETY: caller contract.
-        let lay: Vec<ObjectBins> = unsafe { copy_in(layout, layout_len, "layout") }?
-            .into_iter()
-            .map(Into::into)
-            .collect();
+        let lay = unsafe { slice_or_empty(layout, layout_len, "layout") }?;
         // SAFETY: caller contract.
         let (nv, ov) = unsafe { (normals.view()?, objects.view()?) };
         // SAFETY: caller contract (validates the descriptor only).
         unsafe { ids.as_const().view() }?;
         let r = self::rows(rows, ids.height)?;
-        let ids_bytes = ids.len.saturating_mul(4);
-        if overlaps(
-            ids.data as usize,
-            ids_bytes,
-            normals.data as usize,
-            normals.len.saturating_mul(12),
-        ) || overlaps(
-            ids.data as usize,
-            ids_bytes,
-            objects.data as usize,
-            objects.len.saturating_mul(4),
-        ) {
-            return Err(Error::InvalidArgument);
-        }
-        // Into a local band first: the caller's band is written on success.
-        let (w, h) = (ids.width, ids.height);
-        let band_len = if r.is_empty() {
-            0
-        } else {
-            (r.len() as usize - 1) * ids.stride as usize + w as usize
-        };
-        let mut local = vec![0u32; band_len];
-        {
-            let mut v = ImageViewMut::try_band(&mut local, w, h, ids.stride, r)?;
-            cluster::try_assign_clusters(&mut v, &nv, &ov, &lay)?;
-        }
-        // SAFETY: caller contract; checked descriptor.
+        no_overlap(
+            range(ids.data, ids.len),
+            &[
+                range(normals.data, normals.len),
+                range(objects.data, objects.len),
+                range(layout, layout_len),
+            ],
+            "ids",
+        )?;
+        // SAFETY: caller contract; checked descriptor, disjoint from the
+        // inputs (checked). Only the band's rows are borrowed.
         let mut out = unsafe { ids.band_mut(r) }?;
-        for y in r.rows() {
-            let src = &local[(y - r.start()) as usize * ids.stride as usize..][..w as usize];
-            if let Some(dst) = out.row_mut(y) {
-                dst.copy_from_slice(src);
-            }
-        }
-        Ok(())
+        // Checks every pixel of the band before the first write.
+        cluster::try_assign_clusters(&mut out, &nv, &ov, lay)
     })
 }
 
@@ -343,34 +277,35 @@ pub unsafe extern "C" fn refl_cluster_ranges(
         {
             return Err(Error::InvalidArgument);
         }
-        let need_offsets = (clusters as usize).saturating_add(1).min(offsets_len);
-        let mut off = vec![0u32; need_offsets];
-        let pixels = view.width() as usize * view.height() as usize;
-        let mut ord = vec![0u32; order_len.min(pixels)];
         if offsets_len < clusters as usize + 1 {
             return Err(Error::InsufficientSize);
         }
-        let total = cluster::try_cluster_ranges(&mut off, &mut ord, &view, clusters)?;
-        // SAFETY: checked by check_out; writable by contract.
-        unsafe {
-            copy_out(offsets, &off);
-            copy_out(order, &ord[..total as usize]);
-            total_out.write(total);
-        }
+        // SAFETY: checked by check_out, writable by contract, pairwise
+        // disjoint and disjoint from `ids` (checked).
+        let (off, ord) = unsafe {
+            (
+                slice_mut(offsets, offsets_len, "offsets")?,
+                slice_mut(order, order_len, "order")?,
+            )
+        };
+        // Validates every id before the first write.
+        let total = cluster::try_cluster_ranges(off, ord, &view, clusters)?;
+        // SAFETY: caller contract.
+        unsafe { total_out.write(total) };
         Ok(())
     })
 }
 
 /// The cluster camera of seed 003 Sec. 3.3 (Eq. 1) for the pixels
-/// `pixels[0 .. pixel_count]` (indices y * width + x into `positions` and
+/// `pixels[0 .. pixels_len]` (indices y * width + x into `positions` and
 /// `normals`, e.g. one range of `refl_cluster_ranges`) seen from `eye`.
 /// Writes a camera, or a fallback reason (`refl_cluster_fallback`), to
 /// `*out`. Planar clusters come out with f = 1 and the camera eye exactly
 /// at the mirrored eye.
 ///
-/// Returns `REFL_STATUS_NULL_POINTER` for a NULL `out`, `params`, image, or
+/// Returns `REFL_STATUS_NULL_POINTER` for a NULL `out`, `options`, image, or
 /// `pixels` with a non-zero count; `REFL_STATUS_INVALID_ARGUMENT` for
-/// invalid params, a non-finite eye, images of different sizes, a pixel
+/// invalid options, a non-finite eye, images of different sizes, a pixel
 /// outside the image, a non-finite position or a non-unit normal;
 /// `REFL_STATUS_DEGENERATE_GEOMETRY` if the camera is not representable.
 ///
@@ -382,16 +317,16 @@ pub unsafe extern "C" fn refl_cluster_build_camera(
     positions: refl_image_vec3,
     normals: refl_image_vec3,
     pixels: *const u32,
-    pixel_count: usize,
+    pixels_len: usize,
     eye: refl_vec3,
-    params: *const refl_cluster_camera_params,
+    options: *const refl_cluster_camera_options,
 ) -> refl_status {
     guard("refl_cluster_build_camera", || {
         let out = Out::new(out, "out")?;
         // SAFETY: caller contract.
-        let px = unsafe { copy_in(pixels, pixel_count, "pixels") }?;
+        let px = unsafe { slice_or_empty(pixels, pixels_len, "pixels") }?;
         // SAFETY: caller contract.
-        let p = CameraParams::from(unsafe { read(params, "params") }?);
+        let p = ClusterCameraOptions::from(unsafe { read(options, "options") }?);
         // SAFETY: caller contract.
         let input = unsafe {
             ClusterInput {
@@ -399,7 +334,7 @@ pub unsafe extern "C" fn refl_cluster_build_camera(
                 normals: normals.view()?,
             }
         };
-        let v = cluster::try_cluster_camera(&input, &px, eye.into(), &p)?;
+        let v = cluster::try_cluster_camera(&input, px, eye.into(), &p)?;
         // SAFETY: caller contract.
         unsafe { out.write(refl_cluster_camera::from_view(&v)) };
         Ok(())
@@ -416,17 +351,21 @@ pub unsafe extern "C" fn refl_cluster_build_camera(
 /// # Safety
 /// `out` NULL or writable.
 #[no_mangle]
-pub unsafe extern "C" fn refl_lobe_angle(out: *mut f32, exponent: f32, energy: f32) -> refl_status {
-    guard("refl_lobe_angle", || {
+pub unsafe extern "C" fn refl_cluster_lobe_angle(
+    out: *mut f32,
+    exponent: f32,
+    energy: f32,
+) -> refl_status {
+    guard("refl_cluster_lobe_angle", || {
         let out = Out::new(out, "out")?;
-        let a = cluster::lobe_angle(exponent, energy)?;
+        let a = cluster::try_lobe_angle(exponent, energy)?;
         // SAFETY: caller contract.
         unsafe { out.write(a) };
         Ok(())
     })
 }
 
-/// Finalizes the reflection of the pixels `pixels[0 .. pixel_count]` of one
+/// Finalizes the reflection of the pixels `pixels[0 .. pixels_len]` of one
 /// cluster (seed 003 Sec. 3.4, 3.5): each pixel's mirror ray (or lobe
 /// samples) is stepped through the cluster depth image `depth` (rendered
 /// through `camera->camera`) up to the far plane; hits take the bilinear
@@ -441,7 +380,7 @@ pub unsafe extern "C" fn refl_lobe_angle(out: *mut f32, exponent: f32, energy: f
 /// color image of another size than the depth image, a non-finite eye, a
 /// listed pixel outside the input or with a non-finite position or
 /// non-unit normal, an unknown convention, or `out` overlapping an input;
-/// `REFL_STATUS_INSUFFICIENT_SIZE` if `out_len < pixel_count` or an image
+/// `REFL_STATUS_INSUFFICIENT_SIZE` if `out_len < pixels_len` or an image
 /// is short.
 ///
 /// # Safety
@@ -456,34 +395,34 @@ pub unsafe extern "C" fn refl_cluster_finalize(
     positions: refl_image_vec3,
     normals: refl_image_vec3,
     pixels: *const u32,
-    pixel_count: usize,
+    pixels_len: usize,
     eye: refl_vec3,
     camera: *const refl_cluster_camera,
     depth: *const refl_depth_image,
     color: refl_image_vec3,
-    params: *const refl_cluster_finalize_params,
+    input: *const refl_cluster_finalize_input,
 ) -> refl_status {
     guard("refl_cluster_finalize", || {
         let fb_out = Out::new(out_fallbacks, "out_fallbacks")?;
         check_out(out, out_len)?;
         // SAFETY: caller contract.
-        let px = unsafe { copy_in(pixels, pixel_count, "pixels") }?;
+        let px = unsafe { slice_or_empty(pixels, pixels_len, "pixels") }?;
         // SAFETY: caller contract.
-        let (cam_c, depth_c, params_c) = unsafe {
+        let (cam_c, depth_c, input_c) = unsafe {
             (
                 read(camera, "camera")?,
                 read(depth, "depth")?,
-                read(params, "params")?,
+                read(input, "input")?,
             )
         };
         let cam = ClusterCamera::try_from(&cam_c)?;
         // SAFETY: caller contract.
         let di = unsafe { depth_image(&depth_c) }?;
-        let thickness = if params_c.thickness.back_faces.data.is_null() {
-            Thickness::Constant(params_c.thickness.constant)
+        let thickness = if input_c.thickness.back_faces.data.is_null() {
+            Thickness::Constant(input_c.thickness.constant)
         } else {
             // SAFETY: caller contract.
-            Thickness::BackFaces(unsafe { params_c.thickness.back_faces.view() }?)
+            Thickness::BackFaces(unsafe { input_c.thickness.back_faces.view() }?)
         };
         // SAFETY: caller contract.
         let (input, cv) = unsafe {
@@ -495,55 +434,37 @@ pub unsafe extern "C" fn refl_cluster_finalize(
                 color.view()?,
             )
         };
-        let out_bytes = out_len.saturating_mul(core::mem::size_of::<refl_cluster_shade>());
-        let inputs: [(usize, usize); 5] = [
-            (positions.data as usize, positions.len.saturating_mul(12)),
-            (normals.data as usize, normals.len.saturating_mul(12)),
-            (color.data as usize, color.len.saturating_mul(12)),
-            (
-                depth_c.depth.data as usize,
-                depth_c.depth.len.saturating_mul(4),
+        let inputs = [
+            range(positions.data, positions.len),
+            range(normals.data, normals.len),
+            range(color.data, color.len),
+            range(depth_c.depth.data, depth_c.depth.len),
+            range(
+                input_c.thickness.back_faces.data,
+                input_c.thickness.back_faces.len,
             ),
-            (
-                params_c.thickness.back_faces.data as usize,
-                params_c.thickness.back_faces.len.saturating_mul(4),
-            ),
+            range(pixels, pixels_len),
         ];
-        if inputs
-            .iter()
-            .any(|&(a, l)| overlaps(out as usize, out_bytes, a, l))
-        {
-            return Err(Error::InvalidArgument);
-        }
-        let fp = FinalizeParams {
+        no_overlap(range(out, out_len), &inputs, "out")?;
+        let fin = FinalizeInput {
             thickness,
-            step: params_c.step.into(),
-            refine: params_c.refine,
-            lobe: params_c.lobe.into(),
-            fade: params_c.fade,
-            seed: params_c.seed,
+            step: input_c.step.into(),
+            refine: input_c.refine,
+            lobe: input_c.lobe.into(),
+            fade: input_c.fade,
+            seed: input_c.seed,
         };
-        let mut shades = vec![ClusterShade::default(); px.len()];
         if out_len < px.len() {
             return Err(Error::InsufficientSize);
         }
         let cv: ImageView<'_, [f32; 3]> = cv;
-        let fell = cluster::try_finalize_cluster(
-            &mut shades,
-            &input,
-            &px,
-            eye.into(),
-            &cam,
-            &di,
-            &cv,
-            &fp,
-        )?;
-        let flat: Vec<refl_cluster_shade> = shades.iter().map(Into::into).collect();
-        // SAFETY: checked by check_out; writable by contract.
-        unsafe {
-            copy_out(out, &flat);
-            fb_out.write(fell);
-        }
+        // SAFETY: checked by check_out, writable by contract, disjoint from
+        // every input (checked).
+        let o = unsafe { slice_mut(out, out_len, "out") }?;
+        // Validates every input and listed pixel before the first write.
+        let fell = cluster::try_finalize_cluster(o, &input, px, eye.into(), &cam, &di, &cv, &fin)?;
+        // SAFETY: caller contract.
+        unsafe { fb_out.write(fell) };
         Ok(())
     })
 }

@@ -8,21 +8,20 @@
 
 use crate::hiz::refl_hiz;
 use crate::hiz::{bind_hiz, stamp_mismatch};
-use crate::image::refl_image_vec3;
+use crate::image::{refl_image_vec3, refl_row_range};
 use crate::ptr::{byte_len, check_buffer, overlaps, pyramid_band, read, Out};
 use crate::status::{fail, fail_str, guard, refl_status};
-use crate::trace::refl_thickness;
+use crate::trace::refl_trace_thickness;
 use crate::types::{
-    refl_cone, refl_cone_fades, refl_cone_options, refl_cone_result, refl_multiray_options,
-    refl_multiray_result, refl_ray, refl_vec2, refl_vec3, REFL_FADE_BORDER,
-    REFL_FADE_TOWARD_CAMERA, REFL_FADE_TRAVEL,
+    refl_cone, refl_cone_fades, refl_cone_multiray_options, refl_cone_multiray_result,
+    refl_cone_options, refl_cone_result, refl_ray, refl_vec2, refl_vec3,
 };
 use refl_core::cone::{
     try_build_color_level0_rows, try_build_color_level_rows, try_build_visibility_level0_rows,
     try_build_visibility_level_rows, Cone, ConeOptions, ConePyramids, FadeRange, Fades,
     MultiRayOptions,
 };
-use refl_core::{ColorTexel, Error, HiZLayout, HiZOptions, Ray};
+use refl_core::{ColorTexel, Error, HiZLayout, Ray};
 
 /// The cone pyramids of one frame, bound together.
 #[repr(C)]
@@ -157,8 +156,8 @@ pub unsafe extern "C" fn refl_cone_pyramid_len(
     guard("refl_cone_pyramid_len", || {
         let oc = Out::new(out_color_len, "out_color_len")?;
         let ov = Out::new(out_visibility_len, "out_visibility_len")?;
-        let c = refl_core::color_pyramid_len(width, height)?;
-        let v = refl_core::visibility_pyramid_len(width, height)?;
+        let c = refl_core::try_color_pyramid_len(width, height)?;
+        let v = refl_core::try_visibility_pyramid_len(width, height)?;
         // SAFETY: caller contract.
         unsafe {
             oc.write(c);
@@ -178,7 +177,7 @@ const _: () = assert!(
         && REFL_CONE_VISIBILITY_STAMP_LEN == refl_core::VISIBILITY_STAMP_LEN
 );
 
-/// Builds rows `[row_start, row_end)` of level `level` of the color
+/// Builds the rows `rows` of level `level` of the color
 /// pyramid of `*image` in `dst` (level 0 copies the image; level L blurs
 /// level L - 1 with a normalized Gaussian of standard deviation `sigma`
 /// finer texels and halves it). Build level by level; row bands of one
@@ -202,8 +201,7 @@ pub unsafe extern "C" fn refl_cone_build_color_rows(
     dst_len: usize,
     image: *const refl_image_vec3,
     level: u32,
-    row_start: u32,
-    row_end: u32,
+    rows: refl_row_range,
     sigma: f32,
 ) -> refl_status {
     guard("refl_cone_build_color_rows", || {
@@ -220,7 +218,7 @@ pub unsafe extern "C" fn refl_cone_build_color_rows(
             return Err(Error::InvalidArgument);
         }
         let layout = HiZLayout::try_new(view.width(), view.height())?;
-        let len = refl_core::color_pyramid_len(view.width(), view.height())?;
+        let len = refl_core::try_color_pyramid_len(view.width(), view.height())?;
         if dst_len < len {
             return Err(fail(
                 Error::InsufficientSize,
@@ -229,16 +227,8 @@ pub unsafe extern "C" fn refl_cone_build_color_rows(
         }
         // SAFETY: `dst` checked above, writable by contract; the band and
         // the finer level are this call's alone (contract).
-        let (out, finer, rows) = unsafe {
-            pyramid_band(
-                dst.cast::<ColorTexel>(),
-                dst_len,
-                &layout,
-                level,
-                row_start,
-                row_end,
-            )
-        }?;
+        let (out, finer, rows) =
+            unsafe { pyramid_band(dst.cast::<ColorTexel>(), dst_len, &layout, level, rows) }?;
         match finer {
             None => try_build_color_level0_rows(out, &view, rows),
             Some(finer) => try_build_color_level_rows(out, finer, &layout, level, rows, sigma),
@@ -279,7 +269,7 @@ pub unsafe extern "C" fn refl_cone_build_color(
         if overlaps(img_c.data as usize, src_bytes, dst as usize, bytes) {
             return Err(Error::InvalidArgument);
         }
-        let n = refl_core::color_pyramid_len(view.width(), view.height())?;
+        let n = refl_core::try_color_pyramid_len(view.width(), view.height())?;
         if dst_len < n {
             return Err(Error::InsufficientSize);
         }
@@ -290,7 +280,7 @@ pub unsafe extern "C" fn refl_cone_build_color(
     })
 }
 
-/// Builds rows `[row_start, row_end)` of level `level` of the visibility
+/// Builds the rows `rows` of level `level` of the visibility
 /// pyramid of `*hiz` in `dst` (level 0: 1 where a foreground surface is,
 /// 0 elsewhere; level L from level L - 1 and the Hi-Z, seed 004
 /// Sec. 4.4.2 / Listing 4.4 as `refl_core::cone` reads it). Build level by
@@ -313,8 +303,7 @@ pub unsafe extern "C" fn refl_cone_build_visibility_rows(
     dst_len: usize,
     hiz: *const refl_hiz,
     level: u32,
-    row_start: u32,
-    row_end: u32,
+    rows: refl_row_range,
 ) -> refl_status {
     guard("refl_cone_build_visibility_rows", || {
         let bytes = check_buffer(dst.cast_const(), dst_len, "dst")?;
@@ -327,7 +316,7 @@ pub unsafe extern "C" fn refl_cone_build_visibility_rows(
             return Err(Error::InvalidArgument);
         }
         let layout = *hz.layout();
-        let len = refl_core::visibility_pyramid_len(layout.width(), layout.height())?;
+        let len = refl_core::try_visibility_pyramid_len(layout.width(), layout.height())?;
         if dst_len < len {
             return Err(fail(
                 Error::InsufficientSize,
@@ -336,8 +325,7 @@ pub unsafe extern "C" fn refl_cone_build_visibility_rows(
         }
         // SAFETY: `dst` checked above, writable by contract; the band and
         // the finer level are this call's alone (contract).
-        let (out, finer, rows) =
-            unsafe { pyramid_band(dst, dst_len, &layout, level, row_start, row_end) }?;
+        let (out, finer, rows) = unsafe { pyramid_band(dst, dst_len, &layout, level, rows) }?;
         match finer {
             None => try_build_visibility_level0_rows(out, &hz, rows),
             Some(finer) => try_build_visibility_level_rows(out, finer, &hz, level, rows),
@@ -375,7 +363,7 @@ pub unsafe extern "C" fn refl_cone_build_visibility(
         if overlaps(h.data as usize, hb, dst as usize, bytes) {
             return Err(Error::InvalidArgument);
         }
-        let n = refl_core::visibility_pyramid_len(hz.layout().width(), hz.layout().height())?;
+        let n = refl_core::try_visibility_pyramid_len(hz.layout().width(), hz.layout().height())?;
         if dst_len < n {
             return Err(Error::InsufficientSize);
         }
@@ -391,10 +379,10 @@ impl From<ConeOptions> for refl_cone_options {
         Self {
             max_circles: o.max_circles,
             level_bias: o.level_bias,
-            use_visibility: u32::from(o.use_visibility),
+            use_visibility: o.use_visibility,
             max_stretch: o.max_stretch,
             depth_tolerance: o.depth_tolerance,
-            normalize: u32::from(o.normalize),
+            normalize: o.normalize,
         }
     }
 }
@@ -404,28 +392,46 @@ impl From<refl_cone_options> for ConeOptions {
         Self {
             max_circles: o.max_circles,
             level_bias: o.level_bias,
-            use_visibility: o.use_visibility != 0,
+            use_visibility: o.use_visibility,
             max_stretch: o.max_stretch,
             depth_tolerance: o.depth_tolerance,
-            normalize: o.normalize != 0,
+            normalize: o.normalize,
         }
     }
 }
 
-/// The default cone options into `*out`.
-///
-/// Returns `REFL_STATUS_NULL_POINTER` if `out` is NULL.
-///
-/// # Safety
-/// `out` must be NULL or writable.
+/// The default cone options: 8 circles, bias 0, visibility on,
+/// isotropic, 1% depth tolerance, no normalization.
 #[no_mangle]
-pub unsafe extern "C" fn refl_cone_default_options(out: *mut refl_cone_options) -> refl_status {
-    guard("refl_cone_default_options", || {
-        let out = Out::new(out, "out")?;
-        // SAFETY: caller contract.
-        unsafe { out.write(ConeOptions::default().into()) };
-        Ok(())
-    })
+pub extern "C" fn refl_cone_options_default() -> refl_cone_options {
+    ConeOptions::default().into()
+}
+
+/// The default multi-ray options: 8 rays (the low end of seed 003
+/// Sec. 3.5's 8 to 49), no rotation, the Hi-Z defaults.
+#[no_mangle]
+pub extern "C" fn refl_cone_multiray_options_default() -> refl_cone_multiray_options {
+    MultiRayOptions::default().into()
+}
+
+impl From<refl_cone_multiray_options> for MultiRayOptions {
+    fn from(o: refl_cone_multiray_options) -> Self {
+        Self {
+            rays: o.rays,
+            rotation: o.rotation.into(),
+            hiz: o.hiz.into(),
+        }
+    }
+}
+
+impl From<MultiRayOptions> for refl_cone_multiray_options {
+    fn from(o: MultiRayOptions) -> Self {
+        Self {
+            rays: o.rays,
+            rotation: o.rotation.into(),
+            hiz: o.hiz.into(),
+        }
+    }
 }
 
 fn texel(v: refl_vec3) -> ColorTexel {
@@ -508,9 +514,8 @@ pub unsafe extern "C" fn refl_cone_trace(
 /// `fallback + fade * (color - fallback)`.
 ///
 /// Returns `REFL_STATUS_NULL_POINTER` if `out` or `fades` is NULL;
-/// `REFL_STATUS_INVALID_ARGUMENT` for unknown bits in `enabled`, an enabled
-/// range that is not finite with `end > start`, a zero size or non-finite
-/// inputs.
+/// `REFL_STATUS_INVALID_ARGUMENT` for an enabled range that is not finite
+/// with `end > start`, a zero size or non-finite inputs.
 ///
 /// # Safety
 /// `out` NULL or writable; `fades` NULL or readable.
@@ -530,20 +535,16 @@ pub unsafe extern "C" fn refl_cone_fade(
         let out = Out::new(out, "out")?;
         // SAFETY: caller contract.
         let f = unsafe { read(fades, "fades") }?;
-        let all = REFL_FADE_TOWARD_CAMERA | REFL_FADE_BORDER | REFL_FADE_TRAVEL;
-        if f.enabled & !all != 0 {
-            return Err(Error::InvalidArgument);
-        }
-        let range = |bit: u32, r: crate::types::refl_fade_range| {
-            (f.enabled & bit != 0).then_some(FadeRange {
+        let range = |r: crate::types::refl_cone_fade_range| {
+            r.enabled.then_some(FadeRange {
                 start: r.start,
                 end: r.end,
             })
         };
         let fades = Fades {
-            toward_camera: range(REFL_FADE_TOWARD_CAMERA, f.toward_camera),
-            border: range(REFL_FADE_BORDER, f.border),
-            travel: range(REFL_FADE_TRAVEL, f.travel),
+            toward_camera: range(f.toward_camera),
+            border: range(f.border),
+            travel: range(f.travel),
         };
         let v = fades.try_factor(
             reflected.into(),
@@ -581,15 +582,15 @@ pub unsafe extern "C" fn refl_cone_fade(
 #[no_mangle]
 #[allow(clippy::too_many_arguments)]
 pub unsafe extern "C" fn refl_cone_multiray(
-    out: *mut refl_multiray_result,
+    out: *mut refl_cone_multiray_result,
     pyramids: *const refl_cone_pyramids,
-    thickness: *const refl_thickness,
+    thickness: *const refl_trace_thickness,
     ray: refl_ray,
     normal: refl_vec3,
     t_max: f32,
     theta: f32,
     power: f32,
-    options: *const refl_multiray_options,
+    options: *const refl_cone_multiray_options,
     fallback: refl_vec3,
 ) -> refl_status {
     guard("refl_cone_multiray", || {
@@ -610,16 +611,7 @@ pub unsafe extern "C" fn refl_cone_multiray(
         if !(fb.iter().all(|c| c.is_finite())) {
             return Err(Error::InvalidArgument);
         }
-        let opts = MultiRayOptions {
-            rays: o.rays,
-            rotation: o.rotation.into(),
-            hiz: HiZOptions {
-                start_level: o.hiz_start_level,
-                stop_level: o.hiz_stop_level,
-                max_iterations: o.hiz_max_iterations,
-                prologue_steps: o.hiz_prologue_steps,
-            },
-        };
+        let opts = MultiRayOptions::from(o);
         let ray = Ray {
             origin: ray.origin.into(),
             dir: ray.dir.into(),
@@ -637,7 +629,7 @@ pub unsafe extern "C" fn refl_cone_multiray(
         )?;
         // SAFETY: caller contract.
         unsafe {
-            out.write(refl_multiray_result {
+            out.write(refl_cone_multiray_result {
                 color: vec3(r.color),
                 traced: r.traced,
                 hits: r.hits,

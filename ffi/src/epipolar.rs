@@ -6,12 +6,14 @@
 //! rendering phase (Alg. 2: "test object O only" or "full traversal from
 //! t"). The host traces; refl decides. See `refl_core::epipolar`.
 
+use crate::image::refl_row_range;
 use crate::ptr::{byte_len, overlaps, read, Out};
 use crate::status::{guard, refl_status};
 use crate::types::refl_camera;
+use core::mem::size_of;
 use refl_core::epipolar::{
-    decide, scratch_len, try_reproject, AipEntry, Decision, Params, PosEntry, Reason,
-    ReprojectStats, BACKGROUND_OBJECT, INVALID_OBJECT, MAX_SPLAT_RADIUS,
+    try_decide_band, try_reproject, try_scratch_len, AipEntry, Decision, EpipolarOptions, PosEntry,
+    Reason, ReprojectStats, BACKGROUND_OBJECT, INVALID_OBJECT, MAX_SPLAT_RADIUS,
 };
 use refl_core::{Error, RowRange};
 
@@ -25,7 +27,7 @@ pub const REFL_EPIPOLAR_INVALID_OBJECT: u32 = 0xFFFF_FFFF;
 /// test this object means the pixel is background.
 pub const REFL_EPIPOLAR_BACKGROUND_OBJECT: u32 = 0xFFFF_FFFE;
 
-/// Largest splat radius (`refl_epipolar_params.splat_radius`): 7x7.
+/// Largest splat radius (`refl_epipolar_options.splat_radius`): 7x7.
 pub const REFL_EPIPOLAR_MAX_SPLAT_RADIUS: u32 = 3;
 
 /// AIP flag: no reprojection ran this frame (first frame, or the
@@ -85,21 +87,20 @@ pub struct refl_epipolar_aip_entry {
     pub flags: u32,
 }
 
-/// Parameters of the reprojection and rendering phases
-/// (`refl_epipolar_params_default` gives the defaults). Booleans are
-/// `uint32_t` 0 or 1; any other value is `REFL_STATUS_INVALID_ARGUMENT`.
+/// Settings of the reprojection and rendering phases
+/// (`refl_epipolar_options_default` gives the defaults).
 #[repr(C)]
 #[derive(Clone, Copy, Debug, PartialEq)]
-pub struct refl_epipolar_params {
+pub struct refl_epipolar_options {
     /// `m_cnt` of Sec. 3.3: a pixel is resolved by one ray/object test when
     /// at least this many points of its object reached it. >= 1; default 5.
     pub m_cnt: u32,
     /// Splat radius r: a (2r+1)^2 kernel; 1 (3x3, the paper's) by default;
     /// at most `REFL_EPIPOLAR_MAX_SPLAT_RADIUS`.
     pub splat_radius: u32,
-    /// Depth guard (default 1): the one-object test only accepts a hit
+    /// Depth guard (default on): the one-object test only accepts a hit
     /// nearer than `refl_epipolar_aip_entry.t_other`.
-    pub depth_guard: u32,
+    pub depth_guard: bool,
     /// Relative margin of the depth guard, in [0, 1); default 0.01: the
     /// one-object test accepts hits nearer than `t_other * (1 - margin)`.
     pub guard_margin: f32,
@@ -108,16 +109,16 @@ pub struct refl_epipolar_params {
     /// pixel's `t_other` is lowered to the `t` of the entries within this
     /// many pixels that hold another object.
     pub guard_window: u32,
-    /// View-frustum check of Sec. 4.1 (default 1).
-    pub frustum_check: u32,
-    /// Epipolar ordering and occlusion check of Sec. 4.2 (default 1).
-    pub occlusion_check: u32,
+    /// View-frustum check of Sec. 4.1 (default on).
+    pub frustum_check: bool,
+    /// Epipolar ordering and occlusion check of Sec. 4.2 (default on).
+    pub occlusion_check: bool,
     /// N of regular resampling (Sec. 4.3); 0 turns it off. Default 9.
     pub resample_period: u32,
     /// N of the abrupt-motion test (Sec. 4.3.1); 0 turns it off. Default 9.
     pub abrupt_frames: u32,
-    /// Shifted ray origin of Sec. 5.3 for fallback rays (default 0).
-    pub shift_origin: u32,
+    /// Shifted ray origin of Sec. 5.3 for fallback rays (default off).
+    pub shift_origin: bool,
     /// The epsilon of Sec. 5.3, world units, finite and >= 0.
     pub shift_epsilon: f32,
 }
@@ -138,10 +139,10 @@ pub struct refl_epipolar_stats {
     pub occlusion_rejected: u32,
     /// Points discarded by the abrupt-motion test.
     pub abrupt_rejected: u32,
-    /// 1 if the view-frustum check failed and nothing was reprojected.
-    pub frustum_failed: u32,
-    /// 1 if the eyes coincide (pure rotation; no occlusion check needed).
-    pub no_baseline: u32,
+    /// The view-frustum check failed and nothing was reprojected.
+    pub frustum_failed: bool,
+    /// The eyes coincide (pure rotation; no occlusion check needed).
+    pub no_baseline: bool,
 }
 
 /// Why a pixel takes the path its decision names (seed 002 Fig. 6).
@@ -197,51 +198,49 @@ const _: () = {
     assert!(align_of::<refl_epipolar_aip_entry>() == align_of::<AipEntry>());
 };
 
-fn flag(v: u32) -> Result<bool, Error> {
-    match v {
-        0 => Ok(false),
-        1 => Ok(true),
-        _ => Err(Error::InvalidArgument),
-    }
-}
-
-impl TryFrom<&refl_epipolar_params> for Params {
+impl TryFrom<&refl_epipolar_options> for EpipolarOptions {
     type Error = Error;
-    /// Validates booleans and ranges (`Params::validate`).
-    fn try_from(p: &refl_epipolar_params) -> Result<Self, Error> {
-        let params = Params {
-            m_cnt: p.m_cnt,
-            splat_radius: p.splat_radius,
-            depth_guard: flag(p.depth_guard)?,
-            guard_margin: p.guard_margin,
-            guard_window: p.guard_window,
-            frustum_check: flag(p.frustum_check)?,
-            occlusion_check: flag(p.occlusion_check)?,
-            resample_period: p.resample_period,
-            abrupt_frames: p.abrupt_frames,
-            shift_origin: flag(p.shift_origin)?,
-            shift_epsilon: p.shift_epsilon,
+    /// Validates the ranges (`EpipolarOptions::try_validate`).
+    fn try_from(o: &refl_epipolar_options) -> Result<Self, Error> {
+        let options = EpipolarOptions {
+            m_cnt: o.m_cnt,
+            splat_radius: o.splat_radius,
+            depth_guard: o.depth_guard,
+            guard_margin: o.guard_margin,
+            guard_window: o.guard_window,
+            frustum_check: o.frustum_check,
+            occlusion_check: o.occlusion_check,
+            resample_period: o.resample_period,
+            abrupt_frames: o.abrupt_frames,
+            shift_origin: o.shift_origin,
+            shift_epsilon: o.shift_epsilon,
         };
-        params.validate()?;
-        Ok(params)
+        options.try_validate()?;
+        Ok(options)
     }
 }
 
-impl From<&Params> for refl_epipolar_params {
-    fn from(p: &Params) -> Self {
+impl From<&EpipolarOptions> for refl_epipolar_options {
+    fn from(o: &EpipolarOptions) -> Self {
         Self {
-            m_cnt: p.m_cnt,
-            splat_radius: p.splat_radius,
-            depth_guard: u32::from(p.depth_guard),
-            guard_margin: p.guard_margin,
-            guard_window: p.guard_window,
-            frustum_check: u32::from(p.frustum_check),
-            occlusion_check: u32::from(p.occlusion_check),
-            resample_period: p.resample_period,
-            abrupt_frames: p.abrupt_frames,
-            shift_origin: u32::from(p.shift_origin),
-            shift_epsilon: p.shift_epsilon,
+            m_cnt: o.m_cnt,
+            splat_radius: o.splat_radius,
+            depth_guard: o.depth_guard,
+            guard_margin: o.guard_margin,
+            guard_window: o.guard_window,
+            frustum_check: o.frustum_check,
+            occlusion_check: o.occlusion_check,
+            resample_period: o.resample_period,
+            abrupt_frames: o.abrupt_frames,
+            shift_origin: o.shift_origin,
+            shift_epsilon: o.shift_epsilon,
         }
+    }
+}
+
+impl From<Decision> for refl_epipolar_decision {
+    fn from(d: Decision) -> Self {
+        (&d).into()
     }
 }
 
@@ -274,24 +273,12 @@ fn buffer<T>(p: *const T, len: usize) -> Result<(usize, usize), Error> {
     Ok((p as usize, byte_len::<T>(p as usize, len)?))
 }
 
-/// Writes to `*out` the default parameters (m_cnt 5, 3x3 splat, depth
-/// guard, view-frustum and occlusion checks on, N = 9 for resampling and
-/// the abrupt-motion test, no shifted origin, epsilon 1e-3).
-///
-/// Returns `REFL_STATUS_NULL_POINTER` if `out` is NULL.
-///
-/// # Safety
-/// `out` must be NULL or point to a writable `refl_epipolar_params`.
+/// The defaults (m_cnt 5, 3x3 splat, depth guard, view-frustum and
+/// occlusion checks on, N = 9 for resampling and the abrupt-motion test, no
+/// shifted origin, epsilon 1e-3).
 #[no_mangle]
-pub unsafe extern "C" fn refl_epipolar_params_default(
-    out: *mut refl_epipolar_params,
-) -> refl_status {
-    guard("refl_epipolar_params_default", || {
-        let out = Out::new(out, "out")?;
-        // SAFETY: caller contract.
-        unsafe { out.write((&Params::default()).into()) };
-        Ok(())
-    })
+pub extern "C" fn refl_epipolar_options_default() -> refl_epipolar_options {
+    (&EpipolarOptions::default()).into()
 }
 
 /// Writes to `*out_len` the number of floats of scratch
@@ -314,7 +301,7 @@ pub unsafe extern "C" fn refl_epipolar_scratch_len(
 ) -> refl_status {
     guard("refl_epipolar_scratch_len", || {
         let out = Out::new(out_len, "out_len")?;
-        let n = scratch_len(width, height)?;
+        let n = try_scratch_len(width, height)?;
         // SAFETY: caller contract.
         unsafe { out.write(n) };
         Ok(())
@@ -330,8 +317,8 @@ pub unsafe extern "C" fn refl_epipolar_scratch_len(
 /// epipolar order is); `refl_epipolar_decide_rows` then runs per row band.
 ///
 /// Returns `REFL_STATUS_NULL_POINTER` if any pointer is NULL;
-/// `REFL_STATUS_INVALID_ARGUMENT` for invalid params (a boolean not 0/1,
-/// `m_cnt == 0`, a splat radius above the maximum, a bad epsilon), cameras
+/// `REFL_STATUS_INVALID_ARGUMENT` for invalid options (`m_cnt == 0`, a
+/// splat radius above the maximum, a bad epsilon), cameras
 /// of different sizes, a misaligned pointer or overlapping buffers;
 /// `REFL_STATUS_INSUFFICIENT_SIZE` if `aip_len` or `pos_len` is below
 /// `width * height` or `scratch_len` below `refl_epipolar_scratch_len`;
@@ -354,7 +341,7 @@ pub unsafe extern "C" fn refl_epipolar_reproject(
     pos_len: usize,
     previous: *const refl_camera,
     current: *const refl_camera,
-    params: *const refl_epipolar_params,
+    options: *const refl_epipolar_options,
 ) -> refl_status {
     guard("refl_epipolar_reproject", || {
         crate::ptr::no_nulls(&[
@@ -363,11 +350,11 @@ pub unsafe extern "C" fn refl_epipolar_reproject(
             (pos.is_null(), "pos"),
             (previous.is_null(), "previous"),
             (current.is_null(), "current"),
-            (params.is_null(), "params"),
+            (options.is_null(), "options"),
         ])?;
         let out = Out::new(out_stats, "out_stats")?;
         // SAFETY: caller contract.
-        let p = Params::try_from(&unsafe { read(params, "params") }?)?;
+        let p = EpipolarOptions::try_from(&unsafe { read(options, "options") }?)?;
         // SAFETY: caller contract.
         let prev = crate::types::camera_named(&unsafe { read(previous, "previous") }?, "previous")?;
         // SAFETY: caller contract.
@@ -401,19 +388,19 @@ pub unsafe extern "C" fn refl_epipolar_reproject(
                 outside: st.outside,
                 occlusion_rejected: st.occlusion_rejected,
                 abrupt_rejected: st.abrupt_rejected,
-                frustum_failed: u32::from(st.frustum_failed),
-                no_baseline: u32::from(st.no_baseline),
+                frustum_failed: st.frustum_failed,
+                no_baseline: st.no_baseline,
             })
         };
         Ok(())
     })
 }
 
-/// The rendering-phase decisions (seed 002 Alg. 2) of rows
-/// `[row_begin, row_end)` of frame `frame` of a `width`-wide image:
-/// `out[y * width + x]` from `aip[y * width + x]` (other entries are not
-/// touched). Hosts split the image into row bands (`refl_row_band`) and
-/// decide and trace them on their own threads.
+/// The rendering-phase decisions (seed 002 Alg. 2) of the rows `rows` of
+/// frame `frame` of a `width`-wide image: `out[y * width + x]` from
+/// `aip[y * width + x]` (other entries are not touched, and only the band's
+/// entries of `out` are accessed). Hosts split the image into row bands
+/// (`refl_image_row_band`) and decide and trace them on their own threads.
 ///
 /// Per pixel: no reprojection -> full traversal (`UNAVAILABLE`); the
 /// pixel's regular-resampling slot is `frame mod N` -> full traversal
@@ -423,15 +410,15 @@ pub unsafe extern "C" fn refl_epipolar_reproject(
 /// (`FAILED`).
 ///
 /// Returns `REFL_STATUS_NULL_POINTER` if a pointer is NULL;
-/// `REFL_STATUS_INVALID_ARGUMENT` for invalid params, a zero width, an
+/// `REFL_STATUS_INVALID_ARGUMENT` for invalid options, a zero width, an
 /// empty or reversed row range, a misaligned pointer or overlapping
 /// buffers; `REFL_STATUS_INSUFFICIENT_SIZE` if `out_len` or `aip_len` is
-/// below `row_end * width`. On error nothing is written.
+/// below `rows.end * width`. On error nothing is written.
 ///
 /// # Safety
 /// `out` must be writable for `out_len` entries and `aip` readable for
-/// `aip_len` entries, `params` NULL or readable, for the duration of the
-/// call; no other thread may write the rows of `out` in the range.
+/// `aip_len` entries, `options` NULL or readable, for the duration of the
+/// call; no other thread may access the rows of `out` in the range.
 #[no_mangle]
 #[allow(clippy::too_many_arguments)]
 pub unsafe extern "C" fn refl_epipolar_decide_rows(
@@ -440,46 +427,47 @@ pub unsafe extern "C" fn refl_epipolar_decide_rows(
     aip: *const refl_epipolar_aip_entry,
     aip_len: usize,
     width: u32,
-    row_begin: u32,
-    row_end: u32,
+    rows: refl_row_range,
     frame: u32,
-    params: *const refl_epipolar_params,
+    options: *const refl_epipolar_options,
 ) -> refl_status {
     guard("refl_epipolar_decide_rows", || {
         crate::ptr::no_nulls(&[
             (out.is_null(), "out"),
             (aip.is_null(), "aip"),
-            (params.is_null(), "params"),
+            (options.is_null(), "options"),
         ])?;
         // SAFETY: caller contract.
-        let p = Params::try_from(&unsafe { read(params, "params") }?)?;
-        if width == 0 || row_end <= row_begin {
+        let p = EpipolarOptions::try_from(&unsafe { read(options, "options") }?)?;
+        if width == 0 || rows.end <= rows.begin {
             return Err(Error::InvalidArgument);
         }
-        let rows = RowRange::try_new(row_begin, row_end, row_end)?;
-        let need = (row_end as usize)
-            .checked_mul(width as usize)
+        let r = RowRange::try_new(rows.begin, rows.end, rows.end)?;
+        let w = width as usize;
+        let need = (rows.end as usize)
+            .checked_mul(w)
             .ok_or(Error::InvalidArgument)?;
         if out_len < need || aip_len < need {
             return Err(Error::InsufficientSize);
         }
-        // Only the first `need` entries are touched.
+        // Only the band's entries of `out` and the first `need` of `aip`
+        // are touched.
+        let start = rows.begin as usize * w;
         let o = buffer(out.cast_const(), need)?;
         let a = buffer(aip, need)?;
-        if overlaps(o.0, o.1, a.0, a.1) {
+        if overlaps(
+            o.0 + start * size_of::<refl_epipolar_decision>(),
+            (need - start) * size_of::<refl_epipolar_decision>(),
+            a.0,
+            a.1,
+        ) {
             return Err(Error::InvalidArgument);
         }
-        // SAFETY: checked above; the ranges are disjoint; layouts match.
+        // SAFETY: checked above; layouts match (asserted above).
         let aip = unsafe { core::slice::from_raw_parts(aip.cast::<AipEntry>(), need) };
-        // SAFETY: checked above; exclusive by contract.
-        let out = unsafe { core::slice::from_raw_parts_mut(out, need) };
-        for y in rows.rows() {
-            let row = y as usize * width as usize;
-            for x in 0..width {
-                let i = row + x as usize;
-                out[i] = (&decide(&aip[i], x, y, frame, &p)).into();
-            }
-        }
-        Ok(())
+        // SAFETY: within `out_len` (checked), disjoint from `aip`; the
+        // band's rows are this call's alone (contract).
+        let band = unsafe { core::slice::from_raw_parts_mut(out.add(start), need - start) };
+        try_decide_band(band, aip, width, r, frame, &p)
     })
 }

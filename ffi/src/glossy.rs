@@ -492,7 +492,7 @@ impl GlossySink for Band<'_, refl_glossy_texel> {
 /// to `host_len`; `host` may be NULL with `host_len` 0) in row-major
 /// order. The counts go to `*out_stats`.
 ///
-/// Bands are independent: split the rows (`refl_row_band`) across threads,
+/// Bands are independent: split the rows (`refl_image_row_band`) across threads,
 /// each with its own `host` list. `scratch` is what `refl_glossy_prepare`
 /// built for this G-buffer and these options; pyramids built for another
 /// camera or size, or not built, are refused.

@@ -7,13 +7,12 @@
 //! surface). `refl_hiz_len` gives its length and level count,
 //! `refl_hiz_level` where each level lives.
 
-use crate::ptr::{byte_len, check_buffer, overlaps, pyramid_band, read, read_vec, Out};
+use crate::image::refl_row_range;
+use crate::ptr::{byte_len, check_buffer, overlaps, pyramid_band, range, read, Out};
 use crate::status::{fail, guard, refl_status};
-use crate::trace::{depth_image, refl_depth_image, refl_thickness, refl_trace_result};
+use crate::trace::{depth_image, refl_depth_image, refl_trace_result, refl_trace_thickness};
 use crate::types::{convention, refl_camera, refl_ray, refl_vec2};
-use refl_core::{
-    Error, HiZ, HiZLayout, HiZOptions, HiZTexel, Miss, PyramidStamp, Ray, Thickness, Trace,
-};
+use refl_core::{Error, HiZ, HiZLayout, HiZOptions, HiZTexel, PyramidStamp, Ray, Thickness};
 
 /// Texels after the last level of a Hi-Z pyramid that record the image
 /// size and camera it was built for (counted in `refl_hiz_len`, written by
@@ -55,8 +54,9 @@ pub struct refl_hiz {
     pub convention: u32,
 }
 
-/// Settings of the Hi-Z traversal. `refl_hiz_default_options` gives the
-/// defaults: start level 2, stop level 0, 1024 iterations, 4 prologue steps.
+/// Settings of the Hi-Z traversal; `refl_hiz_options_default` gives the
+/// defaults (start level 2, stop level 0, 1024 iterations, 4 prologue
+/// steps).
 /// Every setting returns the same first hit; they trade iterations for
 /// fetches.
 #[repr(C)]
@@ -70,7 +70,7 @@ pub struct refl_hiz_options {
     /// pixels (still exact). Clamped to the last level.
     pub stop_level: u32,
     /// Cap on hierarchical loop iterations; reaching it gives
-    /// `REFL_MISS_OUT_OF_STEPS`.
+    /// `REFL_TRACE_MISS_OUT_OF_STEPS`.
     pub max_iterations: u32,
     /// One-pixel steps before the hierarchy; `UINT32_MAX` gives plain
     /// per-pixel stepping.
@@ -123,7 +123,7 @@ pub unsafe extern "C" fn refl_hiz_len(
             Out::new(out_levels, "out_levels")?,
         );
         let l = HiZLayout::try_new(width, height)?;
-        let len = refl_core::hiz::hiz_len(width, height)?;
+        let len = refl_core::hiz::try_hiz_len(width, height)?;
         // SAFETY: caller contract.
         unsafe {
             ol.write(len);
@@ -166,20 +166,11 @@ pub unsafe extern "C" fn refl_hiz_level(
     })
 }
 
-/// The default traversal options into `*out`.
-///
-/// Returns `REFL_STATUS_NULL_POINTER` if `out` is NULL.
-///
-/// # Safety
-/// `out` must be NULL or writable.
+/// The default traversal options: start level 2, stop level 0, 1024
+/// iterations, 4 prologue steps.
 #[no_mangle]
-pub unsafe extern "C" fn refl_hiz_default_options(out: *mut refl_hiz_options) -> refl_status {
-    guard("refl_hiz_default_options", || {
-        let out = Out::new(out, "out")?;
-        // SAFETY: caller contract.
-        unsafe { out.write(HiZOptions::default().into()) };
-        Ok(())
-    })
+pub extern "C" fn refl_hiz_options_default() -> refl_hiz_options {
+    HiZOptions::default().into()
 }
 
 /// `InvalidArgument` if the depth image's buffer overlaps the pyramid
@@ -225,7 +216,7 @@ pub unsafe extern "C" fn refl_hiz_build(
         // SAFETY: caller contract.
         let img = unsafe { depth_image(&img_c) }?;
         check_no_overlap(&img_c, dst as usize, bytes)?;
-        let len = refl_core::hiz::hiz_len(img.width(), img.height())?;
+        let len = refl_core::hiz::try_hiz_len(img.width(), img.height())?;
         if dst_len < len {
             return Err(fail(
                 Error::InsufficientSize,
@@ -240,7 +231,7 @@ pub unsafe extern "C" fn refl_hiz_build(
     })
 }
 
-/// Builds rows `[row_start, row_end)` of level `level` of the pyramid in
+/// Builds the rows `rows` of level `level` of the pyramid in
 /// `dst`, for hosts that split the build across threads: build level 0
 /// (from `*image`) completely, then level 1 (from level 0 in `dst`), and so
 /// on; the row bands of one level may run concurrently on different
@@ -263,8 +254,7 @@ pub unsafe extern "C" fn refl_hiz_build_rows(
     dst_len: usize,
     image: *const refl_depth_image,
     level: u32,
-    row_start: u32,
-    row_end: u32,
+    rows: refl_row_range,
 ) -> refl_status {
     guard("refl_hiz_build_rows", || {
         let bytes = check_buffer(dst.cast_const(), dst_len, "dst")?;
@@ -274,7 +264,7 @@ pub unsafe extern "C" fn refl_hiz_build_rows(
         let img = unsafe { depth_image(&img_c) }?;
         check_no_overlap(&img_c, dst as usize, bytes)?;
         let layout = HiZLayout::try_new(img.width(), img.height())?;
-        let len = refl_core::hiz::hiz_len(img.width(), img.height())?;
+        let len = refl_core::hiz::try_hiz_len(img.width(), img.height())?;
         if dst_len < len {
             return Err(fail(
                 Error::InsufficientSize,
@@ -283,16 +273,8 @@ pub unsafe extern "C" fn refl_hiz_build_rows(
         }
         // SAFETY: `dst` checked above, writable by contract; the band and
         // the finer level are this call's alone (contract).
-        let (out, finer, rows) = unsafe {
-            pyramid_band(
-                dst.cast::<HiZTexel>(),
-                dst_len,
-                &layout,
-                level,
-                row_start,
-                row_end,
-            )
-        }?;
+        let (out, finer, rows) =
+            unsafe { pyramid_band(dst.cast::<HiZTexel>(), dst_len, &layout, level, rows) }?;
         match finer {
             None => refl_core::try_build_hiz_level0_rows(out, &img, rows),
             Some(finer) => refl_core::try_build_hiz_level_rows(out, finer, &layout, level, rows),
@@ -326,7 +308,7 @@ pub(crate) unsafe fn bind_hiz<'a>(h: &refl_hiz) -> Result<HiZ<'a>, Error> {
     let data = unsafe { core::slice::from_raw_parts(h.data.cast::<HiZTexel>(), h.len) };
     HiZ::try_new(data, cam, conv).map_err(|e| {
         let (w, hh) = (cam.width(), cam.height());
-        let need = refl_core::hiz::hiz_len(w, hh).unwrap_or(0);
+        let need = refl_core::hiz::try_hiz_len(w, hh).unwrap_or(0);
         if e == Error::InsufficientSize {
             return fail(
                 e,
@@ -371,15 +353,17 @@ pub(crate) fn stamp_mismatch<T: refl_core::PyramidTexel>(
     }
 }
 
-/// Reads a pyramid descriptor, a thickness and options.
+/// Reads a pyramid descriptor, a thickness and options; also returns the
+/// byte ranges of the pyramid and the back-face image.
 ///
 /// # Safety
 /// As `refl_hiz_trace_ray`.
+#[allow(clippy::type_complexity)]
 unsafe fn trace_inputs<'a>(
     hiz: *const refl_hiz,
-    thickness: *const refl_thickness,
+    thickness: *const refl_trace_thickness,
     options: *const refl_hiz_options,
-) -> Result<(HiZ<'a>, Thickness<'a>, HiZOptions), Error> {
+) -> Result<(HiZ<'a>, Thickness<'a>, HiZOptions, [(usize, usize); 2]), Error> {
     // SAFETY: caller contract.
     let (h, th_c, opts) = unsafe {
         (
@@ -392,7 +376,11 @@ unsafe fn trace_inputs<'a>(
     let hz = unsafe { bind_hiz(&h) }?;
     // SAFETY: caller contract.
     let th = unsafe { crate::trace::thickness(&th_c) }?;
-    Ok((hz, th, opts.into()))
+    let ranges = [
+        range(h.data, h.len),
+        range(th_c.back_faces.data, th_c.back_faces.len),
+    ];
+    Ok((hz, th, opts.into(), ranges))
 }
 
 /// Traces one ray against a Hi-Z pyramid (seed 004 Sec. 4.4.3 with the
@@ -430,7 +418,7 @@ unsafe fn trace_inputs<'a>(
 pub unsafe extern "C" fn refl_hiz_trace_ray(
     out: *mut refl_trace_result,
     hiz: *const refl_hiz,
-    thickness: *const refl_thickness,
+    thickness: *const refl_trace_thickness,
     ray: refl_ray,
     t_max: f32,
     options: *const refl_hiz_options,
@@ -438,7 +426,7 @@ pub unsafe extern "C" fn refl_hiz_trace_ray(
     guard("refl_hiz_trace_ray", || {
         let out = Out::new(out, "out")?;
         // SAFETY: caller contract.
-        let (hz, th, opts) = unsafe { trace_inputs(hiz, thickness, options) }?;
+        let (hz, th, opts, _) = unsafe { trace_inputs(hiz, thickness, options) }?;
         let ray = Ray {
             origin: ray.origin.into(),
             dir: ray.dir.into(),
@@ -450,37 +438,40 @@ pub unsafe extern "C" fn refl_hiz_trace_ray(
     })
 }
 
-/// Traces `ray_count` rays as `refl_hiz_trace_ray` would, writing result
-/// `i` to `out[i]`. `t_max` holds one value for every ray
-/// (`t_max_count == 1`) or one per ray (`t_max_count >= ray_count`).
+/// Traces `rays_len` rays as `refl_hiz_trace_ray` would, writing result
+/// `i` to `out[i]`: the arguments of `refl_hiz_trace_ray` in the same
+/// order, the ray, `t_max` and the result replaced by arrays. `t_max`
+/// holds one value for every ray (`t_max_len == 1`) or one per ray
+/// (`t_max_len >= rays_len`).
 ///
 /// Every input is validated before anything is written: on any error `out`
-/// is untouched. Elements of `out` past `ray_count` are never written.
-/// Rays are independent: split a batch into chunks and call this from
-/// several threads.
+/// is untouched. Elements of `out` past `rays_len` are never written;
+/// `out` must not overlap the rays, `t_max`, the pyramid or the back-face
+/// image (`REFL_STATUS_INVALID_ARGUMENT`). Rays are independent: split a
+/// batch into chunks and call this from several threads.
 ///
 /// Returns `REFL_STATUS_NULL_POINTER` if `out`, `rays`, `t_max`, `hiz`,
 /// `hiz->data`, `thickness` or `options` is NULL;
-/// `REFL_STATUS_INSUFFICIENT_SIZE` if `out_len < ray_count` or
-/// `t_max_count` is neither 1 nor at least `ray_count`;
-/// `REFL_STATUS_INVALID_ARGUMENT` if `t_max_count` is 0, or for any ray,
-/// `t_max`, pyramid, thickness or option rejected as by
-/// `refl_hiz_trace_ray`.
+/// `REFL_STATUS_INSUFFICIENT_SIZE` if `out_len < rays_len` or `t_max_len`
+/// is neither 1 nor at least `rays_len`; `REFL_STATUS_INVALID_ARGUMENT` if
+/// `t_max_len` is 0, `out` overlaps an input, or for any ray, `t_max`,
+/// pyramid, thickness or option rejected as by `refl_hiz_trace_ray`.
 ///
 /// # Safety
 /// `out` must be NULL or writable for `out_len` results; `rays` NULL or
-/// readable for `ray_count` rays; `t_max` NULL or readable for
-/// `t_max_count` floats; the rest as `refl_hiz_trace_ray`.
+/// readable for `rays_len` rays; `t_max` NULL or readable for `t_max_len`
+/// floats; the rest as `refl_hiz_trace_ray`.
 #[no_mangle]
+#[allow(clippy::too_many_arguments)]
 pub unsafe extern "C" fn refl_hiz_trace_rays(
     out: *mut refl_trace_result,
     out_len: usize,
-    rays: *const refl_ray,
-    ray_count: usize,
-    t_max: *const f32,
-    t_max_count: usize,
     hiz: *const refl_hiz,
-    thickness: *const refl_thickness,
+    thickness: *const refl_trace_thickness,
+    rays: *const refl_ray,
+    rays_len: usize,
+    t_max: *const f32,
+    t_max_len: usize,
     options: *const refl_hiz_options,
 ) -> refl_status {
     guard("refl_hiz_trace_rays", || {
@@ -490,39 +481,13 @@ pub unsafe extern "C" fn refl_hiz_trace_rays(
             (t_max.is_null(), "t_max"),
         ])?;
         // SAFETY: caller contract.
-        let (hz, th, opts) = unsafe { trace_inputs(hiz, thickness, options) }?;
-        if !out.is_aligned() || t_max_count == 0 {
-            return Err(Error::InvalidArgument);
-        }
-        if out_len < ray_count || (t_max_count != 1 && t_max_count < ray_count) {
-            return Err(Error::InsufficientSize);
-        }
-        byte_len::<refl_trace_result>(out as usize, ray_count)?;
-        // SAFETY: caller contract; copied before any output is written, so
-        // `out` may alias the inputs.
-        let rays_c = unsafe { read_vec(rays, ray_count, "rays") }?;
+        let (hz, th, opts, inputs) = unsafe { trace_inputs(hiz, thickness, options) }?;
         // SAFETY: caller contract.
-        let tms = unsafe { read_vec(t_max, t_max_count.min(ray_count).max(1), "t_max") }?;
-        let rays: Vec<Ray> = rays_c
-            .iter()
-            .map(|r| Ray {
-                origin: r.origin.into(),
-                dir: r.dir.into(),
-            })
-            .collect();
-        let mut traces = vec![
-            Trace::Miss {
-                reason: Miss::OutOfSteps,
-                work: Default::default(),
-            };
-            ray_count
-        ];
-        refl_core::try_trace_hiz_rays(&mut traces, &hz, th, &rays, &tms, &opts)?;
-        for (i, t) in traces.into_iter().enumerate() {
-            // SAFETY: `out` is non-null, aligned and writable for
-            // `out_len >= ray_count` results (caller contract).
-            unsafe { out.add(i).write(t.into()) };
-        }
-        Ok(())
+        let (out, rays, t_max) = unsafe {
+            crate::trace::batch_arrays(out, out_len, rays, rays_len, t_max, t_max_len, inputs)
+        }?;
+        // Validates every ray before the first write: `out` is untouched
+        // on error.
+        refl_core::try_trace_hiz_rays(out, &hz, th, rays, t_max, &opts)
     })
 }

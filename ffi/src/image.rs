@@ -11,7 +11,7 @@ use crate::ptr::{byte_len, overlaps, read, Out};
 use crate::status::{guard, refl_status};
 use crate::tcrr::refl_tcrr_surfel;
 use crate::types::{convention, refl_camera, refl_rgba8, refl_vec2, refl_vec3, refl_vec4};
-use refl_core::image::required_len;
+use refl_core::image::try_required_len;
 use refl_core::{Error, ImageView, ImageViewMut, RowRange};
 
 /// A read-only image of `float` texels (e.g. a depth buffer).
@@ -272,7 +272,7 @@ pub struct refl_image_tcrr_surfel_mut {
 }
 
 /// Validates an image descriptor and returns the number of texels the view
-/// covers (`required_len`), which is also its slice length.
+/// covers (`try_required_len`), which is also its slice length.
 ///
 /// Order: `NullPointer`, then `InvalidArgument` (misaligned pointer, zero
 /// size, `stride < width`, overflow), then `InsufficientSize`.
@@ -281,7 +281,7 @@ fn checked_len<T>(data: *const T, len: usize, w: u32, h: u32, stride: u32) -> Re
     if !data.is_aligned() {
         return Err(Error::InvalidArgument);
     }
-    let need = required_len(w, h, stride)?;
+    let need = try_required_len(w, h, stride)?;
     if len < need {
         return Err(Error::InsufficientSize);
     }
@@ -395,7 +395,7 @@ pub struct refl_row_range {
 
 /// Writes to `*out` the `index`-th of `count` contiguous, near-equal bands
 /// of the rows `[0, height)` (the first `height % count` bands get one row
-/// more), for splitting a whole-image pass such as `refl_convert_depth`
+/// more), for splitting a whole-image pass such as `refl_image_convert_depth`
 /// across `count` threads. When there are more bands than rows, the bands
 /// past the last row are empty (`begin == end`): skip them.
 ///
@@ -406,13 +406,13 @@ pub struct refl_row_range {
 /// # Safety
 /// `out` must be NULL or point to a writable `refl_row_range`.
 #[no_mangle]
-pub unsafe extern "C" fn refl_row_band(
+pub unsafe extern "C" fn refl_image_row_band(
     out: *mut refl_row_range,
     height: u32,
     index: u32,
     count: u32,
 ) -> refl_status {
-    guard("refl_row_band", || {
+    guard("refl_image_row_band", || {
         let out = Out::new(out, "out")?;
         let all = RowRange::try_all(height)?;
         if count == 0 || index >= count {
@@ -453,14 +453,14 @@ pub unsafe extern "C" fn refl_image_required_len(
 ) -> refl_status {
     guard("refl_image_required_len", || {
         let out = Out::new(out_len, "out_len")?;
-        let len = required_len(width, height, stride)?;
+        let len = try_required_len(width, height, stride)?;
         // SAFETY: checked by Out::new; writability is the caller's contract.
         unsafe { out.write(len) };
         Ok(())
     })
 }
 
-/// Converts rows `[row_begin, row_end)` of the depth image `src`, stored in
+/// Converts the rows `rows` of the depth image `src`, stored in
 /// convention `from`, to convention `to`, writing them to the same rows of
 /// `dst`: `dst = encode_to(decode_from(src))` texel by texel, with the near
 /// and far planes of `camera` (its view and image size are not used; the
@@ -489,16 +489,15 @@ pub unsafe extern "C" fn refl_image_required_len(
 /// `dst.len` floats, for the duration of the call, and no other thread
 /// may write them meanwhile.
 #[no_mangle]
-pub unsafe extern "C" fn refl_convert_depth(
+pub unsafe extern "C" fn refl_image_convert_depth(
     dst: refl_image_f32_mut,
     src: refl_image_f32,
     camera: *const refl_camera,
     from: u32,
     to: u32,
-    row_begin: u32,
-    row_end: u32,
+    rows: refl_row_range,
 ) -> refl_status {
-    guard("refl_convert_depth", || {
+    guard("refl_image_convert_depth", || {
         crate::ptr::no_nulls(&[
             (dst.data.is_null(), "dst.data"),
             (src.data.is_null(), "src.data"),
@@ -518,32 +517,24 @@ pub unsafe extern "C" fn refl_convert_depth(
         if dst.width != src.width || dst.height != src.height {
             return Err(Error::InvalidArgument);
         }
-        let rows = RowRange::try_new(row_begin, row_end, dst.height)?;
+        let rows = RowRange::try_new(rows.begin, rows.end, dst.height)?;
         let (d0, dl) = byte_range(dst.data.cast_const(), dst_need);
         let (s0, sl) = byte_range(src.data, src_need);
-        let convert = |v: f32| cam.encode_depth(cam.decode_depth(v, from), to);
         if overlaps(d0, dl, s0, sl) {
             if d0 != s0 || dst.stride != src.stride {
                 return Err(Error::InvalidArgument);
             }
-            // In place: one mutable view, no aliasing read view.
+            // In place: one mutable view of the band, no aliasing read view.
             // SAFETY: caller contract; validated by checked_len.
-            let mut img = unsafe { dst.view_mut() }?;
-            for y in rows.rows() {
-                if let Some(row) = img.row_mut(y) {
-                    row.iter_mut().for_each(|v| *v = convert(*v));
-                }
-            }
+            let mut band = unsafe { dst.band_mut(rows) }?;
+            refl_core::image::convert_depth_in_place(&mut band, &cam, from, to);
         } else {
-            // SAFETY: caller contract; the two byte ranges are disjoint.
-            let mut out = unsafe { dst.view_mut() }?;
+            // SAFETY: caller contract; the two byte ranges are disjoint, and
+            // only the band's rows of `dst` are borrowed.
+            let mut band = unsafe { dst.band_mut(rows) }?;
             // SAFETY: caller contract.
             let inp = unsafe { src.view() }?;
-            for y in rows.rows() {
-                if let (Some(o), Some(i)) = (out.row_mut(y), inp.row(y)) {
-                    o.iter_mut().zip(i).for_each(|(o, i)| *o = convert(*i));
-                }
-            }
+            refl_core::image::try_convert_depth(&mut band, &inp, &cam, from, to)?;
         }
         Ok(())
     })

@@ -14,15 +14,15 @@
 //! the box; texel axes of axis a are u = (a + 1) % 3, v = (a + 2) % 3.
 //! Depths are normalized to [0, 1] from the face.
 
-use crate::ptr::{byte_len, overlaps, read, Out};
+use crate::ptr::{byte_len, no_overlap, overlaps, range, read, slice, slice_mut, Out};
 use crate::status::{fail, fail_str, guard, refl_status};
 use crate::types::{refl_mat4, refl_ray, refl_vec3};
 use refl_core::glam::{Affine3A, Mat4, Vec3};
 use refl_core::layered::{
-    layered_len, prr_classify, ColumnFill, Face, LayerHit, LayeredGrid, LayeredMap, LayeredMapMut,
-    LayeredMiss, LayeredParams, LayeredStamp, LayeredTrace, PrrClass,
+    try_layered_len, try_prr_classify, ColumnFill, Face, LayerHit, LayeredGrid, LayeredMap,
+    LayeredMapMut, LayeredMiss, LayeredOptions, LayeredStamp, LayeredTrace, PrrClass,
 };
-use refl_core::{Error, Ray};
+use refl_core::Error;
 
 /// Words after a layered map's per-texel counts that record the grid it
 /// was cleared for (counted in `refl_layered_len`'s `counts`).
@@ -52,15 +52,15 @@ pub struct refl_layered_grid {
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 pub struct refl_layered_sizes {
     /// Floats of the depth buffer: `6 * res * res * layers`.
-    pub depth: usize,
+    pub depth_len: usize,
     /// uint32_t of the payload buffer: `6 * res * res * layers`.
-    pub payload: usize,
+    pub payload_len: usize,
     /// uint32_t of the layer-count buffer: `6 * res * res`.
-    pub counts: usize,
+    pub counts_len: usize,
     /// Floats of the empty-space bound buffer: per face, levels
     /// `1..=ceil(log2 res)` of `ceil(res / 2^l)^2` cells, `2 * layers`
     /// floats each (0 for res 1).
-    pub bounds: usize,
+    pub bounds_len: usize,
 }
 
 /// A read-only layered depth cube map: grid plus caller buffers.
@@ -116,7 +116,7 @@ pub struct refl_layered_map_mut {
 /// every surface of the object.
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
-pub struct refl_column_ray {
+pub struct refl_layered_column_ray {
     /// Start on the face plane at the texel center, world space.
     pub origin: refl_vec3,
     /// Unit direction into the box, world space.
@@ -125,23 +125,35 @@ pub struct refl_column_ray {
     pub t_max: f32,
 }
 
-/// One surface crossing along a column ray.
+/// One surface crossing along a column ray. The fill functions sort the
+/// caller's array of crossings in place (it is their scratch).
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
-pub struct refl_layer_hit {
+pub struct refl_layered_layer_hit {
     /// Distance along the column ray, finite (clamped to `[0, t_max]`).
     pub t: f32,
     /// Payload of the surface (primitive id, packed color, ...).
     pub id: u32,
-    /// 1 if the surface faces the ray origin (the ray enters the object),
-    /// 0 where it leaves; other values are `REFL_STATUS_INVALID_ARGUMENT`.
-    pub front: u32,
+    /// True if the surface faces the ray origin (the ray enters the
+    /// object), false where it leaves.
+    pub front: bool,
 }
+
+// refl_layered_layer_hit is refl-core's `LayerHit` (`#[repr(C)]`), field for field:
+// the fill functions sort the caller's array in place as core records.
+const _: () = {
+    use core::mem::{align_of, offset_of, size_of};
+    assert!(size_of::<refl_layered_layer_hit>() == size_of::<LayerHit>());
+    assert!(align_of::<refl_layered_layer_hit>() == align_of::<LayerHit>());
+    assert!(offset_of!(refl_layered_layer_hit, t) == offset_of!(LayerHit, t));
+    assert!(offset_of!(refl_layered_layer_hit, id) == offset_of!(LayerHit, id));
+    assert!(offset_of!(refl_layered_layer_hit, front) == offset_of!(LayerHit, front));
+};
 
 /// What filling a column did.
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
-pub struct refl_column_fill {
+pub struct refl_layered_column_fill {
     /// Solid intervals found along the column.
     pub intervals: u32,
     /// Layers stored: `min(intervals, layers)`; fewer than `intervals`
@@ -149,10 +161,11 @@ pub struct refl_column_fill {
     pub stored: u32,
 }
 
-/// Parameters of the layered trace (seed 001 Sec. 3.3, Algorithm 1).
+/// Settings of the layered trace (seed 001 Sec. 3.3, Algorithm 1);
+/// `refl_layered_options_default` gives the defaults.
 #[repr(C)]
 #[derive(Clone, Copy, Debug, PartialEq)]
-pub struct refl_layered_params {
+pub struct refl_layered_options {
     /// Linear-search step in texels, > 0 and finite.
     pub step_texels: f32,
     /// Cap on linear-search steps plus bound cells visited per face, >= 1.
@@ -194,8 +207,8 @@ pub enum refl_layered_miss {
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
 pub struct refl_layered_result {
-    /// 1 for a hit, 0 for a miss.
-    pub hit: u32,
+    /// True for a hit, false for a miss.
+    pub hit: bool,
     /// A `refl_layered_miss` value (0 for a hit).
     pub miss: u32,
     /// World distance along the ray of the hit (0 for a miss).
@@ -228,7 +241,7 @@ pub struct refl_layered_result {
 /// test (seed 001 Sec. 3.2).
 #[repr(u32)]
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
-pub enum refl_prr_class {
+pub enum refl_layered_prr_class {
     /// No reflection of the bounding sphere on the triangle.
     Outside = 0,
     /// The mirrored sphere is on the camera's side of the plane.
@@ -243,8 +256,8 @@ pub enum refl_prr_class {
     Ellipse = 5,
 }
 
-impl From<LayeredParams> for refl_layered_params {
-    fn from(p: LayeredParams) -> Self {
+impl From<LayeredOptions> for refl_layered_options {
+    fn from(p: LayeredOptions) -> Self {
         Self {
             step_texels: p.step_texels,
             max_steps: p.max_steps,
@@ -256,8 +269,8 @@ impl From<LayeredParams> for refl_layered_params {
     }
 }
 
-impl From<refl_layered_params> for LayeredParams {
-    fn from(p: refl_layered_params) -> Self {
+impl From<refl_layered_options> for LayeredOptions {
+    fn from(p: refl_layered_options) -> Self {
         Self {
             step_texels: p.step_texels,
             max_steps: p.max_steps,
@@ -269,7 +282,7 @@ impl From<refl_layered_params> for LayeredParams {
     }
 }
 
-impl From<PrrClass> for refl_prr_class {
+impl From<PrrClass> for refl_layered_prr_class {
     fn from(c: PrrClass) -> Self {
         match c {
             PrrClass::Outside => Self::Outside,
@@ -294,7 +307,7 @@ impl From<LayeredTrace> for refl_layered_result {
         };
         match t {
             LayeredTrace::Hit(h) => {
-                r.hit = 1;
+                r.hit = true;
                 r.t = h.t;
                 r.position = h.position.into();
                 r.face = h.face as u32;
@@ -464,35 +477,30 @@ impl refl_layered_map_mut {
     }
 }
 
-/// Reads a C hit buffer into `out` (cleared first), validating `front`
-/// and finiteness. `NullPointer` for a null pointer with a non-zero count.
+/// The caller's crossings as refl-core records, borrowed in place (an
+/// empty array may be NULL); checks that they overlap neither the map's
+/// buffers nor `out` (`out_bytes` bytes at `out`).
 ///
 /// # Safety
-/// `hits` must be NULL or readable for `count` elements.
-unsafe fn read_hits(
-    hits: *const refl_layer_hit,
+/// `hits` NULL or readable and writable for `count` elements, not accessed
+/// through another pointer during `'a`.
+unsafe fn hits_mut<'a>(
+    hits: *mut refl_layered_layer_hit,
     count: usize,
-    out: &mut Vec<LayerHit>,
-) -> Result<(), Error> {
-    out.clear();
+    map: &refl_layered_map_mut,
+    out: (usize, usize),
+) -> Result<&'a mut [LayerHit], Error> {
     if count == 0 {
-        return Ok(());
+        return Ok(&mut []);
     }
-    buffer(hits, count)?;
-    // SAFETY: non-null, aligned, size fits isize (checked); readability by
-    // the caller's contract.
-    let raw = unsafe { core::slice::from_raw_parts(hits, count) };
-    for h in raw {
-        if h.front > 1 || !h.t.is_finite() {
-            return Err(Error::InvalidArgument);
-        }
-        out.push(LayerHit {
-            t: h.t,
-            id: h.id,
-            front: h.front == 1,
-        });
-    }
-    Ok(())
+    let r = buffer(hits.cast_const(), count)?;
+    let m = map.ranges();
+    no_overlap(r, &[m[0], m[1], m[2], m[3], out], "hits")?;
+    // SAFETY: non-null, aligned, size fits isize (checked); readable and
+    // writable by the caller's contract, disjoint from the map and `out`
+    // (checked); refl_layered_layer_hit is LayerHit field for field (asserted
+    // above).
+    Ok(unsafe { core::slice::from_raw_parts_mut(hits.cast::<LayerHit>(), count) })
 }
 
 /// Writes to `*out` the element counts of the depth, payload, count and
@@ -513,37 +521,26 @@ pub unsafe extern "C" fn refl_layered_len(
 ) -> refl_status {
     guard("refl_layered_len", || {
         let out = Out::new(out, "out")?;
-        let l = layered_len(face_res, layers)?;
+        let l = try_layered_len(face_res, layers)?;
         // SAFETY: caller contract.
         unsafe {
             out.write(refl_layered_sizes {
-                depth: l.depth,
-                payload: l.payload,
-                counts: l.counts,
-                bounds: l.bounds,
+                depth_len: l.depth,
+                payload_len: l.payload,
+                counts_len: l.counts,
+                bounds_len: l.bounds,
             })
         };
         Ok(())
     })
 }
 
-/// Writes to `*out` the default trace parameters: half-texel steps (at
-/// most 4096 steps and skipped cells per face), 16 binary iterations down
-/// to 1/16 texel, early stop at one texel, depth interpolated across steps
-/// of up to 4 texels.
-///
-/// Returns `REFL_STATUS_NULL_POINTER` if `out` is NULL.
-///
-/// # Safety
-/// `out` must be NULL or point to a writable `refl_layered_params`.
+/// The default trace options: half-texel steps (at most 4096 steps and
+/// skipped cells per face), 16 binary iterations down to 1/16 texel, early
+/// stop at one texel, depth interpolated across steps of up to 4 texels.
 #[no_mangle]
-pub unsafe extern "C" fn refl_layered_params_default(out: *mut refl_layered_params) -> refl_status {
-    guard("refl_layered_params_default", || {
-        let out = Out::new(out, "out")?;
-        // SAFETY: caller contract.
-        unsafe { out.write(LayeredParams::default().into()) };
-        Ok(())
-    })
+pub extern "C" fn refl_layered_options_default() -> refl_layered_options {
+    LayeredOptions::default().into()
 }
 
 /// Writes to `*out` the world-space orthographic ray of texel `(i, j)` of
@@ -563,7 +560,7 @@ pub unsafe extern "C" fn refl_layered_params_default(out: *mut refl_layered_para
 /// `out` must be NULL or writable; `grid` NULL or readable.
 #[no_mangle]
 pub unsafe extern "C" fn refl_layered_face_ray(
-    out: *mut refl_column_ray,
+    out: *mut refl_layered_column_ray,
     grid: *const refl_layered_grid,
     face: u32,
     i: u32,
@@ -573,10 +570,10 @@ pub unsafe extern "C" fn refl_layered_face_ray(
         let out = Out::new(out, "out")?;
         // SAFETY: caller contract.
         let grid = LayeredGrid::try_from(&unsafe { read(grid, "grid") }?)?;
-        let r = grid.face_ray(self::face(face)?, i, j)?;
+        let r = grid.try_face_ray(self::face(face)?, i, j)?;
         // SAFETY: caller contract.
         unsafe {
-            out.write(refl_column_ray {
+            out.write(refl_layered_column_ray {
                 origin: r.origin.into(),
                 dir: r.dir.into(),
                 t_max: r.t_max,
@@ -612,7 +609,7 @@ pub unsafe extern "C" fn refl_layered_clear(map: *const refl_layered_map_mut) ->
 }
 
 /// Fills texel `(i, j)` of `face` and of its opposite face from all
-/// `hit_count` crossings `hits` of the column ray `refl_layered_face_ray`
+/// `hits_len` crossings `hits` of the column ray `refl_layered_face_ray`
 /// `(face, i, j)`, in any order (seed 001 Sec. 3.4: front layers with their
 /// back faces found through the opposite face). Crossings become solid
 /// intervals (a front hit while outside opens one, a back hit while inside
@@ -620,38 +617,35 @@ pub unsafe extern "C" fn refl_layered_clear(map: *const refl_layered_map_mut) ->
 /// face); with more intervals than layers the smallest gaps are filled.
 /// The bound cells that see the column become "never skip" (traces stay
 /// correct, only slower, until `refl_layered_build_bounds`). Writes what it
-/// did to `*out`.
+/// did to `*out`. `hits` is the call's scratch: on success it is sorted in
+/// place (by `t`); it must not overlap the map or `out`.
 ///
 /// Returns `REFL_STATUS_NULL_POINTER` if `out`, `map`, one of the map's
 /// buffers, or `hits` with a non-zero count is NULL;
 /// `REFL_STATUS_INVALID_ARGUMENT` for a face above 5, a texel out of range,
-/// a non-finite `t`, a `front` other than 0 or 1, an invalid grid, or
-/// misaligned or overlapping buffers; `REFL_STATUS_INSUFFICIENT_SIZE` and
-/// `REFL_STATUS_DEGENERATE_GEOMETRY` as for `refl_layered_clear`. On error
-/// nothing is written.
+/// a non-finite `t`, an invalid grid, or misaligned or overlapping buffers;
+/// `REFL_STATUS_INSUFFICIENT_SIZE` and `REFL_STATUS_DEGENERATE_GEOMETRY` as
+/// for `refl_layered_clear`. On error nothing is written, `hits` included.
 ///
 /// # Safety
 /// `out` NULL or writable; `map` NULL or readable with writable buffers;
-/// `hits` NULL or readable for `hit_count` elements.
+/// `hits` NULL or readable and writable for `hits_len` elements.
 #[no_mangle]
 pub unsafe extern "C" fn refl_layered_fill_column(
-    out: *mut refl_column_fill,
+    out: *mut refl_layered_column_fill,
     map: *const refl_layered_map_mut,
     face: u32,
     i: u32,
     j: u32,
-    hits: *const refl_layer_hit,
-    hit_count: usize,
+    hits: *mut refl_layered_layer_hit,
+    hits_len: usize,
 ) -> refl_status {
     let out_at = out as usize;
     guard("refl_layered_fill_column", || {
         let out = Out::new(out, "out")?;
         // SAFETY: caller contract.
         let desc = unsafe { read(map, "map") }?;
-        let mut scratch = Vec::new();
-        // SAFETY: caller contract.
-        unsafe { read_hits(hits, hit_count, &mut scratch) }?;
-        let out_range = (out_at, core::mem::size_of::<refl_column_fill>());
+        let out_range = (out_at, core::mem::size_of::<refl_layered_column_fill>());
         if desc
             .ranges()
             .iter()
@@ -659,12 +653,16 @@ pub unsafe extern "C" fn refl_layered_fill_column(
         {
             return Err(Error::InvalidArgument);
         }
+        let face = self::face(face)?;
+        // SAFETY: caller contract.
+        let hits = unsafe { hits_mut(hits, hits_len, &desc, out_range) }?;
         // SAFETY: caller contract.
         let mut m = unsafe { desc.view_mut() }?;
-        let f: ColumnFill = m.try_fill_column(self::face(face)?, i, j, &mut scratch)?;
+        // Validates the texel and every crossing before sorting or writing.
+        let f: ColumnFill = m.try_fill_column(face, i, j, hits)?;
         // SAFETY: caller contract.
         unsafe {
-            out.write(refl_column_fill {
+            out.write(refl_layered_column_fill {
                 intervals: f.intervals,
                 stored: f.stored,
             })
@@ -677,42 +675,40 @@ pub unsafe extern "C" fn refl_layered_fill_column(
 /// column rays: the crossings of texel `(i, j)` are
 /// `hits[offsets[j * res + i] .. offsets[j * res + i + 1]]`, so `offsets`
 /// holds `res * res + 1` non-decreasing values with the last at most
-/// `hit_count` (a CSR layout). Each column is filled as by
+/// `hits_len` (a CSR layout). Each column is filled as by
 /// `refl_layered_fill_column`; then the empty-space bounds of `face` and
 /// its opposite are rebuilt (as `refl_layered_build_bounds` does). If `out`
 /// is not NULL, the number of columns whose gaps had to be filled
-/// (approximate columns) is written to it.
+/// (approximate columns) is written to it. `hits` is the call's scratch:
+/// on success each column's crossings are sorted in place; it must not
+/// overlap the map, `offsets` or `out`.
 ///
 /// Everything is validated before anything is written: on error the map
-/// is untouched. Returns `REFL_STATUS_NULL_POINTER` if `map`, its buffers,
+/// and `hits` are untouched. Returns `REFL_STATUS_NULL_POINTER` if `map`, its buffers,
 /// `offsets`, or `hits` with a non-zero count is NULL;
 /// `REFL_STATUS_INVALID_ARGUMENT` for decreasing offsets or one beyond
-/// `hit_count`, and the cases of `refl_layered_fill_column`;
-/// `REFL_STATUS_INSUFFICIENT_SIZE` if `offset_count < res * res + 1` or a
+/// `hits_len`, and the cases of `refl_layered_fill_column`;
+/// `REFL_STATUS_INSUFFICIENT_SIZE` if `offsets_len < res * res + 1` or a
 /// map buffer is short.
 ///
 /// # Safety
 /// `out` NULL or writable; `map` NULL or readable with writable buffers;
-/// `hits` NULL or readable for `hit_count`, `offsets` NULL or readable for
-/// `offset_count` elements.
+/// `hits` NULL or readable and writable for `hits_len`, `offsets` NULL or
+/// readable for `offsets_len` elements.
 #[no_mangle]
 #[allow(clippy::too_many_arguments)]
 pub unsafe extern "C" fn refl_layered_fill_face(
     out: *mut u32,
     map: *const refl_layered_map_mut,
     face: u32,
-    hits: *const refl_layer_hit,
-    hit_count: usize,
+    hits: *mut refl_layered_layer_hit,
+    hits_len: usize,
     offsets: *const usize,
-    offset_count: usize,
+    offsets_len: usize,
 ) -> refl_status {
     let out_at = out as usize;
     guard("refl_layered_fill_face", || {
-        let out = if out.is_null() {
-            None
-        } else {
-            Some(Out::new(out, "out")?)
-        };
+        let out = Out::optional(out, "out")?;
         // SAFETY: caller contract.
         let desc = unsafe { read(map, "map") }?;
         let face = self::face(face)?;
@@ -721,25 +717,34 @@ pub unsafe extern "C" fn refl_layered_fill_face(
             .checked_mul(res)
             .and_then(|n| n.checked_add(1))
             .ok_or(Error::InvalidArgument)?;
-        buffer(offsets, offset_count)?;
-        if offset_count < need {
+        buffer(offsets, offsets_len)?;
+        if offsets_len < need {
             return Err(Error::InsufficientSize);
         }
-        // SAFETY: non-null, aligned, size checked; readability by contract.
-        let offs = unsafe { core::slice::from_raw_parts(offsets, need) };
-        let mut all = Vec::new();
-        // SAFETY: caller contract.
-        unsafe { read_hits(hits, hit_count, &mut all) }?;
-        if out.is_some() {
-            let r = (out_at, 4);
-            if desc.ranges().iter().any(|x| overlaps(x.0, x.1, r.0, r.1)) {
-                return Err(Error::InvalidArgument);
-            }
+        let out_range = if out.is_some() { (out_at, 4) } else { (0, 0) };
+        if desc
+            .ranges()
+            .iter()
+            .any(|x| overlaps(x.0, x.1, out_range.0, out_range.1))
+        {
+            return Err(Error::InvalidArgument);
         }
+        let m = desc.ranges();
+        no_overlap(
+            range(offsets, need),
+            &[m[0], m[1], m[2], m[3], range(hits, hits_len)],
+            "offsets",
+        )?;
+        // SAFETY: non-null, aligned, size checked; readable by contract and
+        // disjoint from everything the call writes (checked).
+        let offs = unsafe { slice(offsets, need, "offsets") }?;
+        // SAFETY: caller contract.
+        let hits = unsafe { hits_mut(hits, hits_len, &desc, out_range) }?;
         // SAFETY: caller contract.
         let mut m = unsafe { desc.view_mut() }?;
-        // Validates everything (offsets, every column ray) before writing.
-        let approx = m.try_fill_face(face, &mut all, offs)?;
+        // Validates everything (offsets, every crossing, every column ray)
+        // before sorting or writing.
+        let approx = m.try_fill_face(face, hits, offs)?;
         if let Some(o) = out {
             // SAFETY: caller contract.
             unsafe { o.write(approx) };
@@ -781,7 +786,7 @@ pub unsafe extern "C" fn refl_layered_build_bounds(
 /// result to `*out`.
 ///
 /// Returns `REFL_STATUS_NULL_POINTER` if `out`, `map`, a map buffer or
-/// `params` is NULL; `REFL_STATUS_INVALID_ARGUMENT` for a non-finite ray,
+/// `options` is NULL; `REFL_STATUS_INVALID_ARGUMENT` for a non-finite ray,
 /// a direction whose length is not 1 (within 1e-3), `t_max` NaN or not
 /// positive, invalid parameters or grid; `REFL_STATUS_INSUFFICIENT_SIZE`
 /// for a short map buffer; `REFL_STATUS_DEGENERATE_GEOMETRY` for a
@@ -789,53 +794,49 @@ pub unsafe extern "C" fn refl_layered_build_bounds(
 ///
 /// # Safety
 /// `out` NULL or writable; `map` NULL or readable with readable buffers;
-/// `params` NULL or readable.
+/// `options` NULL or readable.
 #[no_mangle]
-pub unsafe extern "C" fn refl_layered_trace(
+pub unsafe extern "C" fn refl_layered_trace_ray(
     out: *mut refl_layered_result,
     map: *const refl_layered_map,
     ray: refl_ray,
     t_max: f32,
-    params: *const refl_layered_params,
+    options: *const refl_layered_options,
 ) -> refl_status {
     let out_at = out as usize;
-    guard("refl_layered_trace", || {
+    guard("refl_layered_trace_ray", || {
         let out = Out::new(out, "out")?;
-        crate::ptr::no_nulls(&[(map.is_null(), "map"), (params.is_null(), "params")])?;
+        crate::ptr::no_nulls(&[(map.is_null(), "map"), (options.is_null(), "options")])?;
         // SAFETY: caller contract.
         let desc = unsafe { read(map, "map") }?;
         // SAFETY: caller contract.
-        let params = LayeredParams::from(unsafe { read(params, "params") }?);
+        let options = LayeredOptions::from(unsafe { read(options, "options") }?);
         let r = (out_at, core::mem::size_of::<refl_layered_result>());
         if desc.ranges().iter().any(|x| overlaps(x.0, x.1, r.0, r.1)) {
             return Err(Error::InvalidArgument);
         }
         // SAFETY: caller contract.
         let m = unsafe { desc.view() }?;
-        let ray = Ray {
-            origin: ray.origin.into(),
-            dir: ray.dir.into(),
-        };
-        let res = m.trace(&ray, t_max, &params)?;
+        let res = m.try_trace(&ray.into(), t_max, &options)?;
         // SAFETY: caller contract.
         unsafe { out.write(res.into()) };
         Ok(())
     })
 }
 
-/// Traces `ray_count` rays (as `refl_layered_trace`, one `t_max` for all)
+/// Traces `rays_len` rays (as `refl_layered_trace_ray`, one `t_max` for all)
 /// and writes result `k` to `out[k]`. All rays are validated first: on
 /// error nothing is written.
 ///
-/// Returns `REFL_STATUS_NULL_POINTER` if `map`, a map buffer or `params`
+/// Returns `REFL_STATUS_NULL_POINTER` if `map`, a map buffer or `options`
 /// is NULL, or `out` / `rays` with a non-zero count;
-/// `REFL_STATUS_INSUFFICIENT_SIZE` if `out_len < ray_count` or a map buffer
-/// is short; `REFL_STATUS_INVALID_ARGUMENT` as for `refl_layered_trace`,
+/// `REFL_STATUS_INSUFFICIENT_SIZE` if `out_len < rays_len` or a map buffer
+/// is short; `REFL_STATUS_INVALID_ARGUMENT` as for `refl_layered_trace_ray`,
 /// for any invalid ray, or for `out` overlapping `rays` or the map.
 ///
 /// # Safety
 /// `out` NULL or writable for `out_len` results; `rays` NULL or readable
-/// for `ray_count`; `map` and `params` as for `refl_layered_trace`.
+/// for `rays_len`; `map` and `options` as for `refl_layered_trace_ray`.
 #[no_mangle]
 #[allow(clippy::too_many_arguments)]
 pub unsafe extern "C" fn refl_layered_trace_rays(
@@ -843,25 +844,25 @@ pub unsafe extern "C" fn refl_layered_trace_rays(
     out_len: usize,
     map: *const refl_layered_map,
     rays: *const refl_ray,
-    ray_count: usize,
+    rays_len: usize,
     t_max: f32,
-    params: *const refl_layered_params,
+    options: *const refl_layered_options,
 ) -> refl_status {
     guard("refl_layered_trace_rays", || {
-        crate::ptr::no_nulls(&[(map.is_null(), "map"), (params.is_null(), "params")])?;
-        if ray_count == 0 {
+        crate::ptr::no_nulls(&[(map.is_null(), "map"), (options.is_null(), "options")])?;
+        if rays_len == 0 {
             return Ok(());
         }
         let o = buffer(out.cast_const(), out_len)?;
-        let r = buffer(rays, ray_count)?;
-        if out_len < ray_count {
+        let r = buffer(rays, rays_len)?;
+        if out_len < rays_len {
             return Err(Error::InsufficientSize);
         }
         // SAFETY: caller contract.
         let desc = unsafe { read(map, "map") }?;
         // SAFETY: caller contract.
-        let params = LayeredParams::from(unsafe { read(params, "params") }?);
-        let o = (o.0, ray_count * core::mem::size_of::<refl_layered_result>());
+        let options = LayeredOptions::from(unsafe { read(options, "options") }?);
+        let o = (o.0, rays_len * core::mem::size_of::<refl_layered_result>());
         if overlaps(o.0, o.1, r.0, r.1)
             || desc.ranges().iter().any(|x| overlaps(x.0, x.1, o.0, o.1))
         {
@@ -870,24 +871,13 @@ pub unsafe extern "C" fn refl_layered_trace_rays(
         // SAFETY: caller contract.
         let m = unsafe { desc.view() }?;
         // SAFETY: non-null, aligned, size checked; readable by contract.
-        let rays = unsafe { core::slice::from_raw_parts(rays, ray_count) };
-        let rays: Vec<Ray> = rays
-            .iter()
-            .map(|r| Ray {
-                origin: r.origin.into(),
-                dir: r.dir.into(),
-            })
-            .collect();
-        // Validate everything (rays, t_max, params) before writing.
-        let mut results = Vec::with_capacity(rays.len());
-        for ray in &rays {
-            results.push(refl_layered_result::from(m.trace(ray, t_max, &params)?));
-        }
-        // SAFETY: non-null, aligned, out_len >= ray_count, disjoint from
+        let rays = unsafe { slice(rays, rays_len, "rays") }?;
+        // SAFETY: non-null, aligned, out_len >= rays_len, disjoint from
         // the inputs (checked); writable by contract.
-        let dst = unsafe { core::slice::from_raw_parts_mut(out, ray_count) };
-        dst.copy_from_slice(&results);
-        Ok(())
+        let out = unsafe { slice_mut(out, rays_len, "out") }?;
+        // Validates every ray, t_max and the parameters before the first
+        // write.
+        m.try_trace_rays(out, rays, t_max, &options)
     })
 }
 
@@ -895,7 +885,7 @@ pub unsafe extern "C" fn refl_layered_trace_rays(
 /// reflected object with bounding sphere (`center`, `radius`) with the
 /// potential-reflection-region test of seed 001 Sec. 3.2 (camera cone
 /// around the mirrored sphere against the triangle: corner inside, edge
-/// crossing, section inside) and writes a `refl_prr_class` to `*out`.
+/// crossing, section inside) and writes a `refl_layered_prr_class` to `*out`.
 /// Classes 2-5 may show a reflection; 0 and 1 cannot.
 ///
 /// Returns `REFL_STATUS_NULL_POINTER` if `out` is NULL;
@@ -906,7 +896,7 @@ pub unsafe extern "C" fn refl_layered_trace_rays(
 /// # Safety
 /// `out` must be NULL or point to a writable `uint32_t`.
 #[no_mangle]
-pub unsafe extern "C" fn refl_prr_classify(
+pub unsafe extern "C" fn refl_layered_prr_classify(
     out: *mut u32,
     eye: refl_vec3,
     center: refl_vec3,
@@ -915,16 +905,16 @@ pub unsafe extern "C" fn refl_prr_classify(
     p1: refl_vec3,
     p2: refl_vec3,
 ) -> refl_status {
-    guard("refl_prr_classify", || {
+    guard("refl_layered_prr_classify", || {
         let out = Out::new(out, "out")?;
-        let c = prr_classify(
+        let c = try_prr_classify(
             eye.into(),
             center.into(),
             radius,
             [p0, p1, p2].map(Vec3::from),
         )?;
         // SAFETY: caller contract.
-        unsafe { out.write(refl_prr_class::from(c) as u32) };
+        unsafe { out.write(refl_layered_prr_class::from(c) as u32) };
         Ok(())
     })
 }

@@ -6,21 +6,29 @@
 //! it is stale (`REFL_BLESS_HEADER=1 cargo test -p refl-ffi --test header`
 //! rewrites it).
 //!
-//! Conventions of every export (meshoptimizer / rustls-ffi style):
+//! Conventions of every export (meshoptimizer / rustls-ffi style; the
+//! naming and signature rules are `docs/api.md`'s, enforced on the header by
+//! `tests/conventions.rs`):
 //!
 //! * Outputs first, then inputs. Small values (vectors, rays, image
 //!   descriptors) are passed by value; cameras, planes and matrices by
 //!   pointer.
-//! * Every function returns a [`refl_status`]; `REFL_STATUS_OK` is 0. Each
+//! * Every function returns a [`refl_status`] (except the library-level
+//!   `refl_version*`, `refl_status_string`, `refl_last_error_message` and
+//!   the `refl_<module>_options_default(void)` functions, which return
+//!   their value); `REFL_STATUS_OK` is 0. Each
 //!   pointer is checked (NULL, then alignment) before it is read, and
 //!   `REFL_STATUS_NULL_POINTER` comes only with a NULL pointer; when several
 //!   arguments are bad, which one is reported is not specified (the
 //!   last-error message names it). (This read "NULL pointers first" until
 //!   the fuzz targets showed exports that check a misaligned output, a row
 //!   range or a face before a later NULL.)
-//! * Outputs are written only on success: results are computed into locals
-//!   and stored last, so a failed call leaves every output byte untouched,
-//!   and an output may alias an input.
+//! * Outputs are written only on success: every input is validated before
+//!   the first output byte is written, so a failed call leaves every output
+//!   byte untouched. Single-value outputs are computed into locals and
+//!   stored last, so they may alias an input; arrays are borrowed in place
+//!   (nothing is copied: no export allocates, `tests/alloc.rs`), so an
+//!   output array must not overlap an input (`REFL_STATUS_INVALID_ARGUMENT`).
 //! * Enums cross the boundary as `uint32_t` and are validated: an unknown
 //!   value is `REFL_STATUS_INVALID_ARGUMENT`, never undefined behavior.
 //! * No panic crosses the boundary: each call runs inside `catch_unwind`

@@ -62,12 +62,12 @@ fn finite_out(v: Vec3) -> Result<refl_vec3, Error> {
 /// # Safety
 /// `out` must be NULL or point to a writable `refl_vec3`.
 #[no_mangle]
-pub unsafe extern "C" fn refl_reflect(
+pub unsafe extern "C" fn refl_mirror_reflect(
     out: *mut refl_vec3,
     v: refl_vec3,
     n: refl_vec3,
 ) -> refl_status {
-    guard("refl_reflect", || {
+    guard("refl_mirror_reflect", || {
         let out = Out::new(out, "out")?;
         let r = refl_core::try_reflect(v.into(), n.into()).map_err(|e| {
             let why = match e {
@@ -273,16 +273,16 @@ pub unsafe extern "C" fn refl_mirror_point(
 /// # Safety
 /// `out` must be NULL or writable; `camera` and `plane` NULL or readable.
 #[no_mangle]
-pub unsafe extern "C" fn refl_mirrored_camera(
+pub unsafe extern "C" fn refl_mirror_camera(
     out: *mut refl_camera,
     camera: *const refl_camera,
     plane: *const refl_plane,
 ) -> refl_status {
-    guard("refl_mirrored_camera", || {
+    guard("refl_mirror_camera", || {
         let out = Out::new(out, "out")?;
         // SAFETY: caller contract.
         let (cam, plane) = unsafe { camera_and_plane(camera, plane) }?;
-        let m = refl_core::mirrored_camera(&cam, &plane)?;
+        let m = refl_core::try_mirrored_camera(&cam, &plane)?;
         // SAFETY: caller contract.
         unsafe { out.write(refl_camera::from(&m)) };
         Ok(())
@@ -292,7 +292,7 @@ pub unsafe extern "C" fn refl_mirrored_camera(
 /// Writes to `*out` the projection matrix of `camera` for the
 /// post-projection convention `convention` with its near plane replaced by
 /// the world-space plane `clip` (an oblique near plane, Lengyel 2005): used
-/// with a camera from `refl_mirrored_camera` and the mirror plane oriented
+/// with a camera from `refl_mirror_camera` and the mirror plane oriented
 /// toward the real eye, depth clipping discards everything behind the mirror
 /// without a user clip plane. The x, y and w rows are those of
 /// `refl_camera_projection_matrix`; stored depth is the near value exactly on
@@ -308,17 +308,17 @@ pub unsafe extern "C" fn refl_mirrored_camera(
 /// # Safety
 /// `out` must be NULL or writable; `camera` and `clip` NULL or readable.
 #[no_mangle]
-pub unsafe extern "C" fn refl_oblique_projection(
+pub unsafe extern "C" fn refl_mirror_oblique_projection(
     out: *mut refl_mat4,
     camera: *const refl_camera,
     clip: *const refl_plane,
     convention: u32,
 ) -> refl_status {
-    guard("refl_oblique_projection", || {
+    guard("refl_mirror_oblique_projection", || {
         let out = Out::new(out, "out")?;
         // SAFETY: caller contract.
         let (cam, clip) = unsafe { camera_and_plane(camera, clip) }?;
-        let m = finite_mat(refl_core::oblique_projection(
+        let m = finite_mat(refl_core::try_oblique_projection(
             &cam,
             &clip,
             self::convention(convention)?,

@@ -1,9 +1,11 @@
 //! Checked access to caller pointers.
 //!
-//! Inputs are copied out by value at the start of a call and outputs are
-//! written once at the end, so no Rust reference into caller memory outlives
-//! a single read or write: an output may alias an input (e.g. a camera
-//! mirrored in place) without undefined behavior.
+//! Small inputs (cameras, descriptors, options) are copied out by value at
+//! the start of a call and single-value outputs are written once at the
+//! end, so such an output may alias an input (e.g. a camera mirrored in
+//! place). Arrays are borrowed in place as slices, never copied (refl-ffi
+//! allocates nothing): an output array is borrowed mutably only after every
+//! check of the call and only if it overlaps no input (`no_overlap`).
 
 use crate::status::fail;
 use core::mem::size_of;
@@ -108,22 +110,6 @@ pub(crate) fn overlaps(a: usize, a_len: usize, b: usize, b_len: usize) -> bool {
     a_len > 0 && b_len > 0 && a < b + b_len && b < a + a_len
 }
 
-/// Reads `count` caller values into a copy: `NullPointer` if `p` is NULL,
-/// `InvalidArgument` if misaligned or impossibly long.
-///
-/// # Safety
-/// A non-null, aligned `p` must be readable for `count` values of `T`.
-pub(crate) unsafe fn read_vec<T: Copy>(
-    p: *const T,
-    count: usize,
-    name: &str,
-) -> Result<Vec<T>, Error> {
-    check_buffer(p, count, name)?;
-    // SAFETY: non-null, aligned, length fits isize (checked above);
-    // readability is the caller's contract. The slice is copied at once.
-    Ok(unsafe { core::slice::from_raw_parts(p, count) }.to_vec())
-}
-
 /// Checks a caller buffer pointer for `count` values of `T`: `NullPointer`
 /// if NULL, `InvalidArgument` if misaligned or impossibly long; returns its
 /// byte length.
@@ -137,15 +123,106 @@ pub(crate) fn check_buffer<T>(p: *const T, count: usize, name: &str) -> Result<u
     })
 }
 
+/// Borrows `count` caller values as a slice: `NullPointer` if `p` is NULL,
+/// `InvalidArgument` if misaligned or impossibly long ([`check_buffer`]).
+///
+/// # Safety
+/// A non-null, aligned `p` must be readable for `count` values of `T` for
+/// `'a`, and not be written meanwhile.
+pub(crate) unsafe fn slice<'a, T>(p: *const T, count: usize, name: &str) -> Result<&'a [T], Error> {
+    check_buffer(p, count, name)?;
+    // SAFETY: non-null, aligned, length fits isize (checked above);
+    // readability and no writer for 'a are the caller's contract.
+    Ok(unsafe { core::slice::from_raw_parts(p, count) })
+}
+
+/// [`slice`] for an optional array: an empty one (`count == 0`) may be
+/// NULL.
+///
+/// # Safety
+/// As [`slice`].
+pub(crate) unsafe fn slice_or_empty<'a, T>(
+    p: *const T,
+    count: usize,
+    name: &str,
+) -> Result<&'a [T], Error> {
+    if count == 0 {
+        return Ok(&[]);
+    }
+    // SAFETY: forwarded contract.
+    unsafe { slice(p, count, name) }
+}
+
+/// Borrows `count` caller values as a mutable slice (checked as
+/// [`slice`]). Create it after every check of the call, just before the
+/// kernel that writes it, and only for memory that overlaps no other
+/// argument of the call (`overlaps`).
+///
+/// # Safety
+/// A non-null, aligned `p` must be readable and writable for `count` values
+/// of `T` for `'a`, and not be accessed through another pointer meanwhile.
+pub(crate) unsafe fn slice_mut<'a, T>(
+    p: *mut T,
+    count: usize,
+    name: &str,
+) -> Result<&'a mut [T], Error> {
+    check_buffer(p.cast_const(), count, name)?;
+    // SAFETY: as in `slice`, plus exclusivity by contract.
+    Ok(unsafe { core::slice::from_raw_parts_mut(p, count) })
+}
+
+/// [`slice_mut`] for an optional array: an empty one (`count == 0`) may be
+/// NULL.
+///
+/// # Safety
+/// As [`slice_mut`].
+pub(crate) unsafe fn slice_mut_or_empty<'a, T>(
+    p: *mut T,
+    count: usize,
+    name: &str,
+) -> Result<&'a mut [T], Error> {
+    if count == 0 {
+        return Ok(&mut []);
+    }
+    // SAFETY: forwarded contract.
+    unsafe { slice_mut(p, count, name) }
+}
+
+/// The byte range `(address, bytes)` of `count` values of `T` at `p`,
+/// saturating (for overlap tests of pointers already checked or about to
+/// be refused).
+#[inline]
+pub(crate) fn range<T>(p: *const T, count: usize) -> (usize, usize) {
+    (p as usize, count.saturating_mul(size_of::<T>()))
+}
+
+/// `InvalidArgument` naming `name` if the output bytes `out` overlap one of
+/// the input ranges `inputs` (an output array is written in place, so it
+/// must not share memory with what the call reads).
+pub(crate) fn no_overlap(
+    out: (usize, usize),
+    inputs: &[(usize, usize)],
+    name: &str,
+) -> Result<(), Error> {
+    if inputs.iter().any(|&(a, l)| overlaps(out.0, out.1, a, l)) {
+        return Err(fail(
+            Error::InvalidArgument,
+            format_args!("`{name}` overlaps an input of the call"),
+        ));
+    }
+    Ok(())
+}
+
 /// A band of pyramid rows to write, the finer level to read (none for level
 /// 0) and the band's rows: what [`pyramid_band`] returns.
 pub(crate) type PyramidBand<'a, T> = (&'a mut [T], Option<&'a [T]>, refl_core::RowRange);
 
-/// The rows `row_start..row_end` of level `level` of a pyramid laid out as
+/// The rows `rows` of level `level` of a pyramid laid out as
 /// `layout` in the caller buffer `dst` of `dst_len` texels (checked with
 /// [`check_buffer`]), and for `level > 0` the whole finer level they are
-/// built from: the slices of every `*_build_*_rows` export (Hi-Z, color,
-/// visibility).
+/// built from ([`refl_core::HiZLayout::try_band`]): the slices of every
+/// `*_build_*_rows` export (Hi-Z, color, visibility). Only those texels
+/// are borrowed, so threads building disjoint bands never alias.
 ///
 /// # Errors
 /// `InvalidArgument` for a level past the last or empty, reversed or
@@ -160,29 +237,19 @@ pub(crate) unsafe fn pyramid_band<'a, T>(
     dst_len: usize,
     layout: &refl_core::hiz::HiZLayout,
     level: u32,
-    row_start: u32,
-    row_end: u32,
+    rows: crate::image::refl_row_range,
 ) -> Result<PyramidBand<'a, T>, Error> {
     let lv = layout.level(level).ok_or(Error::InvalidArgument)?;
-    let rows = refl_core::RowRange::try_new(row_start, row_end, lv.height)?;
-    if dst_len < layout.len() {
-        return Err(Error::InsufficientSize);
-    }
-    let band = layout
-        .rows_range(level, rows)
-        .ok_or(Error::InvalidArgument)?;
-    // SAFETY: `band` lies within the first layout.len() <= dst_len texels,
-    // writable by contract and not touched by other threads.
-    let out = unsafe { core::slice::from_raw_parts_mut(dst.add(band.start), band.len()) };
-    let finer = match level {
-        0 => None,
-        _ => {
-            let f = layout.level(level - 1).ok_or(Error::InvalidArgument)?;
-            // SAFETY: level `level - 1` lies before level `level` in the
-            // buffer (disjoint from `out`), within dst_len, and is only
-            // read meanwhile (contract).
-            Some(unsafe { core::slice::from_raw_parts(dst.add(f.offset).cast_const(), f.len()) })
-        }
-    };
+    let rows = refl_core::RowRange::try_new(rows.begin, rows.end, lv.height)?;
+    let b = layout.try_band(level, rows, dst_len)?;
+    // SAFETY: `b.band` lies within the first layout.len() <= dst_len
+    // texels, writable by contract and not touched by other threads.
+    let out = unsafe { core::slice::from_raw_parts_mut(dst.add(b.band.start), b.band.len()) };
+    let finer = b.finer.map(|f| {
+        // SAFETY: the finer level lies before the band in the buffer
+        // (disjoint from `out`), within dst_len, and is only read meanwhile
+        // (contract).
+        unsafe { core::slice::from_raw_parts(dst.add(f.start).cast_const(), f.len()) }
+    });
     Ok((out, finer, rows))
 }

@@ -96,7 +96,7 @@ pub struct refl_ssr_options {
     /// Width of the confidence fade at the image border, a fraction of the
     /// smaller image side in [0, 0.5]. Default 0.05.
     pub border_fade: f32,
-    /// Refine hits to sub-pixel precision (`refl_refine_hit`). Default true.
+    /// Refine hits to sub-pixel precision (`refl_trace_refine_hit`). Default true.
     pub refine: bool,
     /// Refuse hits on surfaces that face along the ray. Default true.
     pub reject_back_faces: bool,
@@ -287,7 +287,7 @@ fn options(o: &refl_ssr_options) -> Result<MirrorOptions, Error> {
 /// The pass's defaults: stepping, thickness 0.5 of the pixel's depth,
 /// start after 1 pixel, t_min 0, t_max +infinity, roughness up to 0.1, a
 /// 5% border fade, refined hits, back faces and hidden hits refused; the
-/// kernels' own defaults (`refl_hiz_default_options`, stride 1).
+/// kernels' own defaults (`refl_hiz_options_default`, stride 1).
 #[no_mangle]
 pub extern "C" fn refl_ssr_options_default() -> refl_ssr_options {
     MirrorOptions::default().into()
@@ -388,7 +388,7 @@ pub unsafe extern "C" fn refl_ssr_scratch_len(
         let cam = crate::types::camera_named(&g.depth.camera, "gbuffer.depth.camera")?;
         let n = match o.method {
             MirrorMethod::Step => 0,
-            MirrorMethod::HiZ => refl_core::hiz_len(cam.width(), cam.height())?,
+            MirrorMethod::HiZ => refl_core::try_hiz_len(cam.width(), cam.height())?,
         };
         // SAFETY: caller contract.
         unsafe { out.write(n) };
@@ -442,7 +442,7 @@ pub unsafe extern "C" fn refl_ssr_prepare(
                 format_args!("`scratch` overlaps a G-buffer image"),
             ));
         }
-        let need = refl_core::hiz_len(gb.width(), gb.height())?;
+        let need = refl_core::try_hiz_len(gb.width(), gb.height())?;
         if scratch_len < need {
             return Err(fail(
                 Error::InsufficientSize,
@@ -637,7 +637,7 @@ impl MirrorSink for Band<'_, refl_ssr_texel> {
 /// host's tracer to `host` (up to `host_len`; `host` may be NULL with
 /// `host_len` 0) in row-major order. The counts go to `*out_stats`.
 ///
-/// Bands are independent: split the rows (`refl_row_band`) across threads,
+/// Bands are independent: split the rows (`refl_image_row_band`) across threads,
 /// each with its own `host` list. `scratch` is what `refl_ssr_prepare`
 /// built for this G-buffer (Hi-Z; NULL for stepping); a pyramid built for
 /// another camera or size is refused.

@@ -99,7 +99,7 @@ pub const UNKNOWN_STATUS: &CStr = c"unknown refl_status value";
 /// `refl_version_number()` at run time to detect a header/library mismatch.
 pub const REFL_VERSION_MAJOR: u32 = 0;
 /// Minor version of the header.
-pub const REFL_VERSION_MINOR: u32 = 2;
+pub const REFL_VERSION_MINOR: u32 = 3;
 /// Patch version of the header.
 pub const REFL_VERSION_PATCH: u32 = 0;
 
@@ -116,7 +116,7 @@ pub extern "C" fn refl_status_string(status: u32) -> *const c_char {
 }
 
 /// The library version as a static, NUL-terminated string such as
-/// "0.2.0". Never NULL; must not be freed.
+/// "0.3.0". Never NULL; must not be freed.
 #[no_mangle]
 pub extern "C" fn refl_version() -> *const c_char {
     const V: &CStr =

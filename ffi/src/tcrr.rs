@@ -22,7 +22,7 @@ use crate::ptr::{read, Out};
 use crate::status::{guard, refl_status};
 use crate::types::{convention, refl_camera, refl_vec3};
 use refl_core::tcrr::{
-    self, CurrentView, Fresnel, KeyFramePolicy, Reflected, ReflectionBuffers, TcrrParams,
+    self, CurrentView, Fresnel, KeyFramePolicy, Reflected, ReflectionBuffers, TcrrOptions,
 };
 use refl_core::{Error, RowRange};
 
@@ -109,11 +109,11 @@ fn fresnel(v: u32) -> Result<Fresnel, Error> {
     }
 }
 
-/// Settings of the TCRR passes (refl-core `TcrrParams`); fill with
-/// `refl_tcrr_default_params`.
+/// Settings of the TCRR passes (refl-core `TcrrOptions`); fill with
+/// `refl_tcrr_options_default`.
 #[repr(C)]
 #[derive(Clone, Copy, Debug, PartialEq)]
-pub struct refl_tcrr_params {
+pub struct refl_tcrr_options {
     /// Iteration cap of the neighborhood search, >= 1 (default 64).
     pub max_iterations: u32,
     /// Magnification threshold of shifting, finite and >= 1 (seed: 16).
@@ -124,43 +124,38 @@ pub struct refl_tcrr_params {
     /// Discontinuity tolerance of the reflected path `s.d + s.r`, relative;
     /// finite, > 0 (default 0.1).
     pub reflected_discontinuity: f32,
-    /// 1: sub-pixel offsets (default); 0: the seed's whole-pixel offsets.
-    pub subpixel: u32,
+    /// Sub-pixel offsets (default); false: the seed's whole-pixel offsets.
+    pub subpixel: bool,
     /// Warping re-traces a pixel whose bilinear taps differ by more than
     /// this in a linear RGB channel (a reflected edge); > 0, +inf turns
     /// the test off (default 0.1).
     pub retrace_contrast: f32,
 }
 
-impl TryFrom<&refl_tcrr_params> for TcrrParams {
+impl TryFrom<&refl_tcrr_options> for TcrrOptions {
     type Error = Error;
-    fn try_from(p: &refl_tcrr_params) -> Result<Self, Error> {
-        let subpixel = match p.subpixel {
-            0 => false,
-            1 => true,
-            _ => return Err(Error::InvalidArgument),
-        };
-        let t = TcrrParams {
+    fn try_from(p: &refl_tcrr_options) -> Result<Self, Error> {
+        let t = TcrrOptions {
             max_iterations: p.max_iterations,
             magnification: p.magnification,
             discontinuity: p.discontinuity,
             reflected_discontinuity: p.reflected_discontinuity,
-            subpixel,
+            subpixel: p.subpixel,
             retrace_contrast: p.retrace_contrast,
         };
-        t.validate()?;
+        t.try_validate()?;
         Ok(t)
     }
 }
 
-impl From<&TcrrParams> for refl_tcrr_params {
-    fn from(p: &TcrrParams) -> Self {
+impl From<&TcrrOptions> for refl_tcrr_options {
+    fn from(p: &TcrrOptions) -> Self {
         Self {
             max_iterations: p.max_iterations,
             magnification: p.magnification,
             discontinuity: p.discontinuity,
             reflected_discontinuity: p.reflected_discontinuity,
-            subpixel: u32::from(p.subpixel),
+            subpixel: p.subpixel,
             retrace_contrast: p.retrace_contrast,
         }
     }
@@ -248,13 +243,15 @@ pub struct refl_tcrr_warp_stats {
 /// distance 4), surfels 32, offsets 8, intermediate color 12, depth 4 and
 /// coverage 1, warped color 12, mask 1, re-trace list 4 (worst case).
 pub const REFL_TCRR_BYTES_PER_PIXEL: usize = 110;
+// The header's constant is refl-core's.
+const _: () = assert!(REFL_TCRR_BYTES_PER_PIXEL == tcrr::BYTES_PER_PIXEL);
 
 /// # Safety
 /// `p` NULL or readable.
-unsafe fn params(p: *const refl_tcrr_params) -> Result<TcrrParams, Error> {
+unsafe fn options(p: *const refl_tcrr_options) -> Result<TcrrOptions, Error> {
     // SAFETY: forwarded contract.
-    TcrrParams::try_from(&unsafe { read(p, "params") }?)
-        .map_err(|e| crate::status::fail_str(e, "`params` out of range (see refl_tcrr_params)"))
+    TcrrOptions::try_from(&unsafe { read(p, "options") }?)
+        .map_err(|e| crate::status::fail_str(e, "`options` out of range (see refl_tcrr_options)"))
 }
 
 /// # Safety
@@ -300,22 +297,12 @@ unsafe fn read_key(k: *const refl_tcrr_key) -> Result<refl_tcrr_key, Error> {
     unsafe { read(k, "key") }
 }
 
-/// Writes to `*out` the default TCRR settings (iteration cap 64,
-/// magnification 16 as in seed 000 Sec. 4.1, discontinuity 0.02, reflected
-/// discontinuity 0.1, sub-pixel offsets on, re-trace contrast 0.1).
-///
-/// Returns `REFL_STATUS_NULL_POINTER` if `out` is NULL.
-///
-/// # Safety
-/// `out` must be NULL or point to a writable `refl_tcrr_params`.
+/// The default TCRR settings (iteration cap 64, magnification 16 as in
+/// seed 000 Sec. 4.1, discontinuity 0.02, reflected discontinuity 0.1,
+/// sub-pixel offsets on, re-trace contrast 0.1).
 #[no_mangle]
-pub unsafe extern "C" fn refl_tcrr_default_params(out: *mut refl_tcrr_params) -> refl_status {
-    guard("refl_tcrr_default_params", || {
-        let out = Out::new(out, "out")?;
-        // SAFETY: caller contract.
-        unsafe { out.write((&TcrrParams::default()).into()) };
-        Ok(())
-    })
+pub extern "C" fn refl_tcrr_options_default() -> refl_tcrr_options {
+    (&TcrrOptions::default()).into()
 }
 
 /// Writes to `*out_bytes` the caller-buffer bytes TCRR needs for a
@@ -337,13 +324,7 @@ pub unsafe extern "C" fn refl_tcrr_frame_bytes(
 ) -> refl_status {
     guard("refl_tcrr_frame_bytes", || {
         let out = Out::new(out_bytes, "out_bytes")?;
-        if width == 0 || height == 0 {
-            return Err(Error::InvalidArgument);
-        }
-        let n = (width as usize)
-            .checked_mul(height as usize)
-            .and_then(|n| n.checked_mul(REFL_TCRR_BYTES_PER_PIXEL))
-            .ok_or(Error::InvalidArgument)?;
+        let n = tcrr::try_frame_bytes(width, height)?;
         // SAFETY: caller contract.
         unsafe { out.write(n) };
         Ok(())
@@ -433,7 +414,7 @@ pub unsafe extern "C" fn refl_tcrr_prepare(
         if v.width() != b.width() || v.height() != b.height() {
             return Err(Error::InvalidArgument);
         }
-        let n = tcrr::prepare(&mut v, &b)?;
+        let n = tcrr::try_prepare(&mut v, &b)?;
         if let Some(o) = out_reflective_checked {
             // SAFETY: caller contract.
             unsafe { o.write(n) };
@@ -473,7 +454,7 @@ pub unsafe extern "C" fn refl_tcrr_reset_offsets(
 /// current eye `eye` (INVALID, i.e. non-finite, where none). Counts go to
 /// `*out_stats` if it is not NULL.
 ///
-/// Returns `REFL_STATUS_NULL_POINTER` for NULL `key`, `params` or image
+/// Returns `REFL_STATUS_NULL_POINTER` for NULL `key`, `options` or image
 /// data; `REFL_STATUS_INVALID_ARGUMENT` for a bad camera, convention,
 /// descriptor, size mismatch, row range, non-finite `eye` or parameter
 /// out of range; `REFL_STATUS_INSUFFICIENT_SIZE` for a short buffer.
@@ -488,7 +469,7 @@ pub unsafe extern "C" fn refl_tcrr_search(
     out_stats: *mut refl_tcrr_search_stats,
     key: *const refl_tcrr_key,
     eye: refl_vec3,
-    params: *const refl_tcrr_params,
+    options: *const refl_tcrr_options,
     rows: refl_row_range,
 ) -> refl_status {
     guard("refl_tcrr_search", || {
@@ -498,19 +479,19 @@ pub unsafe extern "C" fn refl_tcrr_search(
         crate::ptr::no_nulls(&[
             (offsets.data.is_null(), "offsets.data"),
             (key.is_null(), "key"),
-            (params.is_null(), "params"),
+            (options.is_null(), "options"),
         ])?;
         // SAFETY: caller contract.
         let k = unsafe { read_key(key) }?;
         // SAFETY: caller contract.
-        let p = unsafe { self::params(params) }?;
+        let p = unsafe { self::options(options) }?;
         // SAFETY: caller contract.
         let b = unsafe { key_buffers(&k) }?;
         let eye = finite3(eye)?;
         let rows = RowRange::try_new(rows.begin, rows.end, offsets.height)?;
         // SAFETY: caller contract.
         let mut v = unsafe { offsets.band_mut(rows) }?;
-        let s = tcrr::search(&mut v, &b, eye, &p)?;
+        let s = tcrr::try_search(&mut v, &b, eye, &p)?;
         if let Some(o) = out_stats_checked {
             // SAFETY: caller contract.
             unsafe {
@@ -545,7 +526,7 @@ pub unsafe extern "C" fn refl_tcrr_shift(
     out_stats: *mut refl_tcrr_shift_stats,
     key: *const refl_tcrr_key,
     offsets: refl_image_vec2,
-    params: *const refl_tcrr_params,
+    options: *const refl_tcrr_options,
     rows: refl_row_range,
 ) -> refl_status {
     guard("refl_tcrr_shift", || {
@@ -558,12 +539,12 @@ pub unsafe extern "C" fn refl_tcrr_shift(
             (coverage.data.is_null(), "coverage.data"),
             (offsets.data.is_null(), "offsets.data"),
             (key.is_null(), "key"),
-            (params.is_null(), "params"),
+            (options.is_null(), "options"),
         ])?;
         // SAFETY: caller contract.
         let k = unsafe { read_key(key) }?;
         // SAFETY: caller contract.
-        let p = unsafe { self::params(params) }?;
+        let p = unsafe { self::options(options) }?;
         // SAFETY: caller contract.
         let b = unsafe { key_buffers(&k) }?;
         // SAFETY: caller contract.
@@ -577,7 +558,7 @@ pub unsafe extern "C" fn refl_tcrr_shift(
                 coverage.band_mut(r)?,
             )
         };
-        let s = tcrr::shift(&mut c, &mut d, &mut v, &b, &ov, &p)?;
+        let s = tcrr::try_shift(&mut c, &mut d, &mut v, &b, &ov, &p)?;
         if let Some(o) = out_stats_checked {
             // SAFETY: caller contract.
             unsafe {
@@ -597,7 +578,7 @@ pub unsafe extern "C" fn refl_tcrr_shift(
 /// `[rows.begin, rows.end)` of the current view: `color` gets the reused
 /// reflection, `mask` `REFL_TCRR_MASK_{NONE,REUSED,RETRACE}`. For the
 /// naive baseline pass the key frame's own colors, `s.d + s.r` and its
-/// reflective mask (coverage 1), with `params->retrace_contrast = +inf`. Counts go to `*out_stats` if not NULL.
+/// reflective mask (coverage 1), with `options->retrace_contrast = +inf`. Counts go to `*out_stats` if not NULL.
 ///
 /// Returns as `refl_tcrr_search`, also for NULL `current` (outputs
 /// untouched on error).
@@ -615,7 +596,7 @@ pub unsafe extern "C" fn refl_tcrr_warp(
     source: refl_image_vec3,
     source_depth: refl_image_f32,
     coverage: refl_image_u8,
-    params: *const refl_tcrr_params,
+    options: *const refl_tcrr_options,
     rows: refl_row_range,
 ) -> refl_status {
     guard("refl_tcrr_warp", || {
@@ -627,12 +608,12 @@ pub unsafe extern "C" fn refl_tcrr_warp(
             (mask.data.is_null(), "mask.data"),
             (current.is_null(), "current"),
             (key.is_null(), "key"),
-            (params.is_null(), "params"),
+            (options.is_null(), "options"),
         ])?;
         // SAFETY: caller contract.
         let (k, cur) = unsafe { (read_key(key)?, read(current, "current")?) };
         // SAFETY: caller contract.
-        let p = unsafe { self::params(params) }?;
+        let p = unsafe { self::options(options) }?;
         // SAFETY: caller contract.
         let b = unsafe { key_buffers(&k) }?;
         // SAFETY: caller contract.
@@ -642,7 +623,7 @@ pub unsafe extern "C" fn refl_tcrr_warp(
         let r = RowRange::try_new(rows.begin, rows.end, color.height)?;
         // SAFETY: caller contract (two distinct images).
         let (mut c, mut m) = unsafe { (color.band_mut(r)?, mask.band_mut(r)?) };
-        let s = tcrr::warp(&mut c, &mut m, &cv, &b, &sv, &sd, &cov, &p)?;
+        let s = tcrr::try_warp(&mut c, &mut m, &cv, &b, &sv, &sd, &cov, &p)?;
         if let Some(o) = out_stats_checked {
             // SAFETY: caller contract.
             unsafe {
@@ -658,27 +639,27 @@ pub unsafe extern "C" fn refl_tcrr_warp(
 }
 
 /// Writes the pixel indices `y * width + x` of the `REFL_TCRR_MASK_RETRACE`
-/// pixels of `mask`, row-major, to `list[0..count)` and the count to
-/// `*out_count` (the compact list for the host's ray tracer). With `list`
-/// NULL only the count is written (size query).
+/// pixels of `mask`, row-major, to `list[0..n)` and their number `n` to
+/// `*out_len` (the compact list for the host's ray tracer). With `list`
+/// NULL only the number is written (size query).
 ///
-/// Returns `REFL_STATUS_NULL_POINTER` if `out_count` or `mask.data` is
+/// Returns `REFL_STATUS_NULL_POINTER` if `out_len` or `mask.data` is
 /// NULL; `REFL_STATUS_INVALID_ARGUMENT` for a bad descriptor or an image
 /// with more than 2^32 pixels; `REFL_STATUS_INSUFFICIENT_SIZE` (nothing
-/// written) if `list_len` is below the count.
+/// written) if `list_len` is below the number of pixels.
 ///
 /// # Safety
-/// `list` NULL or writable for `list_len` `uint32_t`; `out_count` NULL or
+/// `list` NULL or writable for `list_len` `uint32_t`; `out_len` NULL or
 /// writable; `mask` readable.
 #[no_mangle]
 pub unsafe extern "C" fn refl_tcrr_retrace_list(
     list: *mut u32,
     list_len: usize,
-    out_count: *mut usize,
+    out_len: *mut usize,
     mask: refl_image_u8,
 ) -> refl_status {
     guard("refl_tcrr_retrace_list", || {
-        let out = Out::new(out_count, "out_count")?;
+        let out = Out::new(out_len, "out_len")?;
         // SAFETY: caller contract.
         let m = unsafe { mask.view() }?;
         let n = if list.is_null() {
@@ -693,7 +674,7 @@ pub unsafe extern "C" fn refl_tcrr_retrace_list(
             crate::ptr::byte_len::<u32>(list as usize, list_len)?;
             // SAFETY: non-null, aligned, `list_len` writable by contract.
             let l = unsafe { core::slice::from_raw_parts_mut(list, list_len) };
-            tcrr::retrace_list(l, &m)?
+            tcrr::try_retrace_list(l, &m)?
         };
         // SAFETY: caller contract.
         unsafe { out.write(n) };
@@ -746,7 +727,7 @@ pub unsafe extern "C" fn refl_tcrr_compose(
         let rr = RowRange::try_new(rows.begin, rows.end, out.height)?;
         // SAFETY: caller contract.
         let mut o = unsafe { out.band_mut(rr) }?;
-        tcrr::compose(&mut o, &d, &r, &n, &cv, mode)
+        tcrr::try_compose(&mut o, &d, &r, &n, &cv, mode)
     })
 }
 
@@ -775,20 +756,20 @@ pub unsafe extern "C" fn refl_tcrr_fresnel_weight(
     })
 }
 
-/// The key-frame policy of seed 000 Sec. 4.3/4.4: writes 1 to `*out` if
-/// `retrace` re-traced pixels out of `reflective` exceed the share
-/// `threshold` (0.3 in the seed), else 0 (always 0 without reflective
-/// pixels).
+/// The key-frame policy of seed 000 Sec. 4.3/4.4: writes true to `*out`
+/// if `retrace` re-traced pixels out of `reflective` exceed the share
+/// `threshold` (0.3 in the seed), else false (always false without
+/// reflective pixels).
 ///
 /// Returns `REFL_STATUS_NULL_POINTER` if `out` is NULL;
 /// `REFL_STATUS_INVALID_ARGUMENT` for a threshold outside [0, 1] or NaN,
 /// or `retrace > reflective`.
 ///
 /// # Safety
-/// `out` must be NULL or point to a writable `uint32_t`.
+/// `out` must be NULL or point to a writable `bool`.
 #[no_mangle]
 pub unsafe extern "C" fn refl_tcrr_needs_key_frame(
-    out: *mut u32,
+    out: *mut bool,
     threshold: f32,
     retrace: u64,
     reflective: u64,
@@ -800,7 +781,7 @@ pub unsafe extern "C" fn refl_tcrr_needs_key_frame(
             return Err(Error::InvalidArgument);
         }
         // SAFETY: caller contract.
-        unsafe { out.write(u32::from(p.needs_key_frame(retrace, reflective))) };
+        unsafe { out.write(p.needs_key_frame(retrace, reflective)) };
         Ok(())
     })
 }

@@ -4,10 +4,10 @@
 //!
 //! Results follow refl-core's `Trace`: a hit carries its sub-pixel position,
 //! ray parameter, depths and work counters; a miss says why
-//! (`refl_miss`), never a sentinel NaN.
+//! (`refl_trace_miss`), never a sentinel NaN.
 
 use crate::image::refl_image_f32;
-use crate::ptr::{byte_len, read, read_vec, Out};
+use crate::ptr::{byte_len, no_overlap, range, read, slice, slice_mut, Out};
 use crate::status::{guard, refl_status};
 use crate::types::{convention, refl_camera, refl_ray, refl_vec2};
 use refl_core::{DepthImage, Error, Miss, Ray, StepOptions, Thickness, Trace};
@@ -29,7 +29,7 @@ pub struct refl_depth_image {
 /// How far behind the front-most surface a ray may pass and still hit it.
 #[repr(C)]
 #[derive(Clone, Copy, Debug)]
-pub struct refl_thickness {
+pub struct refl_trace_thickness {
     /// Thickness of every surface in linear depth (world units along the
     /// view axis), >= 0, may be +infinity (everything behind a surface is
     /// solid). Used when `back_faces.data` is NULL, ignored otherwise.
@@ -41,10 +41,10 @@ pub struct refl_thickness {
     pub back_faces: refl_image_f32,
 }
 
-/// Why a traced ray found no surface; `REFL_MISS_NONE` for a hit.
+/// Why a traced ray found no surface; `REFL_TRACE_MISS_NONE` for a hit.
 #[repr(u32)]
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
-pub enum refl_miss {
+pub enum refl_trace_miss {
     /// The ray hit the depth image.
     None = 0,
     /// The projected ray left the image rectangle (or, coming toward the
@@ -63,7 +63,7 @@ pub enum refl_miss {
     DegenerateProjection = 5,
 }
 
-impl From<Miss> for refl_miss {
+impl From<Miss> for refl_trace_miss {
     fn from(m: Miss) -> Self {
         match m {
             Miss::LeftImage => Self::LeftImage,
@@ -79,7 +79,7 @@ impl From<Miss> for refl_miss {
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
 pub struct refl_trace_result {
-    /// `REFL_MISS_NONE` (0) for a hit, otherwise the `refl_miss` reason.
+    /// `REFL_TRACE_MISS_NONE` (0) for a hit, otherwise the `refl_trace_miss` reason.
     pub miss: u32,
     /// Sub-pixel position of the hit in the depth image (pixels, origin
     /// top-left); the texel hit is (floor(x), floor(y)). 0 on a miss.
@@ -110,7 +110,7 @@ impl From<Trace> for refl_trace_result {
         };
         match t {
             Trace::Hit(h) => Self {
-                miss: refl_miss::None as u32,
+                miss: refl_trace_miss::None as u32,
                 pixel: h.pixel.into(),
                 t: h.t,
                 depth: h.depth,
@@ -118,15 +118,16 @@ impl From<Trace> for refl_trace_result {
                 ..base
             },
             Trace::Miss { reason, .. } => Self {
-                miss: refl_miss::from(reason) as u32,
+                miss: refl_trace_miss::from(reason) as u32,
                 ..base
             },
         }
     }
 }
 
-/// Options of the per-pixel stepping kernel (`refl_step_ray`). The
-/// defaults are `stride = 1`, `max_steps = UINT32_MAX`.
+/// Options of the per-pixel stepping kernel (`refl_step_ray`);
+/// `refl_step_options_default` gives the defaults (`stride = 1`,
+/// `max_steps = UINT32_MAX`).
 #[repr(C)]
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub struct refl_step_options {
@@ -136,8 +137,24 @@ pub struct refl_step_options {
     /// behind a surface.
     pub stride: u32,
     /// The most steps (coarse plus refinement) spent on one ray; reaching it
-    /// gives `REFL_MISS_OUT_OF_STEPS`. 0 allows none.
+    /// gives `REFL_TRACE_MISS_OUT_OF_STEPS`. 0 allows none.
     pub max_steps: u32,
+}
+
+/// The stepping defaults: `stride = 1`, `max_steps = UINT32_MAX` (the walk
+/// is still bounded by the `width + height` texels a segment can touch).
+#[no_mangle]
+pub extern "C" fn refl_step_options_default() -> refl_step_options {
+    StepOptions::default().into()
+}
+
+impl From<StepOptions> for refl_step_options {
+    fn from(o: StepOptions) -> Self {
+        Self {
+            stride: o.stride,
+            max_steps: o.max_steps,
+        }
+    }
 }
 
 impl From<refl_step_options> for StepOptions {
@@ -169,7 +186,7 @@ pub(crate) unsafe fn depth_image<'a>(d: &refl_depth_image) -> Result<DepthImage<
 /// # Safety
 /// `t.back_faces.data` must be NULL or readable for `t.back_faces.len`
 /// floats for `'a`, and not be written meanwhile.
-pub(crate) unsafe fn thickness<'a>(t: &refl_thickness) -> Result<Thickness<'a>, Error> {
+pub(crate) unsafe fn thickness<'a>(t: &refl_trace_thickness) -> Result<Thickness<'a>, Error> {
     if t.back_faces.data.is_null() {
         Ok(Thickness::Constant(t.constant))
     } else {
@@ -178,15 +195,37 @@ pub(crate) unsafe fn thickness<'a>(t: &refl_thickness) -> Result<Thickness<'a>, 
     }
 }
 
-/// Reads the three by-pointer inputs shared by the stepping exports.
+/// The byte ranges of the caller memory a depth image and a thickness
+/// read (the stated `len` of each image; a NULL back-face image is empty).
+pub(crate) fn depth_ranges(
+    img: &refl_depth_image,
+    th: &refl_trace_thickness,
+) -> [(usize, usize); 2] {
+    [
+        range(img.depth.data, img.depth.len),
+        range(th.back_faces.data, th.back_faces.len),
+    ]
+}
+
+/// Reads the three by-pointer inputs shared by the stepping exports; also
+/// returns the byte ranges the image and thickness read.
 ///
 /// # Safety
 /// As `refl_step_ray`.
+#[allow(clippy::type_complexity)]
 unsafe fn step_inputs<'a>(
     image: *const refl_depth_image,
-    thickness: *const refl_thickness,
+    thickness: *const refl_trace_thickness,
     options: *const refl_step_options,
-) -> Result<(DepthImage<'a>, Thickness<'a>, StepOptions), Error> {
+) -> Result<
+    (
+        DepthImage<'a>,
+        Thickness<'a>,
+        StepOptions,
+        [(usize, usize); 2],
+    ),
+    Error,
+> {
     // SAFETY: caller contract.
     let (img_c, th_c, opts) = unsafe {
         (
@@ -199,7 +238,7 @@ unsafe fn step_inputs<'a>(
     let img = unsafe { depth_image(&img_c) }?;
     // SAFETY: caller contract.
     let th = unsafe { self::thickness(&th_c) }?;
-    Ok((img, th, opts.into()))
+    Ok((img, th, opts.into(), depth_ranges(&img_c, &th_c)))
 }
 
 /// Traces one ray against a depth image by per-pixel stepping along its
@@ -232,7 +271,7 @@ unsafe fn step_inputs<'a>(
 pub unsafe extern "C" fn refl_step_ray(
     out: *mut refl_trace_result,
     image: *const refl_depth_image,
-    thickness: *const refl_thickness,
+    thickness: *const refl_trace_thickness,
     ray: refl_ray,
     t_max: f32,
     options: *const refl_step_options,
@@ -240,7 +279,7 @@ pub unsafe extern "C" fn refl_step_ray(
     guard("refl_step_ray", || {
         let out = Out::new(out, "out")?;
         // SAFETY: caller contract.
-        let (img, th, opts) = unsafe { step_inputs(image, thickness, options) }?;
+        let (img, th, opts, _) = unsafe { step_inputs(image, thickness, options) }?;
         let ray = Ray {
             origin: ray.origin.into(),
             dir: ray.dir.into(),
@@ -252,36 +291,41 @@ pub unsafe extern "C" fn refl_step_ray(
     })
 }
 
-/// Traces `ray_count` rays as `refl_step_ray` would, writing result `i` to
-/// `out[i]`. `t_max` holds either one value for every ray
-/// (`t_max_count == 1`) or one per ray (`t_max_count >= ray_count`).
+/// Traces `rays_len` rays as `refl_step_ray` would, writing result `i` to
+/// `out[i]`: the arguments of `refl_step_ray` in the same order, the ray,
+/// `t_max` and the result replaced by arrays. `t_max` holds either one
+/// value for every ray (`t_max_len == 1`) or one per ray
+/// (`t_max_len >= rays_len`).
 ///
 /// Every input is validated before anything is written: on any error
-/// `out` is untouched. Elements of `out` past `ray_count` are never
-/// written. Rays are independent: a host splits a large batch into chunks
-/// (e.g. rows of a reflection buffer) and calls this from its own threads.
+/// `out` is untouched. Elements of `out` past `rays_len` are never
+/// written; `out` must not overlap the rays, `t_max` or the images
+/// (`REFL_STATUS_INVALID_ARGUMENT`). Rays are independent: a host splits a
+/// large batch into chunks (e.g. rows of a reflection buffer) and calls
+/// this from its own threads.
 ///
 /// Returns `REFL_STATUS_NULL_POINTER` if `out`, `rays`, `t_max`, `image`,
 /// `image->depth.data`, `thickness` or `options` is NULL;
-/// `REFL_STATUS_INSUFFICIENT_SIZE` if `out_len < ray_count` or `t_max_count`
-/// is neither 1 nor at least `ray_count`; `REFL_STATUS_INVALID_ARGUMENT` if
-/// `t_max_count` is 0, or for any ray, `t_max`, image, thickness or option
-/// rejected as by `refl_step_ray`.
+/// `REFL_STATUS_INSUFFICIENT_SIZE` if `out_len < rays_len` or `t_max_len`
+/// is neither 1 nor at least `rays_len`; `REFL_STATUS_INVALID_ARGUMENT` if
+/// `t_max_len` is 0, `out` overlaps an input, or for any ray, `t_max`,
+/// image, thickness or option rejected as by `refl_step_ray`.
 ///
 /// # Safety
 /// `out` must be NULL or writable for `out_len` results; `rays` NULL or
-/// readable for `ray_count` rays; `t_max` NULL or readable for
-/// `t_max_count` floats; the rest as `refl_step_ray`.
+/// readable for `rays_len` rays; `t_max` NULL or readable for `t_max_len`
+/// floats; the rest as `refl_step_ray`.
 #[no_mangle]
+#[allow(clippy::too_many_arguments)]
 pub unsafe extern "C" fn refl_step_rays(
     out: *mut refl_trace_result,
     out_len: usize,
-    rays: *const refl_ray,
-    ray_count: usize,
-    t_max: *const f32,
-    t_max_count: usize,
     image: *const refl_depth_image,
-    thickness: *const refl_thickness,
+    thickness: *const refl_trace_thickness,
+    rays: *const refl_ray,
+    rays_len: usize,
+    t_max: *const f32,
+    t_max_len: usize,
     options: *const refl_step_options,
 ) -> refl_status {
     guard("refl_step_rays", || {
@@ -291,44 +335,63 @@ pub unsafe extern "C" fn refl_step_rays(
             (t_max.is_null(), "t_max"),
         ])?;
         // SAFETY: caller contract.
-        let (img, th, opts) = unsafe { step_inputs(image, thickness, options) }?;
-        if !out.is_aligned() {
-            return Err(Error::InvalidArgument);
-        }
-        if t_max_count == 0 {
-            return Err(Error::InvalidArgument);
-        }
-        if out_len < ray_count || (t_max_count != 1 && t_max_count < ray_count) {
-            return Err(Error::InsufficientSize);
-        }
-        byte_len::<refl_trace_result>(out as usize, ray_count)?;
-        // SAFETY: caller contract; copied before any output is written, so
-        // `out` may alias the inputs.
-        let rays_c = unsafe { read_vec(rays, ray_count, "rays") }?;
+        let (img, th, opts, inputs) = unsafe { step_inputs(image, thickness, options) }?;
         // SAFETY: caller contract.
-        let tms = unsafe { read_vec(t_max, t_max_count.min(ray_count).max(1), "t_max") }?;
-        let rays: Vec<Ray> = rays_c
-            .iter()
-            .map(|r| Ray {
-                origin: r.origin.into(),
-                dir: r.dir.into(),
-            })
-            .collect();
-        let mut traces = vec![
-            Trace::Miss {
-                reason: Miss::OutOfSteps,
-                work: Default::default(),
-            };
-            ray_count
-        ];
-        refl_core::try_step_rays(&mut traces, &rays, &tms, &img, th, opts)?;
-        for (i, t) in traces.into_iter().enumerate() {
-            // SAFETY: `out` is non-null, aligned and writable for
-            // `out_len >= ray_count` results (caller contract).
-            unsafe { out.add(i).write(t.into()) };
-        }
-        Ok(())
+        let (out, rays, t_max) =
+            unsafe { batch_arrays(out, out_len, rays, rays_len, t_max, t_max_len, inputs) }?;
+        // Validates every ray before the first write: `out` is untouched
+        // on error.
+        refl_core::try_step_rays(out, &img, th, rays, t_max, opts)
     })
+}
+
+/// The three arrays of a batch trace (`refl_step_rays`,
+/// `refl_hiz_trace_rays`) after their checks: `out` aligned and long
+/// enough, `t_max` one value or one per ray, and `out` overlapping neither
+/// the rays, `t_max` nor the `inputs` byte ranges (the images read).
+///
+/// # Safety
+/// As `refl_step_rays`; the pointers are non-NULL.
+#[allow(clippy::type_complexity)]
+pub(crate) unsafe fn batch_arrays<'a>(
+    out: *mut refl_trace_result,
+    out_len: usize,
+    rays: *const refl_ray,
+    rays_len: usize,
+    t_max: *const f32,
+    t_max_len: usize,
+    inputs: [(usize, usize); 2],
+) -> Result<(&'a mut [refl_trace_result], &'a [refl_ray], &'a [f32]), Error> {
+    if !out.is_aligned() || t_max_len == 0 {
+        return Err(Error::InvalidArgument);
+    }
+    if out_len < rays_len || (t_max_len != 1 && t_max_len < rays_len) {
+        return Err(Error::InsufficientSize);
+    }
+    let out_bytes = byte_len::<refl_trace_result>(out as usize, rays_len)?;
+    let t_len = t_max_len.min(rays_len).max(1);
+    // SAFETY: caller contract; `out` overlaps neither (checked below before
+    // it is borrowed).
+    let (r, t) = unsafe {
+        (
+            slice(rays, rays_len, "rays")?,
+            slice(t_max, t_len, "t_max")?,
+        )
+    };
+    no_overlap(
+        (out as usize, out_bytes),
+        &[
+            range(rays, rays_len),
+            range(t_max, t_len),
+            inputs[0],
+            inputs[1],
+        ],
+        "out",
+    )?;
+    // SAFETY: non-null, aligned, writable for out_len >= rays_len results
+    // (caller contract), disjoint from every input (checked).
+    let o = unsafe { slice_mut(out, rays_len, "out") }?;
+    Ok((o, r, t))
 }
 
 /// Refines a hit of `refl_step_ray` / `refl_hiz_trace_ray` to sub-texel
@@ -352,14 +415,14 @@ pub unsafe extern "C" fn refl_step_rays(
 /// `out` NULL or writable; `image` and `hit` NULL or readable; the image's
 /// `data` readable for `len` floats and not written during the call.
 #[no_mangle]
-pub unsafe extern "C" fn refl_refine_hit(
+pub unsafe extern "C" fn refl_trace_refine_hit(
     out: *mut refl_trace_result,
     image: *const refl_depth_image,
     ray: refl_ray,
     t_max: f32,
     hit: *const refl_trace_result,
 ) -> refl_status {
-    guard("refl_refine_hit", || {
+    guard("refl_trace_refine_hit", || {
         let out = Out::new(out, "out")?;
         // SAFETY: caller contract.
         let (img_c, h) = unsafe { (read(image, "image")?, read(hit, "hit")?) };
@@ -369,8 +432,8 @@ pub unsafe extern "C" fn refl_refine_hit(
             origin: ray.origin.into(),
             dir: ray.dir.into(),
         };
-        refl_core::trace::validate_ray(&ray, t_max)?;
-        if h.miss > refl_miss::DegenerateProjection as u32
+        refl_core::trace::try_validate_ray(&ray, t_max)?;
+        if h.miss > refl_trace_miss::DegenerateProjection as u32
             || !(h.pixel.x.is_finite()
                 && h.pixel.y.is_finite()
                 && h.t.is_finite()
@@ -379,7 +442,7 @@ pub unsafe extern "C" fn refl_refine_hit(
         {
             return Err(Error::InvalidArgument);
         }
-        let result = if h.miss == refl_miss::None as u32 {
+        let result = if h.miss == refl_trace_miss::None as u32 {
             let core_hit = refl_core::DepthHit {
                 pixel: refl_core::glam::Vec2::new(h.pixel.x, h.pixel.y),
                 t: h.t,

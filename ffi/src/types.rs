@@ -77,7 +77,7 @@ pub struct refl_ray {
 
 /// A pinhole camera: world-to-view transform, symmetric perspective
 /// projection and image size. A plain value: fill it yourself or get one
-/// from `refl_camera_look_at` / `refl_mirrored_camera`. Every function that
+/// from `refl_camera_look_at` / `refl_mirror_camera`. Every function that
 /// takes a camera validates it (`refl_camera_validate` states the rules).
 ///
 /// Conventions: right-handed world, view space looks down -Z; pixel (x, y)
@@ -125,8 +125,8 @@ pub struct refl_projection {
     pub x: f32,
     /// Pixel y (0 when `valid` is false).
     pub y: f32,
-    /// Linear depth (`refl_camera_project`, `refl_reproject`) or stored
-    /// depth in the matrix's convention (`refl_apply_reprojection`); 0 when
+    /// Linear depth (`refl_camera_project`, `refl_camera_reproject`) or stored
+    /// depth in the matrix's convention (`refl_camera_apply_reprojection`); 0 when
     /// `valid` is false.
     pub depth: f32,
     /// True if the point lies in front of the eye plane and the result is
@@ -208,6 +208,15 @@ impl From<refl_mat4> for Mat4 {
 }
 impl From<Ray> for refl_ray {
     fn from(r: Ray) -> Self {
+        Self {
+            origin: r.origin.into(),
+            dir: r.dir.into(),
+        }
+    }
+}
+
+impl From<refl_ray> for Ray {
+    fn from(r: refl_ray) -> Self {
         Self {
             origin: r.origin.into(),
             dir: r.dir.into(),
@@ -317,11 +326,11 @@ const _: () = {
 // ---------------------------------------------------------------------------
 // Seed 003 clusters (`refl_core::cluster`).
 
-/// Clustering parameters (seed 003 Sec. 3.2). Defaults:
-/// `refl_cluster_params_default`.
+/// Clustering options (seed 003 Sec. 3.2). Defaults:
+/// `refl_cluster_options_default`.
 #[repr(C)]
 #[derive(Clone, Copy, Debug, PartialEq)]
-pub struct refl_cluster_params {
+pub struct refl_cluster_options {
     /// Azimuth bins of an object covering the whole frame alone (seed: 13),
     /// 1..=1024.
     pub max_theta_bins: u32,
@@ -333,8 +342,8 @@ pub struct refl_cluster_params {
     pub gain: f32,
 }
 
-impl From<refl_core::cluster::ClusterParams> for refl_cluster_params {
-    fn from(p: refl_core::cluster::ClusterParams) -> Self {
+impl From<refl_core::cluster::ClusterOptions> for refl_cluster_options {
+    fn from(p: refl_core::cluster::ClusterOptions) -> Self {
         Self {
             max_theta_bins: p.max_theta_bins,
             max_phi_bins: p.max_phi_bins,
@@ -343,8 +352,8 @@ impl From<refl_core::cluster::ClusterParams> for refl_cluster_params {
     }
 }
 
-impl From<refl_cluster_params> for refl_core::cluster::ClusterParams {
-    fn from(p: refl_cluster_params) -> Self {
+impl From<refl_cluster_options> for refl_core::cluster::ClusterOptions {
+    fn from(p: refl_cluster_options) -> Self {
         Self {
             max_theta_bins: p.max_theta_bins,
             max_phi_bins: p.max_phi_bins,
@@ -356,7 +365,7 @@ impl From<refl_cluster_params> for refl_core::cluster::ClusterParams {
 /// The bins of one reflective object in the current frame.
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
-pub struct refl_object_bins {
+pub struct refl_cluster_object_bins {
     /// Azimuth bins (0 if the object is not visible).
     pub theta_bins: u32,
     /// Polar bins (0 if the object is not visible).
@@ -365,7 +374,7 @@ pub struct refl_object_bins {
     pub first: u32,
 }
 
-impl From<refl_core::cluster::ObjectBins> for refl_object_bins {
+impl From<refl_core::cluster::ObjectBins> for refl_cluster_object_bins {
     fn from(b: refl_core::cluster::ObjectBins) -> Self {
         Self {
             theta_bins: b.theta_bins,
@@ -375,8 +384,8 @@ impl From<refl_core::cluster::ObjectBins> for refl_object_bins {
     }
 }
 
-impl From<refl_object_bins> for refl_core::cluster::ObjectBins {
-    fn from(b: refl_object_bins) -> Self {
+impl From<refl_cluster_object_bins> for refl_core::cluster::ObjectBins {
+    fn from(b: refl_cluster_object_bins) -> Self {
         Self {
             theta_bins: b.theta_bins,
             phi_bins: b.phi_bins,
@@ -385,11 +394,11 @@ impl From<refl_object_bins> for refl_core::cluster::ObjectBins {
     }
 }
 
-/// Cluster camera parameters (seed 003 Sec. 3.3, 3.5). Defaults:
-/// `refl_cluster_camera_params_default`.
+/// Cluster camera options (seed 003 Sec. 3.3, 3.5). Defaults:
+/// `refl_cluster_camera_options_default`.
 #[repr(C)]
 #[derive(Clone, Copy, Debug, PartialEq)]
-pub struct refl_cluster_camera_params {
+pub struct refl_cluster_camera_options {
     /// D: distance from the image plane to the far plane (the scene
     /// diameter for mirrors, nearer for glossy clusters), finite and > 0.
     pub far_distance: f32,
@@ -407,8 +416,8 @@ pub struct refl_cluster_camera_params {
     pub max_f: f32,
 }
 
-impl From<refl_core::cluster::CameraParams> for refl_cluster_camera_params {
-    fn from(p: refl_core::cluster::CameraParams) -> Self {
+impl From<refl_core::cluster::ClusterCameraOptions> for refl_cluster_camera_options {
+    fn from(p: refl_core::cluster::ClusterCameraOptions) -> Self {
         Self {
             far_distance: p.far_distance,
             cone_half_angle: p.cone_half_angle,
@@ -420,8 +429,8 @@ impl From<refl_core::cluster::CameraParams> for refl_cluster_camera_params {
     }
 }
 
-impl From<refl_cluster_camera_params> for refl_core::cluster::CameraParams {
-    fn from(p: refl_cluster_camera_params) -> Self {
+impl From<refl_cluster_camera_options> for refl_core::cluster::ClusterCameraOptions {
+    fn from(p: refl_cluster_camera_options) -> Self {
         Self {
             far_distance: p.far_distance,
             cone_half_angle: p.cone_half_angle,
@@ -574,19 +583,19 @@ impl TryFrom<&refl_cluster_camera> for refl_core::cluster::ClusterCamera {
 /// truncated Phong lobe.
 #[repr(C)]
 #[derive(Clone, Copy, Debug, PartialEq)]
-pub struct refl_lobe {
+pub struct refl_cluster_lobe {
     /// Rays per pixel: 1 = the mirror ray only; 2..=64 sample the lobe.
     pub rays: u32,
     /// Phong exponent n of cos^n around the mirror direction (finite,
     /// >= 0; ignored for one ray).
     pub exponent: f32,
     /// Truncation half-angle in radians, (0, 1.5) (ignored for one ray);
-    /// `refl_lobe_angle` gives the angle holding a share of the energy.
+    /// `refl_cluster_lobe_angle` gives the angle holding a share of the energy.
     pub max_angle: f32,
 }
 
-impl From<refl_lobe> for refl_core::cluster::Lobe {
-    fn from(l: refl_lobe) -> Self {
+impl From<refl_cluster_lobe> for refl_core::cluster::Lobe {
+    fn from(l: refl_cluster_lobe) -> Self {
         Self {
             rays: l.rays,
             exponent: l.exponent,
@@ -622,6 +631,12 @@ pub struct refl_cluster_shade {
     pub steps: u32,
 }
 
+impl From<refl_core::cluster::ClusterShade> for refl_cluster_shade {
+    fn from(s: refl_core::cluster::ClusterShade) -> Self {
+        (&s).into()
+    }
+}
+
 impl From<&refl_core::cluster::ClusterShade> for refl_cluster_shade {
     fn from(s: &refl_core::cluster::ClusterShade) -> Self {
         Self {
@@ -638,44 +653,36 @@ impl From<&refl_core::cluster::ClusterShade> for refl_cluster_shade {
     }
 }
 
-/// A linear fade range of the cone-tracing fades (seed 004 Listing 4.8):
+/// One fade of the cone tracing (seed 004 Listing 4.8), when `enabled`:
 /// the factor is 1 at or below `start`, 0 at or above `end`, linear
 /// between.
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
-pub struct refl_fade_range {
+pub struct refl_cone_fade_range {
+    /// Whether this fade applies.
+    pub enabled: bool,
     /// Where the fade begins.
     pub start: f32,
     /// Where it reaches 0; must be greater than `start`.
     pub end: f32,
 }
 
-/// Bit of `refl_cone_fades::enabled`: fade rays reflected back toward the
-/// camera.
-pub const REFL_FADE_TOWARD_CAMERA: u32 = 1;
-/// Bit of `refl_cone_fades::enabled`: fade hits near the screen border.
-pub const REFL_FADE_BORDER: u32 = 2;
-/// Bit of `refl_cone_fades::enabled`: fade by travel distance.
-pub const REFL_FADE_TRAVEL: u32 = 4;
-
-/// The fades of seed 004 Sec. 4.6.1 (`refl_core::cone::Fades`).
+/// The fades of seed 004 Sec. 4.6.1 (`refl_core::cone::Fades`); a fade
+/// whose `enabled` is false is left out.
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
 pub struct refl_cone_fades {
-    /// Which fades apply: a combination of `REFL_FADE_TOWARD_CAMERA`,
-    /// `REFL_FADE_BORDER` and `REFL_FADE_TRAVEL`; other bits are invalid.
-    pub enabled: u32,
     /// Over `dot(reflected, toward_eye)` in [-1, 1].
-    pub toward_camera: refl_fade_range,
+    pub toward_camera: refl_cone_fade_range,
     /// Over `max(|2u - 1|, |2v - 1|)` of the normalized hit position (1 on
     /// the border).
-    pub border: refl_fade_range,
+    pub border: refl_cone_fade_range,
     /// Over the ray's travel distance in world units.
-    pub travel: refl_fade_range,
+    pub travel: refl_cone_fade_range,
 }
 
 /// Settings of the cone trace (`refl_core::cone::ConeOptions`);
-/// `refl_cone_default_options` gives 8 circles, bias 0, visibility on,
+/// `refl_cone_options_default` gives 8 circles, bias 0, visibility on,
 /// isotropic, 1% depth tolerance.
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
@@ -685,16 +692,16 @@ pub struct refl_cone_options {
     /// Added to the circle's mip level `log2(2 r)` (-1 is the seed's
     /// `log2(r)`); finite.
     pub level_bias: f32,
-    /// Nonzero: weight samples by the pre-integrated visibility.
-    pub use_visibility: u32,
+    /// Weight samples by the pre-integrated visibility.
+    pub use_visibility: bool,
     /// Largest anisotropic stretch at grazing angles (seed 004
     /// Sec. 4.6.8), `>= 1`; 1 is isotropic.
     pub max_stretch: f32,
     /// Relative depth tolerance of the cone sphere weight, `>= 0`.
     pub depth_tolerance: f32,
-    /// Nonzero: divide by the accumulated coverage (a weighted mean of the
-    /// samples); zero: the uncovered rest blends the fallback (the seed).
-    pub normalize: u32,
+    /// Divide by the accumulated coverage (a weighted mean of the samples);
+    /// false: the uncovered rest blends the fallback (the seed).
+    pub normalize: bool,
 }
 
 /// A screen-space cone: apex at the reflection ray's start, axis to its
@@ -735,29 +742,24 @@ pub struct refl_cone_result {
     pub fetches: u32,
 }
 
-/// Settings of `refl_cone_multiray`.
+/// Settings of `refl_cone_multiray` (`refl_core::cone::MultiRayOptions`);
+/// `refl_cone_multiray_options_default` gives the defaults.
 #[repr(C)]
-#[derive(Clone, Copy, Debug, Default, PartialEq)]
-pub struct refl_multiray_options {
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct refl_cone_multiray_options {
     /// Rays per pixel, > 0 (seed 003 Sec. 3.5 uses 8 to 49).
     pub rays: u32,
     /// Cranley-Patterson rotation of the Hammersley set, finite (e.g.
     /// hashed from the pixel index).
     pub rotation: refl_vec2,
-    /// Hi-Z settings of each ray: start level.
-    pub hiz_start_level: u32,
-    /// Hi-Z stop level.
-    pub hiz_stop_level: u32,
-    /// Hi-Z iteration cap.
-    pub hiz_max_iterations: u32,
-    /// Hi-Z prologue steps.
-    pub hiz_prologue_steps: u32,
+    /// Hi-Z settings of each ray.
+    pub hiz: crate::hiz::refl_hiz_options,
 }
 
 /// What `refl_cone_multiray` returns.
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
-pub struct refl_multiray_result {
+pub struct refl_cone_multiray_result {
     /// The Phong-weighted mean color.
     pub color: refl_vec3,
     /// Rays traced (not below the surface).

@@ -3,7 +3,7 @@
 //! equals refl-core's, and error statuses leave outputs untouched.
 
 use refl::*;
-use refl_core::cluster::{self, CameraParams, ClusterInput, ClusterParams, ClusterView};
+use refl_core::cluster::{self, ClusterCameraOptions, ClusterInput, ClusterOptions, ClusterView};
 use refl_core::glam::{DVec3, Vec2, Vec3};
 use refl_core::{Camera, DepthConvention, DepthImage, ImageView, ImageViewMut, RowRange};
 
@@ -85,14 +85,9 @@ fn vec3_img(d: &[[f32; 3]], w: u32, h: u32) -> refl_image_vec3 {
 #[test]
 fn abi_pipeline_equals_core() {
     let f = frame();
-    let mut params = core::mem::MaybeUninit::<refl_cluster_params>::uninit();
-    assert_eq!(
-        unsafe { refl_cluster_params_default(params.as_mut_ptr()) },
-        refl_status::Ok
-    );
-    let mut params = unsafe { params.assume_init() };
+    let mut params = refl_cluster_options_default();
     params.gain = 8.0;
-    let cp = ClusterParams::from(params);
+    let cp = ClusterOptions::from(params);
 
     // Counts in two bands.
     let mut counts = [0u32; 2];
@@ -113,7 +108,7 @@ fn abi_pipeline_equals_core() {
     assert_eq!(counts, core_counts);
     assert!(counts[0] > 100 && counts[1] > 50, "{counts:?}");
 
-    let mut layout = [refl_object_bins::default(); 2];
+    let mut layout = [refl_cluster_object_bins::default(); 2];
     let mut total = 0u32;
     let st = unsafe {
         refl_cluster_bin_layout(
@@ -192,12 +187,7 @@ fn abi_pipeline_equals_core() {
     assert_eq!(clustered, counts[0] + counts[1]);
 
     // Cameras and finalization of every non-empty cluster equal the core's.
-    let mut cam_params = core::mem::MaybeUninit::<refl_cluster_camera_params>::uninit();
-    assert_eq!(
-        unsafe { refl_cluster_camera_params_default(cam_params.as_mut_ptr()) },
-        refl_status::Ok
-    );
-    let mut cam_params = unsafe { cam_params.assume_init() };
+    let mut cam_params = refl_cluster_camera_options_default();
     cam_params.far_distance = 30.0;
     let input = ClusterInput {
         positions: ImageView::try_new(&f.pos, W, H, W).unwrap(),
@@ -224,7 +214,7 @@ fn abi_pipeline_equals_core() {
         assert_eq!(st, refl_status::Ok);
         let out = unsafe { out.assume_init() };
         let core_view =
-            cluster::try_cluster_camera(&input, px, f.eye, &CameraParams::from(cam_params))
+            cluster::try_cluster_camera(&input, px, f.eye, &ClusterCameraOptions::from(cam_params))
                 .unwrap();
         assert_eq!(out, refl_cluster_camera::from_view(&core_view));
         let ClusterView::Camera(cc) = core_view else {
@@ -249,8 +239,8 @@ fn abi_pipeline_equals_core() {
             camera: (&cc.camera).into(),
             convention: DepthConvention::Linear as u32,
         };
-        let fp = refl_cluster_finalize_params {
-            thickness: refl_thickness {
+        let fp = refl_cluster_finalize_input {
+            thickness: refl_trace_thickness {
                 constant: f32::INFINITY,
                 back_faces: refl_image_f32 {
                     data: core::ptr::null(),
@@ -265,7 +255,7 @@ fn abi_pipeline_equals_core() {
                 max_steps: u32::MAX,
             },
             refine: false,
-            lobe: refl_lobe {
+            lobe: refl_cluster_lobe {
                 rays: 8,
                 exponent: 30.0,
                 max_angle: 0.4,
@@ -308,7 +298,7 @@ fn abi_pipeline_equals_core() {
             &cc,
             &di,
             &cv,
-            &cluster::FinalizeParams {
+            &cluster::FinalizeInput {
                 thickness: refl_core::Thickness::Constant(f32::INFINITY),
                 step: refl_core::StepOptions::default(),
                 refine: false,
@@ -374,7 +364,7 @@ fn abi_pipeline_equals_core() {
 #[test]
 fn abi_errors_leave_outputs_untouched() {
     let f = frame();
-    let params = refl_cluster_params {
+    let params = refl_cluster_options {
         max_theta_bins: 13,
         max_phi_bins: 8,
         gain: f32::NAN,
@@ -408,7 +398,7 @@ fn abi_errors_leave_outputs_untouched() {
     let mut nor = f.nor.clone();
     let first = f.obj.iter().position(|&o| o == 0).unwrap();
     nor[first] = [f32::NAN, 1.0, 0.0];
-    let layout = [refl_object_bins {
+    let layout = [refl_cluster_object_bins {
         theta_bins: 1,
         phi_bins: 1,
         first: 0,
@@ -459,7 +449,7 @@ fn abi_errors_leave_outputs_untouched() {
         first as u32 + 2,
         first as u32 + 3,
     ];
-    let cp = refl_cluster_camera_params::from(CameraParams::default());
+    let cp = refl_cluster_camera_options::from(ClusterCameraOptions::default());
     let mut out = core::mem::MaybeUninit::<refl_cluster_camera>::zeroed();
     let st = unsafe {
         refl_cluster_build_camera(
@@ -476,7 +466,7 @@ fn abi_errors_leave_outputs_untouched() {
     assert_eq!(unsafe { out.assume_init() }.camera.width, 0);
     let mut a = 3.0f32;
     assert_eq!(
-        unsafe { refl_lobe_angle(&mut a, -1.0, 0.5) },
+        unsafe { refl_cluster_lobe_angle(&mut a, -1.0, 0.5) },
         refl_status::InvalidArgument
     );
     assert_eq!(a, 3.0);

@@ -7,7 +7,7 @@ use refl::*;
 use refl_core::cone::{ConeOptions, FadeRange, Fades, MultiRayOptions};
 use refl_core::glam::{Vec2, Vec3};
 use refl_core::{
-    hiz_len, try_build_hiz, Camera, Cone, ConePyramids, DepthConvention, DepthImage, HiZ,
+    try_build_hiz, try_hiz_len, Camera, Cone, ConePyramids, DepthConvention, DepthImage, HiZ,
     HiZOptions, ImageView, Ray, Thickness,
 };
 
@@ -33,7 +33,7 @@ fn frame(conv: DepthConvention) -> Frame {
         }
     }
     let di = DepthImage::try_new(ImageView::try_new(&depth, W, H, W).unwrap(), cam, conv).unwrap();
-    let mut hz = vec![[0.0f32; 2]; hiz_len(W, H).unwrap()];
+    let mut hz = vec![[0.0f32; 2]; try_hiz_len(W, H).unwrap()];
     try_build_hiz(&mut hz, &di).unwrap();
     let hiz = hz.iter().map(|t| refl_vec2 { x: t[0], y: t[1] }).collect();
     let img = (0..W * H)
@@ -74,8 +74,8 @@ fn pyramids_and_trace_equal_core() {
             unsafe { refl_cone_pyramid_len(&mut n, &mut nv, W, H) },
             refl_status::Ok
         );
-        assert_eq!(n, refl_core::color_pyramid_len(W, H).unwrap());
-        assert_eq!(nv, refl_core::visibility_pyramid_len(W, H).unwrap());
+        assert_eq!(n, refl_core::try_color_pyramid_len(W, H).unwrap());
+        assert_eq!(nv, refl_core::try_visibility_pyramid_len(W, H).unwrap());
         let img = image_c(&f);
         let mut color = vec![refl_vec3::default(); n];
         assert_eq!(
@@ -120,7 +120,14 @@ fn pyramids_and_trace_equal_core() {
                 }
                 assert_eq!(
                     unsafe {
-                        refl_cone_build_color_rows(banded.as_mut_ptr(), n, &img, level, a, b, 1.0)
+                        refl_cone_build_color_rows(
+                            banded.as_mut_ptr(),
+                            n,
+                            &img,
+                            level,
+                            refl_row_range { begin: a, end: b },
+                            1.0,
+                        )
                     },
                     refl_status::Ok
                 );
@@ -143,7 +150,16 @@ fn pyramids_and_trace_equal_core() {
             );
             assert_eq!(
                 unsafe {
-                    refl_cone_build_visibility_rows(vb.as_mut_ptr(), nv, &hz, level, 0, info.height)
+                    refl_cone_build_visibility_rows(
+                        vb.as_mut_ptr(),
+                        nv,
+                        &hz,
+                        level,
+                        refl_row_range {
+                            begin: 0,
+                            end: info.height,
+                        },
+                    )
                 },
                 refl_status::Ok
             );
@@ -164,11 +180,7 @@ fn pyramids_and_trace_equal_core() {
             visibility: vis.as_ptr(),
             visibility_len: nv,
         };
-        let mut opts = refl_cone_options::default();
-        assert_eq!(
-            unsafe { refl_cone_default_options(&mut opts) },
-            refl_status::Ok
-        );
+        let opts = refl_cone_options_default();
         assert_eq!(ConeOptions::from(opts), ConeOptions::default());
         let c = refl_cone {
             apex: refl_vec2 { x: 18.0, y: 20.0 },
@@ -264,19 +276,21 @@ fn pyramids_and_trace_equal_core() {
         assert_eq!(o, sentinel);
 
         // Multi-ray equals core.
-        let mo = refl_multiray_options {
+        let mo = refl_cone_multiray_options {
             rays: 9,
             rotation: refl_vec2 { x: 0.25, y: 0.5 },
-            hiz_start_level: 2,
-            hiz_stop_level: 0,
-            hiz_max_iterations: 256,
-            hiz_prologue_steps: 4,
+            hiz: refl_hiz_options {
+                start_level: 2,
+                stop_level: 0,
+                max_iterations: 256,
+                prologue_steps: 4,
+            },
         };
         let ray = Ray {
             origin: Vec3::new(0.0, -0.5, -3.5),
             dir: Vec3::new(0.0, 0.2, -1.0).normalize(),
         };
-        let th = refl_thickness {
+        let th = refl_trace_thickness {
             constant: f32::INFINITY,
             back_faces: refl_image_f32 {
                 data: core::ptr::null(),
@@ -286,7 +300,7 @@ fn pyramids_and_trace_equal_core() {
                 stride: 0,
             },
         };
-        let mut mr = refl_multiray_result::default();
+        let mut mr = refl_cone_multiray_result::default();
         assert_eq!(
             unsafe {
                 refl_cone_multiray(
@@ -327,7 +341,7 @@ fn pyramids_and_trace_equal_core() {
         .unwrap();
         assert_eq!([mr.color.x, mr.color.y, mr.color.z], cr.color);
         assert_eq!((mr.traced, mr.hits), (cr.traced, cr.hits));
-        let mut mr2 = refl_multiray_result {
+        let mut mr2 = refl_cone_multiray_result {
             traced: 77,
             ..Default::default()
         };
@@ -342,7 +356,7 @@ fn pyramids_and_trace_equal_core() {
                     100.0,
                     0.2,
                     30.0,
-                    &refl_multiray_options { rays: 0, ..mo },
+                    &refl_cone_multiray_options { rays: 0, ..mo },
                     fb,
                 )
             },
@@ -381,16 +395,18 @@ fn angles_fades_and_build_errors() {
     );
 
     let fades = refl_cone_fades {
-        enabled: REFL_FADE_BORDER | REFL_FADE_TRAVEL,
-        toward_camera: refl_fade_range {
+        toward_camera: refl_cone_fade_range {
+            enabled: false,
             start: 0.0,
             end: 0.0,
         },
-        border: refl_fade_range {
+        border: refl_cone_fade_range {
+            enabled: true,
             start: 0.8,
             end: 1.0,
         },
-        travel: refl_fade_range {
+        travel: refl_cone_fade_range {
+            enabled: true,
             start: 2.0,
             end: 6.0,
         },
@@ -420,32 +436,33 @@ fn angles_fades_and_build_errors() {
     .unwrap();
     assert_eq!(v, core);
     // The disabled toward-camera range is invalid but ignored; enabling it
-    // is an error, as are unknown bits.
+    // is an error, as is an enabled travel range that runs backward.
     let keep = v;
-    for en in [REFL_FADE_TOWARD_CAMERA, 8] {
+    let on = |r: refl_cone_fade_range| refl_cone_fade_range { enabled: true, ..r };
+    let backward = refl_cone_fade_range {
+        enabled: true,
+        start: 6.0,
+        end: 2.0,
+    };
+    for bad in [
+        refl_cone_fades {
+            toward_camera: on(fades.toward_camera),
+            ..fades
+        },
+        refl_cone_fades {
+            travel: backward,
+            ..fades
+        },
+    ] {
         assert_eq!(
-            unsafe {
-                refl_cone_fade(
-                    &mut v,
-                    &refl_cone_fades {
-                        enabled: en,
-                        ..fades
-                    },
-                    r,
-                    e,
-                    h,
-                    100,
-                    50,
-                    5.0,
-                )
-            },
+            unsafe { refl_cone_fade(&mut v, &bad, r, e, h, 100, 50, 5.0,) },
             refl_status::InvalidArgument
         );
     }
     assert_eq!(v, keep);
 
     let f = frame(DepthConvention::ReversedZ);
-    let n = refl_core::color_pyramid_len(W, H).unwrap();
+    let n = refl_core::try_color_pyramid_len(W, H).unwrap();
     let mut color = vec![
         refl_vec3 {
             x: 7.0,
@@ -468,7 +485,16 @@ fn angles_fades_and_build_errors() {
         refl_status::NullPointer
     );
     assert_eq!(
-        unsafe { refl_cone_build_color_rows(color.as_mut_ptr(), n, &img, 99, 0, 1, 1.0) },
+        unsafe {
+            refl_cone_build_color_rows(
+                color.as_mut_ptr(),
+                n,
+                &img,
+                99,
+                refl_row_range { begin: 0, end: 1 },
+                1.0,
+            )
+        },
         refl_status::InvalidArgument
     );
     let mut nan_img = f.img.clone();
@@ -483,7 +509,7 @@ fn angles_fades_and_build_errors() {
     );
     assert!(color.iter().all(|c| c.x == 7.0));
     let hz = hiz_c(&f, DepthConvention::ReversedZ);
-    let n = refl_core::visibility_pyramid_len(W, H).unwrap();
+    let n = refl_core::try_visibility_pyramid_len(W, H).unwrap();
     let mut vis = vec![7.0f32; n];
     assert_eq!(
         unsafe { refl_cone_build_visibility(vis.as_mut_ptr(), n - 1, &hz) },
@@ -503,7 +529,15 @@ fn angles_fades_and_build_errors() {
         refl_status::InvalidArgument
     );
     assert_eq!(
-        unsafe { refl_cone_build_visibility_rows(vis.as_mut_ptr(), n, &hz, 0, 3, 2) },
+        unsafe {
+            refl_cone_build_visibility_rows(
+                vis.as_mut_ptr(),
+                n,
+                &hz,
+                0,
+                refl_row_range { begin: 3, end: 2 },
+            )
+        },
         refl_status::InvalidArgument
     );
     assert!(vis.iter().all(|&x| x == 7.0));

@@ -4,7 +4,8 @@
 
 use refl::*;
 use refl_core::epipolar::{
-    decide, scratch_len, try_reproject, AipEntry, Params, PosEntry, Reason, BACKGROUND_OBJECT,
+    decide, try_reproject, try_scratch_len, AipEntry, EpipolarOptions, PosEntry, Reason,
+    BACKGROUND_OBJECT,
 };
 use refl_core::glam::{Vec2, Vec3};
 use refl_core::Camera;
@@ -55,25 +56,23 @@ fn pos_of(c: &Camera) -> Vec<refl_epipolar_pos_entry> {
     v
 }
 
-fn params() -> refl_epipolar_params {
-    let mut p = std::mem::MaybeUninit::uninit();
-    assert_eq!(
-        unsafe { refl_epipolar_params_default(p.as_mut_ptr()) },
-        refl_status::Ok
-    );
-    unsafe { p.assume_init() }
+fn params() -> refl_epipolar_options {
+    refl_epipolar_options_default()
 }
 
 #[test]
 fn defaults_and_scratch_len_match_core() {
     let p = params();
-    assert_eq!(Params::try_from(&p).unwrap(), Params::default());
+    assert_eq!(
+        EpipolarOptions::try_from(&p).unwrap(),
+        EpipolarOptions::default()
+    );
     let mut n = 0usize;
     assert_eq!(
         unsafe { refl_epipolar_scratch_len(&mut n, W, H) },
         refl_status::Ok
     );
-    assert_eq!(n, scratch_len(W, H).unwrap());
+    assert_eq!(n, try_scratch_len(W, H).unwrap());
     let mut n2 = 7usize;
     assert_eq!(
         unsafe { refl_epipolar_scratch_len(&mut n2, 0, H) },
@@ -82,10 +81,6 @@ fn defaults_and_scratch_len_match_core() {
     assert_eq!(n2, 7);
     assert_eq!(
         unsafe { refl_epipolar_scratch_len(std::ptr::null_mut(), W, H) },
-        refl_status::NullPointer
-    );
-    assert_eq!(
-        unsafe { refl_epipolar_params_default(std::ptr::null_mut()) },
         refl_status::NullPointer
     );
 }
@@ -99,7 +94,7 @@ fn reprojection_and_decisions_match_core() {
     let p = params();
     let (rc0, rc1): (refl_camera, refl_camera) = ((&c0).into(), (&c1).into());
     let mut aip = vec![UNAVAILABLE; n];
-    let mut scratch = vec![0.0f32; scratch_len(W, H).unwrap()];
+    let mut scratch = vec![0.0f32; try_scratch_len(W, H).unwrap()];
     let mut stats = refl_epipolar_stats::default();
     let s = unsafe {
         refl_epipolar_reproject(
@@ -133,13 +128,13 @@ fn reprojection_and_decisions_match_core() {
         &core_pos,
         &c0,
         &c1,
-        &Params::default(),
+        &EpipolarOptions::default(),
     )
     .unwrap();
     assert_eq!(stats.points, st.points);
     assert_eq!(stats.splatted, st.splatted);
     assert_eq!(stats.occlusion_rejected, st.occlusion_rejected);
-    assert_eq!(stats.frustum_failed, u32::from(st.frustum_failed));
+    assert_eq!(stats.frustum_failed, st.frustum_failed);
     assert!(st.splatted > n as u32 / 2, "{st:?}");
     for (a, b) in aip.iter().zip(&core_aip) {
         assert_eq!(
@@ -157,7 +152,16 @@ fn reprojection_and_decisions_match_core() {
     let mut out = vec![sentinel; n];
     for (b, e) in [(0, H / 2), (H / 2, H)] {
         let s = unsafe {
-            refl_epipolar_decide_rows(out.as_mut_ptr(), n, aip.as_ptr(), n, W, b, e, 3, &p)
+            refl_epipolar_decide_rows(
+                out.as_mut_ptr(),
+                n,
+                aip.as_ptr(),
+                n,
+                W,
+                refl_row_range { begin: b, end: e },
+                3,
+                &p,
+            )
         };
         assert_eq!(s, refl_status::Ok);
     }
@@ -165,7 +169,7 @@ fn reprojection_and_decisions_match_core() {
     for y in 0..H {
         for x in 0..W {
             let i = (y * W + x) as usize;
-            let d = decide(&core_aip[i], x, y, 3, &Params::default());
+            let d = decide(&core_aip[i], x, y, 3, &EpipolarOptions::default());
             let o = out[i];
             assert_eq!(o.object, d.object);
             assert_eq!(o.tmax.to_bits(), d.tmax.to_bits());
@@ -180,8 +184,18 @@ fn reprojection_and_decisions_match_core() {
     assert!(background > 0);
     // One band only touches its rows.
     let mut out2 = vec![sentinel; n];
-    let s =
-        unsafe { refl_epipolar_decide_rows(out2.as_mut_ptr(), n, aip.as_ptr(), n, W, 2, 5, 3, &p) };
+    let s = unsafe {
+        refl_epipolar_decide_rows(
+            out2.as_mut_ptr(),
+            n,
+            aip.as_ptr(),
+            n,
+            W,
+            refl_row_range { begin: 2, end: 5 },
+            3,
+            &p,
+        )
+    };
     assert_eq!(s, refl_status::Ok);
     for (i, d) in out2.iter().enumerate() {
         let y = i as u32 / W;
@@ -203,12 +217,12 @@ fn bad_input_is_refused_and_outputs_untouched() {
         t_other: 4.0,
         flags: 0,
     };
-    let sl = scratch_len(W, H).unwrap();
+    let sl = try_scratch_len(W, H).unwrap();
     let run = |aip_len: usize,
                scratch_len: usize,
                pos_len: usize,
                prev: &refl_camera,
-               p: &refl_epipolar_params,
+               p: &refl_epipolar_options,
                expected: refl_status| {
         let mut aip = vec![sentinel; n];
         let mut scratch = vec![0.0f32; sl];
@@ -239,20 +253,16 @@ fn bad_input_is_refused_and_outputs_untouched() {
     run(n, sl - 1, n, &rc0, &p, refl_status::InsufficientSize);
     run(n, sl, n - 1, &rc0, &p, refl_status::InsufficientSize);
     for bad in [
-        refl_epipolar_params { m_cnt: 0, ..p },
-        refl_epipolar_params {
-            depth_guard: 2,
-            ..p
-        },
-        refl_epipolar_params {
+        refl_epipolar_options { m_cnt: 0, ..p },
+        refl_epipolar_options {
             splat_radius: REFL_EPIPOLAR_MAX_SPLAT_RADIUS + 1,
             ..p
         },
-        refl_epipolar_params {
+        refl_epipolar_options {
             shift_epsilon: f32::NAN,
             ..p
         },
-        refl_epipolar_params {
+        refl_epipolar_options {
             guard_margin: 1.0,
             ..p
         },
@@ -334,7 +344,7 @@ fn bad_input_is_refused_and_outputs_untouched() {
                        w: u32,
                        b: u32,
                        e: u32,
-                       p: &refl_epipolar_params,
+                       p: &refl_epipolar_options,
                        expected: refl_status| {
         let mut out = vec![dsent; n];
         let s = unsafe {
@@ -344,8 +354,7 @@ fn bad_input_is_refused_and_outputs_untouched() {
                 aip.as_ptr(),
                 aip_len,
                 w,
-                b,
-                e,
+                refl_row_range { begin: b, end: e },
                 0,
                 p,
             )
@@ -365,14 +374,20 @@ fn bad_input_is_refused_and_outputs_untouched() {
         W,
         0,
         H,
-        &refl_epipolar_params {
-            occlusion_check: 5,
-            ..p
-        },
+        &refl_epipolar_options { m_cnt: 0, ..p },
         refl_status::InvalidArgument,
     );
     let s = unsafe {
-        refl_epipolar_decide_rows(std::ptr::null_mut(), n, aip.as_ptr(), n, W, 0, H, 0, &p)
+        refl_epipolar_decide_rows(
+            std::ptr::null_mut(),
+            n,
+            aip.as_ptr(),
+            n,
+            W,
+            refl_row_range { begin: 0, end: H },
+            0,
+            &p,
+        )
     };
     assert_eq!(s, refl_status::NullPointer);
     let mut out = vec![dsent; n];
@@ -383,16 +398,25 @@ fn bad_input_is_refused_and_outputs_untouched() {
             aip.as_ptr(),
             n,
             W,
-            0,
-            H,
+            refl_row_range { begin: 0, end: H },
             0,
             std::ptr::null(),
         )
     };
     assert_eq!(s, refl_status::NullPointer);
     // The UNAVAILABLE fill gives full traversal everywhere.
-    let s =
-        unsafe { refl_epipolar_decide_rows(out.as_mut_ptr(), n, aip.as_ptr(), n, W, 0, H, 0, &p) };
+    let s = unsafe {
+        refl_epipolar_decide_rows(
+            out.as_mut_ptr(),
+            n,
+            aip.as_ptr(),
+            n,
+            W,
+            refl_row_range { begin: 0, end: H },
+            0,
+            &p,
+        )
+    };
     assert_eq!(s, refl_status::Ok);
     assert!(out.iter().all(|d| d.object == REFL_EPIPOLAR_INVALID_OBJECT
         && d.reason == refl_epipolar_reason::Unavailable as u32));

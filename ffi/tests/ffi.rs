@@ -219,10 +219,10 @@ fn validate_rejects_bad_cameras() {
         refl_camera_eye(o, &bad)
     });
     untouched(refl_status::InvalidArgument, |o| unsafe {
-        refl_mirrored_camera(o, &bad, &floor_plane())
+        refl_mirror_camera(o, &bad, &floor_plane())
     });
     untouched(refl_status::InvalidArgument, |o| unsafe {
-        refl_reproject(o, &camera(), &bad, v2(1.0, 1.0), 0.5, 1)
+        refl_camera_reproject(o, &camera(), &bad, v2(1.0, 1.0), 0.5, 1)
     });
 }
 
@@ -378,13 +378,13 @@ fn matrices_match_core() {
     for conv in [DepthConvention::ZeroToOne, DepthConvention::ReversedZ] {
         let u = conv.to_c();
         let p: refl_mat4 = ok(|o| unsafe { refl_camera_projection_matrix(o, &a, u) });
-        assert_eq!(Mat4::from(p), ca.projection(conv).unwrap());
+        assert_eq!(Mat4::from(p), ca.try_projection(conv).unwrap());
         let w: refl_mat4 = ok(|o| unsafe { refl_camera_world_to_pixel_matrix(o, &b, u) });
-        assert_eq!(Mat4::from(w), cb.world_to_pixel(conv).unwrap());
-        let r: refl_mat4 = ok(|o| unsafe { refl_reprojection_matrix(o, &a, &b, u) });
+        assert_eq!(Mat4::from(w), cb.try_world_to_pixel(conv).unwrap());
+        let r: refl_mat4 = ok(|o| unsafe { refl_camera_reprojection_matrix(o, &a, &b, u) });
         assert_eq!(
             Mat4::from(r),
-            refl_core::camera::reprojection_matrix(&ca, &cb, conv).unwrap()
+            refl_core::camera::try_reprojection_matrix(&ca, &cb, conv).unwrap()
         );
     }
     for conv in [0, 3, u32::MAX] {
@@ -395,14 +395,14 @@ fn matrices_match_core() {
             refl_camera_world_to_pixel_matrix(o, &a, conv)
         });
         untouched(refl_status::InvalidArgument, |o| unsafe {
-            refl_reprojection_matrix(o, &a, &b, conv)
+            refl_camera_reprojection_matrix(o, &a, &b, conv)
         });
     }
     untouched(refl_status::NullPointer, |o| unsafe {
-        refl_reprojection_matrix(o, &a, core::ptr::null(), 1)
+        refl_camera_reprojection_matrix(o, &a, core::ptr::null(), 1)
     });
     untouched(refl_status::NullPointer, |o| unsafe {
-        refl_reprojection_matrix(o, core::ptr::null(), &b, 1)
+        refl_camera_reprojection_matrix(o, core::ptr::null(), &b, 1)
     });
     let iv: refl_mat4 = ok(|o| unsafe { refl_camera_inverse_view(o, &a) });
     assert_eq!(Mat4::from(iv), ca.inverse_view());
@@ -417,33 +417,33 @@ fn reprojection_agrees_with_matrix() {
     let a = camera();
     let b = camera_at(v3(1.5, 2.0, 5.0));
     for conv in [1u32, 2] {
-        let m: refl_mat4 = ok(|o| unsafe { refl_reprojection_matrix(o, &a, &b, conv) });
+        let m: refl_mat4 = ok(|o| unsafe { refl_camera_reprojection_matrix(o, &a, &b, conv) });
         let d: f32 = ok(|o| unsafe { refl_camera_encode_depth(o, &a, 5.0, conv) });
         let px = v2(200.5, 300.5);
-        let r1: refl_projection = ok(|o| unsafe { refl_reproject(o, &a, &b, px, d, conv) });
-        let r2: refl_projection = ok(|o| unsafe { refl_apply_reprojection(o, &m, px, d) });
+        let r1: refl_projection = ok(|o| unsafe { refl_camera_reproject(o, &a, &b, px, d, conv) });
+        let r2: refl_projection = ok(|o| unsafe { refl_camera_apply_reprojection(o, &m, px, d) });
         assert!(r1.valid && r2.valid);
         assert!((r1.x - r2.x).abs() < 0.05 && (r1.y - r2.y).abs() < 0.05);
         let z: f32 = ok(|o| unsafe { refl_camera_decode_depth(o, &b, r2.depth, conv) });
         assert!((z - r1.depth).abs() < 1e-2 * z);
     }
-    let m: refl_mat4 = ok(|o| unsafe { refl_reprojection_matrix(o, &a, &b, 1) });
+    let m: refl_mat4 = ok(|o| unsafe { refl_camera_reprojection_matrix(o, &a, &b, 1) });
     let mut nan = m;
     nan.m[5] = f32::NAN;
     untouched(refl_status::InvalidArgument, |o| unsafe {
-        refl_apply_reprojection(o, &nan, v2(1.0, 1.0), 0.5)
+        refl_camera_apply_reprojection(o, &nan, v2(1.0, 1.0), 0.5)
     });
     untouched(refl_status::InvalidArgument, |o| unsafe {
-        refl_apply_reprojection(o, &m, v2(1.0, f32::NAN), 0.5)
+        refl_camera_apply_reprojection(o, &m, v2(1.0, f32::NAN), 0.5)
     });
     untouched(refl_status::NullPointer, |o| unsafe {
-        refl_apply_reprojection(o, core::ptr::null(), v2(1.0, 1.0), 0.5)
+        refl_camera_apply_reprojection(o, core::ptr::null(), v2(1.0, 1.0), 0.5)
     });
     untouched(refl_status::InvalidArgument, |o| unsafe {
-        refl_reproject(o, &a, &b, v2(1.0, 1.0), f32::INFINITY, 1)
+        refl_camera_reproject(o, &a, &b, v2(1.0, 1.0), f32::INFINITY, 1)
     });
     untouched(refl_status::InvalidArgument, |o| unsafe {
-        refl_reproject(o, &a, &b, v2(1.0, 1.0), 0.5, 7)
+        refl_camera_reproject(o, &a, &b, v2(1.0, 1.0), 0.5, 7)
     });
 }
 
@@ -472,7 +472,8 @@ fn planes_and_mirrors() {
     let mm = Mat4::from(mm);
     assert!((mm.determinant() + 1.0).abs() < 1e-6);
     assert!((mm * mm).abs_diff_eq(Mat4::IDENTITY, 1e-6));
-    let r: refl_vec3 = ok(|o| unsafe { refl_reflect(o, v3(1.0, 1.0, 0.0), v3(0.0, 1.0, 0.0)) });
+    let r: refl_vec3 =
+        ok(|o| unsafe { refl_mirror_reflect(o, v3(1.0, 1.0, 0.0), v3(0.0, 1.0, 0.0)) });
     assert_eq!(r, v3(-1.0, 1.0, 0.0));
     let ray = refl_ray {
         origin: v3(0.0, 5.0, 0.0),
@@ -516,16 +517,16 @@ fn planes_and_mirrors() {
         });
         untouched(want, |o| unsafe { refl_mirror_matrix(o, p) });
         untouched(want, |o| unsafe { refl_plane_intersect_ray(o, p, ray) });
-        untouched(want, |o| unsafe { refl_mirrored_camera(o, &camera(), p) });
+        untouched(want, |o| unsafe { refl_mirror_camera(o, &camera(), p) });
     }
     untouched(refl_status::NullPointer, |o| unsafe {
         refl_mirror_matrix(o, core::ptr::null())
     });
     untouched(refl_status::NullPointer, |o| unsafe {
-        refl_mirrored_camera(o, core::ptr::null(), &hand)
+        refl_mirror_camera(o, core::ptr::null(), &hand)
     });
     untouched(refl_status::NullPointer, |o| unsafe {
-        refl_mirrored_camera(o, &camera(), core::ptr::null())
+        refl_mirror_camera(o, &camera(), core::ptr::null())
     });
     let parallel = refl_ray {
         origin: v3(0.0, 5.0, 0.0),
@@ -535,11 +536,11 @@ fn planes_and_mirrors() {
         refl_plane_intersect_ray(o, &hand, parallel)
     });
     untouched(refl_status::InvalidArgument, |o| unsafe {
-        refl_reflect(o, v3(f32::NAN, 0.0, 0.0), v3(0.0, 1.0, 0.0))
+        refl_mirror_reflect(o, v3(f32::NAN, 0.0, 0.0), v3(0.0, 1.0, 0.0))
     });
     // Finite inputs whose result overflows.
     untouched(refl_status::InvalidArgument, |o| unsafe {
-        refl_reflect(o, v3(3e38, 3e38, 0.0), v3(1.0, 1.0, 0.0))
+        refl_mirror_reflect(o, v3(3e38, 3e38, 0.0), v3(1.0, 1.0, 0.0))
     });
     untouched(refl_status::InvalidArgument, |o| unsafe {
         refl_mirror_point(o, &hand, v3(0.0, 3e38, 0.0))
@@ -551,11 +552,11 @@ fn mirrored_camera_matches_core_in_place() {
     let plane = floor_plane();
     let core_plane = Plane::try_from(&plane).unwrap();
     let c = camera();
-    let expected = refl_core::mirrored_camera(&core_camera(&c), &core_plane).unwrap();
+    let expected = refl_core::try_mirrored_camera(&core_camera(&c), &core_plane).unwrap();
     let mut m = c;
     // Output aliases the input camera.
     assert_eq!(
-        unsafe { refl_mirrored_camera(&mut m, &m, &plane) },
+        unsafe { refl_mirror_camera(&mut m, &m, &plane) },
         refl_status::Ok
     );
     assert_eq!(core_camera(&m), expected);
@@ -587,13 +588,14 @@ fn plane_round_trip_is_exact() {
 fn oblique_projection_matches_core() {
     let plane = floor_plane();
     let c = camera();
-    let m: refl_camera = ok(|o| unsafe { refl_mirrored_camera(o, &c, &plane) });
+    let m: refl_camera = ok(|o| unsafe { refl_mirror_camera(o, &c, &plane) });
     for conv in [
         refl_depth_convention::ZeroToOne,
         refl_depth_convention::ReversedZ,
     ] {
-        let got: refl_mat4 = ok(|o| unsafe { refl_oblique_projection(o, &m, &plane, conv as u32) });
-        let want = refl_core::oblique_projection(
+        let got: refl_mat4 =
+            ok(|o| unsafe { refl_mirror_oblique_projection(o, &m, &plane, conv as u32) });
+        let want = refl_core::try_oblique_projection(
             &core_camera(&m),
             &Plane::try_from(&plane).unwrap(),
             if conv == refl_depth_convention::ReversedZ {
@@ -607,13 +609,13 @@ fn oblique_projection_matches_core() {
     }
     // The real camera's eye is on the kept side of the floor.
     untouched::<refl_mat4>(refl_status::DegenerateGeometry, |o| unsafe {
-        refl_oblique_projection(o, &c, &plane, refl_depth_convention::ZeroToOne as u32)
+        refl_mirror_oblique_projection(o, &c, &plane, refl_depth_convention::ZeroToOne as u32)
     });
     untouched::<refl_mat4>(refl_status::InvalidArgument, |o| unsafe {
-        refl_oblique_projection(o, &m, &plane, refl_depth_convention::Linear as u32)
+        refl_mirror_oblique_projection(o, &m, &plane, refl_depth_convention::Linear as u32)
     });
     untouched::<refl_mat4>(refl_status::NullPointer, |o| unsafe {
-        refl_oblique_projection(
+        refl_mirror_oblique_projection(
             o,
             &m,
             core::ptr::null(),
@@ -668,14 +670,13 @@ fn convert_depth_rows_and_padding() {
     let src: Vec<f32> = (0..(ss * h)).map(|i| 0.5 + i as f32 * 0.7).collect();
     let mut dst = vec![-1.0f32; (ds * h) as usize];
     let s = unsafe {
-        refl_convert_depth(
+        refl_image_convert_depth(
             img_mut(&mut dst, w, h, ds),
             img(&src, w, h, ss),
             &c,
             0,
             2,
-            1,
-            3,
+            refl_row_range { begin: 1, end: 3 },
         )
     };
     assert_eq!(s, refl_status::Ok);
@@ -696,7 +697,16 @@ fn convert_depth_rows_and_padding() {
     // Round trip back, in place, whole image.
     let mut round = dst.clone();
     let r = img_mut(&mut round, w, h, ds);
-    let s = unsafe { refl_convert_depth(r, r.as_const(), &c, 2, 0, 1, 3) };
+    let s = unsafe {
+        refl_image_convert_depth(
+            r,
+            r.as_const(),
+            &c,
+            2,
+            0,
+            refl_row_range { begin: 1, end: 3 },
+        )
+    };
     assert_eq!(s, refl_status::Ok);
     for y in 1..3 {
         for x in 0..w {
@@ -720,10 +730,17 @@ fn convert_depth_errors_leave_dst_untouched() {
         };
     let s44 = img(&src, 4, 4, 4);
     check(&mut dst, refl_status::NullPointer, &|d| unsafe {
-        refl_convert_depth(d, s44, core::ptr::null(), 0, 1, 0, 4)
+        refl_image_convert_depth(
+            d,
+            s44,
+            core::ptr::null(),
+            0,
+            1,
+            refl_row_range { begin: 0, end: 4 },
+        )
     });
     check(&mut dst, refl_status::NullPointer, &|d| unsafe {
-        refl_convert_depth(
+        refl_image_convert_depth(
             d,
             refl_image_f32 {
                 data: core::ptr::null(),
@@ -732,12 +749,11 @@ fn convert_depth_errors_leave_dst_untouched() {
             &c,
             0,
             1,
-            0,
-            4,
+            refl_row_range { begin: 0, end: 4 },
         )
     });
     check(&mut dst, refl_status::NullPointer, &|d| unsafe {
-        refl_convert_depth(
+        refl_image_convert_depth(
             refl_image_f32_mut {
                 data: core::ptr::null_mut(),
                 ..d
@@ -746,8 +762,7 @@ fn convert_depth_errors_leave_dst_untouched() {
             &c,
             0,
             1,
-            0,
-            4,
+            refl_row_range { begin: 0, end: 4 },
         )
     });
     for (from, to, b, e) in [
@@ -758,7 +773,7 @@ fn convert_depth_errors_leave_dst_untouched() {
         (0, 1, 0, 5),
     ] {
         check(&mut dst, refl_status::InvalidArgument, &|d| unsafe {
-            refl_convert_depth(d, s44, &c, from, to, b, e)
+            refl_image_convert_depth(d, s44, &c, from, to, refl_row_range { begin: b, end: e })
         });
     }
     // Size mismatch, zero sizes, stride < width, overflowing sizes.
@@ -777,15 +792,29 @@ fn convert_depth_errors_leave_dst_untouched() {
             ..s44
         };
         check(&mut dst, refl_status::InvalidArgument, &|d| unsafe {
-            refl_convert_depth(d, s, &c, 0, 1, 0, 4)
+            refl_image_convert_depth(d, s, &c, 0, 1, refl_row_range { begin: 0, end: 4 })
         });
     }
     // Short buffers.
     check(&mut dst, refl_status::InsufficientSize, &|d| unsafe {
-        refl_convert_depth(d, refl_image_f32 { len: 15, ..s44 }, &c, 0, 1, 0, 4)
+        refl_image_convert_depth(
+            d,
+            refl_image_f32 { len: 15, ..s44 },
+            &c,
+            0,
+            1,
+            refl_row_range { begin: 0, end: 4 },
+        )
     });
     check(&mut dst, refl_status::InsufficientSize, &|d| unsafe {
-        refl_convert_depth(refl_image_f32_mut { len: 15, ..d }, s44, &c, 0, 1, 0, 4)
+        refl_image_convert_depth(
+            refl_image_f32_mut { len: 15, ..d },
+            s44,
+            &c,
+            0,
+            1,
+            refl_row_range { begin: 0, end: 4 },
+        )
     });
     // Misaligned data.
     let bytes = Scratch([0u8; 256]);
@@ -795,7 +824,7 @@ fn convert_depth_errors_leave_dst_untouched() {
         ..s44
     };
     check(&mut dst, refl_status::InvalidArgument, &|d| unsafe {
-        refl_convert_depth(d, mis, &c, 0, 1, 0, 4)
+        refl_image_convert_depth(d, mis, &c, 0, 1, refl_row_range { begin: 0, end: 4 })
     });
     // Partial overlap: src starts one texel into dst.
     let d = img_mut(&mut dst, 4, 4, 4);
@@ -807,7 +836,9 @@ fn convert_depth_errors_leave_dst_untouched() {
         stride: 4,
     };
     assert_eq!(
-        unsafe { refl_convert_depth(d, shifted, &c, 0, 1, 0, 4) },
+        unsafe {
+            refl_image_convert_depth(d, shifted, &c, 0, 1, refl_row_range { begin: 0, end: 4 })
+        },
         refl_status::InvalidArgument
     );
     // Same pointer, different stride.
@@ -819,14 +850,16 @@ fn convert_depth_errors_leave_dst_untouched() {
         stride: 5,
     };
     assert_eq!(
-        unsafe { refl_convert_depth(d, other, &c, 0, 1, 0, 4) },
+        unsafe {
+            refl_image_convert_depth(d, other, &c, 0, 1, refl_row_range { begin: 0, end: 4 })
+        },
         refl_status::InvalidArgument
     );
     assert!(dst.iter().all(|v| *v == -7.0));
     // Invalid camera.
     let bad = refl_camera { z_near: 0.0, ..c };
     check(&mut dst, refl_status::InvalidArgument, &|d| unsafe {
-        refl_convert_depth(d, s44, &bad, 0, 1, 0, 4)
+        refl_image_convert_depth(d, s44, &bad, 0, 1, refl_row_range { begin: 0, end: 4 })
     });
 }
 
@@ -946,7 +979,7 @@ fn row_bands_cover_the_image() {
     for (height, count) in [(1u32, 1u32), (7, 3), (10, 10), (3, 8), (480, 7)] {
         let mut next = 0;
         for index in 0..count {
-            let b: refl_row_range = ok(|o| unsafe { refl_row_band(o, height, index, count) });
+            let b: refl_row_range = ok(|o| unsafe { refl_image_row_band(o, height, index, count) });
             if b.begin == b.end {
                 assert_eq!(b.begin, height);
                 continue;
@@ -959,10 +992,10 @@ fn row_bands_cover_the_image() {
     }
     for (h, i, c) in [(0, 0, 1), (4, 0, 0), (4, 2, 2), (4, u32::MAX, 3)] {
         untouched(refl_status::InvalidArgument, |o| unsafe {
-            refl_row_band(o, h, i, c)
+            refl_image_row_band(o, h, i, c)
         });
     }
     untouched(refl_status::NullPointer, |_: *mut refl_row_range| unsafe {
-        refl_row_band(core::ptr::null_mut(), 4, 0, 1)
+        refl_image_row_band(core::ptr::null_mut(), 4, 0, 1)
     });
 }

@@ -7,7 +7,7 @@ use core::mem::MaybeUninit;
 use refl::*;
 use refl_core::glam::Vec3;
 use refl_core::{
-    hiz_len, try_build_hiz, try_trace_hiz, Camera, DepthConvention, DepthImage, HiZ, HiZLayout,
+    try_build_hiz, try_hiz_len, try_trace_hiz, Camera, DepthConvention, DepthImage, HiZ, HiZLayout,
     HiZOptions, ImageView, Ray, Thickness,
 };
 
@@ -64,7 +64,7 @@ fn depth_image_c(cam: &Camera, data: &[f32], conv: DepthConvention) -> refl_dept
 
 fn core_pyramid(cam: &Camera, data: &[f32], conv: DepthConvention) -> Vec<[f32; 2]> {
     let img = DepthImage::try_new(ImageView::try_new(data, W, H, W).unwrap(), *cam, conv).unwrap();
-    let mut p = vec![[0.0f32; 2]; hiz_len(W, H).unwrap()];
+    let mut p = vec![[0.0f32; 2]; try_hiz_len(W, H).unwrap()];
     try_build_hiz(&mut p, &img).unwrap();
     p
 }
@@ -111,7 +111,7 @@ fn len_and_level_match_core() {
             refl_status::Ok
         );
         let l = HiZLayout::try_new(w, h).unwrap();
-        assert_eq!((n, c), (hiz_len(w, h).unwrap(), l.level_count()));
+        assert_eq!((n, c), (try_hiz_len(w, h).unwrap(), l.level_count()));
         assert_eq!(n, l.len() + refl_core::HIZ_STAMP_TEXELS);
         for i in 0..c {
             let mut info = refl_hiz_level_info::default();
@@ -157,20 +157,9 @@ fn len_and_level_match_core() {
             refl_hiz_level(core::ptr::null_mut(), 4, 4, 0),
             refl_status::NullPointer
         );
-        assert_eq!(
-            refl_hiz_default_options(core::ptr::null_mut()),
-            refl_status::NullPointer
-        );
     }
     assert_eq!((n, c), (5, 5));
-    let mut o = MaybeUninit::<refl_hiz_options>::uninit();
-    // SAFETY: valid output.
-    assert_eq!(
-        unsafe { refl_hiz_default_options(o.as_mut_ptr()) },
-        refl_status::Ok
-    );
-    // SAFETY: written on success.
-    let o = unsafe { o.assume_init() };
+    let o = refl_hiz_options_default();
     assert_eq!(HiZOptions::from(o), HiZOptions::default());
 }
 
@@ -211,7 +200,13 @@ fn build_whole_and_banded_from_threads_equal_core() {
                         // SAFETY: disjoint row bands of one level; the finer
                         // level is complete and only read.
                         let st = unsafe {
-                            refl_hiz_build_rows(base as *mut refl_vec2, n, img, level, r0, r1)
+                            refl_hiz_build_rows(
+                                base as *mut refl_vec2,
+                                n,
+                                img,
+                                level,
+                                refl_row_range { begin: r0, end: r1 },
+                            )
                         };
                         assert_eq!(st, refl_status::Ok);
                     });
@@ -228,7 +223,7 @@ fn build_errors_leave_dst_untouched() {
     let conv = DepthConvention::ReversedZ;
     let (front, _) = images(&cam, conv);
     let img = depth_image_c(&cam, &front, conv);
-    let n = hiz_len(W, H).unwrap();
+    let n = try_hiz_len(W, H).unwrap();
     let sentinel = refl_vec2 { x: 5.0, y: 6.0 };
     let mut dst = vec![sentinel; n];
     let p = dst.as_mut_ptr();
@@ -280,27 +275,33 @@ fn build_errors_leave_dst_untouched() {
         );
         // Rows: bad level, empty or reversed rows, rows past the level.
         assert_eq!(
-            refl_hiz_build_rows(p, n, &img, 99, 0, 1),
+            refl_hiz_build_rows(p, n, &img, 99, refl_row_range { begin: 0, end: 1 }),
             refl_status::InvalidArgument
         );
         assert_eq!(
-            refl_hiz_build_rows(p, n, &img, 0, 3, 3),
+            refl_hiz_build_rows(p, n, &img, 0, refl_row_range { begin: 3, end: 3 }),
             refl_status::InvalidArgument
         );
         assert_eq!(
-            refl_hiz_build_rows(p, n, &img, 0, 4, 2),
+            refl_hiz_build_rows(p, n, &img, 0, refl_row_range { begin: 4, end: 2 }),
             refl_status::InvalidArgument
         );
         assert_eq!(
-            refl_hiz_build_rows(p, n, &img, 1, 0, H),
+            refl_hiz_build_rows(p, n, &img, 1, refl_row_range { begin: 0, end: H }),
             refl_status::InvalidArgument
         );
         assert_eq!(
-            refl_hiz_build_rows(p, n - 1, &img, 0, 0, 1),
+            refl_hiz_build_rows(p, n - 1, &img, 0, refl_row_range { begin: 0, end: 1 }),
             refl_status::InsufficientSize
         );
         assert_eq!(
-            refl_hiz_build_rows(core::ptr::null_mut(), n, &img, 0, 0, 1),
+            refl_hiz_build_rows(
+                core::ptr::null_mut(),
+                n,
+                &img,
+                0,
+                refl_row_range { begin: 0, end: 1 }
+            ),
             refl_status::NullPointer
         );
     }
@@ -343,7 +344,7 @@ fn traces_equal_core_single_and_batched() {
         for (th_core, th_c) in [
             (
                 Thickness::Constant(0.5),
-                refl_thickness {
+                refl_trace_thickness {
                     constant: 0.5,
                     back_faces: refl_image_f32 {
                         data: core::ptr::null(),
@@ -356,7 +357,7 @@ fn traces_equal_core_single_and_batched() {
             ),
             (
                 Thickness::BackFaces(bv),
-                refl_thickness {
+                refl_trace_thickness {
                     constant: 0.0,
                     back_faces: image_c(&back),
                 },
@@ -391,12 +392,12 @@ fn traces_equal_core_single_and_batched() {
                     refl_hiz_trace_rays(
                         out.as_mut_ptr(),
                         out.len(),
+                        &h,
+                        &th_c,
                         rs.as_ptr(),
                         rs.len(),
                         tm.as_ptr(),
                         1,
-                        &h,
-                        &th_c,
                         &oc,
                     )
                 };
@@ -428,7 +429,7 @@ fn trace_errors_leave_outputs_untouched() {
         .map(|t| refl_vec2 { x: t[0], y: t[1] })
         .collect();
     let h = hiz_c(&cam, &pyr, conv);
-    let th = refl_thickness {
+    let th = refl_trace_thickness {
         constant: 0.5,
         back_faces: refl_image_f32 {
             data: core::ptr::null(),
@@ -509,7 +510,7 @@ fn trace_errors_leave_outputs_untouched() {
                 refl_status::InvalidArgument
             );
         }
-        let tn = refl_thickness {
+        let tn = refl_trace_thickness {
             constant: f32::NAN,
             ..th
         };
@@ -518,7 +519,7 @@ fn trace_errors_leave_outputs_untouched() {
             refl_status::InvalidArgument
         );
         let small = [0.0f32; 4];
-        let tb = refl_thickness {
+        let tb = refl_trace_thickness {
             constant: 0.0,
             back_faces: refl_image_f32 {
                 data: small.as_ptr(),
@@ -545,12 +546,12 @@ fn trace_errors_leave_outputs_untouched() {
             refl_hiz_trace_rays(
                 p,
                 rs.len() - 1,
+                &h,
+                &th,
                 rs.as_ptr(),
                 rs.len(),
                 tm.as_ptr(),
                 1,
-                &h,
-                &th,
                 &o
             ),
             refl_status::InsufficientSize
@@ -559,12 +560,12 @@ fn trace_errors_leave_outputs_untouched() {
             refl_hiz_trace_rays(
                 p,
                 rs.len(),
+                &h,
+                &th,
                 rs.as_ptr(),
                 rs.len(),
                 tm.as_ptr(),
                 2,
-                &h,
-                &th,
                 &o
             ),
             refl_status::InsufficientSize
@@ -573,30 +574,58 @@ fn trace_errors_leave_outputs_untouched() {
             refl_hiz_trace_rays(
                 p,
                 rs.len(),
+                &h,
+                &th,
                 rs.as_ptr(),
                 rs.len(),
                 tm.as_ptr(),
                 0,
-                &h,
-                &th,
                 &o
             ),
             refl_status::InvalidArgument
         );
         assert_eq!(
-            refl_hiz_trace_rays(p, rs.len(), rs.as_ptr(), 2, tm.as_ptr(), 2, &h, &th, &o),
+            refl_hiz_trace_rays(p, rs.len(), &h, &th, rs.as_ptr(), 2, tm.as_ptr(), 2, &o),
             refl_status::InvalidArgument
         );
         assert_eq!(
             refl_hiz_trace_rays(
                 core::ptr::null_mut(),
                 rs.len(),
+                &h,
+                &th,
                 rs.as_ptr(),
                 rs.len(),
                 tm.as_ptr(),
                 1,
+                &o
+            ),
+            refl_status::NullPointer
+        );
+        assert_eq!(
+            refl_hiz_trace_rays(
+                p,
+                rs.len(),
                 &h,
                 &th,
+                core::ptr::null(),
+                rs.len(),
+                tm.as_ptr(),
+                1,
+                &o
+            ),
+            refl_status::NullPointer
+        );
+        assert_eq!(
+            refl_hiz_trace_rays(
+                p,
+                rs.len(),
+                &h,
+                &th,
+                rs.as_ptr(),
+                rs.len(),
+                core::ptr::null(),
+                1,
                 &o
             ),
             refl_status::NullPointer
@@ -606,39 +635,11 @@ fn trace_errors_leave_outputs_untouched() {
                 p,
                 rs.len(),
                 core::ptr::null(),
-                rs.len(),
-                tm.as_ptr(),
-                1,
-                &h,
                 &th,
-                &o
-            ),
-            refl_status::NullPointer
-        );
-        assert_eq!(
-            refl_hiz_trace_rays(
-                p,
-                rs.len(),
-                rs.as_ptr(),
-                rs.len(),
-                core::ptr::null(),
-                1,
-                &h,
-                &th,
-                &o
-            ),
-            refl_status::NullPointer
-        );
-        assert_eq!(
-            refl_hiz_trace_rays(
-                p,
-                rs.len(),
                 rs.as_ptr(),
                 rs.len(),
                 tm.as_ptr(),
                 1,
-                core::ptr::null(),
-                &th,
                 &o
             ),
             refl_status::NullPointer

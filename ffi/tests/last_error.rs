@@ -1,12 +1,12 @@
 //! Issue 12 part 4 through the C ABI: every refusal names the call, and
 //! (for a sample in every family) the argument and why, in the thread-local
 //! last-error message; prepared structures used with the wrong camera are
-//! errors; `refl_reflect` refuses a zero normal.
+//! errors; `refl_mirror_reflect` refuses a zero normal.
 
 use core::ptr::{null, null_mut};
 use refl::*;
 use refl_core::glam::Vec3;
-use refl_core::{hiz_len, try_build_hiz, Camera, DepthConvention, DepthImage, ImageView};
+use refl_core::{try_build_hiz, try_hiz_len, Camera, DepthConvention, DepthImage, ImageView};
 
 /// The message as C sees it, through `refl_last_error_message`.
 fn message() -> String {
@@ -133,55 +133,55 @@ fn camera_and_mirror_refusals_name_the_argument() {
     );
     let mut m = refl_mat4 { m: [0.0; 16] };
     // SAFETY: `to` NULL is reported.
-    let s = unsafe { refl_reprojection_matrix(&mut m, &good, null(), 0) };
+    let s = unsafe { refl_camera_reprojection_matrix(&mut m, &good, null(), 0) };
     refused(
         s,
         refl_status::NullPointer,
-        "refl_reprojection_matrix",
+        "refl_camera_reprojection_matrix",
         &["`to` is NULL"],
     );
 
-    // refl_reflect: a zero normal is degenerate, not -v.
+    // refl_mirror_reflect: a zero normal is degenerate, not -v.
     let sentinel = v3(7.0, 7.0, 7.0);
     let mut r = sentinel;
     // SAFETY: valid output.
-    let s = unsafe { refl_reflect(&mut r, v3(1.0, 1.0, 0.0), v3(0.0, 0.0, 0.0)) };
+    let s = unsafe { refl_mirror_reflect(&mut r, v3(1.0, 1.0, 0.0), v3(0.0, 0.0, 0.0)) };
     refused(
         s,
         refl_status::DegenerateGeometry,
-        "refl_reflect",
+        "refl_mirror_reflect",
         &["`n` is the zero vector"],
     );
     assert_eq!(r, sentinel);
     // SAFETY: valid output.
-    let s = unsafe { refl_reflect(&mut r, v3(1.0, 1.0, 0.0), v3(0.0, 2.0, 0.0)) };
+    let s = unsafe { refl_mirror_reflect(&mut r, v3(1.0, 1.0, 0.0), v3(0.0, 2.0, 0.0)) };
     refused(
         s,
         refl_status::InvalidArgument,
-        "refl_reflect",
+        "refl_mirror_reflect",
         &["`n` is not unit length"],
     );
     assert_eq!(r, sentinel);
     // SAFETY: valid output.
-    let s = unsafe { refl_reflect(&mut r, v3(f32::NAN, 1.0, 0.0), v3(0.0, 1.0, 0.0)) };
+    let s = unsafe { refl_mirror_reflect(&mut r, v3(f32::NAN, 1.0, 0.0), v3(0.0, 1.0, 0.0)) };
     refused(
         s,
         refl_status::InvalidArgument,
-        "refl_reflect",
+        "refl_mirror_reflect",
         &["`v` is not finite"],
     );
     // SAFETY: valid output.
-    let s = unsafe { refl_reflect(&mut r, v3(1.0, 1.0, 0.0), v3(0.0, 1.0, 0.0)) };
+    let s = unsafe { refl_mirror_reflect(&mut r, v3(1.0, 1.0, 0.0), v3(0.0, 1.0, 0.0)) };
     assert_eq!(s, refl_status::Ok);
     assert_eq!(r, v3(-1.0, 1.0, 0.0));
 
     let mut c = good;
     // SAFETY: `plane` NULL is reported.
-    let s = unsafe { refl_mirrored_camera(&mut c, &good, null()) };
+    let s = unsafe { refl_mirror_camera(&mut c, &good, null()) };
     refused(
         s,
         refl_status::NullPointer,
-        "refl_mirrored_camera",
+        "refl_mirror_camera",
         &["`plane` is NULL"],
     );
     let plane = refl_plane {
@@ -189,11 +189,11 @@ fn camera_and_mirror_refusals_name_the_argument() {
         d: 0.0,
     };
     // SAFETY: valid pointers.
-    let s = unsafe { refl_mirrored_camera(&mut c, &good, &plane) };
+    let s = unsafe { refl_mirror_camera(&mut c, &good, &plane) };
     refused(
         s,
         refl_status::DegenerateGeometry,
-        "refl_mirrored_camera",
+        "refl_mirror_camera",
         &["`plane`"],
     );
 }
@@ -219,19 +219,35 @@ fn image_and_step_refusals_name_the_argument() {
     };
     let c: refl_camera = (&cam).into();
     // SAFETY: `camera` NULL is reported.
-    let s = unsafe { refl_convert_depth(d_img, s_img, null(), 0, 2, 0, 6) };
+    let s = unsafe {
+        refl_image_convert_depth(
+            d_img,
+            s_img,
+            null(),
+            0,
+            2,
+            refl_row_range { begin: 0, end: 6 },
+        )
+    };
     refused(
         s,
         refl_status::NullPointer,
-        "refl_convert_depth",
+        "refl_image_convert_depth",
         &["`camera` is NULL"],
     );
     // SAFETY: valid buffers.
-    let s = unsafe { refl_convert_depth(d_img, s_img, &c, 0, 9, 0, 6) };
-    refused(s, refl_status::InvalidArgument, "refl_convert_depth", &[]);
+    let s = unsafe {
+        refl_image_convert_depth(d_img, s_img, &c, 0, 9, refl_row_range { begin: 0, end: 6 })
+    };
+    refused(
+        s,
+        refl_status::InvalidArgument,
+        "refl_image_convert_depth",
+        &[],
+    );
 
     let mut out = core::mem::MaybeUninit::<refl_trace_result>::uninit();
-    let th = refl_thickness {
+    let th = refl_trace_thickness {
         constant: 1.0,
         back_faces: refl_image_f32 {
             data: null(),
@@ -295,7 +311,7 @@ fn hiz_pyramid_of_another_size_or_camera_is_refused() {
     );
     // Bit for bit the core build, stamp included.
     let view = ImageView::try_new(&depth, 512, 384, 512).unwrap();
-    let mut core_pyr = vec![[0.0f32; 2]; hiz_len(512, 384).unwrap()];
+    let mut core_pyr = vec![[0.0f32; 2]; try_hiz_len(512, 384).unwrap()];
     try_build_hiz(
         &mut core_pyr,
         &DepthImage::try_new(view, big, conv).unwrap(),
@@ -306,7 +322,7 @@ fn hiz_pyramid_of_another_size_or_camera_is_refused() {
         .zip(&core_pyr)
         .all(|(a, b)| a.x.to_bits() == b[0].to_bits() && a.y.to_bits() == b[1].to_bits()));
 
-    let th = refl_thickness {
+    let th = refl_trace_thickness {
         constant: 1.0,
         back_faces: refl_image_f32 {
             data: null(),
@@ -316,14 +332,7 @@ fn hiz_pyramid_of_another_size_or_camera_is_refused() {
             stride: 0,
         },
     };
-    let mut opts = core::mem::MaybeUninit::<refl_hiz_options>::uninit();
-    // SAFETY: valid output.
-    assert_eq!(
-        unsafe { refl_hiz_default_options(opts.as_mut_ptr()) },
-        refl_status::Ok
-    );
-    // SAFETY: initialized above.
-    let opts = unsafe { opts.assume_init() };
+    let opts = refl_hiz_options_default();
     let ray = refl_ray {
         origin: v3(0.5, 1.5, 3.0),
         dir: v3(0.0, 0.0, -1.0),
@@ -386,7 +395,7 @@ fn hiz_pyramid_of_another_size_or_camera_is_refused() {
     // SAFETY: valid pointers.
     let s = unsafe { refl_hiz_trace_ray(&mut out, &hz, &th, ray, f32::INFINITY, &opts) };
     assert_eq!(s, refl_status::Ok);
-    assert_eq!(out.miss, 0, "REFL_MISS_NONE: a hit");
+    assert_eq!(out.miss, 0, "REFL_TRACE_MISS_NONE: a hit");
     assert_eq!(message(), "");
 }
 
@@ -397,38 +406,20 @@ fn every_family_names_a_null_argument() {
         dir: v3(0.0, 0.0, -1.0),
     };
     let mut lr = core::mem::MaybeUninit::<refl_layered_result>::uninit();
-    let mut lp = core::mem::MaybeUninit::<refl_layered_params>::uninit();
-    // SAFETY: valid output.
-    assert_eq!(
-        unsafe { refl_layered_params_default(lp.as_mut_ptr()) },
-        refl_status::Ok
-    );
+    let lp = refl_layered_options_default();
     // SAFETY: `map` NULL is reported.
-    let s = unsafe { refl_layered_trace(lr.as_mut_ptr(), null(), ray, 1.0, lp.as_ptr()) };
+    let s = unsafe { refl_layered_trace_ray(lr.as_mut_ptr(), null(), ray, 1.0, &lp) };
     refused(
         s,
         refl_status::NullPointer,
-        "refl_layered_trace",
+        "refl_layered_trace_ray",
         &["`map` is NULL"],
     );
 
     let mut cr = core::mem::MaybeUninit::<refl_cone_result>::uninit();
-    let mut co = core::mem::MaybeUninit::<refl_cone_options>::uninit();
-    // SAFETY: valid output.
-    assert_eq!(
-        unsafe { refl_cone_default_options(co.as_mut_ptr()) },
-        refl_status::Ok
-    );
+    let co = refl_cone_options_default();
     // SAFETY: `pyramids` NULL is reported.
-    let s = unsafe {
-        refl_cone_trace(
-            cr.as_mut_ptr(),
-            null(),
-            null(),
-            v3(0.0, 0.0, 0.0),
-            co.as_ptr(),
-        )
-    };
+    let s = unsafe { refl_cone_trace(cr.as_mut_ptr(), null(), null(), v3(0.0, 0.0, 0.0), &co) };
     refused(
         s,
         refl_status::NullPointer,
@@ -437,13 +428,13 @@ fn every_family_names_a_null_argument() {
     );
 
     let mut bins = 0u32;
-    // SAFETY: `params` NULL is reported.
+    // SAFETY: `options` NULL is reported.
     let s = unsafe { refl_cluster_bins_max(&mut bins, 3, null()) };
     refused(
         s,
         refl_status::NullPointer,
         "refl_cluster_bins_max",
-        &["`params` is NULL"],
+        &["`options` is NULL"],
     );
 
     // SAFETY: `out_bytes` NULL is reported.

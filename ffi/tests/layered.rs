@@ -5,8 +5,8 @@
 use core::mem::MaybeUninit;
 use refl::*;
 use refl_core::glam::{Affine3A, Mat4, Vec3};
-use refl_core::layered::{LayerHit, LayeredGrid, LayeredMap, LayeredMapMut, LayeredParams};
-use refl_core::{prr_classify, Face, Ray};
+use refl_core::layered::{LayerHit, LayeredGrid, LayeredMap, LayeredMapMut, LayeredOptions};
+use refl_core::{try_prr_classify, Face, Ray};
 
 fn v3(v: Vec3) -> refl_vec3 {
     v.into()
@@ -57,10 +57,10 @@ impl Bufs {
     fn new(g: &refl_layered_grid) -> Self {
         let l: refl_layered_sizes = ok(|o| unsafe { refl_layered_len(o, g.face_res, g.layers) });
         Bufs {
-            depth: vec![7.0; l.depth],
-            payload: vec![7; l.payload],
-            counts: vec![7; l.counts],
-            bounds: vec![7.0; l.bounds],
+            depth: vec![7.0; l.depth_len],
+            payload: vec![7; l.payload_len],
+            counts: vec![7; l.counts_len],
+            bounds: vec![7.0; l.bounds_len],
         }
     }
     fn map_mut(&mut self, g: refl_layered_grid) -> refl_layered_map_mut {
@@ -101,16 +101,16 @@ fn build_c(g: refl_layered_grid) -> Bufs {
         let (mut hits, mut offs) = (Vec::new(), vec![0usize]);
         for j in 0..res {
             for i in 0..res {
-                let r: refl_column_ray =
+                let r: refl_layered_column_ray =
                     ok(|o| unsafe { refl_layered_face_ray(o, &g, face, i, j) });
                 for (k, (t, f)) in sphere_hits(r.origin.into(), r.dir.into(), r.t_max)
                     .into_iter()
                     .enumerate()
                 {
-                    hits.push(refl_layer_hit {
+                    hits.push(refl_layered_layer_hit {
                         t,
                         id: (j * res + i) * 4 + k as u32,
-                        front: f as u32,
+                        front: f,
                     });
                 }
                 offs.push(hits.len());
@@ -121,7 +121,7 @@ fn build_c(g: refl_layered_grid) -> Bufs {
                 o,
                 &m,
                 face,
-                hits.as_ptr(),
+                hits.as_mut_ptr(),
                 hits.len(),
                 offs.as_ptr(),
                 offs.len(),
@@ -147,7 +147,7 @@ fn build_rust(g: LayeredGrid) -> (Vec<f32>, Vec<u32>, Vec<u32>, Vec<f32>) {
     for face in [Face::NegX, Face::NegY, Face::NegZ] {
         for j in 0..res {
             for i in 0..res {
-                let r = g.face_ray(face, i, j).unwrap();
+                let r = g.try_face_ray(face, i, j).unwrap();
                 let mut hits: Vec<_> = sphere_hits(r.origin, r.dir, r.t_max)
                     .into_iter()
                     .enumerate()
@@ -168,16 +168,16 @@ fn build_rust(g: LayeredGrid) -> (Vec<f32>, Vec<u32>, Vec<u32>, Vec<f32>) {
 #[test]
 fn sizes_params_and_face_rays_match_the_core() {
     let l: refl_layered_sizes = ok(|o| unsafe { refl_layered_len(o, 5, 3) });
-    let core = refl_core::layered_len(5, 3).unwrap();
+    let core = refl_core::try_layered_len(5, 3).unwrap();
     assert_eq!(
-        (l.depth, l.payload, l.counts, l.bounds),
+        (l.depth_len, l.payload_len, l.counts_len, l.bounds_len),
         (core.depth, core.payload, core.counts, core.bounds)
     );
     let mut sentinel = refl_layered_sizes {
-        depth: 1,
-        payload: 2,
-        counts: 3,
-        bounds: 4,
+        depth_len: 1,
+        payload_len: 2,
+        counts_len: 3,
+        bounds_len: 4,
     };
     let before = sentinel;
     assert_eq!(
@@ -194,28 +194,25 @@ fn sizes_params_and_face_rays_match_the_core() {
         refl_status::NullPointer
     );
 
-    let p: refl_layered_params = ok(|o| unsafe { refl_layered_params_default(o) });
-    assert_eq!(LayeredParams::from(p), LayeredParams::default());
-    assert_eq!(
-        unsafe { refl_layered_params_default(core::ptr::null_mut()) },
-        refl_status::NullPointer
-    );
+    let p = refl_layered_options_default();
+    assert_eq!(LayeredOptions::from(p), LayeredOptions::default());
 
     let xf = Affine3A::from_rotation_z(0.4) * Affine3A::from_translation(Vec3::new(1.0, 2.0, 3.0));
     let mut g = grid_c(8, 2);
     g.world_from_local = Mat4::from(xf).into();
     let core = LayeredGrid::try_from(&g).unwrap();
     for face in 0..6 {
-        let r: refl_column_ray = ok(|o| unsafe { refl_layered_face_ray(o, &g, face, 3, 5) });
+        let r: refl_layered_column_ray =
+            ok(|o| unsafe { refl_layered_face_ray(o, &g, face, 3, 5) });
         let c = core
-            .face_ray(Face::from_index(face).unwrap(), 3, 5)
+            .try_face_ray(Face::from_index(face).unwrap(), 3, 5)
             .unwrap();
         assert_eq!(Vec3::from(r.origin), c.origin);
         assert_eq!(Vec3::from(r.dir), c.dir);
         assert_eq!(r.t_max, c.t_max);
     }
-    let mut out = refl_column_ray::default();
-    let s = |g: &refl_layered_grid, f: u32, i: u32, out: &mut refl_column_ray| unsafe {
+    let mut out = refl_layered_column_ray::default();
+    let s = |g: &refl_layered_grid, f: u32, i: u32, out: &mut refl_layered_column_ray| unsafe {
         refl_layered_face_ray(out, g, f, i, 0)
     };
     assert_eq!(s(&g, 6, 0, &mut out), refl_status::InvalidArgument);
@@ -232,7 +229,7 @@ fn sizes_params_and_face_rays_match_the_core() {
     let mut bad = g;
     bad.max.y = bad.min.y;
     assert_eq!(s(&bad, 0, 0, &mut out), refl_status::DegenerateGeometry);
-    assert_eq!(out, refl_column_ray::default());
+    assert_eq!(out, refl_layered_column_ray::default());
     assert_eq!(
         unsafe { refl_layered_face_ray(&mut out, core::ptr::null(), 0, 0, 0) },
         refl_status::NullPointer
@@ -256,20 +253,20 @@ fn filling_through_the_abi_equals_filling_in_rust() {
     let mut b = Bufs::new(&g);
     let m = b.map_mut(g);
     assert_eq!(unsafe { refl_layered_clear(&m) }, refl_status::Ok);
-    let hits = [
-        refl_layer_hit {
+    let mut hits = [
+        refl_layered_layer_hit {
             t: 1.5,
             id: 9,
-            front: 0,
+            front: false,
         },
-        refl_layer_hit {
+        refl_layered_layer_hit {
             t: 0.5,
             id: 8,
-            front: 1,
+            front: true,
         },
     ];
-    let f: refl_column_fill =
-        ok(|o| unsafe { refl_layered_fill_column(o, &m, 1, 2, 3, hits.as_ptr(), hits.len()) });
+    let f: refl_layered_column_fill =
+        ok(|o| unsafe { refl_layered_fill_column(o, &m, 1, 2, 3, hits.as_mut_ptr(), hits.len()) });
     assert_eq!((f.intervals, f.stored), (1, 1));
     let base = (24 + 3) * 24 + 2; // face 1, j 3, i 2
     assert_eq!(b.counts[base], 1);
@@ -337,60 +334,60 @@ fn fill_errors_leave_the_map_untouched() {
         b.bounds.clone(),
     );
     let m = b.map_mut(g);
-    let good = [refl_layer_hit {
+    let mut good = [refl_layered_layer_hit {
         t: 0.5,
         id: 1,
-        front: 1,
+        front: true,
     }];
-    let mut fill = refl_column_fill {
+    let mut fill = refl_layered_column_fill {
         intervals: 77,
         stored: 77,
     };
     let call = |m: &refl_layered_map_mut,
-                hits: &[refl_layer_hit],
+                hits: &mut [refl_layered_layer_hit],
                 face: u32,
-                fill: &mut refl_column_fill| unsafe {
-        refl_layered_fill_column(fill, m, face, 0, 0, hits.as_ptr(), hits.len())
+                fill: &mut refl_layered_column_fill| unsafe {
+        refl_layered_fill_column(fill, m, face, 0, 0, hits.as_mut_ptr(), hits.len())
     };
-    let nan = [refl_layer_hit {
+    let mut nan = [refl_layered_layer_hit {
         t: f32::NAN,
         id: 1,
-        front: 1,
+        front: true,
     }];
-    let front2 = [refl_layer_hit {
-        t: 0.5,
-        id: 1,
-        front: 2,
-    }];
-    assert_eq!(call(&m, &nan, 0, &mut fill), refl_status::InvalidArgument);
     assert_eq!(
-        call(&m, &front2, 0, &mut fill),
+        call(&m, &mut nan, 0, &mut fill),
         refl_status::InvalidArgument
     );
-    assert_eq!(call(&m, &good, 6, &mut fill), refl_status::InvalidArgument);
+    assert_eq!(
+        call(&m, &mut good, 6, &mut fill),
+        refl_status::InvalidArgument
+    );
     let mut short = m;
     short.counts_len -= 1;
     assert_eq!(
-        call(&short, &good, 0, &mut fill),
+        call(&short, &mut good, 0, &mut fill),
         refl_status::InsufficientSize
     );
     let mut short = m;
     short.bounds_len -= 1;
     assert_eq!(
-        call(&short, &good, 0, &mut fill),
+        call(&short, &mut good, 0, &mut fill),
         refl_status::InsufficientSize
     );
     let mut null = m;
     null.payload = core::ptr::null_mut();
-    assert_eq!(call(&null, &good, 0, &mut fill), refl_status::NullPointer);
+    assert_eq!(
+        call(&null, &mut good, 0, &mut fill),
+        refl_status::NullPointer
+    );
     let mut alias = m;
     alias.payload = alias.counts; // overlapping buffers
     assert_eq!(
-        call(&alias, &good, 0, &mut fill),
+        call(&alias, &mut good, 0, &mut fill),
         refl_status::InvalidArgument
     );
     assert_eq!(
-        unsafe { refl_layered_fill_column(&mut fill, &m, 0, 0, 0, core::ptr::null(), 1) },
+        unsafe { refl_layered_fill_column(&mut fill, &m, 0, 0, 0, core::ptr::null_mut(), 1) },
         refl_status::NullPointer
     );
     // Face fill: bad offsets.
@@ -402,7 +399,7 @@ fn fill_errors_leave_the_map_untouched() {
                 &mut approx,
                 &m,
                 0,
-                good.as_ptr(),
+                good.as_mut_ptr(),
                 1,
                 offs_bad.as_ptr(),
                 offs_bad.len(),
@@ -417,7 +414,7 @@ fn fill_errors_leave_the_map_untouched() {
                 &mut approx,
                 &m,
                 0,
-                good.as_ptr(),
+                good.as_mut_ptr(),
                 1,
                 offs_far.as_ptr(),
                 offs_far.len(),
@@ -428,7 +425,15 @@ fn fill_errors_leave_the_map_untouched() {
     let offs_ok = [0usize; 17];
     assert_eq!(
         unsafe {
-            refl_layered_fill_face(&mut approx, &m, 0, good.as_ptr(), 1, offs_ok.as_ptr(), 16)
+            refl_layered_fill_face(
+                &mut approx,
+                &m,
+                0,
+                good.as_mut_ptr(),
+                1,
+                offs_ok.as_ptr(),
+                16,
+            )
         },
         refl_status::InsufficientSize
     );
@@ -457,7 +462,7 @@ fn traces_through_the_abi_equal_the_core() {
         &b.bounds,
     )
     .unwrap();
-    let params: refl_layered_params = ok(|o| unsafe { refl_layered_params_default(o) });
+    let params = refl_layered_options_default();
     let mut rays = Vec::new();
     for k in 0..200 {
         let a = k as f32 * 0.37;
@@ -486,24 +491,24 @@ fn traces_through_the_abi_equal_the_core() {
     let mut hits = 0;
     for (r, batch) in rays.iter().zip(&all) {
         let one: refl_layered_result =
-            ok(|o| unsafe { refl_layered_trace(o, &map, *r, f32::INFINITY, &params) });
+            ok(|o| unsafe { refl_layered_trace_ray(o, &map, *r, f32::INFINITY, &params) });
         assert_eq!(&one, batch);
         let ray = Ray {
             origin: r.origin.into(),
             dir: r.dir.into(),
         };
         let c = core
-            .trace(&ray, f32::INFINITY, &LayeredParams::default())
+            .try_trace(&ray, f32::INFINITY, &LayeredOptions::default())
             .unwrap();
         assert_eq!(refl_layered_result::from(c), one);
         if let Some(h) = c.hit() {
             hits += 1;
-            assert_eq!(one.hit, 1);
+            assert!(one.hit);
             assert_eq!(one.payload, h.payload);
             // On the unit sphere to within a texel (2.1 / 32).
             assert!((h.position.length() - 1.0).abs() < 0.07);
         } else {
-            assert_eq!(one.hit, 0);
+            assert!(!one.hit);
             assert_ne!(one.miss, 0);
         }
     }
@@ -515,13 +520,14 @@ fn trace_errors_leave_outputs_untouched() {
     let g = grid_c(8, 1);
     let b = build_c(g);
     let map = b.map(g);
-    let params: refl_layered_params = ok(|o| unsafe { refl_layered_params_default(o) });
+    let params = refl_layered_options_default();
     let good = refl_ray {
         origin: v3(Vec3::new(0.0, 0.0, 3.0)),
         dir: v3(-Vec3::Z),
     };
     let sentinel = refl_layered_result {
-        hit: 99,
+        hit: true,
+        miss: 99,
         ..Default::default()
     };
     let mut out = sentinel;
@@ -535,61 +541,61 @@ fn trace_errors_leave_outputs_untouched() {
     };
     unsafe {
         assert_eq!(
-            refl_layered_trace(&mut out, &map, bad_ray, 1.0, &params),
+            refl_layered_trace_ray(&mut out, &map, bad_ray, 1.0, &params),
             refl_status::InvalidArgument
         );
         assert_eq!(
-            refl_layered_trace(&mut out, &map, unnormalized, 1.0, &params),
+            refl_layered_trace_ray(&mut out, &map, unnormalized, 1.0, &params),
             refl_status::InvalidArgument
         );
         assert_eq!(
-            refl_layered_trace(&mut out, &map, good, f32::NAN, &params),
+            refl_layered_trace_ray(&mut out, &map, good, f32::NAN, &params),
             refl_status::InvalidArgument
         );
-        let bad_params = refl_layered_params {
+        let bad_params = refl_layered_options {
             step_texels: 0.0,
             ..params
         };
         assert_eq!(
-            refl_layered_trace(&mut out, &map, good, 1.0, &bad_params),
+            refl_layered_trace_ray(&mut out, &map, good, 1.0, &bad_params),
             refl_status::InvalidArgument
         );
         assert_eq!(
-            refl_layered_trace(&mut out, core::ptr::null(), good, 1.0, &params),
+            refl_layered_trace_ray(&mut out, core::ptr::null(), good, 1.0, &params),
             refl_status::NullPointer
         );
         assert_eq!(
-            refl_layered_trace(&mut out, &map, good, 1.0, core::ptr::null()),
+            refl_layered_trace_ray(&mut out, &map, good, 1.0, core::ptr::null()),
             refl_status::NullPointer
         );
         assert_eq!(
-            refl_layered_trace(core::ptr::null_mut(), &map, good, 1.0, &params),
+            refl_layered_trace_ray(core::ptr::null_mut(), &map, good, 1.0, &params),
             refl_status::NullPointer
         );
-        let bad_params = refl_layered_params {
+        let bad_params = refl_layered_options {
             smooth_texels: f32::NAN,
             ..params
         };
         assert_eq!(
-            refl_layered_trace(&mut out, &map, good, 1.0, &bad_params),
+            refl_layered_trace_ray(&mut out, &map, good, 1.0, &bad_params),
             refl_status::InvalidArgument
         );
         let mut short = map;
         short.depth_len -= 1;
         assert_eq!(
-            refl_layered_trace(&mut out, &short, good, 1.0, &params),
+            refl_layered_trace_ray(&mut out, &short, good, 1.0, &params),
             refl_status::InsufficientSize
         );
         let mut short = map;
         short.bounds_len -= 1;
         assert_eq!(
-            refl_layered_trace(&mut out, &short, good, 1.0, &params),
+            refl_layered_trace_ray(&mut out, &short, good, 1.0, &params),
             refl_status::InsufficientSize
         );
         let mut null = map;
         null.bounds = core::ptr::null();
         assert_eq!(
-            refl_layered_trace(&mut out, &null, good, 1.0, &params),
+            refl_layered_trace_ray(&mut out, &null, good, 1.0, &params),
             refl_status::NullPointer
         );
     }
@@ -678,7 +684,7 @@ fn prr_classes_match_the_core() {
     ];
     for (eye, c, r) in cases {
         let got: u32 = ok(|o| unsafe {
-            refl_prr_classify(
+            refl_layered_prr_classify(
                 o,
                 v3(eye),
                 v3(c),
@@ -688,7 +694,7 @@ fn prr_classes_match_the_core() {
                 v3(floor[2]),
             )
         });
-        let want = refl_prr_class::from(prr_classify(eye, c, r, floor).unwrap()) as u32;
+        let want = refl_layered_prr_class::from(try_prr_classify(eye, c, r, floor).unwrap()) as u32;
         assert_eq!(got, want);
     }
     let mut out = 77u32;
@@ -696,19 +702,19 @@ fn prr_classes_match_the_core() {
         let (e, c) = (v3(Vec3::Y), v3(Vec3::Y * 2.0));
         let t = floor.map(v3);
         assert_eq!(
-            refl_prr_classify(&mut out, e, c, f32::NAN, t[0], t[1], t[2]),
+            refl_layered_prr_classify(&mut out, e, c, f32::NAN, t[0], t[1], t[2]),
             refl_status::InvalidArgument
         );
         assert_eq!(
-            refl_prr_classify(&mut out, e, c, -1.0, t[0], t[1], t[2]),
+            refl_layered_prr_classify(&mut out, e, c, -1.0, t[0], t[1], t[2]),
             refl_status::InvalidArgument
         );
         assert_eq!(
-            refl_prr_classify(&mut out, e, c, 1.0, t[0], t[0], t[2]),
+            refl_layered_prr_classify(&mut out, e, c, 1.0, t[0], t[0], t[2]),
             refl_status::DegenerateGeometry
         );
         assert_eq!(
-            refl_prr_classify(core::ptr::null_mut(), e, c, 1.0, t[0], t[1], t[2]),
+            refl_layered_prr_classify(core::ptr::null_mut(), e, c, 1.0, t[0], t[1], t[2]),
             refl_status::NullPointer
         );
     }

@@ -1,7 +1,8 @@
 //! refl_ssr_*: the C pass equals refl-core's `MirrorPass` bit for bit (both
 //! methods, every convention, whole image and row bands from threads),
 //! error paths return their documented status and leave every output
-//! untouched, and no export allocates (a counting global allocator).
+//! untouched, and no export allocates (the counting global allocator of
+//! `tests/common`; `tests/alloc.rs` covers every export).
 
 #[path = "common/gbuffer.rs"]
 mod common;
@@ -10,7 +11,7 @@ use common::{bands_from_threads, color_mut, counted, refused_outputs, render, Sh
 use refl::*;
 use refl_core::glam::Vec3;
 use refl_core::{
-    hiz_len, try_build_hiz, Camera, DepthConvention, HiZ, HiZTexel, HostRay, ImageViewMut,
+    try_hiz_len, try_build_hiz, Camera, DepthConvention, HiZ, HiZTexel, HostRay, ImageViewMut,
     MirrorMethod, MirrorOptions, MirrorPass, MirrorTexel,
 };
 
@@ -116,7 +117,7 @@ fn c_pass_equals_the_rust_pass_bit_for_bit_without_allocating() {
                 assert_eq!(s, refl_status::Ok);
                 assert_eq!((a_prep, a_run), (0, 0), "allocations in refl_ssr_*");
                 // The Rust pass.
-                let mut pyr = vec![HiZTexel::default(); hiz_len(W, H).unwrap()];
+                let mut pyr = vec![HiZTexel::default(); try_hiz_len(W, H).unwrap()];
                 let gb = f.gbuffer(back);
                 try_build_hiz(&mut pyr, gb.depth()).unwrap();
                 if method == MirrorMethod::HiZ {

@@ -107,7 +107,7 @@ fn default_options() -> refl_step_options {
 
 fn call_one(
     img: &refl_depth_image,
-    th: &refl_thickness,
+    th: &refl_trace_thickness,
     ray: refl_ray,
     t_max: f32,
     opts: &refl_step_options,
@@ -127,7 +127,7 @@ fn expect_same(c: &refl_trace_result, t: &Trace) {
     assert_eq!(*c, refl_trace_result::from(*t));
     match t {
         Trace::Hit(h) => {
-            assert_eq!(c.miss, refl_miss::None as u32);
+            assert_eq!(c.miss, refl_trace_miss::None as u32);
             assert_eq!((c.pixel.x, c.pixel.y), (h.pixel.x, h.pixel.y));
             assert_eq!(
                 (c.t, c.depth, c.surface_depth),
@@ -135,7 +135,7 @@ fn expect_same(c: &refl_trace_result, t: &Trace) {
             );
         }
         Trace::Miss { reason, work } => {
-            assert_eq!(c.miss, refl_miss::from(*reason) as u32);
+            assert_eq!(c.miss, refl_trace_miss::from(*reason) as u32);
             assert_ne!(c.miss, 0);
             assert_eq!((c.steps, c.fetches), (work.steps, work.fetches));
             assert_eq!((c.t, c.depth), (0.0, 0.0));
@@ -158,7 +158,7 @@ fn step_ray_matches_core_in_every_convention() {
                 stride,
                 max_steps: 1000,
             };
-            let th = refl_thickness {
+            let th = refl_trace_thickness {
                 constant: 0.5,
                 back_faces: if back_faces {
                     image_c(&back)
@@ -191,7 +191,7 @@ fn step_ray_matches_core_in_every_convention() {
     let planar = rays(&camera())[2].0;
     let (front, _) = images(&cam, DepthConvention::ReversedZ);
     let img = depth_image_c(&cam, &front, DepthConvention::ReversedZ);
-    let th = refl_thickness {
+    let th = refl_trace_thickness {
         constant: 1.0,
         back_faces: refl_image_f32 {
             data: core::ptr::null(),
@@ -209,7 +209,7 @@ fn step_ray_matches_core_in_every_convention() {
 fn untouched_one(
     want: refl_status,
     img: *const refl_depth_image,
-    th: *const refl_thickness,
+    th: *const refl_trace_thickness,
     ray: refl_ray,
     t_max: f32,
     opts: *const refl_step_options,
@@ -241,7 +241,7 @@ fn step_ray_errors_leave_the_output_untouched() {
         height: 0,
         stride: 0,
     };
-    let th = refl_thickness {
+    let th = refl_trace_thickness {
         constant: 0.5,
         back_faces: null_view,
     };
@@ -279,11 +279,11 @@ fn step_ray_errors_leave_the_output_untouched() {
     let zero_stride = refl_step_options { stride: 0, ..opts };
     untouched_one(InvalidArgument, &img, &th, good, 1.0, &zero_stride);
     for c in [f32::NAN, -1.0] {
-        let t = refl_thickness { constant: c, ..th };
+        let t = refl_trace_thickness { constant: c, ..th };
         untouched_one(InvalidArgument, &img, &t, good, 1.0, &opts);
     }
     // Back-face image of the wrong size, and too short.
-    let small = refl_thickness {
+    let small = refl_trace_thickness {
         back_faces: refl_image_f32 {
             width: W - 1,
             ..image_c(&back)
@@ -291,7 +291,7 @@ fn step_ray_errors_leave_the_output_untouched() {
         ..th
     };
     untouched_one(InvalidArgument, &img, &small, good, 1.0, &opts);
-    let short_back = refl_thickness {
+    let short_back = refl_trace_thickness {
         back_faces: refl_image_f32 {
             len: back.len() - 1,
             ..image_c(&back)
@@ -327,7 +327,7 @@ fn step_rays_matches_step_ray_and_writes_only_on_success() {
     let conv = DepthConvention::ReversedZ;
     let (front, _) = images(&cam, conv);
     let img = depth_image_c(&cam, &front, conv);
-    let th = refl_thickness {
+    let th = refl_trace_thickness {
         constant: 0.5,
         back_faces: refl_image_f32 {
             data: core::ptr::null(),
@@ -353,12 +353,12 @@ fn step_rays_matches_step_ray_and_writes_only_on_success() {
         refl_step_rays(
             out.as_mut_ptr(),
             out_len,
+            &img,
+            &th,
             rays.as_ptr(),
             rays.len(),
             t.as_ptr(),
             t.len(),
-            &img,
-            &th,
             &opts,
         )
     };
@@ -394,12 +394,12 @@ fn step_rays_matches_step_ray_and_writes_only_on_success() {
         refl_step_rays(
             out.as_mut_ptr(),
             n,
+            &img,
+            &th,
             core::ptr::null(),
             n,
             tms.as_ptr(),
             n,
-            &img,
-            &th,
             &opts,
         )
     };
@@ -408,12 +408,12 @@ fn step_rays_matches_step_ray_and_writes_only_on_success() {
         refl_step_rays(
             core::ptr::null_mut(),
             n,
+            &img,
+            &th,
             rc.as_ptr(),
             n,
             tms.as_ptr(),
             n,
-            &img,
-            &th,
             &opts,
         )
     };
@@ -421,7 +421,7 @@ fn step_rays_matches_step_ray_and_writes_only_on_success() {
     assert!(out.iter().all(|o| *o == sentinel));
 }
 
-/// `refl_refine_hit` equals `refl_core::trace::refine_hit` on every hit
+/// `refl_trace_refine_hit` equals `refl_core::trace::refine_hit` on every hit
 /// of the ray set, passes misses through, and leaves `out` untouched on
 /// error.
 #[test]
@@ -432,7 +432,7 @@ fn refine_hit_matches_core() {
         let img_c = depth_image_c(&cam, &front, conv);
         let view = ImageView::try_new(&front, cam.width(), cam.height(), cam.width()).unwrap();
         let img = DepthImage::try_new(view, cam, conv).unwrap();
-        let th = refl_thickness {
+        let th = refl_trace_thickness {
             constant: 0.5,
             back_faces: refl_image_f32 {
                 data: core::ptr::null(),
@@ -447,7 +447,9 @@ fn refine_hit_matches_core() {
             let (s, hit) = call_one(&img_c, &th, ray_c(&ray), t_max, &default_options());
             assert_eq!(s, refl_status::Ok);
             let mut out = MaybeUninit::<refl_trace_result>::uninit();
-            let s = unsafe { refl_refine_hit(out.as_mut_ptr(), &img_c, ray_c(&ray), t_max, &hit) };
+            let s = unsafe {
+                refl_trace_refine_hit(out.as_mut_ptr(), &img_c, ray_c(&ray), t_max, &hit)
+            };
             assert_eq!(s, refl_status::Ok);
             let out = unsafe { out.assume_init() };
             let core = try_step(
@@ -479,10 +481,11 @@ fn refine_hit_matches_core() {
             ..Default::default()
         };
         let (ray, t_max) = rays(&cam)[0];
-        let s = unsafe { refl_refine_hit(&mut out, &img_c, ray_c(&ray), t_max, &bad) };
+        let s = unsafe { refl_trace_refine_hit(&mut out, &img_c, ray_c(&ray), t_max, &bad) };
         assert_eq!(s, refl_status::InvalidArgument);
         assert_eq!(out, sentinel);
-        let s = unsafe { refl_refine_hit(&mut out, core::ptr::null(), ray_c(&ray), t_max, &bad) };
+        let s =
+            unsafe { refl_trace_refine_hit(&mut out, core::ptr::null(), ray_c(&ray), t_max, &bad) };
         assert_eq!(s, refl_status::NullPointer);
         assert_eq!(out, sentinel);
     }

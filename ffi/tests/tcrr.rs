@@ -6,7 +6,7 @@
 use core::mem::MaybeUninit;
 use refl::*;
 use refl_core::glam::Vec3;
-use refl_core::tcrr::{self, CurrentView, ReflectionBuffers, TcrrParams, INVALID_OFFSET};
+use refl_core::tcrr::{self, CurrentView, ReflectionBuffers, TcrrOptions, INVALID_OFFSET};
 use refl_core::{Camera, DepthConvention, ImageView, ImageViewMut};
 
 const W: u32 = 48;
@@ -229,7 +229,7 @@ struct Out {
 
 fn through_ffi(key: &Frame, cur: &Frame) -> Out {
     let n = (W * H) as usize;
-    let params: refl_tcrr_params = ok(|o| unsafe { refl_tcrr_default_params(o) });
+    let params: refl_tcrr_options = refl_tcrr_options_default();
     let mut surfels = vec![refl_tcrr_surfel::default(); n];
     let plain = key_desc(key, None);
     let mut reflective = 0;
@@ -340,7 +340,7 @@ fn through_ffi(key: &Frame, cur: &Frame) -> Out {
 
 fn through_core(key: &Frame, cur: &Frame) -> Out {
     let n = (W * H) as usize;
-    let p = TcrrParams::default();
+    let p = TcrrOptions::default();
     let b = ReflectionBuffers::try_new(
         Camera::try_from(&key.cam).unwrap(),
         DepthConvention::Linear,
@@ -353,7 +353,7 @@ fn through_core(key: &Frame, cur: &Frame) -> Out {
     .unwrap();
     let ccam = Camera::try_from(&cur.cam).unwrap();
     let mut offsets = vec![INVALID_OFFSET; n];
-    let s = tcrr::search(
+    let s = tcrr::try_search(
         &mut ImageViewMut::try_new(&mut offsets, W, H, W).unwrap(),
         &b,
         ccam.eye(),
@@ -362,7 +362,7 @@ fn through_core(key: &Frame, cur: &Frame) -> Out {
     .unwrap();
     let (mut inter, mut idepth, mut coverage) =
         (vec![[0.0f32; 3]; n], vec![0.0f32; n], vec![0u8; n]);
-    let sh = tcrr::shift(
+    let sh = tcrr::try_shift(
         &mut ImageViewMut::try_new(&mut inter, W, H, W).unwrap(),
         &mut ImageViewMut::try_new(&mut idepth, W, H, W).unwrap(),
         &mut ImageViewMut::try_new(&mut coverage, W, H, W).unwrap(),
@@ -379,7 +379,7 @@ fn through_core(key: &Frame, cur: &Frame) -> Out {
     )
     .unwrap();
     let (mut color, mut mask) = (vec![[0.0f32; 3]; n], vec![0u8; n]);
-    let ws = tcrr::warp(
+    let ws = tcrr::try_warp(
         &mut ImageViewMut::try_new(&mut color, W, H, W).unwrap(),
         &mut ImageViewMut::try_new(&mut mask, W, H, W).unwrap(),
         &cv,
@@ -392,10 +392,10 @@ fn through_core(key: &Frame, cur: &Frame) -> Out {
     .unwrap();
     let mv = ImageView::try_new(&mask, W, H, W).unwrap();
     let mut list = vec![0u32; tcrr::retrace_count(&mv)];
-    tcrr::retrace_list(&mut list, &mv).unwrap();
+    tcrr::try_retrace_list(&mut list, &mv).unwrap();
     let diffuse = vec![[0.25f32, 0.5, 0.75]; n];
     let mut final_ = vec![[0.0f32; 3]; n];
-    tcrr::compose(
+    tcrr::try_compose(
         &mut ImageViewMut::try_new(&mut final_, W, H, W).unwrap(),
         &ImageView::try_new(&diffuse, W, H, W).unwrap(),
         &ImageView::try_new(&color, W, H, W).unwrap(),
@@ -453,8 +453,8 @@ fn banded_pipeline_through_the_abi_equals_refl_core() {
 
 #[test]
 fn scalar_exports_match_refl_core() {
-    let p: refl_tcrr_params = ok(|o| unsafe { refl_tcrr_default_params(o) });
-    assert_eq!(TcrrParams::try_from(&p).unwrap(), TcrrParams::default());
+    let p: refl_tcrr_options = refl_tcrr_options_default();
+    assert_eq!(TcrrOptions::try_from(&p).unwrap(), TcrrOptions::default());
     let bytes: usize = ok(|o| unsafe { refl_tcrr_frame_bytes(o, 4, 3) });
     assert_eq!(bytes, 12 * REFL_TCRR_BYTES_PER_PIXEL);
     let (eye, w, n, r) = (
@@ -484,9 +484,9 @@ fn scalar_exports_match_refl_core() {
         };
         assert_eq!(f, tcrr::fresnel_weight(0.3, 0.4, m));
     }
-    let yes: u32 = ok(|o| unsafe { refl_tcrr_needs_key_frame(o, 0.3, 31, 100) });
-    let no: u32 = ok(|o| unsafe { refl_tcrr_needs_key_frame(o, 0.3, 30, 100) });
-    assert_eq!((yes, no), (1, 0));
+    let yes: bool = ok(|o| unsafe { refl_tcrr_needs_key_frame(o, 0.3, 31, 100) });
+    let no: bool = ok(|o| unsafe { refl_tcrr_needs_key_frame(o, 0.3, 30, 100) });
+    assert_eq!((yes, no), (true, false));
 }
 
 /// Sentinel-checked scalar output: `expected` status and the output
@@ -522,7 +522,7 @@ fn bad_input_returns_its_status_and_writes_nothing() {
     untouched_f32(InvalidArgument, |o| unsafe {
         refl_tcrr_fresnel_weight(o, 0.5, 0.5, 7)
     });
-    let mut flag = 9u32;
+    let mut flag = true;
     assert_eq!(
         unsafe { refl_tcrr_needs_key_frame(&mut flag, f32::NAN, 1, 2) },
         InvalidArgument
@@ -531,7 +531,7 @@ fn bad_input_returns_its_status_and_writes_nothing() {
         unsafe { refl_tcrr_needs_key_frame(&mut flag, 0.3, 3, 2) },
         InvalidArgument
     );
-    assert_eq!(flag, 9);
+    assert!(flag);
     let mut bytes = 5usize;
     assert_eq!(
         unsafe { refl_tcrr_frame_bytes(&mut bytes, 0, 3) },
@@ -541,7 +541,7 @@ fn bad_input_returns_its_status_and_writes_nothing() {
 
     let key = render(Vec3::new(0.0, 1.5, 3.0));
     let k = key_desc(&key, None);
-    let mut p: refl_tcrr_params = ok(|o| unsafe { refl_tcrr_default_params(o) });
+    let mut p: refl_tcrr_options = refl_tcrr_options_default();
     let n = (W * H) as usize;
     let sentinel = [3.25f32, -1.0];
     let mut offsets = vec![sentinel; n];
@@ -550,7 +550,7 @@ fn bad_input_returns_its_status_and_writes_nothing() {
     let search = |off: refl_image_vec2_mut,
                   k: *const refl_tcrr_key,
                   eye,
-                  p: *const refl_tcrr_params,
+                  p: *const refl_tcrr_options,
                   r| unsafe {
         refl_tcrr_search(off, core::ptr::null_mut(), k, eye, p, r)
     };
@@ -585,18 +585,12 @@ fn bad_input_returns_its_status_and_writes_nothing() {
         search(mut_vec2(&mut offsets), &bad, eye, &p, all),
         InsufficientSize
     );
-    p.subpixel = 2;
-    assert_eq!(
-        search(mut_vec2(&mut offsets), &k, eye, &p, all),
-        InvalidArgument
-    );
-    p.subpixel = 1;
     p.magnification = f32::NAN;
     assert_eq!(
         search(mut_vec2(&mut offsets), &k, eye, &p, all),
         InvalidArgument
     );
-    p = ok(|o| unsafe { refl_tcrr_default_params(o) });
+    p = refl_tcrr_options_default();
     assert!(offsets.iter().all(|o| *o == sentinel));
     assert_eq!(
         search(mut_vec2(&mut offsets), &k, eye, &p, all),

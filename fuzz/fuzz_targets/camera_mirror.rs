@@ -569,8 +569,8 @@ fn op_reprojection(b: &mut Bytes, st: &mut State) {
     let conv = b.convention();
     let mut m = out1::<refl_mat4>(b.ptr_kind());
     // SAFETY: pointers NULL, misaligned or valid.
-    let s = unsafe { refl_reprojection_matrix(m.ptr(), fb.cptr(), tb.cptr(), conv) };
-    post(s, "refl_reprojection_matrix", &m, &[fb.kind(), tb.kind()]);
+    let s = unsafe { refl_camera_reprojection_matrix(m.ptr(), fb.cptr(), tb.cptr(), conv) };
+    post(s, "refl_camera_reprojection_matrix", &m, &[fb.kind(), tb.kind()]);
     let px = pixel(b, &from);
     let d = match conv {
         0 => b.f32_in(0.0, 100.0),
@@ -578,8 +578,8 @@ fn op_reprojection(b: &mut Bytes, st: &mut State) {
     };
     let mut rp = out1::<refl_projection>(b.ptr_kind());
     // SAFETY: pointers NULL, misaligned or valid.
-    let s2 = unsafe { refl_reproject(rp.ptr(), fb.cptr(), tb.cptr(), px, d, conv) };
-    post(s2, "refl_reproject", &rp, &[fb.kind(), tb.kind()]);
+    let s2 = unsafe { refl_camera_reproject(rp.ptr(), fb.cptr(), tb.cptr(), px, d, conv) };
+    post(s2, "refl_camera_reproject", &rp, &[fb.kind(), tb.kind()]);
     if s2 == refl_status::Ok {
         assert!(rp.bytes()[12] <= 1, "valid byte");
         let r = rp.get(0);
@@ -589,7 +589,7 @@ fn op_reprojection(b: &mut Bytes, st: &mut State) {
             assert!(r.x == 0.0 && r.y == 0.0 && r.depth == 0.0, "invalid reprojection not zeroed");
         }
     } else if rp.usable() && fb.usable() && tb.usable() && camera_ok(&from) && camera_ok(&to) && conv <= 2 {
-        assert!(!(px.x.is_finite() && px.y.is_finite() && d.is_finite()), "refl_reproject refused: {s2:?}");
+        assert!(!(px.x.is_finite() && px.y.is_finite() && d.is_finite()), "refl_camera_reproject refused: {s2:?}");
     }
     if s != refl_status::Ok {
         if conv == 0 {
@@ -603,8 +603,8 @@ fn op_reprojection(b: &mut Bytes, st: &mut State) {
     let mb = Buf::from_slice(&[mat], b.ptr_kind());
     let mut ap = out1::<refl_projection>(b.ptr_kind());
     // SAFETY: pointers NULL, misaligned or valid.
-    let s3 = unsafe { refl_apply_reprojection(ap.ptr(), mb.cptr(), px, d) };
-    post(s3, "refl_apply_reprojection", &ap, &[mb.kind()]);
+    let s3 = unsafe { refl_camera_apply_reprojection(ap.ptr(), mb.cptr(), px, d) };
+    post(s3, "refl_camera_apply_reprojection", &ap, &[mb.kind()]);
     if s3 != refl_status::Ok {
         return;
     }
@@ -623,7 +623,7 @@ fn op_reprojection(b: &mut Bytes, st: &mut State) {
             if a.x.abs() < 1e4 && a.y.abs() < 1e4 {
                 assert!(
                     (a.x - r.x).abs() <= tol && (a.y - r.y).abs() <= tol,
-                    "reprojection matrix gives ({}, {}), refl_reproject ({}, {})",
+                    "reprojection matrix gives ({}, {}), refl_camera_reproject ({}, {})",
                     a.x,
                     a.y,
                     r.x,
@@ -643,8 +643,8 @@ fn op_reflect(b: &mut Bytes, _st: &mut State) {
     };
     let mut out = out1::<refl_vec3>(b.ptr_kind());
     // SAFETY: NULL, misaligned or valid.
-    let s = unsafe { refl_reflect(out.ptr(), v, n) };
-    post(s, "refl_reflect", &out, &[]);
+    let s = unsafe { refl_mirror_reflect(out.ptr(), v, n) };
+    post(s, "refl_mirror_reflect", &out, &[]);
     if out.usable() && finite3(v) && n == v3(0.0, 0.0, 0.0) {
         assert_eq!(s, refl_status::DegenerateGeometry, "reflect about a zero normal");
     }
@@ -858,13 +858,13 @@ fn op_mirrored_camera(b: &mut Bytes, st: &mut State) {
     let mut out = out1::<refl_camera>(b.ptr_kind());
     let (sc, sp) = (cb.snapshot(), pb.snapshot());
     // SAFETY: NULL, misaligned or valid.
-    let s = unsafe { refl_mirrored_camera(out.ptr(), cb.cptr(), pb.cptr()) };
-    cb.assert_unchanged(&sc, "refl_mirrored_camera camera");
-    pb.assert_unchanged(&sp, "refl_mirrored_camera plane");
-    post(s, "refl_mirrored_camera", &out, &[cb.kind(), pb.kind()]);
+    let s = unsafe { refl_mirror_camera(out.ptr(), cb.cptr(), pb.cptr()) };
+    cb.assert_unchanged(&sc, "refl_mirror_camera camera");
+    pb.assert_unchanged(&sp, "refl_mirror_camera plane");
+    post(s, "refl_mirror_camera", &out, &[cb.kind(), pb.kind()]);
     if s != refl_status::Ok {
         if out.usable() && cb.usable() && pb.usable() && camera_moderate(&c) && plane_ok(&p) && f64::from(p.d.abs()) / len3(p.normal) < 1e3 {
-            panic!("refl_mirrored_camera refused a valid camera and plane: {s:?} {c:?} {p:?}");
+            panic!("refl_mirror_camera refused a valid camera and plane: {s:?} {c:?} {p:?}");
         }
         return;
     }
@@ -890,9 +890,9 @@ fn op_mirrored_camera(b: &mut Bytes, st: &mut State) {
     }
     // "out may equal camera."
     if b.bool() {
-        alias::<refl_camera, refl_camera>(c, size_of::<refl_camera>(), "refl_mirrored_camera alias", |o, i| {
+        alias::<refl_camera, refl_camera>(c, size_of::<refl_camera>(), "refl_mirror_camera alias", |o, i| {
             // SAFETY: valid pointers (o may equal i).
-            unsafe { refl_mirrored_camera(o, i, &p) }
+            unsafe { refl_mirror_camera(o, i, &p) }
         });
     }
     st.cams[b.below(2) as usize] = m;
@@ -904,8 +904,8 @@ fn op_oblique(b: &mut Bytes, st: &mut State) {
     let conv = b.convention();
     let mut out = out1::<refl_mat4>(b.ptr_kind());
     // SAFETY: NULL, misaligned or valid.
-    let s = unsafe { refl_oblique_projection(out.ptr(), cb.cptr(), pb.cptr(), conv) };
-    post(s, "refl_oblique_projection", &out, &[cb.kind(), pb.kind()]);
+    let s = unsafe { refl_mirror_oblique_projection(out.ptr(), cb.cptr(), pb.cptr(), conv) };
+    post(s, "refl_mirror_oblique_projection", &out, &[cb.kind(), pb.kind()]);
     if s != refl_status::Ok {
         return;
     }
@@ -966,17 +966,17 @@ fn op_alias(b: &mut Bytes, st: &mut State) {
         5 => alias::<refl_plane, f32>(p, 4, "signed_distance alias", |o, i| unsafe { refl_plane_signed_distance(o, i, x) }),
         6 => alias::<refl_plane, refl_vec3>(p, 12, "mirror_point alias", |o, i| unsafe { refl_mirror_point(o, i, x) }),
         7 => alias::<refl_plane, refl_mat4>(p, 64, "mirror_matrix alias", |o, i| unsafe { refl_mirror_matrix(o, i) }),
-        8 => alias::<refl_camera, refl_mat4>(c, 64, "reprojection_matrix alias", |o, i| unsafe { refl_reprojection_matrix(o, i, &st.cams[1], conv) }),
-        9 => alias::<refl_camera, refl_mat4>(c, 64, "oblique alias", |o, i| unsafe { refl_oblique_projection(o, i, &p, conv) }),
-        10 => alias::<refl_plane, refl_mat4>(p, 64, "oblique plane alias", |o, i| unsafe { refl_oblique_projection(o, &c, i, conv) }),
+        8 => alias::<refl_camera, refl_mat4>(c, 64, "reprojection_matrix alias", |o, i| unsafe { refl_camera_reprojection_matrix(o, i, &st.cams[1], conv) }),
+        9 => alias::<refl_camera, refl_mat4>(c, 64, "oblique alias", |o, i| unsafe { refl_mirror_oblique_projection(o, i, &p, conv) }),
+        10 => alias::<refl_plane, refl_mat4>(p, 64, "oblique plane alias", |o, i| unsafe { refl_mirror_oblique_projection(o, &c, i, conv) }),
         _ => {
             let m = {
                 let mut m = refl_mat4 { m: [0.0; 16] };
                 // SAFETY: pointers valid.
-                unsafe { refl_reprojection_matrix(&mut m, &c, &st.cams[1], 1) };
+                unsafe { refl_camera_reprojection_matrix(&mut m, &c, &st.cams[1], 1) };
                 m
             };
-            alias::<refl_mat4, refl_projection>(m, 13, "apply_reprojection alias", |o, i| unsafe { refl_apply_reprojection(o, i, px, d) })
+            alias::<refl_mat4, refl_projection>(m, 13, "apply_reprojection alias", |o, i| unsafe { refl_camera_apply_reprojection(o, i, px, d) })
         }
     }
 }

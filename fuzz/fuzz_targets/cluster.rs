@@ -1,8 +1,8 @@
-//! Second-order reflections (seed 003): `refl_cluster_params_default`,
-//! `refl_cluster_camera_params_default`, `refl_cluster_bins_max`,
+//! Second-order reflections (seed 003): `refl_cluster_options_default`,
+//! `refl_cluster_camera_options_default`, `refl_cluster_bins_max`,
 //! `refl_cluster_count_objects`, `refl_cluster_bin_layout`,
 //! `refl_cluster_assign`, `refl_cluster_ranges`,
-//! `refl_cluster_build_camera`, `refl_lobe_angle`, `refl_cluster_finalize`:
+//! `refl_cluster_build_camera`, `refl_cluster_lobe_angle`, `refl_cluster_finalize`:
 //! the per-frame pipeline over a fuzzed G-buffer.
 #![no_main]
 
@@ -21,9 +21,7 @@ fn img_v3(buf: &Buf<refl_vec3>, w: u32, h: u32, stride: u32) -> refl_image_vec3 
 
 fuzz_target!(|data: &[u8]| {
     let mut b = Bytes::new(data);
-    let mut p = refl_cluster_params { max_theta_bins: 0, max_phi_bins: 0, gain: 0.0 };
-    // SAFETY: pointer valid.
-    assert_eq!(unsafe { refl_cluster_params_default(&mut p) }, refl_status::Ok);
+    let mut p = refl_cluster_options_default();
     if b.chance(48) {
         match b.u8() % 3 {
             0 => p.max_theta_bins = b.pick(&[0, 1, 2, 1024, 1025, u32::MAX]),
@@ -137,7 +135,7 @@ fuzz_target!(|data: &[u8]| {
     }
     let frame_pixels = if b.chance(16) { b.u64() % (2 * n as u64 + 1) } else { n as u64 };
     let out_len = b.len_for(fc.len());
-    let mut layout = Buf::<refl_object_bins>::sentinel(out_len, if b.chance(16) { b.ptr_kind() } else { PtrKind::Valid });
+    let mut layout = Buf::<refl_cluster_object_bins>::sentinel(out_len, if b.chance(16) { b.ptr_kind() } else { PtrKind::Valid });
     let mut total = out1::<u32>(if b.chance(16) { b.ptr_kind() } else { PtrKind::Valid });
     // SAFETY: pointers NULL, misaligned or valid.
     let s = unsafe { refl_cluster_bin_layout(total.ptr(), layout.ptr(), out_len, fc.as_ptr(), fc.len(), frame_pixels, &p) };
@@ -153,7 +151,7 @@ fuzz_target!(|data: &[u8]| {
         return;
     }
     assert!(pvalid && frame_pixels > 0 && out_len >= fc.len(), "bin_layout accepted bad input");
-    let lay: Vec<refl_object_bins> = (0..fc.len()).map(|k| layout.get(k)).collect();
+    let lay: Vec<refl_cluster_object_bins> = (0..fc.len()).map(|k| layout.get(k)).collect();
     let mut next = 0u64;
     for (k, l) in lay.iter().enumerate() {
         assert!(l.theta_bins <= p.max_theta_bins && l.phi_bins <= p.max_phi_bins, "bins {l:?}");
@@ -260,9 +258,7 @@ fuzz_target!(|data: &[u8]| {
     // Cluster camera of the first non-empty cluster.
     let Some(c) = (0..cl as usize).find(|&c| offs.get(c) < offs.get(c + 1)) else { return };
     let px: Vec<u32> = (offs.get(c)..offs.get(c + 1)).map(|k| order.get(k as usize)).collect();
-    let mut cp = refl_cluster_camera_params { far_distance: 0.0, cone_half_angle: 0.0, resolution_scale: 0.0, max_resolution: 0, min_pixels: 0, max_f: 0.0 };
-    // SAFETY: pointer valid.
-    assert_eq!(unsafe { refl_cluster_camera_params_default(&mut cp) }, refl_status::Ok);
+    let mut cp = refl_cluster_camera_options_default();
     cp.max_resolution = 32;
     if b.chance(48) {
         match b.u8() % 6 {
@@ -314,11 +310,11 @@ fuzz_target!(|data: &[u8]| {
     let colors = Buf::from_fn(dv.len(), PtrKind::Valid, |i| v3((i % 3) as f32 * 0.3, 0.5, 0.2));
     let dimg = refl_depth_image { depth: img_f32(&db, cw, chh, cw), camera: camr.camera, convention: conv };
     let lobe_rays = if b.chance(16) { b.pick(&[0, 65]) } else { 1 + b.below(4) };
-    let fp = refl_cluster_finalize_params {
-        thickness: refl_thickness { constant: b.f32_in(0.0, 1.0), back_faces: refl_image_f32 { data: core::ptr::null(), len: 0, width: 0, height: 0, stride: 0 } },
+    let fp = refl_cluster_finalize_input {
+        thickness: refl_trace_thickness { constant: b.f32_in(0.0, 1.0), back_faces: refl_image_f32 { data: core::ptr::null(), len: 0, width: 0, height: 0, stride: 0 } },
         step: refl_step_options { stride: 1 + b.below(2), max_steps: 4096 },
         refine: b.bool(),
-        lobe: refl_lobe { rays: lobe_rays, exponent: b.f32_in(0.0, 50.0), max_angle: b.f32_in(0.0, 1.6) },
+        lobe: refl_cluster_lobe { rays: lobe_rays, exponent: b.f32_in(0.0, 50.0), max_angle: b.f32_in(0.0, 1.6) },
         fade: b.bool(),
         seed: b.u32(),
     };
@@ -348,6 +344,6 @@ fuzz_target!(|data: &[u8]| {
         assert!((len3(sh.mirror_dir) - 1.0).abs() < 1e-3, "mirror dir {:?}", sh.mirror_dir);
     }
     for i in px.len()..out_len {
-        assert!(shades.is_sentinel(i), "finalize wrote past pixel_count");
+        assert!(shades.is_sentinel(i), "finalize wrote past pixels_len");
     }
 });

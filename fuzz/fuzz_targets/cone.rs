@@ -1,7 +1,7 @@
 //! Glossy cone tracing (seed 004): `refl_cone_angle_from_phong`,
 //! `refl_cone_angle_from_roughness`, `refl_cone_pyramid_len`,
 //! `refl_cone_build_color(_rows)`, `refl_cone_build_visibility(_rows)`,
-//! `refl_cone_default_options`, `refl_cone_trace`, `refl_cone_fade`,
+//! `refl_cone_options_default`, `refl_cone_trace`, `refl_cone_fade`,
 //! `refl_cone_multiray`.
 #![no_main]
 
@@ -74,14 +74,10 @@ fn angles(b: &mut Bytes) {
 fn fade(b: &mut Bytes) {
     let range = |b: &mut Bytes| {
         let s = b.f32_in(-1.0, 2.0);
-        refl_fade_range { start: s, end: if b.chance(16) { b.f32_any() } else { s + b.f32_fine(0.01, 2.0) } }
+        let end = if b.chance(16) { b.f32_any() } else { s + b.f32_fine(0.01, 2.0) };
+        refl_cone_fade_range { enabled: b.u8() & 1 == 1, start: s, end }
     };
-    let f = refl_cone_fades {
-        enabled: if b.chance(16) { b.u32() } else { b.below(8) },
-        toward_camera: range(b),
-        border: range(b),
-        travel: range(b),
-    };
+    let f = refl_cone_fades { toward_camera: range(b), border: range(b), travel: range(b) };
     let (r, e) = (b.dir3(), b.dir3());
     let (w, h) = (b.side(MAX_SIDE), b.side(MAX_SIDE));
     let hit = b.vec2_in(-2.0, MAX_SIDE as f32 + 2.0);
@@ -94,17 +90,13 @@ fn fade(b: &mut Bytes) {
     null_rules_m(s, null, null, o.kind() == PtrKind::Misaligned || fb.kind() == PtrKind::Misaligned, "refl_cone_fade");
     on_error_untouched(s, &[("out", o.is_sentinel(0))], "refl_cone_fade");
     if s == refl_status::Ok {
-        assert!(f.enabled & !7 == 0, "fade accepted unknown bits {:#x}", f.enabled);
-        let ranges = [(1, f.toward_camera), (2, f.border), (4, f.travel)];
-        for (bit, rg) in ranges {
-            if f.enabled & bit != 0 {
+        for rg in [f.toward_camera, f.border, f.travel] {
+            if rg.enabled {
                 assert!(rg.start.is_finite() && rg.end.is_finite() && rg.end > rg.start, "fade accepted range {rg:?}");
             }
         }
         let v = o.get(0);
         assert!((0.0..=1.0).contains(&v), "fade factor {v}");
-    } else if o.usable() && fb.usable() && f.enabled & !7 != 0 {
-        assert_eq!(s, refl_status::InvalidArgument);
     }
 }
 
@@ -200,7 +192,7 @@ fuzz_target!(|data: &[u8]| {
                 while y < lv.height {
                     let n = 1 + b.below(lv.height - y);
                     // SAFETY: valid pointers.
-                    let s = unsafe { refl_cone_build_color_rows(rows.ptr(), pl, &ci, k, y, y + n, sigma) };
+                    let s = unsafe { refl_cone_build_color_rows(rows.ptr(), pl, &ci, k, refl_row_range { begin: y, end: y + n }, sigma) };
                     assert_eq!(s, refl_status::Ok, "build_color_rows(level {k}, {y}..{})", y + n);
                     y += n;
                 }
@@ -246,7 +238,7 @@ fuzz_target!(|data: &[u8]| {
                 while y < lv.height {
                     let n = 1 + b.below(lv.height - y);
                     // SAFETY: valid pointers.
-                    let s = unsafe { refl_cone_build_visibility_rows(rows.ptr(), pvl, &hiz, k, y, y + n) };
+                    let s = unsafe { refl_cone_build_visibility_rows(rows.ptr(), pvl, &hiz, k, refl_row_range { begin: y, end: y + n }) };
                     assert_eq!(s, refl_status::Ok);
                     y += n;
                 }
@@ -266,17 +258,15 @@ fuzz_target!(|data: &[u8]| {
     let pyr = refl_cone_pyramids { hiz, color: color.cptr(), color_len: dl, visibility: vis.cptr(), visibility_len: vl };
 
     // Cone trace.
-    let mut opts = refl_cone_options::default();
-    // SAFETY: pointer valid.
-    assert_eq!(unsafe { refl_cone_default_options(&mut opts) }, refl_status::Ok);
+    let mut opts = refl_cone_options_default();
     if b.chance(64) {
         match b.u8() % 6 {
             0 => opts.max_circles = b.pick(&[0, 1, 64, 65, u32::MAX]),
             1 => opts.level_bias = b.f32_any(),
-            2 => opts.use_visibility = b.u32(),
+            2 => opts.use_visibility = b.u8() & 1 == 1,
             3 => opts.max_stretch = b.f32_any(),
             4 => opts.depth_tolerance = b.f32_any(),
-            _ => opts.normalize = b.u32(),
+            _ => opts.normalize = b.u8() & 1 == 1,
         }
     }
     let (wf, hf) = (w as f32, h as f32);
@@ -313,15 +303,17 @@ fuzz_target!(|data: &[u8]| {
     let normal = if b.chance(16) { b.vec3_in(-1.0, 1.0) } else { v3(0.0, 1.0, 0.0) };
     let theta = b.f32_in(0.0, 1.6);
     let power = b.f32_in(0.0, 100.0);
-    let mo = refl_multiray_options {
+    let mo = refl_cone_multiray_options {
         rays: if b.chance(16) { b.pick(&[0, 65, 200]) } else { 1 + b.below(12) },
         rotation: b.vec2_in(0.0, 1.0),
-        hiz_start_level: b.below(6),
-        hiz_stop_level: b.below(3),
-        hiz_max_iterations: if b.chance(16) { b.below(4) } else { 1024 },
-        hiz_prologue_steps: b.below(8),
+        hiz: refl_hiz_options {
+            start_level: b.below(6),
+            stop_level: b.below(3),
+            max_iterations: if b.chance(16) { b.below(4) } else { 1024 },
+            prologue_steps: b.below(8),
+        },
     };
-    let mut o = out1::<refl_multiray_result>(b.ptr_kind());
+    let mut o = out1::<refl_cone_multiray_result>(b.ptr_kind());
     let mb = Buf::from_slice(&[mo], b.ptr_kind());
     // SAFETY: pointers NULL, misaligned or valid.
     let s = unsafe { refl_cone_multiray(o.ptr(), &pyr, &th.desc, ray, normal, tm, theta, power, mb.cptr(), fallback) };

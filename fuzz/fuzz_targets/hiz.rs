@@ -1,4 +1,4 @@
-//! Hi-Z pyramid: `refl_hiz_len`, `refl_hiz_level`, `refl_hiz_default_options`,
+//! Hi-Z pyramid: `refl_hiz_len`, `refl_hiz_level`, `refl_hiz_options_default`,
 //! `refl_hiz_build`, `refl_hiz_build_rows` (level by level in fuzzed bands),
 //! `refl_hiz_trace_ray` and `refl_hiz_trace_rays` against built and fuzzed
 //! pyramids, another camera, short buffers, aliasing.
@@ -187,14 +187,14 @@ fn build_rows(b: &mut Bytes, img: &DepthImg, whole: &[refl_vec2]) {
                     _ => (k, y, lv.height + 1 + b.below(3)),
                 };
                 // SAFETY: valid pointers.
-                let s = unsafe { refl_hiz_build_rows(dst.ptr(), need, &desc, bk, r0, r1) };
+                let s = unsafe { refl_hiz_build_rows(dst.ptr(), need, &desc, bk, refl_row_range { begin: r0, end: r1 }) };
                 no_panic(s, "refl_hiz_build_rows");
                 assert_eq!(s, refl_status::InvalidArgument, "refl_hiz_build_rows(level {bk}, {r0}..{r1})");
                 dst.assert_unchanged(&snap, "refl_hiz_build_rows after an error");
             }
             let snap = dst.snapshot();
             // SAFETY: valid pointers.
-            let s = unsafe { refl_hiz_build_rows(dst.ptr(), need, &desc, k, y, y + n) };
+            let s = unsafe { refl_hiz_build_rows(dst.ptr(), need, &desc, k, refl_row_range { begin: y, end: y + n }) };
             assert_eq!(s, refl_status::Ok, "refl_hiz_build_rows(level {k}, {y}..{})", y + n);
             // Only the band's texels changed (and, when the last level is
             // built, the texels after the levels: the pyramid's stamp).
@@ -224,14 +224,7 @@ fn build_rows(b: &mut Bytes, img: &DepthImg, whole: &[refl_vec2]) {
 }
 
 fn hiz_options(b: &mut Bytes) -> refl_hiz_options {
-    let mut o = refl_hiz_options {
-        start_level: 0,
-        stop_level: 0,
-        max_iterations: 0,
-        prologue_steps: 0,
-    };
-    // SAFETY: pointer valid.
-    assert_eq!(unsafe { refl_hiz_default_options(&mut o) }, refl_status::Ok);
+    let mut o = refl_hiz_options_default();
     if b.chance(160) {
         o.start_level = match b.u8() % 4 {
             0 => b.u32(),
@@ -321,9 +314,7 @@ fn trace_one(b: &mut Bytes, t: &Trace, opts: &refl_hiz_options) {
         );
     }
     // "Every setting returns the same first hit."
-    let mut dflt = *opts;
-    // SAFETY: pointer valid.
-    unsafe { refl_hiz_default_options(&mut dflt) };
+    let mut dflt = refl_hiz_options_default();
     dflt.max_iterations = u32::MAX;
     let mut d = sentinel_trace();
     // SAFETY: pointers valid.
@@ -355,7 +346,7 @@ fn trace_batch(b: &mut Bytes, t: &Trace, opts: &refl_hiz_options) {
     let tb = Buf::from_slice(&tms, b.ptr_kind());
     // SAFETY: pointers NULL, misaligned or valid for their lengths.
     let s = unsafe {
-        refl_hiz_trace_rays(out.ptr(), out_len, rb.cptr(), n, tb.cptr(), tcount, &t.hiz, &t.th.desc, opts)
+        refl_hiz_trace_rays(out.ptr(), out_len, &t.hiz, &t.th.desc, rb.cptr(), n, tb.cptr(), tcount, opts)
     };
     let null = [out.is_null(), rb.is_null(), tb.is_null(), t.data.is_null()].contains(&true);
     let mis = [out.kind(), rb.kind(), tb.kind(), t.data.kind()].contains(&PtrKind::Misaligned);
@@ -363,7 +354,7 @@ fn trace_batch(b: &mut Bytes, t: &Trace, opts: &refl_hiz_options) {
     let untouched = (0..out_len).all(|i| out.is_sentinel(i));
     on_error_untouched(s, &[("out", untouched)], "refl_hiz_trace_rays");
     for i in n..out_len {
-        assert!(out.is_sentinel(i), "refl_hiz_trace_rays wrote out[{i}] past ray_count {n}");
+        assert!(out.is_sentinel(i), "refl_hiz_trace_rays wrote out[{i}] past rays_len {n}");
     }
     if s != refl_status::Ok {
         return;
@@ -385,7 +376,7 @@ fn trace_batch(b: &mut Bytes, t: &Trace, opts: &refl_hiz_options) {
         let p = mem.as_mut_ptr();
         // SAFETY: p valid for n results and n rays (overlapping).
         let s2 = unsafe {
-            refl_hiz_trace_rays(p.cast(), n, p.cast::<refl_ray>().cast_const(), n, tms.as_ptr(), tcount, &t.hiz, &t.th.desc, opts)
+            refl_hiz_trace_rays(p.cast(), n, &t.hiz, &t.th.desc, p.cast::<refl_ray>().cast_const(), n, tms.as_ptr(), tcount, opts)
         };
         assert_eq!(s2, refl_status::Ok, "refl_hiz_trace_rays with out aliasing rays");
         for i in 0..n {

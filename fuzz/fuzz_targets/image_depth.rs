@@ -1,5 +1,5 @@
-//! Image helpers and depth conversion: `refl_row_band`,
-//! `refl_image_required_len` and `refl_convert_depth` with every pair of
+//! Image helpers and depth conversion: `refl_image_row_band`,
+//! `refl_image_required_len` and `refl_image_convert_depth` with every pair of
 //! conventions (and unknown ones), strides, short buffers, NULL and
 //! misaligned data, row bands, and the destination aliasing the source (in
 //! place, or overlapping it partially).
@@ -28,9 +28,9 @@ fn row_band(b: &mut Bytes) {
     };
     let mut out = out1::<refl_row_range>(b.ptr_kind());
     // SAFETY: NULL, misaligned or writable.
-    let s = unsafe { refl_row_band(out.ptr(), height, index, count) };
-    null_rules(s, out.is_null(), out.is_null(), "refl_row_band");
-    on_error_untouched(s, &[("out", out.is_sentinel(0))], "refl_row_band");
+    let s = unsafe { refl_image_row_band(out.ptr(), height, index, count) };
+    null_rules(s, out.is_null(), out.is_null(), "refl_image_row_band");
+    on_error_untouched(s, &[("out", out.is_sentinel(0))], "refl_image_row_band");
     if out.kind() != PtrKind::Valid {
         assert!(s != refl_status::Ok);
         return;
@@ -39,7 +39,7 @@ fn row_band(b: &mut Bytes) {
     assert_eq!(
         s,
         if bad { refl_status::InvalidArgument } else { refl_status::Ok },
-        "refl_row_band({height}, {index}, {count})"
+        "refl_image_row_band({height}, {index}, {count})"
     );
     if bad {
         return;
@@ -55,7 +55,7 @@ fn row_band(b: &mut Bytes) {
     assert_eq!(
         (u64::from(r.begin), u64::from(r.end)),
         (begin, end),
-        "refl_row_band({height}, {index}, {count})"
+        "refl_image_row_band({height}, {index}, {count})"
     );
 }
 
@@ -152,20 +152,20 @@ fn convert(b: &mut Bytes) {
     let src_snap = src.snapshot();
     // SAFETY: every pointer is NULL, misaligned (refused) or valid for its
     // stated length; dst may alias src as described above.
-    let s = unsafe { refl_convert_depth(dst, srcd, cb.cptr(), from, to, rows.begin, rows.end) };
+    let s = unsafe { refl_image_convert_depth(dst, srcd, cb.cptr(), from, to, refl_row_range { begin: rows.begin, end: rows.end }) };
     let null = dst.data.is_null() || srcd.data.is_null() || cb.is_null();
-    null_rules(s, null, null, "refl_convert_depth");
+    null_rules(s, null, null, "refl_image_convert_depth");
     if alias != 0 || s != refl_status::Ok {
-        dst_own.assert_unchanged(&dst_snap, "refl_convert_depth: untouched destination");
+        dst_own.assert_unchanged(&dst_snap, "refl_image_convert_depth: untouched destination");
     }
     if alias == 0 {
-        src.assert_unchanged(&src_snap, "refl_convert_depth: source");
+        src.assert_unchanged(&src_snap, "refl_image_convert_depth: source");
     }
     if s != refl_status::Ok {
-        no_panic(s, "refl_convert_depth");
+        no_panic(s, "refl_image_convert_depth");
         // On error dst is untouched; with aliasing the source too.
         if alias != 0 {
-            src.assert_unchanged(&src_snap, "refl_convert_depth: aliased destination on error");
+            src.assert_unchanged(&src_snap, "refl_image_convert_depth: aliased destination on error");
         }
         // Nothing else can fail when every documented requirement holds.
         let valid_desc = |len: usize, ww: u32, hh: u32, st: u32| required_len(ww, hh, st).is_some_and(|n| len >= n);
@@ -182,7 +182,7 @@ fn convert(b: &mut Bytes) {
             && (dst_w, dst_h) == (w, h)
             && rows.begin < rows.end
             && rows.end <= h;
-        assert!(!all_ok, "refl_convert_depth refused valid input: {s:?}");
+        assert!(!all_ok, "refl_image_convert_depth refused valid input: {s:?}");
         return;
     }
     // Success: every documented requirement held.

@@ -1,8 +1,8 @@
 //! Layered depth cube maps and the PRR test (seed 001): `refl_layered_len`,
-//! `refl_layered_params_default`, `refl_layered_face_ray`,
+//! `refl_layered_options_default`, `refl_layered_face_ray`,
 //! `refl_layered_clear`, `refl_layered_fill_column`,
 //! `refl_layered_fill_face`, `refl_layered_build_bounds`,
-//! `refl_layered_trace`, `refl_layered_trace_rays`, `refl_prr_classify`.
+//! `refl_layered_trace_ray`, `refl_layered_trace_rays`, `refl_layered_prr_classify`.
 #![no_main]
 
 use libfuzzer_sys::fuzz_target;
@@ -56,12 +56,12 @@ fn check_len(b: &mut Bytes) {
     }
     assert_eq!(s, refl_status::Ok, "refl_layered_len({res}, {layers})");
     let z = o.get(0);
-    assert_eq!(z.depth as u128, texels);
-    assert_eq!(z.payload as u128, texels);
+    assert_eq!(z.depth_len as u128, texels);
+    assert_eq!(z.payload_len as u128, texels);
     // Counts: one per texel, then the words of the map's stamp (the grid
     // it was cleared for), if any.
-    assert!(z.counts as u128 >= 6 * r * r && z.counts as u128 <= 6 * r * r + 64, "counts {} of res {res}", z.counts);
-    assert_eq!(z.bounds as u128, bounds, "bounds of refl_layered_len({res}, {layers})");
+    assert!(z.counts_len as u128 >= 6 * r * r && z.counts_len as u128 <= 6 * r * r + 64, "counts {} of res {res}", z.counts_len);
+    assert_eq!(z.bounds_len as u128, bounds, "bounds of refl_layered_len({res}, {layers})");
 }
 
 struct Map {
@@ -119,10 +119,10 @@ impl Map {
             && self.payload.usable()
             && self.counts.usable()
             && self.bounds.usable()
-            && self.depth.len() >= z.depth
-            && self.payload.len() >= z.payload
-            && self.counts.len() >= z.counts
-            && self.bounds.len() >= z.bounds
+            && self.depth.len() >= z.depth_len
+            && self.payload.len() >= z.payload_len
+            && self.counts.len() >= z.counts_len
+            && self.bounds.len() >= z.bounds_len
     }
 }
 
@@ -180,7 +180,7 @@ fn map(b: &mut Bytes, g: refl_layered_grid) -> Map {
     let k = |b: &mut Bytes| if b.chance(16) { b.ptr_kind() } else { PtrKind::Valid };
     let l = |b: &mut Bytes, n: usize| if b.chance(16) { b.len_for(n.min(cap)) } else { n.min(cap) };
     let (kd, kp, kc, kb) = (k(b), k(b), k(b), k(b));
-    let (ld, lp, lc, lb) = (l(b, z.depth), l(b, z.payload), l(b, z.counts), l(b, z.bounds));
+    let (ld, lp, lc, lb) = (l(b, z.depth_len), l(b, z.payload_len), l(b, z.counts_len), l(b, z.bounds_len));
     Map {
         grid: g,
         depth: Buf::sentinel(ld, kd),
@@ -204,11 +204,11 @@ fn clear(m: &mut Map) -> refl_status {
         for i in 0..texels {
             assert_eq!(m.counts.get(i), 0, "cleared count");
         }
-        for i in 0..z.depth {
+        for i in 0..z.depth_len {
             assert_eq!(m.depth.get(i), f32::INFINITY, "cleared depth");
             assert_eq!(m.payload.get(i), u32::MAX, "cleared payload");
         }
-        for i in 0..z.bounds {
+        for i in 0..z.bounds_len {
             // F8 (the header corrected): bounds are cleared to (+inf, -inf)
             // pairs.
             let want = if i % 2 == 1 { f32::NEG_INFINITY } else { f32::INFINITY };
@@ -218,24 +218,42 @@ fn clear(m: &mut Map) -> refl_status {
     s
 }
 
-fn hits(b: &mut Bytes, t_max: f32) -> Vec<refl_layer_hit> {
+fn hits(b: &mut Bytes, t_max: f32) -> Vec<refl_layered_layer_hit> {
     let n = b.below(7) as usize;
     (0..n)
-        .map(|_| refl_layer_hit {
+        .map(|_| refl_layered_layer_hit {
             t: if b.chance(16) { b.f32_special() } else { b.f32_fine(-0.2, t_max * 1.2) },
             id: b.u32(),
-            front: match b.u8() % 16 {
-                0 => 2 + b.below(4),
-                k => u32::from(k & 1),
-            },
+            front: b.u8() & 1 == 1,
         })
         .collect()
 }
 
-fn face_ray(g: &refl_layered_grid, f: u32, i: u32, j: u32) -> Option<refl_column_ray> {
-    let mut r = refl_column_ray::default();
+fn face_ray(g: &refl_layered_grid, f: u32, i: u32, j: u32) -> Option<refl_layered_column_ray> {
+    let mut r = refl_layered_column_ray::default();
     // SAFETY: pointers valid.
     (unsafe { refl_layered_face_ray(&mut r, g, f, i, j) } == refl_status::Ok).then_some(r)
+}
+
+/// The key of a crossing (its padding bytes are not compared).
+fn hit_key(h: &refl_layered_layer_hit) -> (u32, u32, bool) {
+    (h.t.to_bits(), h.id, h.front)
+}
+
+/// `hb` holds `hs` unchanged (a failed fill leaves the caller's scratch
+/// alone).
+fn same_hits(hb: &Buf<refl_layered_layer_hit>, hs: &[refl_layered_layer_hit]) -> bool {
+    hs.iter().enumerate().all(|(i, h)| hit_key(&hb.get(i)) == hit_key(h))
+}
+
+/// `hb` holds `hs` reordered (the fills sort the caller's crossings in
+/// place).
+fn is_permutation(hb: &Buf<refl_layered_layer_hit>, hs: &[refl_layered_layer_hit]) -> bool {
+    let mut a: Vec<_> = (0..hs.len()).map(|i| hit_key(&hb.get(i))).collect();
+    let mut b: Vec<_> = hs.iter().map(hit_key).collect();
+    a.sort_unstable();
+    b.sort_unstable();
+    a == b
 }
 
 fn texel_index(res: u32, face: u32, i: u32, j: u32) -> usize {
@@ -248,20 +266,22 @@ fn fill_column(b: &mut Bytes, m: &mut Map) {
     let (i, j) = (b.below(res.saturating_add(1).min(64)), b.below(res.saturating_add(1).min(64)));
     let tm = face_ray(&m.grid, face.min(5), i.min(res.max(1) - 1), j.min(res.max(1) - 1)).map_or(2.0, |r| r.t_max);
     let hs = hits(b, tm);
-    let hb = Buf::from_slice(&hs, if hs.is_empty() || !b.chance(16) { PtrKind::Valid } else { b.ptr_kind() });
-    let mut out = out1::<refl_column_fill>(b.ptr_kind());
+    let mut hb = Buf::from_slice(&hs, if hs.is_empty() || !b.chance(16) { PtrKind::Valid } else { b.ptr_kind() });
+    let mut out = out1::<refl_layered_column_fill>(b.ptr_kind());
     let d = m.desc_mut();
     let snap = m.snap();
     // SAFETY: pointers NULL, misaligned or valid.
-    let s = unsafe { refl_layered_fill_column(out.ptr(), &d, face, i, j, hb.cptr(), hs.len()) };
+    let s = unsafe { refl_layered_fill_column(out.ptr(), &d, face, i, j, hb.ptr(), hs.len()) };
     let null = out.is_null() || m.any_null() || (hb.is_null() && !hs.is_empty());
     null_rules_m(s, out.is_null(), null, out.kind() == PtrKind::Misaligned, "refl_layered_fill_column");
-    on_error_untouched(s, &[("map", m.same(&snap)), ("out", out.is_sentinel(0))], "refl_layered_fill_column");
+    let hits_kept = !hb.usable() || same_hits(&hb, &hs);
+    on_error_untouched(s, &[("map", m.same(&snap)), ("out", out.is_sentinel(0)), ("hits", hits_kept)], "refl_layered_fill_column");
     if s != refl_status::Ok {
         return;
     }
     assert!(face < 6 && i < res && j < res, "fill_column accepted face {face} texel ({i}, {j}) of res {res}");
-    assert!(hs.iter().all(|h| h.t.is_finite() && h.front <= 1), "fill_column accepted a bad hit");
+    assert!(hs.iter().all(|h| h.t.is_finite()), "fill_column accepted a bad hit");
+    assert!(hs.is_empty() || is_permutation(&hb, &hs), "fill_column changed the hits beyond reordering them");
     let f = out.get(0);
     let layers = m.grid.layers;
     assert_eq!(f.stored, f.intervals.min(layers), "fill result {f:?}");
@@ -310,7 +330,7 @@ fn fill_face(b: &mut Bytes, m: &mut Map) -> bool {
     }
     let off_count = if b.chance(16) { b.len_for(offsets.len()) } else { offsets.len() };
     let ob = Buf::from_fn(off_count, if b.chance(16) { b.ptr_kind() } else { PtrKind::Valid }, |i| offsets.get(i).copied().unwrap_or(0));
-    let hb = Buf::from_slice(&all, PtrKind::Valid);
+    let mut hb = Buf::from_slice(&all, PtrKind::Valid);
     let mut out = out1::<u32>(match b.u8() % 8 {
         0 => PtrKind::Null,
         1 => PtrKind::Misaligned,
@@ -327,12 +347,12 @@ fn fill_face(b: &mut Bytes, m: &mut Map) -> bool {
     let d = m.desc_mut();
     let snap = m.snap();
     // SAFETY: pointers NULL, misaligned or valid for their lengths.
-    let s = unsafe { refl_layered_fill_face(out.ptr(), &d, face, hb.cptr(), all.len(), ob.cptr(), off_count) };
+    let s = unsafe { refl_layered_fill_face(out.ptr(), &d, face, hb.ptr(), all.len(), ob.cptr(), off_count) };
     let null = m.any_null() || ob.is_null();
     // F1's rule: a bad face may be reported rather than a NULL `offsets`.
     let f1 = face >= 6 && s == refl_status::InvalidArgument;
     null_rules_m(s, null && !f1, null || out.is_null(), out.kind() == PtrKind::Misaligned || m.any_misaligned(), "refl_layered_fill_face");
-    on_error_untouched(s, &[("map", m.same(&snap)), ("out", out.is_sentinel(0))], "refl_layered_fill_face");
+    on_error_untouched(s, &[("map", m.same(&snap)), ("out", out.is_sentinel(0)), ("hits", same_hits(&hb, &all))], "refl_layered_fill_face");
     if s != refl_status::Ok {
         return false;
     }
@@ -340,11 +360,11 @@ fn fill_face(b: &mut Bytes, m: &mut Map) -> bool {
     let mut approx = 0;
     for c in 0..cols {
         let (i, j) = (c as u32 % res, c as u32 / res);
-        let col = &all[offsets[c]..offsets[c + 1]];
-        let mut f = refl_column_fill::default();
+        let mut col = all[offsets[c]..offsets[c + 1]].to_vec();
+        let mut f = refl_layered_column_fill::default();
         let rd = reference.desc_mut();
         // SAFETY: valid pointers.
-        let s1 = unsafe { refl_layered_fill_column(&mut f, &rd, face, i, j, col.as_ptr(), col.len()) };
+        let s1 = unsafe { refl_layered_fill_column(&mut f, &rd, face, i, j, col.as_mut_ptr(), col.len()) };
         assert_eq!(s1, refl_status::Ok, "fill_column refuses a column fill_face accepted");
         approx += u32::from(f.stored < f.intervals);
     }
@@ -357,21 +377,21 @@ fn fill_face(b: &mut Bytes, m: &mut Map) -> bool {
     let z = sizes(m.grid.face_res, m.grid.layers).unwrap();
     let eq = |a: &Buf<f32>, r: &Buf<f32>, n: usize, what: &str| {
         for i in 0..n {
-            assert!(same_f32(a.get(i), r.get(i)), "fill_face {what} {i}: {} vs columns {} (face {face}, res {}, layers {}, {} bounds, offsets {offsets:?}, hits {all:?})", a.get(i), r.get(i), m.grid.face_res, m.grid.layers, z.bounds);
+            assert!(same_f32(a.get(i), r.get(i)), "fill_face {what} {i}: {} vs columns {} (face {face}, res {}, layers {}, {} bounds, offsets {offsets:?}, hits {all:?})", a.get(i), r.get(i), m.grid.face_res, m.grid.layers, z.bounds_len);
         }
     };
-    eq(&m.depth, &reference.depth, z.depth, "depth");
-    for i in 0..z.payload {
+    eq(&m.depth, &reference.depth, z.depth_len, "depth");
+    for i in 0..z.payload_len {
         assert_eq!(m.payload.get(i), reference.payload.get(i), "fill_face payload {i}");
     }
-    for i in 0..z.counts {
+    for i in 0..z.counts_len {
         assert_eq!(m.counts.get(i), reference.counts.get(i), "fill_face count {i}");
     }
     // Bounds: fill_face rebuilds those of `face` and its opposite (the
     // reference's build_bounds rebuilt all six); the other faces' are as
     // before.
-    let per_face = z.bounds / 6;
-    for i in 0..z.bounds {
+    let per_face = z.bounds_len / 6;
+    for i in 0..z.bounds_len {
         let f = (i / per_face.max(1)) as u32;
         if f == face || f == face ^ 1 {
             assert!(same_f32(m.bounds.get(i), reference.bounds.get(i)), "fill_face bound {i} (face {f}): {} vs columns + build_bounds {}", m.bounds.get(i), reference.bounds.get(i));
@@ -382,17 +402,8 @@ fn fill_face(b: &mut Bytes, m: &mut Map) -> bool {
     true
 }
 
-fn params(b: &mut Bytes) -> refl_layered_params {
-    let mut p = refl_layered_params {
-        step_texels: 0.0,
-        max_steps: 0,
-        binary_steps: 0,
-        texel_fraction: 0.0,
-        early_stop_texels: 0.0,
-        smooth_texels: 0.0,
-    };
-    // SAFETY: pointer valid.
-    assert_eq!(unsafe { refl_layered_params_default(&mut p) }, refl_status::Ok);
+fn params(b: &mut Bytes) -> refl_layered_options {
+    let mut p = refl_layered_options_default();
     if b.chance(48) {
         match b.u8() % 6 {
             0 => p.step_texels = b.f32_any(),
@@ -426,8 +437,8 @@ fn world_box(g: &refl_layered_grid) -> ([f32; 3], [f32; 3]) {
 }
 
 fn check_result(r: &refl_layered_result, ray: &refl_ray, tm: f32, m: &Map, what: &str) {
-    assert!(r.hit <= 1 && r.miss <= 5 && (r.hit == 1) == (r.miss == 0), "{what}: hit {} miss {}", r.hit, r.miss);
-    if r.hit == 0 {
+    assert!(r.miss <= 5 && r.hit == (r.miss == 0), "{what}: hit {} miss {}", r.hit, r.miss);
+    if !r.hit {
         assert!(r.t == 0.0 && r.position == v3(0.0, 0.0, 0.0) && r.mismatch == 0.0, "{what}: miss with hit fields {r:?}");
         return;
     }
@@ -465,14 +476,14 @@ fn trace(b: &mut Bytes, m: &Map) {
     let pb = Buf::from_slice(&[p], b.ptr_kind());
     let snap = m.snap();
     // SAFETY: pointers NULL, misaligned or valid.
-    let s = unsafe { refl_layered_trace(out.ptr(), &md, ray, tm, pb.cptr()) };
-    assert!(m.same(&snap), "refl_layered_trace wrote its map");
+    let s = unsafe { refl_layered_trace_ray(out.ptr(), &md, ray, tm, pb.cptr()) };
+    assert!(m.same(&snap), "refl_layered_trace_ray wrote its map");
     let null = out.is_null() || pb.is_null() || m.any_null();
-    null_rules_m(s, out.is_null() || pb.is_null(), null, out.kind() == PtrKind::Misaligned || pb.kind() == PtrKind::Misaligned, "refl_layered_trace");
-    on_error_untouched(s, &[("out", out.is_sentinel(0))], "refl_layered_trace");
+    null_rules_m(s, out.is_null() || pb.is_null(), null, out.kind() == PtrKind::Misaligned || pb.kind() == PtrKind::Misaligned, "refl_layered_trace_ray");
+    on_error_untouched(s, &[("out", out.is_sentinel(0))], "refl_layered_trace_ray");
     if s == refl_status::Ok {
-        assert!(ray_valid(&ray, tm) != Some(false), "refl_layered_trace accepted ray {ray:?} / {tm}");
-        check_result(&out.get(0), &ray, tm, m, "refl_layered_trace");
+        assert!(ray_valid(&ray, tm) != Some(false), "refl_layered_trace_ray accepted ray {ray:?} / {tm}");
+        check_result(&out.get(0), &ray, tm, m, "refl_layered_trace_ray");
     }
     // Batches: equal to single traces; out overlapping the rays refused.
     let n = b.below(4) as usize;
@@ -492,8 +503,8 @@ fn trace(b: &mut Bytes, m: &Map) {
         for (k, r) in rays.iter().enumerate() {
             let mut one = refl_layered_result::default();
             // SAFETY: valid pointers.
-            let s1 = unsafe { refl_layered_trace(&mut one, &md, *r, tm, &p) };
-            assert_eq!(s1, refl_status::Ok, "batch accepted ray {k} that refl_layered_trace refuses");
+            let s1 = unsafe { refl_layered_trace_ray(&mut one, &md, *r, tm, &p) };
+            assert_eq!(s1, refl_status::Ok, "batch accepted ray {k} that refl_layered_trace_ray refuses");
             let o = outs.get(k);
             assert!(o.hit == one.hit && o.miss == one.miss && o.t.to_bits() == one.t.to_bits() && o.payload == one.payload, "batch result {k} differs");
         }
@@ -522,9 +533,9 @@ fuzz_target!(|data: &[u8]| {
         let (p0, p1, p2) = (b.vec3_in(-3.0, 3.0), b.vec3_in(-3.0, 3.0), b.vec3_in(-3.0, 3.0));
         let mut o = out1::<u32>(b.ptr_kind());
         // SAFETY: NULL, misaligned or valid.
-        let s = unsafe { refl_prr_classify(o.ptr(), eye, c, r, p0, p1, p2) };
-        null_rules(s, o.is_null(), o.is_null(), "refl_prr_classify");
-        on_error_untouched(s, &[("out", o.is_sentinel(0))], "refl_prr_classify");
+        let s = unsafe { refl_layered_prr_classify(o.ptr(), eye, c, r, p0, p1, p2) };
+        null_rules(s, o.is_null(), o.is_null(), "refl_layered_prr_classify");
+        on_error_untouched(s, &[("out", o.is_sentinel(0))], "refl_layered_prr_classify");
         if s == refl_status::Ok {
             assert!(o.get(0) <= 5, "PRR class {}", o.get(0));
             assert!(r > 0.0 && [eye, c, p0, p1, p2].iter().all(|v| finite3(*v)), "PRR accepted bad input");
@@ -538,7 +549,7 @@ fuzz_target!(|data: &[u8]| {
         let f = if b.chance(16) { 6 + b.below(3) } else { b.below(6) };
         let (i, j) = (b.below(g.face_res.saturating_add(1).min(64)), b.below(g.face_res.saturating_add(1).min(64)));
         let gb = Buf::from_slice(&[g], b.ptr_kind());
-        let mut o = out1::<refl_column_ray>(b.ptr_kind());
+        let mut o = out1::<refl_layered_column_ray>(b.ptr_kind());
         // SAFETY: NULL, misaligned or valid.
         let s = unsafe { refl_layered_face_ray(o.ptr(), gb.cptr(), f, i, j) };
         let null = o.is_null() || gb.is_null();

@@ -1,6 +1,6 @@
 //! Per-pixel stepping: `refl_step_ray`, `refl_step_rays` (batches, `t_max`
 //! per ray or shared, short outputs, the output aliasing the rays) and
-//! `refl_refine_hit` (real and fuzzed hits, output aliasing the hit).
+//! `refl_trace_refine_hit` (real and fuzzed hits, output aliasing the hit).
 #![no_main]
 
 use core::mem::size_of;
@@ -80,7 +80,7 @@ fn step_one(b: &mut Bytes, s: &Setup) -> Option<(refl_ray, f32, refl_trace_resul
     assert!(rv != Some(false), "refl_step_ray accepted an invalid ray {ray:?} / t_max {tm}");
     let r = out.get(0);
     check_trace(&r, &ray, tm, &s.img.cam, false, "refl_step_ray");
-    // "reaching it gives REFL_MISS_OUT_OF_STEPS"
+    // "reaching it gives REFL_TRACE_MISS_OUT_OF_STEPS"
     assert!(r.steps <= s.opts.max_steps, "refl_step_ray took {} steps, cap {}", r.steps, s.opts.max_steps);
     check_hit_surface(&r, s, "refl_step_ray");
     if r.miss == 0 && s.th.back.is_none() && s.th.desc.constant.is_finite() && camera_moderate(&s.img.cam) {
@@ -118,7 +118,7 @@ fn step_batch(b: &mut Bytes, s: &Setup) {
     let (rs, ts) = (rb.snapshot(), tb.snapshot());
     // SAFETY: pointers NULL, misaligned or valid for their lengths.
     let st = unsafe {
-        refl_step_rays(out.ptr(), out_len, rb.cptr(), n, tb.cptr(), tcount, image.cptr(), th.cptr(), opts.cptr())
+        refl_step_rays(out.ptr(), out_len, image.cptr(), th.cptr(), rb.cptr(), n, tb.cptr(), tcount, opts.cptr())
     };
     rb.assert_unchanged(&rs, "refl_step_rays: rays");
     tb.assert_unchanged(&ts, "refl_step_rays: t_max");
@@ -129,9 +129,9 @@ fn step_batch(b: &mut Bytes, s: &Setup) {
     null_rules_m(st, null, null, mis, "refl_step_rays");
     let untouched = (0..out_len).all(|i| out.is_sentinel(i));
     on_error_untouched(st, &[("out", untouched)], "refl_step_rays");
-    // "Elements of out past ray_count are never written."
+    // "Elements of out past rays_len are never written."
     for i in n..out_len {
-        assert!(out.is_sentinel(i), "refl_step_rays wrote out[{i}] past ray_count {n}");
+        assert!(out.is_sentinel(i), "refl_step_rays wrote out[{i}] past rays_len {n}");
     }
     let ptrs_ok = [out.kind(), rb.kind(), tb.kind(), image.kind(), th.kind(), opts.kind()]
         .iter()
@@ -147,7 +147,7 @@ fn step_batch(b: &mut Bytes, s: &Setup) {
         if ptrs_ok && tcount == 0 && !null && s.valid() {
             assert!(
                 matches!(st, refl_status::InvalidArgument | refl_status::InsufficientSize),
-                "t_max_count 0: {st:?}"
+                "t_max_len 0: {st:?}"
             );
         }
         return;
@@ -171,7 +171,7 @@ fn step_batch(b: &mut Bytes, s: &Setup) {
         let p = mem.as_mut_ptr();
         // SAFETY: p is valid for n results and n rays (overlapping).
         let s2 = unsafe {
-            refl_step_rays(p.cast(), n, p.cast::<refl_ray>().cast_const(), n, tms.as_ptr(), tcount, &desc, &s.th.desc, &s.opts)
+            refl_step_rays(p.cast(), n, &desc, &s.th.desc, p.cast::<refl_ray>().cast_const(), n, tms.as_ptr(), tcount, &s.opts)
         };
         assert_eq!(s2, refl_status::Ok, "refl_step_rays with out aliasing rays: {s2:?}");
         for i in 0..n {
@@ -213,21 +213,21 @@ fn refine(b: &mut Bytes, s: &Setup, found: Option<(refl_ray, f32, refl_trace_res
     let image = Buf::from_slice(&[desc], b.ptr_kind());
     let hb = Buf::from_slice(&[hit], b.ptr_kind());
     // SAFETY: pointers NULL, misaligned or valid.
-    let st = unsafe { refl_refine_hit(out.ptr(), image.cptr(), ray, tm, hb.cptr()) };
+    let st = unsafe { refl_trace_refine_hit(out.ptr(), image.cptr(), ray, tm, hb.cptr()) };
     let null = out.is_null() || image.is_null() || hb.is_null() || s.img.buf.is_null();
     let mis = [out.kind(), image.kind(), hb.kind(), s.img.buf.kind()].contains(&PtrKind::Misaligned);
-    null_rules_m(st, null, null, mis, "refl_refine_hit");
-    on_error_untouched(st, &[("out", out.is_sentinel(0))], "refl_refine_hit");
+    null_rules_m(st, null, null, mis, "refl_trace_refine_hit");
+    on_error_untouched(st, &[("out", out.is_sentinel(0))], "refl_trace_refine_hit");
     if st != refl_status::Ok {
         return;
     }
-    assert!(s.img.valid(), "refl_refine_hit accepted an invalid image");
-    assert!(hit.miss <= 5, "refl_refine_hit accepted miss value {}", hit.miss);
+    assert!(s.img.valid(), "refl_trace_refine_hit accepted an invalid image");
+    assert!(hit.miss <= 5, "refl_trace_refine_hit accepted miss value {}", hit.miss);
     let r = out.get(0);
     if hit.miss != 0 {
-        assert!(same_trace(&r, &hit), "refl_refine_hit changed a miss");
+        assert!(same_trace(&r, &hit), "refl_trace_refine_hit changed a miss");
     } else {
-        assert_eq!(r.miss, 0, "refl_refine_hit turned a hit into a miss");
+        assert_eq!(r.miss, 0, "refl_trace_refine_hit turned a hit into a miss");
         assert!(r.t.is_finite() && r.pixel.x.is_finite() && r.pixel.y.is_finite() && r.depth.is_finite());
         assert!(
             r.t >= 0.0 && r.t <= tm || r.t.to_bits() == hit.t.to_bits(),
@@ -242,9 +242,9 @@ fn refine(b: &mut Bytes, s: &Setup, found: Option<(refl_ray, f32, refl_trace_res
     let mut both = [hit];
     let p = both.as_mut_ptr();
     // SAFETY: valid pointers; out == hit.
-    let s2 = unsafe { refl_refine_hit(p, &desc, ray, tm, p) };
-    assert_eq!(s2, refl_status::Ok, "refl_refine_hit with out == hit");
-    assert!(same_trace(&both[0], &r), "refl_refine_hit aliased result differs");
+    let s2 = unsafe { refl_trace_refine_hit(p, &desc, ray, tm, p) };
+    assert_eq!(s2, refl_status::Ok, "refl_trace_refine_hit with out == hit");
+    assert!(same_trace(&both[0], &r), "refl_trace_refine_hit aliased result differs");
 }
 
 fuzz_target!(|data: &[u8]| {

@@ -1,4 +1,4 @@
-//! TCRR (seed 000): `refl_tcrr_default_params`, `refl_tcrr_frame_bytes`,
+//! TCRR (seed 000): `refl_tcrr_options_default`, `refl_tcrr_frame_bytes`,
 //! `refl_tcrr_reflection_distance`, `refl_tcrr_prepare`,
 //! `refl_tcrr_reset_offsets`, `refl_tcrr_search`, `refl_tcrr_shift`,
 //! `refl_tcrr_warp`, `refl_tcrr_retrace_list`, `refl_tcrr_compose`,
@@ -109,24 +109,15 @@ fn key(b: &mut Bytes) -> Key {
     }
 }
 
-fn params(b: &mut Bytes) -> refl_tcrr_params {
-    let mut p = refl_tcrr_params {
-        max_iterations: 0,
-        magnification: 0.0,
-        discontinuity: 0.0,
-        reflected_discontinuity: 0.0,
-        subpixel: 0,
-        retrace_contrast: 0.0,
-    };
-    // SAFETY: pointer valid.
-    assert_eq!(unsafe { refl_tcrr_default_params(&mut p) }, refl_status::Ok);
+fn params(b: &mut Bytes) -> refl_tcrr_options {
+    let mut p = refl_tcrr_options_default();
     if b.chance(64) {
         match b.u8() % 6 {
             0 => p.max_iterations = b.pick(&[0, 1, 2, u32::MAX]),
             1 => p.magnification = b.f32_any(),
             2 => p.discontinuity = b.f32_any(),
             3 => p.reflected_discontinuity = b.f32_any(),
-            4 => p.subpixel = b.pick(&[0, 1, 2, u32::MAX]),
+            4 => p.subpixel = b.u8() & 1 == 1,
             _ => p.retrace_contrast = b.f32_any(),
         }
     }
@@ -256,7 +247,7 @@ fn scalars(b: &mut Bytes) {
                 1 => b.u64(),
                 _ => reflective / 2,
             };
-            let mut o = out1::<u32>(b.ptr_kind());
+            let mut o = out1::<bool>(b.ptr_kind());
             // SAFETY: NULL, misaligned or valid.
             let s = unsafe { refl_tcrr_needs_key_frame(o.ptr(), t, retrace, reflective) };
             null_rules(s, o.is_null(), o.is_null(), "refl_tcrr_needs_key_frame");
@@ -266,14 +257,14 @@ fn scalars(b: &mut Bytes) {
                 assert_eq!(s, if bad { refl_status::InvalidArgument } else { refl_status::Ok }, "needs_key_frame({t}, {retrace}, {reflective})");
             }
             if s == refl_status::Ok {
+                // Written on success: a valid bool.
                 let v = o.get(0);
-                assert!(v <= 1);
                 if reflective == 0 {
-                    assert_eq!(v, 0);
+                    assert!(!v);
                 }
                 let share = retrace as f64 / reflective.max(1) as f64;
                 if (share - f64::from(t)).abs() > 1e-6 && reflective > 0 {
-                    assert_eq!(v, u32::from(share > f64::from(t)), "needs_key_frame({t}, {retrace}, {reflective})");
+                    assert_eq!(v, share > f64::from(t), "needs_key_frame({t}, {retrace}, {reflective})");
                 }
             }
         }
@@ -298,7 +289,6 @@ fuzz_target!(|data: &[u8]| {
         && p.discontinuity > 0.0
         && p.reflected_discontinuity.is_finite()
         && p.reflected_discontinuity > 0.0
-        && p.subpixel <= 1
         && p.retrace_contrast > 0.0;
 
     // --- prepare

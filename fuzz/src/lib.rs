@@ -809,7 +809,7 @@ pub fn camera(b: &mut Bytes, w: u32, h: u32) -> refl_camera {
                 };
                 let mut m = c;
                 // SAFETY: pointers valid.
-                let s = unsafe { refl_mirrored_camera(&mut m, &c, &p) };
+                let s = unsafe { refl_mirror_camera(&mut m, &c, &p) };
                 if s == refl_status::Ok {
                     c = m;
                 }
@@ -1261,7 +1261,7 @@ pub struct Thick {
     /// The back-face texels, if any.
     pub back: Option<Buf<f32>>,
     /// The descriptor passed.
-    pub desc: refl_thickness,
+    pub desc: refl_trace_thickness,
 }
 
 impl Thick {
@@ -1290,7 +1290,7 @@ pub fn thickness(b: &mut Bytes, img: &DepthImg) -> Thick {
     if b.chance(200) {
         return Thick {
             back: None,
-            desc: refl_thickness {
+            desc: refl_trace_thickness {
                 constant,
                 back_faces: refl_image_f32 {
                     data: core::ptr::null(),
@@ -1333,7 +1333,7 @@ pub fn thickness(b: &mut Bytes, img: &DepthImg) -> Thick {
     if buf.is_null() {
         buf = Buf::from_fn(buf.len(), PtrKind::Valid, |_| 1.0);
     }
-    let desc = refl_thickness {
+    let desc = refl_trace_thickness {
         constant,
         back_faces: refl_image_f32 {
             data: buf.cptr(),
@@ -1389,7 +1389,7 @@ pub fn ray_for(b: &mut Bytes, img: &DepthImg) -> refl_ray {
     let mut dir = refl_vec3::default();
     let v = v3(-pr.dir.x, -pr.dir.y, -pr.dir.z);
     // SAFETY: pointer valid.
-    unsafe { refl_reflect(&mut dir, v, n) };
+    unsafe { refl_mirror_reflect(&mut dir, v, n) };
     let l = len3(dir);
     let dir = if l.is_finite() && l > 1e-3 {
         v3((f64::from(dir.x) / l) as f32, (f64::from(dir.y) / l) as f32, (f64::from(dir.z) / l) as f32)

@@ -2,7 +2,7 @@
 #![no_std]
 
 use refl_core::glam::{Vec2, Vec3};
-use refl_core::{mirrored_camera, Camera, DepthConvention, Plane};
+use refl_core::{try_mirrored_camera, Camera, DepthConvention, Plane};
 
 /// Exercises camera, depth conventions, image views and the mirror matrix so
 /// that the linker must resolve them (and their libm calls) without std.
@@ -14,7 +14,7 @@ pub extern "C" fn refl_no_std_check(buf: *mut f32, len: usize) -> f32 {
     let Ok(plane) = Plane::try_from_triangle(Vec3::ZERO, Vec3::X, Vec3::Z) else {
         return -2.0;
     };
-    let Ok(m) = mirrored_camera(&cam, &plane) else {
+    let Ok(m) = try_mirrored_camera(&cam, &plane) else {
         return -3.0;
     };
     let r = m.primary_ray(Vec2::new(2.0, 2.0));

@@ -7,28 +7,28 @@
 //!    pixel the normal and depth (B.1), the specular factor (B.2), the
 //!    reflected color (B.3) and the reflected ray's travel distance (B.4),
 //!    as caller image views.
-//! 2. **Reflection pixel matching** (Sec. 3.2.1, [`search::search`]): per
+//! 2. **Reflection pixel matching** (Sec. 3.2.1, [`search::try_search`]): per
 //!    reflective pixel `s`, the pixel `s*` of the key frame whose surface
 //!    reflects `s`'s reflected point toward the *current* eye, found by
 //!    descending the [`reflection_distance`] function (Fig. 4) over 3x3
 //!    neighborhoods (Alg. 2); the offsets `s* - s` go to an offset buffer
 //!    with [`INVALID_OFFSET`] where no match exists.
-//! 3. **Reflection shifting** (Sec. 3.2.2, [`shift::shift`]): the grid mesh
+//! 3. **Reflection shifting** (Sec. 3.2.2, [`shift::try_shift`]): the grid mesh
 //!    of the reflection buffer, each vertex moved by its offset, rasterized
 //!    into an intermediate reflection image with the depth test on
 //!    `s.d + s.r`; the mesh is cut at depth discontinuities and triangles
 //!    magnified beyond a threshold (16 in the seed) are discarded.
-//! 4. **Warping and composition** (Sec. 3.3, [`warp()`]): the intermediate
+//! 4. **Warping and composition** (Sec. 3.3, [`try_warp`]): the intermediate
 //!    image, attached to the key frame's surfaces, is warped into the
 //!    current view by depth (reverse reprojection); disoccluded and
 //!    uncovered pixels form the re-trace mask and a compact pixel list for
-//!    the host's ray tracer ([`warp::retrace_list`]); [`warp::compose`]
+//!    the host's ray tracer ([`warp::try_retrace_list`]); [`warp::try_compose`]
 //!    blends diffuse and reflection with Fresnel weights; the
 //!    [`KeyFramePolicy`] starts a new key frame when the re-trace share
 //!    exceeds a threshold (0.3 in the seed, Sec. 4.4).
 //!
 //! Every pass takes the band of rows its mutable output views own
-//! ([`crate::ImageViewMut::split_at_row`]), so a host can thread it; the
+//! ([`crate::ImageViewMut::try_split_at_row`]), so a host can thread it; the
 //! result does not depend on the banding.
 //!
 //! Errata and choices (checked against the seed, see the tests):
@@ -51,21 +51,52 @@
 //!   on its tangent plane is found in closed form (where the line from the
 //!   eye to `M` crosses the plane) and projected into the key camera,
 //!   which places the match between pixel centers
-//!   ([`TcrrParams::subpixel`]).
+//!   ([`TcrrOptions::subpixel`]).
 
 pub mod search;
 pub mod shift;
 pub mod warp;
 
 use crate::{Camera, DepthConvention, Error, ImageView, ImageViewMut};
+use core::mem::size_of;
 use glam::Vec3;
 
-pub use search::{search, SearchStats};
-pub use shift::{shift, ShiftStats, COVERAGE_EDGE, COVERAGE_NONE, COVERAGE_REUSE};
+pub use search::{try_search, SearchStats};
+pub use shift::{try_shift, ShiftStats, COVERAGE_EDGE, COVERAGE_NONE, COVERAGE_REUSE};
 pub use warp::{
-    compose, fresnel_weight, retrace_count, retrace_list, warp, CurrentView, Fresnel, WarpStats,
-    MASK_NONE, MASK_RETRACE, MASK_REUSED,
+    fresnel_weight, retrace_count, try_compose, try_retrace_list, try_warp, CurrentView, Fresnel,
+    WarpStats, MASK_NONE, MASK_RETRACE, MASK_REUSED,
 };
+
+/// Caller-buffer bytes per pixel of one TCRR frame besides the host's own
+/// G-buffer: the key frame's reflection buffers (depth 4, normal 12,
+/// specular 4, color 12, distance 4), its [`Surfel`]s (32), the offsets
+/// (8), the intermediate image of [`try_shift`] (color 12, depth 4, coverage
+/// 1), the warped color (12), the re-trace mask (1) and the re-trace list
+/// of [`try_retrace_list`] (4, worst case).
+pub const BYTES_PER_PIXEL: usize = 4 * size_of::<f32>() // depth, specular, distance, shifted depth
+    + 4 * size_of::<[f32; 3]>() // normal, color, shifted color, warped color
+    + size_of::<Surfel>()
+    + size_of::<[f32; 2]>() // offsets
+    + 2 * size_of::<u8>() // coverage, mask
+    + size_of::<u32>(); // re-trace list
+
+/// The caller-buffer bytes TCRR needs for a `width x height` frame with
+/// tightly packed rows: `width * height * `[`BYTES_PER_PIXEL`] (size each
+/// image with [`crate::image::try_required_len`]).
+///
+/// # Errors
+/// [`Error::InvalidArgument`] for a zero size or a count that does not fit
+/// in `usize`.
+pub fn try_frame_bytes(width: u32, height: u32) -> Result<usize, Error> {
+    if width == 0 || height == 0 {
+        return Err(Error::InvalidArgument);
+    }
+    (width as usize)
+        .checked_mul(height as usize)
+        .and_then(|n| n.checked_mul(BYTES_PER_PIXEL))
+        .ok_or(Error::InvalidArgument)
+}
 
 /// The offset-buffer value of a pixel without a match (seed 000 Alg. 2,
 /// "INVALID"). Any offset with a non-finite component reads as invalid.
@@ -173,7 +204,7 @@ pub fn reflection_distance(
 
 /// Settings of the TCRR passes.
 #[derive(Clone, Copy, Debug, PartialEq)]
-pub struct TcrrParams {
+pub struct TcrrOptions {
     /// Iteration cap of the neighborhood search (seed 000 Alg. 2): at most
     /// this many 3x3 neighborhoods are evaluated per pixel; a search that
     /// has not converged by then records [`INVALID_OFFSET`]. At least 1.
@@ -212,7 +243,7 @@ pub struct TcrrParams {
     pub retrace_contrast: f32,
 }
 
-impl Default for TcrrParams {
+impl Default for TcrrOptions {
     /// Cap 64, magnification 16 (seed 000 Sec. 4.1), discontinuity 0.02,
     /// reflected discontinuity 0.1, sub-pixel refinement on, re-trace
     /// contrast 0.1 (on the room path it re-traces about 7% more of the
@@ -230,12 +261,12 @@ impl Default for TcrrParams {
     }
 }
 
-impl TcrrParams {
+impl TcrrOptions {
     /// Checks the ranges documented on the fields.
     ///
     /// # Errors
     /// [`Error::InvalidArgument`] for a field out of range.
-    pub fn validate(&self) -> Result<(), Error> {
+    pub fn try_validate(&self) -> Result<(), Error> {
         let ok = self.max_iterations >= 1
             && self.magnification >= 1.0
             && self.magnification.is_finite()
@@ -404,7 +435,7 @@ pub const SURFEL_SPECULAR: u32 = 2;
 /// reflective sample (see [`ReflectionBuffers`]).
 pub const SURFEL_DISTANCE: u32 = 4;
 
-/// A key-frame texel back-projected once per key frame by [`prepare`]: the
+/// A key-frame texel back-projected once per key frame by [`try_prepare`]: the
 /// surface of seed 000 Alg. 2 line 3 (`W` from the depth `s.d`) with its
 /// unit normal `s.n`, which every pass reads many times per key frame
 /// (the search up to a 3x3 neighborhood per pixel and step, shifting per
@@ -432,7 +463,7 @@ pub struct Surfel {
 /// # Errors
 /// [`Error::InvalidArgument`] (nothing written) if the image's size
 /// differs from the buffers'.
-pub fn prepare(
+pub fn try_prepare(
     surfels: &mut ImageViewMut<'_, Surfel>,
     buffers: &ReflectionBuffers<'_>,
 ) -> Result<u32, Error> {
@@ -541,7 +572,7 @@ impl<'a> ReflectionBuffers<'a> {
         })
     }
 
-    /// The buffers with a [`prepare`]d surfel image attached: the passes
+    /// The buffers with a [`try_prepare`]d surfel image attached: the passes
     /// read each texel's surface, specular and distance flags from it
     /// instead of back-projecting. The image must have been prepared from
     /// these buffers (a stale one gives wrong matches, never a panic).

@@ -2,7 +2,7 @@
 //! Alg. 2).
 
 use super::{distance_squared, Reflected, Surf, Target, SNAP_PX};
-use super::{offset_is_valid, ReflectionBuffers, TcrrParams, INVALID_OFFSET};
+use super::{offset_is_valid, ReflectionBuffers, TcrrOptions, INVALID_OFFSET};
 use crate::{Error, ImageViewMut};
 use glam::Vec3;
 
@@ -61,11 +61,11 @@ const RING: [(i32, i32); 8] = [
 /// [`reflection_distance`](super::reflection_distance) than `s_c`, the search moves to the best one,
 /// unless that neighbor lies outside the reflector's silhouette (not a
 /// reflective sample, or across a depth discontinuity from `s_c`, see
-/// [`TcrrParams::discontinuity`]), which records INVALID. A search that
-/// evaluates [`TcrrParams::max_iterations`] neighborhoods without
+/// [`TcrrOptions::discontinuity`]), which records INVALID. A search that
+/// evaluates [`TcrrOptions::max_iterations`] neighborhoods without
 /// converging, or whose start has no defined distance and no improving
 /// neighbor, records INVALID. Otherwise it records `s_c - s`, refined
-/// between pixel centers when [`TcrrParams::subpixel`] is on (see the
+/// between pixel centers when [`TcrrOptions::subpixel`] is on (see the
 /// module docs of [`crate::tcrr`]). Pixels that are not reflective
 /// samples get INVALID.
 ///
@@ -76,15 +76,15 @@ const RING: [(i32, i32); 8] = [
 ///
 /// # Errors
 /// [`Error::InvalidArgument`] (nothing written) if the offset buffer's size
-/// differs from the buffers', `eye` is not finite or `params` is out of
+/// differs from the buffers', `eye` is not finite or `options` is out of
 /// range.
-pub fn search(
+pub fn try_search(
     offsets: &mut ImageViewMut<'_, [f32; 2]>,
     buffers: &ReflectionBuffers<'_>,
     eye: Vec3,
-    params: &TcrrParams,
+    options: &TcrrOptions,
 ) -> Result<SearchStats, Error> {
-    params.validate()?;
+    options.try_validate()?;
     if offsets.width() != buffers.width()
         || offsets.height() != buffers.height()
         || !eye.is_finite()
@@ -103,7 +103,7 @@ pub fn search(
             let result = match buffers.sample(x, y) {
                 Some(s) => {
                     stats.reflective += 1;
-                    let (o, iters) = match_pixel(buffers, x, y, s, prev, eye, params);
+                    let (o, iters) = match_pixel(buffers, x, y, s, prev, eye, options);
                     stats.iterations += u64::from(iters);
                     if offset_is_valid(o) {
                         stats.matched += 1;
@@ -184,7 +184,7 @@ fn snap(v: f32) -> f32 {
 /// Steps of [`newton_path`] before it hands over to the descent.
 const MAX_NEWTON_STEPS: u32 = 8;
 
-/// The sub-pixel fast path of the search (with [`TcrrParams::subpixel`]):
+/// The sub-pixel fast path of the search (with [`TcrrOptions::subpixel`]):
 /// from the start texel `c`, step one texel at a time toward the zero of
 /// the distance on the current texel's tangent plane ([`refine`], a Newton
 /// step), each step to a reflective texel on the same surface (the
@@ -208,7 +208,7 @@ fn newton_path(
     target: Reflected,
     t: Target,
     eye: Vec3,
-    p: &TcrrParams,
+    p: &TcrrOptions,
 ) -> Option<([f32; 2], u32)> {
     let (w, h) = (i64::from(b.width()), i64::from(b.height()));
     let mut steps = 0u32;
@@ -274,7 +274,7 @@ fn match_pixel(
     s: super::Sample,
     prev: [f32; 2],
     eye: Vec3,
-    p: &TcrrParams,
+    p: &TcrrOptions,
 ) -> ([f32; 2], u32) {
     let Some(target) = b.target(&s) else {
         return (INVALID_OFFSET, 0);

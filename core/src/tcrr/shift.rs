@@ -3,7 +3,7 @@
 //! intermediate reflection image, with the small triangle rasterizer it
 //! needs.
 
-use super::{offset_is_valid, ReflectionBuffers, Sample, TcrrParams, SNAP_PX};
+use super::{offset_is_valid, ReflectionBuffers, Sample, TcrrOptions, SNAP_PX};
 use crate::{Error, ImageView, ImageViewMut};
 use glam::{Vec2, Vec3};
 
@@ -49,10 +49,10 @@ struct Vertex {
 /// reflective sample with a valid offset. Each grid cell `a=(x,y)`,
 /// `b=(x+1,y)`, `c=(x,y+1)`, `d=(x+1,y+1)` gives the triangles `a b c` and
 /// `b d c`, each drawn only if its three vertices exist and every edge
-/// joins samples on one surface ([`TcrrParams::discontinuity`]) with
+/// joins samples on one surface ([`TcrrOptions::discontinuity`]) with
 /// continuous reflected path lengths
-/// ([`TcrrParams::reflected_discontinuity`]); a triangle whose shifted area
-/// exceeds [`TcrrParams::magnification`] times its original area (half a
+/// ([`TcrrOptions::reflected_discontinuity`]); a triangle whose shifted area
+/// exceeds [`TcrrOptions::magnification`] times its original area (half a
 /// pixel) is discarded. Uncovered pixels keep [`COVERAGE_NONE`]: they must
 /// be re-traced. A covered pixel gets [`COVERAGE_REUSE`], or
 /// [`COVERAGE_EDGE`] if its triangle has a vertex next to a reflection edge
@@ -70,17 +70,17 @@ struct Vertex {
 ///
 /// # Errors
 /// [`Error::InvalidArgument`] (nothing written) if a view's size differs
-/// from the buffers', the three outputs own different bands, or `params` is
+/// from the buffers', the three outputs own different bands, or `options` is
 /// out of range.
-pub fn shift(
+pub fn try_shift(
     color: &mut ImageViewMut<'_, [f32; 3]>,
     depth: &mut ImageViewMut<'_, f32>,
     coverage: &mut ImageViewMut<'_, u8>,
     buffers: &ReflectionBuffers<'_>,
     offsets: &ImageView<'_, [f32; 2]>,
-    params: &TcrrParams,
+    options: &TcrrOptions,
 ) -> Result<ShiftStats, Error> {
-    params.validate()?;
+    options.try_validate()?;
     let (w, h) = (buffers.width(), buffers.height());
     let sized = |vw: u32, vh: u32| vw == w && vh == h;
     if !(sized(color.width(), color.height())
@@ -118,7 +118,7 @@ pub fn shift(
     // Reflected path length s.d + s.r of a specular texel (cheap: no
     // back-projection).
     let path = |x: u32, y: u32| -> Option<f32> { buffers.path_length(x, y) };
-    let tol = params.reflected_discontinuity;
+    let tol = options.reflected_discontinuity;
     let continuous = |a: f32, b: f32| match (a.is_finite(), b.is_finite()) {
         (true, true) => (a - b).abs() <= tol * a.min(b),
         (false, false) => true,
@@ -195,14 +195,14 @@ pub fn shift(
             let (Some(a), Some(b), Some(c)) = (a, b, c) else {
                 continue;
             };
-            let joined = |u: &Vertex, v: &Vertex| edge_joined(u, v, params);
+            let joined = |u: &Vertex, v: &Vertex| edge_joined(u, v, options);
             let (ab, ac, bc) = (joined(&a, &b), joined(&a, &c), joined(&b, &c));
             if ab && ac && bc {
-                draw(&mut out, &a, &b, &c, params, &mut stats);
+                draw(&mut out, &a, &b, &c, options, &mut stats);
             }
             if let Some(d) = d {
                 if bc && joined(&b, &d) && joined(&c, &d) {
-                    draw(&mut out, &b, &d, &c, params, &mut stats);
+                    draw(&mut out, &b, &d, &c, options, &mut stats);
                 }
             }
         }
@@ -211,7 +211,7 @@ pub fn shift(
 }
 
 /// Grid edge test: one reflector surface and continuous reflected paths.
-fn edge_joined(u: &Vertex, v: &Vertex, p: &TcrrParams) -> bool {
+fn edge_joined(u: &Vertex, v: &Vertex, p: &TcrrOptions) -> bool {
     if !u.sample.surf.connected(&v.sample.surf, p.discontinuity) {
         return false;
     }
@@ -305,7 +305,7 @@ fn draw(
     a: &Vertex,
     b: &Vertex,
     c: &Vertex,
-    params: &TcrrParams,
+    options: &TcrrOptions,
     stats: &mut ShiftStats,
 ) {
     let area2 = edge(a.p, b.p, c.p);
@@ -313,7 +313,7 @@ fn draw(
         return;
     }
     // Original grid triangles have area 1/2, twice that is 1.
-    if area2.abs() > params.magnification {
+    if area2.abs() > options.magnification {
         stats.magnified += 1;
         return;
     }

@@ -1,7 +1,7 @@
 //! Reflection warping, the re-trace mask and list, and output composition
 //! (seed 000 Sec. 3.3).
 
-use super::{ReflectionBuffers, Surf, TcrrParams, SNAP_PX};
+use super::{ReflectionBuffers, Surf, TcrrOptions, SNAP_PX};
 use crate::{Camera, DepthConvention, Error, ImageView, ImageViewMut};
 use glam::{Vec2, Vec3};
 
@@ -122,35 +122,35 @@ impl WarpStats {
 ///
 /// For TCRR `source`, `source_depth` and `coverage` are the intermediate
 /// reflection image, its depth (`s.d + s.r`) and its coverage from
-/// [`super::shift()`]; for the naive baseline of the seed (Figs. 1, 6) they
+/// [`super::try_shift`]; for the naive baseline of the seed (Figs. 1, 6) they
 /// are the key frame's own reflected colors (B.3), its linear depth plus
 /// reflected distance, and its reflective mask (with
-/// [`TcrrParams::retrace_contrast`] `= +inf`).
+/// [`TcrrOptions::retrace_contrast`] `= +inf`).
 ///
 /// Per current pixel: not reflective -> [`MASK_NONE`], color 0. Otherwise
 /// its surface point `P` (current depth) is projected into the key camera;
 /// if it lands outside the key image, or the key texel nearest to it is
 /// not [`super::shift::COVERAGE_REUSE`] or does not see `P`'s surface (`P` farther than
-/// [`TcrrParams::discontinuity`]` * z` from the texel's tangent plane:
+/// [`TcrrOptions::discontinuity`]` * z` from the texel's tangent plane:
 /// disocclusion), the pixel is marked [`MASK_RETRACE`] (color 0). Otherwise
 /// it is [`MASK_REUSED`] with the bilinear interpolation of the covered
 /// texels around the projection that see the same surface (weights
 /// renormalized); if one of them is not reusable (a gap of the shifted mesh on
 /// `P`'s surface) or has a `source_depth` discontinuous with the nearest
-/// texel's (beyond [`TcrrParams::reflected_discontinuity`]), the pixel
+/// texel's (beyond [`TcrrOptions::reflected_discontinuity`]), the pixel
 /// straddles a reflection edge and is marked [`MASK_RETRACE`] too, as is a
 /// pixel whose taps' colors differ by more than
-/// [`TcrrParams::retrace_contrast`] in a channel (a reflected edge inside
+/// [`TcrrOptions::retrace_contrast`] in a channel (a reflected edge inside
 /// the reflection, an addition to the seed). A projection within
 /// [`SNAP_PX`] of a texel center takes that texel exactly.
 ///
 /// # Errors
 /// [`Error::InvalidArgument`] (nothing written) if the current view's size
 /// differs from `color`'s or `mask`'s, `source`'s, `source_depth`'s or
-/// `coverage`'s from the key buffers', the outputs own different bands, or `params` is out of
+/// `coverage`'s from the key buffers', the outputs own different bands, or `options` is out of
 /// range.
 #[allow(clippy::too_many_arguments)]
-pub fn warp(
+pub fn try_warp(
     color: &mut ImageViewMut<'_, [f32; 3]>,
     mask: &mut ImageViewMut<'_, u8>,
     current: &CurrentView<'_>,
@@ -158,9 +158,9 @@ pub fn warp(
     source: &ImageView<'_, [f32; 3]>,
     source_depth: &ImageView<'_, f32>,
     coverage: &ImageView<'_, u8>,
-    params: &TcrrParams,
+    options: &TcrrOptions,
 ) -> Result<WarpStats, Error> {
-    params.validate()?;
+    options.try_validate()?;
     let (w, h) = (current.width(), current.height());
     let (kw, kh) = (buffers.width(), buffers.height());
     if color.width() != w
@@ -193,7 +193,7 @@ pub fn warp(
                     key,
                     buffers,
                     (source, source_depth, coverage),
-                    params,
+                    options,
                 ) {
                     Some(c) => {
                         stats.reused += 1;
@@ -237,7 +237,7 @@ fn warp_pixel(
         &ImageView<'_, f32>,
         &ImageView<'_, u8>,
     ),
-    params: &TcrrParams,
+    options: &TcrrOptions,
 ) -> Option<[f32; 3]> {
     let (p, z) = current.point(x, y)?;
     let q = key.project(p)?;
@@ -269,7 +269,7 @@ fn warp_pixel(
         }
         let (i, j) = (i as u32, j as u32);
         let k = buffers.surface(i, j)?;
-        sees(&k, p, z, params.discontinuity).then_some(())?;
+        sees(&k, p, z, options.discontinuity).then_some(())?;
         if coverage.get(i, j)? != super::shift::COVERAGE_REUSE {
             return Some(None);
         }
@@ -284,7 +284,7 @@ fn warp_pixel(
     // Texels across a discontinuity of the reflected path from the nearest
     // one, or gaps: the pixel straddles a reflection edge whose position
     // inside it is unknown, so it is re-traced.
-    let tol = params.reflected_discontinuity;
+    let tol = options.reflected_discontinuity;
     let same_path = |d: f32| match (d.is_finite(), nd.is_finite()) {
         (true, true) => (d - nd).abs() <= tol * d.min(nd),
         (false, false) => true,
@@ -326,7 +326,7 @@ fn warp_pixel(
     // A reflected edge between the taps: the ray-traced frame point-samples
     // it, resampling the key frame blurs it (the error of reuse
     // concentrates there), so the pixel is re-traced.
-    if (hi - lo).max_element() > params.retrace_contrast {
+    if (hi - lo).max_element() > options.retrace_contrast {
         return None;
     }
     (wsum > 0.0).then(|| (sum / wsum).to_array())
@@ -349,7 +349,7 @@ pub fn retrace_count(mask: &ImageView<'_, u8>) -> usize {
 /// [`Error::InvalidArgument`] if `width * height` does not fit in `u32`;
 /// [`Error::InsufficientSize`] (nothing written) if `list` is shorter than
 /// the count.
-pub fn retrace_list(list: &mut [u32], mask: &ImageView<'_, u8>) -> Result<usize, Error> {
+pub fn try_retrace_list(list: &mut [u32], mask: &ImageView<'_, u8>) -> Result<usize, Error> {
     if u64::from(mask.width()) * u64::from(mask.height()) > u64::from(u32::MAX) {
         return Err(Error::InvalidArgument);
     }
@@ -370,7 +370,7 @@ pub fn retrace_list(list: &mut [u32], mask: &ImageView<'_, u8>) -> Result<usize,
     Ok(k)
 }
 
-/// How [`compose`] weights the reflection.
+/// How [`try_compose`] weights the reflection.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum Fresnel {
     /// The specular factor itself: `w = f`.
@@ -417,7 +417,7 @@ pub fn fresnel_weight(f: f32, cos_theta: f32, mode: Fresnel) -> f32 {
 /// # Errors
 /// [`Error::InvalidArgument`] (nothing written) if a view's size differs
 /// from the current view's.
-pub fn compose(
+pub fn try_compose(
     out: &mut ImageViewMut<'_, [f32; 3]>,
     diffuse: &ImageView<'_, [f32; 3]>,
     reflection: &ImageView<'_, [f32; 3]>,

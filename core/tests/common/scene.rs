@@ -6,7 +6,7 @@
 
 use refl_core::glam::{DVec3, Vec2, Vec3};
 use refl_core::{
-    hiz_len, try_build_hiz, Camera, DepthConvention, DepthImage, GBuffer, HiZTexel, ImageView,
+    try_hiz_len, try_build_hiz, Camera, DepthConvention, DepthImage, GBuffer, HiZTexel, ImageView,
     NormalSpace,
 };
 
@@ -186,7 +186,7 @@ impl Frame {
 
     pub fn pyramid(&self) -> Vec<HiZTexel> {
         let g = self.gbuffer(false);
-        let mut p = vec![HiZTexel::default(); hiz_len(g.width(), g.height()).unwrap()];
+        let mut p = vec![HiZTexel::default(); try_hiz_len(g.width(), g.height()).unwrap()];
         try_build_hiz(&mut p, g.depth()).unwrap();
         p
     }

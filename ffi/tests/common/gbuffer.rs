@@ -311,7 +311,7 @@ pub type BandCall<'a, T, S> = dyn Fn(
     + Sync
     + 'a;
 
-/// Runs `call` over `bands` row bands (`refl_row_band`), one thread each,
+/// Runs `call` over `bands` row bands (`refl_image_row_band`), one thread each,
 /// all writing into `texels` and `color` (the whole image); returns each
 /// band's written host rays and stats, in band order.
 pub fn bands_from_threads<T: Default + Copy, S: Default + Send + HostRaysWritten>(
@@ -333,7 +333,7 @@ pub fn bands_from_threads<T: Default + Copy, S: Default + Send + HostRaysWritten
                     let mut rows = refl_row_range::default();
                     // SAFETY: valid pointer.
                     assert_eq!(
-                        unsafe { refl_row_band(&mut rows, H, b, bands) },
+                        unsafe { refl_image_row_band(&mut rows, H, b, bands) },
                         refl_status::Ok
                     );
                     let mut host = vec![refl_host_ray::default(); n];
