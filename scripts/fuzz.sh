@@ -91,9 +91,12 @@ lf_flags=(-print_final_stats=1 -detect_leaks=1 -rss_limit_mb=2048 -timeout=10)
 summary() {
   local t=$1 log=$2 st=$3
   local execs cov ft
-  execs=$(sed -n 's/^stat::number_of_executed_units: *//p' "$log" | tail -n 1)
-  cov=$(grep -Eo 'cov: [0-9]+' "$log" | tail -n 1 | awk '{print $2}')
-  ft=$(grep -Eo 'ft: [0-9]+' "$log" | tail -n 1 | awk '{print $2}')
+  # `|| true`: a run that died before its first stats line has none, and
+  # under `set -o pipefail` a grep without a match would end the script
+  # before the failure is reported.
+  execs=$(sed -n 's/^stat::number_of_executed_units: *//p' "$log" | tail -n 1 || true)
+  cov=$(grep -Eo 'cov: [0-9]+' "$log" | tail -n 1 | awk '{print $2}' || true)
+  ft=$(grep -Eo 'ft: [0-9]+' "$log" | tail -n 1 | awk '{print $2}' || true)
   printf '%-14s %-6s executions %-9s cov %-6s ft %-6s\n' "$t" "$st" "${execs:-?}" "${cov:-?}" "${ft:-?}"
 }
 
