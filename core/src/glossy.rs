@@ -71,12 +71,12 @@
 //! [`MirrorStatus::NoSurface`]) have color 0 and weight 0.
 
 use crate::cone::{
-    blend_fade, try_color_pyramid_len, try_build_color_level0_rows, try_build_visibility_pyramid,
+    blend_fade, try_build_color_level0_rows, try_build_visibility_pyramid, try_color_pyramid_len,
     try_cone_angle_from_roughness, try_cone_trace, try_multiray, try_phong_power_from_roughness,
-    try_stamp_color_pyramid, try_visibility_pyramid_len, ColorTexel, Cone, ConeOptions, ConePyramids,
-    Fades, MultiRayOptions, DEFAULT_SIGMA,
+    try_stamp_color_pyramid, try_visibility_pyramid_len, ColorTexel, Cone, ConeOptions,
+    ConePyramids, Fades, MultiRayOptions, DEFAULT_SIGMA,
 };
-use crate::hiz::{try_hiz_len, try_build_hiz, HiZ, HiZLayout, HiZOptions, HiZTexel};
+use crate::hiz::{try_build_hiz, try_hiz_len, HiZ, HiZLayout, HiZOptions, HiZTexel};
 use crate::ssr::{AxisTrace, ImageSink};
 use crate::{
     Error, GBuffer, HostRay, ImageViewMut, MirrorMethod, MirrorOptions, MirrorPass, MirrorRay,

@@ -18,11 +18,12 @@ use refl_core::cone::{
 use refl_core::glam::{Vec2, Vec3};
 use refl_core::glossy::{multiray_rotation, MULTIRAY_MAX_POWER};
 use refl_core::{
-    try_color_pyramid_len, try_hiz_len, try_build_hiz, try_cone_angle_from_roughness, try_cone_trace,
-    try_glossy_scratch_len, try_multiray, try_prepare_glossy, try_visibility_pyramid_len,
-    DepthConvention, Error, GBuffer, GlossyMethod, GlossyOptions, GlossyPass, GlossyScratch,
-    GlossyScratchMut, GlossyStats, GlossyTexel, HiZ, HiZTexel, HostRay, ImageView, ImageViewMut,
-    MirrorMethod, MirrorOptions, MirrorPass, MirrorStatus, RowRange, Thickness,
+    try_build_hiz, try_color_pyramid_len, try_cone_angle_from_roughness, try_cone_trace,
+    try_glossy_scratch_len, try_hiz_len, try_multiray, try_prepare_glossy,
+    try_visibility_pyramid_len, DepthConvention, Error, GBuffer, GlossyMethod, GlossyOptions,
+    GlossyPass, GlossyScratch, GlossyScratchMut, GlossyStats, GlossyTexel, HiZ, HiZTexel, HostRay,
+    ImageView, ImageViewMut, MirrorMethod, MirrorOptions, MirrorPass, MirrorStatus, RowRange,
+    Thickness,
 };
 use scene::{camera, default_camera, grazing_camera, render, Frame, CONVENTIONS};
 

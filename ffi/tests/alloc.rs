@@ -283,6 +283,7 @@ fn no_export_allocates() {
     depth_tracing(&mut cov);
     cone(&mut cov);
     ssr(&mut cov);
+    glossy(&mut cov);
     layered(&mut cov);
     cluster(&mut cov);
     tcrr(&mut cov);
@@ -923,6 +924,79 @@ fn ssr(cov: &mut Coverage) {
     err!(
         cov,
         refl_ssr_trace_rows(
+            stats.as_mut_ptr(),
+            texels.as_mut_ptr(),
+            N,
+            vec3_mut(&mut color),
+            host.as_mut_ptr(),
+            N,
+            &g,
+            &opts,
+            scratch.as_ptr(),
+            len,
+            rows(3, 2)
+        )
+    );
+}
+
+fn glossy(cov: &mut Coverage) {
+    let s = scene();
+    let opts = value!(cov, refl_glossy_options_default());
+    let rough = vec![0.3f32; N];
+    let g = refl_gbuffer {
+        depth: s.depth_image(),
+        normals: vec3_img(&s.normals),
+        normal_space: refl_normal_space::World as u32,
+        mask: refl_image_u8 {
+            data: core::ptr::null(),
+            len: 0,
+            width: 0,
+            height: 0,
+            stride: 0,
+        },
+        roughness: f32_img(&rough),
+        color: vec3_img(&s.color),
+        back_depth: f32_img(&s.back),
+    };
+    let mut len = uninit::<usize>();
+    ok!(cov, refl_glossy_scratch_len(len.as_mut_ptr(), &g, &opts));
+    let bad_o = refl_glossy_options { method: 9, ..opts };
+    err!(cov, refl_glossy_scratch_len(len.as_mut_ptr(), &g, &bad_o));
+    let len = unsafe { len.assume_init() };
+    assert!(len > 0);
+    let mut scratch = vec![0.0f32; len];
+    ok!(
+        cov,
+        refl_glossy_prepare(scratch.as_mut_ptr(), len, &g, &opts)
+    );
+    err!(
+        cov,
+        refl_glossy_prepare(scratch.as_mut_ptr(), len - 1, &g, &opts)
+    );
+    let mut texels = vec![refl_glossy_texel::default(); N];
+    let mut color = vec![[0.0f32; 3]; N];
+    let mut host = vec![refl_host_ray::default(); N];
+    let mut stats = uninit::<refl_glossy_stats>();
+    ok!(
+        cov,
+        refl_glossy_trace_rows(
+            stats.as_mut_ptr(),
+            texels.as_mut_ptr(),
+            N,
+            vec3_mut(&mut color),
+            host.as_mut_ptr(),
+            N,
+            &g,
+            &opts,
+            scratch.as_ptr(),
+            len,
+            rows(0, H)
+        )
+    );
+    assert!(unsafe { stats.assume_init() }.traced > 0);
+    err!(
+        cov,
+        refl_glossy_trace_rows(
             stats.as_mut_ptr(),
             texels.as_mut_ptr(),
             N,

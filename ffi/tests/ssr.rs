@@ -11,7 +11,7 @@ use common::{bands_from_threads, color_mut, counted, refused_outputs, render, Sh
 use refl::*;
 use refl_core::glam::Vec3;
 use refl_core::{
-    try_hiz_len, try_build_hiz, Camera, DepthConvention, HiZ, HiZTexel, HostRay, ImageViewMut,
+    try_build_hiz, try_hiz_len, Camera, DepthConvention, HiZ, HiZTexel, HostRay, ImageViewMut,
     MirrorMethod, MirrorOptions, MirrorPass, MirrorTexel,
 };
 

@@ -6,7 +6,7 @@
 
 use refl_core::glam::{DVec3, Vec2, Vec3};
 use refl_core::{
-    try_hiz_len, try_build_hiz, Camera, DepthConvention, DepthImage, GBuffer, HiZTexel, ImageView,
+    try_build_hiz, try_hiz_len, Camera, DepthConvention, DepthImage, GBuffer, HiZTexel, ImageView,
     NormalSpace,
 };
 
