@@ -1257,11 +1257,15 @@ impl<'a> LayeredMap<'a> {
     ///
     /// Ours, on seed 001's inside test (Sec. 3.4, Algorithm 1 lines 6-17:
     /// a point is inside when it lies between a layer's front depth and
-    /// that layer's back depth read from the opposite face): on the face
-    /// the ray moves away from along its dominant axis, samples every half
-    /// texel from the ray's origin find the first inside point (within the
-    /// window), then the first outside point behind it, and 24 bisections
-    /// between them locate the exit. Depths are interpolated between
+    /// that layer's back depth read from the opposite face), on all three
+    /// axes: a point is inside when one of them says so (near an axis's
+    /// silhouette of the object its columns answer from a texel that may
+    /// lie outside the silhouette, while an axis along the surface normal
+    /// sees the point inside; the cost is exits up to about one texel late
+    /// where the ray leaves at a grazing angle): samples every half texel (along the ray's
+    /// dominant axis) from the ray's origin find the first inside point
+    /// (within the window), then the first outside point behind it, and 24
+    /// bisections between them locate the exit. Depths are interpolated between
     /// continuous texels (as [`LayeredParams::smooth_texels`] at its
     /// default, 4 texels). A ray still inside where it leaves the box exits
     /// there. Hits of the exit closer than a texel to a thin gap may skip
@@ -1300,15 +1304,17 @@ impl<'a> LayeredMap<'a> {
         if !(t0 <= t1) || t0 > window {
             return None;
         }
-        let a = (0..3)
-            .max_by(|&x, &y| d[x].abs().total_cmp(&d[y].abs()))
-            .unwrap_or(0);
-        let face = Face::of_axis(a as u32, d[a] < 0.0);
+        let faces = [0u32, 1, 2].map(|a| Face::of_axis(a, d[a as usize] < 0.0));
         let tau = LayeredParams::default().smooth_texels / res;
         let mut fetches = 0u32;
+        // Inside on any of the three axes: an axis's columns are unreliable
+        // near that axis's silhouette of the object (the nearest texel may
+        // lie outside it), where some other axis sees the point inside.
         let inside = |t: f32, fetches: &mut u32| {
             let q = (o + d * t).clamp(Vec3::ZERO, Vec3::ONE);
-            self.sample_smooth(face, q, tau, fetches).inside.is_some()
+            faces
+                .iter()
+                .any(|&f| self.sample_smooth(f, q, tau, fetches).inside.is_some())
         };
         let step = 0.5 * texel;
         // The entry: the first inside sample within the window.
