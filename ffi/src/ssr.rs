@@ -185,7 +185,9 @@ pub struct refl_host_ray {
     pub t_min: f32,
     /// Trace up to this distance (`refl_ssr_options.t_max`).
     pub t_max: f32,
-    /// Why the screen did not answer, a `refl_ssr_status`.
+    /// Why the pass did not answer: a `refl_ssr_status` from
+    /// `refl_ssr_trace_rows`, a `refl_planar_status` from
+    /// `refl_planar_resolve_rows`.
     pub status: u32,
 }
 
@@ -280,7 +282,7 @@ pub extern "C" fn refl_ssr_options_default() -> refl_ssr_options {
 }
 
 /// The byte ranges of a G-buffer's images (for aliasing checks).
-fn gbuffer_ranges(g: &refl_gbuffer) -> [(usize, usize); 6] {
+pub(crate) fn gbuffer_ranges(g: &refl_gbuffer) -> [(usize, usize); 6] {
     fn r<T>(p: *const T, len: usize) -> (usize, usize) {
         if p.is_null() {
             (0, 0)
@@ -303,7 +305,7 @@ fn gbuffer_ranges(g: &refl_gbuffer) -> [(usize, usize); 6] {
 /// # Safety
 /// Every non-NULL image `data` readable for its `len` texels for `'a` and
 /// not written meanwhile.
-unsafe fn gbuffer<'a>(g: &refl_gbuffer) -> Result<GBuffer<'a>, Error> {
+pub(crate) unsafe fn gbuffer<'a>(g: &refl_gbuffer) -> Result<GBuffer<'a>, Error> {
     // SAFETY: caller contract.
     let depth = unsafe { depth_image(&g.depth) }?;
     let space = match g.normal_space {
