@@ -10,7 +10,8 @@
 //! [`oblique_projection`], or a user clip plane). What a host still had to
 //! work out itself, and what this pass does:
 //!
-//! 1. **Setup** ([`PlanarPass::try_new`], [`PlanarPass::prepare`]): the
+//! 1. **Setup** ([`PlanarPass::try_new`], [`PlanarPass::prepare`], or
+//!    [`PlanarPass::setup`] from coverage counted over bands): the
 //!    plane oriented toward the eye, the mirrored camera at the render's
 //!    resolution ([`PlanarOptions::scale`]), the projection the render must
 //!    use (oblique, in the G-buffer's depth convention), the clip plane in
@@ -96,8 +97,10 @@
 //!   so at `scale = 1` the color is the texel's, bit for bit.
 //! * `t`, the distance from the mirror to the reflected surface along the
 //!   reflected ray, is `max(0, L_r - L) |w|` with `L_r` the same mean of
-//!   the render's linear depths (the mirror point has the same linear
-//!   depth `L` in both cameras: the mirror matrix fixes it).
+//!   the render's linear depths, or the anchor's depth for a render
+//!   without color (whose host reshades the anchor; no other texel is
+//!   read then). The mirror point has the same linear depth `L` in both
+//!   cameras: the mirror matrix fixes it.
 
 use crate::mirror::{mirrored_camera, oblique_projection, Plane};
 use crate::{Camera, DepthConvention, Error, GBuffer, ImageView, ImageViewMut, RowRange};
@@ -624,10 +627,10 @@ impl<'a> PlanarPass<'a> {
 
     /// The setup of the frame: [`PlanarPass::try_new`]'s cameras and
     /// planes with the coverage of every pixel counted (a pass over the
-    /// whole G-buffer, one [`PlanarPass::cover`] per pixel). A host that
-    /// splits this over threads runs [`PlanarPass::try_cover`] on bands
-    /// instead and merges their [`PlanarStats::rect`]s, then
-    /// [`PlanarPass::scissor`].
+    /// whole G-buffer, one [`PlanarPass::cover`] per pixel, on the calling
+    /// thread). A host that splits this over threads runs
+    /// [`PlanarPass::try_cover_rows`] on bands and hands the merged counts
+    /// to [`PlanarPass::setup`] instead.
     pub fn prepare(&self) -> PlanarSetup {
         let mut rect = PlanarRect::default();
         let mut covered = 0u32;
@@ -639,6 +642,15 @@ impl<'a> PlanarPass<'a> {
                 }
             }
         }
+        self.setup(covered, &rect)
+    }
+
+    /// The setup for `covered` covered pixels within `rect` (G-buffer
+    /// pixels), as [`PlanarPass::prepare`] counts them: the sums and the
+    /// [`PlanarRect::union`] of the [`PlanarStats`] of
+    /// [`PlanarPass::try_cover_rows`] over bands that split the image.
+    pub fn setup(&self, covered: u32, rect: &PlanarRect) -> PlanarSetup {
+        let covered = if rect.is_empty() { 0 } else { covered };
         let projection = if covered > 0 {
             self.projection
         } else {
@@ -658,8 +670,16 @@ impl<'a> PlanarPass<'a> {
             flip_winding: self.render.is_mirrored(),
             covered: covered > 0,
             covered_pixels: covered,
-            rect,
-            scissor: self.scissor(&rect),
+            rect: if covered > 0 {
+                *rect
+            } else {
+                PlanarRect::default()
+            },
+            scissor: if covered > 0 {
+                self.scissor(rect)
+            } else {
+                PlanarRect::default()
+            },
         }
     }
 
@@ -804,6 +824,12 @@ impl<'a> PlanarPass<'a> {
             };
             return (out, [0.0; 3], Some(ray));
         };
+        out.status = PlanarStatus::Hit;
+        let Some(rc) = render.color.as_ref() else {
+            // No color to blend: the anchor answers (a visibility host).
+            out.t = (za - cover.depth).max(0.0) * cover.ray_len;
+            return (out, [0.0; 3], None);
+        };
         // The depth-guided bilinear mean around q.
         let bx = libm::floorf(q.x - 0.5);
         let by = libm::floorf(q.y - 0.5);
@@ -815,13 +841,7 @@ impl<'a> PlanarPass<'a> {
             (bx + 1.0, by + 1.0, fx * fy),
         ];
         let (rw, rh) = self.render_size();
-        let color_at = |i: u32, j: u32| {
-            render
-                .color
-                .as_ref()
-                .and_then(|c| c.get(i, j))
-                .unwrap_or([0.0; 3])
-        };
+        let color_at = |i: u32, j: u32| rc.get(i, j).unwrap_or([0.0; 3]);
         let limit = self.options.edge_threshold * za;
         let (mut sw, mut sz, mut sc) = (0.0f32, 0.0f32, [0.0f32; 3]);
         let mut first: Option<(f32, [f32; 3])> = None;
@@ -853,7 +873,6 @@ impl<'a> PlanarPass<'a> {
             (0, _) | (_, None) => (za, color_at(a[0], a[1])),
             _ => (sz / sw, sc.map(|v| v / sw)),
         };
-        out.status = PlanarStatus::Hit;
         out.t = (zr - cover.depth).max(0.0) * cover.ray_len;
         (out, color, None)
     }

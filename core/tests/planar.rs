@@ -965,6 +965,28 @@ fn reduced_resolution_on_a_smooth_surface_is_the_bilinear_mean() {
         assert!((t.t - want).abs() < 1e-4 * want.max(1.0), "{} {want}", t.t);
     }
     assert!(inner > 1000);
+    // Without a render color the anchor answers: same texels, t from the
+    // anchor's depth (here the same constant depth), and only the anchors
+    // are read (NaN everywhere else changes nothing).
+    let mut anchors_only = vec![f32::NAN; (rw * rh) as usize];
+    for t in out.iter().filter(|t| t.status == PlanarStatus::Hit) {
+        anchors_only[(t.texel[1] * rw + t.texel[0]) as usize] = 15.0;
+    }
+    let render =
+        PlanarRender::try_new(ImageView::try_new(&anchors_only, rw, rh, rw).unwrap(), None)
+            .unwrap();
+    let mut bare = vec![PlanarTexel::default(); 96 * 64];
+    pass.try_resolve(
+        &mut ImageViewMut::try_new(&mut bare, 96, 64, 96).unwrap(),
+        None,
+        &mut [],
+        &render,
+    )
+    .unwrap();
+    for (a, b) in out.iter().zip(&bare) {
+        assert_eq!((a.status, a.texel, a.pixel), (b.status, b.texel, b.pixel));
+        assert!((a.t - b.t).abs() <= 1e-5 * a.t.max(1.0));
+    }
 }
 
 // ----------------------------------------------------------- refusals
