@@ -4991,8 +4991,8 @@ struct refl_planar_options refl_planar_options_default(void);
  * `options` or a required image is NULL; `REFL_STATUS_INSUFFICIENT_SIZE`
  * if an image's `len` is too small; `REFL_STATUS_INVALID_ARGUMENT` for an
  * option out of range, an unknown convention or normal space, an image
- * (ids included) not of the camera's size, a misaligned pointer, or a
- * non-finite plane; `REFL_STATUS_DEGENERATE_GEOMETRY` for a zero plane
+ * (ids included) not of the camera's size, a misaligned pointer, `out`
+ * overlapping an image, or a non-finite plane; `REFL_STATUS_DEGENERATE_GEOMETRY` for a zero plane
  * normal; the camera's status if it is invalid. Nothing is written on
  * error.
  *

@@ -945,6 +945,29 @@ fn push_interval(
     payload[fb + l - 1] = b.1;
 }
 
+/// The parameter range `[t0, t1]` within `[0, t_max]` of the ray `o + t d`
+/// (box coordinates) inside the unit cube (slab clipping), or `None` if it
+/// misses the cube.
+fn clip_unit_cube(o: Vec3, d: Vec3, t_max: f32) -> Option<(f32, f32)> {
+    let (mut t0, mut t1) = (0.0f32, t_max);
+    for a in 0..3 {
+        if d[a] == 0.0 {
+            if !(o[a] >= 0.0 && o[a] <= 1.0) {
+                return None;
+            }
+            continue;
+        }
+        let inv = 1.0 / d[a];
+        let (mut ta, mut tb) = ((0.0 - o[a]) * inv, (1.0 - o[a]) * inv);
+        if ta > tb {
+            core::mem::swap(&mut ta, &mut tb);
+        }
+        t0 = t0.max(ta);
+        t1 = t1.min(tb);
+    }
+    (t0 <= t1).then_some((t0, t1))
+}
+
 /// A read-only layered depth cube map over caller buffers: what rays are
 /// traced against.
 ///
@@ -1282,26 +1305,10 @@ impl<'a> LayeredMap<'a> {
         if !(dmax > 0.0) {
             return None;
         }
-        // Slab clip against the unit cube, from t = 0 on.
-        let (mut t0, mut t1) = (0.0f32, f32::INFINITY);
-        for a in 0..3 {
-            if d[a] == 0.0 {
-                if !(o[a] >= 0.0 && o[a] <= 1.0) {
-                    return None;
-                }
-                continue;
-            }
-            let inv = 1.0 / d[a];
-            let (mut ta, mut tb) = ((0.0 - o[a]) * inv, (1.0 - o[a]) * inv);
-            if ta > tb {
-                core::mem::swap(&mut ta, &mut tb);
-            }
-            t0 = t0.max(ta);
-            t1 = t1.min(tb);
-        }
+        let (t0, t1) = clip_unit_cube(o, d, f32::INFINITY)?;
         let texel = 1.0 / (dmax * res);
         let window = EXIT_ENTRY_TEXELS * texel;
-        if !(t0 <= t1) || t0 > window {
+        if t0 > window {
             return None;
         }
         let faces = [0u32, 1, 2].map(|a| Face::of_axis(a, d[a as usize] < 0.0));
@@ -1690,31 +1697,12 @@ impl<'a> LayeredMap<'a> {
             return Err(Error::InvalidArgument);
         }
         // Slab clip against the unit cube over [0, t_max].
-        let (mut t0, mut t1) = (0.0f32, t_max);
-        for a in 0..3 {
-            if d[a] == 0.0 {
-                if !(o[a] >= 0.0 && o[a] <= 1.0) {
-                    return Ok(LayeredTrace::Miss {
-                        reason: LayeredMiss::MissedBox,
-                        work,
-                    });
-                }
-                continue;
-            }
-            let inv = 1.0 / d[a];
-            let (mut ta, mut tb) = ((0.0 - o[a]) * inv, (1.0 - o[a]) * inv);
-            if ta > tb {
-                core::mem::swap(&mut ta, &mut tb);
-            }
-            t0 = t0.max(ta);
-            t1 = t1.min(tb);
-        }
-        if !(t0 <= t1) {
+        let Some((t0, t1)) = clip_unit_cube(o, d, t_max) else {
             return Ok(LayeredTrace::Miss {
                 reason: LayeredMiss::MissedBox,
                 work,
             });
-        }
+        };
         let ends_in_box = t1 >= t_max;
         let origin_in_box = t0 <= 0.0;
         // Faces: per axis the one whose depth grows along the ray, the

@@ -169,6 +169,20 @@ fn camera(sc: &Scene, eye: DVec3, target: DVec3, near: f64, far: f32, w: u32, h:
     .unwrap()
 }
 
+/// The camera most tests look through: from above and in front of the
+/// floor, toward the sphere standing on it.
+fn overview(sc: &Scene, far: f32, w: u32, h: u32) -> Camera {
+    camera(
+        sc,
+        DVec3::new(0.3, 2.0, 5.5),
+        DVec3::new(0.0, 0.6, 0.0),
+        0.1,
+        far,
+        w,
+        h,
+    )
+}
+
 fn render(sc: &Scene, cam: Camera, conv: DepthConvention) -> Frame {
     let (w, h) = (cam.width(), cam.height());
     let n = (w * h) as usize;
@@ -236,15 +250,7 @@ fn setup_equals_the_mirror_kernels_bit_for_bit() {
     let sc = Scene::floor(1.0, DVec3::ZERO);
     for (conv, inf) in CASES {
         let far = if inf { f32::INFINITY } else { 60.0 };
-        let cam = camera(
-            &sc,
-            DVec3::new(0.3, 2.0, 5.5),
-            DVec3::new(0.0, 0.6, 0.0),
-            0.1,
-            far,
-            96,
-            64,
-        );
+        let cam = overview(&sc, far, 96, 64);
         let f = render(&sc, cam, conv);
         // Either orientation of the input plane gives the one toward the eye.
         for plane in [sc.plane(), sc.plane().flipped()] {
@@ -306,15 +312,7 @@ fn setup_equals_the_mirror_kernels_bit_for_bit() {
 #[test]
 fn the_rectangles_and_scissor_hold_exactly_the_covered_pixels() {
     let sc = Scene::floor(1.0, DVec3::ZERO);
-    let cam = camera(
-        &sc,
-        DVec3::new(0.3, 2.0, 5.5),
-        DVec3::new(0.0, 0.6, 0.0),
-        0.1,
-        60.0,
-        96,
-        64,
-    );
+    let cam = overview(&sc, 60.0, 96, 64);
     let f = render(&sc, cam, DepthConvention::ReversedZ);
     // A mirror piece that covers part of the image: ids restrict it.
     let mut ids = f.ids.clone();
@@ -654,15 +652,7 @@ fn a_far_grazing_floor_in_zero_to_one_depth_needs_the_quantization_term() {
 #[test]
 fn masks_ids_nan_and_the_eye_on_the_plane() {
     let sc = Scene::floor(1.0, DVec3::ZERO);
-    let cam = camera(
-        &sc,
-        DVec3::new(0.3, 2.0, 5.5),
-        DVec3::new(0.0, 0.6, 0.0),
-        0.1,
-        60.0,
-        64,
-        48,
-    );
+    let cam = overview(&sc, 60.0, 64, 48);
     let mut f = render(&sc, cam, DepthConvention::ZeroToOne);
     let i = (40 * 64 + 32) as usize;
     assert_eq!(f.ids[i], 0);
@@ -762,15 +752,7 @@ fn full_resolution_resolve_is_a_direct_lookup_and_agrees_with_exact_reflections(
     for (conv, inf) in CASES {
         for oblique in [true, false] {
             let far = if inf { f32::INFINITY } else { 60.0 };
-            let cam = camera(
-                &sc,
-                DVec3::new(0.3, 2.0, 5.5),
-                DVec3::new(0.0, 0.6, 0.0),
-                0.1,
-                far,
-                96,
-                64,
-            );
+            let cam = overview(&sc, far, 96, 64);
             let f = render(&sc, cam, conv);
             let o = PlanarOptions {
                 oblique,
@@ -844,15 +826,7 @@ fn full_resolution_resolve_is_a_direct_lookup_and_agrees_with_exact_reflections(
 #[test]
 fn reduced_resolution_never_blends_across_a_depth_edge() {
     let sc = Scene::floor(1.0, DVec3::ZERO);
-    let cam = camera(
-        &sc,
-        DVec3::new(0.3, 2.0, 5.5),
-        DVec3::new(0.0, 0.6, 0.0),
-        0.1,
-        60.0,
-        96,
-        64,
-    );
+    let cam = overview(&sc, 60.0, 96, 64);
     for conv in [DepthConvention::Linear, DepthConvention::ReversedZ] {
         let f = render(&sc, cam, conv);
         for scale in [2u32, 4] {
@@ -912,15 +886,7 @@ fn depth_at(r: &Camera, conv: DepthConvention, depth: &[f32], rw: u32, t: [u32; 
 #[test]
 fn reduced_resolution_on_a_smooth_surface_is_the_bilinear_mean() {
     let sc = Scene::floor(1.0, DVec3::ZERO);
-    let cam = camera(
-        &sc,
-        DVec3::new(0.3, 2.0, 5.5),
-        DVec3::new(0.0, 0.6, 0.0),
-        0.1,
-        60.0,
-        96,
-        64,
-    );
+    let cam = overview(&sc, 60.0, 96, 64);
     let f = render(&sc, cam, DepthConvention::Linear);
     let o = PlanarOptions {
         scale: 2,
@@ -994,15 +960,7 @@ fn reduced_resolution_on_a_smooth_surface_is_the_bilinear_mean() {
 #[test]
 fn bad_input_is_refused_and_nothing_is_written() {
     let sc = Scene::floor(1.0, DVec3::ZERO);
-    let cam = camera(
-        &sc,
-        DVec3::new(0.3, 2.0, 5.5),
-        DVec3::new(0.0, 0.6, 0.0),
-        0.1,
-        60.0,
-        64,
-        48,
-    );
+    let cam = overview(&sc, 60.0, 64, 48);
     let f = render(&sc, cam, DepthConvention::ReversedZ);
     let d = PlanarOptions::default();
     for o in [

@@ -7,7 +7,7 @@ use crate::layered::refl_layered_map;
 use crate::ptr::{byte_len, overlaps, read, Out};
 use crate::status::{fail, guard, refl_status};
 use crate::trace::{depth_image, refl_depth_image};
-use refl_core::{BackDepthStats, Error, RowRange};
+use refl_core::{BackDepthStats, Error};
 
 /// Counts of one back-depth call.
 #[repr(C)]
@@ -46,17 +46,8 @@ unsafe fn band<'a>(
     h: u32,
     rows: refl_row_range,
 ) -> Result<refl_core::ImageViewMut<'a, f32>, Error> {
-    let r = RowRange::try_new(rows.begin, rows.end, h).map_err(|e| {
-        fail(
-            e,
-            format_args!(
-                "`rows` [{}, {}) is not within [0, {h})",
-                rows.begin, rows.end
-            ),
-        )
-    })?;
     // SAFETY: caller contract.
-    unsafe { dst.band_mut(r) }
+    unsafe { dst.band_mut(rows.within(h)?) }
 }
 
 fn dst_range(dst: &refl_image_f32_mut) -> Result<(usize, usize), Error> {

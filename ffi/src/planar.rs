@@ -14,7 +14,7 @@ use crate::image::{
     refl_image_f32, refl_image_u32, refl_image_vec3, refl_image_vec3_mut, refl_row_range,
 };
 use crate::ptr::{byte_len, check_buffer, overlaps, read, Out};
-use crate::ssr::{gbuffer, gbuffer_ranges, refl_gbuffer, refl_host_ray};
+use crate::ssr::{gbuffer, gbuffer_ranges, put_host_ray, refl_gbuffer, refl_host_ray};
 use crate::status::{fail, guard, refl_status};
 use crate::types::{refl_camera, refl_mat4, refl_plane, refl_vec2, refl_vec4};
 use refl_core::{
@@ -292,6 +292,29 @@ unsafe fn pass<'a>(
         .map_err(|e| fail(e, format_args!("`mirror.ids` is not the camera's size")))
 }
 
+/// Reads the three inputs every planar call takes and builds the pass.
+///
+/// # Safety
+/// Each pointer NULL or readable; the images they describe readable for
+/// their `len` texels for `'a`, not written meanwhile.
+unsafe fn inputs<'a>(
+    gbuffer: *const refl_gbuffer,
+    mirror: *const refl_planar_mirror,
+    options: *const refl_planar_options,
+) -> Result<(refl_gbuffer, refl_planar_mirror, PlanarPass<'a>), Error> {
+    // SAFETY: caller contract.
+    let (g, m, o) = unsafe {
+        (
+            read(gbuffer, "gbuffer")?,
+            read(mirror, "mirror")?,
+            read(options, "options")?,
+        )
+    };
+    // SAFETY: caller contract.
+    let p = unsafe { pass(&g, &m, &o) }?;
+    Ok((g, m, p))
+}
+
 /// The byte ranges of the G-buffer's and the mirror's images.
 fn input_ranges(g: &refl_gbuffer, m: &refl_planar_mirror) -> [(usize, usize); 7] {
     let mut r = [(0usize, 0usize); 7];
@@ -332,8 +355,8 @@ fn disjoint(outs: &[(usize, usize)], ins: &[(usize, usize)]) -> Result<(), Error
 /// `options` or a required image is NULL; `REFL_STATUS_INSUFFICIENT_SIZE`
 /// if an image's `len` is too small; `REFL_STATUS_INVALID_ARGUMENT` for an
 /// option out of range, an unknown convention or normal space, an image
-/// (ids included) not of the camera's size, a misaligned pointer, or a
-/// non-finite plane; `REFL_STATUS_DEGENERATE_GEOMETRY` for a zero plane
+/// (ids included) not of the camera's size, a misaligned pointer, `out`
+/// overlapping an image, or a non-finite plane; `REFL_STATUS_DEGENERATE_GEOMETRY` for a zero plane
 /// normal; the camera's status if it is invalid. Nothing is written on
 /// error.
 ///
@@ -348,18 +371,15 @@ pub unsafe extern "C" fn refl_planar_prepare(
     mirror: *const refl_planar_mirror,
     options: *const refl_planar_options,
 ) -> refl_status {
+    let out_at = out as usize;
     guard("refl_planar_prepare", || {
         let out = Out::new(out, "out")?;
         // SAFETY: caller contract.
-        let (g, m, o) = unsafe {
-            (
-                read(gbuffer, "gbuffer")?,
-                read(mirror, "mirror")?,
-                read(options, "options")?,
-            )
-        };
-        // SAFETY: caller contract.
-        let p = unsafe { pass(&g, &m, &o) }?;
+        let (g, m, p) = unsafe { inputs(gbuffer, mirror, options) }?;
+        disjoint(
+            &[(out_at, core::mem::size_of::<refl_planar_setup>())],
+            &input_ranges(&g, &m),
+        )?;
         let s = p.prepare();
         let v = refl_planar_setup {
             camera: (&s.camera).into(),
@@ -392,15 +412,7 @@ fn rows_and_len(
     out_len: usize,
     need_out: bool,
 ) -> Result<RowRange, Error> {
-    let r = RowRange::try_new(rows.begin, rows.end, h).map_err(|e| {
-        fail(
-            e,
-            format_args!(
-                "`rows` [{}, {}) is not within [0, {h})",
-                rows.begin, rows.end
-            ),
-        )
-    })?;
+    let r = rows.within(h)?;
     let need = (w as usize)
         .checked_mul(h as usize)
         .ok_or(Error::InvalidArgument)?;
@@ -451,15 +463,7 @@ pub unsafe extern "C" fn refl_planar_cover_rows(
             0
         };
         // SAFETY: caller contract.
-        let (g, m, o) = unsafe {
-            (
-                read(gbuffer, "gbuffer")?,
-                read(mirror, "mirror")?,
-                read(options, "options")?,
-            )
-        };
-        // SAFETY: caller contract.
-        let p = unsafe { pass(&g, &m, &o) }?;
+        let (g, m, p) = unsafe { inputs(gbuffer, mirror, options) }?;
         let (w, h) = (p.gbuffer().width(), p.gbuffer().height());
         let rows = rows_and_len(rows, w, h, out_len, with_out)?;
         disjoint(
@@ -515,10 +519,6 @@ impl PlanarSink for Sink<'_> {
     }
 
     fn host(&mut self, index: u32, r: &PlanarRay) -> bool {
-        let i = index as usize;
-        if i >= self.host_len {
-            return false;
-        }
         let v = refl_host_ray {
             x: r.x,
             y: r.y,
@@ -528,10 +528,9 @@ impl PlanarSink for Sink<'_> {
             t_max: f32::INFINITY,
             status: refl_planar_status::Environment as u32,
         };
-        // SAFETY: `i < host_len`, writable by contract (checked non-null,
-        // aligned, size fits isize).
-        unsafe { self.host.add(i).write(v) };
-        true
+        // SAFETY: `host` writable for `host_len` entries (checked by
+        // `refl_planar_resolve_rows`).
+        unsafe { put_host_ray(self.host, self.host_len, index, v) }
     }
 }
 
@@ -590,16 +589,9 @@ pub unsafe extern "C" fn refl_planar_resolve_rows(
             check_buffer(host.cast_const(), host_len, "host")?
         };
         // SAFETY: caller contract.
-        let (g, m, o, r) = unsafe {
-            (
-                read(gbuffer, "gbuffer")?,
-                read(mirror, "mirror")?,
-                read(options, "options")?,
-                read(render, "render")?,
-            )
-        };
+        let (g, m, p) = unsafe { inputs(gbuffer, mirror, options) }?;
         // SAFETY: caller contract.
-        let p = unsafe { pass(&g, &m, &o) }?;
+        let r = unsafe { read(render, "render") }?;
         let (w, h) = (p.gbuffer().width(), p.gbuffer().height());
         let rows = rows_and_len(rows, w, h, out_len, true)?;
         // SAFETY: caller contract.

@@ -457,6 +457,27 @@ pub unsafe extern "C" fn refl_ssr_prepare(
     })
 }
 
+/// Writes host ray number `index` of a call to `host[index]` if it is below
+/// `host_len`; returns whether it was written.
+///
+/// # Safety
+/// `host` non-null, aligned and writable for `host_len` entries (a size
+/// that fits `isize`), or `host_len` 0.
+pub(crate) unsafe fn put_host_ray(
+    host: *mut refl_host_ray,
+    host_len: usize,
+    index: u32,
+    v: refl_host_ray,
+) -> bool {
+    let i = index as usize;
+    if i >= host_len {
+        return false;
+    }
+    // SAFETY: `i < host_len`, writable by contract.
+    unsafe { host.add(i).write(v) };
+    true
+}
+
 /// Where a C call's results go.
 struct Sink<'a> {
     texels: *mut refl_ssr_texel,
@@ -487,10 +508,6 @@ impl MirrorSink for Sink<'_> {
     }
 
     fn host(&mut self, index: u32, r: &HostRay) -> bool {
-        let i = index as usize;
-        if i >= self.host_len {
-            return false;
-        }
         let v = refl_host_ray {
             x: r.x,
             y: r.y,
@@ -500,10 +517,9 @@ impl MirrorSink for Sink<'_> {
             t_max: r.t_max,
             status: refl_ssr_status::from(r.status) as u32,
         };
-        // SAFETY: `i < host_len`, writable by contract (checked non-null,
-        // aligned, size fits isize).
-        unsafe { self.host.add(i).write(v) };
-        true
+        // SAFETY: `host` writable for `host_len` entries (checked by the
+        // caller of `try_run_rows`).
+        unsafe { put_host_ray(self.host, self.host_len, index, v) }
     }
 }
 

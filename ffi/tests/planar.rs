@@ -6,56 +6,16 @@
 //! global allocator, as in ssr.rs).
 
 use refl::*;
-use refl_core::glam::{Vec2, Vec3};
+use refl_core::glam::Vec3;
 use refl_core::layered::{LayerHit, LayeredGrid, LayeredMapMut};
 use refl_core::{
-    layered_len, try_back_depth, try_back_depth_layered, Camera, DepthConvention, DepthImage, Face,
+    layered_len, try_back_depth, try_back_depth_layered, DepthConvention, DepthImage, Face,
     GBuffer, ImageView, ImageViewMut, NormalSpace, PlanarOptions, PlanarPass, PlanarRay,
     PlanarRender, PlanarStatus, PlanarTexel, Plane,
 };
-use std::alloc::{GlobalAlloc, Layout, System};
-use std::cell::Cell;
+mod common;
+use common::{conv_c, counted, render as render_scene, Frame, H, W};
 
-/// Counts allocations made by the current thread while `COUNTING` is set.
-struct Counting;
-
-thread_local! {
-    static COUNTING: Cell<bool> = const { Cell::new(false) };
-    static ALLOCS: Cell<u64> = const { Cell::new(0) };
-}
-
-// SAFETY: forwards to the system allocator; the counters are thread-local
-// cells that do not allocate.
-unsafe impl GlobalAlloc for Counting {
-    unsafe fn alloc(&self, l: Layout) -> *mut u8 {
-        let _ = COUNTING.try_with(|c| {
-            if c.get() {
-                let _ = ALLOCS.try_with(|a| a.set(a.get() + 1));
-            }
-        });
-        // SAFETY: forwarded contract.
-        unsafe { System.alloc(l) }
-    }
-    unsafe fn dealloc(&self, p: *mut u8, l: Layout) {
-        // SAFETY: forwarded contract.
-        unsafe { System.dealloc(p, l) }
-    }
-}
-
-#[global_allocator]
-static GLOBAL: Counting = Counting;
-
-/// Runs `f` and returns its result with the number of allocations it made.
-fn counted<R>(f: impl FnOnce() -> R) -> (R, u64) {
-    ALLOCS.with(|a| a.set(0));
-    COUNTING.with(|c| c.set(true));
-    let r = f();
-    COUNTING.with(|c| c.set(false));
-    (r, ALLOCS.with(|a| a.get()))
-}
-
-const W: u32 = 96;
-const H: u32 = 64;
 const N: usize = (W * H) as usize;
 
 const CONVENTIONS: [DepthConvention; 3] = [
@@ -64,87 +24,10 @@ const CONVENTIONS: [DepthConvention; 3] = [
     DepthConvention::ReversedZ,
 ];
 
-fn conv_c(c: DepthConvention) -> u32 {
-    match c {
-        DepthConvention::Linear => 0,
-        DepthConvention::ZeroToOne => 1,
-        DepthConvention::ReversedZ => 2,
-    }
-}
-
-fn camera() -> Camera {
-    Camera::try_look_at(
-        Vec3::new(0.3, 2.0, 5.5),
-        Vec3::new(0.0, 0.6, 0.0),
-        Vec3::Y,
-        1.0,
-        0.1,
-        50.0,
-        W,
-        H,
-    )
-    .unwrap()
-}
-
-/// A floor `y = 0` (id 0) and a unit sphere at `(0, 1, 0)` (id 1),
-/// rendered exactly; the sphere's exit depth as a back-face pass.
-struct Frame {
-    cam: Camera,
-    conv: DepthConvention,
-    depth: Vec<f32>,
-    back: Vec<f32>,
-    normals: Vec<[f32; 3]>,
-    ids: Vec<u32>,
-}
-
+/// The shared scene with a few back texels damaged: NaN, or equal to the
+/// front (a zero-thick shell).
 fn render(conv: DepthConvention) -> Frame {
-    let cam = camera();
-    let far = cam.encode_depth(cam.far(), conv);
-    let mut f = Frame {
-        cam,
-        conv,
-        depth: vec![far; N],
-        back: vec![far; N],
-        normals: vec![[0.0; 3]; N],
-        ids: vec![u32::MAX; N],
-    };
-    let eye = cam.eye().as_dvec3();
-    let fwd = -cam.inverse_view().z_axis.truncate().as_dvec3();
-    for y in 0..H {
-        for x in 0..W {
-            let i = (y * W + x) as usize;
-            let d = cam
-                .primary_ray(Vec2::new(x as f32 + 0.5, y as f32 + 0.5))
-                .dir
-                .as_dvec3()
-                .normalize();
-            let c = refl_core::glam::DVec3::new(0.0, 1.0, 0.0);
-            let oc = eye - c;
-            let b = oc.dot(d);
-            let disc = b * b - (oc.dot(oc) - 1.0);
-            let mut best: Option<(f64, f64, refl_core::glam::DVec3, u32)> = None;
-            if disc > 0.0 {
-                let s = disc.sqrt();
-                let t = -b - s;
-                best = Some((t, -b + s, (eye + d * t - c).normalize(), 1));
-            }
-            if d.y < 0.0 {
-                let t = -eye.y / d.y;
-                if best.is_none_or(|(bt, ..)| t < bt) {
-                    best = Some((t, f64::INFINITY, refl_core::glam::DVec3::Y, 0));
-                }
-            }
-            if let Some((t, te, nn, id)) = best {
-                let z = (t * d.dot(fwd)) as f32;
-                let zb = ((te * d.dot(fwd)) as f32).min(cam.far());
-                f.depth[i] = cam.encode_depth(z, conv);
-                f.back[i] = cam.encode_depth(zb, conv);
-                f.normals[i] = nn.as_vec3().to_array();
-                f.ids[i] = id;
-            }
-        }
-    }
-    // Damage a few back texels: NaN, in front of the front.
+    let mut f = render_scene(conv);
     for i in (0..N).step_by(13) {
         f.back[i] = if i % 2 == 0 { f32::NAN } else { f.depth[i] };
     }
@@ -990,6 +873,20 @@ fn errors_name_their_cause_and_leave_every_output_untouched() {
     };
     assert_eq!(s, inv);
     assert!(big.iter().all(|v| *v == [0.0, 1.0, 0.0]));
+    // The setup over the normals it reads.
+    let mut big2 = vec![[0.0f32, 1.0, 0.0]; 4 * N];
+    let mut g5 = g;
+    g5.normals = refl_image_vec3 {
+        data: big2.as_ptr().cast(),
+        len: N,
+        width: W,
+        height: H,
+        stride: W,
+    };
+    // SAFETY: valid (overlapping) pointers; refused before any write.
+    let s = unsafe { refl_planar_prepare(big2.as_mut_ptr().cast(), &g5, &m, &d) };
+    assert_eq!(s, inv);
+    assert!(big2.iter().all(|v| *v == [0.0, 1.0, 0.0]));
     let mut ids = f.ids.clone();
     let mut m4 = m;
     m4.ids.data = ids.as_ptr();

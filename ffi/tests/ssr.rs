@@ -4,129 +4,13 @@
 //! untouched, and no export allocates (a counting global allocator).
 
 use refl::*;
-use refl_core::glam::{Vec2, Vec3};
+use refl_core::glam::Vec3;
 use refl_core::{
     hiz_len, try_build_hiz, Camera, DepthConvention, DepthImage, GBuffer, HiZ, HiZTexel, HostRay,
     ImageView, ImageViewMut, MirrorMethod, MirrorOptions, MirrorPass, MirrorTexel, NormalSpace,
 };
-use std::alloc::{GlobalAlloc, Layout, System};
-use std::cell::Cell;
-
-/// Counts allocations made by the current thread while `COUNTING` is set.
-struct Counting;
-
-thread_local! {
-    static COUNTING: Cell<bool> = const { Cell::new(false) };
-    static ALLOCS: Cell<u64> = const { Cell::new(0) };
-}
-
-// SAFETY: forwards to the system allocator; the counters are thread-local
-// cells that do not allocate.
-unsafe impl GlobalAlloc for Counting {
-    unsafe fn alloc(&self, l: Layout) -> *mut u8 {
-        let _ = COUNTING.try_with(|c| {
-            if c.get() {
-                let _ = ALLOCS.try_with(|a| a.set(a.get() + 1));
-            }
-        });
-        // SAFETY: forwarded contract.
-        unsafe { System.alloc(l) }
-    }
-    unsafe fn dealloc(&self, p: *mut u8, l: Layout) {
-        // SAFETY: forwarded contract.
-        unsafe { System.dealloc(p, l) }
-    }
-}
-
-#[global_allocator]
-static GLOBAL: Counting = Counting;
-
-/// Runs `f` and returns its result with the number of allocations it made.
-fn counted<R>(f: impl FnOnce() -> R) -> (R, u64) {
-    ALLOCS.with(|a| a.set(0));
-    COUNTING.with(|c| c.set(true));
-    let r = f();
-    COUNTING.with(|c| c.set(false));
-    (r, ALLOCS.with(|a| a.get()))
-}
-
-const W: u32 = 96;
-const H: u32 = 64;
-
-fn camera() -> Camera {
-    Camera::try_look_at(
-        Vec3::new(0.3, 2.0, 5.5),
-        Vec3::new(0.0, 0.6, 0.0),
-        Vec3::Y,
-        1.0,
-        0.1,
-        50.0,
-        W,
-        H,
-    )
-    .unwrap()
-}
-
-struct Frame {
-    cam: Camera,
-    conv: DepthConvention,
-    depth: Vec<f32>,
-    back: Vec<f32>,
-    normals: Vec<[f32; 3]>,
-    color: Vec<[f32; 3]>,
-}
-
-/// A floor `y = 0` and a unit sphere at `(0, 1, 0)`, rendered exactly.
-fn render(conv: DepthConvention) -> Frame {
-    let cam = camera();
-    let n = (W * H) as usize;
-    let far = cam.encode_depth(cam.far(), conv);
-    let mut f = Frame {
-        cam,
-        conv,
-        depth: vec![far; n],
-        back: vec![far; n],
-        normals: vec![[0.0; 3]; n],
-        color: vec![[0.0; 3]; n],
-    };
-    let eye = cam.eye().as_dvec3();
-    let fwd = -cam.inverse_view().z_axis.truncate().as_dvec3();
-    for y in 0..H {
-        for x in 0..W {
-            let i = (y * W + x) as usize;
-            let d = cam
-                .primary_ray(Vec2::new(x as f32 + 0.5, y as f32 + 0.5))
-                .dir
-                .as_dvec3()
-                .normalize();
-            let c = refl_core::glam::DVec3::new(0.0, 1.0, 0.0);
-            let oc = eye - c;
-            let b = oc.dot(d);
-            let disc = b * b - (oc.dot(oc) - 1.0);
-            let mut best: Option<(f64, f64, refl_core::glam::DVec3, u32)> = None;
-            if disc > 0.0 {
-                let s = disc.sqrt();
-                let t = -b - s;
-                best = Some((t, -b + s, (eye + d * t - c).normalize(), 1));
-            }
-            if d.y < 0.0 {
-                let t = -eye.y / d.y;
-                if best.is_none_or(|(bt, ..)| t < bt) {
-                    best = Some((t, f64::INFINITY, refl_core::glam::DVec3::Y, 0));
-                }
-            }
-            if let Some((t, te, nn, id)) = best {
-                let z = (t * d.dot(fwd)) as f32;
-                let zb = ((te * d.dot(fwd)) as f32).min(cam.far());
-                f.depth[i] = cam.encode_depth(z, conv);
-                f.back[i] = cam.encode_depth(zb, conv);
-                f.normals[i] = nn.as_vec3().to_array();
-                f.color[i] = [id as f32, x as f32 / W as f32, y as f32 / H as f32];
-            }
-        }
-    }
-    f
-}
+mod common;
+use common::{conv_c, counted, render, Frame, H, W};
 
 fn img_f32(d: &[f32]) -> refl_image_f32 {
     refl_image_f32 {
@@ -155,14 +39,6 @@ fn none_f32() -> refl_image_f32 {
         width: 0,
         height: 0,
         stride: 0,
-    }
-}
-
-fn conv_c(c: DepthConvention) -> u32 {
-    match c {
-        DepthConvention::Linear => 0,
-        DepthConvention::ZeroToOne => 1,
-        DepthConvention::ReversedZ => 2,
     }
 }
 
