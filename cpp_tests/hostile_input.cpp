@@ -2883,6 +2883,407 @@ void glossy_functions() {
 
 }  // namespace
 
+// The planar mirror pass and the back-face depth helpers: NULL pointers,
+// unknown enums, options out of range, bad planes, short, misaligned and
+// aliased buffers, rows out of range, renders of another size. Every output
+// (setup, stats, coverage bytes, texels, colors, host rays, dst) must be
+// left untouched.
+void planar_functions() {
+    const refl_camera cam = good_camera();
+    const uint32_t w = cam.width, h = cam.height;
+    const size_t n = size_t(w) * h;
+    // A floor y = 0 seen by every pixel below the horizon: [0, 1] depth of
+    // the exact floor, normals +y, ids 0.
+    std::vector<float> depth(n, 1.0f);
+    std::vector<refl_vec3> normals(n, v3(0, 1, 0));
+    std::vector<uint32_t> ids(n, 0u);
+    for (uint32_t y = 0; y < h; ++y)
+        for (uint32_t x = 0; x < w; ++x) {
+            refl_ray r;
+            REQUIRE(refl_camera_primary_ray(&r, &cam, v2(x + 0.5f, y + 0.5f)) == REFL_STATUS_OK);
+            if (r.dir.y >= 0.0f) continue;
+            const float t = -r.origin.y / r.dir.y;
+            const refl_vec3 p = v3(r.origin.x + t * r.dir.x, 0.0f, r.origin.z + t * r.dir.z);
+            float z = 0.0f;
+            REQUIRE(refl_camera_linear_depth(&z, &cam, p) == REFL_STATUS_OK);
+            REQUIRE(refl_camera_encode_depth(&depth[size_t(y) * w + x], &cam, z, REFL_DEPTH_CONVENTION_ZERO_TO_ONE) ==
+                    REFL_STATUS_OK);
+        }
+    const refl_image_f32 none{nullptr, 0, 0, 0, 0};
+    refl_gbuffer gb{};
+    gb.depth = {{depth.data(), n, w, h, w}, cam, REFL_DEPTH_CONVENTION_ZERO_TO_ONE};
+    gb.normals = {normals.data(), n, w, h, w};
+    gb.normal_space = REFL_NORMAL_SPACE_WORLD;
+    gb.mask = {nullptr, 0, 0, 0, 0};
+    gb.roughness = none;
+    gb.color = {nullptr, 0, 0, 0, 0};
+    gb.back_depth = none;
+    const refl_planar_mirror mirror{refl_plane{v3(0, 1, 0), 0.0f}, {ids.data(), n, w, h, w}, 0u};
+    const refl_planar_options def = refl_planar_options_default();
+    CHECK(def.scale == 1 && def.oblique && def.plane_tolerance > 0.0f);
+
+    // Prepare.
+    const refl_planar_setup setup = expect_ok<refl_planar_setup>(
+        "planar prepare", [&](refl_planar_setup* o) { return refl_planar_prepare(o, &gb, &mirror, &def); });
+    CHECK(setup.covered && setup.covered_pixels > n / 4 && setup.flip_winding);
+    expect<refl_planar_setup>("planar prepare NULL gbuffer", REFL_STATUS_NULL_POINTER,
+                              [&](refl_planar_setup* o) { return refl_planar_prepare(o, nullptr, &mirror, &def); });
+    expect<refl_planar_setup>("planar prepare NULL mirror", REFL_STATUS_NULL_POINTER,
+                              [&](refl_planar_setup* o) { return refl_planar_prepare(o, &gb, nullptr, &def); });
+    expect<refl_planar_setup>("planar prepare NULL options", REFL_STATUS_NULL_POINTER,
+                              [&](refl_planar_setup* o) { return refl_planar_prepare(o, &gb, &mirror, nullptr); });
+    struct BadOptions {
+        const char* what;
+        void (*edit)(refl_planar_options&);
+    };
+    const BadOptions bad_options[] = {
+        {"scale 0", [](refl_planar_options& o) { o.scale = 0; }},
+        {"tolerance NaN", [](refl_planar_options& o) { o.plane_tolerance = kNaN; }},
+        {"tolerance inf", [](refl_planar_options& o) { o.plane_tolerance = kInf; }},
+        {"tolerance -1", [](refl_planar_options& o) { o.plane_tolerance = -1.0f; }},
+        {"normal cos 2", [](refl_planar_options& o) { o.normal_cos = 2.0f; }},
+        {"normal cos NaN", [](refl_planar_options& o) { o.normal_cos = kNaN; }},
+        {"edge NaN", [](refl_planar_options& o) { o.edge_threshold = kNaN; }},
+        {"edge -1", [](refl_planar_options& o) { o.edge_threshold = -1.0f; }},
+    };
+    for (const BadOptions& b : bad_options) {
+        refl_planar_options o = def;
+        b.edit(o);
+        expect<refl_planar_setup>(b.what, REFL_STATUS_INVALID_ARGUMENT,
+                                  [&](refl_planar_setup* out) { return refl_planar_prepare(out, &gb, &mirror, &o); });
+    }
+    {
+        refl_planar_mirror m = mirror;
+        m.plane.normal = v3(0, 0, 0);
+        expect<refl_planar_setup>("planar prepare zero normal", REFL_STATUS_DEGENERATE_GEOMETRY,
+                                  [&](refl_planar_setup* o) { return refl_planar_prepare(o, &gb, &m, &def); });
+        for (const refl_vec3& bad : kBadVec3) {
+            m = mirror;
+            m.plane.normal = bad;
+            expect<refl_planar_setup>("planar prepare bad normal", REFL_STATUS_INVALID_ARGUMENT,
+                                      [&](refl_planar_setup* o) { return refl_planar_prepare(o, &gb, &m, &def); });
+        }
+        m = mirror;
+        m.plane.d = kNaN;
+        expect<refl_planar_setup>("planar prepare d NaN", REFL_STATUS_INVALID_ARGUMENT,
+                                  [&](refl_planar_setup* o) { return refl_planar_prepare(o, &gb, &m, &def); });
+        m = mirror;
+        m.ids.width = w - 1;
+        expect<refl_planar_setup>("planar prepare ids of another size", REFL_STATUS_INVALID_ARGUMENT,
+                                  [&](refl_planar_setup* o) { return refl_planar_prepare(o, &gb, &m, &def); });
+        m = mirror;
+        m.ids.len = n - 1;
+        expect<refl_planar_setup>("planar prepare short ids", REFL_STATUS_INSUFFICIENT_SIZE,
+                                  [&](refl_planar_setup* o) { return refl_planar_prepare(o, &gb, &m, &def); });
+        m = mirror;
+        m.ids.data = reinterpret_cast<const uint32_t*>(reinterpret_cast<const char*>(ids.data()) + 1);
+        expect<refl_planar_setup>("planar prepare misaligned ids", REFL_STATUS_INVALID_ARGUMENT,
+                                  [&](refl_planar_setup* o) { return refl_planar_prepare(o, &gb, &m, &def); });
+        refl_gbuffer b = gb;
+        for (uint32_t c : kBadConventions) {
+            b.depth.convention = c;
+            expect<refl_planar_setup>("planar prepare bad convention", REFL_STATUS_INVALID_ARGUMENT,
+                                      [&](refl_planar_setup* o) { return refl_planar_prepare(o, &b, &mirror, &def); });
+        }
+        b = gb;
+        b.normal_space = 2;
+        expect<refl_planar_setup>("planar prepare bad normal space", REFL_STATUS_INVALID_ARGUMENT,
+                                  [&](refl_planar_setup* o) { return refl_planar_prepare(o, &b, &mirror, &def); });
+        b = gb;
+        b.normals.len = n - 1;
+        expect<refl_planar_setup>("planar prepare short normals", REFL_STATUS_INSUFFICIENT_SIZE,
+                                  [&](refl_planar_setup* o) { return refl_planar_prepare(o, &b, &mirror, &def); });
+        for (const BadCamera& bc : bad_cameras()) {
+            b = gb;
+            b.depth.camera = bc.cam;
+            expect<refl_planar_setup>(bc.name, bc.status,
+                                      [&](refl_planar_setup* o) { return refl_planar_prepare(o, &b, &mirror, &def); });
+        }
+    }
+
+    // Cover: stats and bytes untouched on error.
+    const refl_row_range all{0, h};
+    auto cover = [&](const char* what, refl_status want, const refl_gbuffer* g, const refl_planar_mirror* m,
+                     const refl_planar_options* o, refl_row_range rows, size_t out_len, bool null_out = false) {
+        std::vector<uint8_t> out(n + 1, 0xA7);
+        expect<refl_planar_stats>(what, want, [&](refl_planar_stats* st) {
+            return refl_planar_cover_rows(st, null_out ? nullptr : out.data(), out_len, g, m, o, rows);
+        }, false);
+        bool untouched = true;
+        for (uint8_t b : out) untouched = untouched && b == 0xA7;
+        CHECK(untouched);
+    };
+    const refl_planar_stats cs = expect_ok<refl_planar_stats>("planar cover", [&](refl_planar_stats* st) {
+        std::vector<uint8_t> out(n);
+        return refl_planar_cover_rows(st, out.data(), n, &gb, &mirror, &def, all);
+    });
+    CHECK_EQ(cs.covered, setup.covered_pixels);
+    expect_ok<refl_planar_stats>("planar cover counts only", [&](refl_planar_stats* st) {
+        return refl_planar_cover_rows(st, nullptr, 0, &gb, &mirror, &def, all);
+    });
+    CHECK_STATUS(refl_planar_cover_rows(nullptr, nullptr, 0, &gb, &mirror, &def, all), REFL_STATUS_NULL_POINTER);
+    {
+        Slot<refl_planar_stats> m;
+        CHECK_STATUS(refl_planar_cover_rows(m.misaligned(), nullptr, 0, &gb, &mirror, &def, all),
+                     REFL_STATUS_INVALID_ARGUMENT);
+        CHECK(m.untouched());
+    }
+    cover("planar cover NULL out with a length", REFL_STATUS_NULL_POINTER, &gb, &mirror, &def, all, n, true);
+    cover("planar cover NULL gbuffer", REFL_STATUS_NULL_POINTER, nullptr, &mirror, &def, all, n);
+    cover("planar cover NULL mirror", REFL_STATUS_NULL_POINTER, &gb, nullptr, &def, all, n);
+    cover("planar cover NULL options", REFL_STATUS_NULL_POINTER, &gb, &mirror, nullptr, all, n);
+    cover("planar cover short out", REFL_STATUS_INSUFFICIENT_SIZE, &gb, &mirror, &def, all, n - 1);
+    cover("planar cover reversed rows", REFL_STATUS_INVALID_ARGUMENT, &gb, &mirror, &def, {3, 2}, n);
+    cover("planar cover rows past the end", REFL_STATUS_INVALID_ARGUMENT, &gb, &mirror, &def, {0, h + 1}, n);
+    for (const BadOptions& b : bad_options) {
+        refl_planar_options o = def;
+        b.edit(o);
+        cover(b.what, REFL_STATUS_INVALID_ARGUMENT, &gb, &mirror, &o, all, n);
+    }
+    {
+        // The coverage bytes over the ids they read.
+        std::vector<uint32_t> big(n + 4, 0u);
+        refl_planar_mirror m = mirror;
+        m.ids.data = big.data();
+        refl_planar_stats st{};
+        CHECK_STATUS(refl_planar_cover_rows(&st, reinterpret_cast<uint8_t*>(big.data()), n, &gb, &m, &def, all),
+                     REFL_STATUS_INVALID_ARGUMENT);
+        bool zero = true;
+        for (uint32_t v : big) zero = zero && v == 0u;
+        CHECK(zero);
+    }
+
+    // Resolve: a render of the setup camera's size (every texel a surface
+    // at linear depth 20), every output prefilled.
+    const uint32_t rw = setup.camera.width, rh = setup.camera.height;
+    const size_t rn = size_t(rw) * rh;
+    std::vector<float> rdepth(rn, 0.9f);
+    std::vector<refl_vec3> rcolor(rn, v3(0.2f, 0.4f, 0.6f));
+    const refl_planar_render render{{rdepth.data(), rn, rw, rh, rw}, {rcolor.data(), rn, rw, rh, rw}};
+    auto resolve = [&](const char* what, refl_status want, const refl_gbuffer* g, const refl_planar_mirror* m,
+                       const refl_planar_options* o, const refl_planar_render* r, refl_row_range rows, size_t out_len,
+                       bool with_color, bool null_out = false, size_t host_len = 16, bool null_host = false) {
+        std::vector<refl_planar_texel> out(n + 1);
+        std::memset(static_cast<void*>(out.data()), 0x5A, out.size() * sizeof(refl_planar_texel));
+        std::vector<refl_vec3> col(n, v3(-3, -3, -3));
+        std::vector<refl_host_ray> host(16);
+        std::memset(static_cast<void*>(host.data()), 0x6B, host.size() * sizeof(refl_host_ray));
+        const refl_image_vec3_mut cm = with_color ? refl_image_vec3_mut{col.data(), n, w, h, w}
+                                                  : refl_image_vec3_mut{nullptr, 0, 0, 0, 0};
+        expect<refl_planar_stats>(what, want, [&](refl_planar_stats* st) {
+            return refl_planar_resolve_rows(st, null_out ? nullptr : out.data(), out_len, cm,
+                                            null_host ? nullptr : host.data(), host_len, g, m, o, r, rows);
+        }, false);
+        bool untouched = true;
+        const unsigned char* ob = reinterpret_cast<const unsigned char*>(out.data());
+        for (size_t i = 0; i < out.size() * sizeof(refl_planar_texel); ++i) untouched = untouched && ob[i] == 0x5A;
+        const unsigned char* hb = reinterpret_cast<const unsigned char*>(host.data());
+        for (size_t i = 0; i < host.size() * sizeof(refl_host_ray); ++i) untouched = untouched && hb[i] == 0x6B;
+        for (const refl_vec3& c : col) untouched = untouched && c.x == -3.0f;
+        CHECK(untouched);
+    };
+    const refl_planar_stats rs = expect_ok<refl_planar_stats>("planar resolve", [&](refl_planar_stats* st) {
+        std::vector<refl_planar_texel> out(n);
+        std::vector<refl_host_ray> host(n);
+        std::vector<refl_vec3> col(n);
+        return refl_planar_resolve_rows(st, out.data(), n, {col.data(), n, w, h, w}, host.data(), n, &gb, &mirror,
+                                        &def, &render, all);
+    });
+    CHECK(rs.hits > 0 && rs.hits + rs.environment == setup.covered_pixels);
+    CHECK_STATUS(refl_planar_resolve_rows(nullptr, nullptr, n, {nullptr, 0, 0, 0, 0}, nullptr, 0, &gb, &mirror, &def,
+                                          &render, all),
+                 REFL_STATUS_NULL_POINTER);
+    resolve("planar resolve NULL out", REFL_STATUS_NULL_POINTER, &gb, &mirror, &def, &render, all, n, true, true);
+    resolve("planar resolve NULL gbuffer", REFL_STATUS_NULL_POINTER, nullptr, &mirror, &def, &render, all, n, true);
+    resolve("planar resolve NULL mirror", REFL_STATUS_NULL_POINTER, &gb, nullptr, &def, &render, all, n, true);
+    resolve("planar resolve NULL options", REFL_STATUS_NULL_POINTER, &gb, &mirror, nullptr, &render, all, n, true);
+    resolve("planar resolve NULL render", REFL_STATUS_NULL_POINTER, &gb, &mirror, &def, nullptr, all, n, true);
+    resolve("planar resolve NULL host", REFL_STATUS_NULL_POINTER, &gb, &mirror, &def, &render, all, n, true, false, 16,
+            true);
+    resolve("planar resolve short out", REFL_STATUS_INSUFFICIENT_SIZE, &gb, &mirror, &def, &render, all, n - 1, true);
+    resolve("planar resolve reversed rows", REFL_STATUS_INVALID_ARGUMENT, &gb, &mirror, &def, &render, {3, 2}, n, true);
+    resolve("planar resolve rows past the end", REFL_STATUS_INVALID_ARGUMENT, &gb, &mirror, &def, &render, {0, h + 1},
+            n, true);
+    for (const BadOptions& b : bad_options) {
+        refl_planar_options o = def;
+        b.edit(o);
+        resolve(b.what, REFL_STATUS_INVALID_ARGUMENT, &gb, &mirror, &o, &render, all, n, true);
+    }
+    {
+        refl_planar_render r = render;
+        r.depth.width = rw - 1;
+        resolve("planar resolve render of another size", REFL_STATUS_INVALID_ARGUMENT, &gb, &mirror, &def, &r, all, n,
+                true);
+        refl_planar_options half = def;
+        half.scale = 2;
+        resolve("planar resolve render of another scale", REFL_STATUS_INVALID_ARGUMENT, &gb, &mirror, &half, &render,
+                all, n, true);
+        r = render;
+        r.color = {nullptr, 0, 0, 0, 0};
+        resolve("planar resolve color without a render color", REFL_STATUS_INVALID_ARGUMENT, &gb, &mirror, &def, &r,
+                all, n, true);
+        r = render;
+        r.color.height = rh - 1;
+        resolve("planar resolve render color of another size", REFL_STATUS_INVALID_ARGUMENT, &gb, &mirror, &def, &r,
+                all, n, false);
+        r = render;
+        r.depth.data = nullptr;
+        resolve("planar resolve NULL render depth", REFL_STATUS_NULL_POINTER, &gb, &mirror, &def, &r, all, n, true);
+        r = render;
+        r.depth.len = rn - 1;
+        resolve("planar resolve short render depth", REFL_STATUS_INSUFFICIENT_SIZE, &gb, &mirror, &def, &r, all, n,
+                true);
+        // Misaligned texels; texels over the render depth they read.
+        std::vector<refl_planar_texel> out(n + 1);
+        refl_planar_stats st{};
+        CHECK_STATUS(refl_planar_resolve_rows(
+                         &st, reinterpret_cast<refl_planar_texel*>(reinterpret_cast<char*>(out.data()) + 1), n,
+                         {nullptr, 0, 0, 0, 0}, nullptr, 0, &gb, &mirror, &def, &render, all),
+                     REFL_STATUS_INVALID_ARGUMENT);
+        std::vector<float> big(8 * n, 0.9f);
+        r = render;
+        r.depth.data = big.data();
+        CHECK_STATUS(refl_planar_resolve_rows(&st, reinterpret_cast<refl_planar_texel*>(big.data()), n,
+                                              {nullptr, 0, 0, 0, 0}, nullptr, 0, &gb, &mirror, &def, &r, all),
+                     REFL_STATUS_INVALID_ARGUMENT);
+        bool same = true;
+        for (float v : big) same = same && v == 0.9f;
+        CHECK(same);
+    }
+
+    // Back-face depth from a second pass: the front is the floor, the back
+    // the cleared value.
+    std::vector<float> back(n, 1.0f);
+    const refl_depth_image front{{depth.data(), n, w, h, w}, cam, REFL_DEPTH_CONVENTION_ZERO_TO_ONE};
+    const refl_image_f32 back_img{back.data(), n, w, h, w};
+    auto back_depth = [&](const char* what, refl_status want, auto call) {
+        std::vector<float> dst(n + 1, -9.0f);
+        const refl_image_f32_mut d{dst.data(), n, w, h, w};
+        expect<refl_trace_back_depth_stats>(what, want, [&](refl_trace_back_depth_stats* st) { return call(st, d); });
+        bool untouched = true;
+        for (float v : dst) untouched = untouched && v == -9.0f;
+        CHECK(untouched);
+    };
+    const refl_trace_back_depth_stats bs = expect_ok<refl_trace_back_depth_stats>("back depth", [&](refl_trace_back_depth_stats* st) {
+        std::vector<float> dst(n);
+        return refl_trace_back_depth_rows(st, {dst.data(), n, w, h, w}, &front, back_img, all);
+    });
+    CHECK(bs.surfaces == setup.covered_pixels && bs.cleared == bs.surfaces);
+    back_depth("back depth NULL front", REFL_STATUS_NULL_POINTER, [&](refl_trace_back_depth_stats* st, refl_image_f32_mut d) {
+        return refl_trace_back_depth_rows(st, d, nullptr, back_img, all);
+    });
+    back_depth("back depth NULL back", REFL_STATUS_NULL_POINTER, [&](refl_trace_back_depth_stats* st, refl_image_f32_mut d) {
+        return refl_trace_back_depth_rows(st, d, &front, none, all);
+    });
+    back_depth("back depth NULL dst", REFL_STATUS_NULL_POINTER, [&](refl_trace_back_depth_stats* st, refl_image_f32_mut d) {
+        d.data = nullptr;
+        return refl_trace_back_depth_rows(st, d, &front, back_img, all);
+    });
+    back_depth("back depth short dst", REFL_STATUS_INSUFFICIENT_SIZE, [&](refl_trace_back_depth_stats* st, refl_image_f32_mut d) {
+        d.len = n - 1;
+        return refl_trace_back_depth_rows(st, d, &front, back_img, all);
+    });
+    back_depth("back depth dst of another size", REFL_STATUS_INVALID_ARGUMENT, [&](refl_trace_back_depth_stats* st, refl_image_f32_mut d) {
+        d.width = w - 1;
+        return refl_trace_back_depth_rows(st, d, &front, back_img, all);
+    });
+    back_depth("back depth back of another size", REFL_STATUS_INVALID_ARGUMENT, [&](refl_trace_back_depth_stats* st, refl_image_f32_mut d) {
+        refl_image_f32 b = back_img;
+        b.height = h - 1;
+        return refl_trace_back_depth_rows(st, d, &front, b, all);
+    });
+    back_depth("back depth misaligned dst", REFL_STATUS_INVALID_ARGUMENT, [&](refl_trace_back_depth_stats* st, refl_image_f32_mut d) {
+        d.data = reinterpret_cast<float*>(reinterpret_cast<char*>(d.data) + 1);
+        return refl_trace_back_depth_rows(st, d, &front, back_img, all);
+    });
+    back_depth("back depth rows past the end", REFL_STATUS_INVALID_ARGUMENT, [&](refl_trace_back_depth_stats* st, refl_image_f32_mut d) {
+        return refl_trace_back_depth_rows(st, d, &front, back_img, refl_row_range{0, h + 1});
+    });
+    for (uint32_t c : kBadConventions) {
+        refl_depth_image f = front;
+        f.convention = c;
+        back_depth("back depth bad convention", REFL_STATUS_INVALID_ARGUMENT, [&](refl_trace_back_depth_stats* st, refl_image_f32_mut d) {
+            return refl_trace_back_depth_rows(st, d, &f, back_img, all);
+        });
+    }
+    for (const BadCamera& bc : bad_cameras()) {
+        refl_depth_image f = front;
+        f.camera = bc.cam;
+        back_depth(bc.name, bc.status, [&](refl_trace_back_depth_stats* st, refl_image_f32_mut d) {
+            return refl_trace_back_depth_rows(st, d, &f, back_img, all);
+        });
+    }
+    {
+        // dst over the back it reads.
+        std::vector<float> same = back;
+        refl_trace_back_depth_stats st{};
+        CHECK_STATUS(refl_trace_back_depth_rows(&st, {same.data(), n, w, h, w}, &front, {same.data(), n, w, h, w}, all),
+                     REFL_STATUS_INVALID_ARGUMENT);
+    }
+
+    // Back-face depth from a layered map (an empty, cleared one: no exit).
+    const float ident[16] = {1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1};
+    refl_layered_grid grid{};
+    grid.min = v3(-1, -1, -1);
+    grid.max = v3(1, 1, 1);
+    grid.face_res = 4;
+    grid.layers = 1;
+    std::memcpy(grid.world_from_local.m, ident, sizeof ident);
+    refl_layered_sizes len{};
+    REQUIRE(refl_layered_len(&len, 4, 1) == REFL_STATUS_OK);
+    std::vector<float> mdepth(len.depth), mbounds(len.bounds);
+    std::vector<uint32_t> mpayload(len.payload), mcounts(len.counts);
+    const refl_layered_map_mut mm{grid,           mdepth.data(),  mdepth.size(),  mpayload.data(), mpayload.size(),
+                                  mcounts.data(), mcounts.size(), mbounds.data(), mbounds.size()};
+    const refl_layered_map map{grid,           mdepth.data(),  mdepth.size(),  mpayload.data(), mpayload.size(),
+                               mcounts.data(), mcounts.size(), mbounds.data(), mbounds.size()};
+    // Never cleared: no stamp.
+    back_depth("back depth layered unstamped map", REFL_STATUS_INVALID_ARGUMENT, [&](refl_trace_back_depth_stats* st, refl_image_f32_mut d) {
+        return refl_trace_back_depth_layered_rows(st, d, &front, &map, all);
+    });
+    REQUIRE(refl_layered_clear(&mm) == REFL_STATUS_OK);
+    const refl_trace_back_depth_stats ls = expect_ok<refl_trace_back_depth_stats>("back depth layered", [&](refl_trace_back_depth_stats* st) {
+        std::vector<float> dst(back);
+        return refl_trace_back_depth_layered_rows(st, {dst.data(), n, w, h, w}, &front, &map, all);
+    });
+    CHECK(ls.exits == 0 && ls.surfaces == setup.covered_pixels);
+    back_depth("back depth layered NULL map", REFL_STATUS_NULL_POINTER, [&](refl_trace_back_depth_stats* st, refl_image_f32_mut d) {
+        return refl_trace_back_depth_layered_rows(st, d, &front, nullptr, all);
+    });
+    back_depth("back depth layered NULL front", REFL_STATUS_NULL_POINTER, [&](refl_trace_back_depth_stats* st, refl_image_f32_mut d) {
+        return refl_trace_back_depth_layered_rows(st, d, nullptr, &map, all);
+    });
+    {
+        refl_layered_map m = map;
+        m.counts_len -= 1;
+        back_depth("back depth layered short counts", REFL_STATUS_INSUFFICIENT_SIZE, [&](refl_trace_back_depth_stats* st, refl_image_f32_mut d) {
+            return refl_trace_back_depth_layered_rows(st, d, &front, &m, all);
+        });
+        m = map;
+        m.depth = nullptr;
+        back_depth("back depth layered NULL map depth", REFL_STATUS_NULL_POINTER, [&](refl_trace_back_depth_stats* st, refl_image_f32_mut d) {
+            return refl_trace_back_depth_layered_rows(st, d, &front, &m, all);
+        });
+        m = map;
+        m.grid.max.y = m.grid.min.y;
+        back_depth("back depth layered flat grid", REFL_STATUS_DEGENERATE_GEOMETRY, [&](refl_trace_back_depth_stats* st, refl_image_f32_mut d) {
+            return refl_trace_back_depth_layered_rows(st, d, &front, &m, all);
+        });
+    }
+    back_depth("back depth layered reversed rows", REFL_STATUS_INVALID_ARGUMENT, [&](refl_trace_back_depth_stats* st, refl_image_f32_mut d) {
+        return refl_trace_back_depth_layered_rows(st, d, &front, &map, refl_row_range{2, 1});
+    });
+    {
+        // dst over the map's depth buffer.
+        std::vector<float> big(std::max(n, mdepth.size()), 0.5f);
+        refl_layered_map m = map;
+        m.depth = big.data();
+        refl_trace_back_depth_stats st{};
+        CHECK_STATUS(refl_trace_back_depth_layered_rows(&st, {big.data(), n, w, h, w}, &front, &m, all),
+                     REFL_STATUS_INVALID_ARGUMENT);
+    }
+}
+
 int main() {
     status_strings();
     camera_functions();
@@ -2898,5 +3299,6 @@ int main() {
     cone_functions();
     ssr_functions();
     glossy_functions();
+    planar_functions();
     return check::finish("hostile_input");
 }

@@ -189,6 +189,13 @@
 #define REFL_TCRR_BYTES_PER_PIXEL 110
 
 /**
+ * How many texels of a layered map (along the ray's dominant axis)
+ * before the object's surface a G-buffer front point may lie and still
+ * count as on the object (`refl_trace_back_depth_layered_rows`).
+ */
+#define REFL_LAYERED_EXIT_ENTRY_TEXELS 2.0
+
+/**
  * The result of every fallible refl function. `REFL_STATUS_OK` is zero;
  * every other value names why the call refused its input. A function that
  * returns anything but `REFL_STATUS_OK` has left all of its outputs
@@ -664,6 +671,51 @@ enum refl_glossy_method
 typedef enum refl_glossy_method refl_glossy_method;
 #else
 typedef uint32_t refl_glossy_method;
+#endif // __STDC_VERSION__ >= 202311L
+#endif // __cplusplus
+
+/**
+ * What the pass says about a pixel (`refl_planar_texel.status`, the
+ * bytes of `refl_planar_cover_rows`, `refl_host_ray.status` of the rays
+ * of `refl_planar_resolve_rows`).
+ */
+enum refl_planar_status
+#if defined(__cplusplus) || __STDC_VERSION__ >= 202311L
+  : uint32_t
+#endif // defined(__cplusplus) || __STDC_VERSION__ >= 202311L
+ {
+    /**
+     * Not the mirror's id, mask 0, or a row the call did not write.
+     */
+    REFL_PLANAR_STATUS_SKIPPED = 0,
+    /**
+     * No usable surface: sky, NaN depth, zero or non-finite normal.
+     */
+    REFL_PLANAR_STATUS_NO_SURFACE = 1,
+    /**
+     * A surface not on the plane (or any surface when the eye lies on
+     * the plane).
+     */
+    REFL_PLANAR_STATUS_OFF_PLANE = 2,
+    /**
+     * On the plane (refl_planar_cover_rows).
+     */
+    REFL_PLANAR_STATUS_COVERED = 3,
+    /**
+     * Covered; the render has a surface at the pixel's reflection.
+     */
+    REFL_PLANAR_STATUS_HIT = 4,
+    /**
+     * Covered; the render has none: the reflection is the environment
+     * (the host's probe). The pixel's ray goes to the host list.
+     */
+    REFL_PLANAR_STATUS_ENVIRONMENT = 5,
+};
+#ifndef __cplusplus
+#if __STDC_VERSION__ >= 202311L
+typedef enum refl_planar_status refl_planar_status;
+#else
+typedef uint32_t refl_planar_status;
 #endif // __STDC_VERSION__ >= 202311L
 #endif // __cplusplus
 
@@ -1987,7 +2039,9 @@ typedef struct refl_host_ray {
      */
     float t_max;
     /**
-     * Why the screen did not answer, a `refl_ssr_status`.
+     * Why the pass did not answer: a `refl_ssr_status` from
+     * `refl_ssr_trace_rows`, a `refl_planar_status` from
+     * `refl_planar_resolve_rows`.
      */
     uint32_t status;
 } refl_host_ray;
@@ -2789,6 +2843,66 @@ typedef struct refl_tcrr_current {
 } refl_tcrr_current;
 
 /**
+ * Counts of one back-depth call.
+ */
+typedef struct refl_trace_back_depth_stats {
+    /**
+     * Pixels with a front surface.
+     */
+    uint32_t surfaces;
+    /**
+     * Of those, pixels whose back value was NaN or in front of the front
+     * and was replaced by the front depth (`refl_trace_back_depth_rows`).
+     */
+    uint32_t clamped;
+    /**
+     * Of those, pixels whose back value is the cleared value: solid to
+     * the far plane (`refl_trace_back_depth_rows`).
+     */
+    uint32_t cleared;
+    /**
+     * Pixels where the layered map found the exit
+     * (`refl_trace_back_depth_layered_rows`).
+     */
+    uint32_t exits;
+} refl_trace_back_depth_stats;
+
+/**
+ * Settings of the planar pass; `refl_planar_options_default` gives the
+ * defaults.
+ */
+typedef struct refl_planar_options {
+    /**
+     * Resolution divisor of the mirrored render, >= 1: it has
+     * ceil(width / scale) x ceil(height / scale) pixels. Default 1.
+     */
+    uint32_t scale;
+    /**
+     * Clip at the mirror with an oblique near plane (the setup's
+     * projection); false: the camera's own projection, and the host clips
+     * with `refl_planar_setup.clip_plane`. Default true.
+     */
+    bool oblique;
+    /**
+     * Coverage: the largest distance of a pixel's point from the plane,
+     * relative to its linear depth (plus the depth buffer's own
+     * quantization); finite, >= 0. Default 1e-3.
+     */
+    float plane_tolerance;
+    /**
+     * Coverage: the smallest |cos| of the angle between a pixel's normal
+     * and the plane's, in [0, 1]; 0 turns the test off. Default 0.99.
+     */
+    float normal_cos;
+    /**
+     * Resolve: render texels whose linear depth differs from the anchor
+     * texel's by more than this fraction of it are not blended; >= 0,
+     * +infinity allowed. Default 0.05.
+     */
+    float edge_threshold;
+} refl_planar_options;
+
+/**
  * A 4-component float vector (a four-channel texel).
  */
 typedef struct refl_vec4 {
@@ -2809,6 +2923,181 @@ typedef struct refl_vec4 {
      */
     float w;
 } refl_vec4;
+
+/**
+ * A half-open pixel rectangle [x0, x1) x [y0, y1); all zero when empty.
+ */
+typedef struct refl_planar_rect {
+    /**
+     * First column.
+     */
+    uint32_t x0;
+    /**
+     * First row.
+     */
+    uint32_t y0;
+    /**
+     * One past the last column.
+     */
+    uint32_t x1;
+    /**
+     * One past the last row.
+     */
+    uint32_t y1;
+} refl_planar_rect;
+
+/**
+ * Everything a host needs to render the planar reflection.
+ */
+typedef struct refl_planar_setup {
+    /**
+     * The camera to render the reflection with: the mirrored view, the
+     * G-buffer camera's fov_y, near and far, the render's size (the
+     * G-buffer's divided by `scale`, rounded up).
+     */
+    struct refl_camera camera;
+    /**
+     * The projection (view to clip space) the render must use: with
+     * `oblique`, its near plane is the mirror (depth clipping removes what
+     * lies behind it) and its depth is in the G-buffer's convention
+     * ([0, 1] for a linear G-buffer, whose render stores linear depth);
+     * else (or when nothing is covered) the camera's own projection.
+     */
+    struct refl_mat4 projection;
+    /**
+     * The mirror plane oriented toward the eye: keep what lies on its
+     * positive side (a user clip plane, world space).
+     */
+    struct refl_plane clip_plane;
+    /**
+     * The same plane in the render camera's view space, (a, b, c, d) with
+     * a x + b y + c z + d = 0.
+     */
+    struct refl_vec4 view_clip_plane;
+    /**
+     * The render's view contains a reflection: flip the front-face test
+     * (or cull nothing).
+     */
+    bool flip_winding;
+    /**
+     * Some pixel is covered; false: skip the mirrored render.
+     */
+    bool covered;
+    /**
+     * Number of covered pixels.
+     */
+    uint32_t covered_pixels;
+    /**
+     * The covered pixels' bounding rectangle (G-buffer pixels).
+     */
+    struct refl_planar_rect rect;
+    /**
+     * The render texels the resolve reads (the render's scissor).
+     */
+    struct refl_planar_rect scissor;
+} refl_planar_setup;
+
+/**
+ * The mirror: its plane and, optionally, which pixels belong to it.
+ */
+typedef struct refl_planar_mirror {
+    /**
+     * The mirror's plane, either orientation (the pass orients it toward
+     * the eye).
+     */
+    struct refl_plane plane;
+    /**
+     * Optional object ids, the G-buffer's size: only pixels whose id is
+     * `id` are covered. Absent when `data` is NULL (then only the plane
+     * test and the G-buffer's mask decide).
+     */
+    struct refl_image_u32 ids;
+    /**
+     * The mirror's id in `ids`.
+     */
+    uint32_t id;
+} refl_planar_mirror;
+
+/**
+ * Counts of one `refl_planar_cover_rows` or `refl_planar_resolve_rows`
+ * call.
+ */
+typedef struct refl_planar_stats {
+    /**
+     * Covered pixels.
+     */
+    uint32_t covered;
+    /**
+     * Resolve: pixels whose reflection the render has a surface for.
+     */
+    uint32_t hits;
+    /**
+     * Resolve: pixels whose reflection is the environment.
+     */
+    uint32_t environment;
+    /**
+     * Resolve: rays handed to the host (the environment pixels).
+     */
+    uint32_t host_rays;
+    /**
+     * Of those, the ones written to the host list (the first ones in
+     * row-major order).
+     */
+    uint32_t host_rays_written;
+    /**
+     * Bounding rectangle of the band's covered pixels (merge bands, then
+     * their scissor is that of the whole).
+     */
+    struct refl_planar_rect rect;
+} refl_planar_stats;
+
+/**
+ * One pixel of the resolve.
+ */
+typedef struct refl_planar_texel {
+    /**
+     * A `refl_planar_status`.
+     */
+    uint32_t status;
+    /**
+     * Where the pixel's reflected ray crosses the render (render pixels);
+     * 0 unless HIT or ENVIRONMENT.
+     */
+    struct refl_vec2 pixel;
+    /**
+     * Column of the render texel that answers the pixel (the one holding
+     * `pixel`; reshade its primitive with a visibility buffer). 0 unless
+     * HIT or ENVIRONMENT.
+     */
+    uint32_t texel_x;
+    /**
+     * Row of that texel.
+     */
+    uint32_t texel_y;
+    /**
+     * Distance from the mirror to the reflected surface along the
+     * reflected ray; 0 unless HIT.
+     */
+    float t;
+} refl_planar_texel;
+
+/**
+ * The host's mirrored render, drawn through `refl_planar_setup.camera`
+ * and `.projection`: its size is the setup camera's.
+ */
+typedef struct refl_planar_render {
+    /**
+     * Depth as the setup's projection writes it in the G-buffer's
+     * convention (linear view depth of the setup camera for a linear
+     * G-buffer); NaN, or at or beyond the far value (the cleared value),
+     * marks a texel without a surface.
+     */
+    struct refl_image_f32 depth;
+    /**
+     * Optional color (linear RGB), the depth's size; NULL `data`: none.
+     */
+    struct refl_image_vec3 color;
+} refl_planar_render;
 
 /**
  * An 8-bit RGBA texel.
@@ -4916,6 +5205,179 @@ refl_status refl_trace_refine_hit(struct refl_trace_result *out,
                                   struct refl_ray ray,
                                   float t_max,
                                   const struct refl_trace_result *hit);
+
+/**
+ * Builds the G-buffer's back-face depth image from the host's back-face
+ * pass `back` (the scene drawn again with front faces culled, same
+ * camera, size and convention as `front`) over the rows `rows` of `dst`
+ * (the whole image's descriptor; only those rows are written): per pixel
+ * with a front surface, the back value if it lies at or behind the front
+ * value (kept bit for bit, the cleared value included: a surface with
+ * nothing behind it is solid to the far plane, as `refl_trace_thickness` reads
+ * it), else (NaN or in front of the front) the front value; pixels
+ * without a front surface get the back value as stored. Counts to
+ * `*out_stats`. Bands are independent.
+ *
+ * Returns `REFL_STATUS_NULL_POINTER` if `out_stats`, `front`, or an
+ * image's `data` is NULL; `REFL_STATUS_INSUFFICIENT_SIZE` if an image's
+ * `len` is too small; `REFL_STATUS_INVALID_ARGUMENT` for `dst` or `back`
+ * not of the front's size, rows reversed or beyond the height, an
+ * unknown convention, a misaligned pointer, or `dst` overlapping an
+ * input or `out_stats`; the camera's status if it is invalid. Nothing is
+ * written on error.
+ *
+ * # Safety
+ * `out_stats` NULL or writable; `dst.data` writable for `dst.len` floats
+ * (no other thread writes this call's rows); `front` NULL or readable,
+ * its and `back`'s data readable for their `len` floats.
+ */
+refl_status refl_trace_back_depth_rows(struct refl_trace_back_depth_stats *out_stats,
+                                       struct refl_image_f32_mut dst,
+                                       const struct refl_depth_image *front,
+                                       struct refl_image_f32 back,
+                                       struct refl_row_range rows);
+
+/**
+ * Writes into the rows `rows` of `dst` (which holds the result of
+ * `refl_trace_back_depth_rows` or the cleared value), for every pixel
+ * whose front surface lies on the object of the layered map `map` (the
+ * primary ray enters it within `REFL_LAYERED_EXIT_ENTRY_TEXELS` map texels behind
+ * the front point), the depth where the primary ray leaves that object
+ * (`refl_core::LayeredMap::exit`), in the front's convention, where it is
+ * nearer than the valid back depth already there (one that is not NaN
+ * and not in front of the front); other pixels are left as they are.
+ * Call it once per map: the image ends up with the nearest exit any map
+ * (or the back-face pass) knows. Counts to `*out_stats`.
+ *
+ * Returns `REFL_STATUS_NULL_POINTER` if `out_stats`, `front`, `map`, a
+ * map buffer or an image's `data` is NULL;
+ * `REFL_STATUS_INSUFFICIENT_SIZE` for a short image or map buffer;
+ * `REFL_STATUS_INVALID_ARGUMENT` for `dst` not of the front's size, rows
+ * reversed or beyond the height, an invalid map grid or stamp, an
+ * unknown convention, a misaligned pointer, or `dst` overlapping an
+ * input or `out_stats`; `REFL_STATUS_DEGENERATE_GEOMETRY` for a
+ * degenerate grid; the camera's status if it is invalid. Nothing is
+ * written on error.
+ *
+ * # Safety
+ * As `refl_trace_back_depth_rows`, and `map` NULL or readable with
+ * readable buffers.
+ */
+refl_status refl_trace_back_depth_layered_rows(struct refl_trace_back_depth_stats *out_stats,
+                                               struct refl_image_f32_mut dst,
+                                               const struct refl_depth_image *front,
+                                               const struct refl_layered_map *map,
+                                               struct refl_row_range rows);
+
+/**
+ * The pass's defaults: full resolution, oblique clipping, points within
+ * 1e-3 of their depth of the plane, normals within about 8 degrees,
+ * blending across depth changes up to 5%.
+ */
+struct refl_planar_options refl_planar_options_default(void);
+
+/**
+ * Sets up a frame: validates the G-buffer, the mirror and the options,
+ * orients the plane toward the eye, builds the mirrored camera at the
+ * render's size, the projection the render must use and the clip plane,
+ * and counts the covered pixels with their rectangle and the render's
+ * scissor (one pass over the G-buffer; `refl_core::planar` documents the
+ * coverage rule), into `*out`. When nothing is covered (`covered` false:
+ * the mirror is hidden, off screen, or the eye lies on its plane) skip
+ * the mirrored render.
+ *
+ * Returns `REFL_STATUS_NULL_POINTER` if `out`, `gbuffer`, `mirror`,
+ * `options` or a required image is NULL; `REFL_STATUS_INSUFFICIENT_SIZE`
+ * if an image's `len` is too small; `REFL_STATUS_INVALID_ARGUMENT` for an
+ * option out of range, an unknown convention or normal space, an image
+ * (ids included) not of the camera's size, a misaligned pointer, `out`
+ * overlapping an image, or a non-finite plane; `REFL_STATUS_DEGENERATE_GEOMETRY` for a zero plane
+ * normal; the camera's status if it is invalid. Nothing is written on
+ * error.
+ *
+ * # Safety
+ * `out` NULL or writable; `gbuffer`, `mirror` and `options` NULL or
+ * readable, their images readable for their `len` texels and not written
+ * during the call.
+ */
+refl_status refl_planar_prepare(struct refl_planar_setup *out,
+                                const struct refl_gbuffer *gbuffer,
+                                const struct refl_planar_mirror *mirror,
+                                const struct refl_planar_options *options);
+
+/**
+ * Writes the coverage of the rows `rows`: for each pixel of those rows a
+ * `refl_planar_status` byte (SKIPPED, NO_SURFACE, OFF_PLANE or COVERED)
+ * to `out[y * width + x]` (`out` holds the whole image, row stride
+ * `width`; only the band's rows are written; `out` may be NULL with
+ * `out_len` 0 for the counts alone), and the counts with the band's
+ * covered rectangle to `*out_stats`. Bands are independent.
+ *
+ * Returns `REFL_STATUS_NULL_POINTER` if `out_stats`, `gbuffer`, `mirror`,
+ * `options`, a required image, or `out` with a non-zero `out_len` is
+ * NULL; `REFL_STATUS_INSUFFICIENT_SIZE` if `out` is given and
+ * `out_len < width * height`, or an image's `len` is too small;
+ * `REFL_STATUS_INVALID_ARGUMENT` for rows reversed or beyond the height,
+ * outputs overlapping each other or the inputs, and the cases of
+ * `refl_planar_prepare`. Nothing is written on error.
+ *
+ * # Safety
+ * `out_stats` NULL or writable; `out` NULL or writable for `out_len`
+ * bytes; the rest as `refl_planar_prepare`. No other thread writes the
+ * rows of `out` this call writes.
+ */
+refl_status refl_planar_cover_rows(struct refl_planar_stats *out_stats,
+                                   uint8_t *out,
+                                   size_t out_len,
+                                   const struct refl_gbuffer *gbuffer,
+                                   const struct refl_planar_mirror *mirror,
+                                   const struct refl_planar_options *options,
+                                   struct refl_row_range rows);
+
+/**
+ * Resolves the rows `rows` against the host's mirrored render: for each
+ * pixel of those rows writes its `refl_planar_texel` to
+ * `out[y * width + x]` (`out` holds the whole image, row stride `width`;
+ * only the band's rows are written), its reflection color to `color` if
+ * `color.data` is not NULL (needs a render color; black unless HIT: at
+ * full resolution the render's texel, at reduced resolution the
+ * depth-guided bilinear mean that never blends across a depth edge beyond
+ * `edge_threshold`), and appends the ENVIRONMENT pixels' reflected rays to
+ * `host` (up to `host_len`; NULL with 0 allowed; origin on the mirror,
+ * t_min 0, t_max +infinity, status `REFL_PLANAR_STATUS_ENVIRONMENT`) in
+ * row-major order. The counts go to `*out_stats`. Bands are independent:
+ * split the rows (`refl_image_row_band`) across threads, each with its own
+ * `host` list.
+ *
+ * Returns `REFL_STATUS_NULL_POINTER` if `out_stats`, `out`, `gbuffer`,
+ * `mirror`, `options`, `render`, a required image, or `host` with a
+ * non-zero `host_len` is NULL; `REFL_STATUS_INSUFFICIENT_SIZE` if
+ * `out_len < width * height` or an image's `len` is too small;
+ * `REFL_STATUS_INVALID_ARGUMENT` for rows reversed or beyond the height,
+ * a render not of the setup camera's size, `color` not of the G-buffer's
+ * size or given without a render color, outputs overlapping each other
+ * or the inputs, and the cases of `refl_planar_prepare`. Nothing is
+ * written on error.
+ *
+ * # Safety
+ * `out_stats` NULL or writable; `out` NULL or writable for `out_len`
+ * texels; `color.data` NULL or writable for `color.len` texels; `host`
+ * NULL or writable for `host_len` entries; `render` NULL or readable, its
+ * images readable for their `len` texels; the rest as
+ * `refl_planar_prepare`. No other thread writes the rows of `out` and
+ * `color` this call writes.
+ */
+refl_status refl_planar_resolve_rows(struct refl_planar_stats *out_stats,
+                                     struct refl_planar_texel *out,
+                                     size_t out_len,
+                                     struct refl_image_vec3_mut color,
+                                     struct refl_host_ray *host,
+                                     size_t host_len,
+                                     const struct refl_gbuffer *gbuffer,
+                                     const struct refl_planar_mirror *mirror,
+                                     const struct refl_planar_options *options,
+                                     const struct refl_planar_render *render,
+                                     struct refl_row_range rows);
 
 #ifdef __cplusplus
 }  // extern "C"

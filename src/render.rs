@@ -10,7 +10,7 @@
 //! |---|---|---|
 //! | [`Method::Reference`] | every reflective pixel | ray-traced, [`Shader::reference_reflection`] |
 //! | [`Method::EnvMap`] | every reflective pixel | [`env_map`] in the mirror direction only: the baseline every seed criticizes |
-//! | [`Method::PlanarMirror`] | pixels of planar perfect mirrors | rasterizes the scene through the mirrored camera; exact at full resolution, visibility upsampled at reduced resolution |
+//! | [`Method::PlanarMirror`] | pixels of planar perfect mirrors | refl-core's planar pass sets up and resolves a rasterization through the mirrored camera; exact at full resolution, visibility upsampled at reduced resolution |
 //!
 //! # Error metrics
 //!
@@ -27,13 +27,17 @@
 //!   `d` exceeds `t` (the report uses `t = 8`, a visible difference).
 
 use crate::gbuffer::{pixel_center, GBuffer};
-use crate::raster::{rasterize, PixelRect, RasterOptions};
+use crate::raster::{rasterize, PixelRect, RasterOptions, BAND_ROWS};
 use crate::scene::NONE;
 use crate::shade::{env_map, reflection_dir, Shader};
 use crate::tracer::ray_triangle_plane;
 use glam::Vec3;
 use rayon::prelude::*;
-use refl_core::Error;
+use refl_core::{
+    DepthConvention, DepthImage, Error, GBuffer as CoreGBuffer, ImageView, ImageViewMut,
+    NormalSpace, PlanarOptions, PlanarPass, PlanarRect, PlanarRender, PlanarStats, PlanarStatus,
+    PlanarTexel, RowRange,
+};
 use std::path::Path;
 use std::time::Instant;
 
@@ -235,23 +239,32 @@ pub fn envmap(g: &GBuffer, pool: &rayon::ThreadPool) -> ReflectionImage {
     out
 }
 
-/// Planar reflections: for each planar reflector object with a
-/// perfect-mirror material that covers pixels of `g`, the scene is
-/// rasterized ([`rasterize`]) through [`refl_core::try_mirrored_camera`] with the
-/// mirror plane (oriented toward the eye) as clip plane, the reflector itself
-/// excluded and the scissor set to the reflector's pixel bounds; each of the
-/// reflector's pixels then shades the hit of the mirrored camera's primary
-/// ray with the visible primitive (one-bounce rule), or the environment where
-/// nothing was drawn. Only those pixels are handled.
+/// Planar reflections through refl-core's planar pass
+/// ([`refl_core::PlanarPass`]): for each planar reflector object with a
+/// perfect-mirror material, the pass's setup (the mirror plane oriented
+/// toward the eye, the mirrored camera at `1 / scale` of the resolution,
+/// the pixels the plane covers among the object's, by the object-id image,
+/// and the render's scissor) drives the rasterizer ([`rasterize`], the
+/// plane as clip plane, the reflector itself excluded); nothing is
+/// rasterized for a mirror that covers no pixel. The pass's resolve then
+/// says, per covered pixel, which texel of the mirrored render answers it
+/// (the one its reflected ray crosses) or that the render has nothing
+/// there; the pixel shades that texel's primitive intersected with its own
+/// reflected ray (one-bounce rule), or the environment. Only covered pixels
+/// are handled.
 ///
 /// With `scale = 1` this is exact, pixel for pixel. With `scale > 1` the
 /// mirrored image is rasterized at `ceil(w / scale) x ceil(h / scale)` (the
 /// half- and quarter-resolution planar reflections engines ship) and each
-/// full-resolution pixel takes the primitive of the low-resolution pixel
-/// containing it, intersected with its own full-resolution ray: exact
-/// inside surfaces, wrong only where a silhouette crosses the coarse pixel.
+/// full-resolution pixel reshades the primitive of the low-resolution
+/// texel holding its reflection, with its own full-resolution ray: exact
+/// inside surfaces, wrong only where a silhouette crosses the coarse pixel
+/// (the pass's visibility rule; a host with only a color render gets the
+/// pass's depth-guided bilinear color instead).
 ///
 /// # Errors
+/// The planar pass's and the rasterizer's image errors (a G-buffer whose
+/// buffers do not match its camera; never for a rendered one),
 /// [`refl_core::try_mirrored_camera`]'s error for a plane that produces a
 /// non-finite camera; [`Error::InvalidArgument`] for `scale == 0`.
 pub fn planar_mirror(
@@ -264,9 +277,40 @@ pub fn planar_mirror(
         return Err(Error::InvalidArgument);
     }
     let scene = shader.scene;
-    let mut out = ReflectionImage::empty(g.width(), g.height());
-    let eye = g.camera.eye();
-    let (lw, lh) = (g.width().div_ceil(scale), g.height().div_ceil(scale));
+    let (w, h) = (g.width(), g.height());
+    let mut out = ReflectionImage::empty(w, h);
+    // The G-buffer as the pass reads it: linear depth (+inf background),
+    // world normals, object ids.
+    let normals: Vec<[f32; 3]> =
+        pool.install(|| g.normal.par_iter().map(|n| n.to_array()).collect());
+    let depth = DepthImage::try_new(
+        ImageView::try_new(&g.depth, w, h, w)?,
+        g.camera,
+        DepthConvention::Linear,
+    )?;
+    let gbuffer = CoreGBuffer::try_new(
+        depth,
+        ImageView::try_new(&normals, w, h, w)?,
+        NormalSpace::World,
+    )?;
+    let ids = ImageView::try_new(&g.object, w, h, w)?;
+    let options = PlanarOptions {
+        scale,
+        // The CPU rasterizer clips with the plane itself.
+        oblique: false,
+        ..PlanarOptions::default()
+    };
+    let mut texels = vec![PlanarTexel::default(); g.len()];
+    // Per object id, the rows `[first, last + 1)` of its pixels.
+    let mut object_rows: Vec<Option<(u32, u32)>> = vec![None; scene.objects.len()];
+    for (i, &o) in g.object.iter().enumerate() {
+        if let Some(r) = object_rows.get_mut(o as usize) {
+            let y = (i / w as usize) as u32;
+            let (a, b) = r.get_or_insert((y, y + 1));
+            *a = (*a).min(y);
+            *b = (*b).max(y + 1);
+        }
+    }
     for (id, object) in scene.objects.iter().enumerate() {
         let id = id as u32;
         let Some(plane) = object.planar else {
@@ -275,46 +319,80 @@ pub fn planar_mirror(
         if !scene.materials[object.material as usize].is_mirror() {
             continue;
         }
-        let Some(rect) = PixelRect::bounding(g.width(), g.len(), |i| g.object[i] == id) else {
+        // Rows holding the object's pixels (the pass covers no other).
+        let Some(rows) = object_rows[id as usize] else {
             continue;
         };
-        let plane = if plane.signed_distance(eye) < 0.0 {
-            plane.flipped()
-        } else {
-            plane
-        };
-        let mirrored = refl_core::try_mirrored_camera(&g.camera, &plane)?;
-        // The same frustum at the reduced resolution (same fov, same aspect
-        // up to the rounding of the size).
-        let coarse = refl_core::Camera::try_new(
-            mirrored.view(),
-            mirrored.fov_y(),
-            mirrored.near(),
-            mirrored.far(),
-            lw,
-            lh,
-        )?;
-        let options = RasterOptions {
-            clip_plane: Some(plane),
+        let pass = PlanarPass::try_new(gbuffer, plane, options)?.try_with_ids(ids, id)?;
+        // The coverage of those rows in bands on the pool, merged into the
+        // setup.
+        let bands: Vec<PlanarStats> = pool.install(|| {
+            (rows.0..rows.1)
+                .step_by(BAND_ROWS as usize)
+                .collect::<Vec<_>>()
+                .into_par_iter()
+                .map(|y0| {
+                    let rows = RowRange::try_new(y0, (y0 + BAND_ROWS).min(rows.1), h)?;
+                    pass.try_cover_rows(rows, &mut |_, _, _| {})
+                })
+                .collect::<Result<_, Error>>()
+        })?;
+        let covered = bands.iter().map(|b| b.covered).sum();
+        let rect = bands
+            .iter()
+            .fold(PlanarRect::default(), |r, b| r.union(&b.rect));
+        let setup = pass.setup(covered, &rect);
+        if !setup.covered {
+            continue;
+        }
+        let s = setup.scissor;
+        let raster = RasterOptions {
+            clip_plane: Some(setup.clip_plane),
             exclude_object: Some(id),
             scissor: Some(PixelRect {
-                x0: rect.x0 / scale,
-                y0: rect.y0 / scale,
-                x1: rect.x1.div_ceil(scale),
-                y1: rect.y1.div_ceil(scale),
+                x0: s.x0,
+                y0: s.y0,
+                x1: s.x1,
+                y1: s.y1,
             }),
         };
-        let vis = rasterize(scene, &coarse, &options, pool);
+        let vis = rasterize(scene, &setup.camera, &raster, pool);
+        let (rw, rh) = pass.render_size();
+        // The rasterizer's linear depth (+inf where nothing was drawn) is
+        // the render's depth in the G-buffer's (linear) convention.
+        let render = PlanarRender::try_new(ImageView::try_new(&vis.depth, rw, rh, rw)?, None)?;
+        // The resolve of the covered rows only (the texels of other rows
+        // may hold an earlier mirror's results: they are not selected).
+        let band = BAND_ROWS as usize * w as usize;
+        let (y0, y1) = (rect.y0 as usize, rect.y1 as usize);
+        pool.install(|| {
+            texels[y0 * w as usize..y1 * w as usize]
+                .par_chunks_mut(band)
+                .enumerate()
+                .try_for_each(|(b, chunk)| {
+                    let start = rect.y0 + b as u32 * BAND_ROWS;
+                    let rows = RowRange::try_new(start, (start + BAND_ROWS).min(rect.y1), h)?;
+                    let mut view = ImageViewMut::try_band(chunk, w, h, w, rows)?;
+                    pass.try_resolve(&mut view, None, &mut [], &render)
+                        .map(|_| ())
+                })
+        })?;
+        let mirrored = pass.mirrored_camera();
+        let texels = &texels;
         out.fill(
             pool,
-            |i| g.object[i] == id,
+            |i| (y0..y1).contains(&(i / w as usize)) && texels[i].status.is_covered(),
             |i| {
                 let (x, y) = g.pixel(i);
                 let ray = mirrored.primary_ray(pixel_center(x, y));
-                let prim = vis.prim[(y / scale) as usize * lw as usize + (x / scale) as usize];
-                let hit = if scale == 1 {
-                    vis.hit(scene, &mirrored, i)
-                } else if prim == NONE {
+                let t = texels[i];
+                let prim = match t.status {
+                    PlanarStatus::Hit => {
+                        vis.prim[t.texel[1] as usize * rw as usize + t.texel[0] as usize]
+                    }
+                    _ => NONE,
+                };
+                let hit = if prim == NONE {
                     None
                 } else {
                     ray_triangle_plane(&scene.tris[prim as usize], prim, ray.origin, ray.dir)

@@ -74,6 +74,11 @@ use glam::{Affine3A, Vec3};
 /// Payload value of an unused layer slot.
 pub const NO_PAYLOAD: u32 = u32::MAX;
 
+/// How many texels (along the ray's dominant axis) before the object's
+/// surface the ray of [`LayeredMap::exit`] may start: the G-buffer's front
+/// point and the map's surface differ by the map's discretization.
+pub const EXIT_ENTRY_TEXELS: f32 = 2.0;
+
 /// One of the six faces of a layered depth cube map (see the module docs for
 /// the orientation conventions). The discriminant is the face index used in
 /// the buffers and the C ABI.
@@ -942,6 +947,29 @@ fn push_interval(
     payload[fb + l - 1] = b.1;
 }
 
+/// The parameter range `[t0, t1]` within `[0, t_max]` of the ray `o + t d`
+/// (box coordinates) inside the unit cube (slab clipping), or `None` if it
+/// misses the cube.
+fn clip_unit_cube(o: Vec3, d: Vec3, t_max: f32) -> Option<(f32, f32)> {
+    let (mut t0, mut t1) = (0.0f32, t_max);
+    for a in 0..3 {
+        if d[a] == 0.0 {
+            if !(o[a] >= 0.0 && o[a] <= 1.0) {
+                return None;
+            }
+            continue;
+        }
+        let inv = 1.0 / d[a];
+        let (mut ta, mut tb) = ((0.0 - o[a]) * inv, (1.0 - o[a]) * inv);
+        if ta > tb {
+            core::mem::swap(&mut ta, &mut tb);
+        }
+        t0 = t0.max(ta);
+        t1 = t1.min(tb);
+    }
+    (t0 <= t1).then_some((t0, t1))
+}
+
 /// A read-only layered depth cube map over caller buffers: what rays are
 /// traced against.
 ///
@@ -1242,6 +1270,98 @@ impl<'a> LayeredMap<'a> {
         }
         let mut fetches = 0;
         self.sample(face, q, &mut fetches).inside.map(|x| x.layer)
+    }
+
+    /// Where a ray that starts on the object's surface (at or within
+    /// [`EXIT_ENTRY_TEXELS`] texels before it, e.g. a primary ray from
+    /// the front surface a G-buffer pixel sees) leaves the object: the
+    /// distance along the unit-direction `ray` of the first exit crossing
+    /// behind its entry, or `None` if the ray does not enter the object
+    /// within that window (the surface is not this object's, or the object
+    /// is thinner than the map resolves) or the input is not finite.
+    ///
+    /// Ours, on seed 001's inside test (Sec. 3.4, Algorithm 1 lines 6-17:
+    /// a point is inside when it lies between a layer's front depth and
+    /// that layer's back depth read from the opposite face), on all three
+    /// axes: a point is inside when one of them says so (near an axis's
+    /// silhouette of the object its columns answer from a texel that may
+    /// lie outside the silhouette, while an axis along the surface normal
+    /// sees the point inside; the cost is exits up to about one texel late
+    /// where the ray leaves at a grazing angle): samples every half texel (along the ray's
+    /// dominant axis) from the ray's origin find the first inside point
+    /// (within the window), then the first outside point behind it, and 24
+    /// bisections between them locate the exit. Depths are interpolated between
+    /// continuous texels (as [`LayeredParams::smooth_texels`] at its
+    /// default, 4 texels). A ray still inside where it leaves the box exits
+    /// there. Hits of the exit closer than a texel to a thin gap may skip
+    /// it (half-texel sampling).
+    pub fn exit(&self, ray: &Ray) -> Option<f32> {
+        let g = &self.grid;
+        let o = g.box_coords(ray.origin);
+        let d = g.local_from_world.transform_vector3(ray.dir) * g.inv_extent;
+        if !(o.is_finite() && d.is_finite()) {
+            return None;
+        }
+        let res = g.res as f32;
+        let dmax = d.abs().max_element();
+        if !(dmax > 0.0) {
+            return None;
+        }
+        let (t0, t1) = clip_unit_cube(o, d, f32::INFINITY)?;
+        let texel = 1.0 / (dmax * res);
+        let window = EXIT_ENTRY_TEXELS * texel;
+        if t0 > window {
+            return None;
+        }
+        let faces = [0u32, 1, 2].map(|a| Face::of_axis(a, d[a as usize] < 0.0));
+        let tau = LayeredOptions::default().smooth_texels / res;
+        let mut fetches = 0u32;
+        // Inside on any of the three axes: an axis's columns are unreliable
+        // near that axis's silhouette of the object (the nearest texel may
+        // lie outside it), where some other axis sees the point inside.
+        let inside = |t: f32, fetches: &mut u32| {
+            let q = (o + d * t).clamp(Vec3::ZERO, Vec3::ONE);
+            faces
+                .iter()
+                .any(|&f| self.sample_smooth(f, q, tau, fetches).inside.is_some())
+        };
+        let step = 0.5 * texel;
+        // The entry: the first inside sample within the window.
+        let mut t = t0;
+        loop {
+            if inside(t, &mut fetches) {
+                break;
+            }
+            t += step;
+            if t > window.min(t1) {
+                return None;
+            }
+        }
+        // The exit: the first outside sample behind it.
+        let mut lo = t;
+        let hi = loop {
+            let next = lo + step;
+            if next >= t1 {
+                if inside(t1, &mut fetches) {
+                    return Some(t1);
+                }
+                break t1;
+            }
+            if !inside(next, &mut fetches) {
+                break next;
+            }
+            lo = next;
+        };
+        let mut hi = hi;
+        for _ in 0..24 {
+            let mid = 0.5 * (lo + hi);
+            if inside(mid, &mut fetches) {
+                lo = mid;
+            } else {
+                hi = mid;
+            }
+        }
+        Some(0.5 * (lo + hi))
     }
 
     /// Algorithm 1's inner loop at box point `q` for `face`.
@@ -1636,31 +1756,12 @@ impl<'a> LayeredMap<'a> {
         let g = &self.grid;
         let mut work = LayeredWork::default();
         // Slab clip against the unit cube over [0, t_max].
-        let (mut t0, mut t1) = (0.0f32, t_max);
-        for a in 0..3 {
-            if d[a] == 0.0 {
-                if !(o[a] >= 0.0 && o[a] <= 1.0) {
-                    return LayeredTrace::Miss {
-                        reason: LayeredMiss::MissedBox,
-                        work,
-                    };
-                }
-                continue;
-            }
-            let inv = 1.0 / d[a];
-            let (mut ta, mut tb) = ((0.0 - o[a]) * inv, (1.0 - o[a]) * inv);
-            if ta > tb {
-                core::mem::swap(&mut ta, &mut tb);
-            }
-            t0 = t0.max(ta);
-            t1 = t1.min(tb);
-        }
-        if !(t0 <= t1) {
+        let Some((t0, t1)) = clip_unit_cube(o, d, t_max) else {
             return LayeredTrace::Miss {
                 reason: LayeredMiss::MissedBox,
                 work,
             };
-        }
+        };
         let ends_in_box = t1 >= t_max;
         let origin_in_box = t0 <= 0.0;
         // Faces: per axis the one whose depth grows along the ray, the

@@ -20,6 +20,8 @@
 #![deny(missing_docs)]
 #![deny(unsafe_code)]
 
+#[cfg(any(feature = "depth-image", feature = "hiz"))]
+pub mod backface;
 pub mod camera;
 #[cfg(feature = "cluster")]
 pub mod cluster;
@@ -28,7 +30,7 @@ pub mod cone;
 #[cfg(feature = "epipolar")]
 pub mod epipolar;
 pub mod error;
-#[cfg(any(feature = "depth-image", feature = "hiz"))]
+#[cfg(any(feature = "depth-image", feature = "hiz", feature = "mirror"))]
 pub mod gbuffer;
 #[cfg(feature = "cone")]
 pub mod glossy;
@@ -39,13 +41,15 @@ pub mod image;
 pub mod layered;
 #[cfg(feature = "mirror")]
 pub mod mirror;
+#[cfg(feature = "mirror")]
+pub mod planar;
 #[cfg(any(feature = "depth-image", feature = "hiz"))]
 pub mod ssr;
 #[cfg(feature = "depth-image")]
 pub mod step;
 #[cfg(feature = "tcrr")]
 pub mod tcrr;
-#[cfg(any(feature = "depth-image", feature = "hiz"))]
+#[cfg(any(feature = "depth-image", feature = "hiz", feature = "mirror"))]
 pub mod trace;
 
 pub use camera::{Camera, DepthConvention, Ray};
@@ -55,14 +59,23 @@ pub use image::{ImageView, ImageViewMut, RowRange};
 pub use layered::{
     try_layered_len, try_prr_classify, ColumnFill, ColumnRay, Face, LayerHit, LayeredGrid,
     LayeredHit, LayeredLen, LayeredMap, LayeredMapMut, LayeredMiss, LayeredOptions, LayeredStamp,
-    LayeredTrace, LayeredWork, PrrClass, LAYERED_STAMP_LEN,
+    LayeredTrace, LayeredWork, PrrClass, EXIT_ENTRY_TEXELS, LAYERED_STAMP_LEN,
 };
 #[cfg(feature = "mirror")]
 pub use mirror::{
     mirror_matrix, mirror_point, reflect, try_mirrored_camera, try_oblique_projection, try_reflect,
     Plane,
 };
+#[cfg(feature = "mirror")]
+pub use planar::{
+    PlanarOptions, PlanarPass, PlanarRay, PlanarRect, PlanarRender, PlanarSetup, PlanarSink,
+    PlanarStats, PlanarStatus, PlanarTexel,
+};
 
+#[cfg(all(feature = "layered", any(feature = "depth-image", feature = "hiz")))]
+pub use backface::try_back_depth_layered;
+#[cfg(any(feature = "depth-image", feature = "hiz"))]
+pub use backface::{try_back_depth, BackDepthStats};
 #[cfg(feature = "cone")]
 pub use cone::{
     try_build_color_pyramid, try_build_visibility_pyramid, try_color_pyramid_len,
@@ -71,7 +84,7 @@ pub use cone::{
     Cone, ConeOptions, ConePyramids, ConeResult, FadeRange, Fades, MultiRayOptions, MultiRayResult,
     COLOR_STAMP_TEXELS, VISIBILITY_STAMP_LEN,
 };
-#[cfg(any(feature = "depth-image", feature = "hiz"))]
+#[cfg(any(feature = "depth-image", feature = "hiz", feature = "mirror"))]
 pub use gbuffer::{GBuffer, NormalSpace, Surface};
 #[cfg(feature = "cone")]
 pub use glossy::{
@@ -91,7 +104,7 @@ pub use ssr::{
 };
 #[cfg(feature = "depth-image")]
 pub use step::{try_step, try_step_rays, StepOptions};
-#[cfg(any(feature = "depth-image", feature = "hiz"))]
+#[cfg(any(feature = "depth-image", feature = "hiz", feature = "mirror"))]
 pub use trace::{DepthHit, DepthImage, Miss, Thickness, Trace, Work};
 
 #[cfg(feature = "tcrr")]

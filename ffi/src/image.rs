@@ -393,6 +393,23 @@ pub struct refl_row_range {
     pub end: u32,
 }
 
+impl refl_row_range {
+    /// The range as refl-core's, checked against an image of `height`
+    /// rows (`InvalidArgument`, with a last-error message naming `rows`,
+    /// for a reversed range or one ending past the height).
+    pub(crate) fn within(&self, height: u32) -> Result<RowRange, Error> {
+        RowRange::try_new(self.begin, self.end, height).map_err(|e| {
+            crate::status::fail(
+                e,
+                format_args!(
+                    "`rows` [{}, {}) is not within [0, {height})",
+                    self.begin, self.end
+                ),
+            )
+        })
+    }
+}
+
 /// Writes to `*out` the `index`-th of `count` contiguous, near-equal bands
 /// of the rows `[0, height)` (the first `height % count` bands get one row
 /// more), for splitting a whole-image pass such as `refl_image_convert_depth`

@@ -425,7 +425,7 @@ impl refl_layered_map {
     }
 
     /// The byte ranges of the four buffers.
-    fn ranges(&self) -> [(usize, usize); 4] {
+    pub(crate) fn ranges(&self) -> [(usize, usize); 4] {
         [
             (self.depth as usize, self.depth_len * 4),
             (self.payload as usize, self.payload_len * 4),

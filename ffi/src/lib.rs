@@ -59,7 +59,11 @@ mod status;
 mod tcrr;
 mod trace;
 mod types;
+// The passes of issue 13 added after the rest (keeps the header's order).
+mod backface;
+mod planar;
 
+pub use backface::*;
 pub use camera::*;
 pub use cluster::*;
 pub use cone::*;
@@ -69,6 +73,7 @@ pub use hiz::*;
 pub use image::*;
 pub use layered::*;
 pub use mirror::*;
+pub use planar::*;
 pub use ssr::*;
 pub use status::*;
 pub use tcrr::*;

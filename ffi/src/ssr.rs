@@ -185,7 +185,9 @@ pub struct refl_host_ray {
     pub t_min: f32,
     /// Trace up to this distance (`refl_ssr_options.t_max`).
     pub t_max: f32,
-    /// Why the screen did not answer, a `refl_ssr_status`.
+    /// Why the pass did not answer: a `refl_ssr_status` from
+    /// `refl_ssr_trace_rows`, a `refl_planar_status` from
+    /// `refl_planar_resolve_rows`.
     pub status: u32,
 }
 
@@ -469,6 +471,27 @@ pub unsafe extern "C" fn refl_ssr_prepare(
     })
 }
 
+/// Writes host ray number `index` of a call to `host[index]` if it is below
+/// `host_len`; returns whether it was written.
+///
+/// # Safety
+/// `host` non-null, aligned and writable for `host_len` entries (a size
+/// that fits `isize`), or `host_len` 0.
+pub(crate) unsafe fn put_host_ray(
+    host: *mut refl_host_ray,
+    host_len: usize,
+    index: u32,
+    v: refl_host_ray,
+) -> bool {
+    let i = index as usize;
+    if i >= host_len {
+        return false;
+    }
+    // SAFETY: `i < host_len`, writable by contract.
+    unsafe { host.add(i).write(v) };
+    true
+}
+
 /// The checked outputs of one `*_trace_rows` call of a G-buffer pass
 /// (`refl_ssr_trace_rows`, `refl_glossy_trace_rows`): the band's rows and
 /// where its texels (C structs of type `T`), colors and host rays go.
@@ -600,15 +623,9 @@ impl<'a, T> Band<'a, T> {
 
     /// Writes host ray number `index`, if the list holds it.
     pub(crate) fn put_host(&mut self, index: u32, r: &HostRay) -> bool {
-        let i = index as usize;
-        if i >= self.host_len {
-            return false;
-        }
-        let v = refl_host_ray::from(*r);
-        // SAFETY: `i < host_len`, writable by contract (checked non-null,
-        // aligned, size fits isize).
-        unsafe { self.host.add(i).write(v) };
-        true
+        // SAFETY: `host` non-null, aligned and writable for `host_len`
+        // entries, or `host_len` 0 (checked when the band was made).
+        unsafe { put_host_ray(self.host, self.host_len, index, refl_host_ray::from(*r)) }
     }
 }
 

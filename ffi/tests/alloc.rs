@@ -284,6 +284,7 @@ fn no_export_allocates() {
     cone(&mut cov);
     ssr(&mut cov);
     glossy(&mut cov);
+    planar(&mut cov);
     layered(&mut cov);
     cluster(&mut cov);
     tcrr(&mut cov);
@@ -1012,6 +1013,164 @@ fn glossy(cov: &mut Coverage) {
     );
 }
 
+fn planar(cov: &mut Coverage) {
+    let s = scene();
+    let opts = value!(cov, refl_planar_options_default());
+    let g = refl_gbuffer {
+        depth: s.depth_image(),
+        normals: vec3_img(&s.normals),
+        normal_space: refl_normal_space::World as u32,
+        mask: refl_image_u8 {
+            data: core::ptr::null(),
+            len: 0,
+            width: 0,
+            height: 0,
+            stride: 0,
+        },
+        roughness: no_f32(),
+        color: refl_image_vec3 {
+            data: core::ptr::null(),
+            len: 0,
+            width: 0,
+            height: 0,
+            stride: 0,
+        },
+        back_depth: no_f32(),
+    };
+    let mirror = refl_planar_mirror {
+        plane: refl_plane {
+            normal: v3(0.0, 1.0, 0.0),
+            d: 0.0,
+        },
+        ids: refl_image_u32 {
+            data: core::ptr::null(),
+            len: 0,
+            width: 0,
+            height: 0,
+            stride: 0,
+        },
+        id: 0,
+    };
+    let mut setup = uninit::<refl_planar_setup>();
+    ok!(
+        cov,
+        refl_planar_prepare(setup.as_mut_ptr(), &g, &mirror, &opts)
+    );
+    let bad = refl_planar_options { scale: 0, ..opts };
+    err!(
+        cov,
+        refl_planar_prepare(setup.as_mut_ptr(), &g, &mirror, &bad)
+    );
+    let setup = unsafe { setup.assume_init() };
+    assert!(setup.covered);
+    let mut st = uninit::<refl_planar_stats>();
+    let mut cover = vec![0u8; N];
+    ok!(
+        cov,
+        refl_planar_cover_rows(
+            st.as_mut_ptr(),
+            cover.as_mut_ptr(),
+            N,
+            &g,
+            &mirror,
+            &opts,
+            rows(0, H)
+        )
+    );
+    err!(
+        cov,
+        refl_planar_cover_rows(
+            st.as_mut_ptr(),
+            cover.as_mut_ptr(),
+            N,
+            &g,
+            &mirror,
+            &opts,
+            rows(3, 2)
+        )
+    );
+    // The host's mirrored render (here: a constant color and depth).
+    let (rw, rh) = (setup.camera.width, setup.camera.height);
+    let rn = (rw * rh) as usize;
+    let rdepth = vec![0.5f32; rn];
+    let rcolor = vec![[0.25f32, 0.5, 0.75]; rn];
+    let render = refl_planar_render {
+        depth: refl_image_f32 {
+            data: rdepth.as_ptr(),
+            len: rn,
+            width: rw,
+            height: rh,
+            stride: rw,
+        },
+        color: refl_image_vec3 {
+            data: rcolor.as_ptr().cast(),
+            len: rn,
+            width: rw,
+            height: rh,
+            stride: rw,
+        },
+    };
+    let mut texels = vec![refl_planar_texel::default(); N];
+    let mut color = vec![[0.0f32; 3]; N];
+    let mut host = vec![refl_host_ray::default(); N];
+    ok!(
+        cov,
+        refl_planar_resolve_rows(
+            st.as_mut_ptr(),
+            texels.as_mut_ptr(),
+            N,
+            vec3_mut(&mut color),
+            host.as_mut_ptr(),
+            N,
+            &g,
+            &mirror,
+            &opts,
+            &render,
+            rows(0, H)
+        )
+    );
+    err!(
+        cov,
+        refl_planar_resolve_rows(
+            st.as_mut_ptr(),
+            texels.as_mut_ptr(),
+            N,
+            vec3_mut(&mut color),
+            host.as_mut_ptr(),
+            N,
+            &g,
+            &mirror,
+            &opts,
+            &render,
+            rows(3, 2)
+        )
+    );
+    // The back-face depth image from the host's second depth pass.
+    let front = s.depth_image();
+    let mut back = vec![0.0f32; N];
+    let mut bst = uninit::<refl_trace_back_depth_stats>();
+    ok!(
+        cov,
+        refl_trace_back_depth_rows(
+            bst.as_mut_ptr(),
+            f32_mut(&mut back),
+            &front,
+            f32_img(&s.back),
+            rows(0, H)
+        )
+    );
+    err!(
+        cov,
+        refl_trace_back_depth_rows(
+            bst.as_mut_ptr(),
+            f32_mut(&mut back),
+            &front,
+            f32_img(&s.back),
+            rows(3, 2)
+        )
+    );
+}
+
 fn layered(cov: &mut Coverage) {
     let (res, layers) = (4u32, 2u32);
     let mut sizes = uninit::<refl_layered_sizes>();
@@ -1195,6 +1354,31 @@ fn layered(cov: &mut Coverage) {
             tri[0],
             tri[1],
             tri[2]
+        )
+    );
+    // The back-face depth image from this map.
+    let s = scene();
+    let front = s.depth_image();
+    let mut back = vec![0.0f32; N];
+    let mut bst = uninit::<refl_trace_back_depth_stats>();
+    ok!(
+        cov,
+        refl_trace_back_depth_layered_rows(
+            bst.as_mut_ptr(),
+            f32_mut(&mut back),
+            &front,
+            &map,
+            rows(0, H)
+        )
+    );
+    err!(
+        cov,
+        refl_trace_back_depth_layered_rows(
+            bst.as_mut_ptr(),
+            f32_mut(&mut back),
+            &front,
+            &map,
+            rows(3, 2)
         )
     );
 }

@@ -72,6 +72,8 @@ pub struct Frame {
     pub back: Vec<f32>,
     pub normals: Vec<[f32; 3]>,
     pub color: Vec<[f32; 3]>,
+    /// 0 the floor, 1 the sphere, `u32::MAX` nothing.
+    pub ids: Vec<u32>,
 }
 
 /// A floor `y = 0` and a unit sphere at `(0, 1, 0)`, rendered exactly.
@@ -86,6 +88,7 @@ pub fn render(conv: DepthConvention) -> Frame {
         back: vec![far; n],
         normals: vec![[0.0; 3]; n],
         color: vec![[0.0; 3]; n],
+        ids: vec![u32::MAX; n],
     };
     let eye = cam.eye().as_dvec3();
     let fwd = -cam.inverse_view().z_axis.truncate().as_dvec3();
@@ -119,6 +122,7 @@ pub fn render(conv: DepthConvention) -> Frame {
                 f.depth[i] = cam.encode_depth(z, conv);
                 f.back[i] = cam.encode_depth(zb, conv);
                 f.normals[i] = nn.as_vec3().to_array();
+                f.ids[i] = id;
                 f.color[i] = [id as f32, x as f32 / W as f32, y as f32 / H as f32];
             }
         }
