@@ -130,7 +130,11 @@ fn check_pyramid(p: &[refl_vec2], img: &DepthImg) {
 
 /// Builds with `refl_hiz_build`; returns the pyramid on success.
 fn build(b: &mut Bytes, img: &DepthImg) -> Option<Vec<refl_vec2>> {
-    let need = layout(img.width, img.height).map_or(16, |(n, _)| n).min(1 << 14);
+    // The buffer is capped at 2^14 texels; `real` is what refl needs (a
+    // 1x65536 image needs more than the cap: a campaign finding on 47b5e36
+    // whose refusal was right).
+    let real = layout(img.width, img.height).map(|(n, _)| n);
+    let need = real.unwrap_or(16).min(1 << 14);
     let len = b.len_for(need);
     let mut dst = Buf::<refl_vec2>::sentinel(len, b.ptr_kind());
     let desc = img.desc();
@@ -146,7 +150,7 @@ fn build(b: &mut Bytes, img: &DepthImg) -> Option<Vec<refl_vec2>> {
     on_error_untouched(s, &[("dst", untouched)], "refl_hiz_build");
     let ptrs_ok = dst.usable() && ib.usable();
     if s != refl_status::Ok {
-        if ptrs_ok && img.valid() && len >= need {
+        if ptrs_ok && img.valid() && real.is_some_and(|r| len >= r) {
             panic!("refl_hiz_build refused a valid image: {s:?}");
         }
         return None;
