@@ -1291,7 +1291,7 @@ impl<'a> LayeredMap<'a> {
     /// dominant axis) from the ray's origin find the first inside point
     /// (within the window), then the first outside point behind it, and 24
     /// bisections between them locate the exit. Depths are interpolated between
-    /// continuous texels (as [`LayeredParams::smooth_texels`] at its
+    /// continuous texels (as [`LayeredOptions::smooth_texels`] at its
     /// default, 4 texels). A ray still inside where it leaves the box exits
     /// there. Hits of the exit closer than a texel to a thin gap may skip
     /// it (half-texel sampling).

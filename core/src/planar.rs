@@ -4,10 +4,10 @@
 //! (design.md, "Passes"; issue 13).
 //!
 //! A planar mirror is exact by rasterization: the scene drawn through the
-//! mirrored camera (seed 001 appendix, [`mirrored_camera`]) shows at every
+//! mirrored camera (seed 001 appendix, [`try_mirrored_camera`]) shows at every
 //! mirror pixel what the reflected primary ray sees, once geometry behind
 //! the mirror is clipped away (an oblique near plane,
-//! [`oblique_projection`], or a user clip plane). What a host still had to
+//! [`try_oblique_projection`], or a user clip plane). What a host still had to
 //! work out itself, and what this pass does:
 //!
 //! 1. **Setup** ([`PlanarPass::try_new`], [`PlanarPass::prepare`], or
@@ -65,7 +65,7 @@
 //! image of the render's size, and optionally a color image. Its depth is
 //! read in the G-buffer's convention **as that projection writes it**:
 //! with [`PlanarOptions::oblique`] the near plane is the mirror
-//! ([`oblique_projection`]: depth is the near value on the mirror and no
+//! ([`try_oblique_projection`]: depth is the near value on the mirror and no
 //! longer a function of view distance alone; the pass decodes it with the
 //! matrix's depth row). Without it, the projection is the camera's own and
 //! the host clips with [`PlanarSetup::clip_plane`] (world) or
@@ -119,7 +119,7 @@ pub struct PlanarOptions {
     /// Resolution divisor of the mirrored render (`>= 1`): it has
     /// `ceil(w / scale) x ceil(h / scale)` pixels.
     pub scale: u32,
-    /// Clip at the mirror with an oblique near plane ([`oblique_projection`]);
+    /// Clip at the mirror with an oblique near plane ([`try_oblique_projection`]);
     /// `false`: the camera's own projection, and the host clips with
     /// [`PlanarSetup::clip_plane`].
     pub oblique: bool,
@@ -232,11 +232,11 @@ impl PlanarRect {
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct PlanarSetup {
     /// The camera to render the reflection with: the mirrored view
-    /// ([`mirrored_camera`]), the G-buffer camera's `fov_y`, near and far,
+    /// ([`try_mirrored_camera`]), the G-buffer camera's `fov_y`, near and far,
     /// the render's size.
     pub camera: Camera,
     /// The projection (view to clip space) the render must use: the
-    /// oblique one ([`oblique_projection`] of [`PlanarSetup::camera`] and
+    /// oblique one ([`try_oblique_projection`] of [`PlanarSetup::camera`] and
     /// [`PlanarSetup::clip_plane`]) in the G-buffer's convention (`[0, 1]`
     /// for a linear G-buffer), or the camera's own without
     /// [`PlanarOptions::oblique`] or when nothing is covered.
@@ -431,7 +431,7 @@ impl<'a> PlanarPass<'a> {
     /// # Errors
     /// * [`Error::InvalidArgument`]: an option out of its range (see
     ///   [`PlanarOptions`]).
-    /// * [`mirrored_camera`]'s errors (a mirrored or render camera that is
+    /// * [`try_mirrored_camera`]'s errors (a mirrored or render camera that is
     ///   not finite: huge coordinates).
     pub fn try_new(
         gbuffer: GBuffer<'a>,
