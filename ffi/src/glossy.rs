@@ -12,8 +12,10 @@
 
 use crate::hiz::refl_hiz_options;
 use crate::image::{refl_image_vec3_mut, refl_row_range};
-use crate::ptr::{check_buffer, overlaps, read, Out};
-use crate::ssr::{gbuffer, gbuffer_ranges, refl_gbuffer, refl_host_ray, refl_ssr_status, Band};
+use crate::ptr::{check_buffer, check_pointer, overlaps, read, Out};
+use crate::ssr::{
+    gbuffer, gbuffer_ranges, refl_gbuffer, refl_host_ray, refl_ssr_status, required_outputs, Band,
+};
 use crate::status::{fail, guard, refl_status};
 use crate::types::{refl_vec2, refl_vec3};
 use refl_core::cone::{ConeOptions, FadeRange, Fades};
@@ -436,6 +438,8 @@ pub unsafe extern "C" fn refl_glossy_prepare(
     guard("refl_glossy_prepare", || {
         // SAFETY: caller contract.
         let (g, opts, n, need) = unsafe { scratch_parts(gbuffer, options) }?;
+        // Every required pointer before any size: NULL is reported first.
+        check_pointer(scratch.cast_const(), "scratch")?;
         // SAFETY: caller contract.
         let gb = unsafe { checked_gbuffer(&g, &opts) }?;
         let bytes = check_buffer(scratch.cast_const(), scratch_len, "scratch")?;
@@ -531,6 +535,9 @@ pub unsafe extern "C" fn refl_glossy_trace_rows(
         let stats_out = Out::new(out_stats, "out_stats")?;
         // SAFETY: caller contract.
         let (g, opts, n, need) = unsafe { scratch_parts(gbuffer, options) }?;
+        // Every required pointer before any size: NULL is reported first.
+        required_outputs(out, host, host_len)?;
+        check_pointer(scratch, "scratch")?;
         // SAFETY: caller contract.
         let gb = unsafe { checked_gbuffer(&g, &opts) }?;
         let scratch_bytes = check_buffer(scratch, scratch_len, "scratch")?;

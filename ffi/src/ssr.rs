@@ -11,7 +11,7 @@ use crate::hiz::refl_hiz_options;
 use crate::image::{
     refl_image_f32, refl_image_u8, refl_image_vec3, refl_image_vec3_mut, refl_row_range,
 };
-use crate::ptr::{byte_len, check_buffer, overlaps, read, Out};
+use crate::ptr::{byte_len, check_buffer, check_pointer, overlaps, read, Out};
 use crate::status::{fail, guard, refl_status};
 use crate::trace::{depth_image, refl_depth_image, refl_step_options};
 use crate::types::{refl_vec2, refl_vec3};
@@ -319,6 +319,22 @@ pub(crate) fn gbuffer_ranges(g: &refl_gbuffer) -> [(usize, usize); 6] {
 /// # Safety
 /// Every non-NULL image `data` readable for its `len` texels for `'a` and
 /// not written meanwhile.
+/// The NULL (and alignment) checks of a pass's required outputs, made
+/// before any size is checked so that a NULL output is reported as
+/// `REFL_STATUS_NULL_POINTER` whatever else is wrong: `out`, and `host`
+/// unless it is an empty list.
+pub(crate) fn required_outputs<T, H>(
+    out: *mut T,
+    host: *mut H,
+    host_len: usize,
+) -> Result<(), Error> {
+    check_pointer(out.cast_const(), "out")?;
+    if host_len > 0 {
+        check_pointer(host.cast_const(), "host")?;
+    }
+    Ok(())
+}
+
 pub(crate) unsafe fn gbuffer<'a>(g: &refl_gbuffer) -> Result<GBuffer<'a>, Error> {
     // SAFETY: caller contract.
     let depth = unsafe { depth_image(&g.depth) }?;
@@ -427,6 +443,10 @@ pub unsafe extern "C" fn refl_ssr_prepare(
         // SAFETY: caller contract.
         let (g, o) = unsafe { (read(gbuffer, "gbuffer")?, read(options, "options")?) };
         let opts = self::options(&o)?;
+        // Every required pointer before any size: NULL is reported first.
+        if opts.method == MirrorMethod::HiZ {
+            check_pointer(scratch.cast_const(), "scratch")?;
+        }
         // SAFETY: caller contract.
         let gb = unsafe { self::gbuffer(&g) }?;
         if opts.method == MirrorMethod::Step {
@@ -695,6 +715,11 @@ pub unsafe extern "C" fn refl_ssr_trace_rows(
         // SAFETY: caller contract.
         let (g, o) = unsafe { (read(gbuffer, "gbuffer")?, read(options, "options")?) };
         let opts = self::options(&o)?;
+        // Every required pointer before any size: NULL is reported first.
+        required_outputs(out, host, host_len)?;
+        if opts.method == MirrorMethod::HiZ {
+            check_pointer(scratch, "scratch")?;
+        }
         // SAFETY: caller contract.
         let gb = unsafe { self::gbuffer(&g) }?;
         // SAFETY: caller contract.

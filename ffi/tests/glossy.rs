@@ -656,3 +656,52 @@ fn errors_name_their_cause_and_leave_every_output_untouched() {
     }
     assert_eq!(len, 5);
 }
+
+/// A NULL required pointer is reported as `REFL_STATUS_NULL_POINTER` even
+/// when a G-buffer image is also too short (as `refl_ssr_*`; the `ssr` fuzz
+/// target found the ordering fault there).
+#[test]
+fn a_null_required_pointer_is_reported_before_a_short_image() {
+    let f = render(DepthConvention::ZeroToOne);
+    let rough = roughness(&f);
+    let mut g = gbuffer_c(&f, &rough, false);
+    g.depth.depth.len -= 1;
+    let o = refl_glossy_options_default();
+    // SAFETY: NULL scratch with a length: refused before it is read.
+    let s = unsafe { refl_glossy_prepare(core::ptr::null_mut(), 100, &g, &o) };
+    assert_eq!(s, refl_status::NullPointer);
+    let n = (W * H) as usize;
+    let mut texels = vec![refl_glossy_texel::default(); n];
+    let mut stats = refl_glossy_stats::default();
+    let scratch = vec![0.0f32; 100];
+    for (out, host_null, scratch_ptr, what) in [
+        (core::ptr::null_mut(), false, scratch.as_ptr(), "out"),
+        (texels.as_mut_ptr(), true, scratch.as_ptr(), "host"),
+        (texels.as_mut_ptr(), false, core::ptr::null(), "scratch"),
+    ] {
+        let mut host = vec![refl_host_ray::default(); 4];
+        let hp = if host_null {
+            core::ptr::null_mut()
+        } else {
+            host.as_mut_ptr()
+        };
+        let all = refl_row_range { begin: 0, end: H };
+        // SAFETY: pointers NULL or valid for the lengths given.
+        let s = unsafe {
+            refl_glossy_trace_rows(
+                &mut stats,
+                out,
+                n,
+                no_color(),
+                hp,
+                4,
+                &g,
+                &o,
+                scratch_ptr,
+                100,
+                all,
+            )
+        };
+        assert_eq!(s, refl_status::NullPointer, "NULL {what}");
+    }
+}

@@ -411,3 +411,55 @@ fn errors_name_their_cause_and_leave_every_output_untouched() {
     let s = unsafe { refl_ssr_prepare(aliased.as_mut_ptr().cast(), scratch.len(), &g7, &hz) };
     assert_eq!(s, inv);
 }
+
+/// A NULL required pointer is reported as `REFL_STATUS_NULL_POINTER` even
+/// when a G-buffer image is also too short (the fuzz target `ssr` found
+/// `REFL_STATUS_INSUFFICIENT_SIZE` for a NULL Hi-Z scratch with a short
+/// depth image: sizes were checked before that pointer).
+#[test]
+fn a_null_required_pointer_is_reported_before_a_short_image() {
+    let f = render(DepthConvention::ZeroToOne);
+    let mut g = f.gbuffer_c(false);
+    g.depth.depth.len -= 1;
+    let hiz = refl_ssr_options {
+        method: 1,
+        ..refl_ssr_options_default()
+    };
+    let all = refl_row_range { begin: 0, end: H };
+    // SAFETY: NULL scratch with a length: refused before it is read.
+    let s = unsafe { refl_ssr_prepare(core::ptr::null_mut(), 100, &g, &hiz) };
+    assert_eq!(s, refl_status::NullPointer);
+    let n = (W * H) as usize;
+    let mut texels = vec![refl_ssr_texel::default(); n];
+    let mut stats = refl_ssr_stats::default();
+    let scratch = vec![refl_vec2 { x: 0.0, y: 0.0 }; 100];
+    for (out, host_null, scratch_ptr, what) in [
+        (core::ptr::null_mut(), false, scratch.as_ptr(), "out"),
+        (texels.as_mut_ptr(), true, scratch.as_ptr(), "host"),
+        (texels.as_mut_ptr(), false, core::ptr::null(), "scratch"),
+    ] {
+        let mut host = vec![refl_host_ray::default(); 4];
+        let hp = if host_null {
+            core::ptr::null_mut()
+        } else {
+            host.as_mut_ptr()
+        };
+        // SAFETY: pointers NULL or valid for the lengths given.
+        let s = unsafe {
+            refl_ssr_trace_rows(
+                &mut stats,
+                out,
+                n,
+                common::no_color(),
+                hp,
+                4,
+                &g,
+                &hiz,
+                scratch_ptr,
+                100,
+                all,
+            )
+        };
+        assert_eq!(s, refl_status::NullPointer, "NULL {what}");
+    }
+}
