@@ -1167,8 +1167,10 @@ pub const MAX_LOBE_RAYS: u32 = 64;
 /// The reflected rays of one pixel (seed 003 Sec. 3.5 item 3: "the
 /// reflected rays sample ... a cone with apex at the surface point and with
 /// an axis defined by the reflected ray"; the blend `G(d_i, p.g)` is the
-/// application's BRDF, here a Phong lobe).
+/// application's BRDF, here a Phong lobe). `repr(C)` (a `u32` and two
+/// `f32`), so that a C host's array of lobes is read in place.
 #[derive(Clone, Copy, Debug, PartialEq)]
+#[repr(C)]
 pub struct Lobe {
     /// Rays per pixel: 1 traces the mirror direction only; `2..=64` sample
     /// the lobe (seed: 8..49).
