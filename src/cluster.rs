@@ -224,9 +224,10 @@ impl ClusterFrame {
     }
 }
 
-/// The lobe of an object of material `m` (module docs, step 4).
+/// The lobe of an object of material `m` (module docs, step 4); a mirror
+/// for a material that does not reflect (its pixels are not in the pass).
 fn lobe_of(m: &crate::scene::Material, settings: &ClusterSettings) -> Result<Lobe, Error> {
-    if m.roughness > 0.0 && settings.glossy_rays > 1 {
+    if m.specular > 0.0 && m.roughness > 0.0 && settings.glossy_rays > 1 {
         let exponent = phong_exponent(m.roughness);
         Ok(Lobe {
             rays: settings.glossy_rays,
