@@ -328,7 +328,6 @@ pub(crate) fn reflect_view(eye: Vec3, p: Vec3, n: Vec3) -> Option<(Vec3, Vec3)> 
 
 /// A pixel's surface and mirror direction ([`MirrorPass`] steps 1 to 3).
 #[derive(Clone, Copy, Debug)]
-#[cfg_attr(not(feature = "cluster"), allow(dead_code))]
 pub(crate) struct Reflection {
     /// The surface point.
     pub origin: Vec3,
