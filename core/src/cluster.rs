@@ -33,6 +33,11 @@
 //!    misses are reported with a direction for the host's environment
 //!    lookup (callback-free fallback).
 //!
+//! The cluster pass ([`ClusterPass`], module `pass`) is this pipeline
+//! over a G-buffer as one plan call per frame and one finalize call per
+//! cluster and row band, with the glue (surfaces, rays, host rays, the
+//! finalize input) in refl-core.
+//!
 //! # Conventions
 //!
 //! Positions and normals are world space; a pixel's normal is unit length

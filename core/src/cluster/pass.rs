@@ -86,10 +86,10 @@ use crate::{
 };
 use glam::{Vec3, Vec4};
 
-/// Settings of the cluster pass. [`ClusterPassOptions::default`] is the
-/// setting `refl report` runs the cluster method with (its default
-/// `cluster` row: gain 64, the far plane and thickness of the room's
-/// diameter scale).
+/// Settings of the cluster pass. [`ClusterPassOptions::default`] has the
+/// gain and thickness `refl report` runs the cluster method with (gain 64,
+/// thickness 0.005 of the far distance, which the report sets to the scene
+/// diameter; set [`ClusterCameraOptions::far_distance`] to yours).
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct ClusterPassOptions {
     /// Clustering (seed 003 Sec. 3.2).
