@@ -11,11 +11,15 @@
 //  * first pass (not timed, shared): G-buffer from Embree primary rays;
 //  * Embree: scene build + commit (the per-frame rebuild) and one
 //    rtcIntersect1 per reflective pixel;
-//  * refl: refl_cluster_count_objects / _bin_layout / _assign / _ranges
-//    (clustering), refl_cluster_build_camera per cluster (cameras), a
-//    z-buffer rasterizer written here with object-level frustum culling
-//    (depth images, one cluster at a time, buffers reused: what a host's
-//    GPU would do), refl_cluster_finalize (intersection).
+//  * refl: the cluster pass. refl_cluster_plan_len and refl_cluster_plan
+//    (clustering and cameras, one call, from the G-buffer: linear depth,
+//    normals, object ids, one lobe per reflective object), a z-buffer
+//    rasterizer written here with object-level culling against the plan's
+//    frustum and clip planes (depth images, one cluster at a time, buffers
+//    reused: what a host's GPU would do), refl_cluster_finalize_rows per
+//    cluster over its rows (intersection). The host calls: 3 per frame and
+//    1 per cluster (before the pass: 6 per frame and 2 per cluster, with
+//    the finalize input, surface positions and culling math written here).
 //
 // Correctness (asserted): every texel's color is its object's id color,
 // so a pixel's finalized color names the object its reflected ray found;
@@ -26,6 +30,7 @@
 #include <cmath>
 #include <cstdio>
 #include <cstring>
+#include <limits>
 #include <string>
 #include <vector>
 
@@ -111,9 +116,10 @@ struct Proj {
 };
 
 // The z-buffer of one cluster camera: linear depth (+inf: empty) and the
-// object id per texel; the clip plane keeps n.p + d > 0.
-void rasterize(const World& w, const refl_camera& cam, const refl_plane& clip, int skip_object,
-               std::vector<float>& depth, std::vector<uint32_t>& object) {
+// object id per texel; the clip plane keeps n.p + d > 0; objects entirely
+// outside one of the frustum planes (the plan's) are culled.
+void rasterize(const World& w, const refl_camera& cam, const refl_plane& clip, const refl_vec4 (&frustum)[6],
+               int skip_object, std::vector<float>& depth, std::vector<uint32_t>& object) {
     const Proj pr(cam);
     const uint32_t cw = cam.width, ch = cam.height;
     depth.assign(size_t(cw) * ch, std::numeric_limits<float>::infinity());
@@ -121,22 +127,17 @@ void rasterize(const World& w, const refl_camera& cam, const refl_plane& clip, i
     const double nx = clip.normal.x, ny = clip.normal.y, nz = clip.normal.z, nd = clip.d;
     for (size_t k = 0; k < w.meshes.size(); ++k) {
         if (int(k) == skip_object) continue;
-        // Object culling: all corners behind the clip plane, or beyond one
-        // side of the frustum.
-        int behind = 0, out[5] = {0, 0, 0, 0, 0};
+        // Object culling: all corners behind the clip plane, or outside one
+        // frustum plane.
+        int behind = 0, out[6] = {0, 0, 0, 0, 0, 0};
         for (int c = 0; c < 8; ++c) {
             const float p[3] = {float((c & 1) ? w.hi[k].x : w.lo[k].x), float((c & 2) ? w.hi[k].y : w.lo[k].y),
                                 float((c & 4) ? w.hi[k].z : w.lo[k].z)};
             behind += (nx * p[0] + ny * p[1] + nz * p[2] + nd) <= 0.0;
-            const V3 v = pr.view(p);
-            const double z = -v.z;
-            out[0] += z < pr.near_z;
-            out[1] += v.x > z * pr.tx;
-            out[2] += -v.x > z * pr.tx;
-            out[3] += v.y > z * pr.ty;
-            out[4] += -v.y > z * pr.ty;
+            for (int f = 0; f < 6; ++f)
+                out[f] += frustum[f].x * p[0] + frustum[f].y * p[1] + frustum[f].z * p[2] + frustum[f].w < 0.0f;
         }
-        if (behind == 8 || std::any_of(out, out + 5, [](int o) { return o == 8; })) continue;
+        if (behind == 8 || std::any_of(out, out + 6, [](int o) { return o == 8; })) continue;
         const Mesh& m = w.meshes[k];
         for (size_t t = 0; t < m.triangle_count(); ++t) {
             // Clip (world: clip plane; view: near plane), Sutherland-Hodgman.
@@ -226,9 +227,8 @@ RTCScene build_scene(RTCDevice device, const std::vector<Mesh>& meshes, RTCBuild
 }
 
 struct Row {
-    size_t triangles = 0, reflective = 0, clusters = 0, cameras = 0, agree = 0, fallbacks = 0;
-    double rebuild_medium_ms = 0, rebuild_ms = 0, embree_trace_ms = 0, clustering_ms = 0, cameras_ms = 0, raster_ms = 0,
-           finalize_ms = 0;
+    size_t triangles = 0, reflective = 0, clusters = 0, cameras = 0, agree = 0, fallbacks = 0, host_rays = 0;
+    double rebuild_medium_ms = 0, rebuild_ms = 0, embree_trace_ms = 0, plan_ms = 0, raster_ms = 0, finalize_ms = 0;
 };
 
 Row run(RTCDevice device, size_t target) {
@@ -256,6 +256,7 @@ Row run(RTCDevice device, size_t target) {
                  REFL_STATUS_OK);
     const size_t N = size_t(W) * H;
     std::vector<refl_vec3> pos(N, refl_vec3{0, 0, 0}), nrm(N, refl_vec3{0, 1, 0});
+    std::vector<float> depth_g(N, std::numeric_limits<float>::infinity());
     std::vector<uint32_t> obj(N, 0xFFFFFFFFu);
     for (uint32_t y = 0; y < H; ++y) {
         for (uint32_t x = 0; x < W; ++x) {
@@ -270,6 +271,7 @@ Row run(RTCDevice device, size_t target) {
             if (h.geom == 1) n = (1.0 / scene::length(p - V3{0.0, 1.0, -1.0})) * (p - V3{0.0, 1.0, -1.0});
             pos[i] = {float(p.x), float(p.y), float(p.z)};
             nrm[i] = {float(n.x), float(n.y), float(n.z)};
+            REQUIRE(refl_camera_linear_depth(&depth_g[i], &cam, pos[i]) == REFL_STATUS_OK);
             obj[i] = h.geom;
             ++row.reflective;
         }
@@ -290,77 +292,76 @@ Row run(RTCDevice device, size_t target) {
     }
     row.embree_trace_ms = ms_since(t0);
 
-    // refl: clustering.
-    const refl_image_vec3 pv{pos.data(), N, W, H, W}, nv{nrm.data(), N, W, H, W};
-    const refl_image_u32 ov{obj.data(), N, W, H, W};
-    refl_cluster_options cp = refl_cluster_options_default();
-    cp.gain = 64.0f;
+    // refl: the plan (clustering, cameras, frusta, resolutions).
+    refl_gbuffer gb{};
+    gb.depth = {{depth_g.data(), N, W, H, W}, cam, REFL_DEPTH_CONVENTION_LINEAR};
+    gb.normals = {nrm.data(), N, W, H, W};
+    gb.normal_space = REFL_NORMAL_SPACE_WORLD;
+    gb.mask = {nullptr, 0, 0, 0, 0};
+    gb.roughness = {nullptr, 0, 0, 0, 0};
+    gb.color = {nullptr, 0, 0, 0, 0};
+    gb.back_depth = {nullptr, 0, 0, 0, 0};
+    // Objects 0 and 1 are mirrors; every other id is not reflective.
+    const refl_cluster_lobe lobes[2] = {{1, 0.0f, 0.0f}, {1, 0.0f, 0.0f}};
+    const refl_cluster_objects objects{{obj.data(), N, W, H, W}, lobes, 2};
+    refl_cluster_pass_options po = refl_cluster_pass_options_default();
+    po.cluster.gain = 64.0f;
+    po.camera.far_distance = 30.0f;
+    po.thickness = 0.05f / po.camera.far_distance;
     t0 = Clock::now();
-    std::vector<uint32_t> counts(w.meshes.size(), 0);
-    CHECK_STATUS(refl_cluster_count_objects(counts.data(), counts.size(), ov, refl_row_range{0, H}), REFL_STATUS_OK);
-    std::vector<refl_cluster_object_bins> layout(counts.size());
-    uint32_t bins = 0;
-    CHECK_STATUS(refl_cluster_bin_layout(&bins, layout.data(), layout.size(), counts.data(), counts.size(), N, &cp),
+    refl_cluster_plan_sizes sizes{};
+    CHECK_STATUS(refl_cluster_plan_len(&sizes, &gb, &objects, &po), REFL_STATUS_OK);
+    std::vector<uint32_t> scratch(sizes.scratch_len);
+    std::vector<refl_cluster_plan_entry> clusters(sizes.clusters_len);
+    refl_cluster_plan_stats plan{};
+    CHECK_STATUS(refl_cluster_plan(&plan, clusters.data(), clusters.size(), scratch.data(), scratch.size(), &gb,
+                                   &objects, &po),
                  REFL_STATUS_OK);
-    std::vector<uint32_t> ids(N);
-    CHECK_STATUS(refl_cluster_assign({ids.data(), N, W, H, W}, refl_row_range{0, H}, nv, ov, layout.data(),
-                                     layout.size()),
-                 REFL_STATUS_OK);
-    std::vector<uint32_t> offsets(bins + 1), order(N);
-    uint32_t clustered = 0;
-    CHECK_STATUS(refl_cluster_ranges(&clustered, offsets.data(), offsets.size(), order.data(), order.size(),
-                                     {ids.data(), N, W, H, W}, bins),
-                 REFL_STATUS_OK);
-    row.clustering_ms = ms_since(t0);
-    CHECK_EQ(size_t(clustered), row.reflective);
+    row.plan_ms = ms_since(t0);
+    CHECK_EQ(size_t(plan.pixels), row.reflective);
+    row.clusters = plan.clusters;
+    row.cameras = plan.cameras;
 
-    refl_cluster_camera_options kp = refl_cluster_camera_options_default();
-    kp.far_distance = 30.0f;
-    const refl_cluster_finalize_input fp{{0.05f, {nullptr, 0, 0, 0, 0}}, {1, 0xFFFFFFFFu}, true, {1, 0.0f, 0.0f},
-                                          false, 0};
     std::vector<float> depth;
     std::vector<uint32_t> texel_obj;
     std::vector<refl_vec3> color;
-    std::vector<refl_cluster_shade> shades;
-    for (uint32_t c = 0; c < bins; ++c) {
-        const uint32_t* px = order.data() + offsets[c];
-        const size_t count = offsets[c + 1] - offsets[c];
-        if (count == 0) continue;
-        ++row.clusters;
-        t0 = Clock::now();
-        refl_cluster_camera cc;
-        CHECK_STATUS(refl_cluster_build_camera(&cc, pv, nv, px, count, refl_vec3{float(eye.x), float(eye.y), float(eye.z)},
-                                               &kp),
-                     REFL_STATUS_OK);
-        row.cameras_ms += ms_since(t0);
-        if (cc.fallback != REFL_CLUSTER_FALLBACK_NONE) {
-            for (size_t k = 0; k < count; ++k) {
-                ++row.fallbacks;
-                row.agree += embree_obj[px[k]] == 0xFFFFFFFFu;
-            }
-            continue;
+    std::vector<refl_cluster_texel> texels(N);
+    std::vector<refl_host_ray> host(N);
+    const uint32_t* order = scratch.data() + N;
+    for (uint32_t c = 0; c < plan.clusters; ++c) {
+        const refl_cluster_plan_entry& e = clusters[c];
+        const uint32_t* px = order + e.first;
+        refl_cluster_stats st{};
+        if (e.camera.fallback != REFL_CLUSTER_FALLBACK_NONE) {
+            // No camera: the pass hands every pixel to the host.
+            CHECK_STATUS(refl_cluster_finalize_rows(&st, texels.data(), N, host.data(), N, &gb, &po, scratch.data(),
+                                                    scratch.size(), &e, nullptr, e.rows),
+                         REFL_STATUS_OK);
+        } else {
+            t0 = Clock::now();
+            rasterize(w, e.camera.camera, e.camera.clip, e.frustum, e.camera.planar ? int(e.object) : -1, depth,
+                      texel_obj);
+            color.resize(depth.size());
+            for (size_t i = 0; i < depth.size(); ++i)
+                color[i] = texel_obj[i] == 0xFFFFFFFFu ? refl_vec3{0, 0, 0} : object_color(texel_obj[i]);
+            row.raster_ms += ms_since(t0);
+            const uint32_t dw = e.camera.camera.width, dh = e.camera.camera.height;
+            const refl_cluster_render render{{{depth.data(), depth.size(), dw, dh, dw}, e.camera.camera,
+                                              REFL_DEPTH_CONVENTION_LINEAR},
+                                             {color.data(), color.size(), dw, dh, dw},
+                                             {nullptr, 0, 0, 0, 0}};
+            t0 = Clock::now();
+            CHECK_STATUS(refl_cluster_finalize_rows(&st, texels.data(), N, host.data(), N, &gb, &po, scratch.data(),
+                                                    scratch.size(), &e, &render, e.rows),
+                         REFL_STATUS_OK);
+            row.finalize_ms += ms_since(t0);
         }
-        ++row.cameras;
-        t0 = Clock::now();
-        rasterize(w, cc.camera, cc.clip, cc.planar ? int(obj[px[0]]) : -1, depth, texel_obj);
-        color.resize(depth.size());
-        for (size_t i = 0; i < depth.size(); ++i)
-            color[i] = texel_obj[i] == 0xFFFFFFFFu ? refl_vec3{0, 0, 0} : object_color(texel_obj[i]);
-        row.raster_ms += ms_since(t0);
-        const uint32_t dw = cc.camera.width, dh = cc.camera.height;
-        const refl_depth_image di{{depth.data(), depth.size(), dw, dh, dw}, cc.camera, REFL_DEPTH_CONVENTION_LINEAR};
-        shades.resize(count);
-        uint32_t fell = 0;
-        t0 = Clock::now();
-        CHECK_STATUS(refl_cluster_finalize(&fell, shades.data(), count, pv, nv, px, count,
-                                           refl_vec3{float(eye.x), float(eye.y), float(eye.z)}, &cc, &di,
-                                           {color.data(), color.size(), dw, dh, dw}, &fp),
-                     REFL_STATUS_OK);
-        row.finalize_ms += ms_since(t0);
-        row.fallbacks += fell;
-        for (size_t k = 0; k < count; ++k) {
-            const refl_cluster_shade& sh = shades[k];
+        CHECK_EQ(st.pixels, e.len);
+        row.host_rays += st.host_rays;
+        for (size_t k = 0; k < e.len; ++k) {
+            const refl_cluster_shade& sh = texels[px[k]].shade;
             const uint32_t want = embree_obj[px[k]];
+            row.fallbacks += sh.env_weight > 0.0f;
             if (sh.hits == 0) {
                 row.agree += want == 0xFFFFFFFFu;
                 continue;
@@ -384,22 +385,21 @@ int main(int argc, char** argv) {
 #ifdef REFL_SANITIZE
     sizes = {10000};
 #endif
-    std::printf("cluster_embree: %ux%u, single thread; Embree frame = rebuild + trace; cluster frame = clustering + "
-                "cameras + depth images (C++ z-buffer) + intersection\n",
+    std::printf("cluster_embree: %ux%u, single thread; Embree frame = rebuild + trace; cluster frame = plan "
+                "(clustering + cameras) + depth images (C++ z-buffer) + intersection\n",
                 W, H);
     std::printf("| triangles | reflective px | clusters (cameras) | Embree rebuild LOW ms (MEDIUM) | Embree trace ms | "
-                "clustering ms | cameras ms | depth images ms | intersection ms | (rebuild LOW+trace)/cluster | agree | "
-                "fallback |\n");
+                "plan ms | depth images ms | intersection ms | (rebuild LOW+trace)/cluster | agree | fallback | "
+                "host rays |\n");
     for (size_t target : sizes) {
         const Row r = run(dev.device, target);
-        const double cluster = r.clustering_ms + r.cameras_ms + r.raster_ms + r.finalize_ms;
+        const double cluster = r.plan_ms + r.raster_ms + r.finalize_ms;
         const double agree = double(r.agree) / double(std::max<size_t>(1, r.reflective));
-        std::printf("| %zu | %zu | %zu (%zu) | %.2f (%.2f) | %.2f | %.2f | %.2f | %.2f | %.2f | %.2f | %.4f | %.4f |\n",
+        std::printf("| %zu | %zu | %zu (%zu) | %.2f (%.2f) | %.2f | %.2f | %.2f | %.2f | %.2f | %.4f | %.4f | %zu |\n",
                     r.triangles, r.reflective, r.clusters, r.cameras, r.rebuild_ms, r.rebuild_medium_ms,
-                    r.embree_trace_ms,
-                    r.clustering_ms, r.cameras_ms, r.raster_ms, r.finalize_ms,
+                    r.embree_trace_ms, r.plan_ms, r.raster_ms, r.finalize_ms,
                     (r.rebuild_ms + r.embree_trace_ms) / cluster, agree,
-                    double(r.fallbacks) / double(std::max<size_t>(1, r.reflective)));
+                    double(r.fallbacks) / double(std::max<size_t>(1, r.reflective)), r.host_rays);
         CHECK(r.reflective > size_t(W) * H / 10);
         CHECK(r.cameras >= 2);
         // Most reflected rays find the object Embree finds.

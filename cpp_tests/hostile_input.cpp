@@ -3284,6 +3284,346 @@ void planar_functions() {
     }
 }
 
+// The cluster pass: NULL pointers, options out of range, bad lobes, short,
+// misaligned and aliased buffers, ids and renders of another size or
+// camera, damaged plan entries, rows out of range. Every output (sizes,
+// stats, entries, scratch, texels, host rays) must be left untouched.
+void cluster_pass_functions() {
+    const refl_camera cam = good_camera();
+    const uint32_t w = cam.width, h = cam.height;
+    const size_t n = size_t(w) * h;
+    // A floor y = 0 (object 0, a mirror) below the horizon in linear depth.
+    std::vector<float> depth(n, kInf);
+    std::vector<refl_vec3> normals(n, v3(0, 1, 0));
+    std::vector<uint32_t> ids(n, kMax);
+    for (uint32_t y = 0; y < h; ++y)
+        for (uint32_t x = 0; x < w; ++x) {
+            refl_ray r;
+            REQUIRE(refl_camera_primary_ray(&r, &cam, v2(x + 0.5f, y + 0.5f)) == REFL_STATUS_OK);
+            if (r.dir.y >= 0.0f) continue;
+            const float t = -r.origin.y / r.dir.y;
+            const refl_vec3 p = v3(r.origin.x + t * r.dir.x, 0.0f, r.origin.z + t * r.dir.z);
+            REQUIRE(refl_camera_linear_depth(&depth[size_t(y) * w + x], &cam, p) == REFL_STATUS_OK);
+            ids[size_t(y) * w + x] = 0;
+        }
+    const refl_image_f32 none{nullptr, 0, 0, 0, 0};
+    refl_gbuffer gb{};
+    gb.depth = {{depth.data(), n, w, h, w}, cam, REFL_DEPTH_CONVENTION_LINEAR};
+    gb.normals = {normals.data(), n, w, h, w};
+    gb.normal_space = REFL_NORMAL_SPACE_WORLD;
+    gb.mask = {nullptr, 0, 0, 0, 0};
+    gb.roughness = none;
+    gb.color = {nullptr, 0, 0, 0, 0};
+    gb.back_depth = none;
+    const refl_cluster_lobe lobes[1] = {{1, 0.0f, 0.0f}};
+    const refl_cluster_objects objects{{ids.data(), n, w, h, w}, lobes, 1};
+    refl_cluster_pass_options def = refl_cluster_pass_options_default();
+    CHECK(def.cluster.max_theta_bins == 13 && def.thickness > 0.0f && def.refine && !def.fade);
+    def.camera.far_distance = 30.0f;
+
+    // Size query.
+    const refl_cluster_plan_sizes sizes = expect_ok<refl_cluster_plan_sizes>(
+        "cluster plan len", [&](refl_cluster_plan_sizes* o) { return refl_cluster_plan_len(o, &gb, &objects, &def); });
+    CHECK(sizes.scratch_len >= 2 * n && sizes.clusters_len >= 1);
+    expect<refl_cluster_plan_sizes>("cluster plan len NULL gbuffer", REFL_STATUS_NULL_POINTER, [&](refl_cluster_plan_sizes* o) {
+        return refl_cluster_plan_len(o, nullptr, &objects, &def);
+    });
+    expect<refl_cluster_plan_sizes>("cluster plan len NULL objects", REFL_STATUS_NULL_POINTER, [&](refl_cluster_plan_sizes* o) {
+        return refl_cluster_plan_len(o, &gb, nullptr, &def);
+    });
+    expect<refl_cluster_plan_sizes>("cluster plan len NULL options", REFL_STATUS_NULL_POINTER, [&](refl_cluster_plan_sizes* o) {
+        return refl_cluster_plan_len(o, &gb, &objects, nullptr);
+    });
+    struct BadOptions {
+        const char* what;
+        void (*edit)(refl_cluster_pass_options&);
+    };
+    const BadOptions bad_options[] = {
+        {"cluster gain NaN", [](refl_cluster_pass_options& o) { o.cluster.gain = kNaN; }},
+        {"cluster theta bins 0", [](refl_cluster_pass_options& o) { o.cluster.max_theta_bins = 0; }},
+        {"cluster phi bins huge", [](refl_cluster_pass_options& o) { o.cluster.max_phi_bins = kMax; }},
+    };
+    const BadOptions bad_pass_options[] = {
+        {"cluster far NaN", [](refl_cluster_pass_options& o) { o.camera.far_distance = kNaN; }},
+        {"cluster far 0", [](refl_cluster_pass_options& o) { o.camera.far_distance = 0.0f; }},
+        {"cluster cone 2", [](refl_cluster_pass_options& o) { o.camera.cone_half_angle = 2.0f; }},
+        {"cluster min pixels 1", [](refl_cluster_pass_options& o) { o.camera.min_pixels = 1; }},
+        {"cluster thickness NaN", [](refl_cluster_pass_options& o) { o.thickness = kNaN; }},
+        {"cluster thickness -1", [](refl_cluster_pass_options& o) { o.thickness = -1.0f; }},
+        {"cluster stride 0", [](refl_cluster_pass_options& o) { o.step.stride = 0; }},
+        {"cluster t_max 0", [](refl_cluster_pass_options& o) { o.t_max = 0.0f; }},
+        {"cluster t_min inf", [](refl_cluster_pass_options& o) { o.t_min = kInf; }},
+    };
+    for (const BadOptions& b : bad_options) {
+        refl_cluster_pass_options o = def;
+        b.edit(o);
+        expect<refl_cluster_plan_sizes>(b.what, REFL_STATUS_INVALID_ARGUMENT, [&](refl_cluster_plan_sizes* out) {
+            return refl_cluster_plan_len(out, &gb, &objects, &o);
+        });
+    }
+    for (const BadCamera& bc : bad_cameras()) {
+        refl_gbuffer b = gb;
+        b.depth.camera = bc.cam;
+        expect<refl_cluster_plan_sizes>(bc.name, bc.status, [&](refl_cluster_plan_sizes* o) {
+            return refl_cluster_plan_len(o, &b, &objects, &def);
+        });
+    }
+
+    // Plan: stats, entries and scratch untouched on error.
+    auto plan = [&](const char* what, refl_status want, const refl_gbuffer* g, const refl_cluster_objects* ob,
+                    const refl_cluster_pass_options* o, size_t clusters_len, size_t scratch_len,
+                    bool null_clusters = false, bool null_scratch = false) {
+        std::vector<refl_cluster_plan_entry> list(sizes.clusters_len + 1);
+        std::memset(static_cast<void*>(list.data()), 0x5A, list.size() * sizeof(refl_cluster_plan_entry));
+        std::vector<uint32_t> scratch(sizes.scratch_len + 1, 0xA5A5A5A5u);
+        expect<refl_cluster_plan_stats>(what, want, [&](refl_cluster_plan_stats* st) {
+            return refl_cluster_plan(st, null_clusters ? nullptr : list.data(), clusters_len,
+                                     null_scratch ? nullptr : scratch.data(), scratch_len, g, ob, o);
+        }, false);
+        bool untouched = true;
+        const unsigned char* lb = reinterpret_cast<const unsigned char*>(list.data());
+        for (size_t i = 0; i < list.size() * sizeof(refl_cluster_plan_entry); ++i) untouched = untouched && lb[i] == 0x5A;
+        for (uint32_t v : scratch) untouched = untouched && v == 0xA5A5A5A5u;
+        CHECK(untouched);
+    };
+    std::vector<refl_cluster_plan_entry> clusters(sizes.clusters_len);
+    std::vector<uint32_t> scratch(sizes.scratch_len);
+    const refl_cluster_plan_stats ps = expect_ok<refl_cluster_plan_stats>("cluster plan", [&](refl_cluster_plan_stats* st) {
+        return refl_cluster_plan(st, clusters.data(), clusters.size(), scratch.data(), scratch.size(), &gb, &objects, &def);
+    });
+    CHECK(ps.clusters >= 1 && ps.cameras >= 1 && ps.pixels > n / 4);
+    CHECK_STATUS(refl_cluster_plan(nullptr, clusters.data(), clusters.size(), scratch.data(), scratch.size(), &gb,
+                                   &objects, &def),
+                 REFL_STATUS_NULL_POINTER);
+    const size_t cl = sizes.clusters_len, sl = sizes.scratch_len;
+    plan("cluster plan NULL clusters", REFL_STATUS_NULL_POINTER, &gb, &objects, &def, cl, sl, true);
+    plan("cluster plan NULL scratch", REFL_STATUS_NULL_POINTER, &gb, &objects, &def, cl, sl, false, true);
+    plan("cluster plan NULL gbuffer", REFL_STATUS_NULL_POINTER, nullptr, &objects, &def, cl, sl);
+    plan("cluster plan NULL objects", REFL_STATUS_NULL_POINTER, &gb, nullptr, &def, cl, sl);
+    plan("cluster plan NULL options", REFL_STATUS_NULL_POINTER, &gb, &objects, nullptr, cl, sl);
+    plan("cluster plan short clusters", REFL_STATUS_INSUFFICIENT_SIZE, &gb, &objects, &def, cl - 1, sl);
+    plan("cluster plan short scratch", REFL_STATUS_INSUFFICIENT_SIZE, &gb, &objects, &def, cl, sl - 1);
+    plan("cluster plan overflowing clusters_len", REFL_STATUS_INVALID_ARGUMENT, &gb, &objects, &def, SIZE_MAX / 2, sl);
+    for (const BadOptions& b : bad_options) {
+        refl_cluster_pass_options o = def;
+        b.edit(o);
+        plan(b.what, REFL_STATUS_INVALID_ARGUMENT, &gb, &objects, &o, cl, sl);
+    }
+    for (const BadOptions& b : bad_pass_options) {
+        refl_cluster_pass_options o = def;
+        b.edit(o);
+        plan(b.what, REFL_STATUS_INVALID_ARGUMENT, &gb, &objects, &o, cl, sl);
+    }
+    {
+        refl_cluster_objects ob = objects;
+        ob.lobes = nullptr;
+        plan("cluster plan NULL lobes", REFL_STATUS_NULL_POINTER, &gb, &ob, &def, cl, sl);
+        const refl_cluster_lobe bad_lobes[4][1] = {
+            {{0, 0.0f, 0.0f}}, {{65, 1.0f, 0.5f}}, {{8, kNaN, 0.5f}}, {{8, 10.0f, 2.0f}}};
+        for (const auto& bl : bad_lobes) {
+            ob = objects;
+            ob.lobes = bl;
+            plan("cluster plan bad lobe", REFL_STATUS_INVALID_ARGUMENT, &gb, &ob, &def, cl, sl);
+        }
+        ob = objects;
+        ob.lobes = reinterpret_cast<const refl_cluster_lobe*>(reinterpret_cast<const char*>(lobes) + 1);
+        plan("cluster plan misaligned lobes", REFL_STATUS_INVALID_ARGUMENT, &gb, &ob, &def, cl, sl);
+        ob = objects;
+        ob.ids.width = w - 1;
+        plan("cluster plan ids of another size", REFL_STATUS_INVALID_ARGUMENT, &gb, &ob, &def, cl, sl);
+        ob = objects;
+        ob.ids.len = n - 1;
+        plan("cluster plan short ids", REFL_STATUS_INSUFFICIENT_SIZE, &gb, &ob, &def, cl, sl);
+        ob = objects;
+        ob.ids.data = nullptr;
+        plan("cluster plan NULL ids", REFL_STATUS_NULL_POINTER, &gb, &ob, &def, cl, sl);
+        refl_gbuffer b = gb;
+        for (uint32_t c : kBadConventions) {
+            b.depth.convention = c;
+            plan("cluster plan bad convention", REFL_STATUS_INVALID_ARGUMENT, &b, &objects, &def, cl, sl);
+        }
+        b = gb;
+        b.normal_space = 2;
+        plan("cluster plan bad normal space", REFL_STATUS_INVALID_ARGUMENT, &b, &objects, &def, cl, sl);
+        b = gb;
+        b.normals.len = n - 1;
+        plan("cluster plan short normals", REFL_STATUS_INSUFFICIENT_SIZE, &b, &objects, &def, cl, sl);
+        for (const BadCamera& bc : bad_cameras()) {
+            b = gb;
+            b.depth.camera = bc.cam;
+            plan(bc.name, bc.status, &b, &objects, &def, cl, sl);
+        }
+        // The scratch over the ids it reads; the entries over the scratch.
+        std::vector<uint32_t> big(sl + n, 0u);
+        for (size_t i = 0; i < n; ++i) big[i] = ids[i];
+        ob = objects;
+        ob.ids.data = big.data();
+        refl_cluster_plan_stats st{};
+        CHECK_STATUS(refl_cluster_plan(&st, clusters.data(), clusters.size(), big.data(), sl, &gb, &ob, &def),
+                     REFL_STATUS_INVALID_ARGUMENT);
+        bool same = true;
+        for (size_t i = 0; i < n; ++i) same = same && big[i] == ids[i];
+        for (size_t i = n; i < big.size(); ++i) same = same && big[i] == 0u;
+        CHECK(same);
+        CHECK_STATUS(refl_cluster_plan(&st, reinterpret_cast<refl_cluster_plan_entry*>(big.data()), 1, big.data(),
+                                       sl, &gb, &objects, &def),
+                     REFL_STATUS_INSUFFICIENT_SIZE);
+        // The scratch over the entries (both outputs).
+        std::vector<uint32_t> both(sl + cl * sizeof(refl_cluster_plan_entry) / sizeof(uint32_t) + 4, 7u);
+        CHECK_STATUS(refl_cluster_plan(&st, reinterpret_cast<refl_cluster_plan_entry*>(both.data()), cl, both.data(),
+                                       sl, &gb, &objects, &def),
+                     REFL_STATUS_INVALID_ARGUMENT);
+        bool sevens = true;
+        for (uint32_t v : both) sevens = sevens && v == 7u;
+        CHECK(sevens);
+    }
+
+    // Finalize: an entry with a camera and a render of its size (every
+    // texel a surface at linear depth 5), every output prefilled.
+    const refl_cluster_plan_entry* withcam = nullptr;
+    for (uint32_t c = 0; c < ps.clusters; ++c)
+        if (clusters[c].camera.fallback == REFL_CLUSTER_FALLBACK_NONE) withcam = &clusters[c];
+    REQUIRE(withcam != nullptr);
+    const refl_cluster_plan_entry e = *withcam;
+    const uint32_t rw = e.camera.camera.width, rh = e.camera.camera.height;
+    const size_t rn = size_t(rw) * rh;
+    std::vector<float> rdepth(rn, 5.0f);
+    std::vector<refl_vec3> rcolor(rn, v3(0.2f, 0.4f, 0.6f));
+    const refl_cluster_render render{{{rdepth.data(), rn, rw, rh, rw}, e.camera.camera, REFL_DEPTH_CONVENTION_LINEAR},
+                                     {rcolor.data(), rn, rw, rh, rw},
+                                     none};
+    auto finalize = [&](const char* what, refl_status want, const refl_gbuffer* g, const refl_cluster_pass_options* o,
+                        const uint32_t* sc, size_t sc_len, const refl_cluster_plan_entry* entry,
+                        const refl_cluster_render* r, refl_row_range rows, size_t out_len, bool null_out = false,
+                        size_t host_len = 16, bool null_host = false) {
+        std::vector<refl_cluster_texel> out(n + 1);
+        std::memset(static_cast<void*>(out.data()), 0x5A, out.size() * sizeof(refl_cluster_texel));
+        std::vector<refl_host_ray> host(16);
+        std::memset(static_cast<void*>(host.data()), 0x6B, host.size() * sizeof(refl_host_ray));
+        expect<refl_cluster_stats>(what, want, [&](refl_cluster_stats* st) {
+            return refl_cluster_finalize_rows(st, null_out ? nullptr : out.data(), out_len,
+                                              null_host ? nullptr : host.data(), host_len, g, o, sc, sc_len, entry, r,
+                                              rows);
+        }, false);
+        bool untouched = true;
+        const unsigned char* ob = reinterpret_cast<const unsigned char*>(out.data());
+        for (size_t i = 0; i < out.size() * sizeof(refl_cluster_texel); ++i) untouched = untouched && ob[i] == 0x5A;
+        const unsigned char* hb = reinterpret_cast<const unsigned char*>(host.data());
+        for (size_t i = 0; i < host.size() * sizeof(refl_host_ray); ++i) untouched = untouched && hb[i] == 0x6B;
+        CHECK(untouched);
+    };
+    const uint32_t* sc = scratch.data();
+    const refl_cluster_stats fs = expect_ok<refl_cluster_stats>("cluster finalize", [&](refl_cluster_stats* st) {
+        std::vector<refl_cluster_texel> out(n);
+        std::vector<refl_host_ray> host(n);
+        return refl_cluster_finalize_rows(st, out.data(), n, host.data(), n, &gb, &def, sc, sl, &e, &render, e.rows);
+    });
+    CHECK_EQ(fs.pixels, e.len);
+    CHECK_STATUS(refl_cluster_finalize_rows(nullptr, nullptr, n, nullptr, 0, &gb, &def, sc, sl, &e, &render, e.rows),
+                 REFL_STATUS_NULL_POINTER);
+    finalize("cluster finalize NULL out", REFL_STATUS_NULL_POINTER, &gb, &def, sc, sl, &e, &render, e.rows, n, true);
+    finalize("cluster finalize NULL host", REFL_STATUS_NULL_POINTER, &gb, &def, sc, sl, &e, &render, e.rows, n, false,
+             16, true);
+    finalize("cluster finalize NULL gbuffer", REFL_STATUS_NULL_POINTER, nullptr, &def, sc, sl, &e, &render, e.rows, n);
+    finalize("cluster finalize NULL options", REFL_STATUS_NULL_POINTER, &gb, nullptr, sc, sl, &e, &render, e.rows, n);
+    finalize("cluster finalize NULL scratch", REFL_STATUS_NULL_POINTER, &gb, &def, nullptr, sl, &e, &render, e.rows, n);
+    finalize("cluster finalize NULL cluster", REFL_STATUS_NULL_POINTER, &gb, &def, sc, sl, nullptr, &render, e.rows, n);
+    finalize("cluster finalize NULL render", REFL_STATUS_NULL_POINTER, &gb, &def, sc, sl, &e, nullptr, e.rows, n);
+    finalize("cluster finalize short out", REFL_STATUS_INSUFFICIENT_SIZE, &gb, &def, sc, sl, &e, &render, e.rows,
+             n - 1);
+    finalize("cluster finalize short scratch", REFL_STATUS_INSUFFICIENT_SIZE, &gb, &def, sc, 2 * n - 1, &e, &render,
+             e.rows, n);
+    finalize("cluster finalize reversed rows", REFL_STATUS_INVALID_ARGUMENT, &gb, &def, sc, sl, &e, &render, {3, 2}, n);
+    finalize("cluster finalize rows past the end", REFL_STATUS_INVALID_ARGUMENT, &gb, &def, sc, sl, &e, &render,
+             {0, h + 1}, n);
+    for (const BadOptions& b : bad_pass_options) {
+        refl_cluster_pass_options o = def;
+        b.edit(o);
+        finalize(b.what, REFL_STATUS_INVALID_ARGUMENT, &gb, &o, sc, sl, &e, &render, e.rows, n);
+    }
+    {
+        // Damaged entries.
+        struct BadEntry {
+            const char* what;
+            void (*edit)(refl_cluster_plan_entry&);
+        };
+        const BadEntry bad_entries[] = {
+            {"cluster entry centroid NaN", [](refl_cluster_plan_entry& x) { x.camera.centroid.x = kNaN; }},
+            {"cluster entry normal 0", [](refl_cluster_plan_entry& x) { x.camera.normal = v3(0, 0, 0); }},
+            {"cluster entry far inf", [](refl_cluster_plan_entry& x) { x.camera.far_distance = kInf; }},
+            {"cluster entry clip NaN", [](refl_cluster_plan_entry& x) { x.camera.clip.d = kNaN; }},
+            {"cluster entry camera NaN", [](refl_cluster_plan_entry& x) { x.camera.camera.fov_y = kNaN; }},
+            {"cluster entry unknown fallback", [](refl_cluster_plan_entry& x) { x.camera.fallback = 99; }},
+            {"cluster entry lobe 0 rays", [](refl_cluster_plan_entry& x) { x.lobe.rays = 0; }},
+            {"cluster entry lobe NaN", [](refl_cluster_plan_entry& x) { x.lobe = {8, kNaN, 0.5f}; }},
+            {"cluster entry pixels past the plan", [](refl_cluster_plan_entry& x) { x.first = kMax - 1; }},
+            {"cluster entry rows reversed", [](refl_cluster_plan_entry& x) { x.rows = {3, 2}; }},
+        };
+        for (const BadEntry& b : bad_entries) {
+            refl_cluster_plan_entry x = e;
+            b.edit(x);
+            finalize(b.what, REFL_STATUS_INVALID_ARGUMENT, &gb, &def, sc, sl, &x, &render, {0, h}, n);
+        }
+        // Renders of another camera or size.
+        refl_cluster_render r = render;
+        r.depth.camera.view.m[12] += 0.25f;
+        finalize("cluster finalize render of another camera", REFL_STATUS_INVALID_ARGUMENT, &gb, &def, sc, sl, &e, &r,
+                 e.rows, n);
+        r = render;
+        r.depth.camera.width += 1;
+        finalize("cluster finalize render of another size", REFL_STATUS_INVALID_ARGUMENT, &gb, &def, sc, sl, &e, &r,
+                 e.rows, n);
+        r = render;
+        r.color.height = rh - 1;
+        finalize("cluster finalize color of another size", REFL_STATUS_INVALID_ARGUMENT, &gb, &def, sc, sl, &e, &r,
+                 e.rows, n);
+        std::vector<float> tiny(4, 1.0f);
+        r = render;
+        r.back_depth = {tiny.data(), 4, 2, 2, 2};
+        finalize("cluster finalize back faces of another size", REFL_STATUS_INVALID_ARGUMENT, &gb, &def, sc, sl, &e, &r,
+                 e.rows, n);
+        r = render;
+        r.depth.depth.data = nullptr;
+        finalize("cluster finalize NULL render depth", REFL_STATUS_NULL_POINTER, &gb, &def, sc, sl, &e, &r, e.rows, n);
+        r = render;
+        r.color.len = rn - 1;
+        finalize("cluster finalize short render color", REFL_STATUS_INSUFFICIENT_SIZE, &gb, &def, sc, sl, &e, &r,
+                 e.rows, n);
+        for (uint32_t c : kBadConventions) {
+            r = render;
+            r.depth.convention = c;
+            finalize("cluster finalize bad convention", REFL_STATUS_INVALID_ARGUMENT, &gb, &def, sc, sl, &e, &r, e.rows,
+                     n);
+        }
+        // A G-buffer that lost the cluster's surfaces (NaN normals).
+        std::vector<refl_vec3> nan_normals(n, v3(kNaN, 0, 0));
+        refl_gbuffer b = gb;
+        b.normals.data = nan_normals.data();
+        finalize("cluster finalize G-buffer without surfaces", REFL_STATUS_INVALID_ARGUMENT, &b, &def, sc, sl, &e,
+                 &render, e.rows, n);
+        // A damaged pixel list (an index past the image).
+        std::vector<uint32_t> bad_scratch(scratch);
+        bad_scratch[n + e.first] = kMax;
+        finalize("cluster finalize damaged pixel list", REFL_STATUS_INVALID_ARGUMENT, &gb, &def, bad_scratch.data(), sl,
+                 &e, &render, {0, h}, n);
+        // Misaligned texels; texels over the scratch (the pixel lists) they read.
+        std::vector<refl_cluster_texel> out(n + 1);
+        refl_cluster_stats st{};
+        CHECK_STATUS(refl_cluster_finalize_rows(
+                         &st, reinterpret_cast<refl_cluster_texel*>(reinterpret_cast<char*>(out.data()) + 1), n, nullptr,
+                         0, &gb, &def, sc, sl, &e, &render, e.rows),
+                     REFL_STATUS_INVALID_ARGUMENT);
+        std::vector<uint32_t> big(n * (sizeof(refl_cluster_texel) / sizeof(uint32_t) + 1), 0u);
+        for (size_t i = 0; i < sl; ++i) big[i] = scratch[i];
+        CHECK_STATUS(refl_cluster_finalize_rows(&st, reinterpret_cast<refl_cluster_texel*>(big.data()), n, nullptr, 0,
+                                                &gb, &def, big.data(), sl, &e, &render, e.rows),
+                     REFL_STATUS_INVALID_ARGUMENT);
+        bool same = true;
+        for (size_t i = 0; i < sl; ++i) same = same && big[i] == scratch[i];
+        CHECK(same);
+    }
+}
+
 int main() {
     status_strings();
     camera_functions();
@@ -3300,5 +3640,6 @@ int main() {
     ssr_functions();
     glossy_functions();
     planar_functions();
+    cluster_pass_functions();
     return check::finish("hostile_input");
 }

@@ -528,6 +528,12 @@ enum refl_cluster_fallback
      * The rays span more than a pinhole frustum holds.
      */
     REFL_CLUSTER_FALLBACK_TOO_WIDE = 4,
+    /**
+     * The camera is not representable (f32 overflow, a degenerate
+     * frustum); only `refl_cluster_plan` records it (`refl_cluster_build_camera`
+     * returns `REFL_STATUS_DEGENERATE_GEOMETRY` instead).
+     */
+    REFL_CLUSTER_FALLBACK_DEGENERATE = 5,
 };
 #ifndef __cplusplus
 #if __STDC_VERSION__ >= 202311L
@@ -3100,6 +3106,242 @@ typedef struct refl_planar_render {
 } refl_planar_render;
 
 /**
+ * Settings of the cluster pass; `refl_cluster_pass_options_default` gives
+ * the defaults.
+ */
+typedef struct refl_cluster_pass_options {
+    /**
+     * Clustering (seed 003 Sec. 3.2). Default: 13 x 8 bins, gain 64.
+     */
+    struct refl_cluster_options cluster;
+    /**
+     * Cluster cameras (Sec. 3.3); `cone_half_angle` is the least one (a
+     * glossy object's lobe widens it to its `max_angle`). Default:
+     * `refl_cluster_camera_options_default`.
+     */
+    struct refl_cluster_camera_options camera;
+    /**
+     * Surface thickness of the cluster depth images without a back-face
+     * image, a fraction of `camera.far_distance`; >= 0, +infinity allowed.
+     * Default 0.005.
+     */
+    float thickness;
+    /**
+     * Stepping through the depth images (stride >= 1). Default:
+     * `refl_step_options_default`.
+     */
+    struct refl_step_options step;
+    /**
+     * Refine hits to sub-texel accuracy. Default true.
+     */
+    bool refine;
+    /**
+     * Glossy fade: a hit's weight falls from 1 on the image plane to 0 at
+     * the far plane. Default false.
+     */
+    bool fade;
+    /**
+     * Rotates each pixel's lobe samples. Default 0.
+     */
+    uint32_t seed;
+    /**
+     * Host rays start at this distance; finite, >= 0. Default 0.
+     */
+    float t_min;
+    /**
+     * Host rays end at this distance; > t_min, +infinity allowed (the
+     * default).
+     */
+    float t_max;
+} refl_cluster_pass_options;
+
+/**
+ * What a plan needs of caller memory (`refl_cluster_plan_len`).
+ */
+typedef struct refl_cluster_plan_sizes {
+    /**
+     * `uint32_t`s of scratch: the cluster id and the sorted index of every
+     * pixel (2 x width x height, in that order: the pixel lists are
+     * `scratch[width * height ..]`), then the cluster offsets and three
+     * words per object.
+     */
+    size_t scratch_len;
+    /**
+     * The most clusters a frame can have: the length of the list of
+     * `refl_cluster_plan_entry`.
+     */
+    size_t clusters_len;
+} refl_cluster_plan_sizes;
+
+/**
+ * The reflective objects of a frame.
+ */
+typedef struct refl_cluster_objects {
+    /**
+     * Object id per pixel, the G-buffer's size; an id at or beyond
+     * `lobes_len` (UINT32_MAX among them) marks a pixel that is not
+     * reflective.
+     */
+    struct refl_image_u32 ids;
+    /**
+     * One lobe per object (`{1, 0, 0}` for a mirror); read in place.
+     */
+    const struct refl_cluster_lobe *lobes;
+    /**
+     * Number of objects (may be 0 with `lobes` NULL: nothing reflects).
+     */
+    size_t lobes_len;
+} refl_cluster_objects;
+
+/**
+ * Counts of `refl_cluster_plan`.
+ */
+typedef struct refl_cluster_plan_stats {
+    /**
+     * Cluster ids the bin layout used.
+     */
+    uint32_t bins;
+    /**
+     * Non-empty clusters: the entries written.
+     */
+    uint32_t clusters;
+    /**
+     * Of those, the ones with a camera.
+     */
+    uint32_t cameras;
+    /**
+     * Of those, the planar ones (one lookup per pixel).
+     */
+    uint32_t planar_cameras;
+    /**
+     * Reflective pixels (in some cluster).
+     */
+    uint32_t pixels;
+} refl_cluster_plan_stats;
+
+/**
+ * One cluster of a plan: what the host renders, and what
+ * `refl_cluster_finalize_rows` reads back.
+ */
+typedef struct refl_cluster_plan_entry {
+    /**
+     * The cluster id (its normal bin).
+     */
+    uint32_t id;
+    /**
+     * The object its pixels belong to.
+     */
+    uint32_t object;
+    /**
+     * Its pixels (indices y * width + x, raster order) are
+     * `scratch[width * height + first ..][.. len]`.
+     */
+    uint32_t first;
+    /**
+     * Number of pixels (at least 1).
+     */
+    uint32_t len;
+    /**
+     * The rows its pixels span: the bands of `refl_cluster_finalize_rows`
+     * lie within.
+     */
+    struct refl_row_range rows;
+    /**
+     * The object's rays per pixel.
+     */
+    struct refl_cluster_lobe lobe;
+    /**
+     * The camera to render with (`camera.camera`: view, fov_y, near, far
+     * and the resolution width x height; `camera.clip`: keep only its
+     * positive side), or `camera.fallback`, why there is none.
+     */
+    struct refl_cluster_camera camera;
+    /**
+     * The camera's frustum, world space: six planes (a, b, c, d) with a
+     * unit normal pointing inside (a point is in the frustum when a x + b
+     * y + c z + d >= 0 for all six: left, right, bottom, top, near, far);
+     * all zero without a camera.
+     */
+    struct refl_vec4 frustum[6];
+} refl_cluster_plan_entry;
+
+/**
+ * Counts of one `refl_cluster_finalize_rows` call.
+ */
+typedef struct refl_cluster_stats {
+    /**
+     * Pixels finalized.
+     */
+    uint32_t pixels;
+    /**
+     * Of those, HIT.
+     */
+    uint32_t hits;
+    /**
+     * Of those, SKY.
+     */
+    uint32_t sky;
+    /**
+     * Pixels that need the host's tracer.
+     */
+    uint32_t host_rays;
+    /**
+     * Of those, the ones written to the host list (the first ones in
+     * raster order).
+     */
+    uint32_t host_rays_written;
+    /**
+     * Rays traced, summed over the pixels.
+     */
+    uint64_t rays;
+    /**
+     * Rays that hit, summed.
+     */
+    uint64_t ray_hits;
+} refl_cluster_stats;
+
+/**
+ * One finalized pixel.
+ */
+typedef struct refl_cluster_texel {
+    /**
+     * A `refl_ssr_status`: HIT (every ray hit), SKY (some ray reached the
+     * far plane: add `shade.env_weight` times the environment in
+     * `shade.env_dir`), or a status whose pixel is in the host list
+     * (LEFT_IMAGE, BEHIND_GEOMETRY, OUT_OF_STEPS; NO_PROJECTION, also for
+     * every pixel of a cluster without a camera).
+     */
+    uint32_t status;
+    /**
+     * The reflection (as `refl_cluster_finalize` computes it).
+     */
+    struct refl_cluster_shade shade;
+} refl_cluster_texel;
+
+/**
+ * The host's render of one cluster, through the entry's camera (its size
+ * and camera).
+ */
+typedef struct refl_cluster_render {
+    /**
+     * Depth, with the entry's camera (`camera.camera`) and any
+     * convention; NaN, or at or beyond the far plane, marks an empty
+     * texel.
+     */
+    struct refl_depth_image depth;
+    /**
+     * Color of the same texels (linear RGB), the depth's size.
+     */
+    struct refl_image_vec3 color;
+    /**
+     * Optional back-face depth (same camera and convention): a hit needs
+     * the ray between the two instead of the options' thickness. Absent
+     * when `data` is NULL.
+     */
+    struct refl_image_f32 back_depth;
+} refl_cluster_render;
+
+/**
  * An 8-bit RGBA texel.
  */
 typedef struct refl_rgba8 {
@@ -5378,6 +5620,120 @@ refl_status refl_planar_resolve_rows(struct refl_planar_stats *out_stats,
                                      const struct refl_planar_options *options,
                                      const struct refl_planar_render *render,
                                      struct refl_row_range rows);
+
+/**
+ * The pass's defaults: the seed's 13 x 8 bins at gain 64, the camera
+ * defaults, thickness 0.005 of the far distance, stepping defaults,
+ * refined hits, no fade, seed 0, host rays over [0, +infinity).
+ */
+struct refl_cluster_pass_options refl_cluster_pass_options_default(void);
+
+/**
+ * Size query: writes to `*out` the `uint32_t`s of scratch and the length
+ * of the cluster list `refl_cluster_plan` needs for this G-buffer's size,
+ * these objects (their number) and options.
+ *
+ * Returns `REFL_STATUS_NULL_POINTER` if `out`, `gbuffer`, `objects` or
+ * `options` is NULL; `REFL_STATUS_INVALID_ARGUMENT` for invalid clustering
+ * options, a frame of more than UINT32_MAX pixels or more bins than
+ * `uint32_t` ids hold; the camera's status if it is invalid.
+ *
+ * # Safety
+ * `out` NULL or writable; the rest NULL or readable.
+ */
+refl_status refl_cluster_plan_len(struct refl_cluster_plan_sizes *out,
+                                  const struct refl_gbuffer *gbuffer,
+                                  const struct refl_cluster_objects *objects,
+                                  const struct refl_cluster_pass_options *options);
+
+/**
+ * Plans a frame: from the G-buffer and the objects, the reflective pixels
+ * (an id below `lobes_len`, mask not 0, roughness not NaN, a usable
+ * surface), their clusters (seed 003 Sec. 3.2: normal bins per object),
+ * each cluster's pixel list (raster order) and camera (Sec. 3.3, Eq. 1),
+ * frustum and resolution. Writes the cluster ids and pixel lists into
+ * `scratch` (`refl_cluster_plan_sizes.scratch_len` words; keep it for the
+ * finalize calls), the non-empty clusters in increasing id into
+ * `clusters[0 .. out_stats->clusters]`, and the counts into `*out_stats`.
+ * A cluster whose camera is not representable gets
+ * `REFL_CLUSTER_FALLBACK_DEGENERATE`.
+ *
+ * Returns `REFL_STATUS_NULL_POINTER` if `out_stats`, `clusters`,
+ * `scratch`, `gbuffer`, `objects`, `options`, a required image, or
+ * `objects->lobes` with a non-zero `lobes_len` is NULL;
+ * `REFL_STATUS_INSUFFICIENT_SIZE` if `clusters_len` or `scratch_len` is
+ * below `refl_cluster_plan_len`'s, or an image's `len` is too small;
+ * `REFL_STATUS_INVALID_ARGUMENT` for an option out of range, an invalid
+ * lobe, an unknown convention or normal space, an image (ids included)
+ * not of the camera's size, a misaligned pointer, or outputs overlapping
+ * each other or an input; the camera's status if it is invalid. Nothing
+ * is written on error.
+ *
+ * # Safety
+ * `out_stats` NULL or writable; `clusters` NULL or writable for
+ * `clusters_len` entries; `scratch` NULL or writable for `scratch_len`
+ * words; `gbuffer`, `objects` and `options` NULL or readable, their
+ * images and lobes readable and not written during the call.
+ */
+refl_status refl_cluster_plan(struct refl_cluster_plan_stats *out_stats,
+                              struct refl_cluster_plan_entry *clusters,
+                              size_t clusters_len,
+                              uint32_t *scratch,
+                              size_t scratch_len,
+                              const struct refl_gbuffer *gbuffer,
+                              const struct refl_cluster_objects *objects,
+                              const struct refl_cluster_pass_options *options);
+
+/**
+ * Finalizes the pixels of one cluster in the rows `rows` (seed 003 Sec.
+ * 3.4, 3.5): `cluster` is an entry `refl_cluster_plan` wrote for this
+ * G-buffer and these options, `scratch` its scratch (at least the first
+ * 2 x width x height words are read), `render` the host's render through
+ * the entry's camera (NULL for an entry without a camera). For each of
+ * the cluster's pixels in those rows writes its `refl_cluster_texel` to
+ * `out[y * width + x]` (`out` holds the whole image; no other texel is
+ * written) and appends the pixels whose reflection the render cannot
+ * answer (statuses LEFT_IMAGE, BEHIND_GEOMETRY, OUT_OF_STEPS,
+ * NO_PROJECTION) to `host` (up to `host_len`; NULL with 0 allowed) in
+ * raster order as the mirror pass's rays (origin on the surface, the
+ * mirror direction, the options' t_min and t_max). The counts go to
+ * `*out_stats`. Clusters own disjoint pixels and bands disjoint rows:
+ * threads may finalize any clusters and bands into one `out` at once,
+ * each with its own `host` list. The shades are bit for bit
+ * `refl_cluster_finalize`'s for the cluster's pixels.
+ *
+ * Returns `REFL_STATUS_NULL_POINTER` if `out_stats`, `out`, `gbuffer`,
+ * `options`, `scratch`, `cluster`, a required image, `host` with a
+ * non-zero `host_len`, or `render` for an entry with a camera is NULL;
+ * `REFL_STATUS_INSUFFICIENT_SIZE` if `out_len < width * height`,
+ * `scratch_len < 2 * width * height` or an image's `len` is too small;
+ * `REFL_STATUS_INVALID_ARGUMENT` for rows reversed or beyond the height,
+ * an entry not of this plan (rows, pixels outside the scratch or the
+ * image, pixels without a surface, an invalid camera record or lobe), a
+ * render of another camera or size (color, back faces), outputs
+ * overlapping each other or an input, and the cases of
+ * `refl_cluster_plan`. Nothing is written on error.
+ *
+ * # Safety
+ * `out_stats` NULL or writable; `out` NULL or writable for `out_len`
+ * texels; `host` NULL or writable for `host_len` entries; `scratch` NULL
+ * or readable for `scratch_len` words; `cluster` and `render` NULL or
+ * readable, their images readable for their `len` texels; the rest as
+ * `refl_cluster_plan`. No other thread writes the texels this call writes
+ * or the scratch meanwhile.
+ */
+refl_status refl_cluster_finalize_rows(struct refl_cluster_stats *out_stats,
+                                       struct refl_cluster_texel *out,
+                                       size_t out_len,
+                                       struct refl_host_ray *host,
+                                       size_t host_len,
+                                       const struct refl_gbuffer *gbuffer,
+                                       const struct refl_cluster_pass_options *options,
+                                       const uint32_t *scratch,
+                                       size_t scratch_len,
+                                       const struct refl_cluster_plan_entry *cluster,
+                                       const struct refl_cluster_render *render,
+                                       struct refl_row_range rows);
 
 #ifdef __cplusplus
 }  // extern "C"

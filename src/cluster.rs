@@ -1,15 +1,16 @@
 //! Second-order feed-forward reflections (seed 003) as a whole renderer:
 //! the `cluster` method of `refl report`.
 //!
-//! Per frame, over a G-buffer (the seed's first pass, Sec. 3.1 step 1):
+//! Per frame, over a G-buffer (the seed's first pass, Sec. 3.1 step 1),
+//! with refl-core's cluster pass ([`refl_core::cluster::ClusterPass`]: the
+//! G-buffer as refl-core reads it, linear depth, world normals, the
+//! reflective mask, the object ids and one [`Lobe`] per object):
 //!
-//! 1. **Clustering** (Sec. 3.2): per reflective object its screen share,
-//!    the bin layout, the per-pixel cluster ids (parallel over row bands)
-//!    and the counting sort into per-cluster pixel lists
-//!    ([`refl_core::cluster`]).
-//! 2. **Cameras** (Sec. 3.3): one [`refl_core::cluster::try_cluster_camera`]
-//!    per non-empty cluster, in parallel; the far plane is at the scene
-//!    diameter, glossy clusters widen their frame by the lobe's 95 % angle.
+//! 1. **Plan** ([`ClusterPass::try_plan`], one call, serial): clustering
+//!    (Sec. 3.2: screen shares, bin layout, cluster ids, pixel lists) and
+//!    (2.) one camera per non-empty cluster (Sec. 3.3) with its frustum;
+//!    the far plane is at the scene diameter, glossy clusters widen their
+//!    frame by the lobe's 95 % angle ([`LOBE_ENERGY`]).
 //! 3. **Depth images** (Sec. 3.1 step 3b), one cluster at a time into one
 //!    reused visibility buffer and color buffer: the scene rasterized with
 //!    the CPU rasterizer ([`rasterize_into_culled`]: object-level frustum and
@@ -19,10 +20,12 @@
 //!    cluster's clip plane (a planar cluster also skips its own object);
 //!    every covered texel is shaded (the direct term of its surface, as the
 //!    reference shades a reflected hit).
-//! 4. **Intersection** (Sec. 3.4, 3.5): the cluster's pixels' mirror rays,
+//! 4. **Intersection** (Sec. 3.4, 3.5): [`ClusterPass::try_finalize_rows`]
+//!    over row bands of the cluster, in parallel: the pixels' mirror rays,
 //!    or 8..49 lobe samples for glossy pixels, stepped through the depth
-//!    image ([`refl_core::cluster::try_finalize_cluster`]); misses and
-//!    clusters without a camera fall back to the environment map.
+//!    image; the missed share (and every pixel of a cluster without a
+//!    camera) takes the environment map in the pass's direction (the
+//!    seed's callback-free fallback; the pass's host rays are not traced).
 //!
 //! Diagnostics (not timed): the **disocclusion** mask marks pixels whose
 //! ray-traced mirror hit (obvhs) is not captured by their cluster's depth
@@ -37,12 +40,13 @@ use crate::shade::{env_map, reflection_dir, Shader};
 use glam::{Vec2, Vec3};
 use rayon::prelude::*;
 use refl_core::cluster::{
-    self, ClusterCamera, ClusterCameraOptions, ClusterInput, ClusterOptions, ClusterShade,
-    ClusterView, FinalizeInput, Lobe, ObjectBins, NO_CLUSTER, NO_OBJECT,
+    self, ClusterCamera, ClusterCameraOptions, ClusterObjects, ClusterOptions, ClusterPass,
+    ClusterPassOptions, ClusterPlanEntry, ClusterRender, ClusterScratchMut, ClusterSink,
+    ClusterTexel, Lobe, ObjectBins, NO_CLUSTER,
 };
 use refl_core::{
-    DepthConvention, DepthImage, Error, ImageView, ImageViewMut, Plane, RowRange, StepOptions,
-    Thickness,
+    DepthConvention, DepthImage, Error, GBuffer as CoreGBuffer, HostRay, ImageView, NormalSpace,
+    Plane, RowRange,
 };
 use std::fmt::Write as _;
 use std::io;
@@ -54,9 +58,6 @@ pub const LOBE_ENERGY: f32 = 0.95;
 
 /// Rows per clustering band (the unit of parallel work).
 const BAND_ROWS: u32 = 16;
-
-/// Pixels per finalization work item.
-const FINALIZE_CHUNK: usize = 256;
 
 /// One setting of the cluster method.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -95,9 +96,11 @@ impl ClusterSettings {
 /// Milliseconds per stage of one frame.
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
 pub struct StageMs {
-    /// Clustering (step 2).
+    /// The pass's plan: clustering (step 2) and camera construction (step
+    /// 3a), one call.
     pub clustering: f64,
-    /// Camera construction (step 3a).
+    /// Camera construction alone: 0 since the plan does it (the column is
+    /// kept; the cameras' time is in `clustering`).
     pub cameras: f64,
     /// Depth (and color) images (step 3b).
     pub depth_images: f64,
@@ -221,12 +224,59 @@ impl ClusterFrame {
     }
 }
 
-/// Renders the reflections of `g` with seed 003's method on `pool`; with
-/// `diagnose`, also the disocclusion mask (ray traced with `shader`'s
+/// The lobe of an object of material `m` (module docs, step 4); a mirror
+/// for a material that does not reflect (its pixels are not in the pass).
+fn lobe_of(m: &crate::scene::Material, settings: &ClusterSettings) -> Result<Lobe, Error> {
+    if m.specular > 0.0 && m.roughness > 0.0 && settings.glossy_rays > 1 {
+        let exponent = phong_exponent(m.roughness);
+        Ok(Lobe {
+            rays: settings.glossy_rays,
+            exponent,
+            max_angle: cluster::try_lobe_angle(exponent, LOBE_ENERGY)?,
+        })
+    } else {
+        Ok(Lobe::MIRROR)
+    }
+}
+
+/// The cluster pass's options for `settings` on a scene of diameter
+/// `diameter`: the far plane at the diameter, thickness 0.005 of it.
+pub fn pass_options(settings: &ClusterSettings, diameter: f32) -> ClusterPassOptions {
+    ClusterPassOptions {
+        cluster: ClusterOptions {
+            gain: settings.gain,
+            ..ClusterOptions::default()
+        },
+        camera: ClusterCameraOptions {
+            far_distance: diameter,
+            resolution_scale: settings.resolution_scale,
+            ..ClusterCameraOptions::default()
+        },
+        thickness: crate::screen::THICKNESS_OF_DIAMETER,
+        ..ClusterPassOptions::default()
+    }
+}
+
+/// Collects a finalize band's texels (the host rays are not traced here:
+/// the environment answers them, as the seed's fallback does).
+#[derive(Default)]
+struct Texels(Vec<(u32, u32, ClusterTexel)>);
+
+impl ClusterSink for Texels {
+    fn texel(&mut self, x: u32, y: u32, texel: &ClusterTexel) {
+        self.0.push((x, y, *texel));
+    }
+    fn host(&mut self, _: u32, _: &HostRay) -> bool {
+        false
+    }
+}
+
+/// Renders the reflections of `g` with seed 003's method on `pool`;
+/// with `diagnose`, also the disocclusion mask (ray traced with `shader`'s
 /// tracer, outside the stage timers).
 ///
 /// # Errors
-/// A refl-core error (invalid G-buffer data, e.g. a NaN normal).
+/// A refl-core error (invalid G-buffer data).
 pub fn run(
     shader: &Shader,
     g: &GBuffer,
@@ -239,116 +289,52 @@ pub fn run(
     let n = g.len();
     let mut stages = StageMs::default();
 
-    // 1. Clustering.
+    // 1 + 2. The plan (clustering and cameras in one call of the pass).
     let t0 = Instant::now();
-    let objects: Vec<u32> = (0..n)
-        .map(|i| {
-            if g.is_reflective(i) {
-                g.object[i]
-            } else {
-                NO_OBJECT
-            }
-        })
-        .collect();
-    let positions: Vec<[f32; 3]> = g.position.iter().map(|p| p.to_array()).collect();
-    let normals: Vec<[f32; 3]> = g
-        .normal
+    let normals: Vec<[f32; 3]> =
+        pool.install(|| g.normal.par_iter().map(|v| v.to_array()).collect());
+    let mask: Vec<u8> = (0..n).map(|i| u8::from(g.is_reflective(i))).collect();
+    let gbuffer = CoreGBuffer::try_new(
+        DepthImage::try_new(
+            ImageView::try_new(&g.depth, w, h, w)?,
+            g.camera,
+            DepthConvention::Linear,
+        )?,
+        ImageView::try_new(&normals, w, h, w)?,
+        NormalSpace::World,
+    )?
+    .try_with_mask(ImageView::try_new(&mask, w, h, w)?)?;
+    let lobes = scene
+        .objects
         .iter()
-        .map(|v| v.normalize_or(Vec3::Y).to_array())
-        .collect();
-    let ov = ImageView::try_new(&objects, w, h, w)?;
-    let nv = ImageView::try_new(&normals, w, h, w)?;
-    let object_count = scene.objects.len();
-    let bands: Vec<RowRange> = (0..h.div_ceil(BAND_ROWS))
-        .map(|b| RowRange::try_new(b * BAND_ROWS, ((b + 1) * BAND_ROWS).min(h), h))
-        .collect::<Result<_, _>>()?;
-    let counts = pool.install(|| {
-        bands
-            .par_iter()
-            .map(|&r| {
-                let mut c = vec![0u32; object_count];
-                cluster::try_count_objects(&mut c, &ov, r).map(|()| c)
-            })
-            .try_reduce(
-                || vec![0u32; object_count],
-                |mut a, b| {
-                    for (x, y) in a.iter_mut().zip(b) {
-                        *x += y;
-                    }
-                    Ok(a)
-                },
-            )
-    })?;
-    let params = ClusterOptions {
-        gain: settings.gain,
-        ..ClusterOptions::default()
+        .map(|o| lobe_of(&scene.materials[o.material as usize], settings))
+        .collect::<Result<Vec<_>, _>>()?;
+    let objects = ClusterObjects {
+        ids: ImageView::try_new(&g.object, w, h, w)?,
+        lobes: &lobes,
     };
-    let mut layout = vec![ObjectBins::default(); object_count];
-    let bins = cluster::try_bin_layout(&mut layout, &counts, n as u64, &params)?;
-    let mut ids = vec![NO_CLUSTER; n];
-    pool.install(|| {
-        ids.par_chunks_mut((w * BAND_ROWS) as usize)
-            .zip(bands.par_iter())
-            .try_for_each(|(chunk, &r)| {
-                let mut v = ImageViewMut::try_band(chunk, w, h, w, r)?;
-                cluster::try_assign_clusters(&mut v, &nv, &ov, &layout)
-            })
-    })?;
-    let mut offsets = vec![0u32; bins as usize + 1];
-    let mut order = vec![0u32; n];
-    cluster::try_cluster_ranges(
-        &mut offsets,
-        &mut order,
-        &ImageView::try_new(&ids, w, h, w)?,
-        bins,
+    let options = pass_options(settings, scene.diameter());
+    let pass = ClusterPass::try_new(gbuffer, options)?;
+    let len = cluster::try_cluster_plan_len(w, h, lobes.len(), &options)?;
+    let mut ids = vec![NO_CLUSTER; len.ids];
+    let mut order = vec![0u32; len.order];
+    let mut offsets = vec![0u32; len.offsets];
+    let mut counts = vec![0u32; len.counts];
+    let mut layout = vec![ObjectBins::default(); len.layout];
+    let mut entries: Vec<Option<ClusterPlanEntry>> = vec![None; len.clusters];
+    let plan = pass.try_plan(
+        &mut entries,
+        ClusterScratchMut {
+            ids: &mut ids,
+            order: &mut order,
+            offsets: &mut offsets,
+            counts: &mut counts,
+            layout: &mut layout,
+        },
+        &objects,
     )?;
-    let nonempty: Vec<u32> = (0..bins)
-        .filter(|&c| offsets[c as usize + 1] > offsets[c as usize])
-        .collect();
+    let entries: Vec<ClusterPlanEntry> = entries.into_iter().flatten().collect();
     stages.clustering = t0.elapsed().as_secs_f64() * 1e3;
-
-    // 2. Cameras.
-    let t1 = Instant::now();
-    let input = ClusterInput {
-        positions: ImageView::try_new(&positions, w, h, w)?,
-        normals: nv,
-    };
-    let eye = g.camera.eye();
-    let pixels_of = |c: u32| &order[offsets[c as usize] as usize..offsets[c as usize + 1] as usize];
-    let object_of = |c: u32| objects[pixels_of(c)[0] as usize];
-    let lobe_of = |c: u32| -> Result<(Lobe, f32), Error> {
-        let m = &scene.materials[scene.objects[object_of(c) as usize].material as usize];
-        if m.roughness > 0.0 && settings.glossy_rays > 1 {
-            let exponent = phong_exponent(m.roughness);
-            let angle = cluster::try_lobe_angle(exponent, LOBE_ENERGY)?;
-            Ok((
-                Lobe {
-                    rays: settings.glossy_rays,
-                    exponent,
-                    max_angle: angle,
-                },
-                angle,
-            ))
-        } else {
-            Ok((Lobe::MIRROR, 0.0))
-        }
-    };
-    let views: Vec<(u32, ClusterView)> = pool.install(|| {
-        nonempty
-            .par_iter()
-            .map(|&c| {
-                let (_, angle) = lobe_of(c)?;
-                let cp = ClusterCameraOptions {
-                    far_distance: scene.diameter(),
-                    cone_half_angle: angle,
-                    resolution_scale: settings.resolution_scale,
-                    ..ClusterCameraOptions::default()
-                };
-                cluster::try_cluster_camera(&input, pixels_of(c), eye, &cp).map(|v| (c, v))
-            })
-            .collect::<Result<_, _>>()
-    })?;
-    stages.cameras = t1.elapsed().as_secs_f64() * 1e3;
 
     // 3 + 4, one cluster at a time, buffers reused.
     let mut image = ReflectionImage::empty(w, h);
@@ -363,27 +349,42 @@ pub fn run(
         stats: Default::default(),
     };
     let mut color: Vec<[f32; 3]> = Vec::new();
-    let mut shades: Vec<ClusterShade> = Vec::new();
-    let thickness = Thickness::Constant(scene.diameter() * crate::screen::THICKNESS_OF_DIAMETER);
-    let (mut cameras, mut planar, mut texels, mut tris) = (0usize, 0usize, 0u64, 0usize);
+    let (mut texels, mut tris) = (0u64, 0usize);
     let mut color_ms = 0.0f64;
     // Chunk bounds once per frame (a dynamic scene's triangles moved),
     // charged to the depth images.
     let tb = Instant::now();
     let chunk_bounds = ChunkBounds::new(scene, pool);
     stages.depth_images += tb.elapsed().as_secs_f64() * 1e3;
-    for (c, view) in &views {
-        let px = pixels_of(*c);
-        let t2 = Instant::now();
-        let ClusterView::Camera(cc) = view else {
-            // No camera: the environment in the mirror direction.
-            for &p in px {
-                let i = p as usize;
-                let v = -g.primary_ray(i).dir;
-                image.rgb[i] = env_map(reflection_dir(v, g.normal[i], g.geo_normal[i]));
-                image.handled[i] = true;
+    // The finalized texels: reflection color, environment for the missed
+    // share (module docs, step 4).
+    let put = |texels: Vec<Texels>, image: &mut ReflectionImage, fallback: &mut [bool]| {
+        for (x, y, t) in texels.into_iter().flat_map(|t| t.0) {
+            let i = (y * w + x) as usize;
+            let s = &t.shade;
+            let mut rgb = s.rgb;
+            if s.env_weight > 0.0 {
+                rgb += env_map(s.env_dir) * s.env_weight;
                 fallback[i] = true;
             }
+            image.rgb[i] = rgb;
+            image.handled[i] = true;
+        }
+    };
+    let bands_of = |rows: RowRange| -> Vec<RowRange> {
+        (rows.start()..rows.end())
+            .step_by(BAND_ROWS as usize)
+            .filter_map(|y| RowRange::try_new(y, (y + BAND_ROWS).min(rows.end()), h).ok())
+            .collect()
+    };
+    for e in &entries {
+        let px = &order[e.first as usize..(e.first + e.len) as usize];
+        let t2 = Instant::now();
+        let Some(cc) = e.camera() else {
+            // No camera: the environment in the mirror direction.
+            let mut sink = Texels::default();
+            pass.try_finalize_rows(e, &order, None, e.rows, &mut sink)?;
+            put(vec![sink], &mut image, &mut fallback);
             stages.intersection += t2.elapsed().as_secs_f64() * 1e3;
             if let Some(r) = reference_hit.as_mut() {
                 for &p in px {
@@ -392,17 +393,15 @@ pub fn run(
             }
             continue;
         };
-        cameras += 1;
-        planar += usize::from(cc.planar);
         // 3. Depth and color image.
         let cam = cc.camera;
         let clip = Plane::try_from_point_normal(cc.clip.point, cc.clip.normal)?;
-        let options = RasterOptions {
+        let raster = RasterOptions {
             clip_plane: Some(clip),
-            exclude_object: cc.planar.then(|| object_of(*c)),
+            exclude_object: cc.planar.then_some(e.object),
             scissor: None,
         };
-        rasterize_into_culled(&mut vis, scene, &cam, &options, &chunk_bounds, pool);
+        rasterize_into_culled(&mut vis, scene, &cam, &raster, &chunk_bounds, pool);
         tris += vis.stats.triangles_rasterized;
         let (dw, dh) = (cam.width(), cam.height());
         texels += u64::from(dw) * u64::from(dh);
@@ -432,56 +431,50 @@ pub fn run(
         color_ms += (t3 - tc).as_secs_f64() * 1e3;
         stages.depth_images += (t3 - t2).as_secs_f64() * 1e3;
 
-        // 4. Intersection.
-        let di = DepthImage::try_new(
-            ImageView::try_new(&vis.depth, dw, dh, dw)?,
-            cam,
-            DepthConvention::Linear,
+        // 4. Intersection: the pass over row bands of the cluster.
+        let render = ClusterRender::try_new(
+            DepthImage::try_new(
+                ImageView::try_new(&vis.depth, dw, dh, dw)?,
+                cam,
+                DepthConvention::Linear,
+            )?,
+            ImageView::try_new(&color, dw, dh, dw)?,
         )?;
-        let cv = ImageView::try_new(&color, dw, dh, dw)?;
-        let (lobe, _) = lobe_of(*c)?;
-        let fp = FinalizeInput {
-            thickness,
-            step: StepOptions::default(),
-            refine: true,
-            lobe,
-            fade: false,
-            seed: 0,
-        };
-        shades.clear();
-        shades.resize(px.len(), ClusterShade::default());
-        pool.install(|| {
-            shades
-                .par_chunks_mut(FINALIZE_CHUNK)
-                .zip(px.par_chunks(FINALIZE_CHUNK))
-                .try_for_each(|(out, chunk)| {
-                    cluster::try_finalize_cluster(out, &input, chunk, eye, cc, &di, &cv, &fp)
-                        .map(|_| ())
+        let bands = bands_of(e.rows);
+        let done = pool.install(|| {
+            bands
+                .par_iter()
+                .map(|&r| {
+                    let mut sink = Texels::default();
+                    pass.try_finalize_rows(e, &order, Some(&render), r, &mut sink)
+                        .map(|_| sink)
                 })
+                .collect::<Result<Vec<_>, _>>()
         })?;
-        for (s, &p) in shades.iter().zip(px) {
-            let i = p as usize;
-            let mut rgb = s.rgb;
-            if s.env_weight > 0.0 {
-                rgb += env_map(s.env_dir) * s.env_weight;
-                fallback[i] = true;
-            }
-            image.rgb[i] = rgb;
-            image.handled[i] = true;
-        }
+        put(done, &mut image, &mut fallback);
         stages.intersection += t3.elapsed().as_secs_f64() * 1e3;
 
         if let (Some(dis), Some(r)) = (disoccluded.as_mut(), reference_hit.as_mut()) {
             mark_disocclusions(shader, g, cc, &vis, px, dis, r);
         }
     }
+    // Reflective pixels the pass has no surface for (none on a rendered
+    // G-buffer): the environment in the mirror direction.
+    for (i, f) in fallback.iter_mut().enumerate() {
+        if g.is_reflective(i) && !image.handled[i] {
+            let v = -g.primary_ray(i).dir;
+            image.rgb[i] = env_map(reflection_dir(v, g.normal[i], g.geo_normal[i]));
+            image.handled[i] = true;
+            *f = true;
+        }
+    }
     Ok(ClusterFrame {
         image,
         cluster_of: ids,
         fallback,
-        clusters: nonempty.len(),
-        cameras,
-        planar,
+        clusters: plan.clusters as usize,
+        cameras: plan.cameras as usize,
+        planar: plan.planar as usize,
         texels,
         triangles_rasterized: tris,
         stages,

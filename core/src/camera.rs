@@ -356,6 +356,43 @@ impl Camera {
         -self.world_to_view(p).z
     }
 
+    /// The six planes of the view frustum in world space, `(n, d)` with a
+    /// unit `n` pointing inside: a point `p` lies in the frustum when
+    /// `n . p + d >= 0` for all six, in the order left, right, bottom, top,
+    /// near, far (for a host's object culling). Ours: the view-space
+    /// half-spaces `|x| <= -z tan_x`, `|y| <= -z tan_y` and `near <= -z <=
+    /// far` (the symmetric projection's frustum, `tan_x`, `tan_y` as
+    /// [`Camera::project`] uses them), normalized, mapped to world space by
+    /// `V^T` (a plane `P` of view space is `V^T P` of world space for the
+    /// world-to-view matrix `V`), in f64. With an infinite far plane the
+    /// last is `(0, 0, 0, 1)` (no bound).
+    pub fn frustum_planes(&self) -> [Vec4; 6] {
+        let (tx, ty) = (f64::from(self.tan_half_x), f64::from(self.tan_half_y));
+        let far = if self.far.is_finite() {
+            DVec4::new(0.0, 0.0, 1.0, f64::from(self.far))
+        } else {
+            DVec4::new(0.0, 0.0, 0.0, 1.0)
+        };
+        let view = [
+            DVec4::new(1.0, 0.0, -tx, 0.0),
+            DVec4::new(-1.0, 0.0, -tx, 0.0),
+            DVec4::new(0.0, 1.0, -ty, 0.0),
+            DVec4::new(0.0, -1.0, -ty, 0.0),
+            DVec4::new(0.0, 0.0, -1.0, -f64::from(self.near)),
+            far,
+        ];
+        let vt = self.view.as_dmat4().transpose();
+        view.map(|p| {
+            let w = vt * p;
+            let len = w.truncate().length();
+            if len > 0.0 {
+                (w / len).as_vec4()
+            } else {
+                w.as_vec4()
+            }
+        })
+    }
+
     /// Projects a world point to `(pixel x, pixel y, linear depth)`.
     ///
     /// Returns `None` for points at or behind the eye plane (`z <= 0`) and

@@ -33,6 +33,11 @@
 //!    misses are reported with a direction for the host's environment
 //!    lookup (callback-free fallback).
 //!
+//! The cluster pass ([`ClusterPass`], module `pass`) is this pipeline
+//! over a G-buffer as one plan call per frame and one finalize call per
+//! cluster and row band, with the glue (surfaces, rays, host rays, the
+//! finalize input) in refl-core.
+//!
 //! # Conventions
 //!
 //! Positions and normals are world space; a pixel's normal is unit length
@@ -40,9 +45,19 @@
 //! [`NO_OBJECT`] (or any id at or beyond the table) marks a pixel that is
 //! not reflective. A pixel without a cluster has id [`NO_CLUSTER`].
 
+mod pass;
+
+pub use pass::{
+    try_cluster_plan_len, ClusterObjects, ClusterPass, ClusterPassOptions, ClusterPlanEntry,
+    ClusterPlanLen, ClusterPlanStats, ClusterRender, ClusterScratchMut, ClusterSink, ClusterStats,
+    ClusterTexel,
+};
+
 use crate::step::{try_step, StepOptions};
 use crate::trace::{refine_hit, REFINE_CONTINUITY};
-use crate::{Camera, DepthImage, Error, ImageView, ImageViewMut, Ray, RowRange, Thickness, Trace};
+use crate::{
+    Camera, DepthImage, Error, ImageView, ImageViewMut, Miss, Ray, RowRange, Thickness, Trace,
+};
 use glam::{DVec3, Vec2, Vec3};
 
 /// Object id of a pixel that belongs to no reflective object.
@@ -101,8 +116,10 @@ impl ClusterOptions {
     }
 }
 
-/// The bins of one reflective object in the current frame.
+/// The bins of one reflective object in the current frame (`repr(C)`:
+/// three `u32`, so that a C host's scratch can hold them).
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+#[repr(C)]
 pub struct ObjectBins {
     /// Azimuth bins (0 if the object is not visible).
     pub theta_bins: u32,
@@ -144,11 +161,25 @@ pub fn try_count_objects(
     objects: &ImageView<'_, u32>,
     rows: RowRange,
 ) -> Result<(), Error> {
-    if rows.end() > objects.height() {
+    count_objects(counts, objects.width(), objects.height(), rows, |x, y| {
+        objects.get(x, y).unwrap_or(NO_OBJECT)
+    })
+}
+
+/// [`try_count_objects`] over the object ids `object(x, y)` of a `width x
+/// height` image (the cluster pass's reflective pixels).
+pub(crate) fn count_objects(
+    counts: &mut [u32],
+    width: u32,
+    height: u32,
+    rows: RowRange,
+    object: impl Fn(u32, u32) -> u32,
+) -> Result<(), Error> {
+    if rows.end() > height {
         return Err(Error::InvalidArgument);
     }
     // Each id gains at most the band's pixel count: check before writing.
-    let band = u64::from(rows.len()) * u64::from(objects.width());
+    let band = u64::from(rows.len()) * u64::from(width);
     if counts
         .iter()
         .any(|&c| u64::from(c) + band > u64::from(u32::MAX))
@@ -156,9 +187,8 @@ pub fn try_count_objects(
         return Err(Error::InsufficientSize);
     }
     for y in rows.rows() {
-        let Some(row) = objects.row(y) else { continue };
-        for &id in row {
-            if let Some(c) = counts.get_mut(id as usize) {
+        for x in 0..width {
+            if let Some(c) = counts.get_mut(object(x, y) as usize) {
                 *c += 1;
             }
         }
@@ -271,6 +301,24 @@ pub fn try_assign_clusters<L: Copy + Into<ObjectBins>>(
     {
         return Err(Error::InvalidArgument);
     }
+    assign_clusters(
+        ids,
+        layout,
+        |x, y| objects.get(x, y).unwrap_or(NO_OBJECT),
+        |x, y| normals.get(x, y).map(Vec3::from_array),
+    )
+}
+
+/// [`try_assign_clusters`] over the object ids `object(x, y)` and the
+/// normals `normal(x, y)` of an image of `ids`' size (the cluster pass's
+/// reflective pixels).
+pub(crate) fn assign_clusters<L: Copy + Into<ObjectBins>>(
+    ids: &mut ImageViewMut<'_, u32>,
+    layout: &[L],
+    object: impl Fn(u32, u32) -> u32,
+    normal: impl Fn(u32, u32) -> Option<Vec3>,
+) -> Result<(), Error> {
+    let w = ids.width();
     let Some(rows) = ids.owned_rows() else {
         return Ok(());
     };
@@ -282,9 +330,8 @@ pub fn try_assign_clusters<L: Copy + Into<ObjectBins>>(
     };
     for y in rows.rows() {
         for x in 0..w {
-            let id = objects.get(x, y).unwrap_or(NO_OBJECT);
-            if bins_of(id).is_some() {
-                let n = normals.get(x, y).map_or(Vec3::NAN, Vec3::from_array);
+            if bins_of(object(x, y)).is_some() {
+                let n = normal(x, y).unwrap_or(Vec3::NAN);
                 if !(n.is_finite() && n.length_squared() > 0.0) {
                     return Err(Error::InvalidArgument);
                 }
@@ -293,13 +340,9 @@ pub fn try_assign_clusters<L: Copy + Into<ObjectBins>>(
     }
     for y in rows.rows() {
         for x in 0..w {
-            let id = objects.get(x, y).unwrap_or(NO_OBJECT);
-            let c = match bins_of(id) {
+            let c = match bins_of(object(x, y)) {
                 Some(b) => {
-                    let n = normals
-                        .get(x, y)
-                        .map_or(Vec3::Y, Vec3::from_array)
-                        .normalize();
+                    let n = normal(x, y).unwrap_or(Vec3::Y).normalize();
                     b.first + normal_bin(n, b.theta_bins, b.phi_bins)
                 }
                 None => NO_CLUSTER,
@@ -392,7 +435,22 @@ pub struct ClusterInput<'a> {
     pub normals: ImageView<'a, [f32; 3]>,
 }
 
-impl ClusterInput<'_> {
+/// Where the cluster kernels read a pixel's surface point and normal:
+/// a [`ClusterInput`] (the kernels' images) or the cluster pass's
+/// G-buffer (`crate::cluster::pass`).
+pub(crate) trait Surfaces {
+    /// Width of the image the pixel indices `y * width + x` refer to.
+    fn width(&self) -> u32;
+    /// The surface point and normal of pixel index `index`, `None` outside
+    /// the image (or, for the pass, for a pixel without a surface).
+    fn at(&self, index: u32) -> Option<(Vec3, Vec3)>;
+}
+
+impl Surfaces for ClusterInput<'_> {
+    fn width(&self) -> u32 {
+        self.positions.width()
+    }
+
     fn at(&self, index: u32) -> Option<(Vec3, Vec3)> {
         let w = self.positions.width();
         if w == 0 {
@@ -404,21 +462,34 @@ impl ClusterInput<'_> {
             Vec3::from_array(self.normals.get(x, y)?),
         ))
     }
+}
 
-    fn validate(&self, pixels: &[u32]) -> Result<(), Error> {
+impl ClusterInput<'_> {
+    fn validate_sizes(&self) -> Result<(), Error> {
         if self.positions.width() != self.normals.width()
             || self.positions.height() != self.normals.height()
         {
             return Err(Error::InvalidArgument);
         }
-        for &p in pixels {
-            let (pos, n) = self.at(p).ok_or(Error::InvalidArgument)?;
-            if !(pos.is_finite() && n.is_finite() && (n.length_squared() - 1.0).abs() <= 1e-2) {
-                return Err(Error::InvalidArgument);
-            }
-        }
         Ok(())
     }
+
+    fn validate(&self, pixels: &[u32]) -> Result<(), Error> {
+        self.validate_sizes()?;
+        validate_pixels(self, pixels)
+    }
+}
+
+/// Every listed pixel lies in the image, with a finite position and a
+/// finite normal of unit length (within 1e-2).
+fn validate_pixels(input: &impl Surfaces, pixels: &[u32]) -> Result<(), Error> {
+    for &p in pixels {
+        let (pos, n) = input.at(p).ok_or(Error::InvalidArgument)?;
+        if !(pos.is_finite() && n.is_finite() && (n.length_squared() - 1.0).abs() <= 1e-2) {
+            return Err(Error::InvalidArgument);
+        }
+    }
+    Ok(())
 }
 
 /// Cluster camera parameters (seed 003 Sec. 3.3 and 3.5).
@@ -545,6 +616,12 @@ pub enum ClusterFallback {
     /// The endpoints span more than a pinhole frustum of half-angle
     /// `atan(MAX_TAN)` holds.
     TooWide,
+    /// The camera is not representable (coordinates overflowing f32, a
+    /// degenerate frustum): [`try_cluster_camera`]'s
+    /// [`Error::DegenerateGeometry`], which the cluster pass
+    /// ([`ClusterPass::try_plan`]) records as this fallback rather than
+    /// failing the frame.
+    Degenerate,
 }
 
 /// Largest tangent of the half field of view of a cluster camera (about
@@ -586,11 +663,12 @@ impl Box2 {
     }
 }
 
-/// The reflected direction of the view ray `eye -> p` at normal `n`.
+/// The unit mirror direction of the view ray `eye -> p` at normal `n`
+/// (turned toward the eye): the mirror pass's ray generation
+/// (`crate::ssr`, module docs, steps 2 and 3), shared by every pass.
 #[inline]
 fn reflected(eye: Vec3, p: Vec3, n: Vec3) -> Option<Vec3> {
-    let v = (eye - p).try_normalize()?;
-    Some(2.0 * v.dot(n) * n - v)
+    crate::ssr::reflect_view(eye, p, n).map(|(_, dir)| dir)
 }
 
 /// Image-plane frame: origin `P_c`, unit normal `n`, in-plane axes `u, v`.
@@ -718,6 +796,17 @@ pub fn try_cluster_camera(
         return Err(Error::InvalidArgument);
     }
     input.validate(pixels)?;
+    cluster_camera(input, pixels, eye, options)
+}
+
+/// [`try_cluster_camera`] after its checks, over any [`Surfaces`] (the
+/// cluster pass reads its G-buffer).
+pub(crate) fn cluster_camera(
+    input: &impl Surfaces,
+    pixels: &[u32],
+    eye: Vec3,
+    options: &ClusterCameraOptions,
+) -> Result<ClusterView, Error> {
     if (pixels.len() as u64) < u64::from(options.min_pixels) {
         return Ok(ClusterView::Fallback(ClusterFallback::TooFewPixels));
     }
@@ -861,7 +950,7 @@ pub fn try_cluster_camera(
     let Some(axis) = mean_dir.try_normalize().map(|d| d.as_vec3()) else {
         return Ok(ClusterView::Fallback(ClusterFallback::NoRays));
     };
-    let width = input.positions.width();
+    let width = input.width();
     let mean_y = pixels.iter().map(|&p| f64::from(p / width)).sum::<f64>() / count;
     let mut down = DVec3::ZERO;
     for &p in pixels {
@@ -990,7 +1079,7 @@ pub const MAX_TAN_PLANE: f32 = 1000.0;
 #[allow(clippy::too_many_arguments)]
 fn fit(
     visit: &Visitor<'_>,
-    input: &ClusterInput<'_>,
+    input: &impl Surfaces,
     pixels: &[u32],
     eye: Vec3,
     e_c: Vec3,
@@ -1027,7 +1116,7 @@ fn fit(
         let c = probe.world_to_view(q);
         Vec2::new(c.x, c.y) / (-c.z)
     };
-    let width = input.positions.width();
+    let width = input.width();
     let far_end = |pos: Vec3, n: Vec3| -> Option<Vec3> {
         let r = reflected(eye, pos, n)?;
         (r.dot(axis) > 1e-6).then_some(pos + r * options.far_distance)
@@ -1083,8 +1172,10 @@ pub const MAX_LOBE_RAYS: u32 = 64;
 /// The reflected rays of one pixel (seed 003 Sec. 3.5 item 3: "the
 /// reflected rays sample ... a cone with apex at the surface point and with
 /// an axis defined by the reflected ray"; the blend `G(d_i, p.g)` is the
-/// application's BRDF, here a Phong lobe).
+/// application's BRDF, here a Phong lobe). `repr(C)` (a `u32` and two
+/// `f32`), so that a C host's array of lobes is read in place.
 #[derive(Clone, Copy, Debug, PartialEq)]
+#[repr(C)]
 pub struct Lobe {
     /// Rays per pixel: 1 traces the mirror direction only; `2..=64` sample
     /// the lobe (seed: 8..49).
@@ -1323,6 +1414,30 @@ pub fn try_finalize_cluster<O: From<ClusterShade>>(
     if out.len() < pixels.len() {
         return Err(Error::InsufficientSize);
     }
+    input.validate_sizes()?;
+    check_finalize(input, pixels, eye, cam, depth, color, finalize)?;
+    let mut fallbacks = 0u32;
+    for (o, &p) in out.iter_mut().zip(pixels) {
+        let (shade, _) = finalize_pixel(input, p, eye, cam, depth, color, finalize);
+        if shade.env_weight > 0.0 {
+            fallbacks += 1;
+        }
+        *o = shade.into();
+    }
+    Ok(fallbacks)
+}
+
+/// The checks of [`try_finalize_cluster`] after the output length and the
+/// input's sizes (its `# Errors`), over any [`Surfaces`].
+pub(crate) fn check_finalize(
+    input: &impl Surfaces,
+    pixels: &[u32],
+    eye: Vec3,
+    cam: &ClusterCamera,
+    depth: &DepthImage<'_>,
+    color: &ImageView<'_, [f32; 3]>,
+    finalize: &FinalizeInput<'_>,
+) -> Result<(), Error> {
     if !eye.is_finite() || color.width() != depth.width() || color.height() != depth.height() {
         return Err(Error::InvalidArgument);
     }
@@ -1331,7 +1446,7 @@ pub fn try_finalize_cluster<O: From<ClusterShade>>(
     if finalize.step.stride == 0 {
         return Err(Error::InvalidArgument);
     }
-    input.validate(pixels)?;
+    validate_pixels(input, pixels)?;
     let (pc, nc, d_far) = (cam.centroid, cam.normal, cam.far_distance);
     if !(pc.is_finite()
         && nc.is_finite()
@@ -1341,82 +1456,130 @@ pub fn try_finalize_cluster<O: From<ClusterShade>>(
     {
         return Err(Error::InvalidArgument);
     }
-    let mut fallbacks = 0u32;
-    for (o, &p) in out.iter_mut().zip(pixels) {
-        let (pos, n) = input.at(p).unwrap_or((Vec3::ZERO, Vec3::Y));
-        let axis = reflected(eye, pos, n).unwrap_or(n);
-        let s = (pos - pc).dot(nc);
-        let mut shade = ClusterShade {
-            mirror_dir: axis,
-            ..ClusterShade::default()
+    Ok(())
+}
+
+/// Why a ray of a cluster pixel found nothing in the depth image, when the
+/// image cannot answer it: it left the image, passed behind geometry, ran
+/// out of steps, or had no usable projection (the kernel refused it). A
+/// ray that reached the far plane `D` in front of every surface (or
+/// started beyond it) is answered: nothing lies within `D` there.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub(crate) enum Unanswered {
+    /// [`Miss::LeftImage`].
+    LeftImage,
+    /// [`Miss::BehindGeometry`].
+    BehindGeometry,
+    /// [`Miss::OutOfSteps`].
+    OutOfSteps,
+    /// [`Miss::DegenerateProjection`], or a ray the kernel refused.
+    NoProjection,
+}
+
+/// One pixel of [`try_finalize_cluster`] (checked by [`check_finalize`]):
+/// its shade and, if one of its rays found nothing the depth image can
+/// answer, the first such ray's reason.
+pub(crate) fn finalize_pixel(
+    input: &impl Surfaces,
+    p: u32,
+    eye: Vec3,
+    cam: &ClusterCamera,
+    depth: &DepthImage<'_>,
+    color: &ImageView<'_, [f32; 3]>,
+    finalize: &FinalizeInput<'_>,
+) -> (ClusterShade, Option<Unanswered>) {
+    let (pc, nc, d_far) = (cam.centroid, cam.normal, cam.far_distance);
+    let (pos, n) = input.at(p).unwrap_or((Vec3::ZERO, Vec3::Y));
+    let axis = reflected(eye, pos, n).unwrap_or(n);
+    let s = (pos - pc).dot(nc);
+    let mut shade = ClusterShade {
+        mirror_dir: axis,
+        ..ClusterShade::default()
+    };
+    let (mut env_dir, mut misses) = (Vec3::ZERO, 0u32);
+    let mut unanswered = None;
+    let h = hash32(p ^ hash32(finalize.seed));
+    let rot = Vec2::new((h & 0xffff) as f32 / 65_536.0, (h >> 16) as f32 / 65_536.0);
+    let mut trace = |dir: Vec3, shade: &mut ClusterShade| {
+        shade.rays += 1;
+        let dn = dir.dot(nc);
+        let t_max = if dn > 1e-6 {
+            (d_far - s) / dn
+        } else {
+            f32::INFINITY
         };
-        let (mut env_dir, mut misses) = (Vec3::ZERO, 0u32);
-        let h = hash32(p ^ hash32(finalize.seed));
-        let rot = Vec2::new((h & 0xffff) as f32 / 65_536.0, (h >> 16) as f32 / 65_536.0);
-        let mut trace = |dir: Vec3, shade: &mut ClusterShade| {
-            shade.rays += 1;
-            let dn = dir.dot(nc);
-            let t_max = if dn > 1e-6 {
-                (d_far - s) / dn
+        let ray = Ray { origin: pos, dir };
+        let result = if t_max > 0.0 {
+            Some(try_step(
+                depth,
+                finalize.thickness,
+                ray,
+                t_max,
+                finalize.step,
+            ))
+        } else {
+            None
+        };
+        let why = match &result {
+            Some(Ok(Trace::Miss { reason, .. })) => match reason {
+                Miss::EndOfRay => None,
+                Miss::LeftImage => Some(Unanswered::LeftImage),
+                Miss::BehindGeometry => Some(Unanswered::BehindGeometry),
+                Miss::OutOfSteps => Some(Unanswered::OutOfSteps),
+                Miss::DegenerateProjection => Some(Unanswered::NoProjection),
+            },
+            Some(Err(_)) => Some(Unanswered::NoProjection),
+            _ => None,
+        };
+        if unanswered.is_none() {
+            unanswered = why;
+        }
+        let result = result.and_then(Result::ok);
+        let hit = match result {
+            Some(Trace::Hit(hit)) => Some(if finalize.refine {
+                refine_hit(depth, &ray, t_max, &hit)
             } else {
-                f32::INFINITY
-            };
-            let ray = Ray { origin: pos, dir };
-            let result = if t_max > 0.0 {
-                try_step(depth, finalize.thickness, ray, t_max, finalize.step).ok()
-            } else {
-                None
-            };
-            let hit = match result {
-                Some(Trace::Hit(hit)) => Some(if finalize.refine {
-                    refine_hit(depth, &ray, t_max, &hit)
+                hit
+            }),
+            _ => None,
+        };
+        if let Some(tr) = result {
+            let w = tr.work();
+            shade.fetches = shade.fetches.saturating_add(w.fetches);
+            shade.steps = shade.steps.saturating_add(w.steps);
+        }
+        match hit {
+            Some(hit) => {
+                let wgt = if finalize.fade {
+                    (1.0 - (s + dn * hit.t) / d_far).clamp(0.0, 1.0)
                 } else {
-                    hit
-                }),
-                _ => None,
-            };
-            if let Some(tr) = result {
-                let w = tr.work();
-                shade.fetches = shade.fetches.saturating_add(w.fetches);
-                shade.steps = shade.steps.saturating_add(w.steps);
+                    1.0
+                };
+                shade.rgb += sample_color(depth, color, hit.pixel) * wgt;
+                shade.hit_weight += wgt;
+                shade.hits += 1;
             }
-            match hit {
-                Some(hit) => {
-                    let wgt = if finalize.fade {
-                        (1.0 - (s + dn * hit.t) / d_far).clamp(0.0, 1.0)
-                    } else {
-                        1.0
-                    };
-                    shade.rgb += sample_color(depth, color, hit.pixel) * wgt;
-                    shade.hit_weight += wgt;
-                    shade.hits += 1;
-                }
-                None => {
-                    env_dir += dir;
-                    misses += 1;
-                }
-            }
-        };
-        if finalize.lobe.rays > 1 {
-            for k in 0..finalize.lobe.rays {
-                let dir = lobe_dir(&finalize.lobe, axis, k, rot);
-                if dir.dot(n) > 0.0 && dir.is_finite() {
-                    trace(dir, &mut shade);
-                }
+            None => {
+                env_dir += dir;
+                misses += 1;
             }
         }
-        if shade.rays == 0 {
-            trace(axis, &mut shade);
+    };
+    if finalize.lobe.rays > 1 {
+        for k in 0..finalize.lobe.rays {
+            let dir = lobe_dir(&finalize.lobe, axis, k, rot);
+            if dir.dot(n) > 0.0 && dir.is_finite() {
+                trace(dir, &mut shade);
+            }
         }
-        let inv = 1.0 / shade.rays as f32;
-        shade.rgb *= inv;
-        shade.hit_weight *= inv;
-        shade.env_weight = misses as f32 * inv;
-        shade.env_dir = env_dir.try_normalize().unwrap_or(axis);
-        if misses > 0 {
-            fallbacks += 1;
-        }
-        *o = shade.into();
     }
-    Ok(fallbacks)
+    if shade.rays == 0 {
+        trace(axis, &mut shade);
+    }
+    let inv = 1.0 / shade.rays as f32;
+    shade.rgb *= inv;
+    shade.hit_weight *= inv;
+    shade.env_weight = misses as f32 * inv;
+    shade.env_dir = env_dir.try_normalize().unwrap_or(axis);
+    (shade, unanswered)
 }

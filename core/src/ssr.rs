@@ -309,6 +309,36 @@ impl MirrorRay {
     }
 }
 
+/// Steps 2 and 3 of the module docs for the surface point `p` with unit
+/// normal `n` seen from `eye`: the normal turned toward the eye (flipped
+/// when it faces away: a two-sided surface seen from behind) and the unit
+/// mirror direction `r = v - 2 (v . n) n` (seed 001 appendix) with `v` the
+/// unit view direction from `eye` to `p`; `None` when `p` is at the eye or
+/// the direction degenerates. The one ray generation of the passes
+/// ([`MirrorPass`], the glossy pass's axis, the cluster kernels and pass).
+pub(crate) fn reflect_view(eye: Vec3, p: Vec3, n: Vec3) -> Option<(Vec3, Vec3)> {
+    let v = (p - eye).normalize_or_zero();
+    let n = if n.dot(v) > 0.0 { -n } else { n };
+    let dir = (v - 2.0 * v.dot(n) * n).normalize_or_zero();
+    if v == Vec3::ZERO || dir == Vec3::ZERO {
+        return None;
+    }
+    Some((n, dir))
+}
+
+/// A pixel's surface and mirror direction ([`MirrorPass`] steps 1 to 3).
+#[derive(Clone, Copy, Debug)]
+pub(crate) struct Reflection {
+    /// The surface point.
+    pub origin: Vec3,
+    /// Unit normal, facing the eye.
+    pub normal: Vec3,
+    /// Unit mirror direction.
+    pub dir: Vec3,
+    /// Linear depth of the pixel.
+    pub depth: f32,
+}
+
 /// The four texels whose centers surround `p` (the bilinear footprint),
 /// shifted inside at the top and left border (those past the bottom or
 /// right border are outside the image and read as no surface).
@@ -451,32 +481,41 @@ impl<'a> MirrorPass<'a> {
         true
     }
 
-    fn setup(&self, x: u32, y: u32) -> Setup {
+    /// Steps 1 to 3 of the module docs at pixel `(x, y)`: the surface
+    /// point, the normal turned toward the eye, the reflection direction
+    /// and the pixel's linear depth; or the status that ends the pixel
+    /// there ([`MirrorStatus::Skipped`], [`MirrorStatus::NoSurface`]). The
+    /// ray generation every G-buffer pass shares (the mirror, glossy and
+    /// cluster passes).
+    pub(crate) fn reflection(&self, x: u32, y: u32) -> Result<Reflection, MirrorStatus> {
         if !self.reflective(x, y) {
-            return Setup::Done(MirrorStatus::Skipped);
+            return Err(MirrorStatus::Skipped);
         }
-        let Some(s) = self.gbuffer.surface(x, y) else {
-            return Setup::Done(MirrorStatus::NoSurface);
-        };
-        let v = (s.position - self.camera().eye()).normalize_or_zero();
-        let n = if s.normal.dot(v) > 0.0 {
-            -s.normal
-        } else {
-            s.normal
-        };
-        let dir = (v - 2.0 * v.dot(n) * n).normalize_or_zero();
-        if v == Vec3::ZERO || dir == Vec3::ZERO {
-            return Setup::Done(MirrorStatus::NoSurface);
-        }
-        let ray = Ray {
+        let s = self.gbuffer.surface(x, y).ok_or(MirrorStatus::NoSurface)?;
+        let (normal, dir) = reflect_view(self.camera().eye(), s.position, s.normal)
+            .ok_or(MirrorStatus::NoSurface)?;
+        Ok(Reflection {
             origin: s.position,
+            normal,
             dir,
+            depth: s.depth,
+        })
+    }
+
+    fn setup(&self, x: u32, y: u32) -> Setup {
+        let s = match self.reflection(x, y) {
+            Ok(s) => s,
+            Err(status) => return Setup::Done(status),
+        };
+        let ray = Ray {
+            origin: s.origin,
+            dir: s.dir,
         };
         let thickness = self.options.thickness * s.depth;
         let mut mr = MirrorRay {
-            origin: s.position,
-            dir,
-            normal: n,
+            origin: s.origin,
+            dir: s.dir,
+            normal: s.normal,
             t_start: self.options.t_min,
             thickness,
         };
@@ -513,11 +552,24 @@ impl<'a> MirrorPass<'a> {
     }
 
     fn host_entry(&self, x: u32, y: u32, r: &MirrorRay, status: MirrorStatus) -> HostRay {
+        self.host_ray_from(x, y, r.origin, r.dir, status)
+    }
+
+    /// The host ray of pixel `(x, y)` from `origin` along `dir` (a
+    /// [`Reflection`]'s) with `status`: the list entry of every pass.
+    pub(crate) fn host_ray_from(
+        &self,
+        x: u32,
+        y: u32,
+        origin: Vec3,
+        dir: Vec3,
+        status: MirrorStatus,
+    ) -> HostRay {
         HostRay {
             x,
             y,
-            origin: r.origin,
-            dir: r.dir,
+            origin,
+            dir,
             t_min: self.options.t_min,
             t_max: self.options.t_max,
             status,

@@ -6,7 +6,9 @@
 //! `refl_cluster_bin_layout`, `refl_cluster_assign` (per row band),
 //! `refl_cluster_ranges`; then per non-empty cluster `refl_cluster_build_camera`,
 //! the host renders depth and color through the camera (geometry strictly
-//! in front of the clip plane only), and `refl_cluster_finalize`.
+//! in front of the clip plane only), and `refl_cluster_finalize`. The
+//! cluster pass (`refl_cluster_plan_len`, `refl_cluster_plan`,
+//! `refl_cluster_finalize_rows`) does all of it from a G-buffer.
 //!
 //! Arrays are borrowed in place (nothing is copied or allocated); every
 //! input is validated before the first output is written, so a failed call

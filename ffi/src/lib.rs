@@ -62,10 +62,13 @@ mod types;
 // The passes of issue 13 added after the rest (keeps the header's order).
 mod backface;
 mod planar;
+// The cluster pass (issue 13, seed 003).
+mod cluster_pass;
 
 pub use backface::*;
 pub use camera::*;
 pub use cluster::*;
+pub use cluster_pass::*;
 pub use cone::*;
 pub use epipolar::*;
 pub use glossy::*;

@@ -457,6 +457,10 @@ pub enum refl_cluster_fallback {
     NoRays = 3,
     /// The rays span more than a pinhole frustum holds.
     TooWide = 4,
+    /// The camera is not representable (f32 overflow, a degenerate
+    /// frustum); only `refl_cluster_plan` records it (`refl_cluster_build_camera`
+    /// returns `REFL_STATUS_DEGENERATE_GEOMETRY` instead).
+    Degenerate = 5,
 }
 
 impl From<refl_core::cluster::ClusterFallback> for refl_cluster_fallback {
@@ -467,7 +471,24 @@ impl From<refl_core::cluster::ClusterFallback> for refl_cluster_fallback {
             F::FacesAway => Self::FacesAway,
             F::NoRays => Self::NoRays,
             F::TooWide => Self::TooWide,
+            F::Degenerate => Self::Degenerate,
         }
+    }
+}
+
+impl refl_cluster_fallback {
+    /// The reason of a `refl_cluster_camera.fallback` value: `None` for
+    /// `REFL_CLUSTER_FALLBACK_NONE` or an unknown value.
+    pub(crate) fn reason(v: u32) -> Option<refl_core::cluster::ClusterFallback> {
+        use refl_core::cluster::ClusterFallback as F;
+        Some(match v {
+            1 => F::TooFewPixels,
+            2 => F::FacesAway,
+            3 => F::NoRays,
+            4 => F::TooWide,
+            5 => F::Degenerate,
+            _ => return None,
+        })
     }
 }
 
@@ -593,6 +614,27 @@ pub struct refl_cluster_lobe {
     /// `refl_cluster_lobe_angle` gives the angle holding a share of the energy.
     pub max_angle: f32,
 }
+
+impl From<refl_core::cluster::Lobe> for refl_cluster_lobe {
+    fn from(l: refl_core::cluster::Lobe) -> Self {
+        Self {
+            rays: l.rays,
+            exponent: l.exponent,
+            max_angle: l.max_angle,
+        }
+    }
+}
+
+// `refl_cluster_objects.lobes` is read in place as refl-core's lobes.
+const _: () = {
+    use core::mem::{align_of, offset_of, size_of};
+    use refl_core::cluster::Lobe;
+    assert!(size_of::<refl_cluster_lobe>() == size_of::<Lobe>());
+    assert!(align_of::<refl_cluster_lobe>() == align_of::<Lobe>());
+    assert!(offset_of!(refl_cluster_lobe, rays) == offset_of!(Lobe, rays));
+    assert!(offset_of!(refl_cluster_lobe, exponent) == offset_of!(Lobe, exponent));
+    assert!(offset_of!(refl_cluster_lobe, max_angle) == offset_of!(Lobe, max_angle));
+};
 
 impl From<refl_cluster_lobe> for refl_core::cluster::Lobe {
     fn from(l: refl_cluster_lobe) -> Self {

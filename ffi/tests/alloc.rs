@@ -287,6 +287,7 @@ fn no_export_allocates() {
     planar(&mut cov);
     layered(&mut cov);
     cluster(&mut cov);
+    cluster_pass(&mut cov);
     tcrr(&mut cov);
     epipolar(&mut cov);
     check_coverage(&cov, &header_functions(&header()));
@@ -1009,6 +1010,177 @@ fn glossy(cov: &mut Coverage) {
             scratch.as_ptr(),
             len,
             rows(3, 2)
+        )
+    );
+}
+
+fn cluster_pass(cov: &mut Coverage) {
+    let s = scene();
+    let opts = value!(cov, refl_cluster_pass_options_default());
+    let none_vec3 = refl_image_vec3 {
+        data: core::ptr::null(),
+        len: 0,
+        width: 0,
+        height: 0,
+        stride: 0,
+    };
+    let g = refl_gbuffer {
+        depth: s.depth_image(),
+        normals: vec3_img(&s.normals),
+        normal_space: refl_normal_space::World as u32,
+        mask: refl_image_u8 {
+            data: core::ptr::null(),
+            len: 0,
+            width: 0,
+            height: 0,
+            stride: 0,
+        },
+        roughness: no_f32(),
+        color: none_vec3,
+        back_depth: no_f32(),
+    };
+    // The floor reflects (object 0); the wall (object 1) does not.
+    let lobes = [refl_cluster_lobe {
+        rays: 1,
+        exponent: 0.0,
+        max_angle: 0.0,
+    }];
+    let objects = refl_cluster_objects {
+        ids: u32_img(&s.objects),
+        lobes: lobes.as_ptr(),
+        lobes_len: 1,
+    };
+    let mut sizes = uninit::<refl_cluster_plan_sizes>();
+    ok!(
+        cov,
+        refl_cluster_plan_len(sizes.as_mut_ptr(), &g, &objects, &opts)
+    );
+    let bad = refl_cluster_pass_options {
+        thickness: f32::NAN,
+        cluster: refl_cluster_options {
+            gain: f32::NAN,
+            ..opts.cluster
+        },
+        ..opts
+    };
+    err!(
+        cov,
+        refl_cluster_plan_len(sizes.as_mut_ptr(), &g, &objects, &bad)
+    );
+    let sizes = unsafe { sizes.assume_init() };
+    let mut scratch = vec![0u32; sizes.scratch_len];
+    let zero = refl_cluster_plan_entry {
+        id: 0,
+        object: 0,
+        first: 0,
+        len: 0,
+        rows: rows(0, 0),
+        lobe: lobes[0],
+        camera: refl_cluster_camera::from_view(&refl_core::cluster::ClusterView::Fallback(
+            refl_core::cluster::ClusterFallback::NoRays,
+        )),
+        frustum: [refl_vec4 {
+            x: 0.0,
+            y: 0.0,
+            z: 0.0,
+            w: 0.0,
+        }; 6],
+    };
+    let mut list = vec![zero; sizes.clusters_len];
+    let mut pst = uninit::<refl_cluster_plan_stats>();
+    ok!(
+        cov,
+        refl_cluster_plan(
+            pst.as_mut_ptr(),
+            list.as_mut_ptr(),
+            list.len(),
+            scratch.as_mut_ptr(),
+            scratch.len(),
+            &g,
+            &objects,
+            &opts
+        )
+    );
+    err!(
+        cov,
+        refl_cluster_plan(
+            pst.as_mut_ptr(),
+            list.as_mut_ptr(),
+            list.len(),
+            scratch.as_mut_ptr(),
+            scratch.len() - 1,
+            &g,
+            &objects,
+            &opts
+        )
+    );
+    let pst = unsafe { pst.assume_init() };
+    assert!(pst.cameras >= 1);
+    let e = *list[..pst.clusters as usize]
+        .iter()
+        .find(|e| e.camera.fallback == 0)
+        .unwrap();
+    // The host's render (here: a constant depth and color).
+    let (rw, rh) = (e.camera.camera.width, e.camera.camera.height);
+    let rn = (rw * rh) as usize;
+    let rdepth = vec![5.0f32; rn];
+    let rcolor = vec![[0.25f32, 0.5, 0.75]; rn];
+    let render = refl_cluster_render {
+        depth: refl_depth_image {
+            depth: refl_image_f32 {
+                data: rdepth.as_ptr(),
+                len: rn,
+                width: rw,
+                height: rh,
+                stride: rw,
+            },
+            camera: e.camera.camera,
+            convention: refl_depth_convention::Linear as u32,
+        },
+        color: refl_image_vec3 {
+            data: rcolor.as_ptr().cast(),
+            len: rn,
+            width: rw,
+            height: rh,
+            stride: rw,
+        },
+        back_depth: no_f32(),
+    };
+    let mut texels = vec![refl_cluster_texel::default(); N];
+    let mut host = vec![refl_host_ray::default(); N];
+    let mut st = uninit::<refl_cluster_stats>();
+    ok!(
+        cov,
+        refl_cluster_finalize_rows(
+            st.as_mut_ptr(),
+            texels.as_mut_ptr(),
+            N,
+            host.as_mut_ptr(),
+            N,
+            &g,
+            &opts,
+            scratch.as_ptr(),
+            scratch.len(),
+            &e,
+            &render,
+            e.rows
+        )
+    );
+    err!(
+        cov,
+        refl_cluster_finalize_rows(
+            st.as_mut_ptr(),
+            texels.as_mut_ptr(),
+            N,
+            host.as_mut_ptr(),
+            N,
+            &g,
+            &opts,
+            scratch.as_ptr(),
+            scratch.len(),
+            &e,
+            core::ptr::null(),
+            e.rows
         )
     );
 }

@@ -615,6 +615,10 @@ fn options_defaults_equal_the_core_defaults() {
         ClusterCameraOptions::default()
     );
     assert_eq!(
+        refl_core::cluster::ClusterPassOptions::from(refl_cluster_pass_options_default()),
+        refl_core::cluster::ClusterPassOptions::default()
+    );
+    assert_eq!(
         TcrrOptions::try_from(&refl_tcrr_options_default()),
         Ok(TcrrOptions::default())
     );
