@@ -208,7 +208,7 @@ pub enum MirrorStatus {
     OutOfSteps = 6,
     /// Host: the ray has no usable projection (it never moves
     /// `start_pixels` from its origin, or leaves through the near plane at
-    /// once).
+    /// once), or its hit lies so far away that the distance overflows f32.
     NoProjection = 7,
     /// Host: the hit surface faces along the ray.
     BackFace = 8,
@@ -749,8 +749,15 @@ impl<'a> MirrorPass<'a> {
             if self.options.reject_back_faces && self.faces_away(h.pixel, seg.dir) {
                 break MirrorStatus::BackFace;
             }
+            // A surface so far away (a depth near f32::MAX) that the
+            // distance to it overflows f32 is no hit the pass can state:
+            // the host traces it (found by the `ssr` fuzz target).
+            let t = seg.t_start + h.t;
+            if !t.is_finite() {
+                break MirrorStatus::NoProjection;
+            }
             out.pixel = h.pixel;
-            out.t = seg.t_start + h.t;
+            out.t = t;
             out.confidence = self.confidence(h.pixel);
             break MirrorStatus::Hit;
         };

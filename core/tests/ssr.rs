@@ -718,3 +718,174 @@ fn masks_roughness_view_normals_and_hostile_pixels() {
         }
     }
 }
+
+/// A surface at a linear depth near `f32::MAX` (an infinite far plane):
+/// the distance to it overflows f32, so it is handed to the host, never a
+/// hit at `t = inf` (the `ssr` fuzz target's case, both methods; before
+/// the fix Hi-Z returned a hit with `t = inf` at pixel (2, 4)).
+#[test]
+fn a_hit_whose_distance_overflows_goes_to_the_host() {
+    let view = refl_core::glam::Mat4::from_cols_array(&[
+        -0.70710677,
+        -0.2949813,
+        0.6426399,
+        0.0,
+        0.0,
+        0.90883005,
+        0.41716653,
+        0.0,
+        -0.70710677,
+        0.2949813,
+        -0.6426399,
+        0.0,
+        -0.0,
+        -1.4361503,
+        -8.909497,
+        1.0,
+    ]);
+    let cam =
+        refl_core::Camera::try_new(view, 2.1887386, 0.83305883, f32::INFINITY, 21, 5).unwrap();
+    let depth: [f32; 105] = [
+        824468.56,
+        f32::INFINITY,
+        f32::MAX,
+        f32::INFINITY,
+        f32::INFINITY,
+        f32::INFINITY,
+        f32::INFINITY,
+        f32::INFINITY,
+        f32::INFINITY,
+        f32::INFINITY,
+        f32::INFINITY,
+        f32::NAN,
+        f32::INFINITY,
+        f32::INFINITY,
+        f32::INFINITY,
+        f32::INFINITY,
+        f32::INFINITY,
+        f32::INFINITY,
+        f32::INFINITY,
+        f32::INFINITY,
+        f32::INFINITY,
+        f32::INFINITY,
+        f32::INFINITY,
+        f32::INFINITY,
+        f32::INFINITY,
+        f32::INFINITY,
+        f32::INFINITY,
+        f32::INFINITY,
+        f32::INFINITY,
+        f32::INFINITY,
+        f32::NAN,
+        f32::INFINITY,
+        f32::INFINITY,
+        f32::INFINITY,
+        f32::INFINITY,
+        f32::INFINITY,
+        f32::INFINITY,
+        f32::INFINITY,
+        f32::INFINITY,
+        f32::INFINITY,
+        f32::INFINITY,
+        f32::NAN,
+        10.839704,
+        10.839707,
+        10.839704,
+        10.839705,
+        10.839704,
+        10.839702,
+        10.839703,
+        f32::NAN,
+        10.839703,
+        10.839703,
+        10.839703,
+        10.839703,
+        10.839703,
+        10.839704,
+        10.839702,
+        10.839702,
+        10.839704,
+        10.839705,
+        f32::NAN,
+        10.839704,
+        10.839704,
+        4.031782,
+        4.031783,
+        4.031782,
+        4.03178,
+        4.031779,
+        f32::NAN,
+        4.0317793,
+        4.031779,
+        4.0317793,
+        4.0317793,
+        f32::NAN,
+        4.0317793,
+        4.0317793,
+        4.031779,
+        4.0317783,
+        4.0317793,
+        f32::NAN,
+        4.0317793,
+        4.0317793,
+        4.031781,
+        4.031781,
+        2.476441,
+        2.4764395,
+        2.4764404,
+        f32::NAN,
+        2.4764404,
+        2.47644,
+        2.4764395,
+        2.47644,
+        2.4764395,
+        2.4764404,
+        2.4764404,
+        2.47644,
+        2.47644,
+        2.47644,
+        f32::NAN,
+        2.47644,
+        2.47644,
+        2.4764404,
+        2.4764404,
+        2.4764404,
+        2.47644,
+    ];
+    let normals = [[0.0f32, 1.0, 0.0]; 105];
+    let conv = DepthConvention::Linear;
+    let dv = ImageView::try_new(&depth, 21, 5, 21).unwrap();
+    let di = refl_core::DepthImage::try_new(dv, cam, conv).unwrap();
+    let nv = ImageView::try_new(&normals, 21, 5, 21).unwrap();
+    let mut pyr = vec![refl_core::HiZTexel::default(); refl_core::try_hiz_len(21, 5).unwrap()];
+    refl_core::try_build_hiz(&mut pyr, &di).unwrap();
+    for method in [MirrorMethod::Step, MirrorMethod::HiZ] {
+        let g = GBuffer::try_new(di, nv, NormalSpace::View).unwrap();
+        let o = MirrorOptions {
+            method,
+            ..MirrorOptions::default()
+        };
+        let hiz = (method == MirrorMethod::HiZ).then(|| HiZ::try_new(&pyr, cam, conv).unwrap());
+        let pass = MirrorPass::try_new(g, o, hiz).unwrap();
+        for y in 0..5 {
+            for x in 0..21 {
+                let (t, _) = pass.pixel(x, y);
+                if t.status == MirrorStatus::Hit {
+                    assert!(
+                        t.t.is_finite(),
+                        "{method:?} ({x}, {y}): a hit at t = {}",
+                        t.t
+                    );
+                }
+            }
+        }
+        if method == MirrorMethod::HiZ {
+            let (t, hr) = pass.pixel(2, 4);
+            assert_eq!(t.status, MirrorStatus::NoProjection);
+            assert_eq!(
+                hr.map(|r| (r.x, r.y, r.status)),
+                Some((2, 4, MirrorStatus::NoProjection))
+            );
+        }
+    }
+}

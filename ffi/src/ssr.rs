@@ -126,7 +126,8 @@ pub enum refl_ssr_status {
     /// Host ray: the kernel's step or iteration cap was reached.
     OutOfSteps = 6,
     /// Host ray: no usable projection (the ray runs toward its own
-    /// vanishing point).
+    /// vanishing point), or a hit so far away that its distance overflows
+    /// a float.
     NoProjection = 7,
     /// Host ray: the hit surface faces along the ray.
     BackFace = 8,

@@ -350,7 +350,7 @@ fuzz_target!(|data: &[u8]| {
                         hits += 1;
                         let p = t.pixel;
                         assert!(p.x >= 0.0 && p.y >= 0.0 && p.x <= w as f32 && p.y <= h as f32, "hit pixel {p:?} outside {w}x{h}");
-                        assert!(t.t.is_finite() && t.t >= o.t_min && t.t <= o.t_max, "hit t {} outside [{}, {}]", t.t, o.t_min, o.t_max);
+                        assert!(t.t.is_finite() && t.t >= o.t_min && t.t <= o.t_max, "hit t {} outside [{}, {}] at ({x}, {y}): {t:?}; options {o:?}; camera {cam:?}; convention {}; depth {}; stride {} image {:?}; normals {:?} space {normal_space}", t.t, o.t_min, o.t_max, img.conv, img.texel(x, y), img.stride, img.buf.to_vec(), nbuf.to_vec());
                         assert!((0.0..=1.0).contains(&t.confidence), "confidence {}", t.confidence);
                     }
                     _ => {
