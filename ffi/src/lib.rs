@@ -62,6 +62,8 @@ mod types;
 // The passes of issue 13 added after the rest (keeps the header's order).
 mod backface;
 mod planar;
+// The layered-maps pass (issue 13).
+mod layered_pass;
 
 pub use backface::*;
 pub use camera::*;
@@ -72,6 +74,7 @@ pub use glossy::*;
 pub use hiz::*;
 pub use image::*;
 pub use layered::*;
+pub use layered_pass::*;
 pub use mirror::*;
 pub use planar::*;
 pub use ssr::*;
