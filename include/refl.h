@@ -3111,7 +3111,8 @@ typedef struct refl_layered_pass_options {
     /**
      * A ray starts where its projection has moved this many pixels from
      * its surface point (as `refl_ssr_options.start_pixels`); finite,
-     * >= 0. Default 1.
+     * >= 0. Default 0: the maps hold reflected objects, not the
+     * reflector, so the ray starts at its surface point (t_min).
      */
     float start_pixels;
     /**
@@ -5575,8 +5576,8 @@ refl_status refl_planar_resolve_rows(struct refl_planar_stats *out_stats,
 
 /**
  * The pass's defaults: the kernel's (`refl_layered_options_default`),
- * start after 1 pixel, t_min 0, t_max +infinity, roughness up to 0.1,
- * payloads that are not colors.
+ * no start offset (start_pixels 0, t_min 0), t_max +infinity, roughness
+ * up to 0.1, payloads that are not colors.
  */
 struct refl_layered_pass_options refl_layered_pass_options_default(void);
 

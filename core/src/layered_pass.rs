@@ -29,7 +29,15 @@
 //!    [`LayeredPassOptions::t_min`]). A ray whose projection never moves
 //!    that far goes to the host ([`LayeredPassStatus::NoProjection`]); one
 //!    that starts at or beyond [`LayeredPassOptions::t_max`] reaches
-//!    nothing ([`LayeredPassStatus::Sky`], answered).
+//!    nothing ([`LayeredPassStatus::Sky`], answered). The start rule keeps
+//!    a screen-space ray off its reflector's own depth texels; the maps
+//!    hold reflected objects, not the reflector (step 2), so by default
+//!    the rule is off (`start_pixels = 0`: the ray starts at `t_min`, and
+//!    only a ray along the line of sight has no projection). Measured on
+//!    the root package's room (`tests/screen.rs`, 984 rays whose reference
+//!    hit is a mapped object): 99.7% of them hit that object within a texel
+//!    diagonal at 0, 99.0% at 0.5, 97.1% at 1 and 93.5% at 2 pixels (a
+//!    later start passes over objects close to the reflector).
 //! 2. **Which maps apply.** A map is traced unless its id equals the
 //!    pixel's object id (with an id image, [`LayeredPass::try_with_ids`]:
 //!    the reflector's own map; seed 001 maps reflected objects, a
@@ -98,7 +106,8 @@ pub struct LayeredPassOptions {
     pub trace: LayeredOptions,
     /// Where a ray starts: once its projection has moved this many pixels
     /// from its surface point (finite, `>= 0`; as
-    /// [`MirrorOptions::start_pixels`]).
+    /// [`MirrorOptions::start_pixels`]; module docs, step 1: 0 by
+    /// default).
     pub start_pixels: f32,
     /// A ray starts no earlier than this distance from its surface point
     /// (finite, `>= 0`).
@@ -113,14 +122,15 @@ pub struct LayeredPassOptions {
 }
 
 impl Default for LayeredPassOptions {
-    /// The kernel's defaults ([`LayeredOptions::default`]), the mirror
-    /// pass's ray settings (start after 1 pixel, `t_min = 0`,
-    /// `t_max = +inf`, roughness up to 0.1), payloads that are not colors.
+    /// The kernel's defaults ([`LayeredOptions::default`]), no start
+    /// offset (`start_pixels = 0`, `t_min = 0`; module docs, step 1),
+    /// `t_max = +inf`, the mirror pass's roughness limit (0.1), payloads
+    /// that are not colors.
     fn default() -> Self {
         let m = MirrorOptions::default();
         Self {
             trace: LayeredOptions::default(),
-            start_pixels: m.start_pixels,
+            start_pixels: 0.0,
             t_min: m.t_min,
             t_max: m.t_max,
             max_roughness: m.max_roughness,

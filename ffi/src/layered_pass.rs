@@ -37,7 +37,8 @@ pub struct refl_layered_pass_options {
     pub trace: refl_layered_options,
     /// A ray starts where its projection has moved this many pixels from
     /// its surface point (as `refl_ssr_options.start_pixels`); finite,
-    /// >= 0. Default 1.
+    /// >= 0. Default 0: the maps hold reflected objects, not the
+    /// reflector, so the ray starts at its surface point (t_min).
     pub start_pixels: f32,
     /// A ray starts no earlier than this distance; finite, >= 0. Default 0.
     pub t_min: f32,
@@ -483,8 +484,8 @@ fn pass<'a>(
 }
 
 /// The pass's defaults: the kernel's (`refl_layered_options_default`),
-/// start after 1 pixel, t_min 0, t_max +infinity, roughness up to 0.1,
-/// payloads that are not colors.
+/// no start offset (start_pixels 0, t_min 0), t_max +infinity, roughness
+/// up to 0.1, payloads that are not colors.
 #[no_mangle]
 pub extern "C" fn refl_layered_pass_options_default() -> refl_layered_pass_options {
     LayeredPassOptions::default().into()

@@ -312,7 +312,7 @@ fn options_default_is_the_rust_default() {
     assert_eq!(c, LayeredPassOptions::default().into());
     assert_eq!(LayeredPassOptions::from(c), LayeredPassOptions::default());
     assert_eq!(c.trace, refl_layered_options_default());
-    assert!(!c.payload_color && c.t_max == f32::INFINITY && c.start_pixels == 1.0);
+    assert!(!c.payload_color && c.t_max == f32::INFINITY && c.start_pixels == 0.0);
 }
 
 #[test]
