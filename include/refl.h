@@ -720,6 +720,57 @@ typedef uint32_t refl_planar_status;
 #endif // __cplusplus
 
 /**
+ * What the pass did at a pixel or listed ray (`refl_layered_pass_texel.status`,
+ * `refl_host_ray.status` of its host rays).
+ */
+enum refl_layered_pass_status
+#if defined(__cplusplus) || __STDC_VERSION__ >= 202311L
+  : uint32_t
+#endif // defined(__cplusplus) || __STDC_VERSION__ >= 202311L
+ {
+    /**
+     * Not reflective (mask, roughness), or a row the call did not cover.
+     */
+    REFL_LAYERED_PASS_STATUS_SKIPPED = 0,
+    /**
+     * No usable surface: sky, NaN depth, zero or non-finite normal.
+     */
+    REFL_LAYERED_PASS_STATUS_NO_SURFACE = 1,
+    /**
+     * The ray hit a map's object.
+     */
+    REFL_LAYERED_PASS_STATUS_HIT = 2,
+    /**
+     * The ray starts at or beyond t_max: it reaches nothing (answered).
+     */
+    REFL_LAYERED_PASS_STATUS_SKY = 3,
+    /**
+     * Host ray: the ray met no mapped object.
+     */
+    REFL_LAYERED_PASS_STATUS_LEFT_MAPS = 4,
+    /**
+     * Host ray: a map's step cap was reached and no map hit.
+     */
+    REFL_LAYERED_PASS_STATUS_OUT_OF_STEPS = 5,
+    /**
+     * Host ray: the ray starts inside a mapped object (a disocclusion)
+     * and no map hit.
+     */
+    REFL_LAYERED_PASS_STATUS_STARTED_INSIDE = 6,
+    /**
+     * Host ray: no usable projection (not traced).
+     */
+    REFL_LAYERED_PASS_STATUS_NO_PROJECTION = 7,
+};
+#ifndef __cplusplus
+#if __STDC_VERSION__ >= 202311L
+typedef enum refl_layered_pass_status refl_layered_pass_status;
+#else
+typedef uint32_t refl_layered_pass_status;
+#endif // __STDC_VERSION__ >= 202311L
+#endif // __cplusplus
+
+/**
  * A 4x4 float matrix, column-major: element (row r, column c) is
  * `m[4 * c + r]`, the layout of OpenGL and glam. Points are column vectors
  * multiplied on the right (`p' = M p`).
