@@ -3161,8 +3161,8 @@ typedef struct refl_layered_pass_options {
     struct refl_layered_options trace;
     /**
      * A ray starts where its projection has moved this many pixels from
-     * its surface point (as `refl_ssr_options.start_pixels`); finite,
-     * >= 0. Default 0: the maps hold reflected objects, not the
+     * its surface point (as `refl_ssr_options.start_pixels`); finite and
+     * not negative. Default 0: the maps hold reflected objects, not the
      * reflector, so the ray starts at its surface point (t_min).
      */
     float start_pixels;

@@ -36,8 +36,8 @@ pub struct refl_layered_pass_options {
     /// The kernel's settings (`refl_layered_options_default`).
     pub trace: refl_layered_options,
     /// A ray starts where its projection has moved this many pixels from
-    /// its surface point (as `refl_ssr_options.start_pixels`); finite,
-    /// >= 0. Default 0: the maps hold reflected objects, not the
+    /// its surface point (as `refl_ssr_options.start_pixels`); finite and
+    /// not negative. Default 0: the maps hold reflected objects, not the
     /// reflector, so the ray starts at its surface point (t_min).
     pub start_pixels: f32,
     /// A ray starts no earlier than this distance; finite, >= 0. Default 0.
