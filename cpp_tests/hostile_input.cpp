@@ -3624,6 +3624,333 @@ void cluster_pass_functions() {
     }
 }
 
+// The layered-maps pass: NULL pointers, options out of range, maps that are
+// not maps of their grid, ids and scratch of the wrong size, unprepared
+// scratch, outputs aliasing inputs, rows out of range, hostile listed rays.
+// Every output (scratch, stats, texels, colors, host rays) must be left
+// untouched.
+void layered_pass_functions() {
+    const refl_camera cam = good_camera();
+    const uint32_t w = cam.width, h = cam.height;
+    const size_t n = size_t(w) * h;
+    std::vector<float> depth(n, 0.5f);
+    std::vector<refl_vec3> normals(n, v3(0, 1, 0));
+    std::vector<uint32_t> ids(n, 0u);
+    const refl_image_f32 none{nullptr, 0, 0, 0, 0};
+    refl_gbuffer gb{};
+    gb.depth = {{depth.data(), n, w, h, w}, cam, REFL_DEPTH_CONVENTION_ZERO_TO_ONE};
+    gb.normals = {normals.data(), n, w, h, w};
+    gb.normal_space = REFL_NORMAL_SPACE_WORLD;
+    gb.mask = {nullptr, 0, 0, 0, 0};
+    gb.roughness = none;
+    gb.color = {nullptr, 0, 0, 0, 0};
+    gb.back_depth = none;
+    // One map, cleared (empty): a map of its grid.
+    const float ident[16] = {1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1, 0, 0, 0.5f, 0, 1};
+    refl_layered_grid grid{};
+    grid.min = v3(-0.5f, -0.5f, -0.5f);
+    grid.max = v3(0.5f, 0.5f, 0.5f);
+    grid.face_res = 4;
+    grid.layers = 1;
+    std::memcpy(grid.world_from_local.m, ident, sizeof ident);
+    refl_layered_sizes sz{};
+    REQUIRE(refl_layered_len(&sz, 4, 1) == REFL_STATUS_OK);
+    std::vector<float> mdepth(sz.depth_len), mbounds(sz.bounds_len);
+    std::vector<uint32_t> mpayload(sz.payload_len), mcounts(sz.counts_len);
+    const refl_layered_map_mut mm{grid,           mdepth.data(),  mdepth.size(),  mpayload.data(), mpayload.size(),
+                                  mcounts.data(), mcounts.size(), mbounds.data(), mbounds.size()};
+    REQUIRE(refl_layered_clear(&mm) == REFL_STATUS_OK);
+    const refl_layered_map map{grid,           mdepth.data(),  mdepth.size(),  mpayload.data(), mpayload.size(),
+                               mcounts.data(), mcounts.size(), mbounds.data(), mbounds.size()};
+    const uint32_t map_ids[] = {3u};
+    refl_layered_pass_input in{};
+    in.gbuffer = gb;
+    in.maps = &map;
+    in.maps_len = 1;
+    in.ids = {ids.data(), n, w, h, w};
+    in.map_ids = map_ids;
+    in.map_ids_len = 1;
+    const refl_layered_pass_options def = refl_layered_pass_options_default();
+    CHECK(def.start_pixels == 0.0f && def.t_max == kInf && !def.payload_color);
+
+    // Scratch size.
+    const size_t len =
+        expect_ok<size_t>("layered pass scratch", [&](size_t* o) { return refl_layered_pass_scratch_len(o, &in, &def); });
+    CHECK_EQ(len, size_t(1));
+    expect<size_t>("layered pass scratch NULL input", REFL_STATUS_NULL_POINTER,
+                   [&](size_t* o) { return refl_layered_pass_scratch_len(o, nullptr, &def); });
+    expect<size_t>("layered pass scratch NULL options", REFL_STATUS_NULL_POINTER,
+                   [&](size_t* o) { return refl_layered_pass_scratch_len(o, &in, nullptr); });
+
+    // Hostile inputs, shared by prepare and the traces.
+    struct BadInput {
+        const char* what;
+        refl_status st;
+        refl_layered_pass_input in;
+        refl_layered_pass_options o;
+    };
+    std::vector<BadInput> bad;
+    auto add = [&](const char* what, refl_status st, auto edit) {
+        BadInput b{what, st, in, def};
+        edit(b.in, b.o);
+        bad.push_back(b);
+    };
+    using I = refl_layered_pass_input;
+    using O = refl_layered_pass_options;
+    add("t_max NaN", REFL_STATUS_INVALID_ARGUMENT, [](I&, O& o) { o.t_max = kNaN; });
+    add("t_max 0", REFL_STATUS_INVALID_ARGUMENT, [](I&, O& o) { o.t_max = 0.0f; });
+    add("t_min -1", REFL_STATUS_INVALID_ARGUMENT, [](I&, O& o) { o.t_min = -1.0f; });
+    add("t_min inf", REFL_STATUS_INVALID_ARGUMENT, [](I&, O& o) { o.t_min = kInf; });
+    add("start NaN", REFL_STATUS_INVALID_ARGUMENT, [](I&, O& o) { o.start_pixels = kNaN; });
+    add("roughness NaN", REFL_STATUS_INVALID_ARGUMENT, [](I&, O& o) { o.max_roughness = kNaN; });
+    add("step 0", REFL_STATUS_INVALID_ARGUMENT, [](I&, O& o) { o.trace.step_texels = 0.0f; });
+    add("step inf", REFL_STATUS_INVALID_ARGUMENT, [](I&, O& o) { o.trace.step_texels = kInf; });
+    add("max steps 0", REFL_STATUS_INVALID_ARGUMENT, [](I&, O& o) { o.trace.max_steps = 0; });
+    add("binary steps 65", REFL_STATUS_INVALID_ARGUMENT, [](I&, O& o) { o.trace.binary_steps = 65; });
+    add("smooth NaN", REFL_STATUS_INVALID_ARGUMENT, [](I&, O& o) { o.trace.smooth_texels = kNaN; });
+    add("maps NULL", REFL_STATUS_NULL_POINTER, [](I& i, O&) { i.maps = nullptr; });
+    add("map ids NULL", REFL_STATUS_NULL_POINTER, [](I& i, O&) { i.map_ids = nullptr; });
+    add("map ids short", REFL_STATUS_INSUFFICIENT_SIZE, [](I& i, O&) { i.map_ids_len = 0; });
+    add("ids of another size", REFL_STATUS_INVALID_ARGUMENT, [](I& i, O&) { i.ids.width -= 1; });
+    add("ids short", REFL_STATUS_INSUFFICIENT_SIZE, [](I& i, O&) { i.ids.len -= 1; });
+    add("normals NULL", REFL_STATUS_NULL_POINTER, [](I& i, O&) { i.gbuffer.normals.data = nullptr; });
+    add("normals of another size", REFL_STATUS_INVALID_ARGUMENT, [](I& i, O&) { i.gbuffer.normals.height -= 1; });
+    add("bad normal space", REFL_STATUS_INVALID_ARGUMENT, [](I& i, O&) { i.gbuffer.normal_space = 7; });
+    add("bad convention", REFL_STATUS_INVALID_ARGUMENT, [](I& i, O&) { i.gbuffer.depth.convention = kMax; });
+    add("camera NaN", REFL_STATUS_INVALID_ARGUMENT, [](I& i, O&) { i.gbuffer.depth.camera.fov_y = kNaN; });
+    // Map descriptors: another array of maps.
+    static refl_layered_map maps_bad[6];
+    for (auto& m : maps_bad) m = map;
+    maps_bad[0].depth = nullptr;
+    maps_bad[1].counts_len -= 1;
+    maps_bad[2].grid.min.x = -0.6f;  // not the grid it was cleared for
+    maps_bad[3].grid.world_from_local.m[3] = 0.5f;
+    maps_bad[4].grid.world_from_local.m[13] = kNaN;
+    maps_bad[5].bounds = reinterpret_cast<const float*>(reinterpret_cast<const char*>(mbounds.data()) + 1);
+    const refl_status map_st[6] = {REFL_STATUS_NULL_POINTER, REFL_STATUS_INSUFFICIENT_SIZE,
+                                   REFL_STATUS_INVALID_ARGUMENT, REFL_STATUS_INVALID_ARGUMENT,
+                                   REFL_STATUS_INVALID_ARGUMENT, REFL_STATUS_INVALID_ARGUMENT};
+    for (int k = 0; k < 6; ++k) {
+        BadInput b{"bad map", map_st[k], in, def};
+        b.in.maps = &maps_bad[k];
+        bad.push_back(b);
+    }
+
+    // Prepare: the scratch is its output.
+    auto prep = [&](const char* what, refl_status want, size_t scratch_len, const I* ip, const O* o,
+                    bool null_scratch = false, bool misaligned = false) {
+        std::vector<refl_layered_bound> scratch(4);
+        std::memset(static_cast<void*>(scratch.data()), 0x3C, scratch.size() * sizeof(refl_layered_bound));
+        refl_layered_bound* p = null_scratch ? nullptr : scratch.data();
+        if (misaligned) p = reinterpret_cast<refl_layered_bound*>(reinterpret_cast<char*>(scratch.data()) + 1);
+        const uint32_t got = refl_layered_pass_prepare(p, scratch_len, ip, o);
+        ++check::checks();
+        bool untouched = true;
+        const unsigned char* sb = reinterpret_cast<const unsigned char*>(scratch.data());
+        for (size_t i = 0; i < scratch.size() * sizeof(refl_layered_bound); ++i) untouched = untouched && sb[i] == 0x3C;
+        if (got != static_cast<uint32_t>(want) || !untouched)
+            check::fail(__FILE__, __LINE__, std::string(what) + ": got " + check::status_name(got));
+    };
+    prep("layered prepare NULL input", REFL_STATUS_NULL_POINTER, 1, nullptr, &def);
+    prep("layered prepare NULL options", REFL_STATUS_NULL_POINTER, 1, &in, nullptr);
+    prep("layered prepare NULL scratch", REFL_STATUS_NULL_POINTER, 1, &in, &def, true);
+    prep("layered prepare misaligned scratch", REFL_STATUS_INVALID_ARGUMENT, 1, &in, &def, false, true);
+    prep("layered prepare short scratch", REFL_STATUS_INSUFFICIENT_SIZE, 0, &in, &def);
+    for (const BadInput& b : bad) prep(b.what, b.st, 1, &b.in, &b.o);
+    {
+        // A scratch over a map buffer it reads.
+        std::vector<float> big(mdepth);
+        refl_layered_map alias = map;
+        alias.depth = big.data();
+        I ai = in;
+        ai.maps = &alias;
+        CHECK_STATUS(refl_layered_pass_prepare(reinterpret_cast<refl_layered_bound*>(big.data()), 1, &ai, &def),
+                     REFL_STATUS_INVALID_ARGUMENT);
+        CHECK(big == mdepth);
+    }
+
+    // Traces: every output prefilled.
+    refl_layered_bound scratch{};
+    CHECK_STATUS(refl_layered_pass_prepare(&scratch, 1, &in, &def), REFL_STATUS_OK);
+    const refl_row_range all{0, h};
+    const refl_layered_pass_stats ok = expect_ok<refl_layered_pass_stats>("layered trace", [&](refl_layered_pass_stats* st) {
+        std::vector<refl_layered_pass_texel> out(n);
+        std::vector<refl_host_ray> host(n);
+        return refl_layered_trace_rows(st, out.data(), n, {nullptr, 0, 0, 0, 0}, host.data(), n, &in, &def, &scratch,
+                                       1, all);
+    });
+    CHECK(ok.traced > 0 && ok.host_rays == ok.traced);
+    auto trace = [&](const char* what, refl_status want, const I* ip, const O* o, const refl_layered_bound* sc,
+                     size_t sc_len, refl_row_range rows, size_t out_len, bool null_out = false, bool color = false,
+                     uint32_t color_w = 0, bool null_host = false) {
+        std::vector<refl_layered_pass_texel> out(n + 1);
+        std::memset(static_cast<void*>(out.data()), 0x5A, out.size() * sizeof(refl_layered_pass_texel));
+        std::vector<refl_vec3> col(n, v3(-3, -3, -3));
+        std::vector<refl_host_ray> host(16);
+        std::memset(static_cast<void*>(host.data()), 0x6B, host.size() * sizeof(refl_host_ray));
+        const refl_image_vec3_mut cm =
+            color ? refl_image_vec3_mut{col.data(), n, color_w, h, color_w} : refl_image_vec3_mut{nullptr, 0, 0, 0, 0};
+        expect<refl_layered_pass_stats>(what, want, [&](refl_layered_pass_stats* st) {
+            return refl_layered_trace_rows(st, null_out ? nullptr : out.data(), out_len, cm,
+                                           null_host ? nullptr : host.data(), 16, ip, o, sc, sc_len, rows);
+        }, false);
+        bool untouched = true;
+        const unsigned char* ob = reinterpret_cast<const unsigned char*>(out.data());
+        for (size_t i = 0; i < out.size() * sizeof(refl_layered_pass_texel); ++i) untouched = untouched && ob[i] == 0x5A;
+        const unsigned char* hb = reinterpret_cast<const unsigned char*>(host.data());
+        for (size_t i = 0; i < host.size() * sizeof(refl_host_ray); ++i) untouched = untouched && hb[i] == 0x6B;
+        for (const refl_vec3& c : col) untouched = untouched && c.x == -3.0f;
+        CHECK(untouched);
+    };
+    CHECK_STATUS(refl_layered_trace_rows(nullptr, nullptr, n, {nullptr, 0, 0, 0, 0}, nullptr, 0, &in, &def, &scratch,
+                                         1, all),
+                 REFL_STATUS_NULL_POINTER);
+    trace("layered trace NULL out", REFL_STATUS_NULL_POINTER, &in, &def, &scratch, 1, all, n, true);
+    trace("layered trace NULL input", REFL_STATUS_NULL_POINTER, nullptr, &def, &scratch, 1, all, n);
+    trace("layered trace NULL options", REFL_STATUS_NULL_POINTER, &in, nullptr, &scratch, 1, all, n);
+    trace("layered trace NULL scratch", REFL_STATUS_NULL_POINTER, &in, &def, nullptr, 1, all, n);
+    trace("layered trace NULL host", REFL_STATUS_NULL_POINTER, &in, &def, &scratch, 1, all, n, false, false, 0, true);
+    trace("layered trace short out", REFL_STATUS_INSUFFICIENT_SIZE, &in, &def, &scratch, 1, all, n - 1);
+    trace("layered trace short scratch", REFL_STATUS_INSUFFICIENT_SIZE, &in, &def, &scratch, 0, all, n);
+    trace("layered trace reversed rows", REFL_STATUS_INVALID_ARGUMENT, &in, &def, &scratch, 1, {3, 2}, n);
+    trace("layered trace rows past the end", REFL_STATUS_INVALID_ARGUMENT, &in, &def, &scratch, 1, {0, h + 1}, n);
+    trace("layered trace color without payload colors", REFL_STATUS_INVALID_ARGUMENT, &in, &def, &scratch, 1, all, n,
+          false, true, w);
+    {
+        O pc = def;
+        pc.payload_color = true;
+        trace("layered trace color of another size", REFL_STATUS_INVALID_ARGUMENT, &in, &pc, &scratch, 1, all, n,
+              false, true, w - 1);
+        refl_layered_bound blank{};
+        trace("layered trace unprepared scratch", REFL_STATUS_INVALID_ARGUMENT, &in, &def, &blank, 1, all, n);
+        refl_layered_map moved = map;
+        moved.grid.world_from_local.m[12] = 0.25f;
+        I mi = in;
+        mi.maps = &moved;
+        trace("layered trace scratch of a moved map", REFL_STATUS_INVALID_ARGUMENT, &mi, &def, &scratch, 1, all, n);
+        refl_layered_bound nan = scratch;
+        nan.center.x = kNaN;
+        // A scratch whose key matches but whose sphere was overwritten: an
+        // answer, never a crash.
+        std::vector<refl_layered_pass_texel> out(n);
+        refl_layered_pass_stats st{};
+        CHECK_STATUS(refl_layered_trace_rows(&st, out.data(), n, {nullptr, 0, 0, 0, 0}, nullptr, 0, &in, &def, &nan,
+                                             1, all),
+                     REFL_STATUS_OK);
+    }
+    for (const BadInput& b : bad) trace(b.what, b.st, &b.in, &b.o, &scratch, 1, all, n);
+    {
+        // Texels aliasing the normals; host rays aliasing the scratch; misaligned texels.
+        std::vector<refl_vec3> nbig(16 * n, v3(0, 1, 0));
+        I alias = in;
+        alias.gbuffer.normals = {nbig.data(), n, w, h, w};
+        refl_layered_pass_stats st{};
+        CHECK_STATUS(refl_layered_trace_rows(&st, reinterpret_cast<refl_layered_pass_texel*>(nbig.data()), n,
+                                             {nullptr, 0, 0, 0, 0}, nullptr, 0, &alias, &def, &scratch, 1, all),
+                     REFL_STATUS_INVALID_ARGUMENT);
+        CHECK(nbig[0].y == 1.0f && nbig[15 * n].y == 1.0f);
+        std::vector<refl_layered_pass_texel> out(n + 1);
+        std::vector<refl_host_ray> hs(4);
+        CHECK_STATUS(refl_layered_trace_rows(&st, out.data(), n, {nullptr, 0, 0, 0, 0}, hs.data(), 4, &in, &def,
+                                             reinterpret_cast<const refl_layered_bound*>(hs.data()), 1, all),
+                     REFL_STATUS_INVALID_ARGUMENT);
+        CHECK_STATUS(refl_layered_trace_rows(&st,
+                                             reinterpret_cast<refl_layered_pass_texel*>(
+                                                 reinterpret_cast<char*>(out.data()) + 1),
+                                             n, {nullptr, 0, 0, 0, 0}, nullptr, 0, &in, &def, &scratch, 1, all),
+                     REFL_STATUS_INVALID_ARGUMENT);
+    }
+
+    // Listed rays.
+    const refl_host_ray good{1, 2, v3(0, 1, 3), v3(0, 0, -1), 0.0f, kInf, 0};
+    auto listed = [&](const char* what, refl_status want, std::vector<refl_host_ray> rays, size_t out_len,
+                      bool color, size_t color_len, const O* o, const I* ip = nullptr) {
+        std::vector<refl_layered_pass_texel> out(8);
+        std::memset(static_cast<void*>(out.data()), 0x5A, out.size() * sizeof(refl_layered_pass_texel));
+        std::vector<refl_vec3> col(8, v3(-3, -3, -3));
+        std::vector<refl_host_ray> host(8);
+        std::memset(static_cast<void*>(host.data()), 0x6B, host.size() * sizeof(refl_host_ray));
+        expect<refl_layered_pass_stats>(what, want, [&](refl_layered_pass_stats* st) {
+            return refl_layered_trace_host_rays(st, out.data(), out_len, color ? col.data() : nullptr, color_len,
+                                                host.data(), 8, ip ? ip : &in, o, &scratch, 1, rays.data(),
+                                                rays.size());
+        }, want != REFL_STATUS_OK);
+        if (want == REFL_STATUS_OK) return;
+        bool untouched = true;
+        const unsigned char* ob = reinterpret_cast<const unsigned char*>(out.data());
+        for (size_t i = 0; i < out.size() * sizeof(refl_layered_pass_texel); ++i) untouched = untouched && ob[i] == 0x5A;
+        const unsigned char* hb = reinterpret_cast<const unsigned char*>(host.data());
+        for (size_t i = 0; i < host.size() * sizeof(refl_host_ray); ++i) untouched = untouched && hb[i] == 0x6B;
+        for (const refl_vec3& c : col) untouched = untouched && c.x == -3.0f;
+        CHECK(untouched);
+    };
+    const refl_layered_pass_stats lst = expect_ok<refl_layered_pass_stats>("layered host rays", [&](refl_layered_pass_stats* st) {
+        std::vector<refl_layered_pass_texel> out(2);
+        std::vector<refl_host_ray> host(2);
+        const refl_host_ray rays[2] = {good, good};
+        return refl_layered_trace_host_rays(st, out.data(), 2, nullptr, 0, host.data(), 2, &in, &def, &scratch, 1,
+                                            rays, 2);
+    });
+    CHECK(lst.traced == 2 && lst.host_rays == 2);
+    for (const refl_vec3& b : kBadVec3) {
+        refl_host_ray r = good;
+        r.origin = b;
+        listed("host rays bad origin", REFL_STATUS_INVALID_ARGUMENT, {good, r}, 2, false, 0, &def);
+        r = good;
+        r.dir = b;
+        listed("host rays bad dir", REFL_STATUS_INVALID_ARGUMENT, {good, r}, 2, false, 0, &def);
+    }
+    {
+        refl_host_ray r = good;
+        r.dir = v3(0, 0, -2);
+        listed("host rays long dir", REFL_STATUS_INVALID_ARGUMENT, {r}, 1, false, 0, &def);
+        r = good;
+        r.dir = v3(0, 0, 0);
+        listed("host rays zero dir", REFL_STATUS_INVALID_ARGUMENT, {r}, 1, false, 0, &def);
+        for (float t : {kNaN, -1.0f, kInf}) {
+            r = good;
+            r.t_min = t;
+            listed("host rays bad t_min", REFL_STATUS_INVALID_ARGUMENT, {r}, 1, false, 0, &def);
+        }
+        for (float t : {kNaN, 0.0f, -kInf}) {
+            r = good;
+            r.t_max = t;
+            listed("host rays bad t_max", REFL_STATUS_INVALID_ARGUMENT, {r}, 1, false, 0, &def);
+        }
+        r = good;
+        r.origin = v3(0, 0, 3e38f);
+        r.dir = v3(0, 0, 1);
+        r.t_min = 1e38f;
+        listed("host rays start overflows", REFL_STATUS_INVALID_ARGUMENT, {r}, 1, false, 0, &def);
+        listed("host rays short out", REFL_STATUS_INSUFFICIENT_SIZE, {good, good}, 1, false, 0, &def);
+        O pc = def;
+        pc.payload_color = true;
+        listed("host rays short color", REFL_STATUS_INSUFFICIENT_SIZE, {good, good}, 2, true, 1, &pc);
+        listed("host rays color without payload colors", REFL_STATUS_INVALID_ARGUMENT, {good}, 1, true, 1, &def);
+        listed("host rays NULL options", REFL_STATUS_NULL_POINTER, {good}, 1, false, 0, nullptr);
+        for (const BadInput& b : bad) listed(b.what, b.st, {good}, 1, false, 0, &b.o, &b.in);
+        // NULL rays with a count; out aliasing the rays.
+        refl_layered_pass_stats st{};
+        std::vector<refl_layered_pass_texel> out(2);
+        CHECK_STATUS(refl_layered_trace_host_rays(&st, out.data(), 2, nullptr, 0, nullptr, 0, &in, &def, &scratch, 1,
+                                                  nullptr, 2),
+                     REFL_STATUS_NULL_POINTER);
+        std::vector<refl_host_ray> rays(8, good);
+        CHECK_STATUS(refl_layered_trace_host_rays(&st, reinterpret_cast<refl_layered_pass_texel*>(rays.data()), 1,
+                                                  nullptr, 0, nullptr, 0, &in, &def, &scratch, 1, rays.data() + 1, 1),
+                     REFL_STATUS_INVALID_ARGUMENT);
+        CHECK(rays[0].x == good.x && rays[1].t_max == kInf);
+        CHECK_STATUS(refl_layered_trace_host_rays(&st, out.data(), 2, nullptr, 0, rays.data(), 4, &in, &def,
+                                                  &scratch, 1, rays.data() + 2, 2),
+                     REFL_STATUS_INVALID_ARGUMENT);
+        // Zero rays: nothing to trace, the inputs still checked.
+        CHECK_STATUS(refl_layered_trace_host_rays(&st, nullptr, 0, nullptr, 0, nullptr, 0, &in, &def, &scratch, 1,
+                                                  nullptr, 0),
+                     REFL_STATUS_OK);
+        CHECK(st.traced == 0);
+    }
+}
+
 int main() {
     status_strings();
     camera_functions();
@@ -3641,5 +3968,6 @@ int main() {
     glossy_functions();
     planar_functions();
     cluster_pass_functions();
+    layered_pass_functions();
     return check::finish("hostile_input");
 }

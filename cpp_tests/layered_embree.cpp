@@ -33,6 +33,11 @@
 // with the map build time, and the triangle count at which refl overtakes
 // Embree: measured if it happens in the table, else extrapolated from a fit
 // of Embree's cost linear in log(triangles) (refl's is flat), labelled so.
+//
+// Then a frame through the layered pass, as a host renders one
+// (refl_layered_pass_*, refl_layered_trace_rows, refl_layered_trace_host_rays:
+// the reflection rays, their start, the maps that apply and the nearest hit
+// come from refl, not from this file): see frame_through_the_pass.
 #include <embree3/rtcore.h>
 
 #include <algorithm>
@@ -382,6 +387,143 @@ void rotate_x(scene::Mesh& m, V3 c, double angle) {
     }
 }
 
+
+// A frame through the layered pass, as a host renders it: a mirror floor
+// under the sphere and the tilted torus, a G-buffer from Embree's primary
+// rays (linear depth, outward geometric normals, object ids, the floor as
+// the reflective mask), then the pass's four calls (options, scratch size,
+// prepare, trace over row bands from `threads` threads). Every floor
+// pixel's reflection ray, as the pass generated it (its direction; from the
+// floor point Embree's primary ray found), is traced by Embree against the
+// two objects: where Embree hits one, the pass must hit the same map within
+// one texel diagonal of Embree's point (99%); where Embree misses, the pass
+// must hand the pixel to the host as LEFT_MAPS (99%). The host rays then go
+// through refl_layered_trace_host_rays (the ray-list entry): they leave the
+// maps again.
+struct FrameStats {
+    size_t traced = 0, to_objects = 0, agree = 0, empty = 0, left = 0, listed = 0, listed_left = 0;
+    uint64_t fetches = 0;
+    double ms = 0.0;
+};
+
+FrameStats frame_through_the_pass(RTCDevice device, unsigned threads) {
+    const double floor_y = -1.6;
+    const scene::Mesh floor = scene::quad({-12, floor_y, 12}, {12, floor_y, 12}, {12, floor_y, -12}, {-12, floor_y, -12});
+    const scene::Mesh sphere = scene::sphere({0.3, -0.2, 0.1}, 1.0, 48, 96);
+    scene::Mesh torus = scene::torus({2.8, 0.0, -0.8}, 1.0, 0.35, 96, 48);
+    rotate_x(torus, {2.8, 0.0, -0.8}, 0.5);
+    const scene::Scene all(device, {&floor, &sphere, &torus});
+    const scene::Scene objects(device, {nullptr, &sphere, &torus});
+    const MeshScene sphere_robust(device, sphere, RTC_SCENE_FLAG_ROBUST);
+    const MeshScene torus_robust(device, torus, RTC_SCENE_FLAG_ROBUST);
+    const uint32_t res = 256;
+    const Map maps[2] = {build_map(sphere_robust.scene, sphere, res, 1, threads),
+                         build_map(torus_robust.scene, torus, res, 4, threads)};
+    const std::vector<V3> normals[3] = {outward_normals(floor), outward_normals(sphere), outward_normals(torus)};
+
+    // The G-buffer.
+    const uint32_t w = 320, h = 240;
+    const size_t n = size_t(w) * h;
+    refl_camera cam{};
+    REQUIRE(refl_camera_look_at(&cam, {1.5f, 2.2f, 7.5f}, {1.4f, -0.9f, 0.0f}, {0, 1, 0}, 1.0f, 0.1f, 100.0f, w, h) ==
+            REFL_STATUS_OK);
+    std::vector<float> depth(n, kInf);
+    std::vector<refl_vec3> gnormals(n, refl_vec3{0, 0, 0}), points(n, refl_vec3{0, 0, 0});
+    std::vector<uint8_t> mask(n, 0);
+    std::vector<uint32_t> ids(n, 0xFFFFFFFFu);
+    for (uint32_t y = 0; y < h; ++y)
+        for (uint32_t x = 0; x < w; ++x) {
+            const size_t i = size_t(y) * w + x;
+            refl_ray r{};
+            REQUIRE(refl_camera_primary_ray(&r, &cam, {x + 0.5f, y + 0.5f}) == REFL_STATUS_OK);
+            const float o[3] = {r.origin.x, r.origin.y, r.origin.z}, d[3] = {r.dir.x, r.dir.y, r.dir.z};
+            const scene::Hit hit = scene::trace(all.scene, o, d, 0.0f);
+            if (!hit.hit()) continue;
+            const refl_vec3 p{o[0] + hit.t * d[0], o[1] + hit.t * d[1], o[2] + hit.t * d[2]};
+            REQUIRE(refl_camera_linear_depth(&depth[i], &cam, p) == REFL_STATUS_OK);
+            gnormals[i] = rv(normalize(normals[hit.geom][hit.prim]));
+            points[i] = p;
+            ids[i] = hit.geom;
+            mask[i] = hit.geom == 0 ? 1 : 0;
+        }
+    refl_gbuffer gb{};
+    gb.depth = {{depth.data(), n, w, h, w}, cam, REFL_DEPTH_CONVENTION_LINEAR};
+    gb.normals = {gnormals.data(), n, w, h, w};
+    gb.normal_space = REFL_NORMAL_SPACE_WORLD;
+    gb.mask = {mask.data(), n, w, h, w};
+    gb.roughness = {nullptr, 0, 0, 0, 0};
+    gb.color = {nullptr, 0, 0, 0, 0};
+    gb.back_depth = {nullptr, 0, 0, 0, 0};
+    const refl_layered_map views[2] = {maps[0].view(), maps[1].view()};
+    const uint32_t map_ids[2] = {1, 2};
+    refl_layered_pass_input input{};
+    input.gbuffer = gb;
+    input.maps = views;
+    input.maps_len = 2;
+    input.ids = {ids.data(), n, w, h, w};
+    input.map_ids = map_ids;
+    input.map_ids_len = 2;
+
+    // The pass: four calls.
+    const refl_layered_pass_options options = refl_layered_pass_options_default();
+    size_t scratch_len = 0;
+    CHECK_STATUS(refl_layered_pass_scratch_len(&scratch_len, &input, &options), REFL_STATUS_OK);
+    std::vector<refl_layered_bound> scratch(scratch_len);
+    std::vector<refl_layered_pass_texel> texels(n);
+    std::vector<std::vector<refl_host_ray>> host(threads, std::vector<refl_host_ray>(n));
+    std::vector<refl_layered_pass_stats> stats(threads);
+    std::atomic<size_t> bad{0};
+    FrameStats f;
+    const auto t0 = Clock::now();
+    CHECK_STATUS(refl_layered_pass_prepare(scratch.data(), scratch.size(), &input, &options), REFL_STATUS_OK);
+    parallel_for(threads, threads, [&](unsigned, size_t k, size_t) {
+        refl_row_range rows{};
+        if (refl_image_row_band(&rows, h, uint32_t(k), threads) != REFL_STATUS_OK ||
+            refl_layered_trace_rows(&stats[k], texels.data(), n, {nullptr, 0, 0, 0, 0}, host[k].data(), n, &input,
+                                    &options, scratch.data(), scratch.size(), rows) != REFL_STATUS_OK)
+            ++bad;
+    });
+    f.ms = std::chrono::duration<double, std::milli>(Clock::now() - t0).count();
+    CHECK(bad == 0);
+
+    // Embree on the pass's rays.
+    const float diag[2] = {float(std::sqrt(3.0) * texel_size(maps[0])), float(std::sqrt(3.0) * texel_size(maps[1]))};
+    for (size_t i = 0; i < n; ++i) {
+        const refl_layered_pass_texel& t = texels[i];
+        if (t.status == REFL_LAYERED_PASS_STATUS_SKIPPED || t.status == REFL_LAYERED_PASS_STATUS_NO_SURFACE) continue;
+        ++f.traced;
+        f.fetches += t.fetches;
+        const float o[3] = {points[i].x, points[i].y, points[i].z}, d[3] = {t.dir.x, t.dir.y, t.dir.z};
+        const scene::Hit e = scene::trace(objects.scene, o, d, 1e-4f);
+        if (e.hit()) {
+            ++f.to_objects;
+            const V3 pe{o[0] + double(e.t) * d[0], o[1] + double(e.t) * d[1], o[2] + double(e.t) * d[2]};
+            const double err = scene::length(pe - V3{t.position.x, t.position.y, t.position.z});
+            f.agree += t.status == REFL_LAYERED_PASS_STATUS_HIT && t.map + 1 == e.geom && err <= diag[e.geom - 1];
+        } else {
+            ++f.empty;
+            f.left += t.status == REFL_LAYERED_PASS_STATUS_LEFT_MAPS;
+        }
+    }
+    // The host rays through the ray-list entry.
+    for (unsigned k = 0; k < threads; ++k) {
+        const size_t m = stats[k].host_rays_written;
+        CHECK(m == stats[k].host_rays);
+        std::vector<refl_layered_pass_texel> out(m);
+        std::vector<refl_host_ray> again(m);
+        refl_layered_pass_stats st{};
+        CHECK_STATUS(refl_layered_trace_host_rays(&st, out.data(), m, nullptr, 0, again.data(), m, &input, &options,
+                                                  scratch.data(), scratch.size(), host[k].data(), m),
+                     REFL_STATUS_OK);
+        for (size_t j = 0; j < m; ++j) {
+            f.listed += host[k][j].status == REFL_LAYERED_PASS_STATUS_LEFT_MAPS;
+            f.listed_left += host[k][j].status == REFL_LAYERED_PASS_STATUS_LEFT_MAPS &&
+                             out[j].status == REFL_LAYERED_PASS_STATUS_LEFT_MAPS;
+        }
+    }
+    return f;
+}
+
 }  // namespace
 
 int main() {
@@ -432,6 +574,24 @@ int main() {
         CHECK(m2.approx == 0);
         CHECK(m1.approx > 0);
         CHECK(a1.rate() < a2.rate());
+    }
+
+    // A frame through the layered pass.
+    {
+        const FrameStats f = frame_through_the_pass(dev.device, nt);
+        std::printf("\n== a frame through the layered pass (320 x 240, mirror floor, sphere L=1 and torus L=4 at 256 x 256 "
+                    "texels per face, %u threads) ==\n",
+                    nt);
+        std::printf("  %zu floor rays: %zu reach an object (Embree), pass agrees on %zu (%.4f); %zu reach none, pass hands "
+                    "%zu to the host as LEFT_MAPS (%.4f); %.1f fetches/ray; prepare + trace %.1f ms; host rays through "
+                    "the ray list: %zu of %zu leave the maps again\n",
+                    f.traced, f.to_objects, f.agree, f.to_objects ? double(f.agree) / f.to_objects : 0.0, f.empty, f.left,
+                    f.empty ? double(f.left) / f.empty : 0.0, f.traced ? double(f.fetches) / f.traced : 0.0, f.ms,
+                    f.listed_left, f.listed);
+        CHECK(f.to_objects > 2000 && f.empty > 2000);
+        CHECK(double(f.agree) >= 0.99 * double(f.to_objects));
+        CHECK(double(f.left) >= 0.99 * double(f.empty));
+        CHECK(double(f.listed_left) >= 0.99 * double(f.listed));
     }
 
     // Cost per ray against the triangle count (sphere, one thread).

@@ -634,7 +634,8 @@ enum refl_ssr_status
     REFL_SSR_STATUS_OUT_OF_STEPS = 6,
     /**
      * Host ray: no usable projection (the ray runs toward its own
-     * vanishing point).
+     * vanishing point), or a hit so far away that its distance overflows
+     * a float.
      */
     REFL_SSR_STATUS_NO_PROJECTION = 7,
     /**
@@ -722,6 +723,57 @@ enum refl_planar_status
 typedef enum refl_planar_status refl_planar_status;
 #else
 typedef uint32_t refl_planar_status;
+#endif // __STDC_VERSION__ >= 202311L
+#endif // __cplusplus
+
+/**
+ * What the pass did at a pixel or listed ray (`refl_layered_pass_texel.status`,
+ * `refl_host_ray.status` of its host rays).
+ */
+enum refl_layered_pass_status
+#if defined(__cplusplus) || __STDC_VERSION__ >= 202311L
+  : uint32_t
+#endif // defined(__cplusplus) || __STDC_VERSION__ >= 202311L
+ {
+    /**
+     * Not reflective (mask, roughness), or a row the call did not cover.
+     */
+    REFL_LAYERED_PASS_STATUS_SKIPPED = 0,
+    /**
+     * No usable surface: sky, NaN depth, zero or non-finite normal.
+     */
+    REFL_LAYERED_PASS_STATUS_NO_SURFACE = 1,
+    /**
+     * The ray hit a map's object.
+     */
+    REFL_LAYERED_PASS_STATUS_HIT = 2,
+    /**
+     * The ray starts at or beyond t_max: it reaches nothing (answered).
+     */
+    REFL_LAYERED_PASS_STATUS_SKY = 3,
+    /**
+     * Host ray: the ray met no mapped object.
+     */
+    REFL_LAYERED_PASS_STATUS_LEFT_MAPS = 4,
+    /**
+     * Host ray: a map's step cap was reached and no map hit.
+     */
+    REFL_LAYERED_PASS_STATUS_OUT_OF_STEPS = 5,
+    /**
+     * Host ray: the ray starts inside a mapped object (a disocclusion)
+     * and no map hit.
+     */
+    REFL_LAYERED_PASS_STATUS_STARTED_INSIDE = 6,
+    /**
+     * Host ray: no usable projection (not traced).
+     */
+    REFL_LAYERED_PASS_STATUS_NO_PROJECTION = 7,
+};
+#ifndef __cplusplus
+#if __STDC_VERSION__ >= 202311L
+typedef enum refl_layered_pass_status refl_layered_pass_status;
+#else
+typedef uint32_t refl_layered_pass_status;
 #endif // __STDC_VERSION__ >= 202311L
 #endif // __cplusplus
 
@@ -3342,6 +3394,201 @@ typedef struct refl_cluster_render {
 } refl_cluster_render;
 
 /**
+ * Settings of the layered pass; `refl_layered_pass_options_default` gives
+ * the defaults.
+ */
+typedef struct refl_layered_pass_options {
+    /**
+     * The kernel's settings (`refl_layered_options_default`).
+     */
+    struct refl_layered_options trace;
+    /**
+     * A ray starts where its projection has moved this many pixels from
+     * its surface point (as `refl_ssr_options.start_pixels`); finite and
+     * not negative. Default 0: the maps hold reflected objects, not the
+     * reflector, so the ray starts at its surface point (t_min).
+     */
+    float start_pixels;
+    /**
+     * A ray starts no earlier than this distance; finite, >= 0. Default 0.
+     */
+    float t_min;
+    /**
+     * The longest ray, > t_min, +infinity allowed (the default).
+     */
+    float t_max;
+    /**
+     * Pixels with a roughness above this are not traced (only with a
+     * roughness image); not NaN. Default 0.1.
+     */
+    float max_roughness;
+    /**
+     * The maps' payloads are packed colors (bytes r, g, b, a from the
+     * least significant, a little-endian `refl_rgba8`): the color output
+     * gets [r, g, b] / 255 at each hit. Default false.
+     */
+    bool payload_color;
+} refl_layered_pass_options;
+
+/**
+ * What a layered pass reads besides its options: the G-buffer, the maps,
+ * and optionally object ids (a pixel's ray skips the maps of its own
+ * object: a reflector does not reflect itself).
+ */
+typedef struct refl_layered_pass_input {
+    /**
+     * The G-buffer (as `refl_ssr_trace_rows` reads it; its color is not
+     * read).
+     */
+    struct refl_gbuffer gbuffer;
+    /**
+     * The maps (`maps_len` descriptors; NULL with 0 allowed), each cleared
+     * and filled for its grid; their buffers must not be written while a
+     * call reads them.
+     */
+    const struct refl_layered_map *maps;
+    /**
+     * Number of maps.
+     */
+    size_t maps_len;
+    /**
+     * Optional object id per pixel (the camera's size; absent when `data`
+     * is NULL).
+     */
+    struct refl_image_u32 ids;
+    /**
+     * With `ids`: the object id of each map (`map_ids_len >= maps_len`);
+     * pixel (x, y)'s ray skips map k when `map_ids[k] == ids(x, y)`.
+     * Ignored without `ids`.
+     */
+    const uint32_t *map_ids;
+    /**
+     * Number of ids readable from `map_ids`.
+     */
+    size_t map_ids_len;
+} refl_layered_pass_input;
+
+/**
+ * One map's world bounding sphere and the key of the map it was computed
+ * for: the scratch `refl_layered_pass_prepare` writes, one per map.
+ */
+typedef struct refl_layered_bound {
+    /**
+     * Center, world space.
+     */
+    struct refl_vec3 center;
+    /**
+     * Radius, world units.
+     */
+    float radius;
+    /**
+     * A hash of the map's grid, placement and index (a scratch prepared
+     * for other maps is refused).
+     */
+    uint32_t key;
+} refl_layered_bound;
+
+/**
+ * Counts of one `refl_layered_trace_rows` or `refl_layered_trace_host_rays`
+ * call.
+ */
+typedef struct refl_layered_pass_stats {
+    /**
+     * Rays traced (pixels: reflective, with a surface).
+     */
+    uint32_t traced;
+    /**
+     * Hits.
+     */
+    uint32_t hits;
+    /**
+     * Rays answered as sky.
+     */
+    uint32_t sky;
+    /**
+     * Rays that need the host's tracer.
+     */
+    uint32_t host_rays;
+    /**
+     * Of those, the ones written to the host list (the first ones in
+     * order; the rest did not fit, their texels still say so).
+     */
+    uint32_t host_rays_written;
+    /**
+     * Kernel traces (a ray against one map), summed.
+     */
+    uint64_t kernel_traces;
+    /**
+     * Buffer reads of the kernel, summed.
+     */
+    uint64_t fetches;
+} refl_layered_pass_stats;
+
+/**
+ * One pixel (or listed ray) of the pass's output.
+ */
+typedef struct refl_layered_pass_texel {
+    /**
+     * A `refl_layered_pass_status`.
+     */
+    uint32_t status;
+    /**
+     * Index of the map hit in `refl_layered_pass_input.maps`; 0 without a
+     * hit.
+     */
+    uint32_t map;
+    /**
+     * Face (0..6) whose search found the hit; 0 without a hit.
+     */
+    uint32_t face;
+    /**
+     * Texel column `i` on that face; 0 without a hit.
+     */
+    uint32_t texel_x;
+    /**
+     * Texel row `j` on that face; 0 without a hit.
+     */
+    uint32_t texel_y;
+    /**
+     * The hit's position on the face in texels (sub-texel; its floor is
+     * about the texel); 0 without a hit.
+     */
+    struct refl_vec2 uv;
+    /**
+     * Layer of that texel; 0 without a hit.
+     */
+    uint32_t layer;
+    /**
+     * Payload of that layer; 0 without a hit.
+     */
+    uint32_t payload;
+    /**
+     * Distance from the surface point (a listed ray: its origin) to the
+     * hit; 0 without a hit.
+     */
+    float t;
+    /**
+     * World position of the hit; 0 without a hit.
+     */
+    struct refl_vec3 position;
+    /**
+     * Confidence in [0, 1]: 1 where the searched face sees the surface it
+     * hit (the kernel's mismatch within `trace.early_stop_texels`),
+     * `early_stop_texels / mismatch` beyond; 0 without a hit.
+     */
+    float confidence;
+    /**
+     * Unit ray direction (where to sample a probe); 0 for pixels without
+     * a ray.
+     */
+    struct refl_vec3 dir;
+    /**
+     * Buffer reads of the kernel over the maps traced.
+     */
+    uint32_t fetches;
+} refl_layered_pass_texel;
+
+/**
  * An 8-bit RGBA texel.
  */
 typedef struct refl_rgba8 {
@@ -5734,6 +5981,153 @@ refl_status refl_cluster_finalize_rows(struct refl_cluster_stats *out_stats,
                                        const struct refl_cluster_plan_entry *cluster,
                                        const struct refl_cluster_render *render,
                                        struct refl_row_range rows);
+
+/**
+ * The pass's defaults: the kernel's (`refl_layered_options_default`),
+ * no start offset (start_pixels 0, t_min 0), t_max +infinity, roughness
+ * up to 0.1, payloads that are not colors.
+ */
+struct refl_layered_pass_options refl_layered_pass_options_default(void);
+
+/**
+ * Size query: the number of `refl_layered_bound` records of scratch the
+ * pass needs for this input (one per map) into `*out_len`.
+ *
+ * Returns `REFL_STATUS_NULL_POINTER` if `out_len`, `input` or `options`
+ * is NULL.
+ *
+ * # Safety
+ * `out_len` NULL or writable; `input` and `options` NULL or readable.
+ */
+refl_status refl_layered_pass_scratch_len(size_t *out_len,
+                                          const struct refl_layered_pass_input *input,
+                                          const struct refl_layered_pass_options *options);
+
+/**
+ * Prepares a frame: validates the options, the G-buffer, every map
+ * (buffers, grid, the stamp `refl_layered_clear` left) and the ids, and
+ * writes into `scratch[k]` map k's world bounding sphere and key. A trace
+ * skips a map whose sphere its ray misses (the per-ray form of seed 001's
+ * potential-reflection-region test; the kernel would miss the map's box:
+ * results are the same, only cheaper). Call it once per frame, before any
+ * `refl_layered_trace_rows`, and again after a map moved.
+ *
+ * Returns `REFL_STATUS_NULL_POINTER` if `input`, `options`, a required
+ * G-buffer image, a map buffer, `input.maps` or (with ids)
+ * `input.map_ids` with a non-zero length, or `scratch` with a non-zero
+ * count of maps is NULL; `REFL_STATUS_INSUFFICIENT_SIZE` if `scratch_len`
+ * is below the number of maps, `input.map_ids_len` below it, or an
+ * image's or a map buffer's `len` is too small;
+ * `REFL_STATUS_INVALID_ARGUMENT` for an option out of range, an unknown
+ * convention or normal space, an image not of the camera's size, a map
+ * whose grid or stamp does not match, a map too far out for f32, a
+ * misaligned pointer, or `scratch` overlapping an input;
+ * `REFL_STATUS_DEGENERATE_GEOMETRY` for a map's degenerate grid; the
+ * camera's status if it is invalid. Nothing is written on error.
+ *
+ * # Safety
+ * `scratch` NULL or writable for `scratch_len` records; `input` and
+ * `options` NULL or readable, the images, map descriptors, map buffers
+ * and ids readable for their lengths and not written during the call.
+ */
+refl_status refl_layered_pass_prepare(struct refl_layered_bound *scratch,
+                                      size_t scratch_len,
+                                      const struct refl_layered_pass_input *input,
+                                      const struct refl_layered_pass_options *options);
+
+/**
+ * Runs the pass over the rows `rows` of the G-buffer: for each pixel of
+ * those rows writes its `refl_layered_pass_texel` to `out[y * width + x]`
+ * (`out` holds the whole `width x height` image, row stride `width`; only
+ * the band's rows are written), its payload color to `color` if
+ * `color.data` is not NULL (needs `options.payload_color`; black where
+ * there is no hit), and appends the pixels the maps cannot answer to
+ * `host` (up to `host_len`; NULL with 0 allowed; origin the surface
+ * point, `t_min` and `t_max` the options', status a
+ * `refl_layered_pass_status`) in row-major order. The counts go to
+ * `*out_stats`. Per pixel (seed 001 Sec. 3.3-3.4 on each map): the mirror
+ * ray and its start exactly as `refl_ssr_trace_rows` makes them, traced
+ * with `refl_layered_trace_ray` against every map that applies (not the
+ * pixel's own object's, with ids; one whose sphere the ray meets), each
+ * later map only up to the nearest hit so far; the nearest hit wins.
+ *
+ * Bands are independent: split the rows (`refl_image_row_band`) across
+ * threads, each with its own `host` list. `scratch` is what
+ * `refl_layered_pass_prepare` wrote for these maps.
+ *
+ * Returns `REFL_STATUS_NULL_POINTER` if `out_stats`, `out`, `input`,
+ * `options`, `scratch` (with maps), a required image, a map buffer, or
+ * `host` with a non-zero `host_len` is NULL;
+ * `REFL_STATUS_INSUFFICIENT_SIZE` if `out_len < width * height`,
+ * `scratch_len` is below the number of maps, or an image's or map
+ * buffer's `len` is too small; `REFL_STATUS_INVALID_ARGUMENT` for rows
+ * reversed or beyond the height, `color` not of the camera's size or
+ * given without `payload_color`, outputs overlapping each other or the
+ * inputs, a scratch not prepared for these maps (other maps, order or
+ * placement), and the cases of `refl_layered_pass_prepare`. Nothing is
+ * written on error.
+ *
+ * # Safety
+ * `out_stats` NULL or writable; `out` NULL or writable for `out_len`
+ * texels; `color.data` NULL or writable for `color.len` texels; `host`
+ * NULL or writable for `host_len` entries; `scratch` NULL or readable for
+ * `scratch_len` records; the rest as `refl_layered_pass_prepare`. No
+ * other thread writes the rows of `out` and `color` this call writes.
+ */
+refl_status refl_layered_trace_rows(struct refl_layered_pass_stats *out_stats,
+                                    struct refl_layered_pass_texel *out,
+                                    size_t out_len,
+                                    struct refl_image_vec3_mut color,
+                                    struct refl_host_ray *host,
+                                    size_t host_len,
+                                    const struct refl_layered_pass_input *input,
+                                    const struct refl_layered_pass_options *options,
+                                    const struct refl_layered_bound *scratch,
+                                    size_t scratch_len,
+                                    struct refl_row_range rows);
+
+/**
+ * Traces the host's own rays `rays[k]` (e.g. the host rays of
+ * `refl_ssr_trace_rows`; their `status` is not read) against the maps as
+ * `refl_layered_trace_rows` traces a pixel's ray, from `origin + t_min *
+ * dir` up to `t_max` (no start rule), skipping with ids the maps of the
+ * object at the ray's (x, y) (none outside the image). Writes ray k's
+ * texel to `out[k]` (`t` from the ray's origin), its payload color to
+ * `color[k]` if `color` is not NULL (needs `options.payload_color`), and
+ * appends the rays the maps cannot answer to `host` (up to `host_len`;
+ * NULL with 0 allowed) in order, with their own x, y, origin, t_min and
+ * t_max. The counts go to `*out_stats`. Every ray is validated first.
+ *
+ * Returns `REFL_STATUS_NULL_POINTER` if `out_stats`, `input`, `options`,
+ * `scratch` (with maps), a required image, a map buffer, or `out`,
+ * `rays`, `color`, `host` with a non-zero length is NULL;
+ * `REFL_STATUS_INSUFFICIENT_SIZE` if `out_len` or (with `color`)
+ * `color_len` is below `rays_len`, or as `refl_layered_trace_rows`;
+ * `REFL_STATUS_INVALID_ARGUMENT` for a ray with a non-finite origin or
+ * direction, a direction whose length is not 1 (within about 1e-3), a
+ * `t_min` negative or not finite, a `t_max` not above `t_min`, a start
+ * point beyond the float range, `color` given without `payload_color`,
+ * outputs overlapping each other or the inputs (`rays` included), and
+ * the cases of `refl_layered_trace_rows`. Nothing is written on error.
+ *
+ * # Safety
+ * `out_stats` NULL or writable; `out`, `color`, `host` NULL or writable
+ * for `out_len`, `color_len`, `host_len` elements; `rays` NULL or
+ * readable for `rays_len`; the rest as `refl_layered_trace_rows`.
+ */
+refl_status refl_layered_trace_host_rays(struct refl_layered_pass_stats *out_stats,
+                                         struct refl_layered_pass_texel *out,
+                                         size_t out_len,
+                                         struct refl_vec3 *color,
+                                         size_t color_len,
+                                         struct refl_host_ray *host,
+                                         size_t host_len,
+                                         const struct refl_layered_pass_input *input,
+                                         const struct refl_layered_pass_options *options,
+                                         const struct refl_layered_bound *scratch,
+                                         size_t scratch_len,
+                                         const struct refl_host_ray *rays,
+                                         size_t rays_len);
 
 #ifdef __cplusplus
 }  // extern "C"

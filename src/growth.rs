@@ -136,9 +136,10 @@ pub fn measure(
         let (hiz_ms, _) = kernel(ScreenMethod::HiZ(HiZOptions::default()))?;
         let ls = LayeredScene::build(&scene, 64, 4, pool).map_err(|e| e.to_string())?;
         let params = refl_core::layered::LayeredOptions::default();
+        let lf = crate::layered_render::LayeredFrame::new(&g);
         let mut layered = Vec::new();
         for _ in 0..runs.max(1) {
-            let t = timed(|| ls.trace(&g, &rays, &params, pool));
+            let t = timed(|| ls.trace(&g, &lf, &params, pool));
             t.value.map_err(|e| e.to_string())?;
             layered.push(t.ms);
         }

@@ -1,25 +1,32 @@
 //! Reflections from layered depth cube maps (seed 001): every reflected
-//! object of a scene as a [`LayeredObject`], reflection rays traced against
-//! all of them, and the measurements of `refl report`'s `layered` rows.
+//! object of a scene as a [`LayeredObject`], the G-buffer's reflective
+//! pixels traced against all of them by refl-core's layered pass
+//! ([`refl_core::LayeredPass`]: the mirror ray and its start, the maps that
+//! apply, the nearest hit), and the measurements of `refl report`'s
+//! `layered` rows.
 //!
 //! Reflected objects are the scene's compact, closed, non-reflective
 //! objects ([`reflected_objects`]): seed 001 represents the objects seen in
 //! a curved reflector by layered depth maps and leaves the surroundings
-//! (walls, floors) to an environment map. A ray is handled when it hits one
-//! of the maps; the hit is shaded from the primitive id the map stores
-//! (the ray intersected with that triangle's plane), as the planar method
-//! shades its visibility buffer.
+//! (walls, floors) to an environment map. A pixel is handled when its ray
+//! hits one of the maps; the hit is shaded from the primitive id the map
+//! stores (the pixel's ray, as the pass traced it, intersected with that
+//! triangle's plane), as the planar method shades its visibility buffer.
 
 use crate::gbuffer::GBuffer;
 use crate::layered::{self, LayeredObject};
 use crate::render::ReflectionImage;
 use crate::scene::Scene;
-use crate::screen::ReflectionRays;
+use crate::screen::{ReflectionRays, PYRAMID_BAND};
 use crate::shade::Shader;
 use crate::tracer::ray_triangle_plane;
 use rayon::prelude::*;
-use refl_core::layered::{LayeredHit, LayeredOptions};
-use refl_core::Error;
+use refl_core::layered::{LayeredMap, LayeredOptions};
+use refl_core::{
+    layered_pass_scratch_len, try_prepare_layered_pass, DepthConvention, DepthImage, Error,
+    GBuffer as CoreGBuffer, ImageView, ImageViewMut, LayeredBound, LayeredPass, LayeredPassOptions,
+    LayeredPassStats, LayeredPassStatus, LayeredPassTexel, NormalSpace, RowRange,
+};
 
 /// Largest reflected object, as a share of the scene diameter (larger
 /// objects are surroundings).
@@ -47,9 +54,50 @@ pub fn reflected_objects(scene: &Scene) -> Vec<u32> {
         .collect()
 }
 
-/// One ray's result over all maps: the nearest hit with its object, and
-/// the depth fetches spent.
-pub type LayeredResult = (Option<(u32, LayeredHit)>, u32);
+/// The layered pass's results of one frame: one texel per pixel (what the
+/// pass wrote: status, map, hit, fetches) and the pass's counts.
+#[derive(Clone, Debug, Default)]
+pub struct LayeredTraces {
+    /// Per pixel, row-major.
+    pub texels: Vec<LayeredPassTexel>,
+    /// Counts summed over the bands.
+    pub stats: LayeredPassStats,
+}
+
+/// The G-buffer images the layered pass reads, in refl-core's layout
+/// (made once per frame, outside the timed pass, as an engine has them).
+pub struct LayeredFrame {
+    normals: Vec<[f32; 3]>,
+    mask: Vec<u8>,
+}
+
+impl LayeredFrame {
+    /// World normals and the reflective mask of `g`.
+    pub fn new(g: &GBuffer) -> Self {
+        Self {
+            normals: g.normal.iter().map(|n| n.to_array()).collect(),
+            mask: (0..g.len()).map(|i| u8::from(g.is_reflective(i))).collect(),
+        }
+    }
+
+    /// refl-core's view of `g` with these images: linear depth (`+inf` for
+    /// background), world normals, the reflective mask (every reflective
+    /// pixel is traced: no roughness image).
+    fn gbuffer<'a>(&'a self, g: &'a GBuffer) -> Result<CoreGBuffer<'a>, Error> {
+        let (w, h) = (g.width(), g.height());
+        let depth = DepthImage::try_new(
+            ImageView::try_new(&g.depth, w, h, w)?,
+            g.camera,
+            DepthConvention::Linear,
+        )?;
+        CoreGBuffer::try_new(
+            depth,
+            ImageView::try_new(&self.normals, w, h, w)?,
+            NormalSpace::World,
+        )?
+        .try_with_mask(ImageView::try_new(&self.mask, w, h, w)?)
+    }
+}
 
 /// The layered maps of a scene's reflected objects.
 pub struct LayeredScene {
@@ -92,56 +140,65 @@ impl LayeredScene {
             .sum()
     }
 
-    /// The nearest hit of `ray` over every map but the one of object
-    /// `skip` (the reflector itself): `(object, hit, fetches)`.
-    fn trace_one(
-        &self,
-        ray: &refl_core::Ray,
-        skip: u32,
-        params: &LayeredOptions,
-    ) -> Result<LayeredResult, Error> {
-        let mut best: Option<(u32, LayeredHit)> = None;
-        let mut fetches = 0;
-        for o in &self.objects {
-            if o.object == skip {
-                continue;
-            }
-            let t_max = best.map_or(f32::INFINITY, |(_, h)| h.t);
-            if !(t_max > 0.0) {
-                // A hit at the ray's origin: nothing can be nearer.
-                break;
-            }
-            let tr = o.map().try_trace(ray, t_max, params)?;
-            fetches += tr.work().fetches;
-            if let Some(h) = tr.hit() {
-                if best.is_none_or(|(_, b)| h.t < b.t) {
-                    best = Some((o.object, *h));
-                }
-            }
-        }
-        Ok((best, fetches))
-    }
-
-    /// Traces the rays of `rays` (from their surface points) against every
-    /// map on `pool`.
+    /// Runs refl-core's layered pass over the reflective pixels of `g`
+    /// (`frame` its images) against every map with the kernel settings
+    /// `params`, in row bands on `pool`: the pass's options otherwise
+    /// default, object ids from the G-buffer (a pixel's ray skips its own
+    /// object's map), the bounds prepared per call (per frame). The pixels
+    /// the maps cannot answer are not listed (their texels say why).
     ///
     /// # Errors
-    /// The first error of a map's trace (a non-unit ray or bad parameters).
+    /// The pass's errors (bad parameters, buffers that do not match the
+    /// G-buffer's camera: never for a rendered one).
     pub fn trace(
         &self,
         g: &GBuffer,
-        rays: &ReflectionRays,
+        frame: &LayeredFrame,
         params: &LayeredOptions,
         pool: &rayon::ThreadPool,
-    ) -> Result<Vec<LayeredResult>, Error> {
-        pool.install(|| {
-            rays.ray
-                .par_iter()
-                .zip(rays.pixel.par_iter())
-                .with_min_len(64)
-                .map(|(r, &p)| self.trace_one(r, g.object[p as usize], params))
-                .collect()
-        })
+    ) -> Result<LayeredTraces, Error> {
+        let (w, h) = (g.width(), g.height());
+        let gb = frame.gbuffer(g)?;
+        let maps: Vec<LayeredMap<'_>> = self.objects.iter().map(|o| o.map()).collect();
+        let ids: Vec<u32> = self.objects.iter().map(|o| o.object).collect();
+        let options = LayeredPassOptions {
+            trace: *params,
+            max_roughness: f32::INFINITY,
+            ..LayeredPassOptions::default()
+        };
+        let mut bounds = vec![LayeredBound::default(); layered_pass_scratch_len(&maps[..])];
+        try_prepare_layered_pass(&mut bounds, &gb, &maps[..], &options)?;
+        let pass = LayeredPass::try_new(gb, &maps[..], options, &bounds)?
+            .try_with_ids(ImageView::try_new(&g.object, w, h, w)?, &ids)?;
+        let mut texels = vec![LayeredPassTexel::default(); g.len()];
+        let band = PYRAMID_BAND as usize * w as usize;
+        let bands: Vec<LayeredPassStats> = pool.install(|| {
+            texels
+                .par_chunks_mut(band)
+                .enumerate()
+                .map(|(k, t)| {
+                    let y0 = k as u32 * PYRAMID_BAND;
+                    let rows = RowRange::try_new(y0, (y0 + PYRAMID_BAND).min(h), h)?;
+                    pass.try_run(
+                        &mut ImageViewMut::try_band(t, w, h, w, rows)?,
+                        None,
+                        &mut [],
+                    )
+                })
+                .collect::<Result<_, Error>>()
+        })?;
+        let stats = bands
+            .iter()
+            .fold(LayeredPassStats::default(), |a, b| LayeredPassStats {
+                traced: a.traced + b.traced,
+                hits: a.hits + b.hits,
+                sky: a.sky + b.sky,
+                host_rays: a.host_rays + b.host_rays,
+                host_rays_written: a.host_rays_written + b.host_rays_written,
+                kernel_traces: a.kernel_traces + b.kernel_traces,
+                fetches: a.fetches + b.fetches,
+            });
+        Ok(LayeredTraces { texels, stats })
     }
 }
 
@@ -180,29 +237,36 @@ impl LayeredStats {
     }
 }
 
-/// Compares layered traces with the reference hits of `rays`.
+/// Compares the layered pass's hits with the reference hits of `rays`
+/// (the same pixels; the pass's ray of a pixel is generated by refl-core,
+/// the reference's by the root package, from the same surface point and
+/// normal).
 pub fn evaluate(
     scene: &Scene,
     ls: &LayeredScene,
     rays: &ReflectionRays,
-    traces: &[LayeredResult],
+    traces: &LayeredTraces,
 ) -> LayeredStats {
     let mut s = LayeredStats {
         rays: rays.len(),
         ..LayeredStats::default()
     };
-    for (k, (hit, fetches)) in traces.iter().enumerate() {
-        s.fetches += u64::from(*fetches);
+    for (k, &p) in rays.pixel.iter().enumerate() {
+        let t = &traces.texels[p as usize];
+        s.fetches += u64::from(t.fetches);
         let reference = rays.reference[k].map(|h| (scene.tri_object[h.prim as usize], h.t));
         let ref_obj =
             reference.and_then(|(o, t)| ls.objects.iter().find(|m| m.object == o).map(|m| (m, t)));
         if ref_obj.is_some() {
             s.to_objects += 1;
         }
+        let hit = (t.status == LayeredPassStatus::Hit)
+            .then(|| ls.objects.get(t.map as usize))
+            .flatten();
         match (hit, ref_obj) {
-            (Some((o, h)), Some((m, t))) if *o == m.object => {
+            (Some(o), Some((m, rt))) if o.object == m.object => {
                 let texel = (m.grid.max() - m.grid.min()).max_element() / m.grid.face_res() as f32;
-                let err = (h.position - rays.ray[k].at(t)).length() / texel;
+                let err = (t.position - rays.ray[k].at(rt)).length() / texel;
                 s.err_texels_sum += f64::from(err);
                 s.err_count += 1;
                 if err <= std::f32::consts::SQRT_2 {
@@ -217,34 +281,28 @@ pub fn evaluate(
 }
 
 /// The reflection image of the `layered` method: every mirror pixel
-/// (roughness 0) whose ray hit a map, shaded at the exact intersection with
-/// the primitive the map stores.
-pub fn shade(
-    shader: &Shader,
-    g: &GBuffer,
-    rays: &ReflectionRays,
-    traces: &[LayeredResult],
-) -> ReflectionImage {
+/// (roughness 0) whose ray hit a map, shaded at the exact intersection of
+/// the pixel's ray (the G-buffer's surface point, the direction the pass
+/// traced) with the primitive the map stores.
+pub fn shade(shader: &Shader, g: &GBuffer, traces: &LayeredTraces) -> ReflectionImage {
     let scene = shader.scene;
     let mut out = ReflectionImage::empty(g.width(), g.height());
-    for (k, (hit, _)) in traces.iter().enumerate() {
-        let i = rays.pixel[k] as usize;
-        if g.roughness[i] > 0.0 {
+    for (i, t) in traces.texels.iter().enumerate() {
+        if t.status != LayeredPassStatus::Hit || g.roughness[i] > 0.0 {
             continue;
         }
-        let Some((_, h)) = hit else { continue };
-        let r = rays.ray[k];
-        let prim = h.payload;
+        let prim = t.payload;
         let Some(tri) = scene.tris.get(prim as usize) else {
             continue;
         };
-        let exact = ray_triangle_plane(tri, prim, r.origin, r.dir).unwrap_or(crate::tracer::Hit {
+        let origin = g.position[i];
+        let exact = ray_triangle_plane(tri, prim, origin, t.dir).unwrap_or(crate::tracer::Hit {
             prim,
-            t: h.t,
+            t: t.t,
             u: 0.0,
             v: 0.0,
         });
-        out.rgb[i] = shader.shade_reflection_hit(r.origin, r.dir, &exact);
+        out.rgb[i] = shader.shade_reflection_hit(origin, t.dir, &exact);
         out.handled[i] = true;
     }
     out

@@ -1063,8 +1063,9 @@ pub fn run(opts: &Options) -> Result<PathBuf, String> {
                                 .ok_or("layered maps")?
                                 .1;
                             let params = refl_core::layered::LayeredOptions::default();
+                            let lf = crate::layered_render::LayeredFrame::new(g);
                             let trace = |p: &rayon::ThreadPool| {
-                                let t = timed(|| ls.trace(g, &sf.rays, &params, p));
+                                let t = timed(|| ls.trace(g, &lf, &params, p));
                                 t.value.map(|v| Timed { value: v, ms: t.ms })
                             };
                             let (traces, ms) = median_run(sizes.runs, || trace(&pool))
@@ -1073,7 +1074,7 @@ pub fn run(opts: &Options) -> Result<PathBuf, String> {
                                 .map_err(|e| e.to_string())?;
                             let ls_stats =
                                 crate::layered_render::evaluate(&scene, ls, &sf.rays, &traces);
-                            let img = crate::layered_render::shade(&shader, g, &sf.rays, &traces);
+                            let img = crate::layered_render::shade(&shader, g, &traces);
                             let pixels = f64::from(g.width()) * f64::from(g.height());
                             let acc = ScreenAccum {
                                 stats: RayStats {

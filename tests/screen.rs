@@ -177,8 +177,9 @@ fn layered_maps_agree_with_reference_hits() {
     let g = GBuffer::render(&f.scene, &f.tracer, &cam, &f.pool);
     let rays = screen::reflection_rays(&f.scene, &f.tracer, &shader, &g, &f.pool);
     let ls = LayeredScene::build(&f.scene, 64, 4, &f.pool).expect("maps");
+    let frame = layered_render::LayeredFrame::new(&g);
     let tr = ls
-        .trace(&g, &rays, &Default::default(), &f.pool)
+        .trace(&g, &frame, &Default::default(), &f.pool)
         .expect("trace");
     let s = layered_render::evaluate(&f.scene, &ls, &rays, &tr);
     assert!(s.to_objects > 200, "{s:?}");
@@ -189,6 +190,6 @@ fn layered_maps_agree_with_reference_hits() {
         s.to_objects
     );
     assert!(s.false_hits * 20 < s.to_objects, "{s:?}");
-    let img = layered_render::shade(&shader, &g, &rays, &tr);
+    let img = layered_render::shade(&shader, &g, &tr);
     assert!(img.handled_count() > 0);
 }

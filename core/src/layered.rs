@@ -1035,7 +1035,7 @@ impl Default for LayeredOptions {
 }
 
 impl LayeredOptions {
-    fn validate(&self) -> Result<(), Error> {
+    pub(crate) fn validate(&self) -> Result<(), Error> {
         if !(self.step_texels > 0.0 && self.step_texels.is_finite())
             || self.max_steps == 0
             || self.binary_steps > 64

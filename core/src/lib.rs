@@ -39,6 +39,8 @@ pub mod hiz;
 pub mod image;
 #[cfg(feature = "layered")]
 pub mod layered;
+#[cfg(all(feature = "layered", any(feature = "depth-image", feature = "hiz")))]
+pub mod layered_pass;
 #[cfg(feature = "mirror")]
 pub mod mirror;
 #[cfg(feature = "mirror")]
@@ -60,6 +62,12 @@ pub use layered::{
     try_layered_len, try_prr_classify, ColumnFill, ColumnRay, Face, LayerHit, LayeredGrid,
     LayeredHit, LayeredLen, LayeredMap, LayeredMapMut, LayeredMiss, LayeredOptions, LayeredStamp,
     LayeredTrace, LayeredWork, PrrClass, EXIT_ENTRY_TEXELS, LAYERED_STAMP_LEN,
+};
+#[cfg(all(feature = "layered", any(feature = "depth-image", feature = "hiz")))]
+pub use layered_pass::{
+    layered_pass_scratch_len, try_prepare_layered_pass, LayeredBound, LayeredHostRay,
+    LayeredMapSet, LayeredPass, LayeredPassOptions, LayeredPassSink, LayeredPassStats,
+    LayeredPassStatus, LayeredPassTexel,
 };
 #[cfg(feature = "mirror")]
 pub use mirror::{

@@ -348,8 +348,10 @@ fn footprint(p: Vec2) -> [(u32, u32); 4] {
     [(x0, y0), (x0 + 1, y0), (x0, y0 + 1), (x0 + 1, y0 + 1)]
 }
 
-/// A pixel's setup, or the status that ends it early.
-enum Setup {
+/// A pixel's setup, or the status that ends it early (also what the
+/// layered pass, `crate::layered_pass`, builds on: one ray generation and
+/// start rule for every pass).
+pub(crate) enum Setup {
     Done(MirrorStatus),
     /// The ray starts at or beyond `t_max`: answered as sky untraced.
     Sky(MirrorRay),
@@ -452,6 +454,25 @@ impl<'a> MirrorPass<'a> {
         Ok(Self { gbuffer, options })
     }
 
+    /// A pass that only generates rays ([`MirrorPass::ray`],
+    /// [`MirrorPass::host_ray`]): `options` validated as by
+    /// [`MirrorPass::try_new`], no kernel checked and no pyramid (its traces
+    /// are errors). For passes that trace the same rays against something
+    /// else (the layered pass).
+    #[cfg_attr(not(feature = "layered"), allow(dead_code))]
+    pub(crate) fn try_rays_only(
+        gbuffer: GBuffer<'a>,
+        options: MirrorOptions,
+    ) -> Result<Self, Error> {
+        validate_options(&options)?;
+        Ok(Self {
+            gbuffer,
+            options,
+            #[cfg(feature = "hiz")]
+            hiz: None,
+        })
+    }
+
     /// The G-buffer.
     pub const fn gbuffer(&self) -> &GBuffer<'a> {
         &self.gbuffer
@@ -502,7 +523,7 @@ impl<'a> MirrorPass<'a> {
         })
     }
 
-    fn setup(&self, x: u32, y: u32) -> Setup {
+    pub(crate) fn setup(&self, x: u32, y: u32) -> Setup {
         let s = match self.reflection(x, y) {
             Ok(s) => s,
             Err(status) => return Setup::Done(status),

@@ -64,6 +64,8 @@ mod backface;
 mod planar;
 // The cluster pass (issue 13, seed 003).
 mod cluster_pass;
+// The layered-maps pass (issue 13).
+mod layered_pass;
 
 pub use backface::*;
 pub use camera::*;
@@ -75,6 +77,7 @@ pub use glossy::*;
 pub use hiz::*;
 pub use image::*;
 pub use layered::*;
+pub use layered_pass::*;
 pub use mirror::*;
 pub use planar::*;
 pub use ssr::*;

@@ -286,6 +286,7 @@ fn no_export_allocates() {
     glossy(&mut cov);
     planar(&mut cov);
     layered(&mut cov);
+    layered_pass(&mut cov);
     cluster(&mut cov);
     cluster_pass(&mut cov);
     tcrr(&mut cov);
@@ -1551,6 +1552,197 @@ fn layered(cov: &mut Coverage) {
             &front,
             &map,
             rows(3, 2)
+        )
+    );
+}
+
+/// The layered-maps pass over the test scene with one map (a sphere of
+/// radius 0.5 above the floor, built with refl-core).
+fn layered_pass(cov: &mut Coverage) {
+    use refl_core::layered::{Face, LayerHit, LayeredGrid, LayeredMapMut};
+    let s = scene();
+    let (res, c) = (8u32, Vec3::new(0.0, 0.6, -1.0));
+    let grid = LayeredGrid::try_new(Vec3::splat(-0.52), Vec3::splat(0.52), res, 1)
+        .unwrap()
+        .try_with_transform(refl_core::glam::Affine3A::from_translation(c))
+        .unwrap();
+    let len = grid.len();
+    let (mut depth, mut payload) = (vec![0.0f32; len.depth], vec![0u32; len.payload]);
+    let (mut counts, mut bounds) = (vec![0u32; len.counts], vec![0.0f32; len.bounds]);
+    {
+        let mut m =
+            LayeredMapMut::try_new(grid, &mut depth, &mut payload, &mut counts, &mut bounds)
+                .unwrap();
+        m.clear();
+        for face in [Face::NegX, Face::NegY, Face::NegZ] {
+            for j in 0..res {
+                for i in 0..res {
+                    let r = grid.try_face_ray(face, i, j).unwrap();
+                    let o = r.origin - c;
+                    let b = o.dot(r.dir);
+                    let disc = b * b - (o.dot(o) - 0.25);
+                    let mut hits = Vec::new();
+                    if disc > 0.0 {
+                        let q = disc.sqrt();
+                        hits.push(LayerHit {
+                            t: -b - q,
+                            id: 3,
+                            front: true,
+                        });
+                        hits.push(LayerHit {
+                            t: -b + q,
+                            id: 3,
+                            front: false,
+                        });
+                    }
+                    m.try_fill_column(face, i, j, &mut hits).unwrap();
+                }
+            }
+        }
+        m.build_bounds();
+    }
+    let maps = [refl_layered_map {
+        grid: (&grid).into(),
+        depth: depth.as_ptr(),
+        depth_len: depth.len(),
+        payload: payload.as_ptr(),
+        payload_len: payload.len(),
+        counts: counts.as_ptr(),
+        counts_len: counts.len(),
+        bounds: bounds.as_ptr(),
+        bounds_len: bounds.len(),
+    }];
+    let map_ids = [7u32];
+    let input = refl_layered_pass_input {
+        gbuffer: refl_gbuffer {
+            depth: s.depth_image(),
+            normals: vec3_img(&s.normals),
+            normal_space: refl_normal_space::World as u32,
+            mask: refl_image_u8 {
+                data: core::ptr::null(),
+                len: 0,
+                width: 0,
+                height: 0,
+                stride: 0,
+            },
+            roughness: no_f32(),
+            color: vec3_img(&s.color),
+            back_depth: no_f32(),
+        },
+        maps: maps.as_ptr(),
+        maps_len: 1,
+        ids: u32_img(&s.objects),
+        map_ids: map_ids.as_ptr(),
+        map_ids_len: 1,
+    };
+    let opts = value!(cov, refl_layered_pass_options_default());
+    let bad_o = refl_layered_pass_options {
+        t_max: f32::NAN,
+        ..opts
+    };
+    let mut len = uninit::<usize>();
+    ok!(
+        cov,
+        refl_layered_pass_scratch_len(len.as_mut_ptr(), &input, &opts)
+    );
+    err!(
+        cov,
+        refl_layered_pass_scratch_len(len.as_mut_ptr(), core::ptr::null(), &opts)
+    );
+    let len = unsafe { len.assume_init() };
+    assert_eq!(len, 1);
+    let mut scratch = vec![refl_layered_bound::default(); len];
+    ok!(
+        cov,
+        refl_layered_pass_prepare(scratch.as_mut_ptr(), len, &input, &opts)
+    );
+    err!(
+        cov,
+        refl_layered_pass_prepare(scratch.as_mut_ptr(), len, &input, &bad_o)
+    );
+    let mut texels = vec![refl_layered_pass_texel::default(); N];
+    let mut host = vec![refl_host_ray::default(); N];
+    let mut stats = uninit::<refl_layered_pass_stats>();
+    let no_color = refl_image_vec3_mut {
+        data: core::ptr::null_mut(),
+        len: 0,
+        width: 0,
+        height: 0,
+        stride: 0,
+    };
+    ok!(
+        cov,
+        refl_layered_trace_rows(
+            stats.as_mut_ptr(),
+            texels.as_mut_ptr(),
+            N,
+            no_color,
+            host.as_mut_ptr(),
+            N,
+            &input,
+            &opts,
+            scratch.as_ptr(),
+            len,
+            rows(0, H)
+        )
+    );
+    let st = unsafe { stats.assume_init() };
+    assert!(st.hits > 0 && st.host_rays > 0, "{st:?}");
+    err!(
+        cov,
+        refl_layered_trace_rows(
+            stats.as_mut_ptr(),
+            texels.as_mut_ptr(),
+            N,
+            no_color,
+            host.as_mut_ptr(),
+            N,
+            &input,
+            &opts,
+            scratch.as_ptr(),
+            len,
+            rows(3, 2)
+        )
+    );
+    let rays: Vec<refl_host_ray> = host[..8].to_vec();
+    let mut out = vec![refl_layered_pass_texel::default(); 8];
+    let mut host2 = vec![refl_host_ray::default(); 8];
+    ok!(
+        cov,
+        refl_layered_trace_host_rays(
+            stats.as_mut_ptr(),
+            out.as_mut_ptr(),
+            8,
+            core::ptr::null_mut(),
+            0,
+            host2.as_mut_ptr(),
+            8,
+            &input,
+            &opts,
+            scratch.as_ptr(),
+            len,
+            rays.as_ptr(),
+            8
+        )
+    );
+    let mut bad = rays.clone();
+    bad[3].dir = v3(0.0, f32::NAN, 0.0);
+    err!(
+        cov,
+        refl_layered_trace_host_rays(
+            stats.as_mut_ptr(),
+            out.as_mut_ptr(),
+            8,
+            core::ptr::null_mut(),
+            0,
+            host2.as_mut_ptr(),
+            8,
+            &input,
+            &opts,
+            scratch.as_ptr(),
+            len,
+            bad.as_ptr(),
+            8
         )
     );
 }

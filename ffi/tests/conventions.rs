@@ -644,4 +644,9 @@ fn options_defaults_equal_the_core_defaults() {
         (c.reject_back_faces, c.reject_hidden_hits),
         (r.reject_back_faces, r.reject_hidden_hits)
     );
+    // The layered pass.
+    assert_eq!(
+        refl_core::LayeredPassOptions::from(refl_layered_pass_options_default()),
+        refl_core::LayeredPassOptions::default()
+    );
 }
