@@ -122,7 +122,9 @@ fn main() {
     let cam = scene.camera(0, a.width, a.height).expect("camera");
     let g = GBuffer::render(&scene, &tracer, &cam, &pool);
     let rays = screen::reflection_rays(&scene, &tracer, &shader, &g, &pool);
-    let rays: &[Ray] = &rays.screen_ray;
+    // The kernels' rays as the mirror pass starts them.
+    let rays = screen::kernel_rays(&g, &rays);
+    let rays: &[Ray] = &rays;
     let n = rays.len();
     let thick = scene.diameter() * screen::THICKNESS_OF_DIAMETER;
     println!(
