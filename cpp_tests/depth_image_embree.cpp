@@ -694,7 +694,7 @@ void run_long_rays(const View& v, const Frame& f, const std::vector<refl_ray>& s
 
 // Runs every pass setting in every convention on the frame, prints the
 // table and checks.
-void run_pass(const char* title, const View& v, RTCScene s, const Rays& r, const Frame& f) {
+void run_pass(const char* title, RTCScene s, const Rays& r, const Frame& f) {
     const unsigned nt = hardware_threads();
     const double e1 = embree_ns(s, r, 1), en = embree_ns(s, r, nt);
     const size_t mask_pixels = size_t(std::count(f.mask.begin(), f.mask.end(), 1));
@@ -811,7 +811,7 @@ void run_crosscheck(const std::string& dir) {
     CHECK(r.size() > 1000);
     CHECK(r.visible_count() > r.size() / 10);
     const Frame f = make_frame(v, r);
-    run_pass("room (crosscheck)", v, sc.scene, r, f);
+    run_pass("room (crosscheck)", sc.scene, r, f);
 }
 
 // ---------------------------------------------------------------------------
@@ -920,7 +920,7 @@ void run_own(const std::vector<size_t>& growth, size_t main_target) {
         CHECK(r.visible_count() > r.size() / 10);
         CHECK(long_set.size() > 500);
         const Frame f = make_frame(v, r);
-        run_pass("own scene (mirror floor)", v, sc.scene, r, f);
+        run_pass("own scene (mirror floor)", sc.scene, r, f);
         run_long_rays(v, f, long_set, diameter);
     }
 

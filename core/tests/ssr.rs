@@ -138,7 +138,7 @@ fn by_hand(
             .map(|dt| (cam.linear_depth(at.at(dt)) - cam.linear_depth(at.origin)).abs())
             .filter(|dz| dz.is_finite())
             .unwrap_or(0.0);
-        let on_front = refined || hit.depth <= z0 + 0.5 * slope + ray_dz + 1e-4 * z0;
+        let on_front = refined || hit.depth <= z0 + 0.75 * slope + ray_dz + 1e-4 * z0;
         if !on_front {
             let at = Ray {
                 origin: ray.at(hit.t),
@@ -386,16 +386,19 @@ fn defaults_find_the_visible_reflections_in_every_convention() {
                         100.0 * found,
                         100.0 * false_rate
                     );
-                    // Measured: found 94.6-99.2% (near camera 94.6%
-                    // without, 95.4% with back faces; 95.7% and 96.6%
-                    // before issue 13's visible-surface bound, which cut
-                    // its false hits from 103 to 88), false 1.7-3.8%,
+                    // Measured: found 98.9% / 98.6% (default camera,
+                    // without / with back faces), 99.2% / 98.9%
+                    // (grazing), 95.1% / 96.0% (near); false 1.7-4.2%;
                     // false hits on the reflector's own texels (beside
                     // the sphere's base, whose true reflection is its
-                    // hidden underside) <= 1.7% of the hits.
+                    // hidden underside) <= 1.7% of the hits. Before the
+                    // ray term of issue 13's visible-surface bound
+                    // (`refl_core::ssr::HIDDEN_SLOPES`) the default and
+                    // grazing cameras found 98.4% and 98.0%.
+                    let want = if name == "near" { 0.95 } else { 0.985 };
                     if !(r.visible > 200
                         && r.self_hits as f64 <= 0.02 * r.hits as f64
-                        && found >= 0.94
+                        && found >= want
                         && false_rate <= 0.05)
                     {
                         bad.push(format!("{name} {conv:?} {method:?} back {back}: {r:?}"));
@@ -435,7 +438,7 @@ fn every_thickness_from_five_percent_to_one_depth() {
                 100.0 * false_rate
             );
             // Thin shells lose hits on the grazing floor (86% at 0.05);
-            // from 0.2 on, found >= 98.6%; false <= 3.3% at every one.
+            // from 0.2 on, found >= 98.8%; false <= 3.9% at every one.
             let want = if thickness >= 0.2 { 0.97 } else { 0.85 };
             if !(r.self_hits as f64 <= 0.02 * r.hits as f64 && found >= want && false_rate <= 0.05)
             {
