@@ -744,6 +744,15 @@ void run_pass(const char* title, RTCScene s, const Rays& r, const Frame& f) {
                 CHECK(st.false_rate() <= kMaxFalse);
             }
             if (!k.hiz() && k.opt.step.stride == 1 && k.opt.refine) {
+                // Why visible reflections were not found: the status.
+                size_t why[16] = {};
+                for (size_t i = 0; i < r.size(); ++i)
+                    if (r.visible[i] && out.texel[r.pixel[i]].status != REFL_SSR_STATUS_HIT)
+                        ++why[std::min<uint32_t>(out.texel[r.pixel[i]].status, 15)];
+                std::printf("        visible, not hit, by refl_ssr_status:");
+                for (int w = 0; w < 16; ++w)
+                    if (why[w]) std::printf(" %d: %zu", w, why[w]);
+                std::printf("\n");
                 step1 = out;
             } else if (k.hiz()) {
                 const double a = agreement(r, step1, out);

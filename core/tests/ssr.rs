@@ -145,7 +145,7 @@ fn by_hand(
                 dir,
             };
             match ray_start_t(&cam, &at, 1.0).map(|dt| t0 + hit.t + dt) {
-                Some(t) if resumes < 32 && t < opts.t_max => {
+                Some(t) if resumes < (w.max(h) / 8).max(32) && t < opts.t_max => {
                     resumes += 1;
                     t0 = t;
                     continue;
@@ -731,5 +731,28 @@ fn masks_roughness_view_normals_and_hostile_pixels() {
                 assert_eq!(bits(&t), bits(&whole[i]), "({x}, {y})");
             }
         }
+    }
+}
+
+/// The resume budget past hidden hits covers the same share of the image
+/// at every resolution: 32 up to 256 pixels on the larger side, an eighth
+/// of it beyond.
+#[test]
+fn hidden_resume_budget_scales_with_the_image() {
+    use refl_core::ssr::{hidden_resumes, HIDDEN_RESUMES};
+    assert_eq!(HIDDEN_RESUMES, 32);
+    for (w, h, want) in [
+        (0, 0, 32),
+        (1, 1, 32),
+        (160, 120, 32),
+        (256, 192, 32),
+        (192, 256, 32),
+        (264, 100, 33),
+        (512, 384, 64),
+        (384, 512, 64),
+        (1920, 1080, 240),
+        (u32::MAX, 1, u32::MAX / 8),
+    ] {
+        assert_eq!(hidden_resumes(w, h), want, "{w}x{h}");
     }
 }
