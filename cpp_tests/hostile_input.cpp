@@ -3231,8 +3231,8 @@ void planar_functions() {
     std::memcpy(grid.world_from_local.m, ident, sizeof ident);
     refl_layered_sizes len{};
     REQUIRE(refl_layered_len(&len, 4, 1) == REFL_STATUS_OK);
-    std::vector<float> mdepth(len.depth), mbounds(len.bounds);
-    std::vector<uint32_t> mpayload(len.payload), mcounts(len.counts);
+    std::vector<float> mdepth(len.depth_len), mbounds(len.bounds_len);
+    std::vector<uint32_t> mpayload(len.payload_len), mcounts(len.counts_len);
     const refl_layered_map_mut mm{grid,           mdepth.data(),  mdepth.size(),  mpayload.data(), mpayload.size(),
                                   mcounts.data(), mcounts.size(), mbounds.data(), mbounds.size()};
     const refl_layered_map map{grid,           mdepth.data(),  mdepth.size(),  mpayload.data(), mpayload.size(),

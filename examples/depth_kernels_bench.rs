@@ -1,6 +1,7 @@
 //! Single-thread micro-benchmark of refl-core's depth-image kernels (Hi-Z
-//! traversal and per-pixel stepping) on the room scene's reflection rays,
-//! with a bit-exactness check of their results.
+//! traversal and per-pixel stepping) on the room scene's reflection rays as
+//! the mirror pass starts them (`screen::kernel_rays`), with a
+//! bit-exactness check of their results.
 //!
 //! ```text
 //! cargo run --release --example depth_kernels_bench -- [options]
