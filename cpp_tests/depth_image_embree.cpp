@@ -1,6 +1,8 @@
-// depth_image_embree: refl's depth-image kernels (per-pixel stepping,
-// refl_step_rays, and Hi-Z traversal, refl_hiz_*) through the C ABI against
-// Embree 3 (rtcIntersect1) on the same reflection rays.
+// depth_image_embree: refl's screen-space mirror pass (refl_ssr_*: per-pixel
+// stepping and Hi-Z traversal behind the pass's own ray generation, start
+// rule, thickness and hit validation) through the C ABI against Embree 3
+// (rtcIntersect1) on the same reflections, plus the bare kernels
+// (refl_step_rays, refl_hiz_*) on synthetic long rays.
 //
 // Usage:
 //     depth_image_embree            the harness's own scene (built here)
@@ -8,41 +10,48 @@
 //                                   `refl export-crosscheck` (crosscheck.hpp)
 //
 // Per scene:
-//  * Embree renders the primary view's depth buffer: one primary ray per
-//    pixel center (src/export.rs crosscheck_rays: computed in double, cast
-//    once), linear depth z = t * (-dir_view.z), nothing hit = the far plane.
-//    refl_camera_encode_depth stores it in the three conventions: Linear and
-//    ZeroToOne with the camera's far plane, ReversedZ with an infinite one.
-//  * Reflection rays: the crosscheck's (the first reflection_count rays of
-//    rays.bin, on a surface, tmin = epsilon) or, for the own scene, one per
-//    mirror-floor pixel (exact plane hit and mirror direction in double).
-//    The reference is rtcIntersect1 of these rays. The kernels trace the same
-//    line with its origin moved as src/screen.rs does: 2e-4 scene diameters
-//    along the origin surface's geometric normal (Embree's Ng of the primary
-//    ray from the eye to the origin, facing the eye), then
-//    t0 = START_SLOPES (0.5) * z * pixel_angle * tan(theta) along the ray
-//    (theta between the view direction and the normal, tan clamped to 16).
+//  * Embree renders the primary view's G-buffer: one primary ray per pixel
+//    center (src/export.rs crosscheck_rays: computed in double, cast once),
+//    linear depth z = t * (-dir_view.z) (nothing hit: the far plane) and
+//    the geometric normal facing the eye. refl_camera_encode_depth stores
+//    the depth in the three conventions: Linear and ZeroToOne with the
+//    camera's far plane, ReversedZ with an infinite one.
+//  * Reflections (the reference, evaluation only): the crosscheck's (the
+//    first reflection_count rays of rays.bin, on a surface, tmin = epsilon;
+//    each belongs to the pixel its origin projects to) or, for the own
+//    scene, one per mirror-floor pixel (exact plane hit and mirror
+//    direction in double). The reference is rtcIntersect1 of these rays.
+//    The G-buffer's reflective mask holds those pixels, and their normal is
+//    the one the reference reflects about (the crosscheck's shading normal,
+//    recovered as normalize(r - d) from the primary direction d and the
+//    reflection r; the floor's +Y), so that the pass's rays are the same
+//    reflections.
 //  * Visible: the reference hit projects into the image and Embree's primary
 //    depth at that pixel is within 2% (relative) of the hit's linear depth.
-//    Found: a kernel hit within 1 px (Euclidean) of the reference hit's
-//    projection. False hit: a hit on a ray whose reference is not visible.
-//  * Kernels: stepping with stride 1, 4, 16; Hi-Z with its default options
-//    and three variants; stride 1 and default Hi-Z again with
-//    refl_trace_refine_hit on every hit; constant thickness 0.005 scene diameters;
-//    every convention. Timed on one thread and on all hardware threads (std::thread
-//    chunks), next to rtcIntersect1 on the same (original) rays.
+//    Found: a pass hit (REFL_SSR_STATUS_HIT) within 1 px (Euclidean) of the
+//    reference hit's projection. False hit: a hit on a ray whose reference
+//    is not visible. (src/screen.rs evaluates the same way.)
+//  * Pass settings: refl_ssr_options_default (stride-1 stepping) and
+//    strides 4 and 16; Hi-Z with its default options and three variants;
+//    stride 1 and default Hi-Z again with refine off; every convention.
+//    refl_ssr_prepare (the Hi-Z pyramid) and refl_ssr_trace_rows are timed
+//    apart, the rows on one thread and split into bands on all hardware
+//    threads (std::thread), next to rtcIntersect1 on the reference rays.
 //
-// Checks (correctness only, never time): every status OK, no NaN in any
-// result, hit rate on visible rays >= 0.95 for stride 1 and every Hi-Z
-// setting in every convention, refinement never lowers the hit rate, Hi-Z
-// agrees with stride-1 stepping (both miss,
-// or both hit within one pixel) on >= 99% of the rays, the multi-threaded
-// row-band pyramid build is bit-identical to refl_hiz_build. Own scene only:
-// on a synthetic set of long rays (projected walk > 256 px) the unit-step /
-// Hi-Z fetch ratio is >= 10 in every convention, and Hi-Z still agrees with
+// Checks (correctness only, never time): every status OK, every texel
+// finite, every reflective pixel traced and every pixel the pass hands to
+// the host listed; for stride 1 and every Hi-Z setting in every
+// convention: found >= 0.95 of the visible reflections and false hits on
+// at most kMaxFalse of the rays whose reflection is not visible (refined);
+// Hi-Z agrees with stride-1 stepping (both without a hit, or both hit
+// within one pixel) on >= 99% of the pixels; the pyramid refl_ssr_prepare
+// builds is bit-identical to refl_hiz_build's and to a multi-threaded
+// row-band build (refl_hiz_build_rows). Own scene only: on a synthetic set
+// of long rays (projected walk > 256 px) the bare kernels' unit-step /
+// Hi-Z fetch ratio is >= 10 in every convention, and Hi-Z agrees with
 // stepping on >= 99% of them. The own scene also prints the cost growth at
-// about 10k, 100k and 1M triangles (Embree BVH build and trace vs. refl per
-// ray; the depth buffer rendering is excluded from every refl time).
+// about 10k, 100k and 1M triangles (Embree BVH build and trace vs. the
+// pass per ray; the G-buffer rendering is excluded from every refl time).
 #include <embree3/rtcore.h>
 
 #include <algorithm>
@@ -53,6 +62,7 @@
 #include <cstdio>
 #include <cstring>
 #include <limits>
+#include <mutex>
 #include <string>
 #include <thread>
 #include <vector>
@@ -73,16 +83,18 @@ constexpr bool kSanitized = true;
 constexpr bool kSanitized = false;
 #endif
 
-// src/screen.rs: START_SLOPES, VISIBLE_DEPTH_TOLERANCE, FOUND_RADIUS_PX,
-// THICKNESS_OF_DIAMETER, and the normal bias of reflection_rays.
-constexpr double kStartSlopes = 0.5;
+// src/screen.rs: VISIBLE_DEPTH_TOLERANCE, FOUND_RADIUS_PX (evaluation).
 constexpr double kVisibleTolerance = 0.02;
 constexpr double kFoundRadiusPx = 1.0;
+// The bare kernels on the synthetic long rays: a constant thickness of
+// 0.005 scene diameters.
 constexpr double kThicknessOfDiameter = 0.005;
-constexpr double kBiasOfDiameter = 2e-4;
 constexpr double kLongRayPx = 256.0;
 constexpr int kTimingRuns = 3;
 constexpr float kInf = std::numeric_limits<float>::infinity();
+// Most false hits allowed (share of the rays whose reflection is not
+// visible) for stride 1 and Hi-Z with refinement.
+constexpr double kMaxFalse = 0.05;
 
 const uint32_t kConventions[3] = {REFL_DEPTH_CONVENTION_LINEAR, REFL_DEPTH_CONVENTION_ZERO_TO_ONE,
                                   REFL_DEPTH_CONVENTION_REVERSED_Z};
@@ -141,10 +153,11 @@ double median_seconds(int runs, const F& f) {
 
 double ms_since(Clock::time_point t0) { return std::chrono::duration<double, std::milli>(Clock::now() - t0).count(); }
 
-// rtcIntersect1 returning the geometric normal as well.
+// rtcIntersect1 returning the geometric normal and geometry as well.
 struct NgHit {
     bool hit = false;
     float t = kInf;
+    unsigned geom = RTC_INVALID_GEOMETRY_ID;
     V3 ng{0, 0, 0};
 };
 NgHit trace_ng(RTCScene s, const float o[3], const float d[3], float tnear, float tfar) {
@@ -167,6 +180,7 @@ NgHit trace_ng(RTCScene s, const float o[3], const float d[3], float tnear, floa
     if (rh.hit.geomID != RTC_INVALID_GEOMETRY_ID) {
         h.hit = true;
         h.t = rh.ray.tfar;
+        h.geom = rh.hit.geomID;
         h.ng = {rh.hit.Ng_x, rh.hit.Ng_y, rh.hit.Ng_z};
     }
     return h;
@@ -174,14 +188,17 @@ NgHit trace_ng(RTCScene s, const float o[3], const float d[3], float tnear, floa
 
 // The primary view: refl cameras (far plane finite, and infinite for
 // reversed-Z), the double-precision ray formula of src/export.rs and
-// Embree's depth buffer.
+// Embree's G-buffer (linear depth, geometric normal facing the eye,
+// geometry id).
 struct View {
     refl_camera cam{}, cam_inf{};
     double inv[16] = {}, view[16] = {};
-    double tan_x = 0, tan_y = 0, pixel_angle = 0;
+    double tan_x = 0, tan_y = 0;
     uint32_t w = 0, h = 0;
     V3 eye{0, 0, 0};
-    std::vector<double> lin;  // Embree linear depth per pixel, +inf: nothing hit
+    std::vector<double> lin;          // linear depth per pixel, +inf: nothing hit
+    std::vector<refl_vec3> normal;    // geometric normal facing the eye, 0: nothing hit
+    std::vector<unsigned> geom;       // geometry id, RTC_INVALID_GEOMETRY_ID: nothing hit
 
     explicit View(const refl_camera& c) : cam(c), cam_inf(c) {
         cam_inf.z_far = kInf;
@@ -197,7 +214,6 @@ struct View {
         h = cam.height;
         tan_y = std::tan(double(cam.fov_y) * 0.5);
         tan_x = tan_y * double(w) / double(h);
-        pixel_angle = 2.0 * tan_y / double(h);
         eye = {inv[12], inv[13], inv[14]};
     }
     // Unit world direction of the primary ray through pixel (x, y)'s center
@@ -211,18 +227,28 @@ struct View {
     }
     // -z of a world direction in view space.
     double view_forward(V3 d) const { return -(view[2] * d.x + view[6] * d.y + view[10] * d.z); }
-    double linear_depth(V3 p) const { return -(view[2] * p.x + view[6] * p.y + view[10] * p.z + view[14]); }
 
     void render(RTCScene s, unsigned threads) {
-        lin.assign(size_t(w) * h, std::numeric_limits<double>::infinity());
+        const size_t n = size_t(w) * h;
+        lin.assign(n, std::numeric_limits<double>::infinity());
+        normal.assign(n, refl_vec3{0.0f, 0.0f, 0.0f});
+        geom.assign(n, RTC_INVALID_GEOMETRY_ID);
         const float o[3] = {float(eye.x), float(eye.y), float(eye.z)};
         parallel_for(h, threads, [&](size_t y0, size_t y1) {
             for (size_t y = y0; y < y1; ++y)
                 for (uint32_t x = 0; x < w; ++x) {
                     const V3 dd = primary_dir(x, uint32_t(y));
                     const float d[3] = {float(dd.x), float(dd.y), float(dd.z)};
-                    const scene::Hit hh = scene::trace(s, o, d, 0.0f);
-                    if (hh.hit()) lin[y * w + x] = double(hh.t) * view_forward({d[0], d[1], d[2]});
+                    const NgHit hh = trace_ng(s, o, d, 0.0f, kInf);
+                    if (!hh.hit) continue;
+                    const size_t i = y * w + x;
+                    lin[i] = double(hh.t) * view_forward({d[0], d[1], d[2]});
+                    geom[i] = hh.geom;
+                    if (scene::length(hh.ng) > 0.0) {
+                        V3 ng = normalize(hh.ng);
+                        if (scene::dot(ng, dd) > 0.0) ng = -1.0 * ng;
+                        normal[i] = rv(ng);
+                    }
                 }
         });
     }
@@ -258,59 +284,29 @@ DepthBuf encode(const View& v, uint32_t conv) {
     return b;
 }
 
-// Reflection rays with their reference hits.
+// The reference reflections (one per reflective pixel) with their hits.
 struct Rays {
-    std::vector<refl_ray> ray;     // as the reference traces it (origin on the surface)
-    std::vector<refl_ray> screen;  // as the kernels trace it (origin moved, src/screen.rs)
+    std::vector<refl_ray> ray;     // origin on the surface
+    std::vector<uint32_t> pixel;   // y * width + x of the pixel the ray reflects
     float tmin = 0.0f;
-    std::vector<uint8_t> ref_hit, ref_proj, visible;
+    std::vector<uint8_t> ref_hit, visible;
     std::vector<float> ref_px, ref_py;  // projection of the reference hit
-    size_t normal_fallbacks = 0;        // origins whose Ng the eye ray did not find
     size_t size() const { return ray.size(); }
     size_t visible_count() const { return size_t(std::count(visible.begin(), visible.end(), 1)); }
 };
 
-// The kernels' ray for the reference ray (o, d) (src/screen.rs
-// reflection_rays). `fallbacks` counts origins whose surface the eye ray did
-// not reach; their normal is the mirror normal d - primary direction.
-refl_ray screen_ray(const View& v, RTCScene s, V3 o, V3 d, double bias, std::atomic<size_t>& fallbacks) {
-    const V3 to = o - v.eye;
-    const double dist = scene::length(to);
-    const V3 pd = (1.0 / dist) * to;
-    const float eo[3] = {float(v.eye.x), float(v.eye.y), float(v.eye.z)};
-    const float ed[3] = {float(pd.x), float(pd.y), float(pd.z)};
-    const NgHit h = trace_ng(s, eo, ed, 0.0f, float(dist * (1.0 + 1e-3)));
-    V3 ng;
-    if (h.hit && std::fabs(double(h.t) - dist) <= 1e-3 * dist && scene::length(h.ng) > 0.0) {
-        ng = normalize(h.ng);
-        if (scene::dot(ng, pd) > 0.0) ng = -1.0 * ng;
-    } else {
-        ++fallbacks;
-        ng = normalize(d - pd);
-    }
-    const V3 view = -1.0 * pd;
-    const double cs = std::clamp(scene::dot(view, ng), 1.0 / 16.0, 1.0);
-    const double tn = std::sqrt(1.0 - cs * cs) / cs;
-    const double t0 = kStartSlopes * v.linear_depth(o) * v.pixel_angle * tn;
-    return {rv(o + bias * ng + t0 * d), rv(d)};
-}
-
-// Fills screen rays, reference hits, projections and visibility of r.ray.
-void finish_rays(Rays& r, const View& v, RTCScene s, double diameter, unsigned threads) {
+// Fills reference hits, projections and visibility of r.ray.
+void finish_rays(Rays& r, const View& v, RTCScene s, unsigned threads) {
     const size_t n = r.size();
-    r.screen.resize(n);
     r.ref_hit.assign(n, 0);
-    r.ref_proj.assign(n, 0);
     r.visible.assign(n, 0);
     r.ref_px.assign(n, 0.0f);
     r.ref_py.assign(n, 0.0f);
-    std::atomic<size_t> fallbacks{0}, bad_status{0};
-    const double bias = kBiasOfDiameter * diameter;
+    std::atomic<size_t> bad_status{0};
     parallel_for(n, threads, [&](size_t b, size_t e) {
         for (size_t i = b; i < e; ++i) {
             const refl_ray& q = r.ray[i];
             const V3 o = dv(q.origin), d = dv(q.dir);
-            r.screen[i] = screen_ray(v, s, o, d, bias, fallbacks);
             const float fo[3] = {q.origin.x, q.origin.y, q.origin.z}, fd[3] = {q.dir.x, q.dir.y, q.dir.z};
             const scene::Hit h = scene::trace(s, fo, fd, r.tmin);
             if (!h.hit()) continue;
@@ -321,7 +317,6 @@ void finish_rays(Rays& r, const View& v, RTCScene s, double diameter, unsigned t
                 continue;
             }
             if (!p.valid) continue;
-            r.ref_proj[i] = 1;
             r.ref_px[i] = p.x;
             r.ref_py[i] = p.y;
             if (!(p.x >= 0.0f && p.y >= 0.0f && p.x < float(v.w) && p.y < float(v.h))) continue;
@@ -329,117 +324,163 @@ void finish_rays(Rays& r, const View& v, RTCScene s, double diameter, unsigned t
             r.visible[i] = std::isfinite(z) && std::fabs(z - double(p.depth)) <= kVisibleTolerance * double(p.depth);
         }
     });
-    r.normal_fallbacks = fallbacks;
     CHECK(bad_status == 0);
 }
 
-// A kernel and its setting.
-struct Kernel {
-    std::string kind, setting;
-    bool hiz = false;
-    bool refine = false;  // refl_trace_refine_hit on every hit (inside the timed pass)
-    refl_step_options step{1, UINT32_MAX};
-    refl_hiz_options hopt{};
+// The pass's G-buffer of a view: Embree's normals, except that every pixel
+// with a reference reflection gets the normal the reference reflects about
+// (normalize(r - d), d the pixel's primary direction), and the mask of
+// those pixels; one depth buffer per convention.
+struct Frame {
+    std::vector<refl_vec3> normals;
+    std::vector<uint8_t> mask;
+    std::vector<DepthBuf> depth;  // kConventions order
+    refl_gbuffer gbuffer(size_t k) const {
+        const DepthBuf& d = depth[k];
+        const uint32_t w = d.cam.width, h = d.cam.height;
+        const size_t n = size_t(w) * h;
+        refl_gbuffer g{};
+        g.depth = d.image();
+        g.normals = {normals.data(), n, w, h, w};
+        g.normal_space = REFL_NORMAL_SPACE_WORLD;
+        g.mask = {mask.data(), n, w, h, w};
+        return g;
+    }
 };
 
-std::vector<Kernel> kernels() {
-    std::vector<Kernel> k;
+Frame make_frame(const View& v, const Rays& r) {
+    Frame f;
+    f.normals = v.normal;
+    f.mask.assign(v.normal.size(), 0);
+    for (size_t i = 0; i < r.size(); ++i) {
+        const uint32_t p = r.pixel[i];
+        const V3 d = v.primary_dir(p % v.w, p / v.w), n = dv(r.ray[i].dir) - d;
+        CHECK(f.mask[p] == 0);  // one reflection per pixel
+        f.mask[p] = 1;
+        if (scene::length(n) > 0.0) f.normals[p] = rv(normalize(n));
+    }
+    for (uint32_t c : kConventions) f.depth.push_back(encode(v, c));
+    return f;
+}
+
+// A pass setting.
+struct Setting {
+    std::string kind, name;
+    refl_ssr_options opt{};
+    bool hiz() const { return opt.method == REFL_SSR_METHOD_HIZ; }
+    bool checked() const { return opt.refine && (hiz() || opt.step.stride == 1); }
+};
+
+std::vector<Setting> settings() {
+    std::vector<Setting> k;
+    const refl_ssr_options def = refl_ssr_options_default();
     for (uint32_t s : {1u, 4u, 16u}) {
-        Kernel x;
-        x.kind = "step";
-        x.setting = "stride " + std::to_string(s);
-        x.step = {s, UINT32_MAX};
+        Setting x{"step", "stride " + std::to_string(s), def};
+        x.opt.method = REFL_SSR_METHOD_STEP;
+        x.opt.step.stride = s;
         k.push_back(x);
     }
-    refl_hiz_options def = refl_hiz_options_default();
+    const refl_hiz_options hd = refl_hiz_options_default();
     auto hiz = [&](const std::string& name, refl_hiz_options o) {
-        Kernel x;
-        x.kind = "hiz";
-        x.hiz = true;
-        x.setting = name;
-        x.hopt = o;
+        Setting x{"hiz", name, def};
+        x.opt.method = REFL_SSR_METHOD_HIZ;
+        x.opt.hiz = o;
         k.push_back(x);
     };
-    hiz("default (s" + std::to_string(def.start_level) + " e" + std::to_string(def.stop_level) + " p" +
-            std::to_string(def.prologue_steps) + ")",
-        def);
-    refl_hiz_options o = def;
+    hiz("default (s" + std::to_string(hd.start_level) + " e" + std::to_string(hd.stop_level) + " p" +
+            std::to_string(hd.prologue_steps) + ")",
+        hd);
+    refl_hiz_options o = hd;
     o.start_level = 0;
     o.prologue_steps = 0;
     hiz("start 0, no prologue", o);
-    o = def;
+    o = hd;
     o.start_level = 5;
     hiz("start 5", o);
-    o = def;
+    o = hd;
     o.stop_level = 2;
     hiz("stop 2", o);
-    // The same kernels with sub-texel refinement of every hit.
-    Kernel r1 = k[0];
-    r1.setting += " + refine";
-    r1.refine = true;
+    // Stride 1 and the default Hi-Z without sub-texel refinement.
+    Setting r1 = k[0];
+    r1.name += ", refine off";
+    r1.opt.refine = false;
     k.push_back(r1);
-    Kernel r2 = k[3];
-    r2.setting += " + refine";
-    r2.refine = true;
+    Setting r2 = k[3];
+    r2.name += ", refine off";
+    r2.opt.refine = false;
     k.push_back(r2);
     return k;
 }
 
-// What a kernel traces against: image, pyramid, thickness.
-struct Target {
-    refl_depth_image image{};
-    refl_hiz hiz{};
-    refl_trace_thickness thickness{};
+// The pass's output over a whole image.
+struct PassOut {
+    std::vector<refl_ssr_texel> texel;
+    refl_ssr_stats stats{};
+    size_t host_listed = 0;  // host rays written whose status needs the host
+    bool ok = true;
 };
 
-uint32_t trace_chunk(const Kernel& k, const Target& t, const refl_ray* rays, size_t n, refl_trace_result* out) {
-    const float tmax = kInf;
-    const refl_status s = k.hiz ? refl_hiz_trace_rays(out, n, &t.hiz, &t.thickness, rays, n, &tmax, 1, &k.hopt)
-                                : refl_step_rays(out, n, &t.image, &t.thickness, rays, n, &tmax, 1, &k.step);
-    if (s != REFL_STATUS_OK || !k.refine) return s;
-    for (size_t i = 0; i < n; ++i) {
-        if (out[i].miss != REFL_TRACE_MISS_NONE) continue;
-        const refl_trace_result hit = out[i];
-        const refl_status r = refl_trace_refine_hit(&out[i], &t.image, rays[i], tmax, &hit);
-        if (r != REFL_STATUS_OK) return r;
-    }
-    return REFL_STATUS_OK;
+bool needs_host(uint32_t s) {
+    return s == REFL_SSR_STATUS_LEFT_IMAGE || s == REFL_SSR_STATUS_BEHIND_GEOMETRY ||
+           s == REFL_SSR_STATUS_OUT_OF_STEPS || s == REFL_SSR_STATUS_NO_PROJECTION ||
+           s == REFL_SSR_STATUS_BACK_FACE || s == REFL_SSR_STATUS_HIDDEN;
 }
 
-// Traces all rays on `threads` threads; false if a call failed.
-bool trace_all(const Kernel& k, const Target& t, const std::vector<refl_ray>& rays,
-               std::vector<refl_trace_result>& out, unsigned threads) {
-    out.resize(rays.size());
-    std::atomic<size_t> bad{0};
-    parallel_for(rays.size(), threads, [&](size_t b, size_t e) {
-        if (trace_chunk(k, t, rays.data() + b, e - b, out.data() + b) != REFL_STATUS_OK) ++bad;
+// refl_ssr_trace_rows over every row, split into one band per thread, each
+// with its own host list (as large as its band).
+PassOut trace_pass(const refl_gbuffer& gb, const refl_ssr_options& o, const std::vector<refl_vec2>& scratch,
+                   unsigned threads) {
+    const uint32_t w = gb.depth.camera.width, h = gb.depth.camera.height;
+    PassOut out;
+    out.texel.assign(size_t(w) * h, refl_ssr_texel{});
+    std::mutex m;
+    parallel_for(h, threads, [&](size_t b, size_t e) {
+        std::vector<refl_host_ray> host((e - b) * w);
+        refl_ssr_stats st{};
+        const refl_status s =
+            refl_ssr_trace_rows(&st, out.texel.data(), out.texel.size(), refl_image_vec3_mut{nullptr, 0, 0, 0, 0},
+                                host.data(), host.size(), &gb, &o, scratch.empty() ? nullptr : scratch.data(),
+                                scratch.size(), refl_row_range{uint32_t(b), uint32_t(e)});
+        size_t listed = 0;
+        for (uint32_t k = 0; k < st.host_rays_written; ++k) {
+            const refl_host_ray& r = host[k];
+            listed += r.y >= b && r.y < e && needs_host(r.status) &&
+                      out.texel[size_t(r.y) * w + r.x].status == r.status;
+        }
+        std::lock_guard<std::mutex> lock(m);
+        out.ok = out.ok && s == REFL_STATUS_OK && st.host_rays_written == st.host_rays;
+        out.stats.traced += st.traced;
+        out.stats.hits += st.hits;
+        out.stats.sky += st.sky;
+        out.stats.host_rays += st.host_rays;
+        out.stats.host_rays_written += st.host_rays_written;
+        out.host_listed += listed;
     });
-    return bad == 0;
+    return out;
 }
 
-bool finite_result(const refl_trace_result& r) {
-    return std::isfinite(r.pixel.x) && std::isfinite(r.pixel.y) && std::isfinite(r.t) && std::isfinite(r.depth) &&
-           std::isfinite(r.surface_depth);
+bool finite_texel(const refl_ssr_texel& t) {
+    return std::isfinite(t.pixel.x) && std::isfinite(t.pixel.y) && std::isfinite(t.t) && std::isfinite(t.confidence);
 }
 
 struct Stats {
-    size_t rays = 0, visible = 0, found = 0, wrong = 0, missed = 0, false_hits = 0, nan = 0, err_n = 0;
+    size_t rays = 0, visible = 0, found = 0, wrong = 0, missed = 0, false_hits = 0, nan = 0, host = 0, err_n = 0;
     double err_sum = 0.0;
-    uint64_t fetches = 0;
     double hit_rate() const { return visible ? double(found) / double(visible) : 0.0; }
     double false_rate() const { return rays > visible ? double(false_hits) / double(rays - visible) : 0.0; }
 };
 
-Stats evaluate(const Rays& r, const std::vector<refl_trace_result>& t) {
+Stats evaluate(const Rays& r, const PassOut& p) {
     Stats s;
     s.rays = r.size();
-    for (size_t i = 0; i < t.size(); ++i) {
-        s.fetches += t[i].fetches;
-        s.nan += !finite_result(t[i]);
-        const bool hit = t[i].miss == REFL_TRACE_MISS_NONE, vis = r.visible[i] != 0;
+    for (const auto& t : p.texel) s.nan += !finite_texel(t);
+    for (size_t i = 0; i < r.size(); ++i) {
+        const refl_ssr_texel& t = p.texel[r.pixel[i]];
+        s.host += needs_host(t.status);
+        const bool hit = t.status == REFL_SSR_STATUS_HIT, vis = r.visible[i] != 0;
         s.visible += vis;
         if (hit && vis) {
-            const double err = std::hypot(double(t[i].pixel.x) - r.ref_px[i], double(t[i].pixel.y) - r.ref_py[i]);
+            const double err = std::hypot(double(t.pixel.x) - r.ref_px[i], double(t.pixel.y) - r.ref_py[i]);
             s.err_sum += err;
             ++s.err_n;
             if (err <= kFoundRadiusPx) ++s.found;
@@ -453,39 +494,16 @@ Stats evaluate(const Rays& r, const std::vector<refl_trace_result>& t) {
     return s;
 }
 
-// Both miss, or both hit within one pixel of each other.
-bool same_hit(const refl_trace_result& a, const refl_trace_result& b) {
-    const bool ha = a.miss == REFL_TRACE_MISS_NONE, hb = b.miss == REFL_TRACE_MISS_NONE;
-    if (ha != hb) return false;
-    return !ha || std::hypot(double(a.pixel.x) - b.pixel.x, double(a.pixel.y) - b.pixel.y) <= 1.0;
-}
-
-double agreement(const std::vector<refl_trace_result>& a, const std::vector<refl_trace_result>& b) {
+// Both without a hit, or both hit within one pixel of each other, over the
+// reflective pixels.
+double agreement(const Rays& r, const PassOut& a, const PassOut& b) {
     size_t n = 0;
-    for (size_t i = 0; i < a.size(); ++i) n += same_hit(a[i], b[i]);
-    return a.empty() ? 1.0 : double(n) / double(a.size());
-}
-
-// Rays both kernels hit at the same place after walking more than
-// kLongRayPx pixels from the projection of the ray's origin; their fetches.
-struct LongRays {
-    size_t n = 0;
-    uint64_t step_fetches = 0, hiz_fetches = 0;
-    double ratio() const { return hiz_fetches ? double(step_fetches) / double(hiz_fetches) : 0.0; }
-};
-LongRays long_rays(const View& v, const std::vector<refl_ray>& rays, const std::vector<refl_trace_result>& step,
-                   const std::vector<refl_trace_result>& hiz) {
-    LongRays l;
-    for (size_t i = 0; i < rays.size(); ++i) {
-        if (step[i].miss != REFL_TRACE_MISS_NONE || !same_hit(step[i], hiz[i])) continue;
-        refl_projection p{};
-        if (refl_camera_project(&p, &v.cam, rays[i].origin) != REFL_STATUS_OK || !p.valid) continue;
-        if (std::hypot(double(step[i].pixel.x) - p.x, double(step[i].pixel.y) - p.y) <= kLongRayPx) continue;
-        ++l.n;
-        l.step_fetches += step[i].fetches;
-        l.hiz_fetches += hiz[i].fetches;
+    for (uint32_t p : r.pixel) {
+        const refl_ssr_texel &x = a.texel[p], &y = b.texel[p];
+        const bool hx = x.status == REFL_SSR_STATUS_HIT, hy = y.status == REFL_SSR_STATUS_HIT;
+        n += hx == hy && (!hx || std::hypot(double(x.pixel.x) - y.pixel.x, double(x.pixel.y) - y.pixel.y) <= 1.0);
     }
-    return l;
+    return r.size() ? double(n) / double(r.size()) : 1.0;
 }
 
 // Median ns per ray of rtcIntersect1 over the reference rays.
@@ -507,156 +525,247 @@ double embree_ns(RTCScene s, const Rays& r, unsigned threads) {
     return r.size() ? secs * 1e9 / double(r.size()) : 0.0;
 }
 
-// A pyramid of one depth buffer, built by refl_hiz_build (timed) and by
-// row bands on several threads (checked bit-identical).
-struct Pyramid {
-    std::vector<refl_vec2> data;
-    double build_ms = 0.0, build_ms_mt = 0.0;
+// The pass's scratch for a setting, prepared (timed, median); for Hi-Z the
+// pyramid is checked bit-identical to refl_hiz_build's.
+struct Prepared {
+    std::vector<refl_vec2> scratch;
+    double ms = 0.0;
+    bool ok = true;
 };
 
-Pyramid build_pyramid(const DepthBuf& db, unsigned threads) {
-    Pyramid p;
+Prepared prepare(const refl_gbuffer& gb, const refl_ssr_options& o) {
+    Prepared p;
     size_t len = 0;
-    uint32_t levels = 0;
-    REQUIRE(refl_hiz_len(&len, &levels, db.cam.width, db.cam.height) == REFL_STATUS_OK);
-    p.data.assign(len, refl_vec2{0.0f, 0.0f});
-    const refl_depth_image im = db.image();
-    p.build_ms = 1e3 * median_seconds(kTimingRuns, [&] {
-        CHECK_STATUS(refl_hiz_build(p.data.data(), p.data.size(), &im), REFL_STATUS_OK);
+    p.ok = refl_ssr_scratch_len(&len, &gb, &o) == REFL_STATUS_OK;
+    p.scratch.assign(len, refl_vec2{0.0f, 0.0f});
+    p.ms = 1e3 * median_seconds(kTimingRuns, [&] {
+        p.ok = p.ok && refl_ssr_prepare(p.scratch.empty() ? nullptr : p.scratch.data(), p.scratch.size(), &gb, &o) ==
+                           REFL_STATUS_OK;
     });
-    std::vector<refl_vec2> bands(len, refl_vec2{0.0f, 0.0f});
-    p.build_ms_mt = 1e3 * median_seconds(kTimingRuns, [&] {
-        for (uint32_t level = 0; level < levels; ++level) {
-            refl_hiz_level_info info{};
-            CHECK_STATUS(refl_hiz_level(&info, db.cam.width, db.cam.height, level), REFL_STATUS_OK);
-            std::atomic<size_t> bad{0};
-            parallel_for(info.height, threads, [&](size_t b, size_t e) {
-                if (refl_hiz_build_rows(bands.data(), bands.size(), &im, level, refl_row_range{uint32_t(b), uint32_t(e)}) !=
-                    REFL_STATUS_OK)
-                    ++bad;
-            });
-            CHECK(bad == 0);
-        }
-    });
-    CHECK(std::memcmp(bands.data(), p.data.data(), len * sizeof(refl_vec2)) == 0);
+    if (o.method == REFL_SSR_METHOD_HIZ) {
+        std::vector<refl_vec2> ref(len, refl_vec2{0.0f, 0.0f});
+        CHECK_STATUS(refl_hiz_build(ref.data(), ref.size(), &gb.depth), REFL_STATUS_OK);
+        CHECK(len > 0 && std::memcmp(ref.data(), p.scratch.data(), len * sizeof(refl_vec2)) == 0);
+    }
     return p;
 }
 
+// refl_hiz_build against a multi-threaded row-band build (bit-identical).
+void check_banded_pyramid(const DepthBuf& db, unsigned threads) {
+    size_t len = 0;
+    uint32_t levels = 0;
+    REQUIRE(refl_hiz_len(&len, &levels, db.cam.width, db.cam.height) == REFL_STATUS_OK);
+    const refl_depth_image im = db.image();
+    std::vector<refl_vec2> whole(len, refl_vec2{0.0f, 0.0f}), bands(len, refl_vec2{0.0f, 0.0f});
+    CHECK_STATUS(refl_hiz_build(whole.data(), whole.size(), &im), REFL_STATUS_OK);
+    for (uint32_t level = 0; level < levels; ++level) {
+        refl_hiz_level_info info{};
+        CHECK_STATUS(refl_hiz_level(&info, db.cam.width, db.cam.height, level), REFL_STATUS_OK);
+        std::atomic<size_t> bad{0};
+        parallel_for(info.height, threads, [&](size_t b, size_t e) {
+            if (refl_hiz_build_rows(bands.data(), bands.size(), &im, level, refl_row_range{uint32_t(b), uint32_t(e)}) !=
+                REFL_STATUS_OK)
+                ++bad;
+        });
+        CHECK(bad == 0);
+    }
+    CHECK(std::memcmp(bands.data(), whole.data(), len * sizeof(refl_vec2)) == 0);
+}
+
 void print_header() {
-    std::printf("  %-5s %-32s %-7s %7s %6s %7s %6s %6s %7s %6s %8s | %8s %8s %8s %8s %6s %6s\n", "kern", "setting",
-                "conv", "rays", "vis%", "hitrate", "vmiss", "vwrong", "false", "errpx", "fetch/r", "ns/r 1t",
+    std::printf("  %-5s %-34s %-7s %7s %6s %7s %6s %6s %7s %6s %6s | %8s %8s %8s %8s %8s %6s %6s\n", "pass", "setting",
+                "conv", "rays", "vis%", "found", "vmiss", "vwrong", "false", "errpx", "host%", "prep ms", "ns/r 1t",
                 "ns/r Nt", "embr 1t", "embr Nt", "x 1t", "x Nt");
 }
 
-// Runs every kernel in every convention on r, prints the table and checks.
-// Returns nothing; failures are recorded by CHECK.
-void run_kernels(const char* title, const View& v, RTCScene s, const Rays& r, double diameter,
-                 const std::vector<refl_ray>* long_set) {
+// The bare kernels (no pass) on the synthetic long rays.
+struct Kernel {
+    bool hiz = false;
+    std::string name;
+    refl_step_options step{1, UINT32_MAX};
+    refl_hiz_options hopt{};
+};
+
+bool trace_bare(const Kernel& k, const refl_depth_image& im, const refl_hiz& hz, const refl_trace_thickness& th,
+                const std::vector<refl_ray>& rays, std::vector<refl_trace_result>& out, unsigned threads) {
+    out.resize(rays.size());
+    std::atomic<size_t> bad{0};
+    const float tmax = kInf;
+    parallel_for(rays.size(), threads, [&](size_t b, size_t e) {
+        const refl_status s =
+            k.hiz ? refl_hiz_trace_rays(out.data() + b, e - b, &hz, &th, rays.data() + b, e - b, &tmax, 1, &k.hopt)
+                  : refl_step_rays(out.data() + b, e - b, &im, &th, rays.data() + b, e - b, &tmax, 1, &k.step);
+        if (s != REFL_STATUS_OK) ++bad;
+    });
+    return bad == 0;
+}
+
+bool finite_result(const refl_trace_result& r) {
+    return std::isfinite(r.pixel.x) && std::isfinite(r.pixel.y) && std::isfinite(r.t) && std::isfinite(r.depth) &&
+           std::isfinite(r.surface_depth);
+}
+
+// Both miss, or both hit within one pixel of each other.
+bool same_hit(const refl_trace_result& a, const refl_trace_result& b) {
+    const bool ha = a.miss == REFL_TRACE_MISS_NONE, hb = b.miss == REFL_TRACE_MISS_NONE;
+    if (ha != hb) return false;
+    return !ha || std::hypot(double(a.pixel.x) - b.pixel.x, double(a.pixel.y) - b.pixel.y) <= 1.0;
+}
+
+// Rays both kernels hit at the same place after walking more than
+// kLongRayPx pixels from the projection of the ray's origin; their fetches.
+struct LongRays {
+    size_t n = 0, agree = 0;
+    uint64_t step_fetches = 0, hiz_fetches = 0;
+    double ratio() const { return hiz_fetches ? double(step_fetches) / double(hiz_fetches) : 0.0; }
+};
+LongRays long_rays(const View& v, const std::vector<refl_ray>& rays, const std::vector<refl_trace_result>& step,
+                   const std::vector<refl_trace_result>& hiz) {
+    LongRays l;
+    for (size_t i = 0; i < rays.size(); ++i) {
+        l.agree += same_hit(step[i], hiz[i]);
+        if (step[i].miss != REFL_TRACE_MISS_NONE || !same_hit(step[i], hiz[i])) continue;
+        refl_projection p{};
+        if (refl_camera_project(&p, &v.cam, rays[i].origin) != REFL_STATUS_OK || !p.valid) continue;
+        if (std::hypot(double(step[i].pixel.x) - p.x, double(step[i].pixel.y) - p.y) <= kLongRayPx) continue;
+        ++l.n;
+        l.step_fetches += step[i].fetches;
+        l.hiz_fetches += hiz[i].fetches;
+    }
+    return l;
+}
+
+// The bare kernels on synthetic long rays in every convention: stride 1
+// against Hi-Z settings (agreement and fetch ratio).
+void run_long_rays(const View& v, const Frame& f, const std::vector<refl_ray>& set, double diameter) {
+    const unsigned nt = hardware_threads();
+    std::printf("  Long rays, bare kernels (synthetic: from halfway along a pixel's primary ray in the left quarter "
+                "toward a surface %u to %u px to its right, mirrored in y; constant thickness %.4g):\n",
+                v.w / 2 + 16, v.w / 2 + 16 + v.w / 8 - 1, kThicknessOfDiameter * diameter);
+    const refl_hiz_options hd = refl_hiz_options_default();
+    std::vector<Kernel> hiz_kernels;
+    {
+        Kernel k;
+        k.hiz = true;
+        k.name = "default";
+        k.hopt = hd;
+        hiz_kernels.push_back(k);
+        k.name = "start 0, no prologue";
+        k.hopt.start_level = 0;
+        k.hopt.prologue_steps = 0;
+        hiz_kernels.push_back(k);
+        k.name = "stop 2";
+        k.hopt = hd;
+        k.hopt.stop_level = 2;
+        hiz_kernels.push_back(k);
+    }
+    for (size_t c = 0; c < f.depth.size(); ++c) {
+        const DepthBuf& db = f.depth[c];
+        const refl_depth_image im = db.image();
+        size_t len = 0;
+        uint32_t levels = 0;
+        REQUIRE(refl_hiz_len(&len, &levels, db.cam.width, db.cam.height) == REFL_STATUS_OK);
+        std::vector<refl_vec2> pyr(len, refl_vec2{0.0f, 0.0f});
+        CHECK_STATUS(refl_hiz_build(pyr.data(), pyr.size(), &im), REFL_STATUS_OK);
+        const refl_hiz hz{pyr.data(), pyr.size(), db.cam, db.conv};
+        refl_trace_thickness th{};
+        th.constant = float(kThicknessOfDiameter * diameter);
+        th.back_faces = refl_image_f32{nullptr, 0, 0, 0, 0};
+        std::vector<refl_trace_result> a, b;
+        CHECK(trace_bare(Kernel{}, im, hz, th, set, a, nt));
+        for (const Kernel& k : hiz_kernels) {
+            CHECK(trace_bare(k, im, hz, th, set, b, nt));
+            size_t nan = 0;
+            for (const auto& x : b) nan += !finite_result(x);
+            CHECK(nan == 0);
+            const LongRays l = long_rays(v, set, a, b);
+            const double ag = set.empty() ? 1.0 : double(l.agree) / double(set.size());
+            std::printf("  %-7s hiz %-24s %zu rays: agreement %.4f; long rays (> %.0f px) %zu: fetches/ray stride 1 "
+                        "%.1f, hiz %.1f, ratio %.2f\n",
+                        convention_name(db.conv), k.name.c_str(), set.size(), ag, kLongRayPx, l.n,
+                        l.n ? double(l.step_fetches) / double(l.n) : 0.0,
+                        l.n ? double(l.hiz_fetches) / double(l.n) : 0.0, l.ratio());
+            CHECK(ag >= 0.99);
+            CHECK(l.n >= set.size() / 4);
+            if (k.name == "default") CHECK(l.ratio() >= 10.0);
+        }
+    }
+}
+
+// Runs every pass setting in every convention on the frame, prints the
+// table and checks.
+void run_pass(const char* title, RTCScene s, const Rays& r, const Frame& f) {
     const unsigned nt = hardware_threads();
     const double e1 = embree_ns(s, r, 1), en = embree_ns(s, r, nt);
-    std::printf("\n== %s: %zu reflection rays, %zu visible (%.1f%%), %zu origin normals from the mirror fallback; "
-                "thickness %.4g (0.005 diameters); %u threads ==\n",
+    const size_t mask_pixels = size_t(std::count(f.mask.begin(), f.mask.end(), 1));
+    std::printf("\n== %s: %zu reflections (reflective pixels), %zu visible (%.1f%%); refl_ssr_options_default "
+                "(thickness %.2g of the pixel's depth, start after %.2g px); %u threads ==\n",
                 title, r.size(), r.visible_count(), r.size() ? 100.0 * double(r.visible_count()) / double(r.size()) : 0.0,
-                r.normal_fallbacks, kThicknessOfDiameter * diameter, nt);
-    std::printf("  rtcIntersect1 on the reference rays: %.1f ns/ray (1 thread), %.1f ns/ray (%u threads)\n", e1, en, nt);
-    std::printf("  (refl times: tracing only; depth buffer rendering and encoding excluded, pyramid build listed "
-                "separately; x = refl / Embree)\n");
+                double(refl_ssr_options_default().thickness), double(refl_ssr_options_default().start_pixels), nt);
+    CHECK(mask_pixels == r.size());
     print_header();
-    const std::vector<Kernel> ks = kernels();
-    std::vector<std::string> agree_lines, long_lines;
-    for (uint32_t conv : kConventions) {
-        const DepthBuf db = encode(v, conv);
-        const Pyramid pyr = build_pyramid(db, nt);
-        Target t;
-        t.image = db.image();
-        t.hiz.data = pyr.data.data();
-        t.hiz.len = pyr.data.size();
-        t.hiz.camera = db.cam;
-        t.hiz.convention = conv;
-        t.thickness.constant = float(kThicknessOfDiameter * diameter);
-        t.thickness.back_faces = refl_image_f32{nullptr, 0, 0, 0, 0};
-        std::vector<refl_trace_result> step1, step1_long;
-        double raw_hit_rate = 0.0;
-        for (const Kernel& k : ks) {
-            std::vector<refl_trace_result> out;
-            bool ok = trace_all(k, t, r.screen, out, nt);
-            CHECK(ok);
-            const double s1 = median_seconds(kTimingRuns, [&] { ok &= trace_all(k, t, r.screen, out, 1); });
-            const double sn = median_seconds(kTimingRuns, [&] { ok &= trace_all(k, t, r.screen, out, nt); });
-            CHECK(ok);
+    const std::vector<Setting> ks = settings();
+    std::vector<std::string> agree_lines;
+    for (size_t c = 0; c < f.depth.size(); ++c) {
+        const refl_gbuffer gb = f.gbuffer(c);
+        const uint32_t conv = f.depth[c].conv;
+        check_banded_pyramid(f.depth[c], nt);
+        PassOut step1;
+        for (const Setting& k : ks) {
+            const Prepared prep = prepare(gb, k.opt);
+            CHECK(prep.ok);
+            PassOut out;
+            const double t1 = median_seconds(kTimingRuns, [&] { out = trace_pass(gb, k.opt, prep.scratch, 1); });
+            CHECK(out.ok);
+            const double tn = median_seconds(kTimingRuns, [&] { out = trace_pass(gb, k.opt, prep.scratch, nt); });
+            CHECK(out.ok);
             const Stats st = evaluate(r, out);
-            const double n1 = r.size() ? s1 * 1e9 / double(r.size()) : 0.0, nn = r.size() ? sn * 1e9 / double(r.size()) : 0.0;
-            std::printf("  %-5s %-32s %-7s %7zu %6.1f %7.4f %6zu %6zu %7.4f %6.3f %8.1f | %8.1f %8.1f %8.1f %8.1f %6.2f "
-                        "%6.2f\n",
-                        k.kind.c_str(), k.setting.c_str(), convention_name(conv), st.rays,
+            const double n1 = r.size() ? t1 * 1e9 / double(r.size()) : 0.0;
+            const double nn = r.size() ? tn * 1e9 / double(r.size()) : 0.0;
+            std::printf("  %-5s %-34s %-7s %7zu %6.1f %7.4f %6zu %6zu %7.4f %6.3f %6.1f | %8.2f %8.1f %8.1f %8.1f "
+                        "%8.1f %6.2f %6.2f\n",
+                        k.kind.c_str(), k.name.c_str(), convention_name(conv), st.rays,
                         st.rays ? 100.0 * double(st.visible) / double(st.rays) : 0.0, st.hit_rate(), st.missed,
                         st.wrong, st.false_rate(), st.err_n ? st.err_sum / double(st.err_n) : 0.0,
-                        st.rays ? double(st.fetches) / double(st.rays) : 0.0, n1, nn, e1, en, e1 > 0 ? n1 / e1 : 0.0,
-                        en > 0 ? nn / en : 0.0);
+                        st.rays ? 100.0 * double(st.host) / double(st.rays) : 0.0, prep.ms, n1, nn, e1, en,
+                        e1 > 0 ? n1 / e1 : 0.0, en > 0 ? nn / en : 0.0);
             CHECK(st.nan == 0);
-            if (k.hiz || k.step.stride == 1) {
-                // The bound is on visible rays; a scene without any would make it vacuous.
+            // Every reflective pixel has a surface and is traced; every
+            // pixel the pass hands to the host is in a host list.
+            CHECK(out.stats.traced == r.size());
+            CHECK(out.host_listed == out.stats.host_rays && out.stats.host_rays == st.host);
+            if (k.checked()) {
+                // The bounds are on visible rays; a scene without any would make them vacuous.
                 CHECK(st.visible > 0);
-                if (!(st.hit_rate() >= 0.95))
-                    std::fprintf(stderr, "hit rate %.4f < 0.95: %s %s %s\n", st.hit_rate(), k.kind.c_str(),
-                                 k.setting.c_str(), convention_name(conv));
+                if (!(st.hit_rate() >= 0.95 && st.false_rate() <= kMaxFalse))
+                    std::fprintf(stderr, "found %.4f < 0.95 or false hits %.4f > %.2f: %s %s %s\n", st.hit_rate(),
+                                 st.false_rate(), kMaxFalse, k.kind.c_str(), k.name.c_str(), convention_name(conv));
                 CHECK(st.hit_rate() >= 0.95);
+                CHECK(st.false_rate() <= kMaxFalse);
             }
-            if (!k.hiz && k.step.stride == 1 && !k.refine) raw_hit_rate = st.hit_rate();
-            // Refinement only moves hits onto the surface: never fewer found.
-            if (k.refine) CHECK(st.hit_rate() >= raw_hit_rate);
-            if (!k.hiz && k.step.stride == 1) {
+            if (!k.hiz() && k.opt.step.stride == 1 && k.opt.refine) {
+                // Why visible reflections were not found: the status.
+                size_t why[16] = {};
+                for (size_t i = 0; i < r.size(); ++i)
+                    if (r.visible[i] && out.texel[r.pixel[i]].status != REFL_SSR_STATUS_HIT)
+                        ++why[std::min<uint32_t>(out.texel[r.pixel[i]].status, 15)];
+                std::printf("        visible, not hit, by refl_ssr_status:");
+                for (int w = 0; w < 16; ++w)
+                    if (why[w]) std::printf(" %d: %zu", w, why[w]);
+                std::printf("\n");
                 step1 = out;
-            } else if (k.hiz) {
-                const double a = agreement(step1, out);
-                const LongRays l = long_rays(v, r.screen, step1, out);
+            } else if (k.hiz()) {
+                const double a = agreement(r, step1, out);
                 char line[256];
-                std::snprintf(line, sizeof line,
-                              "  %-7s %-32s agrees with stride 1 on %.4f of %zu rays; long rays (> %.0f px): %zu, "
-                              "fetches stride 1 / hiz = %.2f",
-                              convention_name(conv), k.setting.c_str(), a, out.size(), kLongRayPx, l.n, l.ratio());
+                std::snprintf(line, sizeof line, "  %-7s %-34s agrees with stride 1 on %.4f of %zu pixels",
+                              convention_name(conv), k.name.c_str(), a, r.size());
                 agree_lines.push_back(line);
-                CHECK(a >= 0.99);
-            }
-        }
-        char line[256];
-        std::snprintf(line, sizeof line, "  %-7s pyramid %zu texels: refl_hiz_build %.2f ms (1 thread); refl_hiz_build_rows in bands, "
-                      "threads started per level, %.2f ms (%u threads)",
-                      convention_name(conv), pyr.data.size(), pyr.build_ms, pyr.build_ms_mt, nt);
-        agree_lines.push_back(line);
-        if (long_set) {
-            // Synthetic long rays: stride 1 against every Hi-Z setting.
-            std::vector<refl_trace_result> a, b;
-            CHECK(trace_all(ks[0], t, *long_set, a, nt));
-            for (const Kernel& k : ks) {
-                if (!k.hiz || k.refine) continue;
-                CHECK(trace_all(k, t, *long_set, b, nt));
-                size_t nan = 0;
-                for (const auto& x : b) nan += !finite_result(x);
-                CHECK(nan == 0);
-                const double ag = agreement(a, b);
-                const LongRays l = long_rays(v, *long_set, a, b);
-                std::snprintf(line, sizeof line,
-                              "  %-7s %-32s synthetic set %zu rays: agreement %.4f; long rays (> %.0f px) %zu: "
-                              "fetches/ray stride 1 %.1f, hiz %.1f, ratio %.2f",
-                              convention_name(conv), k.setting.c_str(), long_set->size(), ag, kLongRayPx, l.n,
-                              l.n ? double(l.step_fetches) / double(l.n) : 0.0,
-                              l.n ? double(l.hiz_fetches) / double(l.n) : 0.0, l.ratio());
-                long_lines.push_back(line);
-                CHECK(ag >= 0.99);
-                CHECK(l.n >= long_set->size() / 4);
-                if (k.setting.rfind("default", 0) == 0) CHECK(l.ratio() >= 10.0);
+                if (k.opt.refine) CHECK(a >= 0.99);
             }
         }
     }
-    std::printf("  Hi-Z vs stride-1 stepping (same thickness; both miss or both hit within 1 px):\n");
+    std::printf("  Hi-Z vs stride-1 stepping (the pass with each; both without a hit or both hit within 1 px):\n");
     for (const auto& l : agree_lines) std::printf("%s\n", l.c_str());
-    if (long_set) {
-        std::printf("  Long rays (synthetic: from halfway along a pixel's primary ray in the left quarter toward a "
-                    "surface %u to %u px to its right, mirrored in y):\n",
-                    v.w / 2 + 16, v.w / 2 + 16 + v.w / 8 - 1);
-        for (const auto& l : long_lines) std::printf("%s\n", l.c_str());
-    }
 }
 
 // ---------------------------------------------------------------------------
@@ -690,17 +799,28 @@ void run_crosscheck(const std::string& dir) {
     View v(cam);
     v.render(sc.scene, nt);
 
+    // Each reflection belongs to the pixel its origin (the pixel center's
+    // primary hit) projects to.
     Rays r;
     r.tmin = epsilon;
     for (uint32_t i = 0; i < set.reflection_count; ++i) {
         const crosscheck::Ray& q = set.rays[i];
-        r.ray.push_back({{q.o[0], q.o[1], q.o[2]}, {q.d[0], q.d[1], q.d[2]}});
         CHECK(q.tmin == epsilon);
+        refl_projection p{};
+        const refl_vec3 o{q.o[0], q.o[1], q.o[2]};
+        if (refl_camera_project(&p, &v.cam, o) != REFL_STATUS_OK || !p.valid || !(p.x >= 0.0f && p.y >= 0.0f) ||
+            !(p.x < float(v.w) && p.y < float(v.h))) {
+            CHECK(false);
+            continue;
+        }
+        r.ray.push_back({o, {q.d[0], q.d[1], q.d[2]}});
+        r.pixel.push_back(uint32_t(p.y) * v.w + uint32_t(p.x));
     }
-    finish_rays(r, v, sc.scene, diameter, nt);
+    finish_rays(r, v, sc.scene, nt);
     CHECK(r.size() > 1000);
     CHECK(r.visible_count() > r.size() / 10);
-    run_kernels("room (crosscheck)", v, sc.scene, r, diameter, nullptr);
+    const Frame f = make_frame(v, r);
+    run_pass("room (crosscheck)", sc.scene, r, f);
 }
 
 // ---------------------------------------------------------------------------
@@ -750,23 +870,22 @@ refl_camera own_camera() {
     return cam;
 }
 
-// One reflection ray per mirror-floor pixel: the primary ray's exact hit
-// with the plane y = 0 and its mirror direction, in double.
+// One reflection per mirror-floor pixel: the primary ray's exact hit with
+// the plane y = 0 and its mirror direction, in double.
 Rays mirror_rays(const View& v, RTCScene s, double diameter, unsigned threads) {
     Rays r;
     r.tmin = float(1e-5 * diameter);
-    const float o[3] = {float(v.eye.x), float(v.eye.y), float(v.eye.z)};
     for (uint32_t y = 0; y < v.h; ++y)
         for (uint32_t x = 0; x < v.w; ++x) {
+            const size_t i = size_t(y) * v.w + x;
             const V3 d = v.primary_dir(x, y);
-            const float fd[3] = {float(d.x), float(d.y), float(d.z)};
-            const scene::Hit h = scene::trace(s, o, fd, 0.0f);
-            if (!h.hit() || h.geom != 0 || !(d.y < 0.0)) continue;
+            if (v.geom[i] != 0 || !(d.y < 0.0)) continue;
             const double t = -v.eye.y / d.y;
             const V3 p = v.eye + t * d;
             r.ray.push_back({rv(p), rv(normalize({d.x, -d.y, d.z}))});
+            r.pixel.push_back(uint32_t(i));
         }
-    finish_rays(r, v, s, diameter, threads);
+    finish_rays(r, v, s, threads);
     return r;
 }
 
@@ -809,51 +928,57 @@ void run_own(const std::vector<size_t>& growth, size_t main_target) {
         CHECK(r.size() > 1000);
         CHECK(r.visible_count() > r.size() / 10);
         CHECK(long_set.size() > 500);
-        run_kernels("own scene (mirror floor)", v, sc.scene, r, diameter, &long_set);
+        const Frame f = make_frame(v, r);
+        run_pass("own scene (mirror floor)", sc.scene, r, f);
+        run_long_rays(v, f, long_set, diameter);
     }
 
     // Cost growth with the triangle count.
     std::printf("\n== cost growth, own scene, reversed-Z (infinite far), 1 thread everywhere (Embree device "
                 "threads=1, build quality high) ==\n");
-    std::printf("  refl times exclude rendering the depth buffer (Embree, not timed); hiz = pyramid build + trace "
-                "per ray listed apart\n");
+    std::printf("  refl times exclude rendering the G-buffer (Embree, not timed); the pass's prepare (the Hi-Z "
+                "pyramid) is listed apart\n");
     std::printf("  %9s %7s | %12s %10s | %10s %10s %10s %12s | %8s %8s\n", "triangles", "rays", "embree build",
-                "embree", "step s1", "hiz trace", "hiz build", "hiz b+t", "hit s1", "hit hiz");
+                "embree", "step s1", "hiz trace", "hiz prep", "hiz p+t", "found s1", "found hz");
     std::printf("  %9s %7s | %12s %10s | %10s %10s %10s %12s | %8s %8s\n", "", "", "ms", "ns/ray", "ns/ray", "ns/ray",
                 "ms", "ns/ray", "", "");
-    const std::vector<Kernel> ks = kernels();
+    const std::vector<Setting> ks = settings();
     for (size_t target : growth) {
         const std::vector<scene::Mesh> meshes = own_meshes(rings_for(target));
         std::vector<const scene::Mesh*> ptrs;
         for (const auto& m : meshes) ptrs.push_back(&m);
-        const double diameter = meshes_diameter(meshes);
         scene::Device dev("threads=1");
         const auto t0 = Clock::now();
         const scene::Scene sc(dev.device, ptrs);
         const double build_ms = ms_since(t0);
         View v(cam);
         v.render(sc.scene, nt);
-        const Rays r = mirror_rays(v, sc.scene, diameter, nt);
+        const Rays r = mirror_rays(v, sc.scene, meshes_diameter(meshes), nt);
         const double e1 = embree_ns(sc.scene, r, 1);
-        const DepthBuf db = encode(v, REFL_DEPTH_CONVENTION_REVERSED_Z);
-        const Pyramid pyr = build_pyramid(db, 1);
-        Target t;
-        t.image = db.image();
-        t.hiz = {pyr.data.data(), pyr.data.size(), db.cam, db.conv};
-        t.thickness.constant = float(kThicknessOfDiameter * diameter);
-        t.thickness.back_faces = refl_image_f32{nullptr, 0, 0, 0, 0};
-        std::vector<refl_trace_result> out;
-        bool ok = true;
-        const double s1 = median_seconds(kTimingRuns, [&] { ok &= trace_all(ks[0], t, r.screen, out, 1); });
+        Frame f;
+        f.normals = v.normal;
+        f.mask.assign(v.normal.size(), 0);
+        for (uint32_t p : r.pixel) {
+            f.mask[p] = 1;
+            f.normals[p] = refl_vec3{0.0f, 1.0f, 0.0f};
+        }
+        f.depth.push_back(encode(v, REFL_DEPTH_CONVENTION_REVERSED_Z));
+        const refl_gbuffer gb = f.gbuffer(0);
+        PassOut out;
+        const Prepared ps = prepare(gb, ks[0].opt);
+        const double s1 = median_seconds(kTimingRuns, [&] { out = trace_pass(gb, ks[0].opt, ps.scratch, 1); });
+        CHECK(out.ok);
         const Stats st_s = evaluate(r, out);
-        const double h1 = median_seconds(kTimingRuns, [&] { ok &= trace_all(ks[3], t, r.screen, out, 1); });
+        const Prepared ph = prepare(gb, ks[3].opt);
+        const double h1 = median_seconds(kTimingRuns, [&] { out = trace_pass(gb, ks[3].opt, ph.scratch, 1); });
+        CHECK(out.ok);
         const Stats st_h = evaluate(r, out);
-        CHECK(ok);
+        CHECK(ps.ok && ph.ok);
         CHECK(st_s.nan == 0 && st_h.nan == 0);
         const double n = double(std::max<size_t>(r.size(), 1));
         std::printf("  %9zu %7zu | %12.1f %10.1f | %10.1f %10.1f %10.2f %12.1f | %8.4f %8.4f\n", triangles(meshes),
-                    r.size(), build_ms, e1, s1 * 1e9 / n, h1 * 1e9 / n, pyr.build_ms,
-                    (h1 + pyr.build_ms * 1e-3) * 1e9 / n, st_s.hit_rate(), st_h.hit_rate());
+                    r.size(), build_ms, e1, s1 * 1e9 / n, h1 * 1e9 / n, ph.ms, (h1 + ph.ms * 1e-3) * 1e9 / n,
+                    st_s.hit_rate(), st_h.hit_rate());
     }
 }
 

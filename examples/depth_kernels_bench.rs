@@ -1,6 +1,7 @@
 //! Single-thread micro-benchmark of refl-core's depth-image kernels (Hi-Z
-//! traversal and per-pixel stepping) on the room scene's reflection rays,
-//! with a bit-exactness check of their results.
+//! traversal and per-pixel stepping) on the room scene's reflection rays as
+//! the mirror pass starts them (`screen::kernel_rays`), with a
+//! bit-exactness check of their results.
 //!
 //! ```text
 //! cargo run --release --example depth_kernels_bench -- [options]
@@ -122,7 +123,9 @@ fn main() {
     let cam = scene.camera(0, a.width, a.height).expect("camera");
     let g = GBuffer::render(&scene, &tracer, &cam, &pool);
     let rays = screen::reflection_rays(&scene, &tracer, &shader, &g, &pool);
-    let rays: &[Ray] = &rays.screen_ray;
+    // The kernels' rays as the mirror pass starts them.
+    let rays = screen::kernel_rays(&g, &rays);
+    let rays: &[Ray] = &rays;
     let n = rays.len();
     let thick = scene.diameter() * screen::THICKNESS_OF_DIAMETER;
     println!(

@@ -16,7 +16,7 @@ use crate::screen::{self, ScreenMethod};
 use crate::shade::Shader;
 use crate::tracer::Tracer;
 use refl_core::hiz::HiZOptions;
-use refl_core::{DepthConvention, StepOptions, Thickness};
+use refl_core::{DepthConvention, StepOptions};
 use std::fmt::Write as _;
 use std::io;
 use std::path::Path;
@@ -32,15 +32,16 @@ pub struct GrowthRow {
     pub bvh_build_ms: f64,
     /// obvhs closest-hit trace of the rays, ms.
     pub obvhs_ms: f64,
-    /// Per-pixel stepping (stride 1), ms.
+    /// The mirror pass with per-pixel stepping (stride 1), ms.
     pub step_ms: f64,
-    /// Hi-Z (default options, pyramid build included), ms.
+    /// The mirror pass with Hi-Z (default options, pyramid build
+    /// included), ms.
     pub hiz_ms: f64,
     /// Layered maps (64x64 faces, 4 layers) trace, ms.
     pub layered_ms: f64,
     /// Layered maps build, ms.
     pub layered_build_ms: f64,
-    /// Hit rate of stepping on visible hits.
+    /// Hit rate of the stepping pass on visible hits.
     pub step_hit_rate: f64,
 }
 
@@ -120,17 +121,16 @@ pub fn measure(
         let depth = screen::DepthBuffer::new(&g, DepthConvention::ReversedZ, f32::INFINITY)
             .map_err(|e| e.to_string())?;
         let image = depth.image().map_err(|e| e.to_string())?;
-        let thickness = Thickness::Constant(scene.diameter() * screen::THICKNESS_OF_DIAMETER);
-        let kernel = |m: ScreenMethod| -> Result<(f64, Vec<refl_core::Trace>), String> {
+        let images = screen::PassImages::new(&g, None);
+        let kernel = |m: ScreenMethod| -> Result<(f64, Vec<refl_core::MirrorTexel>), String> {
             let mut ms = Vec::new();
-            let mut traces = Vec::new();
+            let mut texels = Vec::new();
             for _ in 0..runs.max(1) {
-                let t = screen::run(m, true, &image, thickness, &rays.screen_ray, pool)
-                    .map_err(|e| e.to_string())?;
+                let t = screen::run(m, true, &image, &images, pool).map_err(|e| e.to_string())?;
                 ms.push(t.ms);
-                traces = t.value;
+                texels = t.value.texels;
             }
-            Ok((median(ms), traces))
+            Ok((median(ms), texels))
         };
         let (step_ms, step_traces) = kernel(ScreenMethod::Step(StepOptions::default()))?;
         let (hiz_ms, _) = kernel(ScreenMethod::HiZ(HiZOptions::default()))?;

@@ -27,7 +27,7 @@ use crate::{
 use glam::Vec3;
 use indicatif::{ProgressBar, ProgressStyle};
 use refl_core::hiz::HiZOptions;
-use refl_core::{DepthConvention, StepOptions, Thickness};
+use refl_core::{DepthConvention, StepOptions};
 use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
 
@@ -37,8 +37,8 @@ pub struct Options {
     /// Small sizes (about a minute on 2 cores); what the tests run.
     #[arg(long)]
     pub quick: bool,
-    /// Scenes: `room`, `concave`, `walkthrough`, or a path to an `.obj`
-    /// file (repeatable; default: the three built-in scenes).
+    /// Scenes: `room`, `concave`, `walkthrough`, `stage`, or a path to an
+    /// `.obj` file (repeatable; default: the four built-in scenes).
     #[arg(long)]
     pub scene: Vec<String>,
     /// Methods: `reference`, `envmap`, `planar-mirror`, `epipolar`, `orsa`,
@@ -134,7 +134,7 @@ impl Sizes {
 }
 
 /// The built-in scenes, in report order.
-pub const BUILT_IN_SCENES: [&str; 3] = ["room", "concave", "walkthrough"];
+pub const BUILT_IN_SCENES: [&str; 4] = ["room", "concave", "walkthrough", "stage"];
 
 /// Every method name the report knows, in report order.
 pub const METHODS: [&str; 14] = [
@@ -437,6 +437,7 @@ fn load_scene(name: &str, opts: &Options, sizes: &Sizes) -> Result<Scene, String
         "room" => Ok(Scene::room(sizes.tris)),
         "concave" => Ok(Scene::concave(sizes.tris)),
         "walkthrough" => Ok(Scene::walkthrough(sizes.tris)),
+        "stage" => Ok(Scene::stage(sizes.tris)),
         path if path.ends_with(".obj") => {
             let mut flags = Vec::new();
             for f in &opts.reflective {
@@ -459,7 +460,7 @@ fn load_scene(name: &str, opts: &Options, sizes: &Sizes) -> Result<Scene, String
             Scene::load_obj(Path::new(path), &flags).map_err(|e| format!("{path}: {e}"))
         }
         other => Err(format!(
-            "unknown scene '{other}' (room, concave, walkthrough or a .obj path)"
+            "unknown scene '{other}' (room, concave, walkthrough, stage or a .obj path)"
         )),
     }
 }
@@ -807,7 +808,7 @@ pub fn run(opts: &Options) -> Result<PathBuf, String> {
         .find(|s| !(BUILT_IN_SCENES.contains(&s.as_str()) || s.ends_with(".obj")))
     {
         return Err(format!(
-            "unknown scene '{bad}' (room, concave, walkthrough or a .obj path)"
+            "unknown scene '{bad}' (room, concave, walkthrough, stage or a .obj path)"
         ));
     }
     let threads = opts
@@ -990,40 +991,34 @@ pub fn run(opts: &Options) -> Result<PathBuf, String> {
                         Setting::Screen(kernel, conv, refine) => {
                             let sf = screen_frame.get_or_insert_with(|| {
                                 screen::ScreenFrame::new(
-                                    &scene, &tracer, &shader, g, &pool, &pool_1t, sizes.runs,
+                                    &scene, &tracer, &shader, g, &direct, &pool, &pool_1t,
+                                    sizes.runs,
                                 )
                             });
-                            let thickness = Thickness::Constant(sf.thickness);
                             let (obvhs_ms, obvhs_ms_1t) = (sf.obvhs_ms, sf.obvhs_ms_1t);
                             sf.prepare_depth(g, conv).map_err(|e| e.to_string())?;
                             let sf = &*sf;
                             let depth = sf.depth(conv).ok_or("depth buffer")?;
                             let image = depth.image().map_err(|e| e.to_string())?;
                             let rays = &sf.rays;
-                            let (traces, ms) = median_run(sizes.runs, || {
-                                screen::run(
-                                    kernel,
-                                    refine,
-                                    &image,
-                                    thickness,
-                                    &rays.screen_ray,
-                                    &pool,
-                                )
+                            let (out, ms) = median_run(sizes.runs, || {
+                                screen::run(kernel, refine, &image, &sf.images, &pool)
                             })
                             .map_err(|e| e.to_string())?;
                             let (_, ms_1t) = median_run(sizes.runs, || {
-                                screen::run(
-                                    kernel,
-                                    refine,
-                                    &image,
-                                    thickness,
-                                    &rays.screen_ray,
-                                    &pool_1t,
-                                )
+                                screen::run(kernel, refine, &image, &sf.images, &pool_1t)
                             })
                             .map_err(|e| e.to_string())?;
-                            let stats = screen::evaluate(rays, &traces);
-                            let img = screen::shade(g, &direct, rays, &traces);
+                            let (fetches, steps, iterations) =
+                                screen::kernel_work(kernel, &image, &sf.images, rays, &pool)
+                                    .map_err(|e| e.to_string())?;
+                            let stats = RayStats {
+                                fetches,
+                                steps,
+                                iterations,
+                                ..screen::evaluate(rays, &out.texels)
+                            };
+                            let img = screen::shade(g, &out);
                             let acc = ScreenAccum {
                                 stats,
                                 kernel_ms: ms,
@@ -1038,7 +1033,8 @@ pub fn run(opts: &Options) -> Result<PathBuf, String> {
                         Setting::Layered(res, layers) => {
                             let sf = screen_frame.get_or_insert_with(|| {
                                 screen::ScreenFrame::new(
-                                    &scene, &tracer, &shader, g, &pool, &pool_1t, sizes.runs,
+                                    &scene, &tracer, &shader, g, &direct, &pool, &pool_1t,
+                                    sizes.runs,
                                 )
                             });
                             let sf = &*sf;

@@ -1,52 +1,45 @@
-//! Screen-space reflections over the primary view's depth buffer: the ray
-//! sets, the depth images and the measurements shared by the depth-image
-//! kernels of refl-core (per-pixel stepping and Hi-Z traversal).
+//! Screen-space mirror reflections over the primary view's depth buffer
+//! with refl-core's mirror pass ([`refl_core::MirrorPass`]: ray
+//! generation, the ray start rule, thickness, hit validation and shading
+//! all live there; the root package only fills its G-buffer and drives its
+//! row bands), and the measurements of that pass against the reference
+//! tracer.
 //!
-//! * [`ReflectionRays`]: one mirror reflection ray per reflective pixel of a
-//!   [`GBuffer`] (the same rays the reference traces), with the reference
-//!   tracer's hit and whether that hit is visible in the depth buffer.
-//! * [`evaluate`]: hit rate, false-hit rate and hit error in pixels of a
-//!   kernel's [`Trace`]s against the reference hits.
-//! * [`shade`]: the reflection image a screen-space method produces: the lit
-//!   frame's color at the hit texel (what an engine's SSR reads), only for
-//!   mirror pixels whose ray hit.
+//! * [`ReflectionRays`]: the pass's mirror ray of every reflective pixel of
+//!   a [`GBuffer`] ([`refl_core::MirrorPass::host_ray`]), with the
+//!   reference tracer's hit of the same ray and whether that hit is visible
+//!   in the depth buffer. The layered maps and the glossy study trace the
+//!   same rays.
+//! * [`run`]: the pass over a frame ([`ScreenMethod`] picks the kernel),
+//!   timed; [`kernel_work`]: its kernels' work on the same frame.
+//! * [`evaluate`]: hit rate, false-hit rate and hit error in pixels of the
+//!   pass's validated hits against the reference hits.
+//! * [`shade`]: the reflection image of the pass: its color output (the lit
+//!   frame's color at the hit texel) on the mirror pixels it hit.
 //!
-//! Visible: the reference hit point projects into the image, and the pixel
-//! it projects to sees the same object at a linear depth within
-//! [`VISIBLE_DEPTH_TOLERANCE`] (relative) of the hit's. Found: a kernel hit
-//! within [`FOUND_RADIUS_PX`] of the reference hit's projection. A false hit
-//! is a hit reported for a ray whose reference hit is not visible (the true
-//! surface is elsewhere: occluded, off screen, or nothing at all).
+//! Visible (evaluation only, not part of the pass): the reference hit point
+//! projects into the image, and the pixel it projects to sees the same
+//! object at a linear depth within [`VISIBLE_DEPTH_TOLERANCE`] (relative)
+//! of the hit's. Found: a pass hit within [`FOUND_RADIUS_PX`] of the
+//! reference hit's projection. A false hit is a hit reported for a ray
+//! whose reference hit is not visible (the true surface is elsewhere:
+//! occluded, off screen, or nothing at all).
 
 use crate::gbuffer::GBuffer;
 use crate::scene::Scene;
-use crate::shade::{reflection_dir, Shader};
+use crate::shade::Shader;
 use crate::tracer::{Hit, Tracer};
 use glam::{Vec2, Vec3};
 use rayon::prelude::*;
-use refl_core::{Camera, DepthConvention, DepthImage, ImageView, Ray, Trace};
+use refl_core::{
+    Camera, DepthConvention, DepthImage, ImageView, ImageViewMut, MirrorMethod, MirrorOptions,
+    MirrorPass, MirrorStats, MirrorStatus, MirrorTexel, NormalSpace, Ray, RowRange, Work,
+};
 
-/// Where a screen-space reflection ray starts, in units of the reflector's
-/// depth slope: `t0 = START_SLOPES * z * pixel_angle * tan(theta)`, with
-/// `z` the pixel's linear depth, `pixel_angle` the angle one pixel spans
-/// and `theta` the angle between the view direction and the surface normal
-/// (`tan` clamped to 16). A depth texel stores the depth at its center, a
-/// flat plate facing the camera; a ray leaving a surface that recedes from
-/// the camera runs behind the plates of the surface's next texels for about
-/// half a texel's depth change, `0.5 z pixel_angle tan(theta)`, and a
-/// kernel would report those plates as hits (self-intersection). The mirror
-/// ray climbs above the tangent plane at the same angle it was viewed at,
-/// so after `t0` its depth lies `START_SLOPES` texel slopes in front of the
-/// surface. Measured on the room scene (30k triangles, 256x192, stride 1):
-/// 0 finds 5% of the visible hits within a pixel (the rest are
-/// self-intersections), 0.5 finds 97.1%, 1 finds 96.7% and 2 finds 94.7%
-/// (contact hits near the reflector are skipped).
-pub const START_SLOPES: f32 = 0.5;
-
-/// Relative linear-depth tolerance of the visibility test.
+/// Relative linear-depth tolerance of the visibility test (evaluation).
 pub const VISIBLE_DEPTH_TOLERANCE: f32 = 0.02;
 
-/// A kernel hit within this many pixels (Euclidean) of the reference hit's
+/// A pass hit within this many pixels (Euclidean) of the reference hit's
 /// projection counts as found.
 pub const FOUND_RADIUS_PX: f32 = 1.0;
 
@@ -55,14 +48,10 @@ pub const FOUND_RADIUS_PX: f32 = 1.0;
 pub struct ReflectionRays {
     /// Pixel index (into the G-buffer) of each ray.
     pub pixel: Vec<u32>,
-    /// The ray as the reference traces it: from the surface point, with
-    /// `tmin =` [`Shader::epsilon`].
+    /// The pass's ray: origin on the surface (the point the pass
+    /// reconstructs from the pixel's depth), the pass's mirror direction.
+    /// The reference traces it from `tmin =` [`Shader::epsilon`].
     pub ray: Vec<Ray>,
-    /// The ray as a depth-image kernel traces it: the same line, its origin
-    /// moved off the surface by [`ReflectionRays::bias`] along the geometric
-    /// normal and then [`START_SLOPES`] depth slopes along the ray (module
-    /// docs), so that the reflector's own depth texels are not hits.
-    pub screen_ray: Vec<Ray>,
     /// The reference (obvhs) hit of each ray.
     pub reference: Vec<Option<Hit>>,
     /// Projection `(px, py)` of the reference hit into the primary view,
@@ -71,9 +60,6 @@ pub struct ReflectionRays {
     /// Whether the reference hit is visible in the depth buffer (see the
     /// module docs).
     pub visible: Vec<bool>,
-    /// The origin offset used for [`ReflectionRays::screen_ray`], world
-    /// units.
-    pub bias: f32,
 }
 
 impl ReflectionRays {
@@ -93,8 +79,66 @@ impl ReflectionRays {
     }
 }
 
-/// The mirror reflection rays of every reflective pixel of `g` (computed as
-/// the reference renderer computes them), traced with the reference tracer.
+/// The G-buffer images the mirror pass reads besides the depth, as
+/// refl-core takes them: world normals (the G-buffer's shading normals),
+/// the mask of reflective pixels and, optionally, the lit frame.
+///
+/// Every reflective pixel is traced, glossy ones included (no roughness
+/// image: [`MirrorOptions::max_roughness`] does not apply), so that the
+/// pass's rays are [`ReflectionRays`]'s.
+pub struct PassImages {
+    width: u32,
+    height: u32,
+    normals: Vec<[f32; 3]>,
+    mask: Vec<u8>,
+    lit: Option<Vec<[f32; 3]>>,
+}
+
+impl PassImages {
+    /// The images of `g`, with `lit` (one color per pixel) as the color the
+    /// pass shades its hits with.
+    pub fn new(g: &GBuffer, lit: Option<&[Vec3]>) -> Self {
+        Self {
+            width: g.width(),
+            height: g.height(),
+            normals: g.normal.iter().map(|n| n.to_array()).collect(),
+            mask: (0..g.len()).map(|i| u8::from(g.is_reflective(i))).collect(),
+            lit: lit.map(|l| l.iter().map(|c| c.to_array()).collect()),
+        }
+    }
+
+    /// The refl-core G-buffer over `depth` (this frame's depth in any
+    /// convention).
+    ///
+    /// # Errors
+    /// As [`refl_core::GBuffer::try_new`] (an image of another size than
+    /// `depth`'s camera).
+    pub fn gbuffer<'a>(
+        &'a self,
+        depth: DepthImage<'a>,
+    ) -> Result<refl_core::GBuffer<'a>, refl_core::Error> {
+        let (w, h) = (self.width, self.height);
+        let g = refl_core::GBuffer::try_new(
+            depth,
+            ImageView::try_new(&self.normals, w, h, w)?,
+            NormalSpace::World,
+        )?
+        .try_with_mask(ImageView::try_new(&self.mask, w, h, w)?)?;
+        match &self.lit {
+            Some(l) => g.try_with_color(ImageView::try_new(l, w, h, w)?),
+            None => Ok(g),
+        }
+    }
+}
+
+/// The mirror pass's rays of every reflective pixel of `g` (stepping
+/// setup over `g`'s linear depth; the ray of a pixel does not depend on the
+/// kernel), traced with the reference tracer. A reflective pixel without a
+/// ray (a zero normal) has none here either.
+///
+/// # Panics
+/// Only if `g`'s buffers do not match its camera (never for a rendered
+/// one).
 pub fn reflection_rays(
     scene: &Scene,
     tracer: &Tracer,
@@ -102,67 +146,101 @@ pub fn reflection_rays(
     g: &GBuffer,
     pool: &rayon::ThreadPool,
 ) -> ReflectionRays {
-    // A depth-proportional offset would be scale-free too, but one world
-    // offset per scene keeps rays identical across depth conventions.
-    let bias = scene.diameter() * 2e-4;
-    let pixel_angle = 2.0 * (g.camera.fov_y() * 0.5).tan() / g.height() as f32;
-    let pixels: Vec<u32> = (0..g.len())
-        .filter(|&i| g.is_reflective(i))
-        .map(|i| i as u32)
-        .collect();
-    /// One ray's row: (ray, screen ray, reference hit, its pixel, visible).
-    type RayRow = (Ray, Ray, Option<Hit>, Option<Vec2>, bool);
+    with_linear_pass(g, |pass| trace_rays(scene, tracer, shader, g, pass, pool))
+}
+
+/// `f` of the stepping mirror pass with default options over `g`'s linear
+/// depth (what [`reflection_rays`] and [`kernel_rays`] take the rays from).
+///
+/// # Panics
+/// Only if `g`'s buffers do not match its camera.
+fn with_linear_pass<R>(g: &GBuffer, f: impl FnOnce(&MirrorPass<'_>) -> R) -> R {
+    let (w, h) = (g.width(), g.height());
+    let images = PassImages::new(g, None);
+    let depth = ImageView::try_new(&g.depth, w, h, w)
+        .and_then(|v| DepthImage::try_new(v, g.camera, DepthConvention::Linear))
+        .expect("G-buffer depth");
+    let pass = MirrorPass::try_new(
+        images.gbuffer(depth).expect("G-buffer images"),
+        MirrorOptions {
+            method: MirrorMethod::Step,
+            ..MirrorOptions::default()
+        },
+        None,
+    )
+    .expect("mirror pass");
+    f(&pass)
+}
+
+/// The rays of `pass` for the reflective pixels of `g` with their
+/// reference hits (see [`reflection_rays`]).
+fn trace_rays(
+    scene: &Scene,
+    tracer: &Tracer,
+    shader: &Shader,
+    g: &GBuffer,
+    pass: &MirrorPass<'_>,
+    pool: &rayon::ThreadPool,
+) -> ReflectionRays {
+    /// One ray's row: (pixel, ray, reference hit, its pixel, visible).
+    type RayRow = (u32, Ray, Option<Hit>, Option<Vec2>, bool);
     let rows: Vec<RayRow> = pool.install(|| {
-        pixels
-            .par_iter()
-            .map(|&p| {
-                let i = p as usize;
-                let view = -g.primary_ray(i).dir;
-                let dir = reflection_dir(view, g.normal[i], g.geo_normal[i]);
+        (0..g.len())
+            .into_par_iter()
+            .with_min_len(256)
+            .filter(|&i| g.is_reflective(i))
+            .filter_map(|i| {
+                let (x, y) = g.pixel(i);
+                // Any status: only the ray is used.
+                let r = pass.host_ray(x, y, MirrorStatus::NoProjection)?;
                 let ray = Ray {
-                    origin: g.position[i],
-                    dir,
+                    origin: r.origin,
+                    dir: r.dir,
                 };
-                // Start where the ray has climbed above the reflector's own
-                // depth texels (module docs).
-                let cos = view.dot(g.geo_normal[i]).clamp(1.0 / 16.0, 1.0);
-                let tan = (1.0 - cos * cos).sqrt() / cos;
-                let t0 = START_SLOPES * g.depth[i] * pixel_angle * tan;
-                let screen_ray = Ray {
-                    origin: g.position[i] + g.geo_normal[i] * bias + dir * t0,
-                    dir,
-                };
-                let hit = tracer.trace(ray.origin, dir, shader.epsilon, f32::INFINITY);
+                let hit = tracer.trace(ray.origin, ray.dir, shader.epsilon, f32::INFINITY);
                 let (px, visible) = match hit {
-                    Some(h) => {
-                        let p = ray.at(h.t);
-                        match g.camera.project(p) {
-                            Some(q) => {
-                                let px = q.truncate();
-                                (Some(px), visible_in(scene, g, h.prim, px, q.z))
-                            }
-                            None => (None, false),
+                    Some(hh) => match g.camera.project(ray.at(hh.t)) {
+                        Some(q) => {
+                            let px = q.truncate();
+                            (Some(px), visible_in(scene, g, hh.prim, px, q.z))
                         }
-                    }
+                        None => (None, false),
+                    },
                     None => (None, false),
                 };
-                (ray, screen_ray, hit, px, visible)
+                Some((i as u32, ray, hit, px, visible))
             })
             .collect()
     });
-    let mut out = ReflectionRays {
-        pixel: pixels,
-        bias,
-        ..ReflectionRays::default()
-    };
-    for (ray, screen_ray, hit, px, visible) in rows {
+    let mut out = ReflectionRays::default();
+    for (pixel, ray, hit, px, visible) in rows {
+        out.pixel.push(pixel);
         out.ray.push(ray);
-        out.screen_ray.push(screen_ray);
         out.reference.push(hit);
         out.reference_pixel.push(px);
         out.visible.push(visible);
     }
     out
+}
+
+/// The rays the mirror pass hands its kernel for `rays` (of `g`): each
+/// pixel's [`refl_core::MirrorRay::kernel_ray`], started by the pass's
+/// start rule; pixels whose ray the pass does not trace (it hands them to
+/// the host at once) are left out. For benchmarks of the bare kernels on
+/// the pass's rays.
+///
+/// # Panics
+/// Only if `g`'s buffers do not match its camera.
+pub fn kernel_rays(g: &GBuffer, rays: &ReflectionRays) -> Vec<Ray> {
+    with_linear_pass(g, |pass| {
+        rays.pixel
+            .iter()
+            .filter_map(|&i| {
+                let (x, y) = g.pixel(i as usize);
+                pass.ray(x, y).map(|r| r.kernel_ray())
+            })
+            .collect()
+    })
 }
 
 /// Whether a hit on primitive `prim` at linear depth `z`, projecting to
@@ -225,29 +303,30 @@ impl DepthBuffer {
     }
 }
 
-/// Hit statistics of a kernel's traces against the reference.
+/// Hit statistics of a method's hits (the mirror pass's, or the layered
+/// maps' in the report) against the reference.
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
 pub struct RayStats {
     /// Rays traced.
     pub rays: usize,
     /// Rays whose reference hit is visible in the depth buffer.
     pub visible: usize,
-    /// Visible rays the kernel found within [`FOUND_RADIUS_PX`].
+    /// Visible rays the method found within [`FOUND_RADIUS_PX`].
     pub found: usize,
-    /// Visible rays the kernel hit somewhere else (farther than
+    /// Visible rays the method hit somewhere else (farther than
     /// [`FOUND_RADIUS_PX`]).
     pub wrong: usize,
-    /// Visible rays the kernel missed.
+    /// Visible rays the method missed.
     pub missed: usize,
-    /// Rays whose reference hit is not visible, for which the kernel still
+    /// Rays whose reference hit is not visible, for which the method still
     /// reported a hit.
     pub false_hits: usize,
-    /// Sum over visible rays with a kernel hit of the hit's distance in
+    /// Sum over visible rays with a hit of the hit's distance in
     /// pixels to the reference hit's projection.
     pub err_px_sum: f64,
-    /// Visible rays with a kernel hit (the count behind `err_px_sum`).
+    /// Visible rays with a hit (the count behind `err_px_sum`).
     pub err_px_count: usize,
-    /// Total depth fetches.
+    /// Total depth fetches (of the kernels: [`kernel_work`]).
     pub fetches: u64,
     /// Total steps.
     pub steps: u64,
@@ -299,27 +378,25 @@ fn ratio(a: usize, b: usize) -> f64 {
     }
 }
 
-/// Compares a kernel's traces (one per ray of `rays`, same order) with the
-/// reference hits.
+/// Compares the pass's output `texels` (the whole image, as [`run`] returns
+/// it) with the reference hits of `rays`: a validated hit
+/// ([`MirrorStatus::Hit`]) is the pass's hit, every other status none.
+/// The work columns stay 0 (see [`kernel_work`]).
 ///
 /// # Panics
-/// If `traces` and `rays` differ in length.
-pub fn evaluate(rays: &ReflectionRays, traces: &[Trace]) -> RayStats {
-    assert_eq!(rays.len(), traces.len(), "one trace per ray");
+/// If a ray's pixel is outside `texels`.
+pub fn evaluate(rays: &ReflectionRays, texels: &[MirrorTexel]) -> RayStats {
     let mut s = RayStats {
         rays: rays.len(),
         ..RayStats::default()
     };
-    for (i, t) in traces.iter().enumerate() {
-        let w = t.work();
-        s.fetches += u64::from(w.fetches);
-        s.steps += u64::from(w.steps);
-        s.iterations += u64::from(w.iterations);
-        let visible = rays.visible[i];
+    for (k, &p) in rays.pixel.iter().enumerate() {
+        let t = &texels[p as usize];
+        let visible = rays.visible[k];
         s.visible += usize::from(visible);
-        match (t.hit(), visible) {
-            (Some(h), true) => {
-                let err = rays.reference_pixel[i].map_or(f32::INFINITY, |q| (h.pixel - q).length());
+        match (t.status == MirrorStatus::Hit, visible) {
+            (true, true) => {
+                let err = rays.reference_pixel[k].map_or(f32::INFINITY, |q| (t.pixel - q).length());
                 s.err_px_sum += f64::from(err);
                 s.err_px_count += 1;
                 if err <= FOUND_RADIUS_PX {
@@ -328,49 +405,28 @@ pub fn evaluate(rays: &ReflectionRays, traces: &[Trace]) -> RayStats {
                     s.wrong += 1;
                 }
             }
-            (None, true) => s.missed += 1,
-            (Some(_), false) => s.false_hits += 1,
-            (None, false) => {}
+            (false, true) => s.missed += 1,
+            (true, false) => s.false_hits += 1,
+            (false, false) => {}
         }
     }
     s
 }
 
-/// The reflection image of a screen-space method: every mirror pixel
-/// (roughness 0) whose ray hit takes `lit[hit texel]`, the lit frame's
-/// color where the ray landed; other pixels are not handled (glossy pixels
-/// need the cone tracer, misses need a fallback).
-pub fn shade(
-    g: &GBuffer,
-    lit: &[Vec3],
-    rays: &ReflectionRays,
-    traces: &[Trace],
-) -> crate::render::ReflectionImage {
-    let mut out = crate::render::ReflectionImage::empty(g.width(), g.height());
-    let (w, h) = (g.width(), g.height());
-    for (k, t) in traces.iter().enumerate() {
-        let i = rays.pixel[k] as usize;
-        if g.roughness[i] > 0.0 {
-            continue;
-        }
-        if let Some(hit) = t.hit() {
-            let x = (hit.pixel.x.max(0.0) as u32).min(w - 1);
-            let y = (hit.pixel.y.max(0.0) as u32).min(h - 1);
-            out.rgb[i] = lit[(y * w + x) as usize];
-            out.handled[i] = true;
+/// The reflection image of the pass: every mirror pixel (roughness 0) the
+/// pass hit takes the pass's color there (`color`, as [`run`] returns it:
+/// the lit frame's color at the hit texel); other pixels are not handled
+/// (glossy pixels need the cone tracer, the others the host's tracer or a
+/// fallback).
+pub fn shade(g: &GBuffer, out: &PassRun) -> crate::render::ReflectionImage {
+    let mut img = crate::render::ReflectionImage::empty(g.width(), g.height());
+    for (i, t) in out.texels.iter().enumerate() {
+        if t.status == MirrorStatus::Hit && g.roughness[i] == 0.0 {
+            img.rgb[i] = Vec3::from_array(out.color[i]);
+            img.handled[i] = true;
         }
     }
-    out
-}
-
-/// Traces every ray of `rays` with `trace` on `pool` (in chunks), in ray
-/// order.
-pub fn trace_all(
-    rays: &[Ray],
-    pool: &rayon::ThreadPool,
-    trace: impl Fn(&Ray) -> Trace + Sync,
-) -> Vec<Trace> {
-    pool.install(|| rays.par_iter().with_min_len(256).map(&trace).collect())
+    img
 }
 
 /// Traces every ray with the reference tracer (closest hit, `tmin`), for the
@@ -389,7 +445,7 @@ pub fn trace_reference(
     })
 }
 
-/// A screen-space reflection kernel of refl-core with its setting.
+/// The kernel the mirror pass traces with, and its setting.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub enum ScreenMethod {
     /// Per-pixel stepping ([`refl_core::try_step`], seed 003 Sec. 3.4).
@@ -400,6 +456,27 @@ pub enum ScreenMethod {
 }
 
 impl ScreenMethod {
+    /// The mirror pass's options for this kernel: [`MirrorOptions::default`]
+    /// with the kernel, its setting and `refine`.
+    pub fn options(&self, refine: bool) -> MirrorOptions {
+        let base = MirrorOptions {
+            refine,
+            ..MirrorOptions::default()
+        };
+        match *self {
+            ScreenMethod::Step(step) => MirrorOptions {
+                method: MirrorMethod::Step,
+                step,
+                ..base
+            },
+            ScreenMethod::HiZ(hiz) => MirrorOptions {
+                method: MirrorMethod::HiZ,
+                hiz,
+                ..base
+            },
+        }
+    }
+
     /// Caller-buffer bytes per pixel the kernel reads: the depth buffer
     /// (4 bytes), plus the Hi-Z pyramid (two f32 per texel, all levels).
     pub fn bytes_per_pixel(&self, width: u32, height: u32) -> f64 {
@@ -497,88 +574,165 @@ pub fn build_pyramid_banded<T: Send + Sync>(
     })
 }
 
-/// Runs `method` on every ray of `rays` against `depth` on `pool`, timed
-/// (Hi-Z: pyramid build included; the pyramid buffer is allocated outside
-/// the timed part, as an engine keeps it across frames). With `refine`,
-/// every hit goes through [`refl_core::trace::refine_hit`] (inside the
-/// timed part).
+/// What [`run`] returns: the pass's output over the whole image.
+#[derive(Clone, Debug)]
+pub struct PassRun {
+    /// Every pixel's [`MirrorTexel`], row-major.
+    pub texels: Vec<MirrorTexel>,
+    /// Every pixel's reflection color (the lit color at a hit, black
+    /// elsewhere; all black without a lit image in the [`PassImages`]).
+    pub color: Vec<[f32; 3]>,
+    /// The counts of every band, summed.
+    pub stats: MirrorStats,
+}
+
+/// The pass of `method` over `depth` and `images` (one frame), with the
+/// Hi-Z pyramid (method [`ScreenMethod::HiZ`]) from `pyramid`'s storage.
+fn with_pass<R>(
+    method: ScreenMethod,
+    refine: bool,
+    depth: &DepthImage<'_>,
+    images: &PassImages,
+    pyramid: &mut [refl_core::HiZTexel],
+    pool: &rayon::ThreadPool,
+    f: impl FnOnce(&MirrorPass<'_>) -> R,
+) -> Result<R, refl_core::Error> {
+    let gb = images.gbuffer(*depth)?;
+    let hiz = match method {
+        ScreenMethod::HiZ(_) => {
+            build_hiz(pyramid, depth, pool)?;
+            Some(refl_core::HiZ::try_new(
+                pyramid,
+                *depth.camera(),
+                depth.convention(),
+            )?)
+        }
+        ScreenMethod::Step(_) => None,
+    };
+    let pass = MirrorPass::try_new(gb, method.options(refine), hiz)?;
+    Ok(f(&pass))
+}
+
+/// Storage of the pyramid of `method` for a `width x height` frame (empty
+/// for stepping).
+fn pyramid_storage(
+    method: ScreenMethod,
+    width: u32,
+    height: u32,
+) -> Result<Vec<refl_core::HiZTexel>, refl_core::Error> {
+    Ok(match method {
+        ScreenMethod::HiZ(_) => vec![[0.0f32; 2]; refl_core::try_hiz_len(width, height)?],
+        ScreenMethod::Step(_) => Vec::new(),
+    })
+}
+
+/// Runs refl-core's mirror pass ([`ScreenMethod::options`]) over the frame
+/// of `depth` and `images` on `pool` in bands of [`PYRAMID_BAND`] rows,
+/// timed: Hi-Z's pyramid build, the pass's setup and every band (the
+/// output and pyramid buffers are allocated outside the timed part, as an
+/// engine keeps them across frames). Pixels the pass hands to the host are
+/// only counted (`stats.host_rays`).
 ///
 /// # Errors
-/// A refl-core error (a bad ray or setting).
+/// A refl-core error (buffers that do not match the camera).
 pub fn run(
     method: ScreenMethod,
     refine: bool,
     depth: &DepthImage<'_>,
-    thickness: refl_core::Thickness<'_>,
-    rays: &[Ray],
+    images: &PassImages,
     pool: &rayon::ThreadPool,
-) -> Result<crate::render::Timed<Vec<Trace>>, refl_core::Error> {
-    const CHUNK: usize = 256;
-    let miss = Trace::Miss {
-        reason: refl_core::Miss::EndOfRay,
-        work: refl_core::Work::default(),
-    };
-    let mut out = vec![miss; rays.len()];
-    let mut pyramid = match method {
-        ScreenMethod::HiZ(_) => {
-            vec![[0.0f32; 2]; refl_core::hiz::try_hiz_len(depth.width(), depth.height())?]
-        }
-        ScreenMethod::Step(_) => Vec::new(),
-    };
-    let t = crate::render::timed(|| -> Result<(), refl_core::Error> {
-        match method {
-            ScreenMethod::Step(opts) => pool.install(|| {
-                out.par_chunks_mut(CHUNK)
-                    .zip(rays.par_chunks(CHUNK))
-                    .try_for_each(|(o, r)| {
-                        refl_core::try_step_rays(o, depth, thickness, r, &[f32::INFINITY], opts)
-                    })
-            }),
-            ScreenMethod::HiZ(opts) => {
-                build_hiz(&mut pyramid, depth, pool)?;
-                let hiz =
-                    refl_core::hiz::HiZ::try_new(&pyramid, *depth.camera(), depth.convention())?;
-                pool.install(|| {
-                    out.par_chunks_mut(CHUNK)
-                        .zip(rays.par_chunks(CHUNK))
-                        .try_for_each(|(o, r)| {
-                            refl_core::hiz::try_trace_hiz_rays(
-                                o,
-                                &hiz,
-                                thickness,
-                                r,
-                                &[f32::INFINITY],
-                                &opts,
-                            )
-                        })
-                })
-            }
-        }?;
-        if refine {
+) -> Result<crate::render::Timed<PassRun>, refl_core::Error> {
+    let (w, h) = (depth.width(), depth.height());
+    let n = w as usize * h as usize;
+    let mut texels = vec![MirrorTexel::default(); n];
+    let mut color = vec![[0.0f32; 3]; n];
+    let mut pyramid = pyramid_storage(method, w, h)?;
+    let band = PYRAMID_BAND as usize * w as usize;
+    let t = crate::render::timed(|| {
+        with_pass(method, refine, depth, images, &mut pyramid, pool, |pass| {
+            let lit = images.lit.is_some();
             pool.install(|| {
-                out.par_chunks_mut(CHUNK)
-                    .zip(rays.par_chunks(CHUNK))
-                    .for_each(|(o, r)| {
-                        for (t, ray) in o.iter_mut().zip(r) {
-                            if let Trace::Hit(h) = t {
-                                *h = refl_core::trace::refine_hit(depth, ray, f32::INFINITY, h);
-                            }
-                        }
+                texels
+                    .par_chunks_mut(band)
+                    .zip(color.par_chunks_mut(band))
+                    .enumerate()
+                    .map(|(k, (t, c))| {
+                        let y0 = k as u32 * PYRAMID_BAND;
+                        let rows = RowRange::try_new(y0, (y0 + PYRAMID_BAND).min(h), h)?;
+                        let mut out = ImageViewMut::try_band(t, w, h, w, rows)?;
+                        let mut col = ImageViewMut::try_band(c, w, h, w, rows)?;
+                        pass.try_run(&mut out, lit.then_some(&mut col), &mut [])
                     })
-            });
-        }
-        Ok(())
+                    .try_fold(MirrorStats::default, |a, b| Ok(add_stats(a, &b?)))
+                    .try_reduce(MirrorStats::default, |a, b| Ok(add_stats(a, &b)))
+            })
+        })
     });
-    t.value?;
+    let stats = t.value??;
     Ok(crate::render::Timed {
-        value: out,
+        value: PassRun {
+            texels,
+            color,
+            stats,
+        },
         ms: t.ms,
     })
 }
 
+fn add_stats(a: MirrorStats, b: &MirrorStats) -> MirrorStats {
+    MirrorStats {
+        traced: a.traced + b.traced,
+        hits: a.hits + b.hits,
+        sky: a.sky + b.sky,
+        host_rays: a.host_rays + b.host_rays,
+        host_rays_written: a.host_rays_written + b.host_rays_written,
+    }
+}
+
+/// The work of the pass's kernel on each ray of `rays` (untimed): what the
+/// kernel returns for the pass's ray of the pixel
+/// ([`MirrorPass::try_trace_kernel`] of [`MirrorPass::ray`]; the first
+/// segment only, before any resume past a hidden hit), summed into
+/// `(fetches, steps, iterations)`.
+///
+/// # Errors
+/// As [`run`].
+pub fn kernel_work(
+    method: ScreenMethod,
+    depth: &DepthImage<'_>,
+    images: &PassImages,
+    rays: &ReflectionRays,
+    pool: &rayon::ThreadPool,
+) -> Result<(u64, u64, u64), refl_core::Error> {
+    let (w, h) = (depth.width(), depth.height());
+    let mut pyramid = pyramid_storage(method, w, h)?;
+    with_pass(method, false, depth, images, &mut pyramid, pool, |pass| {
+        pool.install(|| {
+            rays.pixel
+                .par_iter()
+                .with_min_len(256)
+                .map(|&p| {
+                    let (x, y) = (p % w, p / w);
+                    let work = match pass.ray(x, y).map(|r| pass.try_trace_kernel(&r)) {
+                        Some(Ok(t)) => t.work(),
+                        Some(Err(e)) => return Err(e),
+                        None => Work::default(),
+                    };
+                    Ok((
+                        u64::from(work.fetches),
+                        u64::from(work.steps),
+                        u64::from(work.iterations),
+                    ))
+                })
+                .try_reduce(|| (0, 0, 0), |a, b| Ok((a.0 + b.0, a.1 + b.1, a.2 + b.2)))
+        })
+    })?
+}
+
 /// What the screen-space methods of one frame share: the reflection rays
 /// with their reference hits, the obvhs time on the same rays (all threads
-/// and one thread) and the depth buffers per convention.
+/// and one thread), the pass's G-buffer images and the depth buffers per
+/// convention.
 pub struct ScreenFrame {
     /// The frame's reflection rays.
     pub rays: ReflectionRays,
@@ -586,22 +740,26 @@ pub struct ScreenFrame {
     pub obvhs_ms: f64,
     /// The same on one thread, ms (median).
     pub obvhs_ms_1t: f64,
-    /// Surface thickness (linear depth, world units) of every kernel run.
-    pub thickness: f32,
+    /// The pass's G-buffer images, lit with the frame's direct light.
+    pub images: PassImages,
     depth: Vec<DepthBuffer>,
 }
 
-/// Relative surface thickness of the report's screen-space runs: a
-/// fraction of the scene diameter.
+/// Relative surface thickness of the cluster method's depth images
+/// ([`crate::cluster`]): a fraction of the scene diameter. (The mirror
+/// pass sets its own, relative to each pixel's depth.)
 pub const THICKNESS_OF_DIAMETER: f32 = 0.005;
 
 impl ScreenFrame {
-    /// Rays, reference hits and obvhs timings (median of `runs`) for `g`.
+    /// Rays, reference hits and obvhs timings (median of `runs`) for `g`;
+    /// `lit` is the frame's direct-lit color the pass shades with.
+    #[allow(clippy::too_many_arguments)]
     pub fn new(
         scene: &Scene,
         tracer: &Tracer,
         shader: &Shader,
         g: &GBuffer,
+        lit: &[Vec3],
         pool: &rayon::ThreadPool,
         pool_1t: &rayon::ThreadPool,
         runs: usize,
@@ -624,11 +782,10 @@ impl ScreenFrame {
             rays,
             obvhs_ms,
             obvhs_ms_1t,
-            thickness: scene.diameter() * THICKNESS_OF_DIAMETER,
+            images: PassImages::new(g, Some(lit)),
             depth: Vec::new(),
         }
     }
-
     /// Makes the depth buffer of `g` in convention `c` (reversed-Z with an
     /// infinite far plane, the others with the camera's far plane) unless it
     /// exists.

@@ -7,10 +7,11 @@ use std::path::PathBuf;
 
 type Maker = fn(usize) -> Scene;
 
-const SCENES: [(&str, Maker); 3] = [
+const SCENES: [(&str, Maker); 4] = [
     ("room", Scene::room),
     ("concave", Scene::concave),
     ("walkthrough", Scene::walkthrough),
+    ("stage", Scene::stage),
 ];
 
 fn assert_count_near(scene: &Scene, target: usize) {
@@ -293,4 +294,27 @@ fn pose_at_interpolates_the_path() {
     let mut empty = s.clone();
     empty.camera_path.clear();
     assert!(empty.pose_at(0.5).is_none());
+}
+
+#[test]
+fn stage_has_a_mesh_standing_on_a_mirror_floor_and_grazing_poses() {
+    let s = Scene::stage(20_000);
+    let object = |name: &str| s.objects.iter().find(|o| o.name == name).unwrap();
+    let floor = object("mirror_floor");
+    assert!(s.materials[floor.material as usize].is_mirror());
+    assert!(floor.planar.is_some());
+    for name in ["torus", "wall", "box"] {
+        let o = object(name);
+        assert!(!s.materials[o.material as usize].is_reflective(), "{name}");
+        assert!(o.bounds.min.y.abs() < 1e-3, "{name} stands on the floor");
+    }
+    // Near and grazing: the eye from just above the floor up to looking
+    // down, always within 3.5 units of the torus.
+    let torus = object("torus").bounds.center();
+    let heights: Vec<f32> = s.camera_path.iter().map(|p| p.eye.y).collect();
+    assert!(heights[0] <= 0.3 && heights[heights.len() - 1] >= 1.9);
+    for p in &s.camera_path {
+        let d = Vec3::new(p.eye.x - torus.x, 0.0, p.eye.z - torus.z).length();
+        assert!(d < 3.5, "eye {:?} is {d} from the torus", p.eye);
+    }
 }

@@ -1,15 +1,16 @@
-//! Screen-space reflections and layered maps in the root package, against
-//! the obvhs reference hits of the same rays: hit rates, agreement between
-//! kernels and depth conventions, and what the report's rows are built from.
+//! Screen-space reflections (refl-core's mirror pass) and layered maps in
+//! the root package, against the obvhs reference hits of the same rays: hit
+//! and false-hit rates, agreement between kernels and depth conventions,
+//! and what the report's rows are built from.
 
 use refl_app::gbuffer::GBuffer;
 use refl_app::layered_render::{self, LayeredScene};
 use refl_app::scene::Scene;
-use refl_app::screen::{self, DepthBuffer, ScreenMethod};
+use refl_app::screen::{self, DepthBuffer, PassImages, ScreenMethod};
 use refl_app::shade::Shader;
 use refl_app::tracer::Tracer;
 use refl_core::hiz::HiZOptions;
-use refl_core::{DepthConvention, StepOptions, Thickness, Trace};
+use refl_core::{DepthConvention, MirrorStatus, MirrorTexel, StepOptions};
 
 struct Fixture {
     scene: Scene,
@@ -31,22 +32,51 @@ fn fixture() -> Fixture {
     }
 }
 
-fn traces(
+fn pass(
     depth: &DepthBuffer,
-    thickness: f32,
+    images: &PassImages,
     m: ScreenMethod,
-    rays: &[refl_core::Ray],
     pool: &rayon::ThreadPool,
-) -> Vec<Trace> {
+) -> Vec<MirrorTexel> {
     let image = depth.image().expect("image");
-    screen::run(m, true, &image, Thickness::Constant(thickness), rays, pool)
+    screen::run(m, true, &image, images, pool)
         .expect("run")
         .value
+        .texels
 }
 
-/// Stepping and Hi-Z find the visible reference hits within a pixel on the
-/// room's reflection rays in every depth convention, and agree with each
-/// other ray by ray.
+fn work(
+    depth: &DepthBuffer,
+    images: &PassImages,
+    m: ScreenMethod,
+    rays: &screen::ReflectionRays,
+    pool: &rayon::ThreadPool,
+) -> u64 {
+    let image = depth.image().expect("image");
+    screen::kernel_work(m, &image, images, rays, pool)
+        .expect("work")
+        .0
+}
+
+/// Same hit within a pixel, or both without a hit, pixel by pixel.
+fn agreement(a: &[MirrorTexel], b: &[MirrorTexel], rays: &screen::ReflectionRays) -> usize {
+    rays.pixel
+        .iter()
+        .filter(|&&p| {
+            let (a, b) = (&a[p as usize], &b[p as usize]);
+            match (a.status == MirrorStatus::Hit, b.status == MirrorStatus::Hit) {
+                (true, true) => (a.pixel - b.pixel).length() <= 1.0,
+                (false, false) => true,
+                _ => false,
+            }
+        })
+        .count()
+}
+
+/// The mirror pass with stepping and with Hi-Z finds the visible
+/// reference hits within a pixel on the room's reflection rays in every
+/// depth convention, with few false hits, and both kernels agree pixel by
+/// pixel.
 #[test]
 fn step_and_hiz_find_visible_hits_in_every_convention() {
     let f = fixture();
@@ -56,7 +86,7 @@ fn step_and_hiz_find_visible_hits_in_every_convention() {
     let rays = screen::reflection_rays(&f.scene, &f.tracer, &shader, &g, &f.pool);
     assert!(rays.len() > 1000, "{} rays", rays.len());
     assert!(rays.visible_count() > rays.len() / 5);
-    let thickness = f.scene.diameter() * screen::THICKNESS_OF_DIAMETER;
+    let images = PassImages::new(&g, None);
     for c in DepthConvention::ALL {
         let far = if c == DepthConvention::ReversedZ {
             f32::INFINITY
@@ -64,57 +94,54 @@ fn step_and_hiz_find_visible_hits_in_every_convention() {
             cam.far()
         };
         let depth = DepthBuffer::new(&g, c, far).expect("depth");
-        let step = traces(
-            &depth,
-            thickness,
+        let (sm, hm) = (
             ScreenMethod::Step(StepOptions::default()),
-            &rays.screen_ray,
-            &f.pool,
-        );
-        let hiz = traces(
-            &depth,
-            thickness,
             ScreenMethod::HiZ(HiZOptions::default()),
-            &rays.screen_ray,
-            &f.pool,
         );
+        let step = pass(&depth, &images, sm, &f.pool);
+        let hiz = pass(&depth, &images, hm, &f.pool);
         let (s, h) = (
             screen::evaluate(&rays, &step),
             screen::evaluate(&rays, &hiz),
         );
-        assert!(s.hit_rate() >= 0.93, "{c:?} step hit rate {}", s.hit_rate());
-        assert!(h.hit_rate() >= 0.93, "{c:?} hiz hit rate {}", h.hit_rate());
+        for (name, r) in [("step", &s), ("hiz", &h)] {
+            eprintln!(
+                "{c:?} {name}: found {:.4} false {:.4} ({} of {})",
+                r.hit_rate(),
+                r.false_hit_rate(),
+                r.false_hits,
+                r.rays - r.visible
+            );
+            // Measured: found 98.45%, false hits 5.04% (365 of 7237:
+            // mostly beside the spheres' bases, whose true reflection is
+            // their hidden underside) in every convention, both kernels.
+            assert!(
+                r.hit_rate() >= 0.97,
+                "{c:?} {name} hit rate {}",
+                r.hit_rate()
+            );
+            assert!(
+                r.false_hit_rate() <= 0.07,
+                "{c:?} {name} false hits {}",
+                r.false_hit_rate()
+            );
+        }
+        let agree = agreement(&step, &hiz, &rays);
         assert!(
-            s.false_hit_rate() <= 0.15,
-            "{c:?} false hits {}",
-            s.false_hit_rate()
-        );
-        // Same hit (or same miss) within a pixel, ray by ray.
-        let agree = step
-            .iter()
-            .zip(&hiz)
-            .filter(|(a, b)| match (a.hit(), b.hit()) {
-                (Some(a), Some(b)) => (a.pixel - b.pixel).length() <= 1.0,
-                (None, None) => true,
-                _ => false,
-            })
-            .count();
-        assert!(
-            agree as f64 >= 0.99 * step.len() as f64,
+            agree as f64 >= 0.99 * rays.len() as f64,
             "{c:?}: step and Hi-Z agree on {agree} of {}",
-            step.len()
+            rays.len()
         );
         // Hi-Z reads far fewer texels than unit stepping.
-        assert!(
-            h.fetches * 3 < s.fetches,
-            "{c:?}: {} vs {}",
-            h.fetches,
-            s.fetches
+        let (sf, hf) = (
+            work(&depth, &images, sm, &rays, &f.pool),
+            work(&depth, &images, hm, &rays, &f.pool),
         );
+        assert!(hf * 3 < sf, "{c:?}: {hf} vs {sf}");
     }
 }
 
-/// Coarse strides refine to the unit-stride hit on most rays.
+/// Coarse strides refine to the unit-stride hit on most pixels.
 #[test]
 fn strided_stepping_refines_to_unit_hits() {
     let f = fixture();
@@ -123,43 +150,67 @@ fn strided_stepping_refines_to_unit_hits() {
     let g = GBuffer::render(&f.scene, &f.tracer, &cam, &f.pool);
     let rays = screen::reflection_rays(&f.scene, &f.tracer, &shader, &g, &f.pool);
     let depth = DepthBuffer::new(&g, DepthConvention::ReversedZ, f32::INFINITY).expect("depth");
-    let thickness = f.scene.diameter() * screen::THICKNESS_OF_DIAMETER;
-    let unit = traces(
-        &depth,
-        thickness,
-        ScreenMethod::Step(StepOptions::default()),
-        &rays.screen_ray,
-        &f.pool,
-    );
-    let coarse = traces(
-        &depth,
-        thickness,
-        ScreenMethod::Step(StepOptions {
-            stride: 4,
-            max_steps: u32::MAX,
-        }),
-        &rays.screen_ray,
-        &f.pool,
-    );
-    let same = unit
-        .iter()
-        .zip(&coarse)
-        .filter(|(a, b)| match (a.hit(), b.hit()) {
-            (Some(a), Some(b)) => (a.pixel - b.pixel).length() <= 1.0,
-            (None, None) => true,
-            _ => false,
-        })
-        .count();
+    let images = PassImages::new(&g, None);
+    let unit_m = ScreenMethod::Step(StepOptions::default());
+    let coarse_m = ScreenMethod::Step(StepOptions {
+        stride: 4,
+        max_steps: u32::MAX,
+    });
+    let unit = pass(&depth, &images, unit_m, &f.pool);
+    let coarse = pass(&depth, &images, coarse_m, &f.pool);
+    let same = agreement(&unit, &coarse, &rays);
     assert!(
-        same as f64 >= 0.95 * unit.len() as f64,
+        same as f64 >= 0.95 * rays.len() as f64,
         "{same} of {}",
-        unit.len()
+        rays.len()
     );
-    let (u, c) = (
-        screen::evaluate(&rays, &unit),
-        screen::evaluate(&rays, &coarse),
+    assert!(
+        work(&depth, &images, coarse_m, &rays, &f.pool)
+            < work(&depth, &images, unit_m, &rays, &f.pool)
     );
-    assert!(c.fetches < u.fetches);
+}
+
+/// The pass shades its hits with the lit frame's color at the hit texel,
+/// and the report's image takes exactly the mirror pixels it hit.
+#[test]
+fn shade_takes_the_lit_color_at_each_hit() {
+    let f = fixture();
+    let cam = f.scene.camera(0, 96, 72).expect("camera");
+    let g = GBuffer::render(&f.scene, &f.tracer, &cam, &f.pool);
+    let lit: Vec<glam::Vec3> = (0..g.len())
+        .map(|i| glam::Vec3::new(i as f32, 0.5, 1.0))
+        .collect();
+    let images = PassImages::new(&g, Some(&lit));
+    let depth = DepthBuffer::new(&g, DepthConvention::ReversedZ, f32::INFINITY).expect("depth");
+    let image = depth.image().expect("image");
+    let out = screen::run(
+        ScreenMethod::Step(StepOptions::default()),
+        true,
+        &image,
+        &images,
+        &f.pool,
+    )
+    .expect("run")
+    .value;
+    let img = screen::shade(&g, &out);
+    let mut hits = 0;
+    for (i, t) in out.texels.iter().enumerate() {
+        let mirror_hit = t.status == MirrorStatus::Hit && g.roughness[i] == 0.0;
+        assert_eq!(img.handled[i], mirror_hit, "pixel {i}");
+        if mirror_hit {
+            hits += 1;
+            let q = (t.pixel.y as usize) * g.width() as usize + t.pixel.x as usize;
+            assert_eq!(img.rgb[i], lit[q], "pixel {i}");
+        }
+    }
+    assert!(hits > 100, "{hits} hits");
+    assert_eq!(
+        out.stats.hits as usize,
+        out.texels
+            .iter()
+            .filter(|t| t.status == MirrorStatus::Hit)
+            .count()
+    );
 }
 
 /// Layered maps of the room's reflected objects hit the same object as the

@@ -129,14 +129,23 @@ fn by_hand(
             .map(|z| (z - z0).abs())
             .filter(|&dz| dz <= 0.1 * z0)
             .fold(0.0f32, f32::max);
-        let on_front = refined || hit.depth <= z0 + slope + 1e-4 * z0;
+        // The ray's own depth change over its next pixel at the hit.
+        let at = Ray {
+            origin: ray.at(hit.t),
+            dir,
+        };
+        let ray_dz = ray_start_t(&cam, &at, 1.0)
+            .map(|dt| (cam.linear_depth(at.at(dt)) - cam.linear_depth(at.origin)).abs())
+            .filter(|dz| dz.is_finite())
+            .unwrap_or(0.0);
+        let on_front = refined || hit.depth <= z0 + 0.75 * slope + ray_dz + 1e-4 * z0;
         if !on_front {
             let at = Ray {
                 origin: ray.at(hit.t),
                 dir,
             };
             match ray_start_t(&cam, &at, 1.0).map(|dt| t0 + hit.t + dt) {
-                Some(t) if resumes < 32 && t < opts.t_max => {
+                Some(t) if resumes < (w.max(h) / 8).max(32) && t < opts.t_max => {
                     resumes += 1;
                     t0 = t;
                     continue;
@@ -377,13 +386,19 @@ fn defaults_find_the_visible_reflections_in_every_convention() {
                         100.0 * found,
                         100.0 * false_rate
                     );
-                    // Measured: found 95.7-98.4%, false 1.7-4.4%, false
-                    // hits on the reflector's own texels (beside the
-                    // sphere's base, whose true reflection is its hidden
-                    // underside) <= 1.6% of the hits.
+                    // Measured: found 98.9% / 98.6% (default camera,
+                    // without / with back faces), 99.2% / 98.9%
+                    // (grazing), 95.1% / 96.0% (near); false 1.7-4.2%;
+                    // false hits on the reflector's own texels (beside
+                    // the sphere's base, whose true reflection is its
+                    // hidden underside) <= 1.7% of the hits. Before the
+                    // ray term of issue 13's visible-surface bound
+                    // (`refl_core::ssr::HIDDEN_SLOPES`) the default and
+                    // grazing cameras found 98.4% and 98.0%.
+                    let want = if name == "near" { 0.95 } else { 0.985 };
                     if !(r.visible > 200
                         && r.self_hits as f64 <= 0.02 * r.hits as f64
-                        && found >= 0.95
+                        && found >= want
                         && false_rate <= 0.05)
                     {
                         bad.push(format!("{name} {conv:?} {method:?} back {back}: {r:?}"));
@@ -423,7 +438,7 @@ fn every_thickness_from_five_percent_to_one_depth() {
                 100.0 * false_rate
             );
             // Thin shells lose hits on the grazing floor (86% at 0.05);
-            // from 0.2 on, found >= 97.7%; false <= 4.1% at every one.
+            // from 0.2 on, found >= 98.8%; false <= 3.9% at every one.
             let want = if thickness >= 0.2 { 0.97 } else { 0.85 };
             if !(r.self_hits as f64 <= 0.02 * r.hits as f64 && found >= want && false_rate <= 0.05)
             {
@@ -887,5 +902,28 @@ fn a_hit_whose_distance_overflows_goes_to_the_host() {
                 Some((2, 4, MirrorStatus::NoProjection))
             );
         }
+    }
+}
+
+/// The resume budget past hidden hits covers the same share of the image
+/// at every resolution: 32 up to 256 pixels on the larger side, an eighth
+/// of it beyond.
+#[test]
+fn hidden_resume_budget_scales_with_the_image() {
+    use refl_core::ssr::{hidden_resumes, HIDDEN_RESUMES};
+    assert_eq!(HIDDEN_RESUMES, 32);
+    for (w, h, want) in [
+        (0, 0, 32),
+        (1, 1, 32),
+        (160, 120, 32),
+        (256, 192, 32),
+        (192, 256, 32),
+        (264, 100, 33),
+        (512, 384, 64),
+        (384, 512, 64),
+        (1920, 1080, 240),
+        (u32::MAX, 1, u32::MAX / 8),
+    ] {
+        assert_eq!(hidden_resumes(w, h), want, "{w}x{h}");
     }
 }
