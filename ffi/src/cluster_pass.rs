@@ -15,7 +15,7 @@
 //! pixels go to the host list.
 
 use crate::image::{refl_image_f32, refl_image_u32, refl_image_vec3, refl_row_range};
-use crate::ptr::{byte_len, check_buffer, overlaps, read, Out};
+use crate::ptr::{byte_len, check_buffer, disjoint, read, Out};
 use crate::ssr::{gbuffer, gbuffer_ranges, put_host_ray, refl_gbuffer, refl_host_ray};
 use crate::status::{fail, guard, refl_status};
 use crate::trace::{depth_image, refl_depth_image, refl_step_options};
@@ -424,23 +424,6 @@ unsafe fn objects<'a>(ob: &refl_cluster_objects) -> Result<ClusterObjects<'a>, E
         unsafe { core::slice::from_raw_parts(ob.lobes.cast::<Lobe>(), ob.lobes_len) }
     };
     Ok(ClusterObjects { ids, lobes })
-}
-
-/// Checks that no output range overlaps another output or an input.
-fn disjoint(outs: &[(usize, usize)], ins: &[(usize, usize)]) -> Result<(), Error> {
-    for (k, a) in outs.iter().enumerate() {
-        let clash = outs[k + 1..]
-            .iter()
-            .chain(ins.iter())
-            .any(|b| overlaps(a.0, a.1, b.0, b.1));
-        if clash {
-            return Err(fail(
-                Error::InvalidArgument,
-                format_args!("the outputs overlap each other or an input"),
-            ));
-        }
-    }
-    Ok(())
 }
 
 /// Plans a frame: from the G-buffer and the objects, the reflective pixels

@@ -13,7 +13,7 @@
 use crate::image::{
     refl_image_f32, refl_image_u32, refl_image_vec3, refl_image_vec3_mut, refl_row_range,
 };
-use crate::ptr::{byte_len, check_buffer, overlaps, read, Out};
+use crate::ptr::{byte_len, check_buffer, disjoint, read, Out};
 use crate::ssr::{gbuffer, gbuffer_ranges, put_host_ray, refl_gbuffer, refl_host_ray};
 use crate::status::{fail, guard, refl_status};
 use crate::types::{refl_camera, refl_mat4, refl_plane, refl_vec2, refl_vec4};
@@ -323,23 +323,6 @@ fn input_ranges(g: &refl_gbuffer, m: &refl_planar_mirror) -> [(usize, usize); 7]
         r[6] = (m.ids.data as usize, m.ids.len.saturating_mul(4));
     }
     r
-}
-
-/// Checks that no output range overlaps another output or an input.
-fn disjoint(outs: &[(usize, usize)], ins: &[(usize, usize)]) -> Result<(), Error> {
-    for (k, a) in outs.iter().enumerate() {
-        let clash = outs[k + 1..]
-            .iter()
-            .chain(ins.iter())
-            .any(|b| overlaps(a.0, a.1, b.0, b.1));
-        if clash {
-            return Err(fail(
-                Error::InvalidArgument,
-                format_args!("the outputs overlap each other or an input"),
-            ));
-        }
-    }
-    Ok(())
 }
 
 /// Sets up a frame: validates the G-buffer, the mirror and the options,

@@ -104,6 +104,24 @@ pub(crate) fn byte_len<T>(addr: usize, count: usize) -> Result<usize, Error> {
     Ok(bytes)
 }
 
+/// Checks that no output range overlaps another output or an input
+/// (`(address, bytes)` pairs): `InvalidArgument` naming the clash.
+pub(crate) fn disjoint(outs: &[(usize, usize)], ins: &[(usize, usize)]) -> Result<(), Error> {
+    for (k, a) in outs.iter().enumerate() {
+        let clash = outs[k + 1..]
+            .iter()
+            .chain(ins.iter())
+            .any(|b| overlaps(a.0, a.1, b.0, b.1));
+        if clash {
+            return Err(fail(
+                Error::InvalidArgument,
+                format_args!("the outputs overlap each other or an input"),
+            ));
+        }
+    }
+    Ok(())
+}
+
 /// `true` if the byte ranges `[a, a + a_len)` and `[b, b + b_len)` overlap.
 #[inline]
 pub(crate) fn overlaps(a: usize, a_len: usize, b: usize, b_len: usize) -> bool {

@@ -11,7 +11,7 @@ use crate::hiz::refl_hiz_options;
 use crate::image::{
     refl_image_f32, refl_image_u8, refl_image_vec3, refl_image_vec3_mut, refl_row_range,
 };
-use crate::ptr::{byte_len, check_buffer, check_pointer, overlaps, read, Out};
+use crate::ptr::{byte_len, check_buffer, check_pointer, disjoint, overlaps, read, Out};
 use crate::status::{fail, guard, refl_status};
 use crate::trace::{depth_image, refl_depth_image, refl_step_options};
 use crate::types::{refl_vec2, refl_vec3};
@@ -607,18 +607,7 @@ impl<'a, T> Band<'a, T> {
         let mut ins = [(0usize, 0usize); 7];
         ins[..6].copy_from_slice(&gbuffer_ranges(g));
         ins[6] = scratch;
-        for (k, a) in outs.iter().enumerate() {
-            let clash = outs[k + 1..]
-                .iter()
-                .chain(ins.iter())
-                .any(|b| overlaps(a.0, a.1, b.0, b.1));
-            if clash {
-                return Err(fail(
-                    Error::InvalidArgument,
-                    format_args!("the outputs overlap each other or an input"),
-                ));
-            }
-        }
+        disjoint(&outs, &ins)?;
         Ok(Self {
             rows,
             texels: out,
