@@ -26,7 +26,8 @@
 # stat::number_of_executed_units, -print_final_stats=1) and the coverage
 # (cov: edges, ft: features, from the final stats line).
 #
-# Environment: REFL_FUZZ_NO_BUILD (use the binaries already built, e.g.
+# Environment: FUZZ_TIMEOUT (libFuzzer -timeout, seconds, default 10),
+# REFL_FUZZ_NO_BUILD (use the binaries already built, e.g.
 # for a long campaign while the sources change), SMOKE_RUNS (executions per target in smoke, default 1500),
 # SMOKE_SECONDS (time cap per smoke target, default 60), JOBS (cargo
 # build jobs, default 2), REFL_FUZZ_STRICT (1 or a list such as F6,F7:
@@ -84,8 +85,11 @@ build() {
 }
 
 # Common libFuzzer flags: ASan's leak detection is on by default; a slow
-# input (10 s) or more than 2 GiB is a failure too.
-lf_flags=(-print_final_stats=1 -detect_leaks=1 -rss_limit_mb=2048 -timeout=10)
+# input (FUZZ_TIMEOUT wall seconds, default 10) or more than 2 GiB is a
+# failure too. libFuzzer's timeout is wall time: a campaign run at a low
+# priority beside other work (nice 19) can starve an input past it, so
+# such campaigns raise it (a real hang still trips it).
+lf_flags=(-print_final_stats=1 -detect_leaks=1 -rss_limit_mb=2048 -timeout="${FUZZ_TIMEOUT:-10}")
 
 # summary TARGET LOG STATUS: one line of executions and coverage.
 summary() {
