@@ -79,15 +79,6 @@ fn pass_options_in_range(o: &refl_ssr_options) -> bool {
         && (0.0..=0.5).contains(&o.border_fade)
 }
 
-/// An optional G-buffer image: NULL data (absent) now and then.
-fn optional<T: Copy>(b: &mut Bytes, w: u32, h: u32, f: impl FnMut(u32, u32) -> T, pad: T) -> (Buf<T>, u32, u32, u32, bool) {
-    let absent = b.chance(96);
-    let (iw, ih) = if b.chance(8) { (b.side(MAX_SIDE), b.side(MAX_SIDE)) } else { (w, h) };
-    let stride = if b.chance(24) { b.stride(iw) } else { iw };
-    let buf = if absent { Buf::sentinel(0, PtrKind::Null) } else { image_buf(b, iw, ih, stride, f, pad) };
-    (buf, iw, ih, stride, !absent)
-}
-
 fn same_texel(a: &refl_ssr_texel, b: &refl_ssr_texel) -> bool {
     a.status == b.status
         && a.pixel.x.to_bits() == b.pixel.x.to_bits()
@@ -140,90 +131,15 @@ fuzz_target!(|data: &[u8]| {
     assert!(pass_options_in_range(&d), "defaults out of range: {d:?}");
     assert!(d.method == 0 && d.t_max == f32::INFINITY && d.refine && d.reject_back_faces && d.reject_hidden_hits);
 
-    let img = depth_image(&mut b);
+    let fg = FuzzGBuffer::new(&mut b, [96; 4]);
+    let img = &fg.img;
     let (w, h) = (img.width, img.height);
     let cam = img.cam;
-    let floor_n = b.u8();
-    let (nbuf, nw, nh, ns, _) = {
-        let (iw, ih) = if b.chance(8) { (b.side(MAX_SIDE), b.side(MAX_SIDE)) } else { (w, h) };
-        let stride = if b.chance(24) { b.stride(iw) } else { iw };
-        let seed = b.u8();
-        let buf = image_buf(
-            &mut b,
-            iw,
-            ih,
-            stride,
-            |x, y| match (x.wrapping_mul(7) ^ y.wrapping_mul(13) ^ u32::from(seed)) % 11 {
-                0 => v3(f32::NAN, 0.0, 1.0),
-                1 => v3(0.0, 0.0, 0.0),
-                2 => v3(0.3, 0.9, -0.2),
-                3 => v3(0.0, 0.0, 1.0),
-                4 => v3(1e30, 1e30, 0.0),
-                _ if floor_n < 200 => v3(0.0, 1.0, 0.0),
-                _ => v3(-0.6, 0.0, 0.8),
-            },
-            v3(7.0, 7.0, 7.0),
-        );
-        (buf, iw, ih, stride, ())
-    };
-    let normal_space = match b.u8() {
-        0..=3 => b.pick(&[2, 0xFFFF_FFFF]),
-        k => u32::from(k & 1),
-    };
-    let mseed = b.u8();
-    let (mbuf, mw, mh, ms, _) = optional(&mut b, w, h, |x, y| u8::from(x.wrapping_add(y).wrapping_add(u32::from(mseed)) % 5 != 0), 3u8);
-    let rseed = b.u8();
-    let (rbuf, rw, rh, rs, _) = optional(
-        &mut b,
-        w,
-        h,
-        |x, y| match x.wrapping_mul(3).wrapping_add(y).wrapping_add(u32::from(rseed)) % 9 {
-            0 => f32::NAN,
-            1 => 0.5,
-            _ => 0.0,
-        },
-        0.25,
-    );
-    let (cbuf, cw, ch, cs, has_color) = optional(&mut b, w, h, |x, y| v3(x as f32, y as f32, 1.0), v3(-1.0, -1.0, -1.0));
-    // A NULL color (absent, or a NULL pointer) is no G-buffer color.
-    let has_color = has_color && !cbuf.is_null();
-    let push = b.f32_in(0.0, 0.05);
-    let (bbuf, bw, bh, bs, _) = optional(
-        &mut b,
-        w,
-        h,
-        |x, y| {
-            if x < img.width && y < img.height && u64::from(y) * u64::from(img.stride) + u64::from(x) < img.buf.len() as u64 && img.buf.usable() {
-                let z = img.texel(x, y);
-                // Pushed toward the far value of any convention: the
-                // exact arithmetic does not matter, only that it is a
-                // plausible back image (and sometimes not).
-                if img.conv == 1 { z - push } else { z + push }
-            } else {
-                f32::NAN
-            }
-        },
-        f32::NAN,
-    );
-    let g = refl_gbuffer {
-        depth: img.desc(),
-        normals: refl_image_vec3 { data: nbuf.cptr(), len: nbuf.len(), width: nw, height: nh, stride: ns },
-        normal_space,
-        mask: refl_image_u8 { data: mbuf.cptr(), len: mbuf.len(), width: mw, height: mh, stride: ms },
-        roughness: img_f32(&rbuf, rw, rh, rs),
-        color: refl_image_vec3 { data: cbuf.cptr(), len: cbuf.len(), width: cw, height: ch, stride: cs },
-        back_depth: img_f32(&bbuf, bw, bh, bs),
-    };
+    let g = fg.desc();
+    let has_color = fg.has_color();
+    let normal_space = fg.normal_space;
     let o = options(&mut b);
-    let snaps = [img.buf.snapshot(), nbuf.snapshot(), mbuf.snapshot(), rbuf.snapshot(), cbuf.snapshot(), bbuf.snapshot()];
-    let inputs_unchanged = |what: &str| {
-        img.buf.assert_unchanged(&snaps[0], what);
-        nbuf.assert_unchanged(&snaps[1], what);
-        mbuf.assert_unchanged(&snaps[2], what);
-        rbuf.assert_unchanged(&snaps[3], what);
-        cbuf.assert_unchanged(&snaps[4], what);
-        bbuf.assert_unchanged(&snaps[5], what);
-    };
+    let inputs_unchanged = |what: &str| fg.assert_unchanged(what);
     let gb = Buf::from_slice(&[g], b.ptr_kind());
     let ob = Buf::from_slice(&[o], b.ptr_kind());
     let args_misaligned = gb.kind() == PtrKind::Misaligned || ob.kind() == PtrKind::Misaligned;
@@ -263,7 +179,7 @@ fuzz_target!(|data: &[u8]| {
     // SAFETY: pointers NULL, misaligned or valid for their lengths.
     let s = unsafe { refl_ssr_prepare(scratch.ptr(), slen, gb.cptr(), ob.cptr()) };
     let req_null = gb.is_null() || ob.is_null() || (o.method == 1 && scratch.is_null() && qs == refl_status::Ok);
-    null_rules_m(s, req_null, req_null || scratch.is_null() || nbuf.is_null() || img.buf.is_null(), true, "refl_ssr_prepare");
+    null_rules_m(s, req_null, req_null || scratch.is_null() || fg.normals.0.is_null() || img.buf.is_null(), true, "refl_ssr_prepare");
     on_error_untouched(s, &[("scratch", (0..slen).all(|i| scratch.is_sentinel(i)))], "refl_ssr_prepare");
     inputs_unchanged("refl_ssr_prepare");
     if s != refl_status::Ok {
@@ -271,12 +187,7 @@ fuzz_target!(|data: &[u8]| {
     }
     assert_eq!(qs, refl_status::Ok, "prepare accepted what scratch_len refused");
     assert!(pass_options_in_range(&o), "prepare accepted options {o:?}");
-    assert!(img.valid(), "prepare accepted an invalid depth image");
-    assert!(nw == w && nh == h, "prepare accepted normals of {nw}x{nh} for {w}x{h}");
-    assert!(normal_space <= 1, "prepare accepted normal space {normal_space}");
-    for (name, present, iw, ih) in [("mask", !mbuf.is_null(), mw, mh), ("roughness", !rbuf.is_null(), rw, rh), ("color", has_color, cw, ch), ("back depth", !bbuf.is_null(), bw, bh)] {
-        assert!(!present || (iw == w && ih == h), "prepare accepted a {name} image of {iw}x{ih} for {w}x{h}");
-    }
+    fg.assert_accepted("prepare");
     if o.method == 1 {
         assert!(slen >= need, "prepare accepted {slen} scratch texels of {need}");
         for i in need..slen {
@@ -350,7 +261,7 @@ fuzz_target!(|data: &[u8]| {
                         hits += 1;
                         let p = t.pixel;
                         assert!(p.x >= 0.0 && p.y >= 0.0 && p.x <= w as f32 && p.y <= h as f32, "hit pixel {p:?} outside {w}x{h}");
-                        assert!(t.t.is_finite() && t.t >= o.t_min && t.t <= o.t_max, "hit t {} outside [{}, {}] at ({x}, {y}): {t:?}; options {o:?}; camera {cam:?}; convention {}; depth {}; stride {} image {:?}; normals {:?} space {normal_space}", t.t, o.t_min, o.t_max, img.conv, img.texel(x, y), img.stride, img.buf.to_vec(), nbuf.to_vec());
+                        assert!(t.t.is_finite() && t.t >= o.t_min && t.t <= o.t_max, "hit t {} outside [{}, {}] at ({x}, {y}): {t:?}; options {o:?}; camera {cam:?}; convention {}; depth {}; stride {} image {:?}; normals {:?} space {normal_space}", t.t, o.t_min, o.t_max, img.conv, img.texel(x, y), img.stride, img.buf.to_vec(), fg.normals.0.to_vec());
                         assert!((0.0..=1.0).contains(&t.confidence), "confidence {}", t.confidence);
                     }
                     _ => {
@@ -371,15 +282,15 @@ fuzz_target!(|data: &[u8]| {
                     traced += 1;
                 }
                 // Not reflective by the mask or the roughness: skipped.
-                let masked = !mbuf.is_null() && mbuf.get((y * ms + x) as usize) == 0;
-                let rough = !rbuf.is_null() && !(rbuf.get((y * rs + x) as usize) <= o.max_roughness);
+                let masked = fg.masked(x, y);
+                let rough = fg.roughness_at(x, y).is_some_and(|r| !(r <= o.max_roughness));
                 if masked || rough {
                     assert_eq!(t.status, SKIPPED, "({x}, {y}) masked {masked} rough {rough}");
                 }
                 if want_color {
                     let c = col.get(i);
                     let want = if t.status == HIT && (t.pixel.x as u32) < w && (t.pixel.y as u32) < h {
-                        cbuf.get((t.pixel.y as u32 * cs + t.pixel.x as u32) as usize)
+                        fg.color_at(t.pixel.x as u32, t.pixel.y as u32)
                     } else {
                         v3(0.0, 0.0, 0.0)
                     };
@@ -412,7 +323,7 @@ fuzz_target!(|data: &[u8]| {
             // The reflected direction leaves on the viewer's side of the
             // surface (world-space normals).
             if let (0, Some(e)) = (normal_space, eye) {
-                let nn = nbuf.get((r.y * ns + r.x) as usize);
+                let nn = fg.normal_at(r.x, r.y);
                 let v = [r.origin.x - e.x, r.origin.y - e.y, r.origin.z - e.z].map(f64::from);
                 let (nd, dd) = (d3(nn), d3(r.dir));
                 let vn = v[0] * nd[0] + v[1] * nd[1] + v[2] * nd[2];

@@ -25,6 +25,9 @@
 
 pub use refl::*;
 
+mod gbuffer;
+pub use gbuffer::FuzzGBuffer;
+
 use core::mem::{align_of, size_of, MaybeUninit};
 
 /// The byte every output buffer is filled with before a call.
