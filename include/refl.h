@@ -35,24 +35,32 @@
 #include <stdbool.h>
 #include <stddef.h>
 #include <stdint.h>
+#include "refl_config.h"
 
 
+#if defined(REFL_FEATURE_CONE)
 /**
  * Texels after the color pyramid's last level that hold its stamp.
  */
 #define REFL_CONE_COLOR_STAMP_TEXELS 2
+#endif
 
+#if defined(REFL_FEATURE_CONE)
 /**
  * Floats after the visibility pyramid's last level that hold its stamp.
  */
 #define REFL_CONE_VISIBILITY_STAMP_LEN 4
+#endif
 
+#if defined(REFL_FEATURE_EPIPOLAR)
 /**
  * Object id meaning "no object": an unused POS entry (never reprojected)
  * or an AIP entry no point reached; in a decision, "full traversal".
  */
 #define REFL_EPIPOLAR_INVALID_OBJECT 4294967295
+#endif
 
+#if defined(REFL_FEATURE_EPIPOLAR)
 /**
  * Object id of the background sphere (seed 002 Sec. 5.2): store it in the
  * POS entry of a pixel whose ray hit nothing, with the point at a fixed
@@ -60,44 +68,58 @@
  * test this object means the pixel is background.
  */
 #define REFL_EPIPOLAR_BACKGROUND_OBJECT 4294967294
+#endif
 
+#if defined(REFL_FEATURE_EPIPOLAR)
 /**
  * Largest splat radius (`refl_epipolar_options.splat_radius`): 7x7.
  */
 #define REFL_EPIPOLAR_MAX_SPLAT_RADIUS 3
+#endif
 
+#if defined(REFL_FEATURE_EPIPOLAR)
 /**
  * AIP flag: no reprojection ran this frame (first frame, or the
  * view-frustum check failed); every pixel takes full traversal.
  */
 #define REFL_EPIPOLAR_FLAG_NO_REPROJECTION 1
+#endif
 
+#if defined(REFL_FEATURE_EPIPOLAR)
 /**
  * AIP flag: a point whose splat covers the pixel was discarded by the
  * occlusion check (Sec. 4.2).
  */
 #define REFL_EPIPOLAR_FLAG_OCCLUSION_REJECTED 2
+#endif
 
+#if defined(REFL_FEATURE_EPIPOLAR)
 /**
  * AIP flag: a point whose splat covers the pixel was discarded by the
  * abrupt-motion test (Sec. 4.3.1).
  */
 #define REFL_EPIPOLAR_FLAG_ABRUPT_REJECTED 4
+#endif
 
+#if defined(REFL_FEATURE_EPIPOLAR)
 /**
  * AIP flag: a splatted point of the entry's object landed above-left of
  * the pixel center; the next three bits (`<< 1`: above-right, `<< 2`:
  * below-left, `<< 3`: below-right) the other sides.
  */
 #define REFL_EPIPOLAR_FLAG_SURROUND_UP_LEFT 16
+#endif
 
+#if defined(REFL_FEATURE_EPIPOLAR)
 /**
  * AIP flags: all four surround bits. With the depth guard on, a pixel is
  * resolved by one ray/object test only when all four are set (the
  * object's points surround the pixel center).
  */
 #define REFL_EPIPOLAR_FLAG_SURROUNDED 240
+#endif
 
+#if defined(REFL_FEATURE_HIZ)
 /**
  * Texels after the last level of a Hi-Z pyramid that record the image
  * size and camera it was built for (counted in `refl_hiz_len`, written by
@@ -106,12 +128,15 @@
  * for is `REFL_STATUS_INVALID_ARGUMENT`.
  */
 #define REFL_HIZ_STAMP_TEXELS 2
+#endif
 
+#if defined(REFL_FEATURE_LAYERED)
 /**
  * Words after a layered map's per-texel counts that record the grid it
  * was cleared for (counted in `refl_layered_len`'s `counts`).
  */
 #define REFL_LAYERED_STAMP_LEN 4
+#endif
 
 /**
  * Major version of the header this library was built with; compare with
@@ -135,51 +160,70 @@
  */
 #define REFL_LAST_ERROR_CAPACITY 256
 
+#if defined(REFL_FEATURE_TCRR)
 /**
  * `refl_tcrr_surfel::flags` bit: the surface fields are valid.
  */
 #define REFL_TCRR_SURFEL_SURFACE 1
+#endif
 
+#if defined(REFL_FEATURE_TCRR)
 /**
  * `refl_tcrr_surfel::flags` bit: positive specular factor.
  */
 #define REFL_TCRR_SURFEL_SPECULAR 2
+#endif
 
+#if defined(REFL_FEATURE_TCRR)
 /**
  * `refl_tcrr_surfel::flags` bit: reflected distance >= 0 (or +inf).
  */
 #define REFL_TCRR_SURFEL_DISTANCE 4
+#endif
 
+#if defined(REFL_FEATURE_TCRR)
 /**
  * Intermediate coverage (`refl_tcrr_shift`): no reflection.
  */
 #define REFL_TCRR_COVERAGE_NONE 0
+#endif
 
+#if defined(REFL_FEATURE_TCRR)
 /**
  * Intermediate coverage: a shifted, reusable reflection.
  */
 #define REFL_TCRR_COVERAGE_REUSE 1
+#endif
 
+#if defined(REFL_FEATURE_TCRR)
 /**
  * Intermediate coverage: next to a moving reflection edge (re-traced).
  */
 #define REFL_TCRR_COVERAGE_EDGE 2
+#endif
 
+#if defined(REFL_FEATURE_TCRR)
 /**
  * Re-trace mask (`refl_tcrr_warp`): not a reflective pixel.
  */
 #define REFL_TCRR_MASK_NONE 0
+#endif
 
+#if defined(REFL_FEATURE_TCRR)
 /**
  * Re-trace mask: reflection reused from the key frame.
  */
 #define REFL_TCRR_MASK_REUSED 1
+#endif
 
+#if defined(REFL_FEATURE_TCRR)
 /**
  * Re-trace mask: the host must trace this pixel's reflection.
  */
 #define REFL_TCRR_MASK_RETRACE 2
+#endif
 
+#if defined(REFL_FEATURE_TCRR)
 /**
  * Caller-buffer bytes per pixel of one TCRR frame besides the host's own
  * G-buffer: reflection buffers (depth 4, normal 12, specular 4, color 12,
@@ -187,13 +231,16 @@
  * coverage 1, warped color 12, mask 1, re-trace list 4 (worst case).
  */
 #define REFL_TCRR_BYTES_PER_PIXEL 110
+#endif
 
+#if ((defined(REFL_FEATURE_DEPTH_IMAGE) || defined(REFL_FEATURE_HIZ)) && defined(REFL_FEATURE_LAYERED))
 /**
  * How many texels of a layered map (along the ray's dominant axis)
  * before the object's surface a G-buffer front point may lie and still
  * count as on the object (`refl_trace_back_depth_layered_rows`).
  */
 #define REFL_LAYERED_EXIT_ENTRY_TEXELS 2.0
+#endif
 
 /**
  * The result of every fallible refl function. `REFL_STATUS_OK` is zero;
@@ -281,6 +328,7 @@ typedef uint32_t refl_depth_convention;
 #endif // __STDC_VERSION__ >= 202311L
 #endif // __cplusplus
 
+#if (defined(REFL_FEATURE_DEPTH_IMAGE) || defined(REFL_FEATURE_HIZ) || defined(REFL_FEATURE_MIRROR))
 /**
  * Why a traced ray found no surface; `REFL_TRACE_MISS_NONE` for a hit.
  */
@@ -289,34 +337,46 @@ enum refl_trace_miss
   : uint32_t
 #endif // defined(__cplusplus) || __STDC_VERSION__ >= 202311L
  {
+#if (defined(REFL_FEATURE_DEPTH_IMAGE) || defined(REFL_FEATURE_HIZ) || defined(REFL_FEATURE_MIRROR))
     /**
      * The ray hit the depth image.
      */
     REFL_TRACE_MISS_NONE = 0,
+#endif
+#if (defined(REFL_FEATURE_DEPTH_IMAGE) || defined(REFL_FEATURE_HIZ) || defined(REFL_FEATURE_MIRROR))
     /**
      * The projected ray left the image rectangle (or, coming toward the
      * camera, the near plane) before hitting anything.
      */
     REFL_TRACE_MISS_LEFT_IMAGE = 1,
+#endif
+#if (defined(REFL_FEATURE_DEPTH_IMAGE) || defined(REFL_FEATURE_HIZ) || defined(REFL_FEATURE_MIRROR))
     /**
      * The walk ended while the ray was behind geometry deeper than its
      * thickness: what it hits is hidden from this image.
      */
     REFL_TRACE_MISS_BEHIND_GEOMETRY = 2,
+#endif
+#if (defined(REFL_FEATURE_DEPTH_IMAGE) || defined(REFL_FEATURE_HIZ) || defined(REFL_FEATURE_MIRROR))
     /**
      * The step or iteration cap was reached.
      */
     REFL_TRACE_MISS_OUT_OF_STEPS = 3,
+#endif
+#if (defined(REFL_FEATURE_DEPTH_IMAGE) || defined(REFL_FEATURE_HIZ) || defined(REFL_FEATURE_MIRROR))
     /**
      * The ray ended (`t_max`, the far plane, or its vanishing point under
      * an infinite far plane) in front of every surface.
      */
     REFL_TRACE_MISS_END_OF_RAY = 4,
+#endif
+#if (defined(REFL_FEATURE_DEPTH_IMAGE) || defined(REFL_FEATURE_HIZ) || defined(REFL_FEATURE_MIRROR))
     /**
      * Nothing of the ray projects into the view (entirely behind the near
      * plane, beyond the far plane, or outside the image's frustum).
      */
     REFL_TRACE_MISS_DEGENERATE_PROJECTION = 5,
+#endif
 };
 #ifndef __cplusplus
 #if __STDC_VERSION__ >= 202311L
@@ -325,7 +385,9 @@ typedef enum refl_trace_miss refl_trace_miss;
 typedef uint32_t refl_trace_miss;
 #endif // __STDC_VERSION__ >= 202311L
 #endif // __cplusplus
+#endif
 
+#if defined(REFL_FEATURE_LAYERED)
 /**
  * Why a layered trace found no hit (`REFL_LAYERED_MISS_NONE` for a hit).
  */
@@ -334,30 +396,42 @@ enum refl_layered_miss
   : uint32_t
 #endif // defined(__cplusplus) || __STDC_VERSION__ >= 202311L
  {
+#if defined(REFL_FEATURE_LAYERED)
     /**
      * Not a miss: the ray hit.
      */
     REFL_LAYERED_MISS_NONE = 0,
+#endif
+#if defined(REFL_FEATURE_LAYERED)
     /**
      * The ray does not meet the box.
      */
     REFL_LAYERED_MISS_MISSED_BOX = 1,
+#endif
+#if defined(REFL_FEATURE_LAYERED)
     /**
      * The ray crossed the box without entering the object.
      */
     REFL_LAYERED_MISS_LEFT_BOX = 2,
+#endif
+#if defined(REFL_FEATURE_LAYERED)
     /**
      * The ray ended (t_max) inside the box before the object.
      */
     REFL_LAYERED_MISS_END_OF_RAY = 3,
+#endif
+#if defined(REFL_FEATURE_LAYERED)
     /**
      * The linear-search step cap was reached.
      */
     REFL_LAYERED_MISS_OUT_OF_STEPS = 4,
+#endif
+#if defined(REFL_FEATURE_LAYERED)
     /**
      * The ray starts inside the object.
      */
     REFL_LAYERED_MISS_STARTED_INSIDE = 5,
+#endif
 };
 #ifndef __cplusplus
 #if __STDC_VERSION__ >= 202311L
@@ -366,7 +440,9 @@ typedef enum refl_layered_miss refl_layered_miss;
 typedef uint32_t refl_layered_miss;
 #endif // __STDC_VERSION__ >= 202311L
 #endif // __cplusplus
+#endif
 
+#if defined(REFL_FEATURE_LAYERED)
 /**
  * The class of a reflector triangle in the potential-reflection-region
  * test (seed 001 Sec. 3.2).
@@ -376,30 +452,42 @@ enum refl_layered_prr_class
   : uint32_t
 #endif // defined(__cplusplus) || __STDC_VERSION__ >= 202311L
  {
+#if defined(REFL_FEATURE_LAYERED)
     /**
      * No reflection of the bounding sphere on the triangle.
      */
     REFL_LAYERED_PRR_CLASS_OUTSIDE = 0,
+#endif
+#if defined(REFL_FEATURE_LAYERED)
     /**
      * The mirrored sphere is on the camera's side of the plane.
      */
     REFL_LAYERED_PRR_CLASS_WRONG_SIDE = 1,
+#endif
+#if defined(REFL_FEATURE_LAYERED)
     /**
      * The camera is inside the mirrored sphere (conservatively reflects).
      */
     REFL_LAYERED_PRR_CLASS_CAMERA_INSIDE = 2,
+#endif
+#if defined(REFL_FEATURE_LAYERED)
     /**
      * Seed case 1: a corner lies inside the cone.
      */
     REFL_LAYERED_PRR_CLASS_VERTEX = 3,
+#endif
+#if defined(REFL_FEATURE_LAYERED)
     /**
      * Seed case 2: an edge crosses the cone.
      */
     REFL_LAYERED_PRR_CLASS_EDGE = 4,
+#endif
+#if defined(REFL_FEATURE_LAYERED)
     /**
      * Seed case 3: the conic section lies inside the triangle.
      */
     REFL_LAYERED_PRR_CLASS_ELLIPSE = 5,
+#endif
 };
 #ifndef __cplusplus
 #if __STDC_VERSION__ >= 202311L
@@ -408,7 +496,9 @@ typedef enum refl_layered_prr_class refl_layered_prr_class;
 typedef uint32_t refl_layered_prr_class;
 #endif // __STDC_VERSION__ >= 202311L
 #endif // __cplusplus
+#endif
 
+#if defined(REFL_FEATURE_TCRR)
 /**
  * What `refl_tcrr_reflection_distance`'s `reflected` argument is.
  */
@@ -417,15 +507,19 @@ enum refl_tcrr_reflected
   : uint32_t
 #endif // defined(__cplusplus) || __STDC_VERSION__ >= 202311L
  {
+#if defined(REFL_FEATURE_TCRR)
     /**
      * A reflected surface point R.
      */
     REFL_TCRR_REFLECTED_POINT = 0,
+#endif
+#if defined(REFL_FEATURE_TCRR)
     /**
      * The direction of a reflected ray that left the scene (R at
      * infinity).
      */
     REFL_TCRR_REFLECTED_DIRECTION = 1,
+#endif
 };
 #ifndef __cplusplus
 #if __STDC_VERSION__ >= 202311L
@@ -434,7 +528,9 @@ typedef enum refl_tcrr_reflected refl_tcrr_reflected;
 typedef uint32_t refl_tcrr_reflected;
 #endif // __STDC_VERSION__ >= 202311L
 #endif // __cplusplus
+#endif
 
+#if defined(REFL_FEATURE_TCRR)
 /**
  * How `refl_tcrr_compose` weights the reflection.
  */
@@ -443,15 +539,19 @@ enum refl_tcrr_fresnel
   : uint32_t
 #endif // defined(__cplusplus) || __STDC_VERSION__ >= 202311L
  {
+#if defined(REFL_FEATURE_TCRR)
     /**
      * The specular factor itself.
      */
     REFL_TCRR_FRESNEL_OFF = 0,
+#endif
+#if defined(REFL_FEATURE_TCRR)
     /**
      * Schlick's approximation with the specular factor as reflectance at
      * normal incidence.
      */
     REFL_TCRR_FRESNEL_SCHLICK = 1,
+#endif
 };
 #ifndef __cplusplus
 #if __STDC_VERSION__ >= 202311L
@@ -460,7 +560,9 @@ typedef enum refl_tcrr_fresnel refl_tcrr_fresnel;
 typedef uint32_t refl_tcrr_fresnel;
 #endif // __STDC_VERSION__ >= 202311L
 #endif // __cplusplus
+#endif
 
+#if defined(REFL_FEATURE_EPIPOLAR)
 /**
  * Why a pixel takes the path its decision names (seed 002 Fig. 6).
  */
@@ -469,27 +571,37 @@ enum refl_epipolar_reason
   : uint32_t
 #endif // defined(__cplusplus) || __STDC_VERSION__ >= 202311L
  {
+#if defined(REFL_FEATURE_EPIPOLAR)
     /**
      * Reprojection predicts the object: one ray/object test.
      */
     REFL_EPIPOLAR_REASON_REPROJECTED = 0,
+#endif
+#if defined(REFL_FEATURE_EPIPOLAR)
     /**
      * Too few points reached the pixel: full traversal.
      */
     REFL_EPIPOLAR_REASON_FAILED = 1,
+#endif
+#if defined(REFL_FEATURE_EPIPOLAR)
     /**
      * Regular resampling picked the pixel this frame: full traversal.
      */
     REFL_EPIPOLAR_REASON_RESAMPLED = 2,
+#endif
+#if defined(REFL_FEATURE_EPIPOLAR)
     /**
      * A point near the pixel was discarded for abrupt motion: full
      * traversal.
      */
     REFL_EPIPOLAR_REASON_ABRUPT = 3,
+#endif
+#if defined(REFL_FEATURE_EPIPOLAR)
     /**
      * No reprojection this frame: full traversal.
      */
     REFL_EPIPOLAR_REASON_UNAVAILABLE = 4,
+#endif
 };
 #ifndef __cplusplus
 #if __STDC_VERSION__ >= 202311L
@@ -498,7 +610,9 @@ typedef enum refl_epipolar_reason refl_epipolar_reason;
 typedef uint32_t refl_epipolar_reason;
 #endif // __STDC_VERSION__ >= 202311L
 #endif // __cplusplus
+#endif
 
+#if defined(REFL_FEATURE_CLUSTER)
 /**
  * Why a cluster gets no camera (its pixels fall back to the environment);
  * `REFL_CLUSTER_FALLBACK_NONE` when it has one.
@@ -542,7 +656,9 @@ typedef enum refl_cluster_fallback refl_cluster_fallback;
 typedef uint32_t refl_cluster_fallback;
 #endif // __STDC_VERSION__ >= 202311L
 #endif // __cplusplus
+#endif
 
+#if (defined(REFL_FEATURE_DEPTH_IMAGE) || defined(REFL_FEATURE_HIZ) || defined(REFL_FEATURE_MIRROR))
 /**
  * The space a G-buffer's normals are stored in.
  */
@@ -551,14 +667,18 @@ enum refl_normal_space
   : uint32_t
 #endif // defined(__cplusplus) || __STDC_VERSION__ >= 202311L
  {
+#if (defined(REFL_FEATURE_DEPTH_IMAGE) || defined(REFL_FEATURE_HIZ) || defined(REFL_FEATURE_MIRROR))
     /**
      * World space.
      */
     REFL_NORMAL_SPACE_WORLD = 0,
+#endif
+#if (defined(REFL_FEATURE_DEPTH_IMAGE) || defined(REFL_FEATURE_HIZ) || defined(REFL_FEATURE_MIRROR))
     /**
      * View space of the G-buffer's camera (looking down -z).
      */
     REFL_NORMAL_SPACE_VIEW = 1,
+#endif
 };
 #ifndef __cplusplus
 #if __STDC_VERSION__ >= 202311L
@@ -567,7 +687,9 @@ typedef enum refl_normal_space refl_normal_space;
 typedef uint32_t refl_normal_space;
 #endif // __STDC_VERSION__ >= 202311L
 #endif // __cplusplus
+#endif
 
+#if (defined(REFL_FEATURE_DEPTH_IMAGE) || defined(REFL_FEATURE_HIZ))
 /**
  * The kernel of the pass.
  */
@@ -576,15 +698,19 @@ enum refl_ssr_method
   : uint32_t
 #endif // defined(__cplusplus) || __STDC_VERSION__ >= 202311L
  {
+#if (defined(REFL_FEATURE_DEPTH_IMAGE) || defined(REFL_FEATURE_HIZ))
     /**
      * Per-pixel stepping (`refl_step_ray`).
      */
     REFL_SSR_METHOD_STEP = 0,
+#endif
+#if (defined(REFL_FEATURE_DEPTH_IMAGE) || defined(REFL_FEATURE_HIZ))
     /**
      * Hi-Z traversal (`refl_hiz_trace_ray`) over a pyramid that
      * `refl_ssr_prepare` builds.
      */
     REFL_SSR_METHOD_HIZ = 1,
+#endif
 };
 #ifndef __cplusplus
 #if __STDC_VERSION__ >= 202311L
@@ -593,7 +719,9 @@ typedef enum refl_ssr_method refl_ssr_method;
 typedef uint32_t refl_ssr_method;
 #endif // __STDC_VERSION__ >= 202311L
 #endif // __cplusplus
+#endif
 
+#if (defined(REFL_FEATURE_DEPTH_IMAGE) || defined(REFL_FEATURE_HIZ))
 /**
  * What the pass did at a pixel (`refl_ssr_texel.status`,
  * `refl_host_ray.status`).
@@ -603,50 +731,70 @@ enum refl_ssr_status
   : uint32_t
 #endif // defined(__cplusplus) || __STDC_VERSION__ >= 202311L
  {
+#if (defined(REFL_FEATURE_DEPTH_IMAGE) || defined(REFL_FEATURE_HIZ))
     /**
      * Not reflective (mask, roughness), or a row the call did not cover.
      */
     REFL_SSR_STATUS_SKIPPED = 0,
+#endif
+#if (defined(REFL_FEATURE_DEPTH_IMAGE) || defined(REFL_FEATURE_HIZ))
     /**
      * No usable surface: sky, NaN depth, zero or non-finite normal.
      */
     REFL_SSR_STATUS_NO_SURFACE = 1,
+#endif
+#if (defined(REFL_FEATURE_DEPTH_IMAGE) || defined(REFL_FEATURE_HIZ))
     /**
      * A validated hit.
      */
     REFL_SSR_STATUS_HIT = 2,
+#endif
+#if (defined(REFL_FEATURE_DEPTH_IMAGE) || defined(REFL_FEATURE_HIZ))
     /**
      * The ray reached t_max or the far plane in front of every surface:
      * it hits nothing (answered).
      */
     REFL_SSR_STATUS_SKY = 3,
+#endif
+#if (defined(REFL_FEATURE_DEPTH_IMAGE) || defined(REFL_FEATURE_HIZ))
     /**
      * Host ray: the projected ray left the image.
      */
     REFL_SSR_STATUS_LEFT_IMAGE = 4,
+#endif
+#if (defined(REFL_FEATURE_DEPTH_IMAGE) || defined(REFL_FEATURE_HIZ))
     /**
      * Host ray: the ray passed behind geometry.
      */
     REFL_SSR_STATUS_BEHIND_GEOMETRY = 5,
+#endif
+#if (defined(REFL_FEATURE_DEPTH_IMAGE) || defined(REFL_FEATURE_HIZ))
     /**
      * Host ray: the kernel's step or iteration cap was reached.
      */
     REFL_SSR_STATUS_OUT_OF_STEPS = 6,
+#endif
+#if (defined(REFL_FEATURE_DEPTH_IMAGE) || defined(REFL_FEATURE_HIZ))
     /**
      * Host ray: no usable projection (the ray runs toward its own
      * vanishing point), or a hit so far away that its distance overflows
      * a float.
      */
     REFL_SSR_STATUS_NO_PROJECTION = 7,
+#endif
+#if (defined(REFL_FEATURE_DEPTH_IMAGE) || defined(REFL_FEATURE_HIZ))
     /**
      * Host ray: the hit surface faces along the ray.
      */
     REFL_SSR_STATUS_BACK_FACE = 8,
+#endif
+#if (defined(REFL_FEATURE_DEPTH_IMAGE) || defined(REFL_FEATURE_HIZ))
     /**
      * Host ray: the kernel's hit lies inside the thickness, not on the
      * visible surface.
      */
     REFL_SSR_STATUS_HIDDEN = 9,
+#endif
 };
 #ifndef __cplusplus
 #if __STDC_VERSION__ >= 202311L
@@ -655,7 +803,9 @@ typedef enum refl_ssr_status refl_ssr_status;
 typedef uint32_t refl_ssr_status;
 #endif // __STDC_VERSION__ >= 202311L
 #endif // __cplusplus
+#endif
 
+#if defined(REFL_FEATURE_CONE)
 /**
  * How the glossy pass integrates the lobe.
  */
@@ -664,14 +814,18 @@ enum refl_glossy_method
   : uint32_t
 #endif // defined(__cplusplus) || __STDC_VERSION__ >= 202311L
  {
+#if defined(REFL_FEATURE_CONE)
     /**
      * Cone tracing over the color (and visibility) pyramid (seed 004).
      */
     REFL_GLOSSY_METHOD_CONE = 0,
+#endif
+#if defined(REFL_FEATURE_CONE)
     /**
      * Several Hi-Z rays in the cone, Phong-weighted (seed 003 Sec. 3.5).
      */
     REFL_GLOSSY_METHOD_MULTI_RAY = 1,
+#endif
 };
 #ifndef __cplusplus
 #if __STDC_VERSION__ >= 202311L
@@ -680,7 +834,9 @@ typedef enum refl_glossy_method refl_glossy_method;
 typedef uint32_t refl_glossy_method;
 #endif // __STDC_VERSION__ >= 202311L
 #endif // __cplusplus
+#endif
 
+#if defined(REFL_FEATURE_MIRROR)
 /**
  * What the pass says about a pixel (`refl_planar_texel.status`, the
  * bytes of `refl_planar_cover_rows`, `refl_host_ray.status` of the rays
@@ -691,32 +847,44 @@ enum refl_planar_status
   : uint32_t
 #endif // defined(__cplusplus) || __STDC_VERSION__ >= 202311L
  {
+#if defined(REFL_FEATURE_MIRROR)
     /**
      * Not the mirror's id, mask 0, or a row the call did not write.
      */
     REFL_PLANAR_STATUS_SKIPPED = 0,
+#endif
+#if defined(REFL_FEATURE_MIRROR)
     /**
      * No usable surface: sky, NaN depth, zero or non-finite normal.
      */
     REFL_PLANAR_STATUS_NO_SURFACE = 1,
+#endif
+#if defined(REFL_FEATURE_MIRROR)
     /**
      * A surface not on the plane (or any surface when the eye lies on
      * the plane).
      */
     REFL_PLANAR_STATUS_OFF_PLANE = 2,
+#endif
+#if defined(REFL_FEATURE_MIRROR)
     /**
      * On the plane (refl_planar_cover_rows).
      */
     REFL_PLANAR_STATUS_COVERED = 3,
+#endif
+#if defined(REFL_FEATURE_MIRROR)
     /**
      * Covered; the render has a surface at the pixel's reflection.
      */
     REFL_PLANAR_STATUS_HIT = 4,
+#endif
+#if defined(REFL_FEATURE_MIRROR)
     /**
      * Covered; the render has none: the reflection is the environment
      * (the host's probe). The pixel's ray goes to the host list.
      */
     REFL_PLANAR_STATUS_ENVIRONMENT = 5,
+#endif
 };
 #ifndef __cplusplus
 #if __STDC_VERSION__ >= 202311L
@@ -725,7 +893,9 @@ typedef enum refl_planar_status refl_planar_status;
 typedef uint32_t refl_planar_status;
 #endif // __STDC_VERSION__ >= 202311L
 #endif // __cplusplus
+#endif
 
+#if (defined(REFL_FEATURE_LAYERED) && (defined(REFL_FEATURE_DEPTH_IMAGE) || defined(REFL_FEATURE_HIZ)))
 /**
  * What the pass did at a pixel or listed ray (`refl_layered_pass_texel.status`,
  * `refl_host_ray.status` of its host rays).
@@ -735,39 +905,55 @@ enum refl_layered_pass_status
   : uint32_t
 #endif // defined(__cplusplus) || __STDC_VERSION__ >= 202311L
  {
+#if (defined(REFL_FEATURE_LAYERED) && (defined(REFL_FEATURE_DEPTH_IMAGE) || defined(REFL_FEATURE_HIZ)))
     /**
      * Not reflective (mask, roughness), or a row the call did not cover.
      */
     REFL_LAYERED_PASS_STATUS_SKIPPED = 0,
+#endif
+#if (defined(REFL_FEATURE_LAYERED) && (defined(REFL_FEATURE_DEPTH_IMAGE) || defined(REFL_FEATURE_HIZ)))
     /**
      * No usable surface: sky, NaN depth, zero or non-finite normal.
      */
     REFL_LAYERED_PASS_STATUS_NO_SURFACE = 1,
+#endif
+#if (defined(REFL_FEATURE_LAYERED) && (defined(REFL_FEATURE_DEPTH_IMAGE) || defined(REFL_FEATURE_HIZ)))
     /**
      * The ray hit a map's object.
      */
     REFL_LAYERED_PASS_STATUS_HIT = 2,
+#endif
+#if (defined(REFL_FEATURE_LAYERED) && (defined(REFL_FEATURE_DEPTH_IMAGE) || defined(REFL_FEATURE_HIZ)))
     /**
      * The ray starts at or beyond t_max: it reaches nothing (answered).
      */
     REFL_LAYERED_PASS_STATUS_SKY = 3,
+#endif
+#if (defined(REFL_FEATURE_LAYERED) && (defined(REFL_FEATURE_DEPTH_IMAGE) || defined(REFL_FEATURE_HIZ)))
     /**
      * Host ray: the ray met no mapped object.
      */
     REFL_LAYERED_PASS_STATUS_LEFT_MAPS = 4,
+#endif
+#if (defined(REFL_FEATURE_LAYERED) && (defined(REFL_FEATURE_DEPTH_IMAGE) || defined(REFL_FEATURE_HIZ)))
     /**
      * Host ray: a map's step cap was reached and no map hit.
      */
     REFL_LAYERED_PASS_STATUS_OUT_OF_STEPS = 5,
+#endif
+#if (defined(REFL_FEATURE_LAYERED) && (defined(REFL_FEATURE_DEPTH_IMAGE) || defined(REFL_FEATURE_HIZ)))
     /**
      * Host ray: the ray starts inside a mapped object (a disocclusion)
      * and no map hit.
      */
     REFL_LAYERED_PASS_STATUS_STARTED_INSIDE = 6,
+#endif
+#if (defined(REFL_FEATURE_LAYERED) && (defined(REFL_FEATURE_DEPTH_IMAGE) || defined(REFL_FEATURE_HIZ)))
     /**
      * Host ray: no usable projection (not traced).
      */
     REFL_LAYERED_PASS_STATUS_NO_PROJECTION = 7,
+#endif
 };
 #ifndef __cplusplus
 #if __STDC_VERSION__ >= 202311L
@@ -776,6 +962,7 @@ typedef enum refl_layered_pass_status refl_layered_pass_status;
 typedef uint32_t refl_layered_pass_status;
 #endif // __STDC_VERSION__ >= 202311L
 #endif // __cplusplus
+#endif
 
 /**
  * A 4x4 float matrix, column-major: element (row r, column c) is
@@ -902,6 +1089,7 @@ typedef struct refl_projection {
     bool valid;
 } refl_projection;
 
+#if defined(REFL_FEATURE_CLUSTER)
 /**
  * Clustering options (seed 003 Sec. 3.2). Defaults:
  * `refl_cluster_options_default`.
@@ -923,7 +1111,9 @@ typedef struct refl_cluster_options {
      */
     float gain;
 } refl_cluster_options;
+#endif
 
+#if defined(REFL_FEATURE_CLUSTER)
 /**
  * Cluster camera options (seed 003 Sec. 3.3, 3.5). Defaults:
  * `refl_cluster_camera_options_default`.
@@ -957,6 +1147,7 @@ typedef struct refl_cluster_camera_options {
      */
     float max_f;
 } refl_cluster_camera_options;
+#endif
 
 /**
  * A read-only image of `uint32_t` texels (e.g. ids, masks, counts).
@@ -998,6 +1189,7 @@ typedef struct refl_row_range {
     uint32_t end;
 } refl_row_range;
 
+#if defined(REFL_FEATURE_CLUSTER)
 /**
  * The bins of one reflective object in the current frame.
  */
@@ -1015,6 +1207,7 @@ typedef struct refl_cluster_object_bins {
      */
     uint32_t first;
 } refl_cluster_object_bins;
+#endif
 
 /**
  * A writable image of `uint32_t` texels.
@@ -1086,6 +1279,7 @@ typedef struct refl_plane {
     float d;
 } refl_plane;
 
+#if defined(REFL_FEATURE_CLUSTER)
 /**
  * A cluster camera (seed 003 Sec. 3.3), or a fallback reason.
  */
@@ -1138,7 +1332,9 @@ typedef struct refl_cluster_camera {
      */
     uint32_t pixels_used;
 } refl_cluster_camera;
+#endif
 
+#if defined(REFL_FEATURE_CLUSTER)
 /**
  * The reflection of one cluster pixel (`refl_cluster_finalize`).
  */
@@ -1183,6 +1379,7 @@ typedef struct refl_cluster_shade {
      */
     uint32_t steps;
 } refl_cluster_shade;
+#endif
 
 /**
  * A read-only image of `float` texels (e.g. a depth buffer).
@@ -1210,6 +1407,7 @@ typedef struct refl_image_f32 {
     uint32_t stride;
 } refl_image_f32;
 
+#if (defined(REFL_FEATURE_DEPTH_IMAGE) || defined(REFL_FEATURE_HIZ) || defined(REFL_FEATURE_MIRROR))
 /**
  * A depth image with the camera that rendered it and its convention.
  */
@@ -1229,7 +1427,9 @@ typedef struct refl_depth_image {
      */
     uint32_t convention;
 } refl_depth_image;
+#endif
 
+#if (defined(REFL_FEATURE_DEPTH_IMAGE) || defined(REFL_FEATURE_HIZ) || defined(REFL_FEATURE_MIRROR))
 /**
  * How far behind the front-most surface a ray may pass and still hit it.
  */
@@ -1248,7 +1448,9 @@ typedef struct refl_trace_thickness {
      */
     struct refl_image_f32 back_faces;
 } refl_trace_thickness;
+#endif
 
+#if ((defined(REFL_FEATURE_DEPTH_IMAGE) || defined(REFL_FEATURE_HIZ) || defined(REFL_FEATURE_MIRROR)) && defined(REFL_FEATURE_DEPTH_IMAGE))
 /**
  * Options of the per-pixel stepping kernel (`refl_step_ray`);
  * `refl_step_options_default` gives the defaults (`stride = 1`,
@@ -1268,7 +1470,9 @@ typedef struct refl_step_options {
      */
     uint32_t max_steps;
 } refl_step_options;
+#endif
 
+#if defined(REFL_FEATURE_CLUSTER)
 /**
  * The reflected rays per pixel (seed 003 Sec. 3.5): one mirror ray, or a
  * truncated Phong lobe.
@@ -1289,7 +1493,9 @@ typedef struct refl_cluster_lobe {
      */
     float max_angle;
 } refl_cluster_lobe;
+#endif
 
+#if defined(REFL_FEATURE_CLUSTER)
 /**
  * What `refl_cluster_finalize` needs besides the cluster's pixels, camera
  * and images (`refl_core::cluster::FinalizeInput`): the depth image's
@@ -1323,7 +1529,9 @@ typedef struct refl_cluster_finalize_input {
      */
     uint32_t seed;
 } refl_cluster_finalize_input;
+#endif
 
+#if defined(REFL_FEATURE_HIZ)
 /**
  * A built Hi-Z pyramid with the camera of its depth image.
  */
@@ -1348,7 +1556,9 @@ typedef struct refl_hiz {
      */
     uint32_t convention;
 } refl_hiz;
+#endif
 
+#if defined(REFL_FEATURE_CONE)
 /**
  * Settings of the cone trace (`refl_core::cone::ConeOptions`);
  * `refl_cone_options_default` gives 8 circles, bias 0, visibility on,
@@ -1383,7 +1593,9 @@ typedef struct refl_cone_options {
      */
     bool normalize;
 } refl_cone_options;
+#endif
 
+#if defined(REFL_FEATURE_HIZ)
 /**
  * Settings of the Hi-Z traversal; `refl_hiz_options_default` gives the
  * defaults (start level 2, stop level 0, 1024 iterations, 4 prologue
@@ -1414,7 +1626,9 @@ typedef struct refl_hiz_options {
      */
     uint32_t prologue_steps;
 } refl_hiz_options;
+#endif
 
+#if defined(REFL_FEATURE_CONE)
 /**
  * Settings of `refl_cone_multiray` (`refl_core::cone::MultiRayOptions`);
  * `refl_cone_multiray_options_default` gives the defaults.
@@ -1434,7 +1648,9 @@ typedef struct refl_cone_multiray_options {
      */
     struct refl_hiz_options hiz;
 } refl_cone_multiray_options;
+#endif
 
+#if defined(REFL_FEATURE_CONE)
 /**
  * What `refl_cone_trace` returns.
  */
@@ -1456,7 +1672,9 @@ typedef struct refl_cone_result {
      */
     uint32_t fetches;
 } refl_cone_result;
+#endif
 
+#if defined(REFL_FEATURE_CONE)
 /**
  * The cone pyramids of one frame, bound together.
  */
@@ -1487,7 +1705,9 @@ typedef struct refl_cone_pyramids {
      */
     size_t visibility_len;
 } refl_cone_pyramids;
+#endif
 
+#if defined(REFL_FEATURE_CONE)
 /**
  * A screen-space cone: apex at the reflection ray's start, axis to its
  * Hi-Z hit (`refl_core::cone::Cone`).
@@ -1525,7 +1745,9 @@ typedef struct refl_cone {
      */
     float travel;
 } refl_cone;
+#endif
 
+#if defined(REFL_FEATURE_CONE)
 /**
  * One fade of the cone tracing (seed 004 Listing 4.8), when `enabled`:
  * the factor is 1 at or below `start`, 0 at or above `end`, linear
@@ -1545,7 +1767,9 @@ typedef struct refl_cone_fade_range {
      */
     float end;
 } refl_cone_fade_range;
+#endif
 
+#if defined(REFL_FEATURE_CONE)
 /**
  * The fades of seed 004 Sec. 4.6.1 (`refl_core::cone::Fades`); a fade
  * whose `enabled` is false is left out.
@@ -1565,7 +1789,9 @@ typedef struct refl_cone_fades {
      */
     struct refl_cone_fade_range travel;
 } refl_cone_fades;
+#endif
 
+#if defined(REFL_FEATURE_CONE)
 /**
  * What `refl_cone_multiray` returns.
  */
@@ -1587,7 +1813,9 @@ typedef struct refl_cone_multiray_result {
      */
     uint32_t iterations;
 } refl_cone_multiray_result;
+#endif
 
+#if defined(REFL_FEATURE_EPIPOLAR)
 /**
  * Settings of the reprojection and rendering phases
  * (`refl_epipolar_options_default` gives the defaults).
@@ -1645,7 +1873,9 @@ typedef struct refl_epipolar_options {
      */
     float shift_epsilon;
 } refl_epipolar_options;
+#endif
 
+#if defined(REFL_FEATURE_EPIPOLAR)
 /**
  * One entry of the AIP buffer (seed 002 Sec. 3.1, Alg. 1), written by
  * `refl_epipolar_reproject`. Before the first frame (no POS yet) fill it
@@ -1677,7 +1907,9 @@ typedef struct refl_epipolar_aip_entry {
      */
     uint32_t flags;
 } refl_epipolar_aip_entry;
+#endif
 
+#if defined(REFL_FEATURE_EPIPOLAR)
 /**
  * Counts of one reprojection phase.
  */
@@ -1715,7 +1947,9 @@ typedef struct refl_epipolar_stats {
      */
     bool no_baseline;
 } refl_epipolar_stats;
+#endif
 
+#if defined(REFL_FEATURE_EPIPOLAR)
 /**
  * One entry of the POS buffer (seed 002 Sec. 3.1): what the ray of one
  * pixel of the previous frame hit. Layout-identical to
@@ -1738,7 +1972,9 @@ typedef struct refl_epipolar_pos_entry {
      */
     float t;
 } refl_epipolar_pos_entry;
+#endif
 
+#if defined(REFL_FEATURE_EPIPOLAR)
 /**
  * The rendering-phase decision for one pixel (seed 002 Alg. 2).
  */
@@ -1765,7 +2001,9 @@ typedef struct refl_epipolar_decision {
      */
     uint32_t reason;
 } refl_epipolar_decision;
+#endif
 
+#if defined(REFL_FEATURE_CONE)
 /**
  * One fade of seed 004 Sec. 4.6.1: a factor 1 at or below `start`, 0 at
  * or above `end`, linear between.
@@ -1784,7 +2022,9 @@ typedef struct refl_glossy_fade {
      */
     float end;
 } refl_glossy_fade;
+#endif
 
+#if defined(REFL_FEATURE_CONE)
 /**
  * Settings of the glossy pass; `refl_glossy_options_default` gives the
  * measured defaults.
@@ -1894,6 +2134,7 @@ typedef struct refl_glossy_options {
      */
     bool reject_hidden_hits;
 } refl_glossy_options;
+#endif
 
 /**
  * A read-only image of `uint8_t` texels (e.g. a coverage or re-trace
@@ -1922,6 +2163,7 @@ typedef struct refl_image_u8 {
     uint32_t stride;
 } refl_image_u8;
 
+#if (defined(REFL_FEATURE_DEPTH_IMAGE) || defined(REFL_FEATURE_HIZ) || defined(REFL_FEATURE_MIRROR))
 /**
  * A deferred renderer's G-buffer. Every image must have the camera's
  * size. Optional images are absent when their `data` is NULL (their other
@@ -1962,7 +2204,9 @@ typedef struct refl_gbuffer {
      */
     struct refl_image_f32 back_depth;
 } refl_gbuffer;
+#endif
 
+#if defined(REFL_FEATURE_CONE)
 /**
  * Counts of one `refl_glossy_trace_rows` call.
  */
@@ -2001,7 +2245,9 @@ typedef struct refl_glossy_stats {
      */
     uint64_t lobe_hits;
 } refl_glossy_stats;
+#endif
 
+#if defined(REFL_FEATURE_CONE)
 /**
  * One pixel of the glossy pass's output.
  */
@@ -2041,6 +2287,7 @@ typedef struct refl_glossy_texel {
      */
     struct refl_vec3 dir;
 } refl_glossy_texel;
+#endif
 
 /**
  * A writable image of three-float texels.
@@ -2068,6 +2315,7 @@ typedef struct refl_image_vec3_mut {
     uint32_t stride;
 } refl_image_vec3_mut;
 
+#if (defined(REFL_FEATURE_DEPTH_IMAGE) || defined(REFL_FEATURE_HIZ) || defined(REFL_FEATURE_MIRROR))
 /**
  * A pixel's reflection ray for the host's own tracer.
  */
@@ -2103,7 +2351,9 @@ typedef struct refl_host_ray {
      */
     uint32_t status;
 } refl_host_ray;
+#endif
 
+#if defined(REFL_FEATURE_HIZ)
 /**
  * Where one pyramid level lives in the buffer: texels `offset` to
  * `offset + width * height - 1`, row by row, row stride `width`.
@@ -2122,7 +2372,9 @@ typedef struct refl_hiz_level_info {
      */
     uint32_t height;
 } refl_hiz_level_info;
+#endif
 
+#if (defined(REFL_FEATURE_DEPTH_IMAGE) || defined(REFL_FEATURE_HIZ) || defined(REFL_FEATURE_MIRROR))
 /**
  * The result of tracing one ray against a depth image.
  */
@@ -2162,6 +2414,7 @@ typedef struct refl_trace_result {
      */
     uint32_t iterations;
 } refl_trace_result;
+#endif
 
 /**
  * A writable image of `float` texels.
@@ -2189,6 +2442,7 @@ typedef struct refl_image_f32_mut {
     uint32_t stride;
 } refl_image_f32_mut;
 
+#if defined(REFL_FEATURE_LAYERED)
 /**
  * Element counts of the three buffers of a layered depth cube map.
  */
@@ -2212,7 +2466,9 @@ typedef struct refl_layered_sizes {
      */
     size_t bounds_len;
 } refl_layered_sizes;
+#endif
 
+#if defined(REFL_FEATURE_LAYERED)
 /**
  * Settings of the layered trace (seed 001 Sec. 3.3, Algorithm 1);
  * `refl_layered_options_default` gives the defaults.
@@ -2248,7 +2504,9 @@ typedef struct refl_layered_options {
      */
     float smooth_texels;
 } refl_layered_options;
+#endif
 
+#if defined(REFL_FEATURE_LAYERED)
 /**
  * The world-space orthographic ray of one face texel, to be cast through
  * every surface of the object.
@@ -2267,7 +2525,9 @@ typedef struct refl_layered_column_ray {
      */
     float t_max;
 } refl_layered_column_ray;
+#endif
 
+#if defined(REFL_FEATURE_LAYERED)
 /**
  * The geometry of a layered depth cube map.
  */
@@ -2294,7 +2554,9 @@ typedef struct refl_layered_grid {
      */
     struct refl_mat4 world_from_local;
 } refl_layered_grid;
+#endif
 
+#if defined(REFL_FEATURE_LAYERED)
 /**
  * A writable layered depth cube map (the four buffers must not overlap).
  */
@@ -2336,7 +2598,9 @@ typedef struct refl_layered_map_mut {
      */
     size_t bounds_len;
 } refl_layered_map_mut;
+#endif
 
+#if defined(REFL_FEATURE_LAYERED)
 /**
  * What filling a column did.
  */
@@ -2351,7 +2615,9 @@ typedef struct refl_layered_column_fill {
      */
     uint32_t stored;
 } refl_layered_column_fill;
+#endif
 
+#if defined(REFL_FEATURE_LAYERED)
 /**
  * One surface crossing along a column ray. The fill functions sort the
  * caller's array of crossings in place (it is their scratch).
@@ -2371,7 +2637,9 @@ typedef struct refl_layered_layer_hit {
      */
     bool front;
 } refl_layered_layer_hit;
+#endif
 
+#if defined(REFL_FEATURE_LAYERED)
 /**
  * The result of tracing one ray against a layered depth cube map.
  */
@@ -2433,7 +2701,9 @@ typedef struct refl_layered_result {
      */
     uint32_t fetches;
 } refl_layered_result;
+#endif
 
+#if defined(REFL_FEATURE_LAYERED)
 /**
  * A read-only layered depth cube map: grid plus caller buffers.
  */
@@ -2476,7 +2746,9 @@ typedef struct refl_layered_map {
      */
     size_t bounds_len;
 } refl_layered_map;
+#endif
 
+#if (defined(REFL_FEATURE_DEPTH_IMAGE) || defined(REFL_FEATURE_HIZ))
 /**
  * Settings of the pass; `refl_ssr_options_default` gives the measured
  * defaults.
@@ -2537,7 +2809,9 @@ typedef struct refl_ssr_options {
      */
     bool reject_hidden_hits;
 } refl_ssr_options;
+#endif
 
+#if (defined(REFL_FEATURE_DEPTH_IMAGE) || defined(REFL_FEATURE_HIZ))
 /**
  * Counts of one `refl_ssr_trace_rows` call.
  */
@@ -2564,7 +2838,9 @@ typedef struct refl_ssr_stats {
      */
     uint32_t host_rays_written;
 } refl_ssr_stats;
+#endif
 
+#if (defined(REFL_FEATURE_DEPTH_IMAGE) || defined(REFL_FEATURE_HIZ))
 /**
  * One pixel of the pass's output.
  */
@@ -2589,7 +2865,9 @@ typedef struct refl_ssr_texel {
      */
     float confidence;
 } refl_ssr_texel;
+#endif
 
+#if defined(REFL_FEATURE_TCRR)
 /**
  * Settings of the TCRR passes (refl-core `TcrrOptions`); fill with
  * `refl_tcrr_options_default`.
@@ -2624,7 +2902,9 @@ typedef struct refl_tcrr_options {
      */
     float retrace_contrast;
 } refl_tcrr_options;
+#endif
 
+#if defined(REFL_FEATURE_TCRR)
 /**
  * A key-frame texel back-projected once per key frame
  * (`refl_tcrr_prepare`); layout of refl-core's `tcrr::Surfel`.
@@ -2648,7 +2928,9 @@ typedef struct refl_tcrr_surfel {
      */
     uint32_t flags;
 } refl_tcrr_surfel;
+#endif
 
+#if defined(REFL_FEATURE_TCRR)
 /**
  * A writable image of `refl_tcrr_surfel` texels.
  */
@@ -2674,7 +2956,9 @@ typedef struct refl_image_tcrr_surfel_mut {
      */
     uint32_t stride;
 } refl_image_tcrr_surfel_mut;
+#endif
 
+#if defined(REFL_FEATURE_TCRR)
 /**
  * A read-only image of `refl_tcrr_surfel` texels.
  */
@@ -2700,7 +2984,9 @@ typedef struct refl_image_tcrr_surfel {
      */
     uint32_t stride;
 } refl_image_tcrr_surfel;
+#endif
 
+#if defined(REFL_FEATURE_TCRR)
 /**
  * The reflection buffers of a key frame (seed 000 Sec. 3.1) and its
  * camera. All images have the camera's size.
@@ -2740,6 +3026,7 @@ typedef struct refl_tcrr_key {
      */
     struct refl_image_tcrr_surfel surfels;
 } refl_tcrr_key;
+#endif
 
 /**
  * A writable image of two-float texels.
@@ -2767,6 +3054,7 @@ typedef struct refl_image_vec2_mut {
     uint32_t stride;
 } refl_image_vec2_mut;
 
+#if defined(REFL_FEATURE_TCRR)
 /**
  * Counts of one `refl_tcrr_search` call over its band.
  */
@@ -2788,6 +3076,7 @@ typedef struct refl_tcrr_search_stats {
      */
     uint64_t iterations;
 } refl_tcrr_search_stats;
+#endif
 
 /**
  * A writable image of `uint8_t` texels.
@@ -2815,6 +3104,7 @@ typedef struct refl_image_u8_mut {
     uint32_t stride;
 } refl_image_u8_mut;
 
+#if defined(REFL_FEATURE_TCRR)
 /**
  * Counts of one `refl_tcrr_shift` call over its band.
  */
@@ -2832,6 +3122,7 @@ typedef struct refl_tcrr_shift_stats {
      */
     uint32_t covered;
 } refl_tcrr_shift_stats;
+#endif
 
 /**
  * A read-only image of two-float texels (e.g. motion vectors).
@@ -2859,6 +3150,7 @@ typedef struct refl_image_vec2 {
     uint32_t stride;
 } refl_image_vec2;
 
+#if defined(REFL_FEATURE_TCRR)
 /**
  * Counts of one `refl_tcrr_warp` call over its band.
  */
@@ -2876,7 +3168,9 @@ typedef struct refl_tcrr_warp_stats {
      */
     uint32_t retrace;
 } refl_tcrr_warp_stats;
+#endif
 
+#if defined(REFL_FEATURE_TCRR)
 /**
  * The current frame as TCRR reads it.
  */
@@ -2899,7 +3193,9 @@ typedef struct refl_tcrr_current {
      */
     struct refl_image_f32 specular;
 } refl_tcrr_current;
+#endif
 
+#if (defined(REFL_FEATURE_DEPTH_IMAGE) || defined(REFL_FEATURE_HIZ))
 /**
  * Counts of one back-depth call.
  */
@@ -2924,7 +3220,9 @@ typedef struct refl_trace_back_depth_stats {
      */
     uint32_t exits;
 } refl_trace_back_depth_stats;
+#endif
 
+#if defined(REFL_FEATURE_MIRROR)
 /**
  * Settings of the planar pass; `refl_planar_options_default` gives the
  * defaults.
@@ -2959,6 +3257,7 @@ typedef struct refl_planar_options {
      */
     float edge_threshold;
 } refl_planar_options;
+#endif
 
 /**
  * A 4-component float vector (a four-channel texel).
@@ -2982,6 +3281,7 @@ typedef struct refl_vec4 {
     float w;
 } refl_vec4;
 
+#if defined(REFL_FEATURE_MIRROR)
 /**
  * A half-open pixel rectangle [x0, x1) x [y0, y1); all zero when empty.
  */
@@ -3003,7 +3303,9 @@ typedef struct refl_planar_rect {
      */
     uint32_t y1;
 } refl_planar_rect;
+#endif
 
+#if defined(REFL_FEATURE_MIRROR)
 /**
  * Everything a host needs to render the planar reflection.
  */
@@ -3054,7 +3356,9 @@ typedef struct refl_planar_setup {
      */
     struct refl_planar_rect scissor;
 } refl_planar_setup;
+#endif
 
+#if defined(REFL_FEATURE_MIRROR)
 /**
  * The mirror: its plane and, optionally, which pixels belong to it.
  */
@@ -3075,7 +3379,9 @@ typedef struct refl_planar_mirror {
      */
     uint32_t id;
 } refl_planar_mirror;
+#endif
 
+#if defined(REFL_FEATURE_MIRROR)
 /**
  * Counts of one `refl_planar_cover_rows` or `refl_planar_resolve_rows`
  * call.
@@ -3108,7 +3414,9 @@ typedef struct refl_planar_stats {
      */
     struct refl_planar_rect rect;
 } refl_planar_stats;
+#endif
 
+#if defined(REFL_FEATURE_MIRROR)
 /**
  * One pixel of the resolve.
  */
@@ -3138,7 +3446,9 @@ typedef struct refl_planar_texel {
      */
     float t;
 } refl_planar_texel;
+#endif
 
+#if defined(REFL_FEATURE_MIRROR)
 /**
  * The host's mirrored render, drawn through `refl_planar_setup.camera`
  * and `.projection`: its size is the setup camera's.
@@ -3156,7 +3466,9 @@ typedef struct refl_planar_render {
      */
     struct refl_image_vec3 color;
 } refl_planar_render;
+#endif
 
+#if defined(REFL_FEATURE_CLUSTER)
 /**
  * Settings of the cluster pass; `refl_cluster_pass_options_default` gives
  * the defaults.
@@ -3206,7 +3518,9 @@ typedef struct refl_cluster_pass_options {
      */
     float t_max;
 } refl_cluster_pass_options;
+#endif
 
+#if defined(REFL_FEATURE_CLUSTER)
 /**
  * What a plan needs of caller memory (`refl_cluster_plan_len`).
  */
@@ -3224,7 +3538,9 @@ typedef struct refl_cluster_plan_sizes {
      */
     size_t clusters_len;
 } refl_cluster_plan_sizes;
+#endif
 
+#if defined(REFL_FEATURE_CLUSTER)
 /**
  * The reflective objects of a frame.
  */
@@ -3244,7 +3560,9 @@ typedef struct refl_cluster_objects {
      */
     size_t lobes_len;
 } refl_cluster_objects;
+#endif
 
+#if defined(REFL_FEATURE_CLUSTER)
 /**
  * Counts of `refl_cluster_plan`.
  */
@@ -3270,7 +3588,9 @@ typedef struct refl_cluster_plan_stats {
      */
     uint32_t pixels;
 } refl_cluster_plan_stats;
+#endif
 
+#if defined(REFL_FEATURE_CLUSTER)
 /**
  * One cluster of a plan: what the host renders, and what
  * `refl_cluster_finalize_rows` reads back.
@@ -3316,7 +3636,9 @@ typedef struct refl_cluster_plan_entry {
      */
     struct refl_vec4 frustum[6];
 } refl_cluster_plan_entry;
+#endif
 
+#if defined(REFL_FEATURE_CLUSTER)
 /**
  * Counts of one `refl_cluster_finalize_rows` call.
  */
@@ -3351,7 +3673,9 @@ typedef struct refl_cluster_stats {
      */
     uint64_t ray_hits;
 } refl_cluster_stats;
+#endif
 
+#if defined(REFL_FEATURE_CLUSTER)
 /**
  * One finalized pixel.
  */
@@ -3369,7 +3693,9 @@ typedef struct refl_cluster_texel {
      */
     struct refl_cluster_shade shade;
 } refl_cluster_texel;
+#endif
 
+#if defined(REFL_FEATURE_CLUSTER)
 /**
  * The host's render of one cluster, through the entry's camera (its size
  * and camera).
@@ -3392,7 +3718,9 @@ typedef struct refl_cluster_render {
      */
     struct refl_image_f32 back_depth;
 } refl_cluster_render;
+#endif
 
+#if (defined(REFL_FEATURE_LAYERED) && (defined(REFL_FEATURE_DEPTH_IMAGE) || defined(REFL_FEATURE_HIZ)))
 /**
  * Settings of the layered pass; `refl_layered_pass_options_default` gives
  * the defaults.
@@ -3429,7 +3757,9 @@ typedef struct refl_layered_pass_options {
      */
     bool payload_color;
 } refl_layered_pass_options;
+#endif
 
+#if (defined(REFL_FEATURE_LAYERED) && (defined(REFL_FEATURE_DEPTH_IMAGE) || defined(REFL_FEATURE_HIZ)))
 /**
  * What a layered pass reads besides its options: the G-buffer, the maps,
  * and optionally object ids (a pixel's ray skips the maps of its own
@@ -3467,7 +3797,9 @@ typedef struct refl_layered_pass_input {
      */
     size_t map_ids_len;
 } refl_layered_pass_input;
+#endif
 
+#if (defined(REFL_FEATURE_LAYERED) && (defined(REFL_FEATURE_DEPTH_IMAGE) || defined(REFL_FEATURE_HIZ)))
 /**
  * One map's world bounding sphere and the key of the map it was computed
  * for: the scratch `refl_layered_pass_prepare` writes, one per map.
@@ -3487,7 +3819,9 @@ typedef struct refl_layered_bound {
      */
     uint32_t key;
 } refl_layered_bound;
+#endif
 
+#if (defined(REFL_FEATURE_LAYERED) && (defined(REFL_FEATURE_DEPTH_IMAGE) || defined(REFL_FEATURE_HIZ)))
 /**
  * Counts of one `refl_layered_trace_rows` or `refl_layered_trace_host_rays`
  * call.
@@ -3523,7 +3857,9 @@ typedef struct refl_layered_pass_stats {
      */
     uint64_t fetches;
 } refl_layered_pass_stats;
+#endif
 
+#if (defined(REFL_FEATURE_LAYERED) && (defined(REFL_FEATURE_DEPTH_IMAGE) || defined(REFL_FEATURE_HIZ)))
 /**
  * One pixel (or listed ray) of the pass's output.
  */
@@ -3587,6 +3923,7 @@ typedef struct refl_layered_pass_texel {
      */
     uint32_t fetches;
 } refl_layered_pass_texel;
+#endif
 
 /**
  * An 8-bit RGBA texel.
@@ -4004,17 +4341,22 @@ refl_status refl_camera_apply_reprojection(struct refl_projection *out,
                                            struct refl_vec2 pixel,
                                            float depth);
 
+#if defined(REFL_FEATURE_CLUSTER)
 /**
  * The seed's clustering constants (13 x 8 bins, gain 1).
  */
 struct refl_cluster_options refl_cluster_options_default(void);
+#endif
 
+#if defined(REFL_FEATURE_CLUSTER)
 /**
  * The default cluster camera options (D = 100, mirror, 1x resolution, at
  * most 2048 texels a side, clusters of at least 4 pixels, f <= 16).
  */
 struct refl_cluster_camera_options refl_cluster_camera_options_default(void);
+#endif
 
+#if defined(REFL_FEATURE_CLUSTER)
 /**
  * Writes to `*out` the most clusters a frame with `objects` reflective
  * objects can have (`objects * max_theta_bins * max_phi_bins`): size the
@@ -4030,7 +4372,9 @@ struct refl_cluster_camera_options refl_cluster_camera_options_default(void);
 refl_status refl_cluster_bins_max(uint32_t *out,
                                   uint32_t objects,
                                   const struct refl_cluster_options *options);
+#endif
 
+#if defined(REFL_FEATURE_CLUSTER)
 /**
  * Adds, for every pixel of `rows` whose object id is below `counts_len`,
  * one to `counts[id]` (the screen share a_R of seed 003 Sec. 3.2). Call
@@ -4049,7 +4393,9 @@ refl_status refl_cluster_count_objects(uint32_t *counts,
                                        size_t counts_len,
                                        struct refl_image_u32 objects,
                                        struct refl_row_range rows);
+#endif
 
+#if defined(REFL_FEATURE_CLUSTER)
 /**
  * Per object, the bin resolution of seed 003 Sec. 3.2 (from its pixel
  * count `counts[k]` over `frame_pixels` and the number of visible
@@ -4073,7 +4419,9 @@ refl_status refl_cluster_bin_layout(uint32_t *out_total,
                                     size_t counts_len,
                                     uint64_t frame_pixels,
                                     const struct refl_cluster_options *options);
+#endif
 
+#if defined(REFL_FEATURE_CLUSTER)
 /**
  * Writes the cluster id of every pixel in `rows` of `ids` (seed 003 Sec.
  * 3.2 step 4): the object's first id plus the bin of the pixel's normal,
@@ -4097,7 +4445,9 @@ refl_status refl_cluster_assign(struct refl_image_u32_mut ids,
                                 struct refl_image_u32 objects,
                                 const struct refl_cluster_object_bins *layout,
                                 size_t layout_len);
+#endif
 
+#if defined(REFL_FEATURE_CLUSTER)
 /**
  * Counting sort of the pixels by cluster: `order[offsets[c] ..
  * offsets[c + 1]]` are the pixel indices (y * width + x) of cluster `c`
@@ -4120,7 +4470,9 @@ refl_status refl_cluster_ranges(uint32_t *out_total,
                                 size_t order_len,
                                 struct refl_image_u32 ids,
                                 uint32_t clusters);
+#endif
 
+#if defined(REFL_FEATURE_CLUSTER)
 /**
  * The cluster camera of seed 003 Sec. 3.3 (Eq. 1) for the pixels
  * `pixels[0 .. pixels_len]` (indices y * width + x into `positions` and
@@ -4145,7 +4497,9 @@ refl_status refl_cluster_build_camera(struct refl_cluster_camera *out,
                                       size_t pixels_len,
                                       struct refl_vec3 eye,
                                       const struct refl_cluster_camera_options *options);
+#endif
 
+#if defined(REFL_FEATURE_CLUSTER)
 /**
  * Writes to `*out` the half-angle (radians) of the Phong lobe cos^n that
  * holds the share `energy` of its samples: acos((1 - energy)^(1 / (n + 1))).
@@ -4158,7 +4512,9 @@ refl_status refl_cluster_build_camera(struct refl_cluster_camera *out,
  * `out` NULL or writable.
  */
 refl_status refl_cluster_lobe_angle(float *out, float exponent, float energy);
+#endif
 
+#if defined(REFL_FEATURE_CLUSTER)
 /**
  * Finalizes the reflection of the pixels `pixels[0 .. pixels_len]` of one
  * cluster (seed 003 Sec. 3.4, 3.5): each pixel's mirror ray (or lobe
@@ -4194,7 +4550,9 @@ refl_status refl_cluster_finalize(uint32_t *out_fallbacks,
                                   const struct refl_depth_image *depth,
                                   struct refl_image_vec3 color,
                                   const struct refl_cluster_finalize_input *input);
+#endif
 
+#if defined(REFL_FEATURE_CONE)
 /**
  * The cone half-angle for a Phong specular power (seed 004 Eq. 4.1 with
  * the acos erratum, xi = 0.244; powers 1024..2048 blend to 0, +infinity
@@ -4207,7 +4565,9 @@ refl_status refl_cluster_finalize(uint32_t *out_fallbacks,
  * `out` must be NULL or writable.
  */
 refl_status refl_cone_angle_from_phong(float *out, float power);
+#endif
 
+#if defined(REFL_FEATURE_CONE)
 /**
  * The cone half-angle for a perceptual roughness in [0, 1] (Phong power
  * `2 / r^4 - 2`, `refl_core::cone::try_phong_power_from_roughness`) into
@@ -4220,7 +4580,9 @@ refl_status refl_cone_angle_from_phong(float *out, float power);
  * `out` must be NULL or writable.
  */
 refl_status refl_cone_angle_from_roughness(float *out, float roughness);
+#endif
 
+#if defined(REFL_FEATURE_CONE)
 /**
  * Size query: texels of the color pyramid (`refl_vec3`) into
  * `*out_color_len` and floats of the visibility pyramid into
@@ -4240,7 +4602,9 @@ refl_status refl_cone_pyramid_len(size_t *out_color_len,
                                   size_t *out_visibility_len,
                                   uint32_t width,
                                   uint32_t height);
+#endif
 
+#if defined(REFL_FEATURE_CONE)
 /**
  * Builds the rows `rows` of level `level` of the color
  * pyramid of `*image` in `dst` (level 0 copies the image; level L blurs
@@ -4267,7 +4631,9 @@ refl_status refl_cone_build_color_rows(struct refl_vec3 *dst,
                                        uint32_t level,
                                        struct refl_row_range rows,
                                        float sigma);
+#endif
 
+#if defined(REFL_FEATURE_CONE)
 /**
  * Builds the whole color pyramid of `*image` into `dst` (seed 004
  * Sec. 4.4.4 / 4.5.4), as `refl_cone_build_color_rows` level by level.
@@ -4282,7 +4648,9 @@ refl_status refl_cone_build_color(struct refl_vec3 *dst,
                                   size_t dst_len,
                                   const struct refl_image_vec3 *image,
                                   float sigma);
+#endif
 
+#if defined(REFL_FEATURE_CONE)
 /**
  * Builds the rows `rows` of level `level` of the visibility
  * pyramid of `*hiz` in `dst` (level 0: 1 where a foreground surface is,
@@ -4307,7 +4675,9 @@ refl_status refl_cone_build_visibility_rows(float *dst,
                                             const struct refl_hiz *hiz,
                                             uint32_t level,
                                             struct refl_row_range rows);
+#endif
 
+#if defined(REFL_FEATURE_CONE)
 /**
  * Builds the whole visibility pyramid of `*hiz` into `dst`.
  *
@@ -4317,19 +4687,25 @@ refl_status refl_cone_build_visibility_rows(float *dst,
  * As `refl_cone_build_visibility_rows`.
  */
 refl_status refl_cone_build_visibility(float *dst, size_t dst_len, const struct refl_hiz *hiz);
+#endif
 
+#if defined(REFL_FEATURE_CONE)
 /**
  * The default cone options: 8 circles, bias 0, visibility on,
  * isotropic, 1% depth tolerance, no normalization.
  */
 struct refl_cone_options refl_cone_options_default(void);
+#endif
 
+#if defined(REFL_FEATURE_CONE)
 /**
  * The default multi-ray options: 8 rays (the low end of seed 003
  * Sec. 3.5's 8 to 49), no rotation, the Hi-Z defaults.
  */
 struct refl_cone_multiray_options refl_cone_multiray_options_default(void);
+#endif
 
+#if defined(REFL_FEATURE_CONE)
 /**
  * Integrates the cone `*cone` over the pyramids (seed 004 Sec. 4.4.5 /
  * Listing 4.7): in-radius circles from the hit toward the apex, trilinear
@@ -4355,7 +4731,9 @@ refl_status refl_cone_trace(struct refl_cone_result *out,
                             const struct refl_cone *cone,
                             struct refl_vec3 fallback,
                             const struct refl_cone_options *options);
+#endif
 
+#if defined(REFL_FEATURE_CONE)
 /**
  * The product of the enabled fades of `*fades` (seed 004 Sec. 4.6.1) for
  * a reflection ray of unit direction `reflected` seen from the unit
@@ -4378,7 +4756,9 @@ refl_status refl_cone_fade(float *out,
                            uint32_t width,
                            uint32_t height,
                            float t);
+#endif
 
+#if defined(REFL_FEATURE_CONE)
 /**
  * The multi-ray glossy reflection (seed 003 Sec. 3.5,
  * `refl_core::cone::try_multiray`): `options->rays` directions uniform in
@@ -4410,14 +4790,18 @@ refl_status refl_cone_multiray(struct refl_cone_multiray_result *out,
                                float power,
                                const struct refl_cone_multiray_options *options,
                                struct refl_vec3 fallback);
+#endif
 
+#if defined(REFL_FEATURE_EPIPOLAR)
 /**
  * The defaults (m_cnt 5, 3x3 splat, depth guard, view-frustum and
  * occlusion checks on, N = 9 for resampling and the abrupt-motion test, no
  * shifted origin, epsilon 1e-3).
  */
 struct refl_epipolar_options refl_epipolar_options_default(void);
+#endif
 
+#if defined(REFL_FEATURE_EPIPOLAR)
 /**
  * Writes to `*out_len` the number of floats of scratch
  * `refl_epipolar_reproject` needs for a `width x height` image (the
@@ -4433,7 +4817,9 @@ struct refl_epipolar_options refl_epipolar_options_default(void);
  * `out_len` must be NULL or point to a writable `size_t`.
  */
 refl_status refl_epipolar_scratch_len(size_t *out_len, uint32_t width, uint32_t height);
+#endif
 
+#if defined(REFL_FEATURE_EPIPOLAR)
 /**
  * The reprojection phase (seed 002 Alg. 1 with Secs. 4.1, 4.2, 4.3.1):
  * fills `aip` (`current`'s `width * height` pixels, row-major) from `pos`
@@ -4467,7 +4853,9 @@ refl_status refl_epipolar_reproject(struct refl_epipolar_aip_entry *aip,
                                     const struct refl_camera *previous,
                                     const struct refl_camera *current,
                                     const struct refl_epipolar_options *options);
+#endif
 
+#if defined(REFL_FEATURE_EPIPOLAR)
 /**
  * The rendering-phase decisions (seed 002 Alg. 2) of the rows `rows` of
  * frame `frame` of a `width`-wide image: `out[y * width + x]` from
@@ -4501,7 +4889,9 @@ refl_status refl_epipolar_decide_rows(struct refl_epipolar_decision *out,
                                       struct refl_row_range rows,
                                       uint32_t frame,
                                       const struct refl_epipolar_options *options);
+#endif
 
+#if defined(REFL_FEATURE_CONE)
 /**
  * The pass's defaults: cone tracing with 8 circles, normalized, no
  * visibility weighting, no fades, the seed's screen-space triangle, sigma
@@ -4510,7 +4900,9 @@ refl_status refl_epipolar_decide_rows(struct refl_epipolar_decision *out,
  * t_max +infinity, refined hits, back faces and hidden hits refused).
  */
 struct refl_glossy_options refl_glossy_options_default(void);
+#endif
 
+#if defined(REFL_FEATURE_CONE)
 /**
  * Size query: the number of floats of scratch the pass needs for this
  * G-buffer's size and these options into `*out_len`: the Hi-Z pyramid
@@ -4528,7 +4920,9 @@ struct refl_glossy_options refl_glossy_options_default(void);
 refl_status refl_glossy_scratch_len(size_t *out_len,
                                     const struct refl_gbuffer *gbuffer,
                                     const struct refl_glossy_options *options);
+#endif
 
+#if defined(REFL_FEATURE_CONE)
 /**
  * Prepares a frame: validates the G-buffer (it needs a lit color and a
  * roughness image) and the options together, and builds into `scratch`
@@ -4560,7 +4954,9 @@ refl_status refl_glossy_prepare(float *scratch,
                                 size_t scratch_len,
                                 const struct refl_gbuffer *gbuffer,
                                 const struct refl_glossy_options *options);
+#endif
 
+#if defined(REFL_FEATURE_CONE)
 /**
  * Runs the pass over the rows `rows` of the G-buffer: for each pixel of
  * those rows writes its `refl_glossy_texel` to `out[y * width + x]`
@@ -4603,7 +4999,9 @@ refl_status refl_glossy_trace_rows(struct refl_glossy_stats *out_stats,
                                    const float *scratch,
                                    size_t scratch_len,
                                    struct refl_row_range rows);
+#endif
 
+#if defined(REFL_FEATURE_HIZ)
 /**
  * Size query: the number of `refl_vec2` texels of the Hi-Z pyramid of a
  * `width x height` image (all levels, then `REFL_HIZ_STAMP_TEXELS`) into
@@ -4618,7 +5016,9 @@ refl_status refl_glossy_trace_rows(struct refl_glossy_stats *out_stats,
  * `out_len` and `out_levels` must be NULL or writable.
  */
 refl_status refl_hiz_len(size_t *out_len, uint32_t *out_levels, uint32_t width, uint32_t height);
+#endif
 
+#if defined(REFL_FEATURE_HIZ)
 /**
  * Layout query: where level `level` of the pyramid of a `width x height`
  * image lives in the buffer.
@@ -4634,13 +5034,17 @@ refl_status refl_hiz_level(struct refl_hiz_level_info *out,
                            uint32_t width,
                            uint32_t height,
                            uint32_t level);
+#endif
 
+#if defined(REFL_FEATURE_HIZ)
 /**
  * The default traversal options: start level 2, stop level 0, 1024
  * iterations, 4 prologue steps.
  */
 struct refl_hiz_options refl_hiz_options_default(void);
+#endif
 
+#if defined(REFL_FEATURE_HIZ)
 /**
  * Builds the whole Hi-Z pyramid of `*image` into `dst` (seed 004
  * Sec. 4.4.1): level 0 is the image's linear depth (NaN, or a depth that
@@ -4665,7 +5069,9 @@ struct refl_hiz_options refl_hiz_options_default(void);
 refl_status refl_hiz_build(struct refl_vec2 *dst,
                            size_t dst_len,
                            const struct refl_depth_image *image);
+#endif
 
+#if defined(REFL_FEATURE_HIZ)
 /**
  * Builds the rows `rows` of level `level` of the pyramid in
  * `dst`, for hosts that split the build across threads: build level 0
@@ -4690,7 +5096,9 @@ refl_status refl_hiz_build_rows(struct refl_vec2 *dst,
                                 const struct refl_depth_image *image,
                                 uint32_t level,
                                 struct refl_row_range rows);
+#endif
 
+#if defined(REFL_FEATURE_HIZ)
 /**
  * Traces one ray against a Hi-Z pyramid (seed 004 Sec. 4.4.3 with the
  * extensions of Sec. 4.6.6 travel behind surfaces, 4.6.7 rays toward the
@@ -4730,7 +5138,9 @@ refl_status refl_hiz_trace_ray(struct refl_trace_result *out,
                                struct refl_ray ray,
                                float t_max,
                                const struct refl_hiz_options *options);
+#endif
 
+#if defined(REFL_FEATURE_HIZ)
 /**
  * Traces `rays_len` rays as `refl_hiz_trace_ray` would, writing result
  * `i` to `out[i]`: the arguments of `refl_hiz_trace_ray` in the same
@@ -4765,6 +5175,7 @@ refl_status refl_hiz_trace_rays(struct refl_trace_result *out,
                                 const float *t_max,
                                 size_t t_max_len,
                                 const struct refl_hiz_options *options);
+#endif
 
 /**
  * Writes to `*out` the `index`-th of `count` contiguous, near-equal bands
@@ -4839,6 +5250,7 @@ refl_status refl_image_convert_depth(struct refl_image_f32_mut dst,
                                      uint32_t to,
                                      struct refl_row_range rows);
 
+#if defined(REFL_FEATURE_LAYERED)
 /**
  * Writes to `*out` the element counts of the depth, payload, count and
  * bound buffers of a map with `face_res x face_res` texels per face and `layers`
@@ -4852,14 +5264,18 @@ refl_status refl_image_convert_depth(struct refl_image_f32_mut dst,
  * `out` must be NULL or point to a writable `refl_layered_sizes`.
  */
 refl_status refl_layered_len(struct refl_layered_sizes *out, uint32_t face_res, uint32_t layers);
+#endif
 
+#if defined(REFL_FEATURE_LAYERED)
 /**
  * The default trace options: half-texel steps (at most 4096 steps and
  * skipped cells per face), 16 binary iterations down to 1/16 texel, early
  * stop at one texel, depth interpolated across steps of up to 4 texels.
  */
 struct refl_layered_options refl_layered_options_default(void);
+#endif
 
+#if defined(REFL_FEATURE_LAYERED)
 /**
  * Writes to `*out` the world-space orthographic ray of texel `(i, j)` of
  * `face` (0..6): it starts on the face plane at the texel center and runs
@@ -4882,7 +5298,9 @@ refl_status refl_layered_face_ray(struct refl_layered_column_ray *out,
                                   uint32_t face,
                                   uint32_t i,
                                   uint32_t j);
+#endif
 
+#if defined(REFL_FEATURE_LAYERED)
 /**
  * Empties every texel of the map: count 0, depth +inf, payload
  * 0xFFFFFFFF, every bound cell the empty hull (+inf, -inf), the exact
@@ -4899,7 +5317,9 @@ refl_status refl_layered_face_ray(struct refl_layered_column_ray *out,
  * `map` must be NULL or readable, its buffers writable for their lengths.
  */
 refl_status refl_layered_clear(const struct refl_layered_map_mut *map);
+#endif
 
+#if defined(REFL_FEATURE_LAYERED)
 /**
  * Fills texel `(i, j)` of `face` and of its opposite face from all
  * `hits_len` crossings `hits` of the column ray `refl_layered_face_ray`
@@ -4931,7 +5351,9 @@ refl_status refl_layered_fill_column(struct refl_layered_column_fill *out,
                                      uint32_t j,
                                      struct refl_layered_layer_hit *hits,
                                      size_t hits_len);
+#endif
 
+#if defined(REFL_FEATURE_LAYERED)
 /**
  * Fills a whole face (and its opposite) from the crossings of all its
  * column rays: the crossings of texel `(i, j)` are
@@ -4965,7 +5387,9 @@ refl_status refl_layered_fill_face(uint32_t *out,
                                    size_t hits_len,
                                    const size_t *offsets,
                                    size_t offsets_len);
+#endif
 
+#if defined(REFL_FEATURE_LAYERED)
 /**
  * Builds the empty-space bounds of all six faces from the filled map: per
  * face a pyramid of the smallest front depth over each cell dilated by one
@@ -4980,7 +5404,9 @@ refl_status refl_layered_fill_face(uint32_t *out,
  * `map` must be NULL or readable, its buffers writable for their lengths.
  */
 refl_status refl_layered_build_bounds(const struct refl_layered_map_mut *map);
+#endif
 
+#if defined(REFL_FEATURE_LAYERED)
 /**
  * Traces one world ray (unit direction) up to distance `t_max` (+inf
  * allowed) against the map (seed 001 Sec. 3.3-3.4, Algorithm 1: box clip,
@@ -5005,7 +5431,9 @@ refl_status refl_layered_trace_ray(struct refl_layered_result *out,
                                    struct refl_ray ray,
                                    float t_max,
                                    const struct refl_layered_options *options);
+#endif
 
+#if defined(REFL_FEATURE_LAYERED)
 /**
  * Traces `rays_len` rays (as `refl_layered_trace_ray`, one `t_max` for all)
  * and writes result `k` to `out[k]`. All rays are validated first: on
@@ -5028,7 +5456,9 @@ refl_status refl_layered_trace_rays(struct refl_layered_result *out,
                                     size_t rays_len,
                                     float t_max,
                                     const struct refl_layered_options *options);
+#endif
 
+#if defined(REFL_FEATURE_LAYERED)
 /**
  * Classifies reflector triangle `p0 p1 p2` for a camera at `eye` and a
  * reflected object with bounding sphere (`center`, `radius`) with the
@@ -5052,7 +5482,9 @@ refl_status refl_layered_prr_classify(uint32_t *out,
                                       struct refl_vec3 p0,
                                       struct refl_vec3 p1,
                                       struct refl_vec3 p2);
+#endif
 
+#if defined(REFL_FEATURE_MIRROR)
 /**
  * Writes to `*out` the reflection of `v` about the unit normal `n`:
  * `2 dot(v, n) n - v` (seed 004 Sec. 4.4.3). `v` points from the surface
@@ -5070,7 +5502,9 @@ refl_status refl_layered_prr_classify(uint32_t *out,
  * `out` must be NULL or point to a writable `refl_vec3`.
  */
 refl_status refl_mirror_reflect(struct refl_vec3 *out, struct refl_vec3 v, struct refl_vec3 n);
+#endif
 
+#if defined(REFL_FEATURE_MIRROR)
 /**
  * Writes to `*out` the plane of triangle `p1 p2 p3` (seed 001 appendix),
  * with unit normal `normalize((p1 - p2) x (p3 - p2))` and
@@ -5091,7 +5525,9 @@ refl_status refl_plane_from_triangle(struct refl_plane *out,
                                      struct refl_vec3 p1,
                                      struct refl_vec3 p2,
                                      struct refl_vec3 p3);
+#endif
 
+#if defined(REFL_FEATURE_MIRROR)
 /**
  * Writes to `*out` the plane through `point` with normal direction
  * `normal` (normalized here).
@@ -5106,7 +5542,9 @@ refl_status refl_plane_from_triangle(struct refl_plane *out,
 refl_status refl_plane_from_point_normal(struct refl_plane *out,
                                          struct refl_vec3 point,
                                          struct refl_vec3 normal);
+#endif
 
+#if defined(REFL_FEATURE_MIRROR)
 /**
  * Writes to `*out` the signed distance of `point` from `plane` (positive
  * on the normal's side).
@@ -5121,7 +5559,9 @@ refl_status refl_plane_from_point_normal(struct refl_plane *out,
 refl_status refl_plane_signed_distance(float *out,
                                        const struct refl_plane *plane,
                                        struct refl_vec3 point);
+#endif
 
+#if defined(REFL_FEATURE_MIRROR)
 /**
  * Writes to `*out_t` the parameter t at which the ray `ray.origin + t
  * ray.dir` meets `plane` (t may be negative: the plane is behind the
@@ -5138,7 +5578,9 @@ refl_status refl_plane_signed_distance(float *out,
 refl_status refl_plane_intersect_ray(float *out_t,
                                      const struct refl_plane *plane,
                                      struct refl_ray ray);
+#endif
 
+#if defined(REFL_FEATURE_MIRROR)
 /**
  * Writes to `*out` the mirror matrix of `plane` (seed 001 appendix, with
  * the normal normalized): it maps a world point to its mirror image, is its
@@ -5153,7 +5595,9 @@ refl_status refl_plane_intersect_ray(float *out_t,
  * `out` must be NULL or writable; `plane` NULL or readable.
  */
 refl_status refl_mirror_matrix(struct refl_mat4 *out, const struct refl_plane *plane);
+#endif
 
+#if defined(REFL_FEATURE_MIRROR)
 /**
  * Writes to `*out` the mirror image of `point` in `plane`:
  * `point - 2 (dot(n, point) + d) n`.
@@ -5168,7 +5612,9 @@ refl_status refl_mirror_matrix(struct refl_mat4 *out, const struct refl_plane *p
 refl_status refl_mirror_point(struct refl_vec3 *out,
                               const struct refl_plane *plane,
                               struct refl_vec3 point);
+#endif
 
+#if defined(REFL_FEATURE_MIRROR)
 /**
  * Writes to `*out` the mirrored (virtual) camera of `camera` for the
  * planar reflector `plane`: view matrix `V M` with M the mirror matrix,
@@ -5191,7 +5637,9 @@ refl_status refl_mirror_point(struct refl_vec3 *out,
 refl_status refl_mirror_camera(struct refl_camera *out,
                                const struct refl_camera *camera,
                                const struct refl_plane *plane);
+#endif
 
+#if defined(REFL_FEATURE_MIRROR)
 /**
  * Writes to `*out` the projection matrix of `camera` for the
  * post-projection convention `convention` with its near plane replaced by
@@ -5216,7 +5664,9 @@ refl_status refl_mirror_oblique_projection(struct refl_mat4 *out,
                                            const struct refl_camera *camera,
                                            const struct refl_plane *clip,
                                            uint32_t convention);
+#endif
 
+#if (defined(REFL_FEATURE_DEPTH_IMAGE) || defined(REFL_FEATURE_HIZ))
 /**
  * The pass's defaults: stepping, thickness 0.5 of the pixel's depth,
  * start after 1 pixel, t_min 0, t_max +infinity, roughness up to 0.1, a
@@ -5224,7 +5674,9 @@ refl_status refl_mirror_oblique_projection(struct refl_mat4 *out,
  * kernels' own defaults (`refl_hiz_options_default`, stride 1).
  */
 struct refl_ssr_options refl_ssr_options_default(void);
+#endif
 
+#if (defined(REFL_FEATURE_DEPTH_IMAGE) || defined(REFL_FEATURE_HIZ))
 /**
  * Size query: the number of `refl_vec2` scratch texels the pass needs for
  * this G-buffer's size and method (the Hi-Z pyramid, `refl_hiz_len`; 0 for
@@ -5240,7 +5692,9 @@ struct refl_ssr_options refl_ssr_options_default(void);
 refl_status refl_ssr_scratch_len(size_t *out_len,
                                  const struct refl_gbuffer *gbuffer,
                                  const struct refl_ssr_options *options);
+#endif
 
+#if (defined(REFL_FEATURE_DEPTH_IMAGE) || defined(REFL_FEATURE_HIZ))
 /**
  * Prepares a frame: validates the G-buffer and the options together and,
  * for Hi-Z, builds the pyramid of the G-buffer's depth into `scratch`
@@ -5265,7 +5719,9 @@ refl_status refl_ssr_prepare(struct refl_vec2 *scratch,
                              size_t scratch_len,
                              const struct refl_gbuffer *gbuffer,
                              const struct refl_ssr_options *options);
+#endif
 
+#if (defined(REFL_FEATURE_DEPTH_IMAGE) || defined(REFL_FEATURE_HIZ))
 /**
  * Runs the pass over the rows `rows` of the G-buffer: for each pixel of
  * those rows writes its `refl_ssr_texel` to `out[y * width + x]` (`out`
@@ -5309,6 +5765,7 @@ refl_status refl_ssr_trace_rows(struct refl_ssr_stats *out_stats,
                                 const struct refl_vec2 *scratch,
                                 size_t scratch_len,
                                 struct refl_row_range rows);
+#endif
 
 /**
  * A static, NUL-terminated English description of `status`.
@@ -5354,13 +5811,16 @@ uint32_t refl_version_number(void);
  */
 size_t refl_last_error_message(char *dst, size_t dst_len);
 
+#if defined(REFL_FEATURE_TCRR)
 /**
  * The default TCRR settings (iteration cap 64, magnification 16 as in
  * seed 000 Sec. 4.1, discontinuity 0.02, reflected discontinuity 0.1,
  * sub-pixel offsets on, re-trace contrast 0.1).
  */
 struct refl_tcrr_options refl_tcrr_options_default(void);
+#endif
 
+#if defined(REFL_FEATURE_TCRR)
 /**
  * Writes to `*out_bytes` the caller-buffer bytes TCRR needs for a
  * `width x height` frame with tightly packed rows
@@ -5375,7 +5835,9 @@ struct refl_tcrr_options refl_tcrr_options_default(void);
  * `out_bytes` must be NULL or point to a writable `size_t`.
  */
 refl_status refl_tcrr_frame_bytes(size_t *out_bytes, uint32_t width, uint32_t height);
+#endif
 
+#if defined(REFL_FEATURE_TCRR)
 /**
  * Writes to `*out` the distance function of seed 000 Fig. 4: the distance
  * from `eye` to the ray that starts at the reflected point R mirrored
@@ -5399,7 +5861,9 @@ refl_status refl_tcrr_reflection_distance(float *out,
                                           struct refl_vec3 normal,
                                           struct refl_vec3 reflected,
                                           uint32_t kind);
+#endif
 
+#if defined(REFL_FEATURE_TCRR)
 /**
  * Back-projects rows `[rows.begin, rows.end)` of the key frame into
  * `surfels` (once per key frame, before the frame's first search) and
@@ -5422,7 +5886,9 @@ refl_status refl_tcrr_prepare(struct refl_image_tcrr_surfel_mut surfels,
                               uint32_t *out_reflective,
                               const struct refl_tcrr_key *key,
                               struct refl_row_range rows);
+#endif
 
+#if defined(REFL_FEATURE_TCRR)
 /**
  * Fills rows `[rows.begin, rows.end)` of an offset image with the INVALID
  * offset (+inf, +inf): after a key frame, so the next search starts at
@@ -5436,7 +5902,9 @@ refl_status refl_tcrr_prepare(struct refl_image_tcrr_surfel_mut surfels,
  * `offsets` must be writable for the rows.
  */
 refl_status refl_tcrr_reset_offsets(struct refl_image_vec2_mut offsets, struct refl_row_range rows);
+#endif
 
+#if defined(REFL_FEATURE_TCRR)
 /**
  * Neighborhood search (seed 000 Alg. 2) over rows `[rows.begin,
  * rows.end)`: on entry `offsets` holds the previous frame's offsets, on
@@ -5460,7 +5928,9 @@ refl_status refl_tcrr_search(struct refl_image_vec2_mut offsets,
                              struct refl_vec3 eye,
                              const struct refl_tcrr_options *options,
                              struct refl_row_range rows);
+#endif
 
+#if defined(REFL_FEATURE_TCRR)
 /**
  * Reflection shifting (seed 000 Sec. 3.2.2) into rows `[rows.begin,
  * rows.end)` of the intermediate image: the key frame's grid mesh moved by
@@ -5482,7 +5952,9 @@ refl_status refl_tcrr_shift(struct refl_image_vec3_mut color,
                             struct refl_image_vec2 offsets,
                             const struct refl_tcrr_options *options,
                             struct refl_row_range rows);
+#endif
 
+#if defined(REFL_FEATURE_TCRR)
 /**
  * Warping (seed 000 Sec. 3.3) of the intermediate image (`source`,
  * `source_depth`, `coverage` from `refl_tcrr_shift`) into rows
@@ -5508,7 +5980,9 @@ refl_status refl_tcrr_warp(struct refl_image_vec3_mut color,
                            struct refl_image_u8 coverage,
                            const struct refl_tcrr_options *options,
                            struct refl_row_range rows);
+#endif
 
+#if defined(REFL_FEATURE_TCRR)
 /**
  * Writes the pixel indices `y * width + x` of the `REFL_TCRR_MASK_RETRACE`
  * pixels of `mask`, row-major, to `list[0..n)` and their number `n` to
@@ -5528,7 +6002,9 @@ refl_status refl_tcrr_retrace_list(uint32_t *list,
                                    size_t list_len,
                                    size_t *out_len,
                                    struct refl_image_u8 mask);
+#endif
 
+#if defined(REFL_FEATURE_TCRR)
 /**
  * Output composition (seed 000 Sec. 3.3) over rows `[rows.begin,
  * rows.end)`: `out = (1 - w) diffuse + w reflection` at the current
@@ -5558,7 +6034,9 @@ refl_status refl_tcrr_compose(struct refl_image_vec3_mut out,
                               const struct refl_tcrr_current *current,
                               uint32_t fresnel,
                               struct refl_row_range rows);
+#endif
 
+#if defined(REFL_FEATURE_TCRR)
 /**
  * Writes to `*out` the reflection weight of `refl_tcrr_compose` for
  * specular factor `f` and `cos_theta` (both clamped to [0, 1]; 0 for
@@ -5571,7 +6049,9 @@ refl_status refl_tcrr_compose(struct refl_image_vec3_mut out,
  * `out` must be NULL or point to a writable `float`.
  */
 refl_status refl_tcrr_fresnel_weight(float *out, float f, float cos_theta, uint32_t fresnel);
+#endif
 
+#if defined(REFL_FEATURE_TCRR)
 /**
  * The key-frame policy of seed 000 Sec. 4.3/4.4: writes true to `*out`
  * if `retrace` re-traced pixels out of `reflective` exceed the share
@@ -5589,13 +6069,17 @@ refl_status refl_tcrr_needs_key_frame(bool *out,
                                       float threshold,
                                       uint64_t retrace,
                                       uint64_t reflective);
+#endif
 
+#if ((defined(REFL_FEATURE_DEPTH_IMAGE) || defined(REFL_FEATURE_HIZ) || defined(REFL_FEATURE_MIRROR)) && defined(REFL_FEATURE_DEPTH_IMAGE))
 /**
  * The stepping defaults: `stride = 1`, `max_steps = UINT32_MAX` (the walk
  * is still bounded by the `width + height` texels a segment can touch).
  */
 struct refl_step_options refl_step_options_default(void);
+#endif
 
+#if ((defined(REFL_FEATURE_DEPTH_IMAGE) || defined(REFL_FEATURE_HIZ) || defined(REFL_FEATURE_MIRROR)) && defined(REFL_FEATURE_DEPTH_IMAGE))
 /**
  * Traces one ray against a depth image by per-pixel stepping along its
  * projection (seed 003 Sec. 3.4; `refl_core::step` documents the
@@ -5630,7 +6114,9 @@ refl_status refl_step_ray(struct refl_trace_result *out,
                           struct refl_ray ray,
                           float t_max,
                           const struct refl_step_options *options);
+#endif
 
+#if ((defined(REFL_FEATURE_DEPTH_IMAGE) || defined(REFL_FEATURE_HIZ) || defined(REFL_FEATURE_MIRROR)) && defined(REFL_FEATURE_DEPTH_IMAGE))
 /**
  * Traces `rays_len` rays as `refl_step_ray` would, writing result `i` to
  * `out[i]`: the arguments of `refl_step_ray` in the same order, the ray,
@@ -5666,7 +6152,9 @@ refl_status refl_step_rays(struct refl_trace_result *out,
                            const float *t_max,
                            size_t t_max_len,
                            const struct refl_step_options *options);
+#endif
 
+#if (defined(REFL_FEATURE_DEPTH_IMAGE) || defined(REFL_FEATURE_HIZ) || defined(REFL_FEATURE_MIRROR))
 /**
  * Refines a hit of `refl_step_ray` / `refl_hiz_trace_ray` to sub-texel
  * accuracy (`refl_core::trace::refine_hit`): the ray is intersected with
@@ -5694,7 +6182,9 @@ refl_status refl_trace_refine_hit(struct refl_trace_result *out,
                                   struct refl_ray ray,
                                   float t_max,
                                   const struct refl_trace_result *hit);
+#endif
 
+#if (defined(REFL_FEATURE_DEPTH_IMAGE) || defined(REFL_FEATURE_HIZ))
 /**
  * Builds the G-buffer's back-face depth image from the host's back-face
  * pass `back` (the scene drawn again with front faces culled, same
@@ -5725,7 +6215,9 @@ refl_status refl_trace_back_depth_rows(struct refl_trace_back_depth_stats *out_s
                                        const struct refl_depth_image *front,
                                        struct refl_image_f32 back,
                                        struct refl_row_range rows);
+#endif
 
+#if ((defined(REFL_FEATURE_DEPTH_IMAGE) || defined(REFL_FEATURE_HIZ)) && defined(REFL_FEATURE_LAYERED))
 /**
  * Writes into the rows `rows` of `dst` (which holds the result of
  * `refl_trace_back_depth_rows` or the cleared value), for every pixel
@@ -5757,14 +6249,18 @@ refl_status refl_trace_back_depth_layered_rows(struct refl_trace_back_depth_stat
                                                const struct refl_depth_image *front,
                                                const struct refl_layered_map *map,
                                                struct refl_row_range rows);
+#endif
 
+#if defined(REFL_FEATURE_MIRROR)
 /**
  * The pass's defaults: full resolution, oblique clipping, points within
  * 1e-3 of their depth of the plane, normals within about 8 degrees,
  * blending across depth changes up to 5%.
  */
 struct refl_planar_options refl_planar_options_default(void);
+#endif
 
+#if defined(REFL_FEATURE_MIRROR)
 /**
  * Sets up a frame: validates the G-buffer, the mirror and the options,
  * orients the plane toward the eye, builds the mirrored camera at the
@@ -5793,7 +6289,9 @@ refl_status refl_planar_prepare(struct refl_planar_setup *out,
                                 const struct refl_gbuffer *gbuffer,
                                 const struct refl_planar_mirror *mirror,
                                 const struct refl_planar_options *options);
+#endif
 
+#if defined(REFL_FEATURE_MIRROR)
 /**
  * Writes the coverage of the rows `rows`: for each pixel of those rows a
  * `refl_planar_status` byte (SKIPPED, NO_SURFACE, OFF_PLANE or COVERED)
@@ -5822,7 +6320,9 @@ refl_status refl_planar_cover_rows(struct refl_planar_stats *out_stats,
                                    const struct refl_planar_mirror *mirror,
                                    const struct refl_planar_options *options,
                                    struct refl_row_range rows);
+#endif
 
+#if defined(REFL_FEATURE_MIRROR)
 /**
  * Resolves the rows `rows` against the host's mirrored render: for each
  * pixel of those rows writes its `refl_planar_texel` to
@@ -5867,14 +6367,18 @@ refl_status refl_planar_resolve_rows(struct refl_planar_stats *out_stats,
                                      const struct refl_planar_options *options,
                                      const struct refl_planar_render *render,
                                      struct refl_row_range rows);
+#endif
 
+#if defined(REFL_FEATURE_CLUSTER)
 /**
  * The pass's defaults: the seed's 13 x 8 bins at gain 64, the camera
  * defaults, thickness 0.005 of the far distance, stepping defaults,
  * refined hits, no fade, seed 0, host rays over [0, +infinity).
  */
 struct refl_cluster_pass_options refl_cluster_pass_options_default(void);
+#endif
 
+#if defined(REFL_FEATURE_CLUSTER)
 /**
  * Size query: writes to `*out` the `uint32_t`s of scratch and the length
  * of the cluster list `refl_cluster_plan` needs for this G-buffer's size,
@@ -5892,7 +6396,9 @@ refl_status refl_cluster_plan_len(struct refl_cluster_plan_sizes *out,
                                   const struct refl_gbuffer *gbuffer,
                                   const struct refl_cluster_objects *objects,
                                   const struct refl_cluster_pass_options *options);
+#endif
 
+#if defined(REFL_FEATURE_CLUSTER)
 /**
  * Plans a frame: from the G-buffer and the objects, the reflective pixels
  * (an id below `lobes_len`, mask not 0, roughness not NaN, a usable
@@ -5930,7 +6436,9 @@ refl_status refl_cluster_plan(struct refl_cluster_plan_stats *out_stats,
                               const struct refl_gbuffer *gbuffer,
                               const struct refl_cluster_objects *objects,
                               const struct refl_cluster_pass_options *options);
+#endif
 
+#if defined(REFL_FEATURE_CLUSTER)
 /**
  * Finalizes the pixels of one cluster in the rows `rows` (seed 003 Sec.
  * 3.4, 3.5): `cluster` is an entry `refl_cluster_plan` wrote for this
@@ -5981,14 +6489,18 @@ refl_status refl_cluster_finalize_rows(struct refl_cluster_stats *out_stats,
                                        const struct refl_cluster_plan_entry *cluster,
                                        const struct refl_cluster_render *render,
                                        struct refl_row_range rows);
+#endif
 
+#if (defined(REFL_FEATURE_LAYERED) && (defined(REFL_FEATURE_DEPTH_IMAGE) || defined(REFL_FEATURE_HIZ)))
 /**
  * The pass's defaults: the kernel's (`refl_layered_options_default`),
  * no start offset (start_pixels 0, t_min 0), t_max +infinity, roughness
  * up to 0.1, payloads that are not colors.
  */
 struct refl_layered_pass_options refl_layered_pass_options_default(void);
+#endif
 
+#if (defined(REFL_FEATURE_LAYERED) && (defined(REFL_FEATURE_DEPTH_IMAGE) || defined(REFL_FEATURE_HIZ)))
 /**
  * Size query: the number of `refl_layered_bound` records of scratch the
  * pass needs for this input (one per map) into `*out_len`.
@@ -6002,7 +6514,9 @@ struct refl_layered_pass_options refl_layered_pass_options_default(void);
 refl_status refl_layered_pass_scratch_len(size_t *out_len,
                                           const struct refl_layered_pass_input *input,
                                           const struct refl_layered_pass_options *options);
+#endif
 
+#if (defined(REFL_FEATURE_LAYERED) && (defined(REFL_FEATURE_DEPTH_IMAGE) || defined(REFL_FEATURE_HIZ)))
 /**
  * Prepares a frame: validates the options, the G-buffer, every map
  * (buffers, grid, the stamp `refl_layered_clear` left) and the ids, and
@@ -6034,7 +6548,9 @@ refl_status refl_layered_pass_prepare(struct refl_layered_bound *scratch,
                                       size_t scratch_len,
                                       const struct refl_layered_pass_input *input,
                                       const struct refl_layered_pass_options *options);
+#endif
 
+#if (defined(REFL_FEATURE_LAYERED) && (defined(REFL_FEATURE_DEPTH_IMAGE) || defined(REFL_FEATURE_HIZ)))
 /**
  * Runs the pass over the rows `rows` of the G-buffer: for each pixel of
  * those rows writes its `refl_layered_pass_texel` to `out[y * width + x]`
@@ -6085,7 +6601,9 @@ refl_status refl_layered_trace_rows(struct refl_layered_pass_stats *out_stats,
                                     const struct refl_layered_bound *scratch,
                                     size_t scratch_len,
                                     struct refl_row_range rows);
+#endif
 
+#if (defined(REFL_FEATURE_LAYERED) && (defined(REFL_FEATURE_DEPTH_IMAGE) || defined(REFL_FEATURE_HIZ)))
 /**
  * Traces the host's own rays `rays[k]` (e.g. the host rays of
  * `refl_ssr_trace_rows`; their `status` is not read) against the maps as
@@ -6128,6 +6646,7 @@ refl_status refl_layered_trace_host_rays(struct refl_layered_pass_stats *out_sta
                                          size_t scratch_len,
                                          const struct refl_host_ray *rays,
                                          size_t rays_len);
+#endif
 
 #ifdef __cplusplus
 }  // extern "C"

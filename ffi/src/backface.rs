@@ -3,6 +3,7 @@
 //! cube maps, in the front depth's camera and convention, per row band.
 
 use crate::image::{refl_image_f32, refl_image_f32_mut, refl_row_range};
+#[cfg(feature = "layered")]
 use crate::layered::refl_layered_map;
 use crate::ptr::{byte_len, overlaps, read, Out};
 use crate::status::{fail, guard, refl_status};
@@ -173,6 +174,7 @@ pub unsafe extern "C" fn refl_trace_back_depth_rows(
 /// # Safety
 /// As `refl_trace_back_depth_rows`, and `map` NULL or readable with
 /// readable buffers.
+#[cfg(feature = "layered")]
 #[no_mangle]
 pub unsafe extern "C" fn refl_trace_back_depth_layered_rows(
     out_stats: *mut refl_trace_back_depth_stats,
@@ -223,6 +225,8 @@ pub unsafe extern "C" fn refl_trace_back_depth_layered_rows(
 /// How many texels of a layered map (along the ray's dominant axis)
 /// before the object's surface a G-buffer front point may lie and still
 /// count as on the object (`refl_trace_back_depth_layered_rows`).
+#[cfg(feature = "layered")]
 pub const REFL_LAYERED_EXIT_ENTRY_TEXELS: f32 = 2.0;
 // The header's constant is refl-core's.
+#[cfg(feature = "layered")]
 const _: () = assert!(REFL_LAYERED_EXIT_ENTRY_TEXELS == refl_core::EXIT_ENTRY_TEXELS);

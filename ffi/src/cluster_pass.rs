@@ -14,9 +14,9 @@
 //! pixels). Entries without a camera are finalized without a render: their
 //! pixels go to the host list.
 
+use crate::gbuffer::{gbuffer, gbuffer_ranges, put_host_ray, refl_gbuffer, refl_host_ray};
 use crate::image::{refl_image_f32, refl_image_u32, refl_image_vec3, refl_row_range};
 use crate::ptr::{byte_len, check_buffer, disjoint, read, Out};
-use crate::ssr::{gbuffer, gbuffer_ranges, put_host_ray, refl_gbuffer, refl_host_ray};
 use crate::status::{fail, guard, refl_status};
 use crate::trace::{depth_image, refl_depth_image, refl_step_options};
 use crate::types::{

@@ -9,6 +9,7 @@
 
 use crate::ptr::{byte_len, overlaps, read, Out};
 use crate::status::{guard, refl_status};
+#[cfg(feature = "tcrr")]
 use crate::tcrr::refl_tcrr_surfel;
 use crate::types::{convention, refl_camera, refl_rgba8, refl_vec2, refl_vec3, refl_vec4};
 use refl_core::image::try_required_len;
@@ -242,6 +243,7 @@ pub struct refl_image_u8_mut {
 /// A read-only image of `refl_tcrr_surfel` texels.
 #[repr(C)]
 #[derive(Clone, Copy, Debug)]
+#[cfg(feature = "tcrr")]
 pub struct refl_image_tcrr_surfel {
     /// Texel (0, 0); texel (x, y) is `data[y * stride + x]`.
     pub data: *const refl_tcrr_surfel,
@@ -258,6 +260,7 @@ pub struct refl_image_tcrr_surfel {
 /// A writable image of `refl_tcrr_surfel` texels.
 #[repr(C)]
 #[derive(Clone, Copy, Debug)]
+#[cfg(feature = "tcrr")]
 pub struct refl_image_tcrr_surfel_mut {
     /// Texel (0, 0); texel (x, y) is `data[y * stride + x]`.
     pub data: *mut refl_tcrr_surfel,
@@ -376,12 +379,13 @@ image_views!(
     (refl_image_rgba8, refl_image_rgba8_mut, [u8; 4]),
     (refl_image_u32, refl_image_u32_mut, u32),
     (refl_image_u8, refl_image_u8_mut, u8),
-    (
-        refl_image_tcrr_surfel,
-        refl_image_tcrr_surfel_mut,
-        refl_core::tcrr::Surfel
-    ),
 );
+#[cfg(feature = "tcrr")]
+image_views!((
+    refl_image_tcrr_surfel,
+    refl_image_tcrr_surfel_mut,
+    refl_core::tcrr::Surfel
+),);
 
 /// A half-open range of image rows `[begin, end)`.
 #[repr(C)]

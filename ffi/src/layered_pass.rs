@@ -13,12 +13,12 @@
 //! row band, from any number of threads (or `refl_layered_trace_host_rays`
 //! on a list of rays). The G-buffer is the mirror pass's `refl_gbuffer`.
 
+use crate::gbuffer::{gbuffer, gbuffer_ranges, put_host_ray, refl_gbuffer, refl_host_ray};
 use crate::image::{refl_image_u32, refl_image_vec3_mut, refl_row_range};
 use crate::layered::{refl_layered_map, refl_layered_options};
 use crate::ptr::{
     byte_len, check_buffer, overlaps, range, read, slice_mut_or_empty, slice_or_empty, Out,
 };
-use crate::ssr::{gbuffer, gbuffer_ranges, put_host_ray, refl_gbuffer, refl_host_ray};
 use crate::status::{fail, guard, refl_status};
 use crate::types::{refl_vec2, refl_vec3};
 use refl_core::layered::LayeredMap;

@@ -43,45 +43,80 @@
 #![deny(missing_docs)]
 #![deny(unsafe_op_in_unsafe_fn)]
 #![warn(clippy::undocumented_unsafe_blocks)]
+// A library built with fewer families (`--no-default-features --features
+// hiz`, ...) leaves some shared checking helpers unused.
+#![cfg_attr(not(feature = "all"), allow(dead_code, unused_imports))]
 
 mod camera;
+#[cfg(feature = "cluster")]
 mod cluster;
+#[cfg(feature = "cone")]
 mod cone;
+#[cfg(feature = "epipolar")]
 mod epipolar;
+#[cfg(any(feature = "depth-image", feature = "hiz", feature = "mirror"))]
+mod gbuffer;
+#[cfg(feature = "cone")]
 mod glossy;
+#[cfg(feature = "hiz")]
 mod hiz;
 mod image;
+#[cfg(feature = "layered")]
 mod layered;
+#[cfg(feature = "mirror")]
 mod mirror;
 mod ptr;
+#[cfg(any(feature = "depth-image", feature = "hiz"))]
 mod ssr;
 mod status;
+#[cfg(feature = "tcrr")]
 mod tcrr;
+#[cfg(any(feature = "depth-image", feature = "hiz", feature = "mirror"))]
 mod trace;
 mod types;
 // The passes of issue 13 added after the rest (keeps the header's order).
+#[cfg(any(feature = "depth-image", feature = "hiz"))]
 mod backface;
+#[cfg(feature = "mirror")]
 mod planar;
 // The cluster pass (issue 13, seed 003).
+#[cfg(feature = "cluster")]
 mod cluster_pass;
 // The layered-maps pass (issue 13).
+#[cfg(all(feature = "layered", any(feature = "depth-image", feature = "hiz")))]
 mod layered_pass;
 
+#[cfg(any(feature = "depth-image", feature = "hiz"))]
 pub use backface::*;
 pub use camera::*;
+#[cfg(feature = "cluster")]
 pub use cluster::*;
+#[cfg(feature = "cluster")]
 pub use cluster_pass::*;
+#[cfg(feature = "cone")]
 pub use cone::*;
+#[cfg(feature = "epipolar")]
 pub use epipolar::*;
+#[cfg(any(feature = "depth-image", feature = "hiz", feature = "mirror"))]
+pub use gbuffer::*;
+#[cfg(feature = "cone")]
 pub use glossy::*;
+#[cfg(feature = "hiz")]
 pub use hiz::*;
 pub use image::*;
+#[cfg(feature = "layered")]
 pub use layered::*;
+#[cfg(all(feature = "layered", any(feature = "depth-image", feature = "hiz")))]
 pub use layered_pass::*;
+#[cfg(feature = "mirror")]
 pub use mirror::*;
+#[cfg(feature = "mirror")]
 pub use planar::*;
+#[cfg(any(feature = "depth-image", feature = "hiz"))]
 pub use ssr::*;
 pub use status::*;
+#[cfg(feature = "tcrr")]
 pub use tcrr::*;
+#[cfg(any(feature = "depth-image", feature = "hiz", feature = "mirror"))]
 pub use trace::*;
 pub use types::*;

@@ -10,11 +10,11 @@
 //! any number of threads. `refl_planar_cover_rows` writes the coverage
 //! alone (a stencil for compositing, or the scissor computed over bands).
 
+use crate::gbuffer::{gbuffer, gbuffer_ranges, put_host_ray, refl_gbuffer, refl_host_ray};
 use crate::image::{
     refl_image_f32, refl_image_u32, refl_image_vec3, refl_image_vec3_mut, refl_row_range,
 };
 use crate::ptr::{byte_len, check_buffer, disjoint, read, Out};
-use crate::ssr::{gbuffer, gbuffer_ranges, put_host_ray, refl_gbuffer, refl_host_ray};
 use crate::status::{fail, guard, refl_status};
 use crate::types::{refl_camera, refl_mat4, refl_plane, refl_vec2, refl_vec4};
 use refl_core::{

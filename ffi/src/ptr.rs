@@ -233,6 +233,7 @@ pub(crate) fn no_overlap(
 
 /// A band of pyramid rows to write, the finer level to read (none for level
 /// 0) and the band's rows: what [`pyramid_band`] returns.
+#[cfg(feature = "hiz")]
 pub(crate) type PyramidBand<'a, T> = (&'a mut [T], Option<&'a [T]>, refl_core::RowRange);
 
 /// The rows `rows` of level `level` of a pyramid laid out as
@@ -250,6 +251,7 @@ pub(crate) type PyramidBand<'a, T> = (&'a mut [T], Option<&'a [T]>, refl_core::R
 /// # Safety
 /// `dst` writable for `dst_len` texels; during `'a` no other thread
 /// touches the returned rows and none writes the finer level.
+#[cfg(feature = "hiz")]
 pub(crate) unsafe fn pyramid_band<'a, T>(
     dst: *mut T,
     dst_len: usize,

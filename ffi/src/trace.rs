@@ -10,7 +10,9 @@ use crate::image::refl_image_f32;
 use crate::ptr::{byte_len, no_overlap, range, read, slice, slice_mut, Out};
 use crate::status::{guard, refl_status};
 use crate::types::{convention, refl_camera, refl_ray, refl_vec2};
-use refl_core::{DepthImage, Error, Miss, Ray, StepOptions, Thickness, Trace};
+#[cfg(feature = "depth-image")]
+use refl_core::StepOptions;
+use refl_core::{DepthImage, Error, Miss, Ray, Thickness, Trace};
 
 /// A depth image with the camera that rendered it and its convention.
 #[repr(C)]
@@ -130,6 +132,7 @@ impl From<Trace> for refl_trace_result {
 /// `max_steps = UINT32_MAX`).
 #[repr(C)]
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[cfg(feature = "depth-image")]
 pub struct refl_step_options {
     /// Texels per coarse step, >= 1. 1 tests every texel the ray's
     /// projection touches; larger strides sample every `stride`-th texel and
@@ -144,10 +147,12 @@ pub struct refl_step_options {
 /// The stepping defaults: `stride = 1`, `max_steps = UINT32_MAX` (the walk
 /// is still bounded by the `width + height` texels a segment can touch).
 #[no_mangle]
+#[cfg(feature = "depth-image")]
 pub extern "C" fn refl_step_options_default() -> refl_step_options {
     StepOptions::default().into()
 }
 
+#[cfg(feature = "depth-image")]
 impl From<StepOptions> for refl_step_options {
     fn from(o: StepOptions) -> Self {
         Self {
@@ -157,6 +162,7 @@ impl From<StepOptions> for refl_step_options {
     }
 }
 
+#[cfg(feature = "depth-image")]
 impl From<refl_step_options> for StepOptions {
     fn from(o: refl_step_options) -> Self {
         Self {
@@ -207,6 +213,7 @@ pub(crate) fn depth_ranges(
     ]
 }
 
+#[cfg(feature = "depth-image")]
 /// Reads the three by-pointer inputs shared by the stepping exports; also
 /// returns the byte ranges the image and thickness read.
 ///
@@ -268,6 +275,7 @@ unsafe fn step_inputs<'a>(
 /// or readable; the images' `data` readable for `len` floats and not
 /// written during the call.
 #[no_mangle]
+#[cfg(feature = "depth-image")]
 pub unsafe extern "C" fn refl_step_ray(
     out: *mut refl_trace_result,
     image: *const refl_depth_image,
@@ -317,6 +325,7 @@ pub unsafe extern "C" fn refl_step_ray(
 /// floats; the rest as `refl_step_ray`.
 #[no_mangle]
 #[allow(clippy::too_many_arguments)]
+#[cfg(feature = "depth-image")]
 pub unsafe extern "C" fn refl_step_rays(
     out: *mut refl_trace_result,
     out_len: usize,
@@ -353,6 +362,7 @@ pub unsafe extern "C" fn refl_step_rays(
 /// # Safety
 /// As `refl_step_rays`; the pointers are non-NULL.
 #[allow(clippy::type_complexity)]
+#[cfg(any(feature = "depth-image", feature = "hiz"))]
 pub(crate) unsafe fn batch_arrays<'a>(
     out: *mut refl_trace_result,
     out_len: usize,

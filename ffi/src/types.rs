@@ -268,6 +268,7 @@ pub(crate) fn camera_named(c: &refl_camera, name: &str) -> Result<Camera, Error>
     })
 }
 
+#[cfg(feature = "mirror")]
 impl From<&refl_core::Plane> for refl_plane {
     fn from(p: &refl_core::Plane) -> Self {
         Self {
@@ -277,6 +278,7 @@ impl From<&refl_core::Plane> for refl_plane {
     }
 }
 
+#[cfg(feature = "mirror")]
 impl TryFrom<&refl_plane> for refl_core::Plane {
     type Error = Error;
     /// Rebuilds a core plane with `Plane::try_new`: a unit normal and its
@@ -330,6 +332,7 @@ const _: () = {
 /// `refl_cluster_options_default`.
 #[repr(C)]
 #[derive(Clone, Copy, Debug, PartialEq)]
+#[cfg(feature = "cluster")]
 pub struct refl_cluster_options {
     /// Azimuth bins of an object covering the whole frame alone (seed: 13),
     /// 1..=1024.
@@ -342,6 +345,7 @@ pub struct refl_cluster_options {
     pub gain: f32,
 }
 
+#[cfg(feature = "cluster")]
 impl From<refl_core::cluster::ClusterOptions> for refl_cluster_options {
     fn from(p: refl_core::cluster::ClusterOptions) -> Self {
         Self {
@@ -352,6 +356,7 @@ impl From<refl_core::cluster::ClusterOptions> for refl_cluster_options {
     }
 }
 
+#[cfg(feature = "cluster")]
 impl From<refl_cluster_options> for refl_core::cluster::ClusterOptions {
     fn from(p: refl_cluster_options) -> Self {
         Self {
@@ -365,6 +370,7 @@ impl From<refl_cluster_options> for refl_core::cluster::ClusterOptions {
 /// The bins of one reflective object in the current frame.
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+#[cfg(feature = "cluster")]
 pub struct refl_cluster_object_bins {
     /// Azimuth bins (0 if the object is not visible).
     pub theta_bins: u32,
@@ -374,6 +380,7 @@ pub struct refl_cluster_object_bins {
     pub first: u32,
 }
 
+#[cfg(feature = "cluster")]
 impl From<refl_core::cluster::ObjectBins> for refl_cluster_object_bins {
     fn from(b: refl_core::cluster::ObjectBins) -> Self {
         Self {
@@ -384,6 +391,7 @@ impl From<refl_core::cluster::ObjectBins> for refl_cluster_object_bins {
     }
 }
 
+#[cfg(feature = "cluster")]
 impl From<refl_cluster_object_bins> for refl_core::cluster::ObjectBins {
     fn from(b: refl_cluster_object_bins) -> Self {
         Self {
@@ -398,6 +406,7 @@ impl From<refl_cluster_object_bins> for refl_core::cluster::ObjectBins {
 /// `refl_cluster_camera_options_default`.
 #[repr(C)]
 #[derive(Clone, Copy, Debug, PartialEq)]
+#[cfg(feature = "cluster")]
 pub struct refl_cluster_camera_options {
     /// D: distance from the image plane to the far plane (the scene
     /// diameter for mirrors, nearer for glossy clusters), finite and > 0.
@@ -416,6 +425,7 @@ pub struct refl_cluster_camera_options {
     pub max_f: f32,
 }
 
+#[cfg(feature = "cluster")]
 impl From<refl_core::cluster::ClusterCameraOptions> for refl_cluster_camera_options {
     fn from(p: refl_core::cluster::ClusterCameraOptions) -> Self {
         Self {
@@ -429,6 +439,7 @@ impl From<refl_core::cluster::ClusterCameraOptions> for refl_cluster_camera_opti
     }
 }
 
+#[cfg(feature = "cluster")]
 impl From<refl_cluster_camera_options> for refl_core::cluster::ClusterCameraOptions {
     fn from(p: refl_cluster_camera_options) -> Self {
         Self {
@@ -446,6 +457,7 @@ impl From<refl_cluster_camera_options> for refl_core::cluster::ClusterCameraOpti
 /// `REFL_CLUSTER_FALLBACK_NONE` when it has one.
 #[repr(u32)]
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+#[cfg(feature = "cluster")]
 pub enum refl_cluster_fallback {
     /// The cluster has a camera.
     None = 0,
@@ -463,6 +475,7 @@ pub enum refl_cluster_fallback {
     Degenerate = 5,
 }
 
+#[cfg(feature = "cluster")]
 impl From<refl_core::cluster::ClusterFallback> for refl_cluster_fallback {
     fn from(f: refl_core::cluster::ClusterFallback) -> Self {
         use refl_core::cluster::ClusterFallback as F;
@@ -476,6 +489,7 @@ impl From<refl_core::cluster::ClusterFallback> for refl_cluster_fallback {
     }
 }
 
+#[cfg(feature = "cluster")]
 impl refl_cluster_fallback {
     /// The reason of a `refl_cluster_camera.fallback` value: `None` for
     /// `REFL_CLUSTER_FALLBACK_NONE` or an unknown value.
@@ -495,6 +509,7 @@ impl refl_cluster_fallback {
 /// A cluster camera (seed 003 Sec. 3.3), or a fallback reason.
 #[repr(C)]
 #[derive(Clone, Copy, Debug, PartialEq)]
+#[cfg(feature = "cluster")]
 pub struct refl_cluster_camera {
     /// `REFL_CLUSTER_FALLBACK_NONE` (0) if the fields below describe a
     /// camera, else the `refl_cluster_fallback` reason (other fields 0).
@@ -523,6 +538,7 @@ pub struct refl_cluster_camera {
     pub pixels_used: u32,
 }
 
+#[cfg(feature = "cluster")]
 impl refl_cluster_camera {
     /// A camera result, or a fallback with zeroed fields.
     pub fn from_view(v: &refl_core::cluster::ClusterView) -> Self {
@@ -568,6 +584,7 @@ impl refl_cluster_camera {
     }
 }
 
+#[cfg(feature = "cluster")]
 impl TryFrom<&refl_cluster_camera> for refl_core::cluster::ClusterCamera {
     type Error = Error;
     /// `InvalidArgument` for a fallback record or a non-unit clip normal;
@@ -604,6 +621,7 @@ impl TryFrom<&refl_cluster_camera> for refl_core::cluster::ClusterCamera {
 /// truncated Phong lobe.
 #[repr(C)]
 #[derive(Clone, Copy, Debug, PartialEq)]
+#[cfg(feature = "cluster")]
 pub struct refl_cluster_lobe {
     /// Rays per pixel: 1 = the mirror ray only; 2..=64 sample the lobe.
     pub rays: u32,
@@ -615,6 +633,7 @@ pub struct refl_cluster_lobe {
     pub max_angle: f32,
 }
 
+#[cfg(feature = "cluster")]
 impl From<refl_core::cluster::Lobe> for refl_cluster_lobe {
     fn from(l: refl_core::cluster::Lobe) -> Self {
         Self {
@@ -626,6 +645,7 @@ impl From<refl_core::cluster::Lobe> for refl_cluster_lobe {
 }
 
 // `refl_cluster_objects.lobes` is read in place as refl-core's lobes.
+#[cfg(feature = "cluster")]
 const _: () = {
     use core::mem::{align_of, offset_of, size_of};
     use refl_core::cluster::Lobe;
@@ -636,6 +656,7 @@ const _: () = {
     assert!(offset_of!(refl_cluster_lobe, max_angle) == offset_of!(Lobe, max_angle));
 };
 
+#[cfg(feature = "cluster")]
 impl From<refl_cluster_lobe> for refl_core::cluster::Lobe {
     fn from(l: refl_cluster_lobe) -> Self {
         Self {
@@ -649,6 +670,7 @@ impl From<refl_cluster_lobe> for refl_core::cluster::Lobe {
 /// The reflection of one cluster pixel (`refl_cluster_finalize`).
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
+#[cfg(feature = "cluster")]
 pub struct refl_cluster_shade {
     /// Sum of hit colors times their weights over the traced rays; the
     /// reflection is rgb + env_weight * env(env_dir) + (1 - hit_weight -
@@ -673,12 +695,14 @@ pub struct refl_cluster_shade {
     pub steps: u32,
 }
 
+#[cfg(feature = "cluster")]
 impl From<refl_core::cluster::ClusterShade> for refl_cluster_shade {
     fn from(s: refl_core::cluster::ClusterShade) -> Self {
         (&s).into()
     }
 }
 
+#[cfg(feature = "cluster")]
 impl From<&refl_core::cluster::ClusterShade> for refl_cluster_shade {
     fn from(s: &refl_core::cluster::ClusterShade) -> Self {
         Self {
@@ -700,6 +724,7 @@ impl From<&refl_core::cluster::ClusterShade> for refl_cluster_shade {
 /// between.
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
+#[cfg(feature = "cone")]
 pub struct refl_cone_fade_range {
     /// Whether this fade applies.
     pub enabled: bool,
@@ -713,6 +738,7 @@ pub struct refl_cone_fade_range {
 /// whose `enabled` is false is left out.
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
+#[cfg(feature = "cone")]
 pub struct refl_cone_fades {
     /// Over `dot(reflected, toward_eye)` in [-1, 1].
     pub toward_camera: refl_cone_fade_range,
@@ -728,6 +754,7 @@ pub struct refl_cone_fades {
 /// isotropic, 1% depth tolerance.
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
+#[cfg(feature = "cone")]
 pub struct refl_cone_options {
     /// Most circles (clamped to 64).
     pub max_circles: u32,
@@ -750,6 +777,7 @@ pub struct refl_cone_options {
 /// Hi-Z hit (`refl_core::cone::Cone`).
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
+#[cfg(feature = "cone")]
 pub struct refl_cone {
     /// Apex: the reflection ray's start projected, level-0 pixels.
     pub apex: refl_vec2,
@@ -773,6 +801,7 @@ pub struct refl_cone {
 /// What `refl_cone_trace` returns.
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
+#[cfg(feature = "cone")]
 pub struct refl_cone_result {
     /// The integrated color, the uncovered rest blended with the fallback.
     pub color: refl_vec3,
@@ -788,6 +817,7 @@ pub struct refl_cone_result {
 /// `refl_cone_multiray_options_default` gives the defaults.
 #[repr(C)]
 #[derive(Clone, Copy, Debug, PartialEq)]
+#[cfg(feature = "cone")]
 pub struct refl_cone_multiray_options {
     /// Rays per pixel, > 0 (seed 003 Sec. 3.5 uses 8 to 49).
     pub rays: u32,
@@ -801,6 +831,7 @@ pub struct refl_cone_multiray_options {
 /// What `refl_cone_multiray` returns.
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
+#[cfg(feature = "cone")]
 pub struct refl_cone_multiray_result {
     /// The Phong-weighted mean color.
     pub color: refl_vec3,
