@@ -7,7 +7,8 @@
 # Steps: set-up, fmt, clippy (-D warnings), rustdoc (-D warnings), cargo test (workspace; includes
 # the header-staleness test), no_std link check, refl-core built with each
 # feature alone, C++ tests against Embree 3 (normal and ASan+UBSan builds,
-# including the obvhs-vs-Embree cross-check), `refl report --quick` and a
+# including the obvhs-vs-Embree cross-check), `refl report --quick`, the
+# install step with its CMake and pkg-config consumers (scripts/install_test.sh) and a
 # one-minute smoke run of the C ABI fuzz targets (scripts/fuzz.sh smoke).
 # Property tests run from a fixed seed (core/tests/common); random
 # exploration is scripts/explore.sh, outside this command.
@@ -22,6 +23,7 @@ need_pkgs=()
 command -v cmake >/dev/null 2>&1 || need_pkgs+=(cmake)
 [ -e /usr/include/embree3/rtcore.h ] || need_pkgs+=(libembree-dev)
 command -v c++ >/dev/null 2>&1 || need_pkgs+=(g++)
+command -v pkg-config >/dev/null 2>&1 || need_pkgs+=(pkg-config)
 if [ ${#need_pkgs[@]} -gt 0 ]; then
   if [ "$(id -u)" = 0 ] && command -v apt-get >/dev/null 2>&1; then
     echo "installing ${need_pkgs[*]} with apt-get"
@@ -62,12 +64,16 @@ CARGO_TARGET_DIR="$root/target/no_std_check" cargo build --locked \
   --manifest-path no_std_check/Cargo.toml --target "$nostd_target"
 cargo build --locked -p refl-core --no-default-features --features all --target "$nostd_target"
 
-step "refl-core with each feature alone (build and rustdoc)"
+step "refl-core and refl-ffi with each feature alone (build and rustdoc)"
 for f in "" mirror hiz cone depth-image layered cluster tcrr epipolar; do
   echo "-- features: ${f:-<none>}"
   cargo build --locked -q -p refl-core --no-default-features ${f:+--features "$f"}
   # Intra-doc links must resolve under the features that compile the item.
   RUSTDOCFLAGS="-D warnings" cargo doc --locked -q -p refl-core --no-deps --no-default-features ${f:+--features "$f"}
+  # The C library with the same family alone (refl_config.h and the
+  # header's REFL_FEATURE_* guards follow it; scripts/install_test.sh links one).
+  RUSTFLAGS="-D warnings" cargo build --locked -q -p refl-ffi --no-default-features ${f:+--features "$f"} \
+    --target-dir "$root/target/ffi-features"
 done
 
 step "refl report --quick"
@@ -94,6 +100,9 @@ xdir="$root/target/crosscheck"
 rm -rf "$xdir"
 "$root/target/release/refl" export-crosscheck "$xdir"
 bash scripts/cpp_tests.sh "$xdir"
+
+step "install: CMake package, pkg-config, a one-family library (scripts/install_test.sh)"
+bash scripts/install_test.sh
 
 step "fuzz smoke: every C ABI fuzz target a few seconds from its checked-in corpus"
 # Strict for the findings fixed in refl (F2, F4, F5, F6, F7); fuzz/README.md
