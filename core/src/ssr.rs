@@ -12,6 +12,7 @@
 //!
 //! # Example
 //! ```rust
+//! # #[cfg(feature = "depth-image")] {
 //! use core::f32::consts::FRAC_PI_2;
 //! use refl_core::glam::{Vec2, Vec3};
 //! use refl_core::{Camera, DepthConvention, DepthImage, GBuffer, ImageView, ImageViewMut};
@@ -30,8 +31,12 @@
 //! let depth = DepthImage::try_new(ImageView::try_new(&depth, 16, 16, 16)?, cam, DepthConvention::Linear)?;
 //! let gbuffer = GBuffer::try_new(depth, ImageView::try_new(&normals, 16, 16, 16)?, NormalSpace::World)?;
 //!
-//! // Stepping (the default method) needs no Hi-Z pyramid.
+//! // Stepping (the default method) needs no Hi-Z pyramid: `None` (without the
+//! // `hiz` feature, `try_new` takes no pyramid argument).
+//! # #[cfg(feature = "hiz")]
 //! let pass = MirrorPass::try_new(gbuffer, MirrorOptions::default(), None)?;
+//! # #[cfg(not(feature = "hiz"))]
+//! # let pass = MirrorPass::try_new(gbuffer, MirrorOptions::default())?;
 //! let mut texels = vec![MirrorTexel::default(); 256];
 //! let stats = pass.try_run(&mut ImageViewMut::try_new(&mut texels, 16, 16, 16)?, None, &mut [])?;
 //! assert_eq!(stats.traced, 256);
@@ -45,6 +50,7 @@
 //! assert!((floor.t - (q - p).length()).abs() < 1e-3);
 //! // The wall reflects toward the camera, out of the screen: the host traces those.
 //! assert!(texels[2 * 16 + 8].status.needs_host());
+//! # }
 //! # Ok::<(), refl_core::Error>(())
 //! ```
 //!

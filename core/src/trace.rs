@@ -17,7 +17,10 @@
 //!   each with the [`Work`] spent, never a sentinel NaN.
 //!
 //! # Example
+//! A hit of the stepping kernel (`step`, feature `depth-image`) refined to
+//! sub-texel precision.
 //! ```rust
+//! # #[cfg(feature = "depth-image")] {
 //! use core::f32::consts::FRAC_PI_2;
 //! use refl_core::glam::{Vec2, Vec3};
 //! use refl_core::step::{try_step, StepOptions};
@@ -47,6 +50,7 @@
 //! assert!((fine.pixel - Vec2::new(5.2, 7.7)).length() < 1e-2);
 //! assert!((fine.t - (q - origin).length()).abs() < 1e-3);
 //! assert!(fine.work.fetches > hit.work.fetches);
+//! # }
 //! # Ok::<(), refl_core::Error>(())
 //! ```
 
