@@ -93,8 +93,12 @@
 //! let mut view = ImageViewMut::try_new(&mut out, 16, 16, 16)?;
 //! let done = pass.try_finalize(&mut view, &mut [], &entry, &order, Some(&render))?;
 //! assert_eq!((done.pixels, done.hits), (96, 96));
+//! // Pixel (8, 13) reflects the floor point P toward the wall point Q at height 1.75
+//! // (the `ssr` example's pixel).
+//! let (p, q) = (Vec3::new(1.0 / 11.0, 0.0, -16.0 / 11.0), Vec3::new(0.25, 1.75, -4.0));
 //! let shade = out[13 * 16 + 8].shade;
 //! assert_eq!((out[13 * 16 + 8].status, shade.hit_weight), (MirrorStatus::Hit, 1.0));
+//! assert!((shade.mirror_dir - (q - p).normalize()).length() < 1e-4);
 //! assert!((shade.rgb - Vec3::new(0.2, 0.4, 0.6)).length() < 1e-5);
 //! # Ok::<(), refl_core::Error>(())
 //! ```
