@@ -18,6 +18,28 @@
 //!   (`crate::layered::LayeredMap::exit`), for hosts that build maps but have no second
 //!   pass, or to refine one.
 //!
+//! # Example
+//! ```rust
+//! use refl_core::glam::Vec3;
+//! use refl_core::{try_back_depth, BackDepthStats, Camera, DepthConvention, DepthImage};
+//! use refl_core::{ImageView, ImageViewMut};
+//!
+//! let cam = Camera::try_look_at(Vec3::ZERO, Vec3::NEG_Z, Vec3::Y, 1.0, 1.0, 101.0, 2, 2)?;
+//! let d = |z: f32| cam.encode_depth(z, DepthConvention::ZeroToOne);
+//! // Front surfaces at depth 2, except the sky texel (the cleared value 1).
+//! let front = [d(2.0), d(2.0), d(2.0), 1.0];
+//! // The back-face pass: behind the front, in front of it (noise), cleared, under the sky.
+//! let back = [d(3.0), d(1.5), 1.0, 0.7];
+//! let front = DepthImage::try_new(ImageView::try_new(&front, 2, 2, 2)?, cam, DepthConvention::ZeroToOne)?;
+//! let back = ImageView::try_new(&back, 2, 2, 2)?;
+//! let mut out = [0.0f32; 4];
+//! let stats = try_back_depth(&mut ImageViewMut::try_new(&mut out, 2, 2, 2)?, &front, &back)?;
+//! // Kept, clamped to the front, kept (solid to the far plane), kept (no surface).
+//! assert_eq!(out, [d(3.0), d(2.0), 1.0, 0.7]);
+//! assert_eq!(stats, BackDepthStats { surfaces: 3, clamped: 1, cleared: 1, exits: 0 });
+//! # Ok::<(), refl_core::Error>(())
+//! ```
+//!
 //! # The cleared-value rule (as [`crate::Thickness::BackFaces`] reads it)
 //! A back texel behind its front texel is kept as stored, bit for bit, the
 //! cleared value included (`1` for `[0, 1]` depth, `0` for reversed-Z,

@@ -1,6 +1,34 @@
 //! Pinhole cameras, the three depth conventions, projection and
 //! reprojection.
 //!
+//! # Example
+//! ```rust
+//! use core::f32::consts::FRAC_PI_2;
+//! use refl_core::camera::{apply_reprojection, reproject, try_reprojection_matrix};
+//! use refl_core::glam::{Vec2, Vec3};
+//! use refl_core::{Camera, DepthConvention};
+//!
+//! // At the origin looking down -Z, 90 degrees vertical field of view, 16 x 16.
+//! let cam = Camera::try_look_at(Vec3::ZERO, Vec3::NEG_Z, Vec3::Y, FRAC_PI_2, 0.5, 50.0, 16, 16)?;
+//! // (1, 2, -4) has NDC (1/4, 2/4): pixel ((1 + 1/4) 8, (1 - 2/4) 8), depth 4.
+//! let p = Vec3::new(1.0, 2.0, -4.0);
+//! assert!((cam.project(p).unwrap() - Vec3::new(10.0, 4.0, 4.0)).length() < 1e-5);
+//! // Reversed-Z stores n (f - z) / (z (f - n)); unproject inverts it.
+//! let d = cam.encode_depth(4.0, DepthConvention::ReversedZ);
+//! assert!((d - 0.5 * 46.0 / (4.0 * 49.5)).abs() < 1e-7);
+//! let pixel = Vec2::new(10.0, 4.0);
+//! assert!((cam.unproject(pixel, d, DepthConvention::ReversedZ) - p).length() < 1e-5);
+//!
+//! // The eye moves one unit right: the point is now straight ahead.
+//! let moved = Camera::try_look_at(Vec3::X, Vec3::X - Vec3::Z, Vec3::Y, FRAC_PI_2, 0.5, 50.0, 16, 16)?;
+//! let q = reproject(&cam, &moved, pixel, d, DepthConvention::ReversedZ).unwrap();
+//! assert!((q - Vec3::new(8.0, 4.0, 4.0)).length() < 1e-4);
+//! let m = try_reprojection_matrix(&cam, &moved, DepthConvention::ReversedZ)?;
+//! let e = apply_reprojection(&m, pixel, d).unwrap();
+//! assert!((e - Vec3::new(8.0, 4.0, d)).length() < 1e-4);
+//! # Ok::<(), refl_core::Error>(())
+//! ```
+//!
 //! Conventions (design.md): right-handed world, view space looks down -Z,
 //! linear depth `z` is the positive distance along -Z. Pixel `(x, y)` has its
 //! center at `(x + 0.5, y + 0.5)`, origin top-left, y down. Normalized device

@@ -9,6 +9,43 @@
 //! and clip plane to render, and turns the rendered depth and color into the
 //! reflection of the cluster's pixels. Every buffer belongs to the caller.
 //!
+//! # Example
+//! ```rust
+//! use refl_core::cluster::{try_assign_clusters, try_bin_layout, try_cluster_camera};
+//! use refl_core::cluster::{try_cluster_ranges, try_count_objects, ClusterCameraOptions};
+//! use refl_core::cluster::{ClusterInput, ClusterOptions, ClusterView, ObjectBins};
+//! use refl_core::glam::Vec3;
+//! use refl_core::{ImageView, ImageViewMut, RowRange};
+//!
+//! // 4 x 4 pixels of one reflective object, the floor y = 0, seen from (0, 2, 5).
+//! let positions: Vec<[f32; 3]> = (0..16).map(|i| [(i % 4) as f32 - 1.5, 0.0, (i / 4) as f32 - 1.5]).collect();
+//! let (normals, objects) = ([[0.0f32, 1.0, 0.0]; 16], [0u32; 16]);
+//! let (normals, objects) = (ImageView::try_new(&normals, 4, 4, 4)?, ImageView::try_new(&objects, 4, 4, 4)?);
+//!
+//! // Steps 1 and 2: alone on the whole frame, the object gets all 13 x 8 bins.
+//! let mut counts = [0u32];
+//! try_count_objects(&mut counts, &objects, RowRange::try_all(4)?)?;
+//! let mut layout = [ObjectBins::default()];
+//! let bins = try_bin_layout(&mut layout, &counts, 16, &ClusterOptions::default())?;
+//! assert_eq!((counts[0], bins), (16, 13 * 8));
+//! // Steps 3 and 4: the normal (0, 1, 0) has azimuth 0 and polar angle 0: bin 0.
+//! let mut ids = [u32::MAX; 16];
+//! try_assign_clusters(&mut ImageViewMut::try_new(&mut ids, 4, 4, 4)?, &normals, &objects, &layout)?;
+//! let (mut offsets, mut order) = (vec![0u32; bins as usize + 1], [0u32; 16]);
+//! try_cluster_ranges(&mut offsets, &mut order, &ImageView::try_new(&ids, 4, 4, 4)?, bins)?;
+//! assert_eq!((ids, &offsets[..3]), ([0; 16], &[0, 16, 16][..]));
+//!
+//! // Step 5: a planar cluster's camera is the mirrored eye (0, -2, 5), with f = 1.
+//! let input = ClusterInput { positions: ImageView::try_new(&positions, 4, 4, 4)?, normals };
+//! let (eye, pixels) = (Vec3::new(0.0, 2.0, 5.0), &order[offsets[0] as usize..offsets[1] as usize]);
+//! let ClusterView::Camera(c) = try_cluster_camera(&input, pixels, eye, &ClusterCameraOptions::default())? else {
+//!     panic!("a planar cluster has a camera");
+//! };
+//! assert!(c.planar && c.f == 1.0 && c.eye0 == Vec3::new(0.0, -2.0, 5.0));
+//! assert!((c.camera.eye() - c.eye0).length() < 1e-5 && c.clip.normal == Vec3::Y);
+//! # Ok::<(), refl_core::Error>(())
+//! ```
+//!
 //! # Pipeline
 //!
 //! 1. [`try_count_objects`]: per reflective object, the pixels where it is

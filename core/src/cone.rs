@@ -4,6 +4,46 @@
 //! Sec. 4.4.5 / 4.5.5 cone tracing, Sec. 4.6.1 fades, Sec. 4.6.8 anisotropic
 //! stretching), and the multi-ray alternative of seed 003 Sec. 3.5.
 //!
+//! # Example
+//! ```rust
+//! use core::f32::consts::FRAC_PI_2;
+//! use refl_core::cone::DEFAULT_SIGMA;
+//! use refl_core::glam::{Vec2, Vec3};
+//! use refl_core::{try_build_color_pyramid, try_build_hiz, try_build_visibility_pyramid};
+//! use refl_core::{try_color_pyramid_len, try_cone_angle_from_roughness, try_cone_trace};
+//! use refl_core::{try_hiz_len, try_visibility_pyramid_len, Camera, Cone, ConeOptions};
+//! use refl_core::{ConePyramids, DepthConvention, DepthImage, HiZ, ImageView};
+//!
+//! // 16 x 16 pixels of a wall at linear depth 4, lit in one color.
+//! let cam = Camera::try_look_at(Vec3::ZERO, Vec3::NEG_Z, Vec3::Y, FRAC_PI_2, 0.1, 100.0, 16, 16)?;
+//! let (depth, lit) = (vec![4.0f32; 256], vec![[0.2f32, 0.4, 0.6]; 256]);
+//! let image = DepthImage::try_new(ImageView::try_new(&depth, 16, 16, 16)?, cam, DepthConvention::Linear)?;
+//! let mut hiz = vec![[0.0f32; 2]; try_hiz_len(16, 16)?];
+//! try_build_hiz(&mut hiz, &image)?;
+//! let hiz = HiZ::try_new(&hiz, cam, DepthConvention::Linear)?;
+//! let mut color = vec![[0.0f32; 3]; try_color_pyramid_len(16, 16)?];
+//! try_build_color_pyramid(&mut color, &ImageView::try_new(&lit, 16, 16, 16)?, DEFAULT_SIGMA)?;
+//! let mut visibility = vec![0.0f32; try_visibility_pyramid_len(16, 16)?];
+//! try_build_visibility_pyramid(&mut visibility, &hiz)?;
+//! let pyramids = ConePyramids::try_new(hiz, &color, &visibility)?;
+//!
+//! // Roughness 0.5: Phong power 2 / 0.5^4 - 2 = 30, angle acos(0.244^(1/31)).
+//! let theta = try_cone_angle_from_roughness(0.5)?;
+//! assert!((theta - 0.244f32.powf(1.0 / 31.0).acos()).abs() < 1e-5);
+//! // A cone from (8.5, 12.5) at depth 2 to its hit on the wall at (8.5, 4.5): the
+//! // first circle reaches the wall, which covers it, so the wall's color comes back.
+//! let (apex, hit) = (Vec2::new(8.5, 12.5), Vec2::new(8.5, 4.5));
+//! let cone = Cone { apex, apex_depth: 2.0, hit, hit_depth: 4.0, theta, n_dot_v: 1.0, travel: 0.0 };
+//! let on_wall = try_cone_trace(&pyramids, &cone, [1.0; 3], &ConeOptions::default())?;
+//! assert_eq!(on_wall.coverage, 1.0);
+//! assert!((Vec3::from(on_wall.color) - Vec3::new(0.2, 0.4, 0.6)).length() < 1e-6);
+//! // An axis ending at depth 3, in front of the wall, meets nothing: the fallback.
+//! let short = Cone { hit_depth: 3.0, ..cone };
+//! let in_front = try_cone_trace(&pyramids, &short, [1.0; 3], &ConeOptions::default())?;
+//! assert_eq!((in_front.coverage, in_front.color), (0.0, [1.0; 3]));
+//! # Ok::<(), refl_core::Error>(())
+//! ```
+//!
 //! # Pipeline
 //!
 //! 1. Hi-Z pyramid of the frame's depth ([`crate::hiz`]).

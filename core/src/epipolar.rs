@@ -41,6 +41,49 @@
 //! All buffers belong to the caller: `POS` ([`PosEntry`], one per pixel of
 //! the previous frame), `AIP` ([`AipEntry`], one per pixel of the new
 //! frame) and the reprojection scratch ([`try_scratch_len`] floats).
+//!
+//! # Example
+//! ```rust
+//! use core::f32::consts::FRAC_PI_2;
+//! use refl_core::epipolar::{decide, try_reproject, try_scratch_len, AipEntry, EpipolarOptions};
+//! use refl_core::epipolar::{PosEntry, Reason, INVALID_OBJECT};
+//! use refl_core::glam::{Vec2, Vec3};
+//! use refl_core::Camera;
+//!
+//! // Last frame: 8 x 8 rays from the origin down -Z all hit object 3, the wall z = -10.
+//! let look = |z: f32| {
+//!     let eye = Vec3::new(0.0, 0.0, z);
+//!     Camera::try_look_at(eye, eye - Vec3::Z, Vec3::Y, FRAC_PI_2, 0.1, 100.0, 8, 8)
+//! };
+//! let previous = look(0.0)?;
+//! let pos: Vec<PosEntry> = (0..64)
+//!     .map(|i| previous.primary_ray(Vec2::new((i % 8) as f32 + 0.5, (i / 8) as f32 + 0.5)))
+//!     .map(|ray| PosEntry::hit(ray.origin, ray.dir, -10.0 / ray.dir.z, 3))
+//!     .collect();
+//!
+//! // The eye moves 0.5 forward (less than t / 2 / 9 for every point: no abrupt motion).
+//! let (current, options) = (look(-0.5)?, EpipolarOptions::default());
+//! let mut aip = vec![AipEntry::EMPTY; 64];
+//! let mut scratch = vec![0.0f32; try_scratch_len(8, 8)?];
+//! let stats = try_reproject(&mut aip, &mut scratch, &pos, &previous, &current, &options)?;
+//! assert_eq!((stats.points, stats.splatted), (64, 64));
+//! // Pixel (4, 4) receives the 3 x 3 points around it; the nearest, (+-1.25, +-1.25, -10),
+//! // lies at sqrt(2 1.25^2 + 9.5^2) from the new eye.
+//! let entry = aip[4 * 8 + 4];
+//! assert_eq!((entry.object, entry.cnt, entry.flags), (3, 9, AipEntry::SURROUNDED));
+//! assert!((entry.t - (2.0 * 1.25f32.powi(2) + 9.5f32.powi(2)).sqrt()).abs() < 1e-4);
+//! // 9 >= m_cnt = 5: one ray/object test of object 3, except in the frame whose
+//! // regular-resampling slot is the pixel's (slot 1 of 9 for (4, 4)).
+//! let d = decide(&entry, 4, 4, 0, &options);
+//! assert_eq!((d.object, d.reason), (3, Reason::Reprojected));
+//! assert_eq!(decide(&entry, 4, 4, 1, &options).reason, Reason::Resampled);
+//!
+//! // Stepping back takes the eye out of the last view pyramid: no reprojection.
+//! let stats = try_reproject(&mut aip, &mut scratch, &pos, &previous, &look(0.5)?, &options)?;
+//! let d = decide(&aip[4 * 8 + 4], 4, 4, 0, &options);
+//! assert!(stats.frustum_failed && d.object == INVALID_OBJECT && d.reason == Reason::Unavailable);
+//! # Ok::<(), refl_core::Error>(())
+//! ```
 
 use crate::{Camera, Error, RowRange};
 use glam::{DVec3, Vec2, Vec3};

@@ -17,6 +17,31 @@
 //!
 //! Every image must have the camera's size; this is checked once, when the
 //! view is built, and never again per ray.
+//!
+//! # Example
+//! ```rust
+//! use core::f32::consts::FRAC_PI_2;
+//! use refl_core::glam::Vec3;
+//! use refl_core::{Camera, DepthConvention, DepthImage, Error, GBuffer, ImageView, NormalSpace};
+//!
+//! // 4 x 4 pixels of [0, 1] depth: a wall at linear depth 5, pixel (3, 0) cleared (sky).
+//! let cam = Camera::try_look_at(Vec3::ZERO, Vec3::NEG_Z, Vec3::Y, FRAC_PI_2, 1.0, 101.0, 4, 4)?;
+//! let mut depth = [cam.encode_depth(5.0, DepthConvention::ZeroToOne); 16];
+//! depth[3] = 1.0;
+//! let normals = [[0.0, 0.0, 2.0f32]; 16]; // view space, toward the eye, not unit
+//! let depth = DepthImage::try_new(ImageView::try_new(&depth, 4, 4, 4)?, cam, DepthConvention::ZeroToOne)?;
+//! let g = GBuffer::try_new(depth, ImageView::try_new(&normals, 4, 4, 4)?, NormalSpace::View)?;
+//!
+//! // Pixel (1, 2) has its center at NDC (-1/4, -1/4): the point 5 (-1/4, -1/4, -1).
+//! let s = g.surface(1, 2).unwrap();
+//! assert!((s.position - Vec3::new(-1.25, -1.25, -5.0)).length() < 1e-4);
+//! assert!((s.depth - 5.0).abs() < 1e-4 && (s.normal - Vec3::Z).length() < 1e-6);
+//! assert_eq!(g.surface(3, 0), None);
+//! // Every image must have the camera's size.
+//! let mask = [1u8; 8];
+//! assert_eq!(g.try_with_mask(ImageView::try_new(&mask, 4, 2, 4)?).unwrap_err(), Error::InvalidArgument);
+//! # Ok::<(), Error>(())
+//! ```
 
 use crate::{Camera, DepthConvention, DepthImage, Error, ImageView};
 use glam::{Vec2, Vec3};

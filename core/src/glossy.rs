@@ -13,6 +13,59 @@
 //! pyramids), then [`GlossyPass::try_new`] and [`GlossyPass::try_run`] (or
 //! [`GlossyPass::try_run_rows`]) over row bands from its threads.
 //!
+//! # Example
+//! ```rust
+//! use core::f32::consts::FRAC_PI_2;
+//! use refl_core::glam::{Vec2, Vec3};
+//! use refl_core::{try_glossy_scratch_len, try_prepare_glossy, Camera, DepthConvention};
+//! use refl_core::{DepthImage, GBuffer, GlossyOptions, GlossyPass, GlossyScratch};
+//! use refl_core::{GlossyScratchMut, GlossyTexel, ImageView, ImageViewMut, MirrorStatus, NormalSpace};
+//!
+//! // 16 x 16 pixels: the eye 1 above the floor y = 0, looking down -Z at a wall at z = -4.
+//! let cam = Camera::try_look_at(Vec3::Y, Vec3::new(0.0, 1.0, -1.0), Vec3::Y, FRAC_PI_2, 0.1, 100.0, 16, 16)?;
+//! let (mut depth, mut normals) = (vec![4.0f32; 256], vec![[0.0, 0.0, 1.0f32]; 256]);
+//! for (i, (d, n)) in depth.iter_mut().zip(&mut normals).enumerate() {
+//!     // Row y looks along NDC y = 1 - (2 y + 1) / 16 and meets the floor at depth -1 / NDC y.
+//!     let floor = -1.0 / (1.0 - (2 * (i / 16) + 1) as f32 / 16.0);
+//!     if (0.0..4.0).contains(&floor) {
+//!         (*d, *n) = (floor, [0.0, 1.0, 0.0]);
+//!     }
+//! }
+//! // One lit color; roughness 0.5, except pixel (9, 13), left to the mirror pass.
+//! let (lit, mut rough) = (vec![[0.2f32, 0.4, 0.6]; 256], vec![0.5f32; 256]);
+//! rough[13 * 16 + 9] = 0.05;
+//! let depth = DepthImage::try_new(ImageView::try_new(&depth, 16, 16, 16)?, cam, DepthConvention::Linear)?;
+//! let gbuffer = GBuffer::try_new(depth, ImageView::try_new(&normals, 16, 16, 16)?, NormalSpace::World)?
+//!     .try_with_color(ImageView::try_new(&lit, 16, 16, 16)?)?
+//!     .try_with_roughness(ImageView::try_new(&rough, 16, 16, 16)?)?;
+//!
+//! // Once per frame: the pyramids in caller memory.
+//! let options = GlossyOptions::default();
+//! let len = try_glossy_scratch_len(16, 16, &options)?;
+//! let mut hiz = vec![[0.0f32; 2]; len.hiz];
+//! let (mut color, mut visibility) = (vec![[0.0f32; 3]; len.color], vec![0.0f32; len.visibility]);
+//! let scratch = GlossyScratchMut { hiz: &mut hiz, color: &mut color, visibility: &mut visibility };
+//! try_prepare_glossy(scratch, &gbuffer, &options)?;
+//! let scratch = GlossyScratch { hiz: &hiz, color: &color, visibility: &visibility };
+//! let pass = GlossyPass::try_new(gbuffer, options, scratch)?;
+//! let (mut out, mut rgb) = (vec![GlossyTexel::default(); 256], vec![[0.0f32; 3]; 256]);
+//! let mut rgb_view = ImageViewMut::try_new(&mut rgb, 16, 16, 16)?;
+//! pass.try_run(&mut ImageViewMut::try_new(&mut out, 16, 16, 16)?, Some(&mut rgb_view), &mut [])?;
+//!
+//! // Pixel (8, 13): the axis from the floor point P hits the wall at Q, pixel
+//! // (8.5, 6.5), as in the mirror pass; the cone, all on the wall, returns its
+//! // color and leaves nothing to the probe.
+//! let (p, q) = (Vec3::new(1.0 / 11.0, 0.0, -16.0 / 11.0), Vec3::new(0.25, 1.75, -4.0));
+//! let texel = out[13 * 16 + 8];
+//! assert_eq!(texel.status, MirrorStatus::Hit);
+//! assert!((texel.pixel - Vec2::new(8.5, 6.5)).length() < 0.05);
+//! assert!((texel.dir - (q - p).normalize()).length() < 1e-4);
+//! assert!((Vec3::from(rgb[13 * 16 + 8]) - Vec3::new(0.2, 0.4, 0.6)).length() < 1e-4);
+//! assert_eq!(texel.fallback_weight, 0.0);
+//! assert_eq!(out[13 * 16 + 9].status, MirrorStatus::Skipped);
+//! # Ok::<(), refl_core::Error>(())
+//! ```
+//!
 //! # Per pixel
 //! 1. **Glossy?** A pixel is traced when its mask (if any) is non-zero and
 //!    its roughness lies in `(min_roughness, max_roughness]`

@@ -4,6 +4,38 @@
 //! behind surfaces, Sec. 4.6.7 ray marching toward the camera, Sec. 4.7.1
 //! combining linear and Hi-Z traversal).
 //!
+//! # Example
+//! ```rust
+//! use core::f32::consts::FRAC_PI_2;
+//! use refl_core::glam::Vec3;
+//! use refl_core::{try_build_hiz, try_hiz_len, try_trace_hiz, Camera, DepthConvention, DepthImage};
+//! use refl_core::{Error, HiZ, HiZOptions, ImageView, Ray, Thickness, Trace, HIZ_STAMP_TEXELS};
+//!
+//! // 16 x 16 pixels: the left half sees a surface at depth 5, the right half one at 10.
+//! let cam = Camera::try_look_at(Vec3::ZERO, Vec3::NEG_Z, Vec3::Y, FRAC_PI_2, 0.1, 100.0, 16, 16)?;
+//! let depth: Vec<f32> = (0..256).map(|i| if i % 16 < 8 { 5.0 } else { 10.0 }).collect();
+//! let image = DepthImage::try_new(ImageView::try_new(&depth, 16, 16, 16)?, cam, DepthConvention::Linear)?;
+//! // Levels of 16 x 16, 8 x 8, 4 x 4, 2 x 2 and 1 x 1 texels, then the stamp.
+//! assert_eq!(try_hiz_len(16, 16)?, 256 + 64 + 16 + 4 + 1 + HIZ_STAMP_TEXELS);
+//! let mut pyramid = vec![[0.0f32; 2]; try_hiz_len(16, 16)?];
+//! try_build_hiz(&mut pyramid, &image)?;
+//! let hiz = HiZ::try_new(&pyramid, cam, DepthConvention::Linear)?;
+//! assert_eq!(hiz.texel(4, 0, 0), Some([5.0, 10.0])); // [closest, farthest]
+//! assert_eq!(hiz.texel(1, 3, 0), Some([5.0, 5.0]));
+//!
+//! // From (0, 0, -2) toward (8, 3, -10) on the far half: pixel (14.4, 5.6), t = sqrt(137).
+//! let ray = Ray { origin: Vec3::new(0.0, 0.0, -2.0), dir: Vec3::new(8.0, 3.0, -8.0).normalize() };
+//! let trace = try_trace_hiz(&hiz, Thickness::Constant(0.5), ray, f32::INFINITY, &HiZOptions::default())?;
+//! let Trace::Hit(hit) = trace else { panic!("the ray reaches the far half") };
+//! assert_eq!(hit.pixel.floor().to_array(), [14.0, 5.0]);
+//! assert!((hit.t - 137f32.sqrt()).abs() < 1e-3);
+//!
+//! // The pyramid records its camera: another camera is refused.
+//! let other = Camera::try_look_at(Vec3::X, Vec3::X - Vec3::Z, Vec3::Y, FRAC_PI_2, 0.1, 100.0, 16, 16)?;
+//! assert_eq!(HiZ::try_new(&pyramid, other, DepthConvention::Linear).unwrap_err(), Error::InvalidArgument);
+//! # Ok::<(), Error>(())
+//! ```
+//!
 //! # Pyramid
 //!
 //! Every texel is `[closest, farthest]`: the smallest and largest **linear

@@ -13,6 +13,36 @@
 //! Whole-image passes take a [`RowRange`] so that a host can split an image
 //! across its own threads; [`ImageViewMut::try_split_at_row`] hands out disjoint
 //! mutable row bands that keep global row coordinates.
+//!
+//! # Example
+//! ```rust
+//! use refl_core::image::{try_convert_depth, try_required_len};
+//! use refl_core::{glam::Vec3, Camera, DepthConvention, ImageView, ImageViewMut};
+//!
+//! // 3 x 2 texels, rows 4 texels apart: the last row needs only 3.
+//! assert_eq!(try_required_len(3, 2, 4)?, 7);
+//! let mut linear = vec![f32::NAN; 7];
+//! let img = ImageViewMut::try_new(&mut linear, 3, 2, 4)?;
+//! // Disjoint row bands for two threads, in global row coordinates.
+//! let (mut top, mut bottom) = img.try_split_at_row(1).map_err(|(e, _)| e)?;
+//! assert_eq!(bottom.owned_rows().map(|r| r.start()), Some(1));
+//! assert!(top.get_mut(0, 1).is_none()); // row 1 belongs to `bottom`
+//! std::thread::scope(|s| {
+//!     s.spawn(move || top.fill(5.0));
+//!     s.spawn(move || bottom.fill(20.0));
+//! });
+//! assert!(linear[3].is_nan()); // the padding is not touched
+//!
+//! // Linear depth to [0, 1] depth: d(z) = f (z - n) / (z (f - n)).
+//! let cam = Camera::try_look_at(Vec3::ZERO, Vec3::NEG_Z, Vec3::Y, 1.0, 1.0, 101.0, 3, 2)?;
+//! let src = ImageView::try_new(&linear, 3, 2, 4)?;
+//! let mut stored = [0.0f32; 6];
+//! let mut dst = ImageViewMut::try_new(&mut stored, 3, 2, 3)?;
+//! try_convert_depth(&mut dst, &src, &cam, DepthConvention::Linear, DepthConvention::ZeroToOne)?;
+//! assert!((stored[0] - 101.0 * 4.0 / (5.0 * 100.0)).abs() < 1e-6);
+//! assert!((stored[5] - 101.0 * 19.0 / (20.0 * 100.0)).abs() < 1e-6);
+//! # Ok::<(), refl_core::Error>(())
+//! ```
 
 use crate::{Camera, DepthConvention, Error};
 use core::ops::Range;

@@ -21,6 +21,50 @@
 //! texels (99th percentile) to about 0.1 and reads about 10x fewer texels
 //! per ray (`cpp_tests/layered_embree`).
 //!
+//! # Example
+//! ```rust
+//! use refl_core::glam::Vec3;
+//! use refl_core::{try_layered_len, Face, LayerHit, LayeredGrid, LayeredMapMut, LayeredMiss};
+//! use refl_core::{LayeredOptions, LayeredTrace, Ray};
+//!
+//! // A map of 4 x 4 texels per face and one layer over the box [-1, 1]^3.
+//! let grid = LayeredGrid::try_new(Vec3::splat(-1.0), Vec3::splat(1.0), 4, 1)?;
+//! let len = try_layered_len(4, 1)?;
+//! let (mut depth, mut payload) = (vec![0.0f32; len.depth], vec![0u32; len.payload]);
+//! let (mut counts, mut bounds) = (vec![0u32; len.counts], vec![0.0f32; len.bounds]);
+//! let mut map = LayeredMapMut::try_new(grid, &mut depth, &mut payload, &mut counts, &mut bounds)?;
+//! map.clear();
+//! // The object, the cube [-0.5, 0.5]^3 (payload 7): the host casts the column ray
+//! // of each texel of one face per axis through it; the two middle columns cross
+//! // it from t = 0.5 (entry) to t = 1.5 (exit).
+//! for face in [Face::NegX, Face::NegY, Face::NegZ] {
+//!     for (i, j) in (0..4).flat_map(|j| (0..4).map(move |i| (i, j))) {
+//!         let column = grid.try_face_ray(face, i, j)?;
+//!         let (u, v) = face.uv_axes();
+//!         let inside = column.origin[u].abs() < 0.5 && column.origin[v].abs() < 0.5;
+//!         let enter = LayerHit { t: 0.5, id: 7, front: true };
+//!         let mut hits = if inside { vec![enter, LayerHit { t: 1.5, front: false, ..enter }] } else { vec![] };
+//!         map.try_fill_column(face, i, j, &mut hits)?;
+//!     }
+//! }
+//! map.build_bounds();
+//!
+//! // Down -Z from (0.1, 0.2, 5): the cube's top z = 0.5 at t = 4.5, seen by the +Z face
+//! // in texel ((0.1 + 1) / 2 * 4, (0.2 + 1) / 2 * 4) = (2.2, 2.4).
+//! let options = LayeredOptions::default();
+//! let down = Ray { origin: Vec3::new(0.1, 0.2, 5.0), dir: Vec3::NEG_Z };
+//! let LayeredTrace::Hit(hit) = map.as_map().try_trace(&down, 10.0, &options)? else {
+//!     panic!("the ray meets the cube");
+//! };
+//! assert!((hit.t - 4.5).abs() < 1e-4 && (hit.position - Vec3::new(0.1, 0.2, 0.5)).length() < 1e-4);
+//! assert_eq!((hit.face, hit.texel, hit.payload), (Face::PosZ, [2, 2], 7));
+//! // At x = 0.8 the ray crosses the box beside the cube.
+//! let beside = Ray { origin: Vec3::new(0.8, 0.2, 5.0), dir: Vec3::NEG_Z };
+//! let miss = map.as_map().try_trace(&beside, 10.0, &options)?;
+//! assert!(matches!(miss, LayeredTrace::Miss { reason: LayeredMiss::LeftBox, .. }));
+//! # Ok::<(), refl_core::Error>(())
+//! ```
+//!
 //! # Conventions (decided here; the seed leaves them open)
 //!
 //! * **Frames.** The map is built in the object's *local* frame, on the

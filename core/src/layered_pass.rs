@@ -19,6 +19,59 @@
 //!    [`LayeredPass::try_trace_rays`] over a list of its own rays (the
 //!    host rays another pass handed over, for instance).
 //!
+//! # Example
+//! ```rust
+//! use refl_core::glam::{Affine3A, Vec3};
+//! use refl_core::{layered_pass_scratch_len, try_layered_len, try_prepare_layered_pass, Camera};
+//! use refl_core::{DepthConvention, DepthImage, Face, GBuffer, ImageView, ImageViewMut, LayerHit};
+//! use refl_core::{LayeredBound, LayeredGrid, LayeredMap, LayeredMapMut, LayeredPass};
+//! use refl_core::{LayeredPassOptions, LayeredPassStatus, LayeredPassTexel, NormalSpace};
+//!
+//! // Once: the map of the cube [-0.5, 0.5]^3 (payload 7) in the box [-1, 1]^3, as in
+//! // the `layered` module's example.
+//! let grid = LayeredGrid::try_new(Vec3::splat(-1.0), Vec3::splat(1.0), 4, 1)?;
+//! let len = try_layered_len(4, 1)?;
+//! let (mut depth, mut payload) = (vec![0.0f32; len.depth], vec![0u32; len.payload]);
+//! let (mut counts, mut bounds) = (vec![0u32; len.counts], vec![0.0f32; len.bounds]);
+//! let mut map = LayeredMapMut::try_new(grid, &mut depth, &mut payload, &mut counts, &mut bounds)?;
+//! map.clear();
+//! for face in [Face::NegX, Face::NegY, Face::NegZ] {
+//!     for (i, j) in (0..4).flat_map(|j| (0..4).map(move |i| (i, j))) {
+//!         let column = grid.try_face_ray(face, i, j)?;
+//!         let (u, v) = face.uv_axes();
+//!         let inside = column.origin[u].abs() < 0.5 && column.origin[v].abs() < 0.5;
+//!         let enter = LayerHit { t: 0.5, id: 7, front: true };
+//!         let mut hits = if inside { vec![enter, LayerHit { t: 1.5, front: false, ..enter }] } else { vec![] };
+//!         map.try_fill_column(face, i, j, &mut hits)?;
+//!     }
+//! }
+//! map.build_bounds();
+//! drop(map);
+//! // Per frame: the cube placed around (3, 0, -2).
+//! let placed = grid.try_with_transform(Affine3A::from_translation(Vec3::new(3.0, 0.0, -2.0)))?;
+//! let maps = [LayeredMap::try_new(placed, &depth, &payload, &counts, &bounds)?];
+//!
+//! // A one-pixel G-buffer: a mirror at depth 2 straight ahead, its normal (1, 0, 1)
+//! // turns the view ray (0, 0, -1) into (1, 0, 0).
+//! let cam = Camera::try_look_at(Vec3::ZERO, Vec3::NEG_Z, Vec3::Y, 1.0, 0.1, 100.0, 1, 1)?;
+//! let (front, normal) = ([2.0f32], [[1.0f32, 0.0, 1.0]]);
+//! let front = DepthImage::try_new(ImageView::try_new(&front, 1, 1, 1)?, cam, DepthConvention::Linear)?;
+//! let gbuffer = GBuffer::try_new(front, ImageView::try_new(&normal, 1, 1, 1)?, NormalSpace::World)?;
+//! let options = LayeredPassOptions::default();
+//! let mut spheres = vec![LayeredBound::default(); layered_pass_scratch_len(&maps[..])];
+//! try_prepare_layered_pass(&mut spheres, &gbuffer, &maps[..], &options)?;
+//! let pass = LayeredPass::try_new(gbuffer, &maps[..], options, &spheres)?;
+//! let mut out = [LayeredPassTexel::default()];
+//! pass.try_run(&mut ImageViewMut::try_new(&mut out, 1, 1, 1)?, None, &mut [])?;
+//!
+//! // From (0, 0, -2) along +X the ray enters the cube's face x = 2.5 at t = 2.5,
+//! // which the -X face of the map sees.
+//! let hit = out[0];
+//! assert_eq!((hit.status, hit.map, hit.face, hit.payload), (LayeredPassStatus::Hit, 0, Face::NegX, 7));
+//! assert!((hit.t - 2.5).abs() < 1e-4 && (hit.position - Vec3::new(2.5, 0.0, -2.0)).length() < 1e-4);
+//! # Ok::<(), refl_core::Error>(())
+//! ```
+//!
 //! # Per pixel
 //! 1. **Ray.** Which pixels are traced, the surface point `P`, the
 //!    reflection direction `r` and where the ray starts (`t_start`) are the

@@ -13,10 +13,32 @@
 //!   `(x, y)` has its center at `(x + 0.5, y + 0.5)`, origin top-left, y down;
 //!   depth buffers come in the three [`DepthConvention`]s.
 //!
+//! # Features
+//!
+//! | feature | modules | seed (paper) | what it enables |
+//! |---|---|---|---|
+//! | (always) | `camera`, `error`, `image` | | cameras and the three depth conventions, reprojection, image views over caller memory, the one `Error` |
+//! | `mirror` (default) | `mirror`, `planar` | 001 appendix, 004 Sec. 4.4.3 | planar reflection: mirror matrix, mirrored camera, oblique projection, the planar mirror pass |
+//! | `hiz` | `hiz` | 004 (Hi-Z cone tracing) Sec. 4.4.1, 4.4.3, 4.6.6, 4.6.7, 4.7.1 | Hi-Z min/max pyramid and traversal; the mirror pass with `MirrorMethod::HiZ` |
+//! | `depth-image` | `step` | 003 (second-order feed-forward) Sec. 3.4 | ray / depth-image intersection by per-pixel stepping; the mirror pass with `MirrorMethod::Step` |
+//! | `cone` (implies `hiz`) | `cone`, `glossy` | 004 Sec. 4.4-4.6, 003 Sec. 3.5 | glossy reflections: color and visibility pyramids, cone tracing, multi-ray, the glossy pass |
+//! | `layered` | `layered`; `layered_pass` with `depth-image` or `hiz` | 001 (layered depth textures) Sec. 3.2-3.4, Alg. 1 | layered depth cube maps, the potential-reflection-region test, the layered pass, back depth from maps |
+//! | `cluster` (implies `depth-image`) | `cluster` | 003 Sec. 3.2-3.5 | second-order reflections: normal-bin clustering, cluster cameras, finalization, the cluster pass |
+//! | `tcrr` | `tcrr` | 000 (temporal reflection reprojection) | reflection buffers, neighborhood search, shifting, warping, re-trace list, composition, key-frame policy |
+//! | `epipolar` | `epipolar` | 002 (ray-casted walkthroughs) | reprojected ray casting: POS/AIP buffers, epipolar ordering, per-pixel decisions for the host's tracer |
+//! | `all` | all of the above | | every family |
+//!
+//! The shared modules come with the families that use them: `gbuffer` and
+//! `trace` with `mirror`, `hiz` or `depth-image`; `ssr` (the screen-space
+//! mirror pass) and `backface` with `hiz` or `depth-image`. Each module's
+//! documentation has a runnable example (`# Example`) of its main pass or
+//! kernel.
+//!
 //! The specification is five papers ("seeds"); every formula cites the seed
 //! and the equation or section it implements. Errata found in the seeds are
 //! noted where they are corrected.
 #![no_std]
+#![cfg_attr(docsrs, feature(doc_cfg))]
 #![deny(missing_docs)]
 #![deny(unsafe_code)]
 

@@ -5,6 +5,26 @@
 //! a mirror matrix; seed 004 Sec. 4.4.3 gives the reflection vector. Rendering
 //! the scene through [`try_mirrored_camera`] produces, at each pixel of the
 //! mirror, exactly what the reflected primary ray sees.
+//!
+//! # Example
+//! ```rust
+//! use refl_core::glam::{Vec2, Vec3};
+//! use refl_core::{mirror_point, try_mirrored_camera, Camera, Plane};
+//!
+//! // The floor y = 0, from one of its triangles.
+//! let floor = Plane::try_from_triangle(Vec3::ZERO, Vec3::X, Vec3::Z)?;
+//! assert_eq!(mirror_point(&floor, Vec3::new(1.0, 2.0, 3.0)), Vec3::new(1.0, -2.0, 3.0));
+//!
+//! // The virtual camera has its eye under the floor, and its ray through
+//! // every pixel is the mirror image of the real camera's.
+//! let cam = Camera::try_look_at(Vec3::new(0.0, 2.0, 5.0), Vec3::ZERO, Vec3::Y, 1.0, 0.1, 100.0, 8, 8)?;
+//! let virt = try_mirrored_camera(&cam, &floor)?;
+//! assert!(virt.is_mirrored() && !cam.is_mirrored());
+//! assert!((virt.eye() - Vec3::new(0.0, -2.0, 5.0)).length() < 1e-5);
+//! let (a, b) = (cam.primary_ray(Vec2::new(2.5, 6.5)), virt.primary_ray(Vec2::new(2.5, 6.5)));
+//! assert!((b.dir - a.dir * Vec3::new(1.0, -1.0, 1.0)).length() < 1e-5);
+//! # Ok::<(), refl_core::Error>(())
+//! ```
 
 use crate::{Camera, DepthConvention, Error};
 use glam::{DMat4, DVec4, Mat4, Vec3};

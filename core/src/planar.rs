@@ -28,6 +28,51 @@
 //!    render has no surface for (the environment) are flagged and handed
 //!    out as rays ([`PlanarRay`]) for the host's probe or tracer.
 //!
+//! # Example
+//! ```rust
+//! use core::f32::consts::FRAC_PI_2;
+//! use refl_core::glam::Vec3;
+//! use refl_core::{Camera, DepthConvention, DepthImage, GBuffer, ImageView, ImageViewMut};
+//! use refl_core::{NormalSpace, PlanarOptions, PlanarPass, PlanarRect, PlanarRender};
+//! use refl_core::{PlanarStatus, PlanarTexel, Plane};
+//!
+//! // 16 x 16 pixels: the eye 1 above the floor y = 0, looking down -Z at a wall at z = -4.
+//! let cam = Camera::try_look_at(Vec3::Y, Vec3::new(0.0, 1.0, -1.0), Vec3::Y, FRAC_PI_2, 0.1, 100.0, 16, 16)?;
+//! let (mut depth, mut normals) = (vec![4.0f32; 256], vec![[0.0, 0.0, 1.0f32]; 256]);
+//! for (i, (d, n)) in depth.iter_mut().zip(&mut normals).enumerate() {
+//!     // Row y looks along NDC y = 1 - (2 y + 1) / 16 and meets the floor at depth -1 / NDC y.
+//!     let floor = -1.0 / (1.0 - (2 * (i / 16) + 1) as f32 / 16.0);
+//!     if (0.0..4.0).contains(&floor) {
+//!         (*d, *n) = (floor, [0.0, 1.0, 0.0]);
+//!     }
+//! }
+//! let depth = DepthImage::try_new(ImageView::try_new(&depth, 16, 16, 16)?, cam, DepthConvention::Linear)?;
+//! let gbuffer = GBuffer::try_new(depth, ImageView::try_new(&normals, 16, 16, 16)?, NormalSpace::World)?;
+//!
+//! // Setup: the floor covers rows 10 to 15 (depth -1 / NDC y below 4), and the
+//! // render's eye is the mirrored eye (0, -1, 0).
+//! let floor = Plane::try_from_point_normal(Vec3::ZERO, Vec3::Y)?;
+//! let pass = PlanarPass::try_new(gbuffer, floor, PlanarOptions::default())?;
+//! let setup = pass.prepare();
+//! assert_eq!((setup.covered_pixels, setup.rect), (96, PlanarRect { x0: 0, y0: 10, x1: 16, y1: 16 }));
+//! assert!(setup.flip_winding && (setup.camera.eye() - Vec3::new(0.0, -1.0, 0.0)).length() < 1e-5);
+//!
+//! // The host's render through `setup.camera` sees the wall at linear depth 4.
+//! let wall = vec![4.0f32; 256];
+//! let render = PlanarRender::try_new(ImageView::try_new(&wall, 16, 16, 16)?, None)?;
+//! let mut out = vec![PlanarTexel::default(); 256];
+//! let stats = pass.try_resolve(&mut ImageViewMut::try_new(&mut out, 16, 16, 16)?, None, &mut [], &render)?;
+//! assert_eq!(stats.hits, 96);
+//! // Pixel (8, 13): from the floor point P (depth 16/11) to the wall point Q at
+//! // height -1 + 4 (11/16), t = (4 - 16/11) |(1/16, -11/16, -1)|.
+//! let (p, q) = (Vec3::new(1.0 / 11.0, 0.0, -16.0 / 11.0), Vec3::new(0.25, 1.75, -4.0));
+//! let texel = out[13 * 16 + 8];
+//! assert_eq!((texel.status, texel.texel), (PlanarStatus::Hit, [8, 13]));
+//! assert!((texel.t - (q - p).length()).abs() < 1e-3);
+//! assert_eq!(out[2 * 16 + 8].status, PlanarStatus::OffPlane); // the wall
+//! # Ok::<(), refl_core::Error>(())
+//! ```
+//!
 //! # Coverage (ours)
 //! A pixel is covered when it passes, in this order:
 //! * its object id equals the mirror's (only with an id image,

@@ -10,6 +10,50 @@
 //! ([`MirrorPass::try_run`] on an output band; bands are independent, so
 //! the host's threads split the image).
 //!
+//! # Example
+//! ```rust
+//! # #[cfg(feature = "depth-image")] {
+//! use core::f32::consts::FRAC_PI_2;
+//! use refl_core::glam::{Vec2, Vec3};
+//! use refl_core::{Camera, DepthConvention, DepthImage, GBuffer, ImageView, ImageViewMut};
+//! use refl_core::{MirrorOptions, MirrorPass, MirrorStatus, MirrorTexel, NormalSpace};
+//!
+//! // 16 x 16 pixels: the eye 1 above the floor y = 0, looking down -Z at a wall at z = -4.
+//! let cam = Camera::try_look_at(Vec3::Y, Vec3::new(0.0, 1.0, -1.0), Vec3::Y, FRAC_PI_2, 0.1, 100.0, 16, 16)?;
+//! let (mut depth, mut normals) = (vec![4.0f32; 256], vec![[0.0, 0.0, 1.0f32]; 256]);
+//! for (i, (d, n)) in depth.iter_mut().zip(&mut normals).enumerate() {
+//!     // Row y looks along NDC y = 1 - (2 y + 1) / 16 and meets the floor at depth -1 / NDC y.
+//!     let floor = -1.0 / (1.0 - (2 * (i / 16) + 1) as f32 / 16.0);
+//!     if (0.0..4.0).contains(&floor) {
+//!         (*d, *n) = (floor, [0.0, 1.0, 0.0]);
+//!     }
+//! }
+//! let depth = DepthImage::try_new(ImageView::try_new(&depth, 16, 16, 16)?, cam, DepthConvention::Linear)?;
+//! let gbuffer = GBuffer::try_new(depth, ImageView::try_new(&normals, 16, 16, 16)?, NormalSpace::World)?;
+//!
+//! // Stepping (the default method) needs no Hi-Z pyramid: `None` (without the
+//! // `hiz` feature, `try_new` takes no pyramid argument).
+//! # #[cfg(feature = "hiz")]
+//! let pass = MirrorPass::try_new(gbuffer, MirrorOptions::default(), None)?;
+//! # #[cfg(not(feature = "hiz"))]
+//! # let pass = MirrorPass::try_new(gbuffer, MirrorOptions::default())?;
+//! let mut texels = vec![MirrorTexel::default(); 256];
+//! let stats = pass.try_run(&mut ImageViewMut::try_new(&mut texels, 16, 16, 16)?, None, &mut [])?;
+//! assert_eq!(stats.traced, 256);
+//! // Pixel (8, 13) sees the floor at P (NDC (1/16, -11/16), depth 16/11). Its ray
+//! // comes from the mirrored eye (0, -1, 0) and meets the wall at Q, at height
+//! // -1 + 4 (11/16) = 1.75: NDC (1/16, 3/16), pixel (8.5, 6.5).
+//! let (p, q) = (Vec3::new(1.0 / 11.0, 0.0, -16.0 / 11.0), Vec3::new(0.25, 1.75, -4.0));
+//! let floor = texels[13 * 16 + 8];
+//! assert_eq!(floor.status, MirrorStatus::Hit);
+//! assert!((floor.pixel - Vec2::new(8.5, 6.5)).length() < 0.05);
+//! assert!((floor.t - (q - p).length()).abs() < 1e-3);
+//! // The wall reflects toward the camera, out of the screen: the host traces those.
+//! assert!(texels[2 * 16 + 8].status.needs_host());
+//! # }
+//! # Ok::<(), refl_core::Error>(())
+//! ```
+//!
 //! # Per pixel
 //! 1. **Reflective?** A pixel is traced when its mask (if any) is non-zero
 //!    and its roughness (if any) is at most [`MirrorOptions::max_roughness`];

@@ -5,6 +5,39 @@
 //! endpoint to the far endpoint with one-pixel steps. ... A measure of depth
 //! that is linear in screen space is used, i.e., proportional to `1/z`."
 //!
+//! # Example
+//! ```rust
+//! use core::f32::consts::FRAC_PI_2;
+//! use refl_core::glam::Vec3;
+//! use refl_core::{try_step, try_step_rays, Camera, DepthConvention, DepthImage, ImageView};
+//! use refl_core::{Miss, Ray, StepOptions, Thickness, Trace};
+//!
+//! // 16 x 16 pixels of a wall at linear depth 10, 90 degrees field of view.
+//! let cam = Camera::try_look_at(Vec3::ZERO, Vec3::NEG_Z, Vec3::Y, FRAC_PI_2, 0.1, 100.0, 16, 16)?;
+//! let depth = vec![10.0f32; 256];
+//! let image = DepthImage::try_new(ImageView::try_new(&depth, 16, 16, 16)?, cam, DepthConvention::Linear)?;
+//!
+//! // From (0, 0, -2) toward the wall point (8, 3, -10): NDC (0.8, 0.3),
+//! // pixel (14.4, 5.6), at t = |(8, 3, -8)| = sqrt(137).
+//! let origin = Vec3::new(0.0, 0.0, -2.0);
+//! let ray = Ray { origin, dir: Vec3::new(8.0, 3.0, -8.0).normalize() };
+//! let opts = StepOptions { stride: 4, max_steps: 256 };
+//! let Trace::Hit(hit) = try_step(&image, Thickness::Constant(0.5), ray, f32::INFINITY, opts)? else {
+//!     panic!("the ray reaches the wall");
+//! };
+//! assert_eq!(hit.pixel.floor().to_array(), [14.0, 5.0]);
+//! assert!((hit.t - 137f32.sqrt()).abs() < 1e-3 && (hit.depth - 10.0).abs() < 1e-3);
+//!
+//! // A batch: the same ray, and one back toward the camera (it leaves the
+//! // view through the near plane).
+//! let rays = [ray, Ray { origin, dir: Vec3::Z }];
+//! let mut out = [Trace::Miss { reason: Miss::EndOfRay, work: Default::default() }; 2];
+//! try_step_rays(&mut out, &image, Thickness::Constant(0.5), &rays, &[f32::INFINITY], opts)?;
+//! assert_eq!(out[0], Trace::Hit(hit));
+//! assert!(matches!(out[1], Trace::Miss { reason: Miss::LeftImage, .. }));
+//! # Ok::<(), refl_core::Error>(())
+//! ```
+//!
 //! The kernel, [`try_step`], does this in four stages:
 //!
 //! 1. **Clip.** The ray `o + t d`, `t in [0, t_max]`, is clipped in 3D

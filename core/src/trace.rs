@@ -15,6 +15,44 @@
 //!   texel's decoded linear depths;
 //! * results are explicit: a [`DepthHit`] or a [`Miss`] with its reason,
 //!   each with the [`Work`] spent, never a sentinel NaN.
+//!
+//! # Example
+//! A hit of the stepping kernel (`step`, feature `depth-image`) refined to
+//! sub-texel precision.
+//! ```rust
+//! # #[cfg(feature = "depth-image")] {
+//! use core::f32::consts::FRAC_PI_2;
+//! use refl_core::glam::{Vec2, Vec3};
+//! use refl_core::step::{try_step, StepOptions};
+//! use refl_core::trace::refine_hit;
+//! use refl_core::{Camera, DepthConvention, DepthImage, ImageView, Ray, Thickness, Trace};
+//!
+//! // A 16 x 16 [0, 1] depth image of the slanted wall z = -4 - x / 2 (the view
+//! // ray (s_x, s_y, -1) meets it at linear depth 4 / (1 - s_x / 2)).
+//! let cam = Camera::try_look_at(Vec3::ZERO, Vec3::NEG_Z, Vec3::Y, FRAC_PI_2, 0.5, 100.0, 16, 16)?;
+//! let wall = |s_x: f32| 4.0 / (1.0 - 0.5 * s_x);
+//! let depth: Vec<f32> = (0..256)
+//!     .map(|i| cam.encode_depth(wall(((i % 16) as f32 + 0.5) / 8.0 - 1.0), DepthConvention::ZeroToOne))
+//!     .collect();
+//! let image = DepthImage::try_new(ImageView::try_new(&depth, 16, 16, 16)?, cam, DepthConvention::ZeroToOne)?;
+//! assert!((image.linear_at(0, 3).unwrap() - wall(-15.0 / 16.0)).abs() < 1e-4);
+//!
+//! // A ray toward the wall point Q seen through pixel position (5.2, 7.7).
+//! let q = cam.unproject(Vec2::new(5.2, 7.7), wall(5.2 / 8.0 - 1.0), DepthConvention::Linear);
+//! let origin = Vec3::new(1.0, 1.0, -1.0);
+//! let ray = Ray { origin, dir: (q - origin).normalize() };
+//! let opts = StepOptions { stride: 1, max_steps: 64 };
+//! let Trace::Hit(hit) = try_step(&image, Thickness::Constant(0.2), ray, f32::INFINITY, opts)? else {
+//!     panic!("the ray reaches the wall");
+//! };
+//! // Texels are flat plates; refinement fits the wall's plane and lands on Q.
+//! let fine = refine_hit(&image, &ray, f32::INFINITY, &hit);
+//! assert!((fine.pixel - Vec2::new(5.2, 7.7)).length() < 1e-2);
+//! assert!((fine.t - (q - origin).length()).abs() < 1e-3);
+//! assert!(fine.work.fetches > hit.work.fetches);
+//! # }
+//! # Ok::<(), refl_core::Error>(())
+//! ```
 
 use crate::{Camera, DepthConvention, Error, ImageView, Ray};
 use glam::Vec2;

@@ -32,6 +32,77 @@
 //!    [`HostRay`]s. Clusters own disjoint pixels and bands disjoint rows:
 //!    a host's threads may finalize any clusters and bands at once.
 //!
+//! # Example
+//! ```rust
+//! use core::f32::consts::FRAC_PI_2;
+//! use refl_core::cluster::{try_cluster_plan_len, ClusterObjects, ClusterPass, ClusterPassOptions};
+//! use refl_core::cluster::{ClusterPlanEntry, ClusterRender, ClusterScratchMut, ClusterTexel};
+//! use refl_core::cluster::{Lobe, ObjectBins, NO_OBJECT};
+//! use refl_core::glam::{Vec2, Vec3};
+//! use refl_core::{Camera, DepthConvention, DepthImage, GBuffer, ImageView, ImageViewMut};
+//! use refl_core::{MirrorStatus, NormalSpace};
+//!
+//! // 16 x 16 pixels: the eye 1 above the floor y = 0 (object 0), looking down -Z at a
+//! // wall at z = -4 (not reflective).
+//! let cam = Camera::try_look_at(Vec3::Y, Vec3::new(0.0, 1.0, -1.0), Vec3::Y, FRAC_PI_2, 0.1, 100.0, 16, 16)?;
+//! let (mut depth, mut normals) = (vec![4.0f32; 256], vec![[0.0, 0.0, 1.0f32]; 256]);
+//! let mut ids = vec![NO_OBJECT; 256];
+//! for (i, (d, n)) in depth.iter_mut().zip(&mut normals).enumerate() {
+//!     // Row y looks along NDC y = 1 - (2 y + 1) / 16 and meets the floor at depth -1 / NDC y.
+//!     let floor = -1.0 / (1.0 - (2 * (i / 16) + 1) as f32 / 16.0);
+//!     if (0.0..4.0).contains(&floor) {
+//!         (*d, *n, ids[i]) = (floor, [0.0, 1.0, 0.0], 0);
+//!     }
+//! }
+//! let depth = DepthImage::try_new(ImageView::try_new(&depth, 16, 16, 16)?, cam, DepthConvention::Linear)?;
+//! let gbuffer = GBuffer::try_new(depth, ImageView::try_new(&normals, 16, 16, 16)?, NormalSpace::World)?;
+//! let lobes = [Lobe::MIRROR];
+//! let objects = ClusterObjects { ids: ImageView::try_new(&ids, 16, 16, 16)?, lobes: &lobes };
+//!
+//! // Plan: the flat floor is one planar cluster of 96 pixels, rendered from the
+//! // mirrored eye (0, -1, 0).
+//! let options = ClusterPassOptions::default();
+//! let pass = ClusterPass::try_new(gbuffer, options)?;
+//! let len = try_cluster_plan_len(16, 16, lobes.len(), &options)?;
+//! let (mut cluster_ids, mut order) = (vec![0u32; len.ids], vec![0u32; len.order]);
+//! let (mut offsets, mut counts) = (vec![0u32; len.offsets], vec![0u32; len.counts]);
+//! let mut layout = vec![ObjectBins::default(); len.layout];
+//! let scratch = ClusterScratchMut {
+//!     ids: &mut cluster_ids, order: &mut order, offsets: &mut offsets,
+//!     counts: &mut counts, layout: &mut layout,
+//! };
+//! let mut plan: Vec<Option<ClusterPlanEntry>> = vec![None; len.clusters];
+//! let stats = pass.try_plan(&mut plan, scratch, &objects)?;
+//! assert_eq!((stats.clusters, stats.planar, stats.pixels), (1, 1, 96));
+//! let entry = plan[0].expect("one cluster");
+//! let camera = entry.camera().expect("a planar cluster has a camera").camera;
+//! assert!((camera.eye() - Vec3::new(0.0, -1.0, 0.0)).length() < 1e-5);
+//!
+//! // The host renders the wall through that camera: depth and color per texel.
+//! let (w, h) = (camera.width(), camera.height());
+//! let wall_depth: Vec<f32> = (0..w * h)
+//!     .map(|i| camera.primary_ray(Vec2::new((i % w) as f32 + 0.5, (i / w) as f32 + 0.5)))
+//!     .map(|ray| camera.linear_depth(ray.at((-4.0 - ray.origin.z) / ray.dir.z)))
+//!     .collect();
+//! let wall_color = vec![[0.2f32, 0.4, 0.6]; wall_depth.len()];
+//! let depth = DepthImage::try_new(ImageView::try_new(&wall_depth, w, h, w)?, camera, DepthConvention::Linear)?;
+//! let render = ClusterRender::try_new(depth, ImageView::try_new(&wall_color, w, h, w)?)?;
+//!
+//! // Finalize: every floor pixel sees the wall.
+//! let mut out = vec![ClusterTexel::default(); 256];
+//! let mut view = ImageViewMut::try_new(&mut out, 16, 16, 16)?;
+//! let done = pass.try_finalize(&mut view, &mut [], &entry, &order, Some(&render))?;
+//! assert_eq!((done.pixels, done.hits), (96, 96));
+//! // Pixel (8, 13) reflects the floor point P toward the wall point Q at height 1.75
+//! // (the `ssr` example's pixel).
+//! let (p, q) = (Vec3::new(1.0 / 11.0, 0.0, -16.0 / 11.0), Vec3::new(0.25, 1.75, -4.0));
+//! let shade = out[13 * 16 + 8].shade;
+//! assert_eq!((out[13 * 16 + 8].status, shade.hit_weight), (MirrorStatus::Hit, 1.0));
+//! assert!((shade.mirror_dir - (q - p).normalize()).length() < 1e-4);
+//! assert!((shade.rgb - Vec3::new(0.2, 0.4, 0.6)).length() < 1e-5);
+//! # Ok::<(), refl_core::Error>(())
+//! ```
+//!
 //! # Pixels and rays
 //! The surface point, the normal (turned toward the eye) and the mirror
 //! direction of a pixel are the mirror pass's ([`crate::ssr`], module docs,

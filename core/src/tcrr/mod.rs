@@ -31,6 +31,30 @@
 //! ([`crate::ImageViewMut::try_split_at_row`]), so a host can thread it; the
 //! result does not depend on the banding.
 //!
+//! # Example
+//! The distance function and the key-frame policy; the passes have their own
+//! examples ([`search`], [`shift`], [`warp`]).
+//! ```rust
+//! use refl_core::glam::Vec3;
+//! use refl_core::{reflection_distance, KeyFramePolicy, Reflected};
+//!
+//! // A floor point W = (0, 0, -1) reflects the eye's view of R = (0, 2, -3) into the
+//! // eye (0, 1, 0): the ray from R's mirror image (0, -2, -3) through W meets the eye.
+//! let (eye, r) = (Vec3::Y, Reflected::Point(Vec3::new(0.0, 2.0, -3.0)));
+//! assert!(reflection_distance(eye, Vec3::new(0.0, 0.0, -1.0), Vec3::Y, r).unwrap() < 1e-6);
+//! // Through W' = (0, 0, -2) the ray runs along (0, 2, 1) / sqrt(5) and passes the
+//! // eye at |(0, 1, 2) x (0, 2, 1)| / sqrt(5) = 3 / sqrt(5).
+//! let d = reflection_distance(eye, Vec3::new(0.0, 0.0, -2.0), Vec3::Y, r).unwrap();
+//! assert!((d - 3.0 / 5f32.sqrt()).abs() < 1e-5);
+//! // A floor seen from below reflects nothing into the eye.
+//! assert_eq!(reflection_distance(eye, Vec3::new(0.0, 0.0, -1.0), Vec3::NEG_Y, r), None);
+//!
+//! // A new key frame once more than 30% of the reflective pixels need re-tracing.
+//! let policy = KeyFramePolicy::try_new(0.3)?;
+//! assert!(!policy.needs_key_frame(30, 100) && policy.needs_key_frame(31, 100));
+//! # Ok::<(), refl_core::Error>(())
+//! ```
+//!
 //! Errata and choices (checked against the seed, see the tests):
 //! * Alg. 2 line 3 back-projects `s.r`; the surface position comes from the
 //!   depth `s.d` (the reflected distance `s.r` enters line 4).

@@ -1,5 +1,51 @@
 //! Reflection pixel matching by neighborhood search (seed 000 Sec. 3.2.1,
 //! Alg. 2).
+//!
+//! # Example
+//! ```rust
+//! use refl_core::tcrr::{offset_is_valid, try_search, INVALID_OFFSET};
+//! use refl_core::glam::{Vec2, Vec3};
+//! use refl_core::{Camera, DepthConvention, ImageView, ImageViewMut, ReflectionBuffers, TcrrOptions};
+//!
+//! // The key frame: 8 x 8 pixels looking straight down from (0, 2, 0) at the mirror
+//! // floor y = 0, 1/4 unit per pixel (x right, z down the image). The reflected rays
+//! // end on a ceiling at y = 4: at twice the distance from the eye to the floor point.
+//! let look = |x: f32| {
+//!     let eye = Vec3::new(x, 2.0, 0.0);
+//!     Camera::try_look_at(eye, eye - Vec3::Y, Vec3::NEG_Z, 2.0 * 0.5f32.atan(), 0.1, 100.0, 8, 8)
+//! };
+//! let key = look(0.0)?;
+//! let center = |i: usize| Vec2::new((i % 8) as f32 + 0.5, (i / 8) as f32 + 0.5);
+//! let floor = |i: usize| key.unproject(center(i), 2.0, DepthConvention::Linear);
+//! let distance: Vec<f32> = (0..64).map(|i| 2.0 * (floor(i) - key.eye()).length()).collect();
+//! let color: Vec<[f32; 3]> = (0..64).map(|i| [(i % 8) as f32 / 8.0, (i / 8) as f32 / 8.0, 0.5]).collect();
+//! let (depth, normal, specular) = ([2.0f32; 64], [[0.0f32, 1.0, 0.0]; 64], [1.0f32; 64]);
+//! fn view<T: Copy>(data: &[T]) -> Result<ImageView<'_, T>, refl_core::Error> {
+//!     ImageView::try_new(data, 8, 8, 8)
+//! }
+//! let (depth, normal, specular) = (view(&depth)?, view(&normal)?, view(&specular)?);
+//! let buffers = ReflectionBuffers::try_new(
+//!     key, DepthConvention::Linear, depth, normal, specular, view(&color)?, view(&distance)?,
+//! )?;
+//!
+//! // The eye moves to (0.375, 2, 0). A floor point P reflects the ceiling point
+//! // R = (3 P_x, 4, 3 P_z); from the new eye, R is seen in the floor where the line to
+//! // R's mirror image (3 P_x, -4, 3 P_z) crosses it, a third of the way: at
+//! // P + 2/3 (0.375, 0, 0), one pixel right of P.
+//! let mut offsets = [INVALID_OFFSET; 64]; // after a key frame
+//! let (mut out, eye) = (ImageViewMut::try_new(&mut offsets, 8, 8, 8)?, Vec3::new(0.375, 2.0, 0.0));
+//! let stats = try_search(&mut out, &buffers, eye, &TcrrOptions::default())?;
+//! assert_eq!((stats.matched, stats.invalid), (56, 8));
+//! for y in 0..8 {
+//!     for x in 0..7 {
+//!         let o = offsets[y * 8 + x];
+//!         assert!((o[0] - 1.0).abs() < 1e-3 && o[1].abs() < 1e-3);
+//!     }
+//!     // The last column's match lies beyond the key frame.
+//!     assert!(!offset_is_valid(offsets[y * 8 + 7]));
+//! }
+//! # Ok::<(), refl_core::Error>(())
+//! ```
 
 use super::{distance_squared, Reflected, Surf, Target, SNAP_PX};
 use super::{offset_is_valid, ReflectionBuffers, TcrrOptions, INVALID_OFFSET};

@@ -2,6 +2,55 @@
 //! reflection buffer, moved by the offsets and rasterized into the
 //! intermediate reflection image, with the small triangle rasterizer it
 //! needs.
+//!
+//! # Example
+//! ```rust
+//! use refl_core::tcrr::{try_shift, COVERAGE_NONE, COVERAGE_REUSE, INVALID_OFFSET};
+//! use refl_core::glam::{Vec2, Vec3};
+//! use refl_core::{Camera, DepthConvention, ImageView, ImageViewMut, ReflectionBuffers, TcrrOptions};
+//!
+//! // The key frame: 8 x 8 pixels looking straight down from (0, 2, 0) at the mirror
+//! // floor y = 0, 1/4 unit per pixel (x right, z down the image). The reflected rays
+//! // end on a ceiling at y = 4: at twice the distance from the eye to the floor point.
+//! let look = |x: f32| {
+//!     let eye = Vec3::new(x, 2.0, 0.0);
+//!     Camera::try_look_at(eye, eye - Vec3::Y, Vec3::NEG_Z, 2.0 * 0.5f32.atan(), 0.1, 100.0, 8, 8)
+//! };
+//! let key = look(0.0)?;
+//! let center = |i: usize| Vec2::new((i % 8) as f32 + 0.5, (i / 8) as f32 + 0.5);
+//! let floor = |i: usize| key.unproject(center(i), 2.0, DepthConvention::Linear);
+//! let distance: Vec<f32> = (0..64).map(|i| 2.0 * (floor(i) - key.eye()).length()).collect();
+//! let color: Vec<[f32; 3]> = (0..64).map(|i| [(i % 8) as f32 / 8.0, (i / 8) as f32 / 8.0, 0.5]).collect();
+//! let (depth, normal, specular) = ([2.0f32; 64], [[0.0f32, 1.0, 0.0]; 64], [1.0f32; 64]);
+//! fn view<T: Copy>(data: &[T]) -> Result<ImageView<'_, T>, refl_core::Error> {
+//!     ImageView::try_new(data, 8, 8, 8)
+//! }
+//! let (depth, normal, specular) = (view(&depth)?, view(&normal)?, view(&specular)?);
+//! let buffers = ReflectionBuffers::try_new(
+//!     key, DepthConvention::Linear, depth, normal, specular, view(&color)?, view(&distance)?,
+//! )?;
+//!
+//! // Offsets one pixel to the right (what the search finds when the eye moves to
+//! // (0.375, 2, 0)); the last column has no match.
+//! let offsets: Vec<[f32; 2]> = (0..64).map(|i| if i % 8 < 7 { [1.0, 0.0] } else { INVALID_OFFSET }).collect();
+//! let (mut shifted, mut path, mut coverage) = ([[0.0f32; 3]; 64], [0.0f32; 64], [0u8; 64]);
+//! try_shift(
+//!     &mut ImageViewMut::try_new(&mut shifted, 8, 8, 8)?,
+//!     &mut ImageViewMut::try_new(&mut path, 8, 8, 8)?,
+//!     &mut ImageViewMut::try_new(&mut coverage, 8, 8, 8)?,
+//!     &buffers,
+//!     &view(&offsets)?,
+//!     &TcrrOptions::default(),
+//! )?;
+//! // The mesh moved one pixel right: pixel (x + 1, y) holds key pixel (x, y)'s
+//! // reflection and its path length s.d + s.r; nothing lands in column 0.
+//! for i in (0..64).filter(|i| i % 8 < 7) {
+//!     assert_eq!((shifted[i + 1], coverage[i + 1]), (color[i], COVERAGE_REUSE));
+//!     assert!((path[i + 1] - (2.0 + distance[i])).abs() < 1e-5);
+//! }
+//! assert!((0..8).all(|y| coverage[y * 8] == COVERAGE_NONE));
+//! # Ok::<(), refl_core::Error>(())
+//! ```
 
 use super::{offset_is_valid, ReflectionBuffers, Sample, TcrrOptions, SNAP_PX};
 use crate::{Error, ImageView, ImageViewMut};

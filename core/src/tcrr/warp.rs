@@ -1,5 +1,67 @@
 //! Reflection warping, the re-trace mask and list, and output composition
 //! (seed 000 Sec. 3.3).
+//!
+//! # Example
+//! ```rust
+//! use refl_core::tcrr::{try_retrace_list, try_warp, CurrentView, COVERAGE_REUSE};
+//! use refl_core::tcrr::{MASK_RETRACE, MASK_REUSED};
+//! use refl_core::glam::{Vec2, Vec3};
+//! use refl_core::{Camera, DepthConvention, ImageView, ImageViewMut, ReflectionBuffers, TcrrOptions};
+//!
+//! // The key frame: 8 x 8 pixels looking straight down from (0, 2, 0) at the mirror
+//! // floor y = 0, 1/4 unit per pixel (x right, z down the image). The reflected rays
+//! // end on a ceiling at y = 4: at twice the distance from the eye to the floor point.
+//! let look = |x: f32| {
+//!     let eye = Vec3::new(x, 2.0, 0.0);
+//!     Camera::try_look_at(eye, eye - Vec3::Y, Vec3::NEG_Z, 2.0 * 0.5f32.atan(), 0.1, 100.0, 8, 8)
+//! };
+//! let key = look(0.0)?;
+//! let center = |i: usize| Vec2::new((i % 8) as f32 + 0.5, (i / 8) as f32 + 0.5);
+//! let floor = |i: usize| key.unproject(center(i), 2.0, DepthConvention::Linear);
+//! let distance: Vec<f32> = (0..64).map(|i| 2.0 * (floor(i) - key.eye()).length()).collect();
+//! let color: Vec<[f32; 3]> = (0..64).map(|i| [(i % 8) as f32 / 8.0, (i / 8) as f32 / 8.0, 0.5]).collect();
+//! let (depth, normal, specular) = ([2.0f32; 64], [[0.0f32, 1.0, 0.0]; 64], [1.0f32; 64]);
+//! fn view<T: Copy>(data: &[T]) -> Result<ImageView<'_, T>, refl_core::Error> {
+//!     ImageView::try_new(data, 8, 8, 8)
+//! }
+//! let (depth, normal, specular) = (view(&depth)?, view(&normal)?, view(&specular)?);
+//! let buffers = ReflectionBuffers::try_new(
+//!     key, DepthConvention::Linear, depth, normal, specular, view(&color)?, view(&distance)?,
+//! )?;
+//!
+//! // The current frame: the eye moved to (0.25, 2, 0), one key pixel to the right;
+//! // it sees the same floor at depth 2, all reflective.
+//! let current = CurrentView::try_new(look(0.25)?, DepthConvention::Linear, depth, specular)?;
+//! // The seed's naive baseline: warp the key frame's own reflections (every texel
+//! // reusable, no contrast test).
+//! let path: Vec<f32> = distance.iter().map(|r| 2.0 + r).collect();
+//! let reusable = [COVERAGE_REUSE; 64];
+//! let options = TcrrOptions { retrace_contrast: f32::INFINITY, ..TcrrOptions::default() };
+//! let (mut warped, mut mask) = ([[0.0f32; 3]; 64], [0u8; 64]);
+//! let stats = try_warp(
+//!     &mut ImageViewMut::try_new(&mut warped, 8, 8, 8)?,
+//!     &mut ImageViewMut::try_new(&mut mask, 8, 8, 8)?,
+//!     &current,
+//!     &buffers,
+//!     &view(&color)?,
+//!     &view(&path)?,
+//!     &view(&reusable)?,
+//!     &options,
+//! )?;
+//! assert_eq!((stats.reused, stats.retrace), (56, 8));
+//! // Pixel (x, y) sees key pixel (x + 1, y)'s surface and takes its reflection; the
+//! // last column sees floor beyond the key frame: re-trace.
+//! for i in 0..64 {
+//!     match i % 8 {
+//!         7 => assert_eq!(mask[i], MASK_RETRACE),
+//!         _ => assert_eq!((mask[i], warped[i]), (MASK_REUSED, color[i + 1])),
+//!     }
+//! }
+//! let mut list = [0u32; 64];
+//! let n = try_retrace_list(&mut list, &view(&mask)?)?;
+//! assert_eq!(&list[..n], &[7, 15, 23, 31, 39, 47, 55, 63]);
+//! # Ok::<(), refl_core::Error>(())
+//! ```
 
 use super::{ReflectionBuffers, Surf, TcrrOptions, SNAP_PX};
 use crate::{Camera, DepthConvention, Error, ImageView, ImageViewMut};
