@@ -76,6 +76,9 @@ for f in "" mirror hiz cone depth-image layered cluster tcrr epipolar; do
     --target-dir "$root/target/ffi-features"
 done
 
+step "refl-core is publishable: cargo package (builds the packaged crate)"
+cargo package --locked -q -p refl-core
+
 step "refl report --quick"
 cargo build --locked --release -p refl
 quick_dir="$root/target/report-quick"

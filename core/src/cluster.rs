@@ -82,7 +82,7 @@
 //! [`NO_OBJECT`] (or any id at or beyond the table) marks a pixel that is
 //! not reflective. A pixel without a cluster has id [`NO_CLUSTER`].
 
-mod pass;
+pub mod pass;
 
 pub use pass::{
     try_cluster_plan_len, ClusterObjects, ClusterPass, ClusterPassOptions, ClusterPlanEntry,

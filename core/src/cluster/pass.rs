@@ -13,9 +13,9 @@
 //!    their object counts, the bin layout, the per-pixel cluster ids, the
 //!    counting sort into per-cluster pixel lists
 //!    ([`try_count_objects`](super::try_count_objects),
-//!    [`try_bin_layout`](super::try_bin_layout),
+//!    [`try_bin_layout`],
 //!    [`try_assign_clusters`](super::try_assign_clusters),
-//!    [`try_cluster_ranges`](super::try_cluster_ranges)), then one camera
+//!    [`try_cluster_ranges`]), then one camera
 //!    per non-empty cluster ([`try_cluster_camera`](super::try_cluster_camera))
 //!    with its frustum ([`Camera::frustum_planes`](crate::Camera::frustum_planes)) and resolution, written
 //!    to the caller's list of [`ClusterPlanEntry`].
@@ -246,7 +246,7 @@ impl ClusterPassOptions {
 #[derive(Clone, Copy, Debug)]
 pub struct ClusterObjects<'a> {
     /// Object id per pixel, the G-buffer's size; an id at or beyond
-    /// `lobes.len()` ([`NO_OBJECT`](super::NO_OBJECT) among them) marks a
+    /// `lobes.len()` ([`NO_OBJECT`] among them) marks a
     /// pixel that is not reflective.
     pub ids: ImageView<'a, u32>,
     /// The rays per pixel of each object ([`Lobe::MIRROR`] for a mirror).
