@@ -1212,11 +1212,28 @@ struct Axis<const NEG: bool> {
     v0: f32,
     d: f32,
     moves: bool,
+    /// `v0` and `d` for [`Self::exit`]: the same when the segment moves
+    /// along the axis, else `-inf` and `+0`, which make the exit parameter
+    /// `(boundary + inf) / +0 = +inf` without a branch.
+    exit_v0: f32,
+    exit_d: f32,
     /// Level-0 size (pixels) along the axis.
     size: u32,
 }
 
 impl<const NEG: bool> Axis<NEG> {
+    fn new(v0: f32, d: f32, size: u32) -> Self {
+        let moves = d != 0.0;
+        Self {
+            v0,
+            d,
+            moves,
+            exit_v0: if moves { v0 } else { f32::NEG_INFINITY },
+            exit_d: if moves { d } else { 0.0 },
+            size,
+        }
+    }
+
     /// The coordinate at `s`, as [`Segment::x`] / [`Segment::y`].
     #[inline(always)]
     fn at(&self, s: f32) -> f32 {
@@ -1242,15 +1259,11 @@ impl<const NEG: bool> Axis<NEG> {
     /// parameter of the cell side past `e`, `(boundary - v0) / d` (seed 004
     /// Listing 4.5, `intersectCellBoundary`, with the boundary in integer
     /// pixels), or `+inf` when the segment does not move along the axis.
-    /// Never NaN: `d != 0` and both terms are finite.
+    /// Never NaN: `d != 0` and both terms are finite, or `+inf / +0`.
     #[inline(always)]
     fn exit(&self, e: u32) -> f32 {
         let b = if NEG { e } else { e + 1 };
-        if self.moves {
-            (b as f32 - self.v0) / self.d
-        } else {
-            f32::INFINITY
-        }
+        (b as f32 - self.exit_v0) / self.exit_d
     }
 
     /// The pixel past edge pixel `e` in the direction of motion, or `None`
@@ -1315,20 +1328,26 @@ impl<const NEG: bool> Axis<NEG> {
 /// * `STATS`: whether to keep the [`HiZStats`] counters (the batch entry
 ///   point drops them, so it does not pay for them).
 ///
-/// The sign of `dq` is a per-ray flag: it only swaps which slab bound is
-/// entered first.
-struct Walker<'h, 'a, const NX: bool, const NY: bool, const BACK: bool, const STATS: bool> {
+/// * `NQ`: `dq < 0`, `q` decreases (the ray moves away from the camera):
+///   which slab bound the segment enters first.
+struct Walker<
+    'h,
+    'a,
+    const NX: bool,
+    const NY: bool,
+    const NQ: bool,
+    const BACK: bool,
+    const STATS: bool,
+> {
     hiz: &'h HiZ<'a>,
     levels: &'h [HiZLevel; MAX_LEVELS],
     data: &'a [HiZTexel],
     seg: Segment,
     ax: Axis<NX>,
     ay: Axis<NY>,
-    /// `q` at `s = 0`, `dq` and whether `dq < 0` (`q` decreasing: the ray
-    /// moves away from the camera).
+    /// `q` at `s = 0` and `dq`.
     q0: f32,
     dq: f32,
-    neg_q: bool,
     thickness: Thickness<'a>,
     /// The constant thickness (unused with `BACK`).
     th: f32,
@@ -1343,8 +1362,8 @@ struct Walker<'h, 'a, const NX: bool, const NY: bool, const BACK: bool, const ST
     stats: HiZStats,
 }
 
-impl<const NX: bool, const NY: bool, const BACK: bool, const STATS: bool>
-    Walker<'_, '_, NX, NY, BACK, STATS>
+impl<const NX: bool, const NY: bool, const NQ: bool, const BACK: bool, const STATS: bool>
+    Walker<'_, '_, NX, NY, NQ, BACK, STATS>
 {
     fn work(&self) -> Work {
         Work {
@@ -1444,11 +1463,7 @@ impl<const NX: bool, const NY: bool, const BACK: bool, const STATS: bool>
         }
         let upper = self.upper(c.level, c.x, c.y, zmin, zmax);
         let (q_lo, q_hi) = (1.0 / upper, 1.0 / zmin);
-        let (qa, qb) = if self.neg_q {
-            (q_hi, q_lo)
-        } else {
-            (q_lo, q_hi)
-        };
+        let (qa, qb) = if NQ { (q_hi, q_lo) } else { (q_lo, q_hi) };
         let a = max_nn(self.s, (qa - self.q0) / self.dq);
         let b = min_nn(to, (qb - self.q0) / self.dq);
         (a <= b).then_some((a, b))
@@ -1581,7 +1596,8 @@ impl<const NX: bool, const NY: bool, const BACK: bool, const STATS: bool>
         let sd = self.seg;
         let x = dir_floor(sd.x(1.0), sd.dx).clamp(0, i64::from(self.ax.size) - 1) as u32;
         let y = dir_floor(sd.y(1.0), sd.dy).clamp(0, i64::from(self.ay.size) - 1) as u32;
-        let [zmin, zmax] = self.fetch(self.levels[0].offset + y as usize * self.ax.size as usize + x as usize);
+        let [zmin, zmax] =
+            self.fetch(self.levels[0].offset + y as usize * self.ax.size as usize + x as usize);
         let behind = zmin < self.far && sd.q1 < 1.0 / self.upper(0, x, y, zmin, zmax);
         let reason = if behind {
             Miss::BehindGeometry
@@ -1676,7 +1692,7 @@ impl<const NX: bool, const NY: bool, const BACK: bool, const STATS: bool>
 }
 
 /// Traces a projected segment with the walker of its class ([`Walker`]).
-fn walk<const NX: bool, const NY: bool, const BACK: bool, const STATS: bool>(
+fn walk<const NX: bool, const NY: bool, const NQ: bool, const BACK: bool, const STATS: bool>(
     hiz: &HiZ<'_>,
     thickness: Thickness<'_>,
     seg: Segment,
@@ -1685,26 +1701,15 @@ fn walk<const NX: bool, const NY: bool, const BACK: bool, const STATS: bool>(
     let (w, h) = (hiz.layout.width, hiz.layout.height);
     let px = dir_floor(seg.x0, seg.dx).clamp(0, i64::from(w) - 1) as u32;
     let py = dir_floor(seg.y0, seg.dy).clamp(0, i64::from(h) - 1) as u32;
-    let mut walker = Walker::<NX, NY, BACK, STATS> {
+    let mut walker = Walker::<NX, NY, NQ, BACK, STATS> {
         hiz,
         levels: &hiz.layout.levels,
         data: hiz.data,
         seg,
-        ax: Axis {
-            v0: seg.x0,
-            d: seg.dx,
-            moves: seg.dx != 0.0,
-            size: w,
-        },
-        ay: Axis {
-            v0: seg.y0,
-            d: seg.dy,
-            moves: seg.dy != 0.0,
-            size: h,
-        },
+        ax: Axis::new(seg.x0, seg.dx, w),
+        ay: Axis::new(seg.y0, seg.dy, h),
         q0: seg.q0,
         dq: seg.dq,
-        neg_q: seg.dq < 0.0,
         thickness,
         th: match thickness {
             Thickness::Constant(th) => th,
@@ -1740,15 +1745,23 @@ fn trace_valid<const STATS: bool>(
         );
     };
     let back = matches!(thickness, Thickness::BackFaces(_));
-    let f = match (seg.dx < 0.0, seg.dy < 0.0, back) {
-        (false, false, false) => walk::<false, false, false, STATS>,
-        (false, true, false) => walk::<false, true, false, STATS>,
-        (true, false, false) => walk::<true, false, false, STATS>,
-        (true, true, false) => walk::<true, true, false, STATS>,
-        (false, false, true) => walk::<false, false, true, STATS>,
-        (false, true, true) => walk::<false, true, true, STATS>,
-        (true, false, true) => walk::<true, false, true, STATS>,
-        (true, true, true) => walk::<true, true, true, STATS>,
+    let f = match (seg.dx < 0.0, seg.dy < 0.0) {
+        (false, false) => by_q::<false, false, STATS>,
+        (false, true) => by_q::<false, true, STATS>,
+        (true, false) => by_q::<true, false, STATS>,
+        (true, true) => by_q::<true, true, STATS>,
     };
-    f(hiz, thickness, seg, options)
+    f(seg.dq < 0.0, back)(hiz, thickness, seg, options)
+}
+
+/// The [`walk`] of a segment's class, given the signs of `dx` and `dy`.
+type WalkFn = fn(&HiZ<'_>, Thickness<'_>, Segment, &HiZOptions) -> (Trace, HiZStats);
+
+fn by_q<const NX: bool, const NY: bool, const STATS: bool>(neg_q: bool, back: bool) -> WalkFn {
+    match (neg_q, back) {
+        (false, false) => walk::<NX, NY, false, false, STATS>,
+        (false, true) => walk::<NX, NY, false, true, STATS>,
+        (true, false) => walk::<NX, NY, true, false, STATS>,
+        (true, true) => walk::<NX, NY, true, true, STATS>,
+    }
 }
