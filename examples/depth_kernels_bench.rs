@@ -23,7 +23,12 @@
 //! Timings are on the calling thread only: reversed-Z, infinite far plane,
 //! constant thickness, default options. Wall-clock numbers are noisy on a
 //! shared machine; `perf stat -e instructions` on `--reps N` minus
-//! `--reps 0` gives instructions per ray independently of load.
+//! `--reps 0` (which traces once, untimed, for the report) gives
+//! instructions per ray independently of load, or, without `perf`,
+//! `valgrind --tool=callgrind --toggle-collect='refl_core::hiz::try_trace_hiz_rays*'`
+//! on `--time hiz --reps 1` counts one batch of Hi-Z traces alone. Each
+//! kernel's line `totals` gives the rays, iterations, fetches and steps of
+//! one batch to divide by.
 
 use refl_app::gbuffer::GBuffer;
 use refl_app::scene::Scene;
@@ -267,9 +272,10 @@ fn main() {
     let hz = hiz::HiZ::try_new(&pyr, depth.camera, depth.convention).expect("hiz");
     let th = Thickness::Constant(thick);
     let report = |name: &str, out: &[Trace], ns: &mut [f64]| {
-        let (mut fetches, mut iters, mut hits) = (0u64, 0u64, 0usize);
+        let (mut fetches, mut iters, mut steps, mut hits) = (0u64, 0u64, 0u64, 0usize);
         for t in out {
             fetches += u64::from(t.work().fetches);
+            steps += u64::from(t.work().steps);
             iters += u64::from(t.work().iterations);
             hits += usize::from(t.hit().is_some());
         }
@@ -293,6 +299,8 @@ fn main() {
             iters as f64 / n as f64,
             fnv(&words)
         );
+        // Totals per traced batch, to divide instruction counts by.
+        println!("{name:5}: totals {n} rays, {iters} iterations, {fetches} fetches, {steps} steps");
     };
     let time_it = |f: &mut dyn FnMut()| -> Vec<f64> {
         (0..a.reps)

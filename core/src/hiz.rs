@@ -1150,35 +1150,46 @@ fn below(i: u32) -> f32 {
     f32::from_bits(v.to_bits() - 1)
 }
 
-/// A cell of some level: its indices, its level-0 pixel span
-/// `[x0, x1) x [y0, y1)` and the index of its texel in the pyramid buffer.
-/// Plain integers (no `Range`), so that it is `Copy` and stays in registers.
+/// `a.max(b)` for a non-NaN `a`: `b` if `b > a`, else `a`, so a NaN `b` is
+/// ignored as by [`f32::max`]. One `maxss`, where `f32::max` also has to
+/// handle a NaN `a`. When `a` and `b` are zeros of opposite signs, where
+/// `f32::max` leaves the result unspecified, this returns `a`, as the
+/// x86-64 lowering of `a.max(b)` does; otherwise both are the same value.
+#[inline(always)]
+fn max_nn(a: f32, b: f32) -> f32 {
+    if b > a {
+        b
+    } else {
+        a
+    }
+}
+
+/// `a.min(b)` for a non-NaN `a`, as [`max_nn`].
+#[inline(always)]
+fn min_nn(a: f32, b: f32) -> f32 {
+    if b < a {
+        b
+    } else {
+        a
+    }
+}
+
+/// A cell of some level, as the walk needs it: its indices, along each axis
+/// the *edge pixel*, the last level-0 pixel of the cell in that axis's
+/// direction of motion, and the index of its texel in the pyramid buffer.
+/// In level-0 pixels cell `x` of level `L` spans `[x0, x1)` with
+/// `x0 = x 2^L` and `x1 = (x + 1) 2^L`, or the image edge for the last cell;
+/// its edge pixel is `x1 - 1` moving toward `+x` and `x0` moving toward `-x`,
+/// the only side the segment can leave through. Plain integers, so that it
+/// is `Copy` and stays in registers.
 #[derive(Clone, Copy, Debug)]
 struct Cell {
     level: u32,
     x: u32,
     y: u32,
-    x0: u32,
-    x1: u32,
-    y0: u32,
-    y1: u32,
+    ex: u32,
+    ey: u32,
     index: usize,
-}
-
-impl Cell {
-    /// Whether level-0 pixel `(px, py)` lies in the cell.
-    #[inline]
-    fn contains(&self, px: u32, py: u32) -> bool {
-        px >= self.x0 && px < self.x1 && py >= self.y0 && py < self.y1
-    }
-}
-
-/// Where the segment leaves a cell: parameter and which axes cross.
-#[derive(Clone, Copy, Debug)]
-struct Exit {
-    s: f32,
-    cross_x: bool,
-    cross_y: bool,
 }
 
 enum Step {
@@ -1192,241 +1203,362 @@ enum Step {
     Inside { cell: Cell, sa: f32, sb: f32 },
 }
 
+/// One screen axis of the segment, `v(s) = v0 + s d`, specialized on its
+/// direction of motion: `NEG` for `d < 0`. An axis the segment does not move
+/// along (`d == 0`, either sign) has `NEG = false` and `moves = false`: its
+/// exit parameter is `+inf` and its frontier pixel never changes.
+#[derive(Clone, Copy, Debug)]
+struct Axis<const NEG: bool> {
+    v0: f32,
+    d: f32,
+    moves: bool,
+    /// `v0` and `d` for [`Self::exit`]: the same when the segment moves
+    /// along the axis, else `-inf` and `+0`, which make the exit parameter
+    /// `(boundary + inf) / +0 = +inf` without a branch.
+    exit_v0: f32,
+    exit_d: f32,
+    /// Level-0 size (pixels) along the axis.
+    size: u32,
+}
+
+impl<const NEG: bool> Axis<NEG> {
+    fn new(v0: f32, d: f32, size: u32) -> Self {
+        let moves = d != 0.0;
+        Self {
+            v0,
+            d,
+            moves,
+            exit_v0: if moves { v0 } else { f32::NEG_INFINITY },
+            exit_d: if moves { d } else { 0.0 },
+            size,
+        }
+    }
+
+    /// The coordinate at `s`, as [`Segment::x`] / [`Segment::y`].
+    #[inline(always)]
+    fn at(&self, s: f32) -> f32 {
+        self.v0 + s * self.d
+    }
+
+    /// The edge pixel (see [`Cell`]) of cell `c` of level `level`, which has
+    /// `cells` cells along the axis. As `cell_span`: `c << level <= p` for
+    /// the frontier pixel `p` and, below the last cell, `(c + 1) << level <=
+    /// size`, so the shifts do not overflow.
+    #[inline(always)]
+    fn edge(&self, c: u32, level: u32, cells: u32) -> u32 {
+        if NEG {
+            c << level
+        } else if c + 1 >= cells {
+            self.size - 1
+        } else {
+            ((c + 1) << level) - 1
+        }
+    }
+
+    /// Where the segment leaves the cell whose edge pixel is `e`: the
+    /// parameter of the cell side past `e`, `(boundary - v0) / d` (seed 004
+    /// Listing 4.5, `intersectCellBoundary`, with the boundary in integer
+    /// pixels), or `+inf` when the segment does not move along the axis.
+    /// Never NaN: `d != 0` and both terms are finite, or `+inf / +0`.
+    #[inline(always)]
+    fn exit(&self, e: u32) -> f32 {
+        let b = if NEG { e } else { e + 1 };
+        (b as f32 - self.exit_v0) / self.exit_d
+    }
+
+    /// The pixel past edge pixel `e` in the direction of motion, or `None`
+    /// past the image edge.
+    #[inline(always)]
+    fn next(&self, e: u32) -> Option<u32> {
+        if NEG {
+            e.checked_sub(1)
+        } else {
+            (e + 1 < self.size).then_some(e + 1)
+        }
+    }
+
+    /// Moves the frontier along the axis from pixel `p` to the pixel of
+    /// coordinate `v = v(s)`, kept inside the cell whose edge pixel is `e`
+    /// (the cell holds `p`) and never backward.
+    ///
+    /// A pixel owns the segment up to and including its exit parameter as
+    /// [`Self::exit`] computes it (`(boundary - v0) / d`), which is what a
+    /// level-0 visit searches. The position `v` is rounded in f32 and may
+    /// already lie on or past the boundary while `s` is still within the
+    /// old pixel's exit: the frontier then stays in the old pixel, so a hit
+    /// in its last sliver (a zero-thickness slab touched as the ray leaves
+    /// the texel, found by exploration) is not stepped over.
+    ///
+    /// Rounding is toward the direction of motion: `floor(v)`, or
+    /// `ceil(v) - 1` moving toward `-v` (a position on a boundary belongs to
+    /// the pixel the ray is entering, [`dir_floor`]). Clamping into the cell
+    /// needs only its edge pixel: the cell's other end lies behind `p`.
+    #[inline(always)]
+    fn sync(&self, s: f32, v: f32, p: u32, e: u32) -> u32 {
+        if !self.moves {
+            return p;
+        }
+        let p = i64::from(p);
+        let n = if NEG {
+            let mut f = ceil_i64(v).wrapping_sub(1);
+            if f < p && s <= ((f + 1) as f32 - self.v0) / self.d {
+                f += 1;
+            }
+            f.min(p).max(i64::from(e))
+        } else {
+            let mut f = floor_i64(v);
+            if f > p && s <= (f as f32 - self.v0) / self.d {
+                f -= 1;
+            }
+            f.max(p).min(i64::from(e))
+        };
+        n as u32
+    }
+}
+
 /// One ray's traversal state. Everything that is constant per ray (the
-/// segment, the level table, the image size, the thickness) is read once
-/// here, not per cell. `STATS`: whether to keep the [`HiZStats`] counters
-/// (the batch entry point drops them, so it does not pay for them).
-struct Walker<'h, 'a, const STATS: bool> {
+/// segment, its direction class, the level table, the image size, the
+/// thickness) is read and classified once here, not per cell; the loop is
+/// monomorphized per class:
+///
+/// * `NX`, `NY`: the segment moves toward `-x` / `-y` ([`Axis`]): a cell's
+///   exit side, the pixel past it and the frontier's rounding are chosen at
+///   compile time.
+/// * `BACK`: [`Thickness::BackFaces`] (else [`Thickness::Constant`]).
+/// * `STATS`: whether to keep the [`HiZStats`] counters (the batch entry
+///   point drops them, so it does not pay for them).
+///
+/// * `NQ`: `dq < 0`, `q` decreases (the ray moves away from the camera):
+///   which slab bound the segment enters first.
+struct Walker<
+    'h,
+    'a,
+    const NX: bool,
+    const NY: bool,
+    const NQ: bool,
+    const BACK: bool,
+    const STATS: bool,
+> {
     hiz: &'h HiZ<'a>,
     levels: &'h [HiZLevel; MAX_LEVELS],
     data: &'a [HiZTexel],
-    /// Level-0 size.
-    width: u32,
-    height: u32,
     seg: Segment,
+    ax: Axis<NX>,
+    ay: Axis<NY>,
+    /// `q` at `s = 0` and `dq`.
+    q0: f32,
+    dq: f32,
     thickness: Thickness<'a>,
+    /// The constant thickness (unused with `BACK`).
+    th: f32,
     far: f32,
     s: f32,
     px: u32,
     py: u32,
-    work: Work,
+    /// [`Work`] counters, saturated to `u32` on return.
+    steps: u64,
+    fetches: u64,
+    iterations: u32,
     stats: HiZStats,
 }
 
-impl<const STATS: bool> Walker<'_, '_, STATS> {
-    /// The cell of level `level` (`< level_count`) that holds the frontier.
-    #[inline]
+impl<const NX: bool, const NY: bool, const NQ: bool, const BACK: bool, const STATS: bool>
+    Walker<'_, '_, NX, NY, NQ, BACK, STATS>
+{
+    fn work(&self) -> Work {
+        Work {
+            steps: u32::try_from(self.steps).unwrap_or(u32::MAX),
+            fetches: u32::try_from(self.fetches).unwrap_or(u32::MAX),
+            iterations: self.iterations,
+        }
+    }
+
+    /// The level table entry of `level` (`< level_count <= MAX_LEVELS`).
+    #[inline(always)]
+    fn level(&self, level: u32) -> HiZLevel {
+        self.levels[level as usize % MAX_LEVELS]
+    }
+
+    /// The cell of level `level` that holds the frontier.
+    #[inline(always)]
     fn cell(&self, level: u32) -> Cell {
-        let l = self.levels[level as usize];
+        let l = self.level(level);
         let x = (self.px >> level).min(l.width - 1);
         let y = (self.py >> level).min(l.height - 1);
-        // As `cell_span`: `x << level <= px` and, below the last cell,
-        // `(x + 1) << level < width`, so the shifts do not overflow.
-        let x1 = if x + 1 >= l.width {
-            self.width
-        } else {
-            (x + 1) << level
-        };
-        let y1 = if y + 1 >= l.height {
-            self.height
-        } else {
-            (y + 1) << level
-        };
         Cell {
             level,
             x,
             y,
-            x0: x << level,
-            x1,
-            y0: y << level,
-            y1,
+            ex: self.ax.edge(x, level, l.width),
+            ey: self.ay.edge(y, level, l.height),
             index: l.offset + y as usize * l.width as usize + x as usize,
         }
     }
 
-    /// The cell's texel (counted as a fetch).
+    /// Whether the frontier lies in cell `c`.
     #[inline]
-    fn fetch(&mut self, c: &Cell) -> HiZTexel {
-        self.work.fetches = self.work.fetches.saturating_add(1);
-        self.data.get(c.index).copied().unwrap_or([f32::NAN; 2])
+    fn holds_frontier(&self, c: &Cell) -> bool {
+        let l = self.level(c.level);
+        (self.px >> c.level).min(l.width - 1) == c.x
+            && (self.py >> c.level).min(l.height - 1) == c.y
     }
 
-    #[inline]
-    fn exit(&self, c: &Cell) -> Exit {
-        let sd = &self.seg;
-        let sx = if sd.dx > 0.0 {
-            (c.x1 as f32 - sd.x0) / sd.dx
-        } else if sd.dx < 0.0 {
-            (c.x0 as f32 - sd.x0) / sd.dx
+    /// The texel at `index` (counted as a fetch).
+    #[inline(always)]
+    fn fetch(&mut self, index: usize) -> HiZTexel {
+        self.fetches += 1;
+        self.data.get(index).copied().unwrap_or([f32::NAN; 2])
+    }
+
+    /// The far end of the hit slab of texel `[zmin, zmax]` of cell
+    /// `(level, x, y)`: `farthest + thickness`, at level 0 the texel's own
+    /// `z_front + thickness` or its back-face depth (read here, counted as a
+    /// fetch; a NaN back texel or one in front of `z_front` gives `z_front`),
+    /// above level 0 with back faces `+inf`. `zmin` is not NaN.
+    #[inline(always)]
+    fn upper(&mut self, level: u32, x: u32, y: u32, zmin: f32, zmax: f32) -> f32 {
+        if BACK {
+            if level != 0 {
+                return f32::INFINITY;
+            }
+            self.fetches += 1;
+            let zb = match self.thickness {
+                Thickness::BackFaces(back) => back
+                    .get(x, y)
+                    .map(|d| self.hiz.camera.decode_depth(d, self.hiz.convention))
+                    .unwrap_or(f32::NAN),
+                Thickness::Constant(_) => f32::NAN,
+            };
+            if zb >= zmin {
+                zb
+            } else {
+                zmin
+            }
+        } else if level == 0 {
+            zmin + self.th
         } else {
-            f32::INFINITY
-        };
-        let sy = if sd.dy > 0.0 {
-            (c.y1 as f32 - sd.y0) / sd.dy
-        } else if sd.dy < 0.0 {
-            (c.y0 as f32 - sd.y0) / sd.dy
-        } else {
-            f32::INFINITY
-        };
-        let s = sx.min(sy);
-        Exit {
-            s,
-            cross_x: sx <= s,
-            cross_y: sy <= s,
+            // `zmax.max(zmin)` for a non-NaN `zmin`, as `f32::max` lowers
+            // on x86-64 (`zmax` when equal; `zmin` for a NaN `zmax`).
+            (if zmax >= zmin { zmax } else { zmin }) + self.th
         }
     }
 
-    /// The cell's hit slab in `q`: `[1 / (farthest + thickness),
-    /// 1 / closest]` (level 0: the texel's own `[z_front, z_front +
-    /// thickness]` or `[z_front, z_back]`), or `None` if it has no hittable
-    /// surface (NaN, or background at or beyond the far plane).
-    #[inline]
-    fn slab(&mut self, c: &Cell, t: HiZTexel) -> Option<(f32, f32)> {
-        let zmin = t[0];
+    /// The part of `[self.s, to]` where the segment lies in the hit slab of
+    /// the cell's texel `[zmin, zmax]`: `q` in `[1 / upper, 1 / closest]`
+    /// ([`Self::upper`]; level 0: the texel's own slab), or `None` if the
+    /// slab is empty there or the texel has no hittable surface (NaN, or
+    /// background at or beyond the far plane).
+    ///
+    /// Entering the slab is the "minimum depth plane" of Listing 4.2 for a
+    /// segment moving away from the camera (`dq < 0`: `q` reaches
+    /// `1 / closest` first), the farthest plane for one moving toward it
+    /// (Sec. 4.6.7). With `dq == 0` (`+0`: `q0 > 0`, so never `-0`) the
+    /// divisions give `+-inf` or NaN, and [`max_nn`] / [`min_nn`] turn
+    /// them into "all of `[self.s, to]` if `q0` lies in the slab, else
+    /// nothing" exactly as testing `q0` would.
+    #[inline(always)]
+    fn slab(&mut self, c: &Cell, zmin: f32, zmax: f32, to: f32) -> Option<(f32, f32)> {
         if !(zmin < self.far) {
             return None;
         }
-        let upper = match self.thickness {
-            Thickness::Constant(th) if c.level == 0 => zmin + th,
-            Thickness::Constant(th) => t[1].max(zmin) + th,
-            Thickness::BackFaces(back) if c.level == 0 => {
-                self.work.fetches = self.work.fetches.saturating_add(1);
-                let zb = back
-                    .get(c.x, c.y)
-                    .map(|d| self.hiz.camera.decode_depth(d, self.hiz.convention))
-                    .unwrap_or(f32::NAN);
-                if zb >= zmin {
-                    zb
-                } else {
-                    zmin
-                }
-            }
-            Thickness::BackFaces(_) => f32::INFINITY,
-        };
-        Some((1.0 / upper, 1.0 / zmin))
-    }
-
-    /// The part of `[from, to]` where `q(s)` lies in `[q_lo, q_hi]`.
-    #[inline]
-    fn interval(&self, q_lo: f32, q_hi: f32, from: f32, to: f32) -> Option<(f32, f32)> {
-        let sd = &self.seg;
-        let (mut a, mut b) = (from, to);
-        if sd.dq > 0.0 {
-            a = a.max((q_lo - sd.q0) / sd.dq);
-            b = b.min((q_hi - sd.q0) / sd.dq);
-        } else if sd.dq < 0.0 {
-            a = a.max((q_hi - sd.q0) / sd.dq);
-            b = b.min((q_lo - sd.q0) / sd.dq);
-        } else if !(sd.q0 >= q_lo && sd.q0 <= q_hi) {
-            return None;
-        }
+        let upper = self.upper(c.level, c.x, c.y, zmin, zmax);
+        let (q_lo, q_hi) = (1.0 / upper, 1.0 / zmin);
+        let (qa, qb) = if NQ { (q_hi, q_lo) } else { (q_lo, q_hi) };
+        let a = max_nn(self.s, (qa - self.q0) / self.dq);
+        let b = min_nn(to, (qb - self.q0) / self.dq);
         (a <= b).then_some((a, b))
     }
 
     /// Counts a boundary tie: `floor(v)` is not the pixel `n` the frontier
     /// moved to.
-    #[inline]
-    fn tie(&mut self, v: f32, n: i64) {
-        if STATS && floor_i64(v) != n && v.is_finite() {
+    #[inline(always)]
+    fn tie(&mut self, v: f32, n: u32) {
+        if STATS && floor_i64(v) != i64::from(n) && v.is_finite() {
             self.stats.boundary_ties = self.stats.boundary_ties.saturating_add(1);
         }
     }
 
-    /// Moves the frontier along one axis to the pixel of coordinate `v`
-    /// (the position at `self.s` along an axis whose segment starts at `v0`
-    /// and moves `d` over the segment), kept inside `[lo, hi)` and never
-    /// backward.
-    ///
-    /// A pixel owns the segment up to and including its exit parameter as
-    /// [`Self::exit`] computes it (`(boundary - v0) / d`), which is what a
-    /// level-0 visit searches. The position `v` is rounded in f32 and may
-    /// already lie on or past the boundary while `self.s` is still within
-    /// the old pixel's exit: the frontier then stays in the old pixel, so a
-    /// hit in its last sliver (a zero-thickness slab touched as the ray
-    /// leaves the texel, found by exploration) is not stepped over.
-    #[inline]
-    fn sync_axis(&mut self, v: f32, v0: f32, d: f32, p: u32, lo: u32, hi: u32) -> u32 {
-        let mut f = dir_floor(v, d);
-        if d > 0.0 && f > i64::from(p) && self.s <= (f as f32 - v0) / d {
-            f -= 1;
-        } else if d < 0.0 && f < i64::from(p) && self.s <= ((f + 1) as f32 - v0) / d {
-            f += 1;
-        }
-        let f = f.clamp(i64::from(lo), i64::from(hi) - 1) as u32;
-        let n = if d > 0.0 {
-            p.max(f)
-        } else if d < 0.0 {
-            p.min(f)
-        } else {
-            p
-        };
-        self.tie(v, i64::from(n));
-        n
-    }
-
     /// Moves the frontier to the ray position at `self.s` inside cell `c`.
-    #[inline]
+    #[inline(always)]
     fn sync_in(&mut self, c: &Cell) {
-        let (x, y) = (self.seg.x(self.s), self.seg.y(self.s));
-        self.px = self.sync_axis(x, self.seg.x0, self.seg.dx, self.px, c.x0, c.x1);
-        self.py = self.sync_axis(y, self.seg.y0, self.seg.dy, self.py, c.y0, c.y1);
+        let (x, y) = (self.ax.at(self.s), self.ay.at(self.s));
+        let nx = self.ax.sync(self.s, x, self.px, c.ex);
+        self.tie(x, nx);
+        let ny = self.ay.sync(self.s, y, self.py, c.ey);
+        self.tie(y, ny);
+        (self.px, self.py) = (nx, ny);
     }
 
-    /// Crosses from cell `c` into its neighbor through `e`. `false` when
-    /// the segment ends inside `c` or the neighbor lies outside the image.
+    /// Crosses from cell `c` into its neighbor through the side(s) of exit
+    /// parameter `es = min(sx, sy)`. `false` when the segment ends inside
+    /// `c` or the neighbor lies outside the image.
     #[inline(always)]
-    fn cross(&mut self, c: &Cell, e: Exit) -> bool {
-        if !(e.s < 1.0) {
+    fn cross(&mut self, c: &Cell, sx: f32, sy: f32, es: f32) -> bool {
+        if !(es < 1.0) {
             return false;
         }
-        let nx = if !e.cross_x {
-            i64::from(self.px)
-        } else if self.seg.dx > 0.0 {
-            i64::from(c.x1)
+        let (cross_x, cross_y) = (sx <= es, sy <= es);
+        let nx = if cross_x {
+            match self.ax.next(c.ex) {
+                Some(n) => n,
+                None => return false,
+            }
         } else {
-            i64::from(c.x0) - 1
+            self.px
         };
-        let ny = if !e.cross_y {
-            i64::from(self.py)
-        } else if self.seg.dy > 0.0 {
-            i64::from(c.y1)
+        let ny = if cross_y {
+            match self.ay.next(c.ey) {
+                Some(n) => n,
+                None => return false,
+            }
         } else {
-            i64::from(c.y0) - 1
+            self.py
         };
-        if nx < 0 || nx >= i64::from(self.width) || ny < 0 || ny >= i64::from(self.height) {
-            return false;
-        }
-        self.s = self.s.max(e.s);
-        self.work.steps = self.work.steps.saturating_add(1);
-        let (x, y) = (self.seg.x(self.s), self.seg.y(self.s));
-        if e.cross_x {
-            self.px = nx as u32;
-            self.tie(x, nx);
+        self.s = max_nn(self.s, es);
+        self.steps += 1;
+        let s = self.s;
+        if cross_x {
+            if STATS {
+                self.tie(self.ax.at(s), nx);
+            }
+            self.px = nx;
         } else {
-            self.px = self.sync_axis(x, self.seg.x0, self.seg.dx, self.px, c.x0, c.x1);
+            let x = self.ax.at(s);
+            self.px = self.ax.sync(s, x, self.px, c.ex);
+            self.tie(x, self.px);
         }
-        if e.cross_y {
-            self.py = ny as u32;
-            self.tie(y, ny);
+        if cross_y {
+            if STATS {
+                self.tie(self.ay.at(s), ny);
+            }
+            self.py = ny;
         } else {
-            self.py = self.sync_axis(y, self.seg.y0, self.seg.dy, self.py, c.y0, c.y1);
+            let y = self.ay.at(s);
+            self.py = self.ay.sync(s, y, self.py, c.ey);
+            self.tie(y, self.py);
         }
         true
     }
 
-    /// Visits the cell of level `level` that holds the frontier.
+    /// Crosses out of cell `c` (the unit-step resolution's way out).
+    #[inline]
+    fn leave(&mut self, c: &Cell) -> bool {
+        let (sx, sy) = (self.ax.exit(c.ex), self.ay.exit(c.ey));
+        self.cross(c, sx, sy, min_nn(sx, sy))
+    }
+
+    /// Visits the cell of level `level` that holds the frontier: one texel
+    /// fetch, the exit parameter (the nearer of the two cell sides ahead),
+    /// the slab interval up to it, then a hit, a descent or a crossing.
     #[inline(always)]
     fn visit(&mut self, level: u32) -> Step {
         let c = self.cell(level);
-        let t = self.fetch(&c);
-        let e = self.exit(&c);
-        let to = e.s.min(1.0);
-        let found = self
-            .slab(&c, t)
-            .and_then(|(lo, hi)| self.interval(lo, hi, self.s, to));
-        match found {
+        let [zmin, zmax] = self.fetch(c.index);
+        let (sx, sy) = (self.ax.exit(c.ex), self.ay.exit(c.ey));
+        let es = min_nn(sx, sy);
+        match self.slab(&c, zmin, zmax, min_nn(es, 1.0)) {
             None => {
-                if self.cross(&c, e) {
+                if self.cross(&c, sx, sy, es) {
                     Step::Next
                 } else {
                     Step::End
@@ -1434,13 +1566,13 @@ impl<const STATS: bool> Walker<'_, '_, STATS> {
             }
             Some((sa, _)) if level == 0 => Step::Hit {
                 s: sa,
-                surface: t[0],
+                surface: zmin,
             },
             Some((sa, sb)) => Step::Inside { cell: c, sa, sb },
         }
     }
 
-    fn hit(&self, s: f32, surface: f32) -> DepthHit {
+    fn hit(&self, s: f32, surface: f32) -> Trace {
         let sd = &self.seg;
         let q = sd.q(s);
         let t = (sd.t0 + s * sd.k / q).clamp(sd.t0, sd.t1);
@@ -1448,13 +1580,13 @@ impl<const STATS: bool> Walker<'_, '_, STATS> {
             sd.x(s).clamp(self.px as f32, below(self.px)),
             sd.y(s).clamp(self.py as f32, below(self.py)),
         );
-        DepthHit {
+        Trace::Hit(DepthHit {
             pixel,
             t,
             depth: 1.0 / q,
             surface_depth: surface,
-            work: self.work,
-        }
+            work: self.work(),
+        })
     }
 
     /// The miss at the end of the segment: passed behind geometry (the end
@@ -1462,20 +1594,11 @@ impl<const STATS: bool> Walker<'_, '_, STATS> {
     /// or simply ended.
     fn end(&mut self) -> Trace {
         let sd = self.seg;
-        let x = dir_floor(sd.x(1.0), sd.dx).clamp(0, i64::from(self.width) - 1) as u32;
-        let y = dir_floor(sd.y(1.0), sd.dy).clamp(0, i64::from(self.height) - 1) as u32;
-        let c = Cell {
-            level: 0,
-            x,
-            y,
-            x0: x,
-            x1: x + 1,
-            y0: y,
-            y1: y + 1,
-            index: self.levels[0].offset + y as usize * self.width as usize + x as usize,
-        };
-        let t = self.fetch(&c);
-        let behind = self.slab(&c, t).is_some_and(|(q_lo, _)| sd.q1 < q_lo);
+        let x = dir_floor(sd.x(1.0), sd.dx).clamp(0, i64::from(self.ax.size) - 1) as u32;
+        let y = dir_floor(sd.y(1.0), sd.dy).clamp(0, i64::from(self.ay.size) - 1) as u32;
+        let [zmin, zmax] =
+            self.fetch(self.levels[0].offset + y as usize * self.ax.size as usize + x as usize);
+        let behind = zmin < self.far && sd.q1 < 1.0 / self.upper(0, x, y, zmin, zmax);
         let reason = if behind {
             Miss::BehindGeometry
         } else if sd.ends_on_side {
@@ -1485,7 +1608,7 @@ impl<const STATS: bool> Walker<'_, '_, STATS> {
         };
         Trace::Miss {
             reason,
-            work: self.work,
+            work: self.work(),
         }
     }
 
@@ -1498,7 +1621,7 @@ impl<const STATS: bool> Walker<'_, '_, STATS> {
         while n < o.prologue_steps {
             n += 1;
             match self.visit(0) {
-                Step::Hit { s, surface } => return Trace::Hit(self.hit(s, surface)),
+                Step::Hit { s, surface } => return self.hit(s, surface),
                 Step::End => return self.end(),
                 Step::Next | Step::Inside { .. } => {}
             }
@@ -1513,50 +1636,49 @@ impl<const STATS: bool> Walker<'_, '_, STATS> {
             if STATS {
                 self.stats.max_level = self.stats.max_level.max(level);
             }
-            if self.work.iterations >= o.max_iterations {
+            if self.iterations >= o.max_iterations {
                 return Trace::Miss {
                     reason: Miss::OutOfSteps,
-                    work: self.work,
+                    work: self.work(),
                 };
             }
-            self.work.iterations += 1;
+            self.iterations += 1;
             match self.visit(level) {
-                Step::Hit { s, surface } => return Trace::Hit(self.hit(s, surface)),
+                Step::Hit { s, surface } => return self.hit(s, surface),
                 Step::End => return self.end(),
                 Step::Next => {
                     if level < top {
                         let up = level + 1;
-                        let l = self.levels[up as usize];
+                        let l = self.level(up);
                         let ux = (self.px >> up).min(l.width - 1);
                         let uy = (self.py >> up).min(l.height - 1);
-                        let (px, py, sb) = parent[up as usize];
+                        let (px, py, sb) = parent[up as usize % MAX_LEVELS];
                         if (ux, uy) != (px, py) || self.s > sb {
                             level = up;
                         }
                     }
                 }
                 Step::Inside { cell, sa, sb } => {
-                    self.s = self.s.max(sa);
+                    self.s = max_nn(self.s, sa);
                     self.sync_in(&cell);
                     if level > stop {
-                        parent[level as usize] = (cell.x, cell.y, sb);
+                        parent[level as usize % MAX_LEVELS] = (cell.x, cell.y, sb);
                         level -= 1;
                         continue;
                     }
                     // Unit steps through the cell (Sec. 4.7.1).
                     loop {
-                        if !cell.contains(self.px, self.py) {
+                        if !self.holds_frontier(&cell) {
                             break;
                         }
                         if self.s > sb {
-                            let e = self.exit(&cell);
-                            if !self.cross(&cell, e) {
+                            if !self.leave(&cell) {
                                 return self.end();
                             }
                             break;
                         }
                         match self.visit(0) {
-                            Step::Hit { s, surface } => return Trace::Hit(self.hit(s, surface)),
+                            Step::Hit { s, surface } => return self.hit(s, surface),
                             Step::End => return self.end(),
                             Step::Next => {}
                             Step::Inside { .. } => break,
@@ -1567,6 +1689,43 @@ impl<const STATS: bool> Walker<'_, '_, STATS> {
             }
         }
     }
+}
+
+/// Traces a projected segment with the walker of its class ([`Walker`]).
+fn walk<const NX: bool, const NY: bool, const NQ: bool, const BACK: bool, const STATS: bool>(
+    hiz: &HiZ<'_>,
+    thickness: Thickness<'_>,
+    seg: Segment,
+    options: &HiZOptions,
+) -> (Trace, HiZStats) {
+    let (w, h) = (hiz.layout.width, hiz.layout.height);
+    let px = dir_floor(seg.x0, seg.dx).clamp(0, i64::from(w) - 1) as u32;
+    let py = dir_floor(seg.y0, seg.dy).clamp(0, i64::from(h) - 1) as u32;
+    let mut walker = Walker::<NX, NY, NQ, BACK, STATS> {
+        hiz,
+        levels: &hiz.layout.levels,
+        data: hiz.data,
+        seg,
+        ax: Axis::new(seg.x0, seg.dx, w),
+        ay: Axis::new(seg.y0, seg.dy, h),
+        q0: seg.q0,
+        dq: seg.dq,
+        thickness,
+        th: match thickness {
+            Thickness::Constant(th) => th,
+            Thickness::BackFaces(_) => 0.0,
+        },
+        far: hiz.camera.far(),
+        s: 0.0,
+        px,
+        py,
+        steps: 0,
+        fetches: 0,
+        iterations: 0,
+        stats: HiZStats::default(),
+    };
+    let trace = walker.run(options);
+    (trace, walker.stats)
 }
 
 fn trace_valid<const STATS: bool>(
@@ -1585,24 +1744,24 @@ fn trace_valid<const STATS: bool>(
             HiZStats::default(),
         );
     };
-    let (w, h) = (hiz.layout.width, hiz.layout.height);
-    let px = dir_floor(seg.x0, seg.dx).clamp(0, i64::from(w) - 1) as u32;
-    let py = dir_floor(seg.y0, seg.dy).clamp(0, i64::from(h) - 1) as u32;
-    let mut walker = Walker::<STATS> {
-        hiz,
-        levels: &hiz.layout.levels,
-        data: hiz.data,
-        width: w,
-        height: h,
-        seg,
-        thickness,
-        far: hiz.camera.far(),
-        s: 0.0,
-        px,
-        py,
-        work: Work::default(),
-        stats: HiZStats::default(),
+    let back = matches!(thickness, Thickness::BackFaces(_));
+    let f = match (seg.dx < 0.0, seg.dy < 0.0) {
+        (false, false) => by_q::<false, false, STATS>,
+        (false, true) => by_q::<false, true, STATS>,
+        (true, false) => by_q::<true, false, STATS>,
+        (true, true) => by_q::<true, true, STATS>,
     };
-    let trace = walker.run(options);
-    (trace, walker.stats)
+    f(seg.dq < 0.0, back)(hiz, thickness, seg, options)
+}
+
+/// The [`walk`] of a segment's class, given the signs of `dx` and `dy`.
+type WalkFn = fn(&HiZ<'_>, Thickness<'_>, Segment, &HiZOptions) -> (Trace, HiZStats);
+
+fn by_q<const NX: bool, const NY: bool, const STATS: bool>(neg_q: bool, back: bool) -> WalkFn {
+    match (neg_q, back) {
+        (false, false) => walk::<NX, NY, false, false, STATS>,
+        (false, true) => walk::<NX, NY, false, true, STATS>,
+        (true, false) => walk::<NX, NY, true, false, STATS>,
+        (true, true) => walk::<NX, NY, true, true, STATS>,
+    }
 }
