@@ -1316,20 +1316,44 @@ impl<const NEG: bool> Axis<NEG> {
     }
 }
 
-/// One ray's traversal state. Everything that is constant per ray (the
-/// segment, its direction class, the level table, the image size, the
-/// thickness) is read and classified once here, not per cell; the loop is
-/// monomorphized per class:
+/// What changes along one ray's walk: the parameter `s` reached, the
+/// frontier pixel `(px, py)` and the counters. A local of [`Walker::run`]
+/// passed by `&mut` only to inlined steps (and by value to the hit and miss
+/// builders), so that it lives in registers.
+#[derive(Clone, Copy, Debug)]
+struct State {
+    s: f32,
+    px: u32,
+    py: u32,
+    /// [`Work`] counters, saturated to `u32` on return.
+    steps: u64,
+    fetches: u64,
+    iterations: u32,
+    stats: HiZStats,
+}
+
+impl State {
+    fn work(&self) -> Work {
+        Work {
+            steps: u32::try_from(self.steps).unwrap_or(u32::MAX),
+            fetches: u32::try_from(self.fetches).unwrap_or(u32::MAX),
+            iterations: self.iterations,
+        }
+    }
+}
+
+/// What is constant along one ray's walk: the segment, its direction
+/// class, the level table, the image size, the thickness, all read and
+/// classified once here, not per cell. The loop is monomorphized per class:
 ///
 /// * `NX`, `NY`: the segment moves toward `-x` / `-y` ([`Axis`]): a cell's
 ///   exit side, the pixel past it and the frontier's rounding are chosen at
 ///   compile time.
+/// * `NQ`: `dq < 0`, `q` decreases (the ray moves away from the camera):
+///   which slab bound the segment enters first.
 /// * `BACK`: [`Thickness::BackFaces`] (else [`Thickness::Constant`]).
 /// * `STATS`: whether to keep the [`HiZStats`] counters (the batch entry
 ///   point drops them, so it does not pay for them).
-///
-/// * `NQ`: `dq < 0`, `q` decreases (the ray moves away from the camera):
-///   which slab bound the segment enters first.
 struct Walker<
     'h,
     'a,
@@ -1352,27 +1376,11 @@ struct Walker<
     /// The constant thickness (unused with `BACK`).
     th: f32,
     far: f32,
-    s: f32,
-    px: u32,
-    py: u32,
-    /// [`Work`] counters, saturated to `u32` on return.
-    steps: u64,
-    fetches: u64,
-    iterations: u32,
-    stats: HiZStats,
 }
 
 impl<const NX: bool, const NY: bool, const NQ: bool, const BACK: bool, const STATS: bool>
     Walker<'_, '_, NX, NY, NQ, BACK, STATS>
 {
-    fn work(&self) -> Work {
-        Work {
-            steps: u32::try_from(self.steps).unwrap_or(u32::MAX),
-            fetches: u32::try_from(self.fetches).unwrap_or(u32::MAX),
-            iterations: self.iterations,
-        }
-    }
-
     /// The level table entry of `level` (`< level_count <= MAX_LEVELS`).
     #[inline(always)]
     fn level(&self, level: u32) -> HiZLevel {
@@ -1381,10 +1389,10 @@ impl<const NX: bool, const NY: bool, const NQ: bool, const BACK: bool, const STA
 
     /// The cell of level `level` that holds the frontier.
     #[inline(always)]
-    fn cell(&self, level: u32) -> Cell {
+    fn cell(&self, st: &State, level: u32) -> Cell {
         let l = self.level(level);
-        let x = (self.px >> level).min(l.width - 1);
-        let y = (self.py >> level).min(l.height - 1);
+        let x = (st.px >> level).min(l.width - 1);
+        let y = (st.py >> level).min(l.height - 1);
         Cell {
             level,
             x,
@@ -1395,18 +1403,21 @@ impl<const NX: bool, const NY: bool, const NQ: bool, const BACK: bool, const STA
         }
     }
 
-    /// Whether the frontier lies in cell `c`.
-    #[inline]
-    fn holds_frontier(&self, c: &Cell) -> bool {
-        let l = self.level(c.level);
-        (self.px >> c.level).min(l.width - 1) == c.x
-            && (self.py >> c.level).min(l.height - 1) == c.y
+    /// Whether the frontier lies in cell `c`: it has not passed the cell's
+    /// edge pixels. The frontier only moves forward along each axis and `c`
+    /// held it once (a cell the walk visited), so this is `(px, py)` in
+    /// `c`'s span.
+    #[inline(always)]
+    fn holds(&self, st: &State, ex: u32, ey: u32) -> bool {
+        let in_x = if NX { st.px >= ex } else { st.px <= ex };
+        let in_y = if NY { st.py >= ey } else { st.py <= ey };
+        in_x && in_y
     }
 
     /// The texel at `index` (counted as a fetch).
     #[inline(always)]
-    fn fetch(&mut self, index: usize) -> HiZTexel {
-        self.fetches += 1;
+    fn fetch(&self, st: &mut State, index: usize) -> HiZTexel {
+        st.fetches += 1;
         self.data.get(index).copied().unwrap_or([f32::NAN; 2])
     }
 
@@ -1416,12 +1427,12 @@ impl<const NX: bool, const NY: bool, const NQ: bool, const BACK: bool, const STA
     /// fetch; a NaN back texel or one in front of `z_front` gives `z_front`),
     /// above level 0 with back faces `+inf`. `zmin` is not NaN.
     #[inline(always)]
-    fn upper(&mut self, level: u32, x: u32, y: u32, zmin: f32, zmax: f32) -> f32 {
+    fn upper(&self, st: &mut State, level: u32, x: u32, y: u32, zmin: f32, zmax: f32) -> f32 {
         if BACK {
             if level != 0 {
                 return f32::INFINITY;
             }
-            self.fetches += 1;
+            st.fetches += 1;
             let zb = match self.thickness {
                 Thickness::BackFaces(back) => back
                     .get(x, y)
@@ -1443,7 +1454,7 @@ impl<const NX: bool, const NY: bool, const NQ: bool, const BACK: bool, const STA
         }
     }
 
-    /// The part of `[self.s, to]` where the segment lies in the hit slab of
+    /// The part of `[st.s, to]` where the segment lies in the hit slab of
     /// the cell's texel `[zmin, zmax]`: `q` in `[1 / upper, 1 / closest]`
     /// ([`Self::upper`]; level 0: the texel's own slab), or `None` if the
     /// slab is empty there or the texel has no hittable surface (NaN, or
@@ -1454,17 +1465,17 @@ impl<const NX: bool, const NY: bool, const NQ: bool, const BACK: bool, const STA
     /// `1 / closest` first), the farthest plane for one moving toward it
     /// (Sec. 4.6.7). With `dq == 0` (`+0`: `q0 > 0`, so never `-0`) the
     /// divisions give `+-inf` or NaN, and [`max_nn`] / [`min_nn`] turn
-    /// them into "all of `[self.s, to]` if `q0` lies in the slab, else
+    /// them into "all of `[st.s, to]` if `q0` lies in the slab, else
     /// nothing" exactly as testing `q0` would.
     #[inline(always)]
-    fn slab(&mut self, c: &Cell, zmin: f32, zmax: f32, to: f32) -> Option<(f32, f32)> {
+    fn slab(&self, st: &mut State, c: &Cell, zmin: f32, zmax: f32, to: f32) -> Option<(f32, f32)> {
         if !(zmin < self.far) {
             return None;
         }
-        let upper = self.upper(c.level, c.x, c.y, zmin, zmax);
+        let upper = self.upper(st, c.level, c.x, c.y, zmin, zmax);
         let (q_lo, q_hi) = (1.0 / upper, 1.0 / zmin);
         let (qa, qb) = if NQ { (q_hi, q_lo) } else { (q_lo, q_hi) };
-        let a = max_nn(self.s, (qa - self.q0) / self.dq);
+        let a = max_nn(st.s, (qa - self.q0) / self.dq);
         let b = min_nn(to, (qb - self.q0) / self.dq);
         (a <= b).then_some((a, b))
     }
@@ -1472,28 +1483,28 @@ impl<const NX: bool, const NY: bool, const NQ: bool, const BACK: bool, const STA
     /// Counts a boundary tie: `floor(v)` is not the pixel `n` the frontier
     /// moved to.
     #[inline(always)]
-    fn tie(&mut self, v: f32, n: u32) {
+    fn tie(st: &mut State, v: f32, n: u32) {
         if STATS && floor_i64(v) != i64::from(n) && v.is_finite() {
-            self.stats.boundary_ties = self.stats.boundary_ties.saturating_add(1);
+            st.stats.boundary_ties = st.stats.boundary_ties.saturating_add(1);
         }
     }
 
-    /// Moves the frontier to the ray position at `self.s` inside cell `c`.
+    /// Moves the frontier to the ray position at `st.s` inside cell `c`.
     #[inline(always)]
-    fn sync_in(&mut self, c: &Cell) {
-        let (x, y) = (self.ax.at(self.s), self.ay.at(self.s));
-        let nx = self.ax.sync(self.s, x, self.px, c.ex);
-        self.tie(x, nx);
-        let ny = self.ay.sync(self.s, y, self.py, c.ey);
-        self.tie(y, ny);
-        (self.px, self.py) = (nx, ny);
+    fn sync_in(&self, st: &mut State, c: &Cell) {
+        let (x, y) = (self.ax.at(st.s), self.ay.at(st.s));
+        let nx = self.ax.sync(st.s, x, st.px, c.ex);
+        Self::tie(st, x, nx);
+        let ny = self.ay.sync(st.s, y, st.py, c.ey);
+        Self::tie(st, y, ny);
+        (st.px, st.py) = (nx, ny);
     }
 
     /// Crosses from cell `c` into its neighbor through the side(s) of exit
     /// parameter `es = min(sx, sy)`. `false` when the segment ends inside
     /// `c` or the neighbor lies outside the image.
     #[inline(always)]
-    fn cross(&mut self, c: &Cell, sx: f32, sy: f32, es: f32) -> bool {
+    fn cross(&self, st: &mut State, c: &Cell, sx: f32, sy: f32, es: f32) -> bool {
         if !(es < 1.0) {
             return false;
         }
@@ -1504,7 +1515,7 @@ impl<const NX: bool, const NY: bool, const NQ: bool, const BACK: bool, const STA
                 None => return false,
             }
         } else {
-            self.px
+            st.px
         };
         let ny = if cross_y {
             match self.ay.next(c.ey) {
@@ -1512,53 +1523,53 @@ impl<const NX: bool, const NY: bool, const NQ: bool, const BACK: bool, const STA
                 None => return false,
             }
         } else {
-            self.py
+            st.py
         };
-        self.s = max_nn(self.s, es);
-        self.steps += 1;
-        let s = self.s;
+        st.s = max_nn(st.s, es);
+        st.steps += 1;
+        let s = st.s;
         if cross_x {
             if STATS {
-                self.tie(self.ax.at(s), nx);
+                Self::tie(st, self.ax.at(s), nx);
             }
-            self.px = nx;
+            st.px = nx;
         } else {
             let x = self.ax.at(s);
-            self.px = self.ax.sync(s, x, self.px, c.ex);
-            self.tie(x, self.px);
+            st.px = self.ax.sync(s, x, st.px, c.ex);
+            Self::tie(st, x, st.px);
         }
         if cross_y {
             if STATS {
-                self.tie(self.ay.at(s), ny);
+                Self::tie(st, self.ay.at(s), ny);
             }
-            self.py = ny;
+            st.py = ny;
         } else {
             let y = self.ay.at(s);
-            self.py = self.ay.sync(s, y, self.py, c.ey);
-            self.tie(y, self.py);
+            st.py = self.ay.sync(s, y, st.py, c.ey);
+            Self::tie(st, y, st.py);
         }
         true
     }
 
     /// Crosses out of cell `c` (the unit-step resolution's way out).
     #[inline]
-    fn leave(&mut self, c: &Cell) -> bool {
+    fn leave(&self, st: &mut State, c: &Cell) -> bool {
         let (sx, sy) = (self.ax.exit(c.ex), self.ay.exit(c.ey));
-        self.cross(c, sx, sy, min_nn(sx, sy))
+        self.cross(st, c, sx, sy, min_nn(sx, sy))
     }
 
     /// Visits the cell of level `level` that holds the frontier: one texel
     /// fetch, the exit parameter (the nearer of the two cell sides ahead),
     /// the slab interval up to it, then a hit, a descent or a crossing.
     #[inline(always)]
-    fn visit(&mut self, level: u32) -> Step {
-        let c = self.cell(level);
-        let [zmin, zmax] = self.fetch(c.index);
+    fn visit(&self, st: &mut State, level: u32) -> Step {
+        let c = self.cell(st, level);
+        let [zmin, zmax] = self.fetch(st, c.index);
         let (sx, sy) = (self.ax.exit(c.ex), self.ay.exit(c.ey));
         let es = min_nn(sx, sy);
-        match self.slab(&c, zmin, zmax, min_nn(es, 1.0)) {
+        match self.slab(st, &c, zmin, zmax, min_nn(es, 1.0)) {
             None => {
-                if self.cross(&c, sx, sy, es) {
+                if self.cross(st, &c, sx, sy, es) {
                     Step::Next
                 } else {
                     Step::End
@@ -1572,33 +1583,40 @@ impl<const NX: bool, const NY: bool, const NQ: bool, const BACK: bool, const STA
         }
     }
 
-    fn hit(&self, s: f32, surface: f32) -> Trace {
+    /// A level-0 visit for the prologue and the unit steps, out of line: a
+    /// few per ray, so one copy per class rather than one per call site.
+    #[inline(never)]
+    fn visit0(&self, st: &mut State) -> Step {
+        self.visit(st, 0)
+    }
+
+    fn hit(&self, st: State, s: f32, surface: f32) -> Trace {
         let sd = &self.seg;
         let q = sd.q(s);
         let t = (sd.t0 + s * sd.k / q).clamp(sd.t0, sd.t1);
         let pixel = Vec2::new(
-            sd.x(s).clamp(self.px as f32, below(self.px)),
-            sd.y(s).clamp(self.py as f32, below(self.py)),
+            sd.x(s).clamp(st.px as f32, below(st.px)),
+            sd.y(s).clamp(st.py as f32, below(st.py)),
         );
         Trace::Hit(DepthHit {
             pixel,
             t,
             depth: 1.0 / q,
             surface_depth: surface,
-            work: self.work(),
+            work: st.work(),
         })
     }
 
     /// The miss at the end of the segment: passed behind geometry (the end
     /// point lies behind the hit slab of the texel there), left the image,
     /// or simply ended.
-    fn end(&mut self) -> Trace {
+    fn end(&self, mut st: State) -> (Trace, HiZStats) {
         let sd = self.seg;
         let x = dir_floor(sd.x(1.0), sd.dx).clamp(0, i64::from(self.ax.size) - 1) as u32;
         let y = dir_floor(sd.y(1.0), sd.dy).clamp(0, i64::from(self.ay.size) - 1) as u32;
-        let [zmin, zmax] =
-            self.fetch(self.levels[0].offset + y as usize * self.ax.size as usize + x as usize);
-        let behind = zmin < self.far && sd.q1 < 1.0 / self.upper(0, x, y, zmin, zmax);
+        let index = self.levels[0].offset + y as usize * self.ax.size as usize + x as usize;
+        let [zmin, zmax] = self.fetch(&mut st, index);
+        let behind = zmin < self.far && sd.q1 < 1.0 / self.upper(&mut st, 0, x, y, zmin, zmax);
         let reason = if behind {
             Miss::BehindGeometry
         } else if sd.ends_on_side {
@@ -1606,13 +1624,12 @@ impl<const NX: bool, const NY: bool, const NQ: bool, const BACK: bool, const STA
         } else {
             Miss::EndOfRay
         };
-        Trace::Miss {
-            reason,
-            work: self.work(),
-        }
+        let work = st.work();
+        (Trace::Miss { reason, work }, st.stats)
     }
 
-    fn run(&mut self, o: &HiZOptions) -> Trace {
+    fn run(&self, mut st: State, o: &HiZOptions) -> (Trace, HiZStats) {
+        let st = &mut st;
         let top = self.hiz.layout.count - 1;
         let stop = o.stop_level.min(top);
         let start = o.start_level.min(top).max(stop);
@@ -1620,66 +1637,68 @@ impl<const NX: bool, const NY: bool, const NQ: bool, const BACK: bool, const STA
         let mut n = 0;
         while n < o.prologue_steps {
             n += 1;
-            match self.visit(0) {
-                Step::Hit { s, surface } => return self.hit(s, surface),
-                Step::End => return self.end(),
+            match self.visit0(st) {
+                Step::Hit { s, surface } => return (self.hit(*st, s, surface), st.stats),
+                Step::End => return self.end(*st),
                 Step::Next | Step::Inside { .. } => {}
             }
         }
         // Hierarchical walk (Listings 4.2 / 4.5).
         let mut level = start;
-        // For each level, the cell last descended from and the end of its
-        // possible-hit interval: while the walk stays inside that cell
-        // before that end, going back up would only fetch it again.
-        let mut parent = [(u32::MAX, u32::MAX, 0.0f32); MAX_LEVELS];
+        // For each level, the cell last descended from (its edge pixels)
+        // and the end of its possible-hit interval: while the walk stays
+        // inside that cell before that end, going back up would only fetch
+        // it again. `-inf`: none yet.
+        let mut parent = [(0u32, 0u32, f32::NEG_INFINITY); MAX_LEVELS];
         loop {
             if STATS {
-                self.stats.max_level = self.stats.max_level.max(level);
+                st.stats.max_level = st.stats.max_level.max(level);
             }
-            if self.iterations >= o.max_iterations {
-                return Trace::Miss {
+            if st.iterations >= o.max_iterations {
+                let work = st.work();
+                let miss = Trace::Miss {
                     reason: Miss::OutOfSteps,
-                    work: self.work(),
+                    work,
                 };
+                return (miss, st.stats);
             }
-            self.iterations += 1;
-            match self.visit(level) {
-                Step::Hit { s, surface } => return self.hit(s, surface),
-                Step::End => return self.end(),
+            st.iterations += 1;
+            match self.visit(st, level) {
+                Step::Hit { s, surface } => return (self.hit(*st, s, surface), st.stats),
+                Step::End => return self.end(*st),
                 Step::Next => {
                     if level < top {
                         let up = level + 1;
-                        let l = self.level(up);
-                        let ux = (self.px >> up).min(l.width - 1);
-                        let uy = (self.py >> up).min(l.height - 1);
-                        let (px, py, sb) = parent[up as usize % MAX_LEVELS];
-                        if (ux, uy) != (px, py) || self.s > sb {
+                        let (ex, ey, sb) = parent[up as usize % MAX_LEVELS];
+                        if !self.holds(st, ex, ey) || st.s > sb {
                             level = up;
                         }
                     }
                 }
                 Step::Inside { cell, sa, sb } => {
-                    self.s = max_nn(self.s, sa);
-                    self.sync_in(&cell);
+                    st.s = max_nn(st.s, sa);
+                    self.sync_in(st, &cell);
                     if level > stop {
-                        parent[level as usize % MAX_LEVELS] = (cell.x, cell.y, sb);
+                        parent[level as usize % MAX_LEVELS] = (cell.ex, cell.ey, sb);
                         level -= 1;
                         continue;
                     }
                     // Unit steps through the cell (Sec. 4.7.1).
                     loop {
-                        if !self.holds_frontier(&cell) {
+                        if !self.holds(st, cell.ex, cell.ey) {
                             break;
                         }
-                        if self.s > sb {
-                            if !self.leave(&cell) {
-                                return self.end();
+                        if st.s > sb {
+                            if !self.leave(st, &cell) {
+                                return self.end(*st);
                             }
                             break;
                         }
-                        match self.visit(0) {
-                            Step::Hit { s, surface } => return self.hit(s, surface),
-                            Step::End => return self.end(),
+                        match self.visit0(st) {
+                            Step::Hit { s, surface } => {
+                                return (self.hit(*st, s, surface), st.stats)
+                            }
+                            Step::End => return self.end(*st),
                             Step::Next => {}
                             Step::Inside { .. } => break,
                         }
@@ -1701,7 +1720,7 @@ fn walk<const NX: bool, const NY: bool, const NQ: bool, const BACK: bool, const 
     let (w, h) = (hiz.layout.width, hiz.layout.height);
     let px = dir_floor(seg.x0, seg.dx).clamp(0, i64::from(w) - 1) as u32;
     let py = dir_floor(seg.y0, seg.dy).clamp(0, i64::from(h) - 1) as u32;
-    let mut walker = Walker::<NX, NY, NQ, BACK, STATS> {
+    let walker = Walker::<NX, NY, NQ, BACK, STATS> {
         hiz,
         levels: &hiz.layout.levels,
         data: hiz.data,
@@ -1716,6 +1735,8 @@ fn walk<const NX: bool, const NY: bool, const NQ: bool, const BACK: bool, const 
             Thickness::BackFaces(_) => 0.0,
         },
         far: hiz.camera.far(),
+    };
+    let st = State {
         s: 0.0,
         px,
         py,
@@ -1724,8 +1745,7 @@ fn walk<const NX: bool, const NY: bool, const NQ: bool, const BACK: bool, const 
         iterations: 0,
         stats: HiZStats::default(),
     };
-    let trace = walker.run(options);
-    (trace, walker.stats)
+    walker.run(st, options)
 }
 
 fn trace_valid<const STATS: bool>(
