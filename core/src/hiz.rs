@@ -121,6 +121,16 @@
 //! every pyramid texel read (and back-face texel read), `iterations` the
 //! hierarchical loop iterations (the capped quantity).
 //!
+//! The loop is specialized rather than branched: one monomorphized walk per
+//! direction class (signs of `dx`, `dy` and `dq`), thickness model and
+//! statistics setting, with the segment, the level table and the thickness
+//! read once per ray; per cell it does integer cell arithmetic, one texel
+//! fetch, the exit parameter toward the two cell sides ahead and the slab
+//! interval. The classes do the same f32 operations as one general walk
+//! would, in the same order (divisions stay divisions), so every class
+//! returns the same bits; `max`/`min` without NaN fix-ups are used only
+//! where an operand is never NaN (see `max_nn`).
+//!
 //! There is no self-intersection skip: a ray whose origin already lies in a
 //! texel's hit slab hits at `t = 0`. Start reflection rays slightly off the
 //! surface (the seed crosses one cell first for the same reason).
