@@ -1125,7 +1125,7 @@ fn project_segment(hiz: &HiZ<'_>, ray: &Ray, t_max: f32) -> Option<Segment> {
 // fix-up is exact for every f32: `v as i64` is `trunc(v)`, which is itself
 // an f32 value, so `(v as i64) as f32` is exact and compares exactly with
 // `v`; `as` saturates outside the i64 range and maps NaN to 0, as
-// `floorf(v) as i64` and `ceilf(v) as i64` do (the fix-up saturates too).
+// `floorf(v) as i64` does (the fix-up saturates too).
 
 /// `libm::floorf(v) as i64`, for every f32 `v` (see above).
 #[inline]
@@ -1134,22 +1134,39 @@ fn floor_i64(v: f32) -> i64 {
     i.saturating_sub(i64::from((i as f32) > v))
 }
 
-/// `libm::ceilf(v) as i64`, for every f32 `v` (see above).
-#[inline]
-fn ceil_i64(v: f32) -> i64 {
-    let i = v as i64;
-    i.saturating_add(i64::from((i as f32) < v))
+// Pixel indices need less: a pixel is clamped into `0..size` with
+// `size <= u32::MAX`, so every rounding below 0 or above `u32::MAX - 1` ends
+// in the same pixel. `v as u32` alone (one conversion with its saturation,
+// no fix-up) is `trunc(v) = floor(v)` for `0 <= v < 2^32`, 0 for negative
+// and NaN `v`, `u32::MAX` from `2^32` on.
+
+/// `floor(v)` for `0 <= v < 2^32`; 0 below (and for NaN), `u32::MAX` above.
+#[inline(always)]
+fn floor_sat(v: f32) -> u32 {
+    v as u32
 }
 
-/// Pixel index of coordinate `v` for motion `d` along the axis: `floor(v)`,
-/// or `ceil(v) - 1` when moving toward smaller coordinates (a position on a
-/// boundary belongs to the pixel the ray is entering).
+/// `ceil(v)` for `0 <= v < 2^32` (as [`floor_sat`]: `trunc(v)` is an f32
+/// value, so it compares exactly with `v`); 0 for `v <= 0` and NaN, at least
+/// `u32::MAX` from `2^32` on.
+#[inline(always)]
+fn ceil_sat(v: f32) -> i64 {
+    let c = v as u32;
+    i64::from(c) + i64::from((c as f32) < v)
+}
+
+/// Pixel of coordinate `v` for motion `d` along an axis of `size >= 1`
+/// pixels, clamped into `0..size`: `floor(v)`, or `ceil(v) - 1` when moving
+/// toward smaller coordinates (a position on a boundary belongs to the
+/// pixel the ray is entering). [`floor_sat`] / [`ceil_sat`] are exact where
+/// the clamp does not decide.
 #[inline]
-fn dir_floor(v: f32, d: f32) -> i64 {
+fn dir_pixel(v: f32, d: f32, size: u32) -> u32 {
+    let last = size - 1;
     if d < 0.0 {
-        ceil_i64(v).wrapping_sub(1)
+        (ceil_sat(v) - 1).clamp(0, i64::from(last)) as u32
     } else {
-        floor_i64(v)
+        floor_sat(v).min(last)
     }
 }
 
@@ -1301,28 +1318,32 @@ impl<const NEG: bool> Axis<NEG> {
     ///
     /// Rounding is toward the direction of motion: `floor(v)`, or
     /// `ceil(v) - 1` moving toward `-v` (a position on a boundary belongs to
-    /// the pixel the ray is entering, [`dir_floor`]). Clamping into the cell
+    /// the pixel the ray is entering, [`dir_pixel`]). Clamping into the cell
     /// needs only its edge pixel: the cell's other end lies behind `p`.
+    /// The rounding is [`floor_sat`] / [`ceil_sat`]: they differ from exact
+    /// rounding only below 0 and from `2^32` on, where the clamp into the
+    /// pixels between `p` and `e` (both in `0..u32::MAX`) gives the same
+    /// pixel (after the one-pixel exit check, which then also lands below
+    /// or above that range).
     #[inline(always)]
     fn sync(&self, s: f32, v: f32, p: u32, e: u32) -> u32 {
         if !self.moves {
             return p;
         }
-        let p = i64::from(p);
-        let n = if NEG {
-            let mut f = ceil_i64(v).wrapping_sub(1);
+        if NEG {
+            let p = i64::from(p);
+            let mut f = ceil_sat(v) - 1;
             if f < p && s <= ((f + 1) as f32 - self.v0) / self.d {
                 f += 1;
             }
-            f.min(p).max(i64::from(e))
+            f.min(p).max(i64::from(e)) as u32
         } else {
-            let mut f = floor_i64(v);
+            let mut f = floor_sat(v);
             if f > p && s <= (f as f32 - self.v0) / self.d {
                 f -= 1;
             }
-            f.max(p).min(i64::from(e))
-        };
-        n as u32
+            f.max(p).min(e)
+        }
     }
 }
 
@@ -1622,8 +1643,8 @@ impl<const NX: bool, const NY: bool, const NQ: bool, const BACK: bool, const STA
     /// or simply ended.
     fn end(&self, mut st: State) -> (Trace, HiZStats) {
         let sd = self.seg;
-        let x = dir_floor(sd.x(1.0), sd.dx).clamp(0, i64::from(self.ax.size) - 1) as u32;
-        let y = dir_floor(sd.y(1.0), sd.dy).clamp(0, i64::from(self.ay.size) - 1) as u32;
+        let x = dir_pixel(sd.x(1.0), sd.dx, self.ax.size);
+        let y = dir_pixel(sd.y(1.0), sd.dy, self.ay.size);
         let index = self.levels[0].offset + y as usize * self.ax.size as usize + x as usize;
         let [zmin, zmax] = self.fetch(&mut st, index);
         let behind = zmin < self.far && sd.q1 < 1.0 / self.upper(&mut st, 0, x, y, zmin, zmax);
@@ -1728,8 +1749,8 @@ fn walk<const NX: bool, const NY: bool, const NQ: bool, const BACK: bool, const 
     options: &HiZOptions,
 ) -> (Trace, HiZStats) {
     let (w, h) = (hiz.layout.width, hiz.layout.height);
-    let px = dir_floor(seg.x0, seg.dx).clamp(0, i64::from(w) - 1) as u32;
-    let py = dir_floor(seg.y0, seg.dy).clamp(0, i64::from(h) - 1) as u32;
+    let px = dir_pixel(seg.x0, seg.dx, w);
+    let py = dir_pixel(seg.y0, seg.dy, h);
     let walker = Walker::<NX, NY, NQ, BACK, STATS> {
         hiz,
         levels: &hiz.layout.levels,
