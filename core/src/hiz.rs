@@ -1504,10 +1504,15 @@ impl<const NX: bool, const NY: bool, const NQ: bool, const BACK: bool, const STA
             return None;
         }
         let upper = self.upper(st, c.level, c.x, c.y, zmin, zmax);
-        let (q_lo, q_hi) = (1.0 / upper, 1.0 / zmin);
-        let (qa, qb) = if NQ { (q_hi, q_lo) } else { (q_lo, q_hi) };
-        let a = max_nn(st.s, (qa - self.q0) / self.dq);
-        let b = min_nn(to, (qb - self.q0) / self.dq);
+        let (za, zb) = if NQ { (zmin, upper) } else { (upper, zmin) };
+        let a = max_nn(st.s, (1.0 / za - self.q0) / self.dq);
+        // Entered past `to`: empty whatever `b` is (`b <= to`). Tested
+        // before `b` is computed, which also keeps the two sides scalar
+        // (as one two-lane vector they cost more instructions in shuffles).
+        if a > to {
+            return None;
+        }
+        let b = min_nn(to, (1.0 / zb - self.q0) / self.dq);
         (a <= b).then_some((a, b))
     }
 
