@@ -1619,8 +1619,11 @@ impl<const NX: bool, const NY: bool, const NQ: bool, const BACK: bool, const STA
         }
     }
 
-    /// A level-0 visit for the prologue and the unit steps, out of line: a
-    /// few per ray, so one copy per class rather than one per call site.
+    /// A level-0 visit for the unit steps (below a `stop_level > 0`), out of
+    /// line: one copy per class rather than one per call site. The prologue
+    /// inlines its visits instead: it runs on nearly every ray, and inlined
+    /// a visit costs about 70 instructions less (no call, no [`Step`]
+    /// returned through memory and dispatched by a jump table).
     #[inline(never)]
     fn visit0(&self, st: &mut State) -> Step {
         self.visit(st, 0)
@@ -1669,11 +1672,11 @@ impl<const NX: bool, const NY: bool, const NQ: bool, const BACK: bool, const STA
         let top = self.hiz.layout.count - 1;
         let stop = o.stop_level.min(top);
         let start = o.start_level.min(top).max(stop);
-        // Prologue: unit steps (Sec. 4.7.1).
+        // Prologue: unit steps (Sec. 4.7.1), inlined (see `visit0`).
         let mut n = 0;
         while n < o.prologue_steps {
             n += 1;
-            match self.visit0(st) {
+            match self.visit(st, 0) {
                 Step::Hit { s, surface } => return (self.hit(*st, s, surface), st.stats),
                 Step::End => return self.end(*st),
                 Step::Next | Step::Inside { .. } => {}
