@@ -121,6 +121,16 @@
 //! every pyramid texel read (and back-face texel read), `iterations` the
 //! hierarchical loop iterations (the capped quantity).
 //!
+//! The loop is specialized rather than branched: one monomorphized walk per
+//! direction class (signs of `dx`, `dy` and `dq`), thickness model and
+//! statistics setting, with the segment, the level table and the thickness
+//! read once per ray; per cell it does integer cell arithmetic, one texel
+//! fetch, the exit parameter toward the two cell sides ahead and the slab
+//! interval. The classes do the same f32 operations as one general walk
+//! would, in the same order (divisions stay divisions), so every class
+//! returns the same bits; `max`/`min` without NaN fix-ups are used only
+//! where an operand is never NaN (see `max_nn`).
+//!
 //! There is no self-intersection skip: a ray whose origin already lies in a
 //! texel's hit slab hits at `t = 0`. Start reflection rays slightly off the
 //! surface (the seed crosses one cell first for the same reason).
@@ -1115,7 +1125,7 @@ fn project_segment(hiz: &HiZ<'_>, ray: &Ray, t_max: f32) -> Option<Segment> {
 // fix-up is exact for every f32: `v as i64` is `trunc(v)`, which is itself
 // an f32 value, so `(v as i64) as f32` is exact and compares exactly with
 // `v`; `as` saturates outside the i64 range and maps NaN to 0, as
-// `floorf(v) as i64` and `ceilf(v) as i64` do (the fix-up saturates too).
+// `floorf(v) as i64` does (the fix-up saturates too).
 
 /// `libm::floorf(v) as i64`, for every f32 `v` (see above).
 #[inline]
@@ -1124,22 +1134,39 @@ fn floor_i64(v: f32) -> i64 {
     i.saturating_sub(i64::from((i as f32) > v))
 }
 
-/// `libm::ceilf(v) as i64`, for every f32 `v` (see above).
-#[inline]
-fn ceil_i64(v: f32) -> i64 {
-    let i = v as i64;
-    i.saturating_add(i64::from((i as f32) < v))
+// Pixel indices need less: a pixel is clamped into `0..size` with
+// `size <= u32::MAX`, so every rounding below 0 or above `u32::MAX - 1` ends
+// in the same pixel. `v as u32` alone (one conversion with its saturation,
+// no fix-up) is `trunc(v) = floor(v)` for `0 <= v < 2^32`, 0 for negative
+// and NaN `v`, `u32::MAX` from `2^32` on.
+
+/// `floor(v)` for `0 <= v < 2^32`; 0 below (and for NaN), `u32::MAX` above.
+#[inline(always)]
+fn floor_sat(v: f32) -> u32 {
+    v as u32
 }
 
-/// Pixel index of coordinate `v` for motion `d` along the axis: `floor(v)`,
-/// or `ceil(v) - 1` when moving toward smaller coordinates (a position on a
-/// boundary belongs to the pixel the ray is entering).
+/// `ceil(v)` for `0 <= v < 2^32` (as [`floor_sat`]: `trunc(v)` is an f32
+/// value, so it compares exactly with `v`); 0 for `v <= 0` and NaN, at least
+/// `u32::MAX` from `2^32` on.
+#[inline(always)]
+fn ceil_sat(v: f32) -> i64 {
+    let c = v as u32;
+    i64::from(c) + i64::from((c as f32) < v)
+}
+
+/// Pixel of coordinate `v` for motion `d` along an axis of `size >= 1`
+/// pixels, clamped into `0..size`: `floor(v)`, or `ceil(v) - 1` when moving
+/// toward smaller coordinates (a position on a boundary belongs to the
+/// pixel the ray is entering). [`floor_sat`] / [`ceil_sat`] are exact where
+/// the clamp does not decide.
 #[inline]
-fn dir_floor(v: f32, d: f32) -> i64 {
+fn dir_pixel(v: f32, d: f32, size: u32) -> u32 {
+    let last = size - 1;
     if d < 0.0 {
-        ceil_i64(v).wrapping_sub(1)
+        (ceil_sat(v) - 1).clamp(0, i64::from(last)) as u32
     } else {
-        floor_i64(v)
+        floor_sat(v).min(last)
     }
 }
 
@@ -1291,45 +1318,73 @@ impl<const NEG: bool> Axis<NEG> {
     ///
     /// Rounding is toward the direction of motion: `floor(v)`, or
     /// `ceil(v) - 1` moving toward `-v` (a position on a boundary belongs to
-    /// the pixel the ray is entering, [`dir_floor`]). Clamping into the cell
+    /// the pixel the ray is entering, [`dir_pixel`]). Clamping into the cell
     /// needs only its edge pixel: the cell's other end lies behind `p`.
+    /// The rounding is [`floor_sat`] / [`ceil_sat`]: they differ from exact
+    /// rounding only below 0 and from `2^32` on, where the clamp into the
+    /// pixels between `p` and `e` (both in `0..u32::MAX`) gives the same
+    /// pixel (after the one-pixel exit check, which then also lands below
+    /// or above that range).
     #[inline(always)]
     fn sync(&self, s: f32, v: f32, p: u32, e: u32) -> u32 {
         if !self.moves {
             return p;
         }
-        let p = i64::from(p);
-        let n = if NEG {
-            let mut f = ceil_i64(v).wrapping_sub(1);
+        if NEG {
+            let p = i64::from(p);
+            let mut f = ceil_sat(v) - 1;
             if f < p && s <= ((f + 1) as f32 - self.v0) / self.d {
                 f += 1;
             }
-            f.min(p).max(i64::from(e))
+            f.min(p).max(i64::from(e)) as u32
         } else {
-            let mut f = floor_i64(v);
+            let mut f = floor_sat(v);
             if f > p && s <= (f as f32 - self.v0) / self.d {
                 f -= 1;
             }
-            f.max(p).min(i64::from(e))
-        };
-        n as u32
+            f.max(p).min(e)
+        }
     }
 }
 
-/// One ray's traversal state. Everything that is constant per ray (the
-/// segment, its direction class, the level table, the image size, the
-/// thickness) is read and classified once here, not per cell; the loop is
-/// monomorphized per class:
+/// What changes along one ray's walk: the parameter `s` reached, the
+/// frontier pixel `(px, py)` and the counters. A local of [`Walker::run`]
+/// passed by `&mut` only to inlined steps (and by value to the hit and miss
+/// builders), so that it lives in registers.
+#[derive(Clone, Copy, Debug)]
+struct State {
+    s: f32,
+    px: u32,
+    py: u32,
+    /// [`Work`] counters, saturated to `u32` on return.
+    steps: u64,
+    fetches: u64,
+    iterations: u32,
+    stats: HiZStats,
+}
+
+impl State {
+    fn work(&self) -> Work {
+        Work {
+            steps: u32::try_from(self.steps).unwrap_or(u32::MAX),
+            fetches: u32::try_from(self.fetches).unwrap_or(u32::MAX),
+            iterations: self.iterations,
+        }
+    }
+}
+
+/// What is constant along one ray's walk: the segment, its direction
+/// class, the level table, the image size, the thickness, all read and
+/// classified once here, not per cell. The loop is monomorphized per class:
 ///
 /// * `NX`, `NY`: the segment moves toward `-x` / `-y` ([`Axis`]): a cell's
 ///   exit side, the pixel past it and the frontier's rounding are chosen at
 ///   compile time.
+/// * `NQ`: `dq < 0`, `q` decreases (the ray moves away from the camera):
+///   which slab bound the segment enters first.
 /// * `BACK`: [`Thickness::BackFaces`] (else [`Thickness::Constant`]).
 /// * `STATS`: whether to keep the [`HiZStats`] counters (the batch entry
 ///   point drops them, so it does not pay for them).
-///
-/// * `NQ`: `dq < 0`, `q` decreases (the ray moves away from the camera):
-///   which slab bound the segment enters first.
 struct Walker<
     'h,
     'a,
@@ -1352,27 +1407,11 @@ struct Walker<
     /// The constant thickness (unused with `BACK`).
     th: f32,
     far: f32,
-    s: f32,
-    px: u32,
-    py: u32,
-    /// [`Work`] counters, saturated to `u32` on return.
-    steps: u64,
-    fetches: u64,
-    iterations: u32,
-    stats: HiZStats,
 }
 
 impl<const NX: bool, const NY: bool, const NQ: bool, const BACK: bool, const STATS: bool>
     Walker<'_, '_, NX, NY, NQ, BACK, STATS>
 {
-    fn work(&self) -> Work {
-        Work {
-            steps: u32::try_from(self.steps).unwrap_or(u32::MAX),
-            fetches: u32::try_from(self.fetches).unwrap_or(u32::MAX),
-            iterations: self.iterations,
-        }
-    }
-
     /// The level table entry of `level` (`< level_count <= MAX_LEVELS`).
     #[inline(always)]
     fn level(&self, level: u32) -> HiZLevel {
@@ -1381,10 +1420,10 @@ impl<const NX: bool, const NY: bool, const NQ: bool, const BACK: bool, const STA
 
     /// The cell of level `level` that holds the frontier.
     #[inline(always)]
-    fn cell(&self, level: u32) -> Cell {
+    fn cell(&self, st: &State, level: u32) -> Cell {
         let l = self.level(level);
-        let x = (self.px >> level).min(l.width - 1);
-        let y = (self.py >> level).min(l.height - 1);
+        let x = (st.px >> level).min(l.width - 1);
+        let y = (st.py >> level).min(l.height - 1);
         Cell {
             level,
             x,
@@ -1395,18 +1434,21 @@ impl<const NX: bool, const NY: bool, const NQ: bool, const BACK: bool, const STA
         }
     }
 
-    /// Whether the frontier lies in cell `c`.
-    #[inline]
-    fn holds_frontier(&self, c: &Cell) -> bool {
-        let l = self.level(c.level);
-        (self.px >> c.level).min(l.width - 1) == c.x
-            && (self.py >> c.level).min(l.height - 1) == c.y
+    /// Whether the frontier lies in cell `c`: it has not passed the cell's
+    /// edge pixels. The frontier only moves forward along each axis and `c`
+    /// held it once (a cell the walk visited), so this is `(px, py)` in
+    /// `c`'s span.
+    #[inline(always)]
+    fn holds(&self, st: &State, ex: u32, ey: u32) -> bool {
+        let in_x = if NX { st.px >= ex } else { st.px <= ex };
+        let in_y = if NY { st.py >= ey } else { st.py <= ey };
+        in_x && in_y
     }
 
     /// The texel at `index` (counted as a fetch).
     #[inline(always)]
-    fn fetch(&mut self, index: usize) -> HiZTexel {
-        self.fetches += 1;
+    fn fetch(&self, st: &mut State, index: usize) -> HiZTexel {
+        st.fetches += 1;
         self.data.get(index).copied().unwrap_or([f32::NAN; 2])
     }
 
@@ -1416,12 +1458,12 @@ impl<const NX: bool, const NY: bool, const NQ: bool, const BACK: bool, const STA
     /// fetch; a NaN back texel or one in front of `z_front` gives `z_front`),
     /// above level 0 with back faces `+inf`. `zmin` is not NaN.
     #[inline(always)]
-    fn upper(&mut self, level: u32, x: u32, y: u32, zmin: f32, zmax: f32) -> f32 {
+    fn upper(&self, st: &mut State, level: u32, x: u32, y: u32, zmin: f32, zmax: f32) -> f32 {
         if BACK {
             if level != 0 {
                 return f32::INFINITY;
             }
-            self.fetches += 1;
+            st.fetches += 1;
             let zb = match self.thickness {
                 Thickness::BackFaces(back) => back
                     .get(x, y)
@@ -1443,7 +1485,7 @@ impl<const NX: bool, const NY: bool, const NQ: bool, const BACK: bool, const STA
         }
     }
 
-    /// The part of `[self.s, to]` where the segment lies in the hit slab of
+    /// The part of `[st.s, to]` where the segment lies in the hit slab of
     /// the cell's texel `[zmin, zmax]`: `q` in `[1 / upper, 1 / closest]`
     /// ([`Self::upper`]; level 0: the texel's own slab), or `None` if the
     /// slab is empty there or the texel has no hittable surface (NaN, or
@@ -1454,46 +1496,51 @@ impl<const NX: bool, const NY: bool, const NQ: bool, const BACK: bool, const STA
     /// `1 / closest` first), the farthest plane for one moving toward it
     /// (Sec. 4.6.7). With `dq == 0` (`+0`: `q0 > 0`, so never `-0`) the
     /// divisions give `+-inf` or NaN, and [`max_nn`] / [`min_nn`] turn
-    /// them into "all of `[self.s, to]` if `q0` lies in the slab, else
+    /// them into "all of `[st.s, to]` if `q0` lies in the slab, else
     /// nothing" exactly as testing `q0` would.
     #[inline(always)]
-    fn slab(&mut self, c: &Cell, zmin: f32, zmax: f32, to: f32) -> Option<(f32, f32)> {
+    fn slab(&self, st: &mut State, c: &Cell, zmin: f32, zmax: f32, to: f32) -> Option<(f32, f32)> {
         if !(zmin < self.far) {
             return None;
         }
-        let upper = self.upper(c.level, c.x, c.y, zmin, zmax);
-        let (q_lo, q_hi) = (1.0 / upper, 1.0 / zmin);
-        let (qa, qb) = if NQ { (q_hi, q_lo) } else { (q_lo, q_hi) };
-        let a = max_nn(self.s, (qa - self.q0) / self.dq);
-        let b = min_nn(to, (qb - self.q0) / self.dq);
+        let upper = self.upper(st, c.level, c.x, c.y, zmin, zmax);
+        let (za, zb) = if NQ { (zmin, upper) } else { (upper, zmin) };
+        let a = max_nn(st.s, (1.0 / za - self.q0) / self.dq);
+        // Entered past `to`: empty whatever `b` is (`b <= to`). Tested
+        // before `b` is computed, which also keeps the two sides scalar
+        // (as one two-lane vector they cost more instructions in shuffles).
+        if a > to {
+            return None;
+        }
+        let b = min_nn(to, (1.0 / zb - self.q0) / self.dq);
         (a <= b).then_some((a, b))
     }
 
     /// Counts a boundary tie: `floor(v)` is not the pixel `n` the frontier
     /// moved to.
     #[inline(always)]
-    fn tie(&mut self, v: f32, n: u32) {
+    fn tie(st: &mut State, v: f32, n: u32) {
         if STATS && floor_i64(v) != i64::from(n) && v.is_finite() {
-            self.stats.boundary_ties = self.stats.boundary_ties.saturating_add(1);
+            st.stats.boundary_ties = st.stats.boundary_ties.saturating_add(1);
         }
     }
 
-    /// Moves the frontier to the ray position at `self.s` inside cell `c`.
+    /// Moves the frontier to the ray position at `st.s` inside cell `c`.
     #[inline(always)]
-    fn sync_in(&mut self, c: &Cell) {
-        let (x, y) = (self.ax.at(self.s), self.ay.at(self.s));
-        let nx = self.ax.sync(self.s, x, self.px, c.ex);
-        self.tie(x, nx);
-        let ny = self.ay.sync(self.s, y, self.py, c.ey);
-        self.tie(y, ny);
-        (self.px, self.py) = (nx, ny);
+    fn sync_in(&self, st: &mut State, c: &Cell) {
+        let (x, y) = (self.ax.at(st.s), self.ay.at(st.s));
+        let nx = self.ax.sync(st.s, x, st.px, c.ex);
+        Self::tie(st, x, nx);
+        let ny = self.ay.sync(st.s, y, st.py, c.ey);
+        Self::tie(st, y, ny);
+        (st.px, st.py) = (nx, ny);
     }
 
     /// Crosses from cell `c` into its neighbor through the side(s) of exit
     /// parameter `es = min(sx, sy)`. `false` when the segment ends inside
     /// `c` or the neighbor lies outside the image.
     #[inline(always)]
-    fn cross(&mut self, c: &Cell, sx: f32, sy: f32, es: f32) -> bool {
+    fn cross(&self, st: &mut State, c: &Cell, sx: f32, sy: f32, es: f32) -> bool {
         if !(es < 1.0) {
             return false;
         }
@@ -1504,7 +1551,7 @@ impl<const NX: bool, const NY: bool, const NQ: bool, const BACK: bool, const STA
                 None => return false,
             }
         } else {
-            self.px
+            st.px
         };
         let ny = if cross_y {
             match self.ay.next(c.ey) {
@@ -1512,53 +1559,53 @@ impl<const NX: bool, const NY: bool, const NQ: bool, const BACK: bool, const STA
                 None => return false,
             }
         } else {
-            self.py
+            st.py
         };
-        self.s = max_nn(self.s, es);
-        self.steps += 1;
-        let s = self.s;
+        st.s = max_nn(st.s, es);
+        st.steps += 1;
+        let s = st.s;
         if cross_x {
             if STATS {
-                self.tie(self.ax.at(s), nx);
+                Self::tie(st, self.ax.at(s), nx);
             }
-            self.px = nx;
+            st.px = nx;
         } else {
             let x = self.ax.at(s);
-            self.px = self.ax.sync(s, x, self.px, c.ex);
-            self.tie(x, self.px);
+            st.px = self.ax.sync(s, x, st.px, c.ex);
+            Self::tie(st, x, st.px);
         }
         if cross_y {
             if STATS {
-                self.tie(self.ay.at(s), ny);
+                Self::tie(st, self.ay.at(s), ny);
             }
-            self.py = ny;
+            st.py = ny;
         } else {
             let y = self.ay.at(s);
-            self.py = self.ay.sync(s, y, self.py, c.ey);
-            self.tie(y, self.py);
+            st.py = self.ay.sync(s, y, st.py, c.ey);
+            Self::tie(st, y, st.py);
         }
         true
     }
 
     /// Crosses out of cell `c` (the unit-step resolution's way out).
     #[inline]
-    fn leave(&mut self, c: &Cell) -> bool {
+    fn leave(&self, st: &mut State, c: &Cell) -> bool {
         let (sx, sy) = (self.ax.exit(c.ex), self.ay.exit(c.ey));
-        self.cross(c, sx, sy, min_nn(sx, sy))
+        self.cross(st, c, sx, sy, min_nn(sx, sy))
     }
 
     /// Visits the cell of level `level` that holds the frontier: one texel
     /// fetch, the exit parameter (the nearer of the two cell sides ahead),
     /// the slab interval up to it, then a hit, a descent or a crossing.
     #[inline(always)]
-    fn visit(&mut self, level: u32) -> Step {
-        let c = self.cell(level);
-        let [zmin, zmax] = self.fetch(c.index);
+    fn visit(&self, st: &mut State, level: u32) -> Step {
+        let c = self.cell(st, level);
+        let [zmin, zmax] = self.fetch(st, c.index);
         let (sx, sy) = (self.ax.exit(c.ex), self.ay.exit(c.ey));
         let es = min_nn(sx, sy);
-        match self.slab(&c, zmin, zmax, min_nn(es, 1.0)) {
+        match self.slab(st, &c, zmin, zmax, min_nn(es, 1.0)) {
             None => {
-                if self.cross(&c, sx, sy, es) {
+                if self.cross(st, &c, sx, sy, es) {
                     Step::Next
                 } else {
                     Step::End
@@ -1572,33 +1619,43 @@ impl<const NX: bool, const NY: bool, const NQ: bool, const BACK: bool, const STA
         }
     }
 
-    fn hit(&self, s: f32, surface: f32) -> Trace {
+    /// A level-0 visit for the unit steps (below a `stop_level > 0`), out of
+    /// line: one copy per class rather than one per call site. The prologue
+    /// inlines its visits instead: it runs on nearly every ray, and inlined
+    /// a visit costs about 70 instructions less (no call, no [`Step`]
+    /// returned through memory and dispatched by a jump table).
+    #[inline(never)]
+    fn visit0(&self, st: &mut State) -> Step {
+        self.visit(st, 0)
+    }
+
+    fn hit(&self, st: State, s: f32, surface: f32) -> Trace {
         let sd = &self.seg;
         let q = sd.q(s);
         let t = (sd.t0 + s * sd.k / q).clamp(sd.t0, sd.t1);
         let pixel = Vec2::new(
-            sd.x(s).clamp(self.px as f32, below(self.px)),
-            sd.y(s).clamp(self.py as f32, below(self.py)),
+            sd.x(s).clamp(st.px as f32, below(st.px)),
+            sd.y(s).clamp(st.py as f32, below(st.py)),
         );
         Trace::Hit(DepthHit {
             pixel,
             t,
             depth: 1.0 / q,
             surface_depth: surface,
-            work: self.work(),
+            work: st.work(),
         })
     }
 
     /// The miss at the end of the segment: passed behind geometry (the end
     /// point lies behind the hit slab of the texel there), left the image,
     /// or simply ended.
-    fn end(&mut self) -> Trace {
+    fn end(&self, mut st: State) -> (Trace, HiZStats) {
         let sd = self.seg;
-        let x = dir_floor(sd.x(1.0), sd.dx).clamp(0, i64::from(self.ax.size) - 1) as u32;
-        let y = dir_floor(sd.y(1.0), sd.dy).clamp(0, i64::from(self.ay.size) - 1) as u32;
-        let [zmin, zmax] =
-            self.fetch(self.levels[0].offset + y as usize * self.ax.size as usize + x as usize);
-        let behind = zmin < self.far && sd.q1 < 1.0 / self.upper(0, x, y, zmin, zmax);
+        let x = dir_pixel(sd.x(1.0), sd.dx, self.ax.size);
+        let y = dir_pixel(sd.y(1.0), sd.dy, self.ay.size);
+        let index = self.levels[0].offset + y as usize * self.ax.size as usize + x as usize;
+        let [zmin, zmax] = self.fetch(&mut st, index);
+        let behind = zmin < self.far && sd.q1 < 1.0 / self.upper(&mut st, 0, x, y, zmin, zmax);
         let reason = if behind {
             Miss::BehindGeometry
         } else if sd.ends_on_side {
@@ -1606,80 +1663,81 @@ impl<const NX: bool, const NY: bool, const NQ: bool, const BACK: bool, const STA
         } else {
             Miss::EndOfRay
         };
-        Trace::Miss {
-            reason,
-            work: self.work(),
-        }
+        let work = st.work();
+        (Trace::Miss { reason, work }, st.stats)
     }
 
-    fn run(&mut self, o: &HiZOptions) -> Trace {
+    fn run(&self, mut st: State, o: &HiZOptions) -> (Trace, HiZStats) {
+        let st = &mut st;
         let top = self.hiz.layout.count - 1;
         let stop = o.stop_level.min(top);
         let start = o.start_level.min(top).max(stop);
-        // Prologue: unit steps (Sec. 4.7.1).
+        // Prologue: unit steps (Sec. 4.7.1), inlined (see `visit0`).
         let mut n = 0;
         while n < o.prologue_steps {
             n += 1;
-            match self.visit(0) {
-                Step::Hit { s, surface } => return self.hit(s, surface),
-                Step::End => return self.end(),
+            match self.visit(st, 0) {
+                Step::Hit { s, surface } => return (self.hit(*st, s, surface), st.stats),
+                Step::End => return self.end(*st),
                 Step::Next | Step::Inside { .. } => {}
             }
         }
         // Hierarchical walk (Listings 4.2 / 4.5).
         let mut level = start;
-        // For each level, the cell last descended from and the end of its
-        // possible-hit interval: while the walk stays inside that cell
-        // before that end, going back up would only fetch it again.
-        let mut parent = [(u32::MAX, u32::MAX, 0.0f32); MAX_LEVELS];
+        // For each level, the cell last descended from (its edge pixels)
+        // and the end of its possible-hit interval: while the walk stays
+        // inside that cell before that end, going back up would only fetch
+        // it again. `-inf`: none yet.
+        let mut parent = [(0u32, 0u32, f32::NEG_INFINITY); MAX_LEVELS];
         loop {
             if STATS {
-                self.stats.max_level = self.stats.max_level.max(level);
+                st.stats.max_level = st.stats.max_level.max(level);
             }
-            if self.iterations >= o.max_iterations {
-                return Trace::Miss {
+            if st.iterations >= o.max_iterations {
+                let work = st.work();
+                let miss = Trace::Miss {
                     reason: Miss::OutOfSteps,
-                    work: self.work(),
+                    work,
                 };
+                return (miss, st.stats);
             }
-            self.iterations += 1;
-            match self.visit(level) {
-                Step::Hit { s, surface } => return self.hit(s, surface),
-                Step::End => return self.end(),
+            st.iterations += 1;
+            match self.visit(st, level) {
+                Step::Hit { s, surface } => return (self.hit(*st, s, surface), st.stats),
+                Step::End => return self.end(*st),
                 Step::Next => {
                     if level < top {
                         let up = level + 1;
-                        let l = self.level(up);
-                        let ux = (self.px >> up).min(l.width - 1);
-                        let uy = (self.py >> up).min(l.height - 1);
-                        let (px, py, sb) = parent[up as usize % MAX_LEVELS];
-                        if (ux, uy) != (px, py) || self.s > sb {
+                        let (ex, ey, sb) = parent[up as usize % MAX_LEVELS];
+                        if !self.holds(st, ex, ey) || st.s > sb {
                             level = up;
                         }
                     }
                 }
                 Step::Inside { cell, sa, sb } => {
-                    self.s = max_nn(self.s, sa);
-                    self.sync_in(&cell);
+                    st.s = max_nn(st.s, sa);
+                    self.sync_in(st, &cell);
                     if level > stop {
-                        parent[level as usize % MAX_LEVELS] = (cell.x, cell.y, sb);
+                        parent[level as usize % MAX_LEVELS] = (cell.ex, cell.ey, sb);
                         level -= 1;
                         continue;
                     }
                     // Unit steps through the cell (Sec. 4.7.1).
                     loop {
-                        if !self.holds_frontier(&cell) {
+                        if !self.holds(st, cell.ex, cell.ey) {
                             break;
                         }
-                        if self.s > sb {
-                            if !self.leave(&cell) {
-                                return self.end();
+                        if st.s > sb {
+                            if !self.leave(st, &cell) {
+                                return self.end(*st);
                             }
                             break;
                         }
-                        match self.visit(0) {
-                            Step::Hit { s, surface } => return self.hit(s, surface),
-                            Step::End => return self.end(),
+                        match self.visit0(st) {
+                            Step::Hit { s, surface } => {
+                                return (self.hit(*st, s, surface), st.stats)
+                            }
+                            Step::End => return self.end(*st),
                             Step::Next => {}
                             Step::Inside { .. } => break,
                         }
@@ -1699,9 +1757,9 @@ fn walk<const NX: bool, const NY: bool, const NQ: bool, const BACK: bool, const 
     options: &HiZOptions,
 ) -> (Trace, HiZStats) {
     let (w, h) = (hiz.layout.width, hiz.layout.height);
-    let px = dir_floor(seg.x0, seg.dx).clamp(0, i64::from(w) - 1) as u32;
-    let py = dir_floor(seg.y0, seg.dy).clamp(0, i64::from(h) - 1) as u32;
-    let mut walker = Walker::<NX, NY, NQ, BACK, STATS> {
+    let px = dir_pixel(seg.x0, seg.dx, w);
+    let py = dir_pixel(seg.y0, seg.dy, h);
+    let walker = Walker::<NX, NY, NQ, BACK, STATS> {
         hiz,
         levels: &hiz.layout.levels,
         data: hiz.data,
@@ -1716,6 +1774,8 @@ fn walk<const NX: bool, const NY: bool, const NQ: bool, const BACK: bool, const 
             Thickness::BackFaces(_) => 0.0,
         },
         far: hiz.camera.far(),
+    };
+    let st = State {
         s: 0.0,
         px,
         py,
@@ -1724,8 +1784,7 @@ fn walk<const NX: bool, const NY: bool, const NQ: bool, const BACK: bool, const 
         iterations: 0,
         stats: HiZStats::default(),
     };
-    let trace = walker.run(options);
-    (trace, walker.stats)
+    walker.run(st, options)
 }
 
 fn trace_valid<const STATS: bool>(
