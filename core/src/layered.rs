@@ -1583,24 +1583,33 @@ impl<'a> LayeredMap<'a> {
     /// [`LayeredMapMut::build_bounds`]): from ray parameter `s` (box point
     /// `ob + d s`), walks the bound pyramid of `face` (Hi-Z style: up a
     /// level after each skipped cell, down where a cell cannot be skipped)
-    /// to the first level-1 cell the ray cannot skip. Returns its entry and
-    /// exit parameters, `(span, span)` if the ray leaves the box first, or
-    /// `None` when the step cap ran out.
+    /// to the first level-1 cell the ray cannot skip. Parameters are walk
+    /// units (texels, see [`LayeredMap::search_face`]): the point is
+    /// `ob + e s`. Returns the cell's entry and exit parameters,
+    /// `(span, span)` if the ray leaves the box first, or `None` when the
+    /// step cap ran out.
+    ///
+    /// The walk is bounded twice: by the caller's step cap (`budget`) and
+    /// by `walk`, the visits a ray can need on this face (see
+    /// [`walk_bound`]). Skipping only saves work, so a walk past `walk`
+    /// (rounding at cell edges, seen on degenerate boxes: finding F23)
+    /// stops skipping and returns `(s, span)`: the linear search covers
+    /// the rest of the face.
     #[allow(clippy::too_many_arguments)]
     fn skip(
         &self,
         face: Face,
         pyr: &Pyramid,
         ob: Vec3,
-        d: Vec3,
+        e: Vec3,
         mut s: f32,
         span: f32,
         level: &mut u32,
-        min_ds: f32,
         budget: &mut u32,
+        walk: &mut u32,
         work: &mut LayeredWork,
     ) -> Option<(f32, f32)> {
-        if pyr.levels == 0 {
+        if pyr.levels == 0 || *walk == 0 {
             return Some((s, span));
         }
         let res = self.grid.res as f32;
@@ -1609,7 +1618,7 @@ impl<'a> LayeredMap<'a> {
         let a = face.axis();
         let (u, v) = face.uv_axes();
         let depth = |s: f32| {
-            let x = ob[a] + d[a] * s;
+            let x = ob[a] + e[a] * s;
             if face.is_positive() {
                 1.0 - x
             } else {
@@ -1623,17 +1632,21 @@ impl<'a> LayeredMap<'a> {
             if *budget == 0 {
                 return None;
             }
+            if *walk == 0 {
+                return Some((s, span));
+            }
             *budget -= 1;
+            *walk -= 1;
             work.steps += 1;
             let l = (*level).clamp(1, pyr.levels) as usize;
             let size = (1u64 << l) as f32;
             let dim = pyr.dim[l];
             // The cell holding the point, ties broken toward the direction.
             let cell = |c: usize| -> (usize, f32, f32) {
-                let x = (ob[c] + d[c] * s) * res;
-                let nudge = if d[c] > 0.0 {
+                let x = (ob[c] + e[c] * s) * res;
+                let nudge = if e[c] > 0.0 {
                     1e-3
-                } else if d[c] < 0.0 {
+                } else if e[c] < 0.0 {
                     -1e-3
                 } else {
                     0.0
@@ -1642,10 +1655,10 @@ impl<'a> LayeredMap<'a> {
                 // Exit parameter along this axis.
                 let lo = k as f32 * size;
                 let hi = (lo + size).min(res);
-                let te = if d[c] > 0.0 {
-                    (hi / res - ob[c]) / d[c]
-                } else if d[c] < 0.0 {
-                    (lo / res - ob[c]) / d[c]
+                let te = if e[c] > 0.0 {
+                    (hi / res - ob[c]) / e[c]
+                } else if e[c] < 0.0 {
+                    (lo / res - ob[c]) / e[c]
                 } else {
                     f32::INFINITY
                 };
@@ -1655,7 +1668,9 @@ impl<'a> LayeredMap<'a> {
             let (cj, tv, _) = cell(v);
             let mut end = tu.min(tv).min(span);
             if !(end > s) {
-                end = (s + min_ds).min(span);
+                // On a cell edge by rounding: a nudge of 1/1000 texel
+                // (at least one float step, so the walk moves).
+                end = (s + 1e-3).max(float_after(s)).min(span);
             }
             let c = pyr.off[l] + (cj * dim + ci) * per;
             let (ha, hb) = (depth(s), depth(end));
@@ -1881,18 +1896,28 @@ impl<'a> LayeredMap<'a> {
         work: &mut LayeredWork,
     ) -> FaceOutcome {
         let res = self.grid.res as f32;
-        // Texels spanned per unit of t (largest box-coordinate component).
-        let texels_per_t = dmax * res;
-        let dt = p.step_texels / texels_per_t;
-        let min_ds = 1e-3 / texels_per_t;
+        // The walk's parameter s counts texels along the dominant axis from
+        // the box entry (precision far away; no overflow where the box is
+        // thin and `d` huge, finding F23): the point is `ob + e s` and
+        // `t = t0 + s / (dmax res)`.
+        let e = d / dmax / res;
+        let span = (t1 - t0) * dmax * res;
+        let dt = p.step_texels;
         let tau = self.depth_of_texels(face, p.smooth_texels);
-        // Parameters s = t - t0 from the box entry (precision far away).
-        let span = t1 - t0;
         let ob = o + d * t0;
-        let at = |s: f32| ob + d * s;
+        let at = |s: f32| ob + e * s;
+        let t_of = |s: f32| t0 + s / res / dmax;
+        if !(e.is_finite() && span.is_finite()) {
+            // A direction that vanished in box coordinates (underflow under
+            // an extreme transform): the ray does not move through the map.
+            return FaceOutcome::Nothing {
+                out_of_steps: false,
+            };
+        }
         let pyr = self.pyramid(face);
         let mut level = pyr.levels.min(3);
         let mut budget = p.max_steps;
+        let mut walk = walk_bound(self.grid.res, pyr.levels);
         let mut prev: Option<f32> = None;
         let mut s = 0.0f32;
         // Where the current non-skippable level-1 cell ends.
@@ -1903,12 +1928,12 @@ impl<'a> LayeredMap<'a> {
                     face,
                     &pyr,
                     ob,
-                    d,
+                    e,
                     check_at,
                     span,
                     &mut level,
-                    min_ds,
                     &mut budget,
+                    &mut walk,
                     work,
                 ) else {
                     return FaceOutcome::Nothing { out_of_steps: true };
@@ -1946,12 +1971,13 @@ impl<'a> LayeredMap<'a> {
                         Some(x) => (sm, x),
                         None => (smp, inside),
                     };
-                    return FaceOutcome::Hit(self.candidate(face, t0 + s_here, &sm, x));
+                    return FaceOutcome::Hit(self.candidate(face, t_of(s_here), &sm, x));
                 }
                 (Some(_), Some(lo)) => {
                     let sm = self.sample_smooth(face, at(s_here), tau, &mut work.fetches);
                     if let Some(x) = sm.inside {
-                        let c = self.refine(face, ob, d, t0, lo, s_here, (sm, x), dt, tau, p, work);
+                        let c = self.refine(face, ob, e, lo, s_here, (sm, x), tau, p, work);
+                        let c = Candidate { t: t_of(c.t), ..c };
                         return FaceOutcome::Hit(c);
                     }
                     // A graze the interpolated depth does not confirm.
@@ -1963,31 +1989,33 @@ impl<'a> LayeredMap<'a> {
                     out_of_steps: false,
                 };
             }
-            s = s_here + dt;
+            // At least one float step: a step below the spacing of floats
+            // near `s` (a tiny `step_texels` on a huge face) still moves.
+            s = (s_here + dt).max(float_after(s_here));
         }
     }
 
     /// The binary search of seed 001 Sec. 3.3 between `lo` (outside) and
-    /// `hi` (inside, sample `last`) on interpolated depth. If the
-    /// interpolated surface begins before `lo`, the bracket first steps
-    /// back (at most four steps of `dt`).
+    /// `hi` (inside, sample `last`) on interpolated depth, in the walk
+    /// units of [`LayeredMap::search_face`] (texels: the point is
+    /// `ob + e s`); the candidate's `t` is the walk parameter, which the
+    /// caller converts. If the interpolated surface begins before `lo`,
+    /// the bracket first steps back (at most four linear steps).
     #[allow(clippy::too_many_arguments)]
     fn refine(
         &self,
         face: Face,
         ob: Vec3,
-        d: Vec3,
-        t0: f32,
+        e: Vec3,
         mut lo: f32,
         mut hi: f32,
         mut last: (Sample, Inside),
-        dt: f32,
         tau: f32,
         p: &LayeredOptions,
         work: &mut LayeredWork,
     ) -> Candidate {
-        let at = |s: f32| ob + d * s;
-        let texels_per_s = p.step_texels / dt;
+        let at = |s: f32| ob + e * s;
+        let dt = p.step_texels;
         let mut back = 0;
         loop {
             work.binary_steps += 1;
@@ -1996,13 +2024,13 @@ impl<'a> LayeredMap<'a> {
             hi = lo;
             last = (m, x);
             if back == 4 || lo <= 0.0 {
-                return self.candidate(face, t0 + hi, &last.0, last.1);
+                return self.candidate(face, hi, &last.0, last.1);
             }
             lo = (lo - dt).max(0.0);
             back += 1;
         }
         for _ in 0..p.binary_steps {
-            if (hi - lo) * texels_per_s <= p.texel_fraction {
+            if hi - lo <= p.texel_fraction {
                 break;
             }
             let mid = 0.5 * (lo + hi);
@@ -2016,7 +2044,7 @@ impl<'a> LayeredMap<'a> {
                 None => lo = mid,
             }
         }
-        self.candidate(face, t0 + hi, &last.0, last.1)
+        self.candidate(face, hi, &last.0, last.1)
     }
 
     /// The candidate of an entry into layer `x.layer` of `face`.
@@ -2045,6 +2073,24 @@ impl<'a> LayeredMap<'a> {
         let ext = self.grid.max[face.axis()] - self.grid.min[face.axis()];
         dz * ext / su.max(sv)
     }
+}
+
+/// The smallest float above `s` (finite, `s >= 0`): `f32::next_up`,
+/// which needs Rust 1.86.
+fn float_after(s: f32) -> f32 {
+    f32::from_bits(s.to_bits() + 1)
+}
+
+/// Bound of the empty-space walk on one face ([`LayeredMap::skip`]) of a
+/// map with `res` texels a side and `levels` bound levels: a ray crosses at
+/// most `2 res + 2` level-1 cells of a face (one per texel edge on each of
+/// the two face axes, and the cell it starts in); each crossing costs at
+/// most one visit per level down and one up. Four times that leaves room
+/// for the nudges of rounding at cell edges.
+fn walk_bound(res: u32, levels: u32) -> u32 {
+    let crossings = 2u64 * u64::from(res) + 2;
+    let visits = crossings * (2 * u64::from(levels) + 1) * 4;
+    visits.min(u64::from(u32::MAX)) as u32
 }
 
 /// How a reflector triangle relates to the potential reflection region of

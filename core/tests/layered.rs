@@ -2105,3 +2105,104 @@ fn trace_rays_equals_trace_per_ray_and_writes_nothing_on_error() {
     );
     assert!(out.iter().all(|o| *o == sentinel));
 }
+
+/// Finding F23 (fuzzing, `fuzz/README.md`): in a box a float step thick the
+/// box coordinates of a ray grow to ~1e38, the texels per unit of `t`
+/// overflowed, the linear step and the walk's nudge became 0 and the face
+/// search ran to the caller's step cap (minutes under `u32::MAX`). The walk
+/// now counts texels and the skip walk is bounded by the cells a ray can
+/// cross: the work of every ray stays within a few thousand visits
+/// whatever the cap, and the slab's contents are still found.
+#[test]
+fn thin_boxes_and_huge_step_caps_end_in_bounded_work() {
+    let (res, thin) = (6u32, 1e-38f32);
+    let grid = LayeredGrid::try_new(
+        Vec3::new(-1.5, -1.5, 0.0),
+        Vec3::new(1.5, 1.5, thin),
+        res,
+        2,
+    )
+    .unwrap();
+    let len = grid.len();
+    let (mut depth, mut payload, mut counts, mut bounds) = (
+        vec![0.0; len.depth],
+        vec![0; len.payload],
+        vec![0; len.counts],
+        vec![0.0; len.bounds],
+    );
+    // A solid filling the upper 0.4 of the slab: one interval per column of
+    // the -Z face (and so of the +Z face).
+    {
+        let mut m =
+            LayeredMapMut::try_new(grid, &mut depth, &mut payload, &mut counts, &mut bounds)
+                .unwrap();
+        m.clear();
+        for j in 0..res {
+            for i in 0..res {
+                let col = grid.try_face_ray(Face::NegZ, i, j).unwrap();
+                let mut hits = [
+                    LayerHit {
+                        t: 0.6 * col.t_max,
+                        id: 1,
+                        front: true,
+                    },
+                    LayerHit {
+                        t: col.t_max,
+                        id: 2,
+                        front: false,
+                    },
+                ];
+                m.try_fill_column(Face::NegZ, i, j, &mut hits).unwrap();
+            }
+        }
+        m.build_bounds();
+    }
+    let map = LayeredMap::try_new(grid, &depth, &payload, &counts, &bounds).unwrap();
+    let p = LayeredOptions {
+        max_steps: u32::MAX,
+        ..LayeredOptions::default()
+    };
+    // Per face: the skip walk's bound (at most 33 bound levels), then
+    // linear steps over at most 1.75 res texels, plus a refinement.
+    let per_face =
+        4 * (2 * res + 2) * (2 * 33 + 1) + (1.75 * res as f32 / p.step_texels) as u32 + 64;
+    let mut rng = Rng(23);
+    let mut worst = 0;
+    for k in 0..2000 {
+        // From inside the slab, below the solid, upward; every other ray
+        // steep enough that the texels per unit of t overflow f32 (d.z >
+        // 0.57 x 1e38 x 6 texels).
+        let origin = Vec3::new(
+            (rng.next() * 2.8 - 1.4) as f32,
+            (rng.next() * 2.8 - 1.4) as f32,
+            0.1 * thin,
+        );
+        let lean = if k % 2 == 0 { 0.5 } else { 4.0 };
+        let dir = Vec3::new(
+            ((rng.next() * 2.0 - 1.0) * lean) as f32,
+            ((rng.next() * 2.0 - 1.0) * lean) as f32,
+            1.0,
+        )
+        .normalize();
+        let ray = Ray { origin, dir };
+        let r = map.try_trace(&ray, f32::INFINITY, &p).unwrap();
+        let w = r.work();
+        worst = worst.max(w.steps + w.binary_steps);
+        assert!(w.steps + w.binary_steps <= 3 * per_face, "{ray:?}: {w:?}");
+        // The solid's front at z = 0.6 thin, found within a quarter of
+        // the slab (1.5 of its 6 texels along z).
+        let want = 0.5 * thin / dir.z;
+        let LayeredTrace::Hit(h) = r else {
+            panic!("{ray:?}: {r:?}")
+        };
+        assert_eq!(h.face, Face::NegZ, "{ray:?}: {h:?}");
+        assert!(
+            (h.t - want).abs() <= 0.25 * thin / dir.z,
+            "{ray:?}: {h:?}, want t {want:e}"
+        );
+    }
+    println!(
+        "thin box: at most {worst} steps per ray (bound {})",
+        3 * per_face
+    );
+}
