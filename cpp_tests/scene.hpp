@@ -207,6 +207,45 @@ inline Hit trace(RTCScene s, const float o[3], const float d[3], float tnear,
     return h;
 }
 
+// rtcIntersect8 of up to 8 rays (`n` of them; the other lanes are
+// inactive): origins o[3 k..], directions d[3 k..], each traced over
+// [tnear, inf) into hits[k]. Embree's packet path: the rays of one packet
+// should be coherent (neighboring pixels) to gain from it.
+inline void trace8(RTCScene s, const float* o, const float* d, size_t n, float tnear, Hit hits[8]) {
+    RTCIntersectContext ctx;
+    rtcInitIntersectContext(&ctx);
+    alignas(32) int valid[8];
+    alignas(32) RTCRayHit8 rh;
+    for (size_t k = 0; k < 8; ++k) {
+        const size_t j = k < n ? k : 0;
+        valid[k] = k < n ? -1 : 0;
+        rh.ray.org_x[k] = o[3 * j];
+        rh.ray.org_y[k] = o[3 * j + 1];
+        rh.ray.org_z[k] = o[3 * j + 2];
+        rh.ray.dir_x[k] = d[3 * j];
+        rh.ray.dir_y[k] = d[3 * j + 1];
+        rh.ray.dir_z[k] = d[3 * j + 2];
+        rh.ray.tnear[k] = tnear;
+        rh.ray.tfar[k] = std::numeric_limits<float>::infinity();
+        rh.ray.time[k] = 0.0f;
+        rh.ray.mask[k] = 0xFFFFFFFFu;
+        rh.ray.id[k] = unsigned(k);
+        rh.ray.flags[k] = 0;
+        rh.hit.geomID[k] = RTC_INVALID_GEOMETRY_ID;
+        rh.hit.primID[k] = RTC_INVALID_GEOMETRY_ID;
+        rh.hit.instID[0][k] = RTC_INVALID_GEOMETRY_ID;
+    }
+    rtcIntersect8(valid, s, &ctx, &rh);
+    for (size_t k = 0; k < 8; ++k) {
+        hits[k] = Hit{};
+        if (k < n && rh.hit.geomID[k] != RTC_INVALID_GEOMETRY_ID) {
+            hits[k].geom = rh.hit.geomID[k];
+            hits[k].prim = rh.hit.primID[k];
+            hits[k].t = rh.ray.tfar[k];
+        }
+    }
+}
+
 }  // namespace scene
 
 #endif  // REFL_CPP_TESTS_SCENE_HPP

@@ -7,7 +7,9 @@
 //! cargo run --release --example depth_kernels_bench -- [options]
 //!   --tris N        room triangles (30000)
 //!   --size WxH      image size (512x384)
-//!   --time KERNEL   hiz | step | both | none (both): kernel(s) to time
+//!   --time KERNEL   hiz | step | both | build | none (both): kernel(s) to
+//!                   time; build: the Hi-Z pyramid against a memcpy of its
+//!                   bytes, every convention (with the pyramid's hash)
 //!   --reps N        timed repetitions per kernel (20; 0 for a setup-only
 //!                   run, to subtract from `perf stat` counts)
 //!   --save FILE     write every checked trace to FILE
@@ -332,5 +334,50 @@ fn main() {
                 .expect("step");
         }
         report("step", &out, &mut ns);
+    }
+    if a.time == "build" {
+        // The whole pyramid (`hiz::try_build_hiz`) against a copy of the
+        // same bytes, alternating, in every convention (issue 14 part 4:
+        // at least half a memcpy's speed).
+        let mut copy = vec![[0.0f32; 2]; pyr.len()];
+        let mb = (pyr.len() * 8) as f64 / 1e6;
+        println!(
+            "build: pyramid of {}x{}, {} texels ({mb:.2} MB); ms per build and per copy (median of {} reps)",
+            a.width,
+            a.height,
+            pyr.len(),
+            a.reps
+        );
+        for c in DepthConvention::ALL {
+            let far = if c == DepthConvention::ReversedZ {
+                f32::INFINITY
+            } else {
+                cam.far()
+            };
+            let depth = DepthBuffer::new(&g, c, far).expect("depth");
+            let image = depth.image().expect("image");
+            let (mut tb, mut tc) = (Vec::new(), Vec::new());
+            for _ in 0..a.reps.max(1) {
+                let t = Instant::now();
+                hiz::try_build_hiz(&mut pyr, &image).expect("build");
+                tb.push(t.elapsed().as_secs_f64() * 1e3);
+                let t = Instant::now();
+                copy.copy_from_slice(std::hint::black_box(&pyr));
+                std::hint::black_box(&mut copy);
+                tc.push(t.elapsed().as_secs_f64() * 1e3);
+            }
+            tb.sort_by(f64::total_cmp);
+            tc.sort_by(f64::total_cmp);
+            let (b, m) = (tb[tb.len() / 2], tc[tc.len() / 2]);
+            let words: Vec<u32> = pyr
+                .iter()
+                .flat_map(|t| [t[0].to_bits(), t[1].to_bits()])
+                .collect();
+            println!(
+                "build {c:?}: {b:.3} ms build, {m:.3} ms copy; build speed / copy speed {:.3}; pyramid hash {:016x}",
+                m / b,
+                fnv(&words)
+            );
+        }
     }
 }

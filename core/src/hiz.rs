@@ -632,15 +632,45 @@ pub fn try_build_hiz_level0_rows(
         return Err(Error::InsufficientSize);
     }
     let (cam, c) = (depth.camera(), depth.convention());
-    for (dst, y) in band.chunks_exact_mut(w).zip(rows.rows()) {
-        if let Some(src) = depth.depth().row(y) {
-            for (o, &d) in dst.iter_mut().zip(src) {
-                let z = sanitize(cam.decode_depth(d, c));
-                *o = [z, z];
+    // `Camera::decode_depth` with its convention and far-plane branches
+    // taken once per call, not per texel, so that each row's loop is
+    // branch-free (and vectorizes): the same expressions, evaluated in the
+    // same order (`n * f` and `f - n` are the same products hoisted), so
+    // the same bits. Tested against `decode_depth` texel by texel.
+    let (n, f) = (cam.near(), cam.far());
+    let (nf, fmn) = (n * f, f - n);
+    let mut rows_of = |decode: &dyn Fn(&mut [HiZTexel], &[f32])| {
+        for (dst, y) in band.chunks_exact_mut(w).zip(rows.rows()) {
+            if let Some(src) = depth.depth().row(y) {
+                decode(dst, src);
             }
         }
+    };
+    match c {
+        DepthConvention::Linear => rows_of(&|dst, src| level0_row(dst, src, |d| d)),
+        DepthConvention::ZeroToOne if f.is_infinite() => {
+            rows_of(&|dst, src| level0_row(dst, src, |d| n / (1.0 - d)))
+        }
+        DepthConvention::ZeroToOne => rows_of(&|dst, src| {
+            level0_row(dst, src, |d| if d == 1.0 { f } else { nf / (f - d * fmn) })
+        }),
+        DepthConvention::ReversedZ if f.is_infinite() => {
+            rows_of(&|dst, src| level0_row(dst, src, |d| n / d))
+        }
+        DepthConvention::ReversedZ => rows_of(&|dst, src| {
+            level0_row(dst, src, |d| if d == 0.0 { f } else { nf / (n + d * fmn) })
+        }),
     }
     Ok(())
+}
+
+/// One row of level 0: `[z, z]` with `z = sanitize(decode(d))`.
+#[inline(always)]
+fn level0_row(dst: &mut [HiZTexel], src: &[f32], decode: impl Fn(f32) -> f32) {
+    for (o, &d) in dst.iter_mut().zip(src) {
+        let z = sanitize(decode(d));
+        *o = [z, z];
+    }
 }
 
 /// Builds rows `rows` of level `level >= 1` from the complete level
@@ -673,7 +703,27 @@ pub fn try_build_hiz_level_rows(
     let fw = f.width as usize;
     for (dst, y) in band.chunks_exact_mut(cw).zip(rows.rows()) {
         let ys = cell_children(y, c.height, f.height);
-        for (x, o) in dst.iter_mut().enumerate() {
+        // The common row: two finer rows, and every coarse texel but the
+        // last folds exactly 2x2 texels. The set of texels folded is the
+        // footprint's, and `min`/`max` ignoring NaN (no zeros: level 0
+        // holds none) do not depend on the order, so the bits are those of
+        // the general loop below, which does the rest.
+        let mut done = 0;
+        if ys.len() == 2 && cw >= 2 {
+            let r0 = &finer[ys.start as usize * fw..][..2 * (cw - 1)];
+            let r1 = &finer[(ys.start as usize + 1) * fw..][..2 * (cw - 1)];
+            for ((o, a), b) in dst
+                .iter_mut()
+                .zip(r0.chunks_exact(2))
+                .zip(r1.chunks_exact(2))
+            {
+                let lo = a[0][0].min(a[1][0]).min(b[0][0].min(b[1][0]));
+                let hi = a[0][1].max(a[1][1]).max(b[0][1].max(b[1][1]));
+                *o = [lo, hi];
+            }
+            done = cw - 1;
+        }
+        for (x, o) in dst.iter_mut().enumerate().skip(done) {
             let xs = cell_children(x as u32, c.width, f.width);
             let (mut lo, mut hi) = (f32::NAN, f32::NAN);
             for yy in ys.clone() {

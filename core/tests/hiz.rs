@@ -543,6 +543,26 @@ fn check_pyramid(depth: &[f32], w: u32, h: u32, cam: &Camera, conv: DepthConvent
         let z = decode64(depth[(y * w + x) as usize] as f64, n, f, conv);
         (z > 0.0).then_some(z)
     };
+    // Level 0 is `Camera::decode_depth` bit for bit (the build hoists its
+    // branches out of the row loop), NaN where it is not positive.
+    for y in 0..h {
+        for x in 0..w {
+            let z = cam.decode_depth(depth[(y * w + x) as usize], conv);
+            let t = hiz.texel(0, x, y).unwrap();
+            if z > 0.0 {
+                assert_eq!(
+                    t.map(f32::to_bits),
+                    [z.to_bits(); 2],
+                    "level 0 ({x}, {y}) {conv:?}"
+                );
+            } else {
+                assert!(
+                    t[0].is_nan() && t[1].is_nan(),
+                    "level 0 ({x}, {y}) {conv:?}: {t:?}"
+                );
+            }
+        }
+    }
     for l in 0..layout.level_count() {
         let lv = layout.level(l).unwrap();
         assert_eq!(lv.width, (w >> l).max(1));
