@@ -204,10 +204,24 @@ impl<'a> GBuffer<'a> {
     }
 
     /// Unit world-space normal of pixel `(x, y)`, or `None` outside the
-    /// image or for a zero or non-finite stored normal.
+    /// image or for a zero or non-finite stored normal (any other length is
+    /// used, however huge or tiny).
     #[inline]
     pub fn world_normal(&self, x: u32, y: u32) -> Option<Vec3> {
         let n = Vec3::from_array(self.normals.get(x, y)?);
+        // Any finite, non-zero length is usable: a normal whose square
+        // would overflow or underflow f32 (components beyond about 1e18 or
+        // all below about 1e-18; finding F24b) is scaled by its largest
+        // component first. Other normals keep their bits.
+        let m = n.abs().max_element();
+        if !(m > 0.0 && m.is_finite()) {
+            return None;
+        }
+        let n = if (1e-18..=1e18).contains(&m) {
+            n
+        } else {
+            n / m
+        };
         let n = match self.normal_space {
             NormalSpace::World => n,
             NormalSpace::View => self.camera().inverse_view().transform_vector3(n),

@@ -182,6 +182,12 @@ impl<'a, T: Copy> ImageView<'a, T> {
         self.stride
     }
 
+    /// The texels (at least [`try_required_len`] of them): texel `(x, y)` is
+    /// `data()[y * stride + x]`.
+    pub(crate) const fn data(&self) -> &'a [T] {
+        self.data
+    }
+
     /// All rows of the image.
     pub fn all_rows(&self) -> RowRange {
         RowRange {

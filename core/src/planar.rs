@@ -525,8 +525,11 @@ impl<'a> PlanarPass<'a> {
             },
             false => render.try_projection(conv)?,
         };
-        let world = DVec4::new(n.x, n.y, n.z, f64::from(plane.d()));
-        let world = if side < 0.0 { -world } else { world };
+        // The plane toward the eye (already flipped above when it faced
+        // away: its normal and `d` together; finding F24 was the normal of
+        // the input with the `d` of the flipped plane).
+        let pn = plane.normal().as_dvec3();
+        let world = DVec4::new(pn.x, pn.y, pn.z, f64::from(plane.d()));
         let to_view = |c: &Camera| (c.inverse_view().as_dmat4().transpose() * world).as_vec4();
         let ty = libm::tan(f64::from(cam.fov_y()) * 0.5);
         let tx = ty * f64::from(w) / f64::from(h);

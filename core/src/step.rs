@@ -455,23 +455,21 @@ const ZERO_TO_ONE: u8 = 1;
 /// See [`LINEAR`].
 const REVERSED_Z: u8 = 2;
 
-/// The [`DepthConvention`] of a const generic parameter (see [`LINEAR`]).
-#[inline(always)]
-const fn convention<const C: u8>() -> DepthConvention {
-    match C {
-        LINEAR => DepthConvention::Linear,
-        ZERO_TO_ONE => DepthConvention::ZeroToOne,
-        _ => DepthConvention::ReversedZ,
-    }
-}
-
-/// Depth lookups with the fetch counter, for images of convention
-/// [`convention::<C>()`](convention).
+/// Depth lookups with the fetch counter, for images of the convention `C`
+/// (see [`LINEAR`]).
 struct Lookup<'i, 'a, const C: u8> {
     image: &'i DepthImage<'a>,
     thickness: Thickness<'a>,
     far: f32,
-    work: Work,
+    /// The depth image's texels and row stride, read directly (the walk's
+    /// texels are inside the image: [`texel`] clamps).
+    data: &'a [f32],
+    stride: usize,
+    dec: Decoder,
+    /// [`Work::steps`].
+    steps: u32,
+    /// [`Work::fetches`], saturated to `u32` by [`Lookup::work`].
+    fetches: u64,
     /// The last `(s, iz(s), 1 / iz(s))` computed: consecutive texels share
     /// their boundary parameter (`s_out` of one is `s_in` of the next), so
     /// the division is done once per boundary. Keyed by the bits of `s`;
@@ -480,6 +478,15 @@ struct Lookup<'i, 'a, const C: u8> {
 }
 
 impl<const C: u8> Lookup<'_, '_, C> {
+    /// The work counters so far.
+    fn work(&self) -> Work {
+        Work {
+            steps: self.steps,
+            fetches: u32::try_from(self.fetches).unwrap_or(u32::MAX),
+            iterations: 0,
+        }
+    }
+
     /// `true` if a decoded linear depth is a surface (module docs).
     #[inline]
     fn is_surface(&self, z: f32) -> bool {
@@ -502,9 +509,10 @@ impl<const C: u8> Lookup<'_, '_, C> {
     /// The front depth of texel `(x, y)`, `None` for an empty texel.
     #[inline]
     fn front(&mut self, x: u32, y: u32) -> Option<f32> {
-        self.work.fetches = self.work.fetches.saturating_add(1);
-        let d = self.image.depth().get(x, y)?;
-        let z = self.image.camera().decode_depth(d, convention::<C>());
+        self.fetches += 1;
+        debug_assert!(x < self.image.width() && y < self.image.height());
+        let d = *self.data.get(y as usize * self.stride + x as usize)?;
+        let z = self.dec.decode::<C>(d);
         self.is_surface(z).then_some(z)
     }
 
@@ -514,14 +522,14 @@ impl<const C: u8> Lookup<'_, '_, C> {
         match self.thickness {
             Thickness::Constant(c) => front + c,
             Thickness::BackFaces(view) => {
-                self.work.fetches = self.work.fetches.saturating_add(1);
+                self.fetches += 1;
                 match view.get(x, y) {
                     Some(d) => {
                         // The rule of the Hi-Z kernel (`hiz.rs`, `bounds`):
                         // a back depth behind the front one is used as it
                         // is, the cleared value (far plane, `+inf`)
                         // included; NaN, `<= 0` or in front: zero-thick.
-                        let z = self.image.camera().decode_depth(d, convention::<C>());
+                        let z = self.dec.decode::<C>(d);
                         if z > front {
                             z
                         } else {
@@ -531,6 +539,46 @@ impl<const C: u8> Lookup<'_, '_, C> {
                     None => front,
                 }
             }
+        }
+    }
+}
+
+/// [`Camera::decode_depth`](crate::Camera::decode_depth) with the camera's
+/// planes and their products read once per ray batch: the same
+/// expressions in the same order (`n f` and `f - n` are the products it
+/// computes per call), so the same bits.
+#[derive(Clone, Copy, Debug)]
+struct Decoder {
+    n: f32,
+    f: f32,
+    nf: f32,
+    fmn: f32,
+}
+
+impl Decoder {
+    fn new(cam: &crate::Camera) -> Self {
+        let (n, f) = (cam.near(), cam.far());
+        Self {
+            n,
+            f,
+            nf: n * f,
+            fmn: f - n,
+        }
+    }
+
+    /// The linear depth of stored depth `d` of convention
+    /// the convention `C` (see [`LINEAR`]).
+    #[inline(always)]
+    fn decode<const C: u8>(&self, d: f32) -> f32 {
+        let (n, f) = (self.n, self.f);
+        match C {
+            LINEAR => d,
+            ZERO_TO_ONE if f.is_infinite() => n / (1.0 - d),
+            ZERO_TO_ONE if d == 1.0 => f,
+            ZERO_TO_ONE => self.nf / (f - d * self.fmn),
+            _ if f.is_infinite() => n / d,
+            _ if d == 0.0 => f,
+            _ => self.nf / (n + d * self.fmn),
         }
     }
 }
@@ -746,7 +794,7 @@ pub fn try_step_rays<O: From<Trace>, R: Copy + Into<Ray>>(
 }
 
 /// [`try_step_rays`] after validation, for an image of convention
-/// [`convention::<C>()`](convention).
+/// the convention `C` (see [`LINEAR`]).
 fn step_all<const C: u8, O: From<Trace>, R: Copy + Into<Ray>>(
     out: &mut [O],
     (pr, image, thickness, rays, t_max, opts): (
@@ -765,7 +813,7 @@ fn step_all<const C: u8, O: From<Trace>, R: Copy + Into<Ray>>(
 }
 
 /// The kernel on validated input, for an image of convention
-/// [`convention::<C>()`](convention).
+/// the convention `C` (see [`LINEAR`]).
 fn step_unchecked<const C: u8>(
     pr: &Projector,
     image: &DepthImage<'_>,
@@ -778,13 +826,17 @@ fn step_unchecked<const C: u8>(
         image,
         thickness,
         far: pr.far,
-        work: Work::default(),
+        data: image.depth().data(),
+        stride: image.depth().stride() as usize,
+        dec: Decoder::new(image.camera()),
+        steps: 0,
+        fetches: 0,
         depth_cache: (0, 0.0, 0.0),
     };
     let Some(seg) = clip(pr, ray, t_max) else {
         return Trace::Miss {
             reason: Miss::DegenerateProjection,
-            work: look.work,
+            work: look.work(),
         };
     };
     // The walk starts at s = 0.
@@ -800,12 +852,14 @@ fn step_unchecked<const C: u8>(
     // loop below does the same with its grouping bookkeeping).
     if stride == 1 {
         while let Some(span) = walker.next() {
-            if look.work.steps >= opts.max_steps {
-                return out_of_steps(look.work);
+            if look.steps >= opts.max_steps {
+                return out_of_steps(look.work());
             }
-            look.work.steps += 1;
+            look.steps += 1;
             match test_texel(&seg, &mut look, &span) {
-                Test::Hit { s, front, z } => return make_hit(&seg, &span, s, front, z, look.work),
+                Test::Hit { s, front, z } => {
+                    return make_hit(&seg, &span, s, front, z, look.work())
+                }
                 Test::Clear { occluded: o } => occluded = o,
             }
         }
@@ -826,16 +880,16 @@ fn step_unchecked<const C: u8>(
             // The walk's last interval: where the ray stops (t_max, the far
             // plane, the image border), not where it went behind geometry.
             let last = walker.done;
-            if look.work.steps >= opts.max_steps {
-                return out_of_steps(look.work);
+            if look.steps >= opts.max_steps {
+                return out_of_steps(look.work());
             }
-            look.work.steps += 1;
+            look.steps += 1;
             if group_len == 1 {
                 // A one-texel interval (stride 1, or the planar case and other
                 // one-texel walks at any stride): the full test at once.
                 match test_texel(&seg, &mut look, &span) {
                     Test::Hit { s, front, z } => {
-                        return make_hit(&seg, &span, s, front, z, look.work)
+                        return make_hit(&seg, &span, s, front, z, look.work())
                     }
                     Test::Clear { occluded: o } => occluded = o,
                 }
@@ -866,12 +920,14 @@ fn step_unchecked<const C: u8>(
             let mut fine = group_start;
             for _ in 0..group_len {
                 let Some(f) = fine.next() else { break };
-                if look.work.steps >= opts.max_steps {
-                    return out_of_steps(look.work);
+                if look.steps >= opts.max_steps {
+                    return out_of_steps(look.work());
                 }
-                look.work.steps += 1;
+                look.steps += 1;
                 match test_texel(&seg, &mut look, &f) {
-                    Test::Hit { s, front, z } => return make_hit(&seg, &f, s, front, z, look.work),
+                    Test::Hit { s, front, z } => {
+                        return make_hit(&seg, &f, s, front, z, look.work())
+                    }
                     Test::Clear { occluded: o } => occluded = o,
                 }
             }
@@ -887,6 +943,6 @@ fn step_unchecked<const C: u8>(
     };
     Trace::Miss {
         reason,
-        work: look.work,
+        work: look.work(),
     }
 }

@@ -247,13 +247,34 @@ fn covers(pass: &PlanarPass<'_>, w: u32, h: u32) -> Vec<PlanarStatus> {
 
 #[test]
 fn setup_equals_the_mirror_kernels_bit_for_bit() {
-    let sc = Scene::floor(1.0, DVec3::ZERO);
+    // A floor through the origin (plane d = 0) and one below it (d != 0:
+    // finding F24, a flipped plane's view-space planes were wrong there).
+    for sc in [
+        Scene::floor(1.0, DVec3::ZERO),
+        Scene::floor(1.0, DVec3::new(0.3, -0.7, 0.2)),
+    ] {
+        setup_equals_the_mirror_kernels_on(&sc);
+    }
+}
+
+fn setup_equals_the_mirror_kernels_on(sc: &Scene) {
     for (conv, inf) in CASES {
         let far = if inf { f32::INFINITY } else { 60.0 };
-        let cam = overview(&sc, far, 96, 64);
-        let f = render(&sc, cam, conv);
-        // Either orientation of the input plane gives the one toward the eye.
+        let cam = overview(sc, far, 96, 64);
+        let f = render(sc, cam, conv);
+        // Either orientation of the input plane gives the one toward the
+        // eye, and the same coverage.
+        let base = covers(
+            &PlanarPass::try_new(f.gbuffer(), sc.plane(), PlanarOptions::default()).unwrap(),
+            96,
+            64,
+        );
         for plane in [sc.plane(), sc.plane().flipped()] {
+            let pass = PlanarPass::try_new(f.gbuffer(), plane, PlanarOptions::default()).unwrap();
+            assert!(
+                covers(&pass, 96, 64) == base,
+                "{conv:?}: coverage of {plane:?}"
+            );
             for scale in [1u32, 2, 4, 3] {
                 for oblique in [true, false] {
                     let o = PlanarOptions {
@@ -298,6 +319,7 @@ fn setup_equals_the_mirror_kernels_bit_for_bit() {
                     // render camera (f64 oracle).
                     let cv = r.inverse_view().as_dmat4().transpose()
                         * DVec4::new(0.0, 1.0, 0.0, f64::from(toward.d()));
+                    assert!(toward.normal() == Vec3::Y, "{toward:?}");
                     assert!((s.view_clip_plane.as_dvec4() - cv).abs().max_element() < 1e-6);
                     // The mirrored eye is on the negative side.
                     let e = r.world_to_view(r.eye());

@@ -661,16 +661,29 @@ fn masks_roughness_view_normals_and_hostile_pixels() {
     f.depth[spots[1].1 * 160 + spots[1].0] = f32::INFINITY;
     f.normals[spots[2].1 * 160 + spots[2].0] = [0.0; 3];
     f.normals[spots[3].1 * 160 + spots[3].0] = [f32::NAN, 1.0, 0.0];
-    f.normals[spots[4].1 * 160 + spots[4].0] = [0.0, 1e30, 0.0];
-    let base = MirrorPass::try_new(f.gbuffer(false), MirrorOptions::default(), None).unwrap();
-    for (k, &(x, y)) in spots.iter().enumerate() {
+    // Huge and tiny normals (their squares overflow or underflow f32) are
+    // as usable as unit ones (finding F24b: 1e30 was refused).
+    let unit = f.normals[spots[4].1 * 160 + spots[4].0];
+    let unit = Vec3::from_array(unit).normalize();
+    let plain = MirrorPass::try_new(f.gbuffer(false), MirrorOptions::default(), None).unwrap();
+    let want = plain.pixel(spots[4].0 as u32, spots[4].1 as u32);
+    assert_ne!(want.0.status, MirrorStatus::NoSurface);
+    for scale in [1e30f32, 1e-30, f32::MAX, 1e-44] {
+        let mut g = f.clone();
+        g.normals[spots[4].1 * 160 + spots[4].0] = (unit * scale).to_array();
+        let p = MirrorPass::try_new(g.gbuffer(false), MirrorOptions::default(), None).unwrap();
+        let got = p.pixel(spots[4].0 as u32, spots[4].1 as u32);
+        assert_eq!(got.0.status, want.0.status, "normal scaled by {scale:e}");
+        assert!(
+            (got.0.pixel - want.0.pixel).length() < 0.05
+                && (got.0.t - want.0.t).abs() <= 1e-4 * want.0.t.abs(),
+            "normal scaled by {scale:e}: {got:?} vs {want:?}"
+        );
+    }
+    let base = plain;
+    for (k, &(x, y)) in spots.iter().enumerate().take(4) {
         let (t, hr) = base.pixel(x as u32, y as u32);
-        if k < 4 {
-            assert_eq!((t.status, hr), (MirrorStatus::NoSurface, None), "spot {k}");
-        } else {
-            // 1e30 squared overflows f32: refused as well.
-            assert_eq!(t.status, MirrorStatus::NoSurface, "spot {k}");
-        }
+        assert_eq!((t.status, hr), (MirrorStatus::NoSurface, None), "spot {k}");
     }
     let (whole, _, _) = run(&base);
     // View-space normals give the same rays up to rounding.

@@ -17,7 +17,8 @@ use crate::gbuffer::{gbuffer, gbuffer_ranges, put_host_ray, refl_gbuffer, refl_h
 use crate::image::{refl_image_u32, refl_image_vec3_mut, refl_row_range};
 use crate::layered::{refl_layered_map, refl_layered_options};
 use crate::ptr::{
-    byte_len, check_buffer, overlaps, range, read, slice_mut_or_empty, slice_or_empty, Out,
+    byte_len, check_buffer, check_pointer, overlaps, range, read, slice_mut_or_empty,
+    slice_or_empty, Out,
 };
 use crate::status::{fail, guard, refl_status};
 use crate::types::{refl_vec2, refl_vec3};
@@ -441,6 +442,25 @@ unsafe fn inputs<'a>(
     })
 }
 
+/// The scratch pointer of a pass with maps, checked before any size or
+/// image: a NULL `scratch` is reported as `NULL_POINTER` (as the other
+/// passes do since finding F21; finding F25 was this pass reporting a NULL
+/// scratch of length 0 as too short, or an input error first).
+///
+/// # Safety
+/// `input` NULL or readable.
+unsafe fn scratch_required<T>(
+    input: *const refl_layered_pass_input,
+    scratch: *const T,
+) -> Result<(), Error> {
+    // SAFETY: caller contract.
+    let inp = unsafe { read(input, "input") }?;
+    if inp.maps_len > 0 {
+        check_pointer(scratch, "scratch")?;
+    }
+    Ok(())
+}
+
 /// The prepared scratch as refl-core's records.
 ///
 /// # Safety
@@ -548,6 +568,8 @@ pub unsafe extern "C" fn refl_layered_pass_prepare(
     options: *const refl_layered_pass_options,
 ) -> refl_status {
     guard("refl_layered_pass_prepare", || {
+        // SAFETY: caller contract.
+        unsafe { scratch_required(input, scratch.cast_const()) }?;
         // SAFETY: caller contract.
         let i = unsafe { inputs(input, options) }?;
         let need = i.inp.maps_len;
@@ -668,6 +690,8 @@ pub unsafe extern "C" fn refl_layered_trace_rows(
         let out_bytes = check_buffer(out.cast_const(), out_len, "out")?;
         let host_bytes = optional_out(host.cast_const(), host_len, "host")?;
         // SAFETY: caller contract.
+        unsafe { scratch_required(input, scratch) }?;
+        // SAFETY: caller contract.
         let i = unsafe { inputs(input, options) }?;
         let (w, h) = (i.gb.width(), i.gb.height());
         let rows = rows.within(h)?;
@@ -777,6 +801,8 @@ pub unsafe extern "C" fn refl_layered_trace_host_rays(
         let color_bytes = optional_out(color.cast_const(), color_len, "color")?;
         let host_bytes = optional_out(host.cast_const(), host_len, "host")?;
         let rays_bytes = optional_out(rays, rays_len, "rays")?;
+        // SAFETY: caller contract.
+        unsafe { scratch_required(input, scratch) }?;
         // SAFETY: caller contract.
         let i = unsafe { inputs(input, options) }?;
         if out_len < rays_len {

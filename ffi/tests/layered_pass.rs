@@ -657,6 +657,57 @@ fn errors_name_their_cause_and_leave_every_output_untouched() {
     // SAFETY: NULL scratch with maps.
     let s = unsafe { refl_layered_pass_prepare(core::ptr::null_mut(), 2, &inp, &d) };
     assert_eq!(s, Null);
+    // A NULL scratch with maps is NULL_POINTER before any size or input
+    // error (finding F25: with a length of 0 it read as too short).
+    let mut bad_g = inp;
+    bad_g.gbuffer.depth.camera.width += 1;
+    // SAFETY: NULL scratch, the rest valid (or a G-buffer of another size).
+    let s = unsafe { refl_layered_pass_prepare(core::ptr::null_mut(), 0, &bad_g, &d) };
+    assert_eq!(s, Null, "{}", last_error());
+    assert!(last_error().contains("`scratch`"), "{}", last_error());
+    let mut out = vec![refl_layered_pass_texel::default(); n];
+    let mut st = refl_layered_pass_stats::default();
+    for g in [&inp, &bad_g] {
+        // SAFETY: valid outputs, NULL scratch.
+        let s = unsafe {
+            refl_layered_trace_rows(
+                &mut st,
+                out.as_mut_ptr(),
+                n,
+                no_color(),
+                core::ptr::null_mut(),
+                0,
+                g,
+                &d,
+                core::ptr::null(),
+                0,
+                all,
+            )
+        };
+        assert_eq!(s, Null, "{}", last_error());
+        assert!(last_error().contains("`scratch`"), "{}", last_error());
+    }
+    let rays = [refl_host_ray::default(); 2];
+    // SAFETY: out_len 0 < 2 rays, NULL scratch.
+    let s = unsafe {
+        refl_layered_trace_host_rays(
+            &mut st,
+            out.as_mut_ptr(),
+            0,
+            core::ptr::null_mut(),
+            0,
+            core::ptr::null_mut(),
+            0,
+            &inp,
+            &d,
+            core::ptr::null(),
+            0,
+            rays.as_ptr(),
+            rays.len(),
+        )
+    };
+    assert_eq!(s, Null, "{}", last_error());
+    assert!(out.iter().all(|t| *t == refl_layered_pass_texel::default()));
     // Sizes: out, rows, scratch.
     refused(Short, &inp, &d, &scratch, all, n - 1, false);
     refused(

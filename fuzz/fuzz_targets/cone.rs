@@ -1,7 +1,7 @@
 //! Glossy cone tracing (seed 004): `refl_cone_angle_from_phong`,
 //! `refl_cone_angle_from_roughness`, `refl_cone_pyramid_len`,
 //! `refl_cone_build_color(_rows)`, `refl_cone_build_visibility(_rows)`,
-//! `refl_cone_options_default`, `refl_cone_trace`, `refl_cone_fade`,
+//! `refl_cone_options_default`, `refl_cone_multiray_options_default`, `refl_cone_trace`, `refl_cone_fade`,
 //! `refl_cone_multiray`.
 #![no_main]
 
@@ -303,15 +303,30 @@ fuzz_target!(|data: &[u8]| {
     let normal = if b.chance(16) { b.vec3_in(-1.0, 1.0) } else { v3(0.0, 1.0, 0.0) };
     let theta = b.f32_in(0.0, 1.6);
     let power = b.f32_in(0.0, 100.0);
-    let mo = refl_cone_multiray_options {
-        rays: if b.chance(16) { b.pick(&[0, 65, 200]) } else { 1 + b.below(12) },
-        rotation: b.vec2_in(0.0, 1.0),
-        hiz: refl_hiz_options {
-            start_level: b.below(6),
-            stop_level: b.below(3),
-            max_iterations: if b.chance(16) { b.below(4) } else { 1024 },
-            prologue_steps: b.below(8),
-        },
+    // The documented defaults: 8 rays, no rotation, the Hi-Z defaults.
+    let md = refl_cone_multiray_options_default();
+    let hd = refl_hiz_options_default();
+    assert!(
+        md.rays == 8
+            && md.rotation.x == 0.0
+            && md.rotation.y == 0.0
+            && [md.hiz.start_level, md.hiz.stop_level, md.hiz.max_iterations, md.hiz.prologue_steps]
+                == [hd.start_level, hd.stop_level, hd.max_iterations, hd.prologue_steps],
+        "multi-ray defaults {md:?}"
+    );
+    let mo = if b.chance(32) {
+        md
+    } else {
+        refl_cone_multiray_options {
+            rays: if b.chance(16) { b.pick(&[0, 65, 200]) } else { 1 + b.below(12) },
+            rotation: b.vec2_in(0.0, 1.0),
+            hiz: refl_hiz_options {
+                start_level: b.below(6),
+                stop_level: b.below(3),
+                max_iterations: if b.chance(16) { b.below(4) } else { 1024 },
+                prologue_steps: b.below(8),
+            },
+        }
     };
     let mut o = out1::<refl_cone_multiray_result>(b.ptr_kind());
     let mb = Buf::from_slice(&[mo], b.ptr_kind());

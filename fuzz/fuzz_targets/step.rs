@@ -1,4 +1,4 @@
-//! Per-pixel stepping: `refl_step_ray`, `refl_step_rays` (batches, `t_max`
+//! Per-pixel stepping: `refl_step_options_default`, `refl_step_ray`, `refl_step_rays` (batches, `t_max`
 //! per ray or shared, short outputs, the output aliasing the rays) and
 //! `refl_trace_refine_hit` (real and fuzzed hits, output aliasing the hit).
 #![no_main]
@@ -8,6 +8,12 @@ use libfuzzer_sys::fuzz_target;
 use refl_fuzz::*;
 
 fn options(b: &mut Bytes) -> refl_step_options {
+    // The documented defaults, and sometimes the options used.
+    let d = refl_step_options_default();
+    assert!(d.stride == 1 && d.max_steps == u32::MAX, "step defaults {d:?}");
+    if b.chance(32) {
+        return d;
+    }
     refl_step_options {
         stride: match b.u8() {
             0..=7 => 0,

@@ -107,6 +107,7 @@ impl Scene {
     }
 }
 
+#[derive(Clone)]
 pub struct Frame {
     pub camera: Camera,
     pub conv: DepthConvention,
