@@ -405,7 +405,18 @@ impl MirrorRay {
 /// the direction degenerates. The one ray generation of the passes
 /// ([`MirrorPass`], the glossy pass's axis, the cluster kernels and pass).
 pub(crate) fn reflect_view(eye: Vec3, p: Vec3, n: Vec3) -> Option<(Vec3, Vec3)> {
-    let v = (p - eye).normalize_or_zero();
+    let v = p - eye;
+    // A surface farther than about 1.8e19 from the eye (an infinite far
+    // plane), or nearer than about 1e-19 (a tiny near plane), has a view
+    // vector whose square overflows or underflows f32: scaled by its
+    // largest component first (finding F26b; others keep their bits).
+    let m = v.abs().max_element();
+    let v = if !(1e-18..=1e18).contains(&m) && m > 0.0 && m.is_finite() {
+        v / m
+    } else {
+        v
+    };
+    let v = v.normalize_or_zero();
     let n = if n.dot(v) > 0.0 { -n } else { n };
     let dir = (v - 2.0 * v.dot(n) * n).normalize_or_zero();
     if v == Vec3::ZERO || dir == Vec3::ZERO {

@@ -10,9 +10,9 @@ mod scene;
 use refl_core::glam::{Vec2, Vec3};
 use refl_core::trace::{ray_start_t, refine_hit};
 use refl_core::{
-    try_step, try_trace_hiz, DepthConvention, Error, GBuffer, HiZ, HostRay, ImageView,
-    ImageViewMut, MirrorMethod, MirrorOptions, MirrorPass, MirrorStatus, MirrorTexel, NormalSpace,
-    Ray, RowRange, Thickness, Trace,
+    try_step, try_trace_hiz, Camera, DepthConvention, DepthImage, Error, GBuffer, HiZ, HostRay,
+    ImageView, ImageViewMut, MirrorMethod, MirrorOptions, MirrorPass, MirrorStatus, MirrorTexel,
+    NormalSpace, Ray, RowRange, Thickness, Trace,
 };
 use scene::{camera, default_camera, grazing_camera, render, Frame, Scene, CONVENTIONS};
 
@@ -938,5 +938,58 @@ fn hidden_resume_budget_scales_with_the_image() {
         (u32::MAX, 1, u32::MAX / 8),
     ] {
         assert_eq!(hidden_resumes(w, h), want, "{w}x{h}");
+    }
+}
+
+/// Finding F26b (fuzz target `cluster_pass`): with an infinite far plane a
+/// surface 1e21 from the eye is a surface, but its view vector's square
+/// overflowed f32 and the pixel read as "no surface" in every pass. The
+/// mirror direction of a far wall facing the camera is the view direction
+/// turned back, as it is for a near one.
+#[test]
+fn far_surfaces_beyond_the_f32_square_still_reflect() {
+    let (w, h) = (8u32, 6u32);
+    let cam = Camera::try_look_at(
+        Vec3::new(0.3, 1.0, 2.0),
+        Vec3::new(0.3, 1.0, -5.0),
+        Vec3::Y,
+        1.0,
+        0.1,
+        f32::INFINITY,
+        w,
+        h,
+    )
+    .unwrap();
+    for z in [10.0f32, 1e18, 1e21, 1e30] {
+        let depth = vec![z; (w * h) as usize];
+        let normals = vec![[0.0f32, 0.0, 1.0]; (w * h) as usize];
+        let d = DepthImage::try_new(
+            ImageView::try_new(&depth, w, h, w).unwrap(),
+            cam,
+            DepthConvention::Linear,
+        )
+        .unwrap();
+        let g = GBuffer::try_new(
+            d,
+            ImageView::try_new(&normals, w, h, w).unwrap(),
+            NormalSpace::World,
+        )
+        .unwrap();
+        let pass = MirrorPass::try_new(g, MirrorOptions::default(), None).unwrap();
+        for (x, y) in [(0, 0), (4, 3), (7, 5)] {
+            let (t, host) = pass.pixel(x, y);
+            assert_ne!(t.status, MirrorStatus::NoSurface, "depth {z:e} ({x}, {y})");
+            if let Some(r) = host {
+                let v = cam
+                    .primary_ray(Vec2::new(x as f32 + 0.5, y as f32 + 0.5))
+                    .dir;
+                let want = Vec3::new(v.x, v.y, -v.z);
+                assert!(
+                    (r.dir - want).length() < 1e-4,
+                    "depth {z:e}: {:?} vs {want:?}",
+                    r.dir
+                );
+            }
+        }
     }
 }

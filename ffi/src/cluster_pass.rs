@@ -126,8 +126,10 @@ pub struct refl_cluster_objects {
 pub struct refl_cluster_plan_sizes {
     /// `uint32_t`s of scratch: the cluster id and the sorted index of every
     /// pixel (2 x width x height, in that order: the pixel lists are
-    /// `scratch[width * height ..]`), then the cluster offsets and three
-    /// words per object.
+    /// `scratch[width * height ..]`), then the cluster offsets (the most
+    /// clusters, `refl_cluster_bins_max`, plus one) and four words per
+    /// object (its pixel count and its three-word bin layout):
+    /// `2 w h + bins_max + 1 + 4 objects`.
     pub scratch_len: usize,
     /// The most clusters a frame can have: the length of the list of
     /// `refl_cluster_plan_entry`.
