@@ -445,6 +445,106 @@ impl Walker {
     }
 }
 
+/// The stride-1 walk from `w` (every texel fully tested), specialized on
+/// the direction class: `NX` / `NY` when the texel index decreases along
+/// x / y (an axis the walk does not move along has `false`). It visits the
+/// texels [`Walker::next`] visits, with the same parameters (the same
+/// crossing expressions, the boundary side and the index step chosen at
+/// compile time instead of per step, no `Option` per axis: an axis moves
+/// while its index differs from its end index), and tests them as the
+/// general loop does. `Ok(occluded)` after the last texel, `Err` with the
+/// hit or the out-of-steps miss.
+#[inline(never)]
+fn stride1<const C: u8, const NX: bool, const NY: bool>(
+    seg: &Segment,
+    look: &mut Lookup<'_, '_, C>,
+    w: &Walker,
+    max_steps: u32,
+) -> Result<bool, Trace> {
+    // A local copy, so that the counters and the depth cache live in
+    // registers (through `&mut` they are loads and stores every texel);
+    // written back on the way out.
+    let mut lk = *look;
+    let r = stride1_local::<C, NX, NY>(seg, &mut lk, w, max_steps);
+    *look = lk;
+    r
+}
+
+/// [`stride1`] on its local copy of the lookup.
+#[inline(always)]
+fn stride1_local<const C: u8, const NX: bool, const NY: bool>(
+    seg: &Segment,
+    look: &mut Lookup<'_, '_, C>,
+    w: &Walker,
+    max_steps: u32,
+) -> Result<bool, Trace> {
+    let (p_a, dir) = (w.p_a, w.dir);
+    let (mut x, mut y, mut s) = (w.x, w.y, w.s);
+    let (end_x, end_y) = (w.end_x, w.end_y);
+    // Unused while the index equals its end (where `crossing` is `None`).
+    let mut cx = w.cx.unwrap_or(0.0);
+    let mut cy = w.cy.unwrap_or(0.0);
+    let mut occluded = false;
+    if w.done {
+        return Ok(occluded);
+    }
+    loop {
+        let (mx, my) = (x != end_x, y != end_y);
+        let last = !mx && !my;
+        let span = if last {
+            Span {
+                x,
+                y,
+                s_in: s,
+                s_out: 1.0,
+            }
+        } else {
+            let step_x = mx && (!my || cx <= cy);
+            let s_cross = if step_x { cx } else { cy };
+            let s_out = if s_cross < s {
+                s
+            } else if s_cross > 1.0 {
+                1.0
+            } else {
+                s_cross
+            };
+            let span = Span {
+                x,
+                y,
+                s_in: s,
+                s_out,
+            };
+            if step_x {
+                x = if NX { x - 1 } else { x + 1 };
+                let b = if NX { x as f32 } else { (x + 1) as f32 };
+                cx = (b - p_a.x) / dir.x;
+            } else {
+                y = if NY { y - 1 } else { y + 1 };
+                let b = if NY { y as f32 } else { (y + 1) as f32 };
+                cy = (b - p_a.y) / dir.y;
+            }
+            s = s_out;
+            span
+        };
+        if look.steps >= max_steps {
+            return Err(Trace::Miss {
+                reason: Miss::OutOfSteps,
+                work: look.work(),
+            });
+        }
+        look.steps += 1;
+        match test_texel(seg, look, &span) {
+            Test::Hit { s, front, z } => {
+                return Err(make_hit(seg, &span, s, front, z, look.work()))
+            }
+            Test::Clear { occluded: o } => occluded = o,
+        }
+        if last {
+            return Ok(occluded);
+        }
+    }
+}
+
 /// [`DepthConvention`]s as const generic parameters: the kernel is
 /// instantiated per convention so that decoding a fetched depth
 /// ([`Camera::decode_depth`](crate::Camera::decode_depth)) does not branch
@@ -457,6 +557,7 @@ const REVERSED_Z: u8 = 2;
 
 /// Depth lookups with the fetch counter, for images of the convention `C`
 /// (see [`LINEAR`]).
+#[derive(Clone, Copy)]
 struct Lookup<'i, 'a, const C: u8> {
     image: &'i DepthImage<'a>,
     thickness: Thickness<'a>,
@@ -851,17 +952,15 @@ fn step_unchecked<const C: u8>(
     // Stride 1: every interval is one texel, fully tested (the general
     // loop below does the same with its grouping bookkeeping).
     if stride == 1 {
-        while let Some(span) = walker.next() {
-            if look.steps >= opts.max_steps {
-                return out_of_steps(look.work());
-            }
-            look.steps += 1;
-            match test_texel(&seg, &mut look, &span) {
-                Test::Hit { s, front, z } => {
-                    return make_hit(&seg, &span, s, front, z, look.work())
-                }
-                Test::Clear { occluded: o } => occluded = o,
-            }
+        let walk = match (walker.end_x < walker.x, walker.end_y < walker.y) {
+            (false, false) => stride1::<C, false, false>,
+            (false, true) => stride1::<C, false, true>,
+            (true, false) => stride1::<C, true, false>,
+            (true, true) => stride1::<C, true, true>,
+        };
+        match walk(&seg, &mut look, &walker, opts.max_steps) {
+            Ok(o) => occluded = o,
+            Err(t) => return t,
         }
     } else {
         loop {
