@@ -225,31 +225,17 @@ fn id_at(mode: u8, seed: u8, x: u32, y: u32, iw: u32, nobj: u32) -> u32 {
     }
 }
 
-fn v3_bits(v: refl_vec3) -> [u32; 3] {
-    [v.x.to_bits(), v.y.to_bits(), v.z.to_bits()]
-}
-
 fn same_shade(a: &refl_cluster_shade, b: &refl_cluster_shade) -> bool {
-    v3_bits(a.rgb) == v3_bits(b.rgb)
+    bits3(a.rgb) == bits3(b.rgb)
         && a.hit_weight.to_bits() == b.hit_weight.to_bits()
         && a.env_weight.to_bits() == b.env_weight.to_bits()
-        && v3_bits(a.env_dir) == v3_bits(b.env_dir)
-        && v3_bits(a.mirror_dir) == v3_bits(b.mirror_dir)
+        && bits3(a.env_dir) == bits3(b.env_dir)
+        && bits3(a.mirror_dir) == bits3(b.mirror_dir)
         && (a.rays, a.hits, a.fetches, a.steps) == (b.rays, b.hits, b.fetches, b.steps)
 }
 
 fn same_texel(a: &refl_cluster_texel, b: &refl_cluster_texel) -> bool {
     a.status == b.status && same_shade(&a.shade, &b.shade)
-}
-
-fn same_host(a: &refl_host_ray, b: &refl_host_ray) -> bool {
-    a.x == b.x
-        && a.y == b.y
-        && v3_bits(a.origin) == v3_bits(b.origin)
-        && v3_bits(a.dir) == v3_bits(b.dir)
-        && a.t_min.to_bits() == b.t_min.to_bits()
-        && a.t_max.to_bits() == b.t_max.to_bits()
-        && a.status == b.status
 }
 
 fn same_stats(a: &refl_cluster_stats, b: &refl_cluster_stats) -> bool {
@@ -284,11 +270,11 @@ fn fallback_fields_zero(c: &refl_cluster_camera) -> bool {
         && z(c.camera.z_far)
         && c.camera.width == 0
         && c.camera.height == 0
-        && v3_bits(c.clip.normal) == [0; 3]
+        && bits3(c.clip.normal) == [0; 3]
         && z(c.clip.d)
-        && v3_bits(c.centroid) == [0; 3]
-        && v3_bits(c.normal) == [0; 3]
-        && v3_bits(c.eye0) == [0; 3]
+        && bits3(c.centroid) == [0; 3]
+        && bits3(c.normal) == [0; 3]
+        && bits3(c.eye0) == [0; 3]
         && z(c.f)
         && c.diagonals.iter().all(|&v| z(v))
         && !c.planar
@@ -583,8 +569,8 @@ fn finalize(b: &mut Bytes, c: &Ctx, e0: &refl_cluster_plan_entry, gb: &Buf<refl_
             // A cluster without a camera: every pixel to the host, its
             // environment share 1 in the mirror direction.
             assert_eq!(t.status, NO_PROJECTION, "fallback cluster pixel ({x}, {y}): {t:?}");
-            assert!(sh.env_weight == 1.0 && sh.hit_weight == 0.0 && sh.hits == 0 && v3_bits(sh.rgb) == [0; 3], "fallback shade {t:?}");
-            assert!(v3_bits(sh.env_dir) == v3_bits(sh.mirror_dir), "fallback env dir {t:?}");
+            assert!(sh.env_weight == 1.0 && sh.hit_weight == 0.0 && sh.hits == 0 && bits3(sh.rgb) == [0; 3], "fallback shade {t:?}");
+            assert!(bits3(sh.env_dir) == bits3(sh.mirror_dir), "fallback env dir {t:?}");
         } else {
             assert!(sh.rays >= 1 && sh.rays <= lobe_rays && sh.hits <= sh.rays, "rays {} hits {} of a lobe of {lobe_rays}: {t:?}", sh.rays, sh.hits);
             let r = f64::from(sh.rays);
@@ -606,7 +592,7 @@ fn finalize(b: &mut Bytes, c: &Ctx, e0: &refl_cluster_plan_entry, gb: &Buf<refl_
                 _ => assert!(sh.hits < sh.rays, "host status {} but every ray hit: {t:?}", t.status),
             }
             if sh.env_weight == 0.0 {
-                assert!(v3_bits(sh.env_dir) == v3_bits(sh.mirror_dir), "env dir of a pixel without misses: {t:?}");
+                assert!(bits3(sh.env_dir) == bits3(sh.mirror_dir), "env dir of a pixel without misses: {t:?}");
             }
         }
         match t.status {
@@ -633,7 +619,7 @@ fn finalize(b: &mut Bytes, c: &Ctx, e0: &refl_cluster_plan_entry, gb: &Buf<refl_
         assert!((r.x, r.y) == (p % w, p / w), "host ray {k} at ({}, {}), want pixel {p}", r.x, r.y);
         let t = out.get(p as usize);
         assert_eq!(r.status, t.status, "host ray status");
-        assert!(v3_bits(r.dir) == v3_bits(t.shade.mirror_dir), "host ray dir {:?} vs mirror dir {:?}", r.dir, t.shade.mirror_dir);
+        assert!(bits3(r.dir) == bits3(t.shade.mirror_dir), "host ray dir {:?} vs mirror dir {:?}", r.dir, t.shade.mirror_dir);
         assert!(r.t_min.to_bits() == o.t_min.to_bits() && r.t_max.to_bits() == o.t_max.to_bits(), "host ray range");
         // The surface point: the G-buffer's depth unprojected (the first
         // 32 host rays).
@@ -645,7 +631,7 @@ fn finalize(b: &mut Bytes, c: &Ctx, e0: &refl_cluster_plan_entry, gb: &Buf<refl_
         // SAFETY: pointers valid.
         let us = unsafe { refl_camera_unproject(&mut q, &gcam, refl_vec2 { x: r.x as f32 + 0.5, y: r.y as f32 + 0.5 }, d, c.fg.img.conv) };
         assert_eq!(us, refl_status::Ok, "a cluster pixel without a surface");
-        assert!(v3_bits(r.origin) == v3_bits(q), "host ray origin {:?}, surface {q:?}", r.origin);
+        assert!(bits3(r.origin) == bits3(q), "host ray origin {:?}, surface {q:?}", r.origin);
     }
 
     // The shades bit for bit `refl_cluster_finalize`'s (world-space

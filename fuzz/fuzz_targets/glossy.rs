@@ -130,22 +130,6 @@ fn texel_bits(t: &refl_glossy_texel) -> [u32; 10] {
     ]
 }
 
-fn host_bits(r: &refl_host_ray) -> [u32; 11] {
-    [
-        r.x,
-        r.y,
-        r.origin.x.to_bits(),
-        r.origin.y.to_bits(),
-        r.origin.z.to_bits(),
-        r.dir.x.to_bits(),
-        r.dir.y.to_bits(),
-        r.dir.z.to_bits(),
-        r.t_min.to_bits(),
-        r.t_max.to_bits(),
-        r.status,
-    ]
-}
-
 /// One call over `rows` into fresh valid buffers (with a color output).
 fn run(
     g: &refl_gbuffer,

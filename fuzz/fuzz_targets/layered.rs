@@ -8,21 +8,6 @@
 use libfuzzer_sys::fuzz_target;
 use refl_fuzz::*;
 
-fn sizes(res: u32, layers: u32) -> Option<refl_layered_sizes> {
-    let mut o = refl_layered_sizes::default();
-    // SAFETY: pointer valid.
-    (unsafe { refl_layered_len(&mut o, res, layers) } == refl_status::Ok).then_some(o)
-}
-
-fn identity() -> refl_mat4 {
-    let mut m = [0.0; 16];
-    m[0] = 1.0;
-    m[5] = 1.0;
-    m[10] = 1.0;
-    m[15] = 1.0;
-    refl_mat4 { m }
-}
-
 fn check_len(b: &mut Bytes) {
     let res = match b.u8() % 4 {
         0 => b.u32(),
@@ -64,68 +49,6 @@ fn check_len(b: &mut Bytes) {
     assert_eq!(z.bounds_len as u128, bounds, "bounds of refl_layered_len({res}, {layers})");
 }
 
-struct Map {
-    grid: refl_layered_grid,
-    depth: Buf<f32>,
-    payload: Buf<u32>,
-    counts: Buf<u32>,
-    bounds: Buf<f32>,
-}
-
-impl Map {
-    fn desc_mut(&mut self) -> refl_layered_map_mut {
-        refl_layered_map_mut {
-            grid: self.grid,
-            depth: self.depth.ptr(),
-            depth_len: self.depth.len(),
-            payload: self.payload.ptr(),
-            payload_len: self.payload.len(),
-            counts: self.counts.ptr(),
-            counts_len: self.counts.len(),
-            bounds: self.bounds.ptr(),
-            bounds_len: self.bounds.len(),
-        }
-    }
-    fn desc(&self) -> refl_layered_map {
-        refl_layered_map {
-            grid: self.grid,
-            depth: self.depth.cptr(),
-            depth_len: self.depth.len(),
-            payload: self.payload.cptr(),
-            payload_len: self.payload.len(),
-            counts: self.counts.cptr(),
-            counts_len: self.counts.len(),
-            bounds: self.bounds.cptr(),
-            bounds_len: self.bounds.len(),
-        }
-    }
-    fn snap(&self) -> [Vec<u8>; 4] {
-        [self.depth.snapshot(), self.payload.snapshot(), self.counts.snapshot(), self.bounds.snapshot()]
-    }
-    fn same(&self, s: &[Vec<u8>; 4]) -> bool {
-        self.depth.bytes() == &s[0][..]
-            && self.payload.bytes() == &s[1][..]
-            && self.counts.bytes() == &s[2][..]
-            && self.bounds.bytes() == &s[3][..]
-    }
-    fn any_null(&self) -> bool {
-        self.depth.is_null() || self.payload.is_null() || self.counts.is_null() || self.bounds.is_null()
-    }
-    fn any_misaligned(&self) -> bool {
-        [self.depth.kind(), self.payload.kind(), self.counts.kind(), self.bounds.kind()].contains(&PtrKind::Misaligned)
-    }
-    fn usable(&self, z: &refl_layered_sizes) -> bool {
-        self.depth.usable()
-            && self.payload.usable()
-            && self.counts.usable()
-            && self.bounds.usable()
-            && self.depth.len() >= z.depth_len
-            && self.payload.len() >= z.payload_len
-            && self.counts.len() >= z.counts_len
-            && self.bounds.len() >= z.bounds_len
-    }
-}
-
 fn grid(b: &mut Bytes) -> refl_layered_grid {
     let min = if b.chance(16) { b.vec3_in(-3.0, 3.0) } else { v3(-1.0, -1.0, -1.0) };
     let max = if b.chance(16) { b.vec3_in(-3.0, 3.0) } else { v3(1.0, b.f32_fine(0.2, 2.0), 1.0) };
@@ -161,17 +84,6 @@ fn grid(b: &mut Bytes) -> refl_layered_grid {
         },
         world_from_local: m,
     }
-}
-
-fn grid_ok(g: &refl_layered_grid) -> bool {
-    let f = finite3(g.min) && finite3(g.max) && finite_mat(&g.world_from_local);
-    let m = &g.world_from_local.m;
-    f && g.min.x < g.max.x
-        && g.min.y < g.max.y
-        && g.min.z < g.max.z
-        && g.face_res >= 1
-        && g.layers >= 1
-        && [m[3], m[7], m[11], m[15]] == [0.0, 0.0, 0.0, 1.0]
 }
 
 fn map(b: &mut Bytes, g: refl_layered_grid) -> Map {

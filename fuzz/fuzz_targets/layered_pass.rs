@@ -53,74 +53,7 @@ const NO_PROJECTION: u32 = 7;
 const LAST_STATUS: u32 = 7;
 
 // ---------------------------------------------------------------------------
-// Layered maps (as `layered.rs` builds them).
-
-fn sizes(res: u32, layers: u32) -> Option<refl_layered_sizes> {
-    let mut o = refl_layered_sizes::default();
-    // SAFETY: pointer valid.
-    (unsafe { refl_layered_len(&mut o, res, layers) } == refl_status::Ok).then_some(o)
-}
-
-fn identity() -> refl_mat4 {
-    let mut m = [0.0; 16];
-    m[0] = 1.0;
-    m[5] = 1.0;
-    m[10] = 1.0;
-    m[15] = 1.0;
-    refl_mat4 { m }
-}
-
-struct Map {
-    grid: refl_layered_grid,
-    depth: Buf<f32>,
-    payload: Buf<u32>,
-    counts: Buf<u32>,
-    bounds: Buf<f32>,
-}
-
-impl Map {
-    fn desc_mut(&mut self) -> refl_layered_map_mut {
-        refl_layered_map_mut {
-            grid: self.grid,
-            depth: self.depth.ptr(),
-            depth_len: self.depth.len(),
-            payload: self.payload.ptr(),
-            payload_len: self.payload.len(),
-            counts: self.counts.ptr(),
-            counts_len: self.counts.len(),
-            bounds: self.bounds.ptr(),
-            bounds_len: self.bounds.len(),
-        }
-    }
-    fn desc(&self) -> refl_layered_map {
-        refl_layered_map {
-            grid: self.grid,
-            depth: self.depth.cptr(),
-            depth_len: self.depth.len(),
-            payload: self.payload.cptr(),
-            payload_len: self.payload.len(),
-            counts: self.counts.cptr(),
-            counts_len: self.counts.len(),
-            bounds: self.bounds.cptr(),
-            bounds_len: self.bounds.len(),
-        }
-    }
-    fn snap(&self) -> [Vec<u8>; 4] {
-        [self.depth.snapshot(), self.payload.snapshot(), self.counts.snapshot(), self.bounds.snapshot()]
-    }
-    fn same(&self, s: &[Vec<u8>; 4]) -> bool {
-        self.depth.bytes() == &s[0][..]
-            && self.payload.bytes() == &s[1][..]
-            && self.counts.bytes() == &s[2][..]
-            && self.bounds.bytes() == &s[3][..]
-    }
-    fn any_null(&self) -> bool {
-        self.depth.is_null() || self.payload.is_null() || self.counts.is_null() || self.bounds.is_null()
-    }
-    fn any_misaligned(&self) -> bool {
-        [self.depth.kind(), self.payload.kind(), self.counts.kind(), self.bounds.kind()].contains(&PtrKind::Misaligned)
-    }
-}
+// Layered maps (`fuzz/src/layered.rs`, shared with `layered.rs`).
 
 /// A map as the pass gets it: the buffers passed, their bytes, and what
 /// the target knows of it.
@@ -132,17 +65,6 @@ struct PassMap {
     sound: bool,
     /// Sound, with a moderate box and placement: refl must accept it.
     intact: bool,
-}
-
-fn grid_ok(g: &refl_layered_grid) -> bool {
-    let f = finite3(g.min) && finite3(g.max) && finite_mat(&g.world_from_local);
-    let m = &g.world_from_local.m;
-    f && g.min.x < g.max.x
-        && g.min.y < g.max.y
-        && g.min.z < g.max.z
-        && g.face_res >= 1
-        && g.layers >= 1
-        && [m[3], m[7], m[11], m[15]] == [0.0, 0.0, 0.0, 1.0]
 }
 
 /// A box of moderate numbers (extent at least 1e-2, within 1e3).
@@ -487,26 +409,6 @@ fn texel_bits(t: &refl_layered_pass_texel) -> [u32; 18] {
         t.dir.z.to_bits(),
         t.fetches,
     ]
-}
-
-fn host_bits(r: &refl_host_ray) -> [u32; 11] {
-    [
-        r.x,
-        r.y,
-        r.origin.x.to_bits(),
-        r.origin.y.to_bits(),
-        r.origin.z.to_bits(),
-        r.dir.x.to_bits(),
-        r.dir.y.to_bits(),
-        r.dir.z.to_bits(),
-        r.t_min.to_bits(),
-        r.t_max.to_bits(),
-        r.status,
-    ]
-}
-
-fn bits3(v: refl_vec3) -> [u32; 3] {
-    [v.x.to_bits(), v.y.to_bits(), v.z.to_bits()]
 }
 
 /// Every hit field is zero (bits).

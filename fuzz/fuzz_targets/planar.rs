@@ -407,10 +407,6 @@ impl Render {
 // ---------------------------------------------------------------------------
 // Small helpers.
 
-fn bits3(v: refl_vec3) -> [u32; 3] {
-    [v.x.to_bits(), v.y.to_bits(), v.z.to_bits()]
-}
-
 fn same_texel(a: &refl_planar_texel, b: &refl_planar_texel) -> bool {
     a.status == b.status
         && a.pixel.x.to_bits() == b.pixel.x.to_bits()
@@ -418,16 +414,6 @@ fn same_texel(a: &refl_planar_texel, b: &refl_planar_texel) -> bool {
         && a.texel_x == b.texel_x
         && a.texel_y == b.texel_y
         && a.t.to_bits() == b.t.to_bits()
-}
-
-fn same_host(a: &refl_host_ray, b: &refl_host_ray) -> bool {
-    a.x == b.x
-        && a.y == b.y
-        && bits3(a.origin) == bits3(b.origin)
-        && bits3(a.dir) == bits3(b.dir)
-        && a.t_min.to_bits() == b.t_min.to_bits()
-        && a.t_max.to_bits() == b.t_max.to_bits()
-        && a.status == b.status
 }
 
 fn rect_empty(r: &refl_planar_rect) -> bool {

@@ -87,17 +87,6 @@ fn same_texel(a: &refl_ssr_texel, b: &refl_ssr_texel) -> bool {
         && a.confidence.to_bits() == b.confidence.to_bits()
 }
 
-fn same_host(a: &refl_host_ray, b: &refl_host_ray) -> bool {
-    let bits = |v: refl_vec3| [v.x.to_bits(), v.y.to_bits(), v.z.to_bits()];
-    a.x == b.x
-        && a.y == b.y
-        && bits(a.origin) == bits(b.origin)
-        && bits(a.dir) == bits(b.dir)
-        && a.t_min.to_bits() == b.t_min.to_bits()
-        && a.t_max.to_bits() == b.t_max.to_bits()
-        && a.status == b.status
-}
-
 /// One `refl_ssr_trace_rows` over `rows` into fresh valid buffers: the
 /// status, texels, colors and host list.
 #[allow(clippy::type_complexity)]

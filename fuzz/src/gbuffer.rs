@@ -195,3 +195,19 @@ impl FuzzGBuffer {
         self.normals.0.get((y * self.normals.3 + x) as usize)
     }
 }
+
+/// The bits of a vector, for exact comparisons.
+pub fn bits3(v: refl_vec3) -> [u32; 3] {
+    [v.x.to_bits(), v.y.to_bits(), v.z.to_bits()]
+}
+
+/// The bits of a host ray, field by field.
+pub fn host_bits(r: &refl_host_ray) -> [u32; 11] {
+    let (o, d) = (bits3(r.origin), bits3(r.dir));
+    [r.x, r.y, o[0], o[1], o[2], d[0], d[1], d[2], r.t_min.to_bits(), r.t_max.to_bits(), r.status]
+}
+
+/// Whether two host rays are the same, bit for bit.
+pub fn same_host(a: &refl_host_ray, b: &refl_host_ray) -> bool {
+    host_bits(a) == host_bits(b)
+}

@@ -26,7 +26,9 @@
 pub use refl::*;
 
 mod gbuffer;
-pub use gbuffer::FuzzGBuffer;
+pub use gbuffer::{bits3, host_bits, same_host, FuzzGBuffer};
+pub mod layered;
+pub use layered::{grid_ok, identity, sizes, Map};
 
 use core::mem::{align_of, size_of, MaybeUninit};
 
