@@ -28,8 +28,9 @@
 //! | `epipolar` | `epipolar` | 002 (ray-casted walkthroughs) | reprojected ray casting: POS/AIP buffers, epipolar ordering, per-pixel decisions for the host's tracer |
 //! | `all` | all of the above | | every family |
 //!
-//! The shared modules come with the families that use them: `gbuffer` and
-//! `trace` with `mirror`, `hiz` or `depth-image`; `ssr` (the screen-space
+//! The shared modules come with the families that use them: `gbuffer`,
+//! `trace` and `summary` (the frame summary a planner reads) with
+//! `mirror`, `hiz` or `depth-image`; `ssr` (the screen-space
 //! mirror pass) and `backface` with `hiz` or `depth-image`. Each module's
 //! documentation has a runnable example (`# Example`) of its main pass or
 //! kernel.
@@ -71,6 +72,8 @@ pub mod planar;
 pub mod ssr;
 #[cfg(feature = "depth-image")]
 pub mod step;
+#[cfg(any(feature = "depth-image", feature = "hiz", feature = "mirror"))]
+pub mod summary;
 #[cfg(feature = "tcrr")]
 pub mod tcrr;
 #[cfg(any(feature = "depth-image", feature = "hiz", feature = "mirror"))]
