@@ -160,6 +160,21 @@
  */
 #define REFL_LAST_ERROR_CAPACITY 256
 
+#if (defined(REFL_FEATURE_DEPTH_IMAGE) || defined(REFL_FEATURE_HIZ) || defined(REFL_FEATURE_MIRROR))
+/**
+ * Side of a classification tile in pixels: bands of
+ * `refl_summarize_rows` start on a multiple of it.
+ */
+#define REFL_SUMMARY_TILE 8
+#endif
+
+#if (defined(REFL_FEATURE_DEPTH_IMAGE) || defined(REFL_FEATURE_HIZ) || defined(REFL_FEATURE_MIRROR))
+/**
+ * The object id of a pixel that belongs to no object.
+ */
+#define REFL_SUMMARY_NO_OBJECT 4294967295
+#endif
+
 #if defined(REFL_FEATURE_TCRR)
 /**
  * `refl_tcrr_surfel::flags` bit: the surface fields are valid.
@@ -2865,6 +2880,164 @@ typedef struct refl_ssr_texel {
      */
     float confidence;
 } refl_ssr_texel;
+#endif
+
+#if (defined(REFL_FEATURE_DEPTH_IMAGE) || defined(REFL_FEATURE_HIZ) || defined(REFL_FEATURE_MIRROR))
+/**
+ * Settings of the summary (`refl_core::summary::SummaryOptions`);
+ * `refl_summary_options_default` gives the defaults.
+ */
+typedef struct refl_summary_options {
+    /**
+     * Upper roughness bound of the mirror class, finite, >= 0. Default
+     * 0.1 (the mirror pass's `max_roughness`).
+     */
+    float mirror_roughness;
+    /**
+     * Upper roughness bound of the glossy class, >= `mirror_roughness`,
+     * +infinity allowed; rougher pixels are left to a probe. Default 1.0
+     * (the glossy pass's `max_roughness`).
+     */
+    float glossy_roughness;
+    /**
+     * Reflective pixels within this many pixels of the border count as
+     * touching it. Default `REFL_SUMMARY_TILE`.
+     */
+    uint32_t border_pixels;
+    /**
+     * Plane test: RMS distance of the points from their plane relative to
+     * their mean depth, finite, >= 0. Default 1e-3.
+     */
+    float plane_tolerance;
+    /**
+     * Plane test: least length of the mean of the unit normals, in
+     * [0, 1]. Default 0.99.
+     */
+    float normal_cos;
+} refl_summary_options;
+#endif
+
+#if (defined(REFL_FEATURE_DEPTH_IMAGE) || defined(REFL_FEATURE_HIZ) || defined(REFL_FEATURE_MIRROR))
+/**
+ * Counts over the bands summarized so far (zero-initialize before the
+ * first band). Roughness classes are indexed 0 mirror, 1 glossy, 2 rough.
+ */
+typedef struct refl_frame_summary {
+    /**
+     * Pixels summarized.
+     */
+    uint64_t pixels;
+    /**
+     * Of them, pixels with a surface (depth in front of the far plane, a
+     * usable normal).
+     */
+    uint64_t surfaces;
+    /**
+     * Reflective pixels: a surface, mask not 0, roughness not NaN, object
+     * id not `REFL_SUMMARY_NO_OBJECT`.
+     */
+    uint64_t reflective;
+    /**
+     * Reflective pixels per roughness class.
+     */
+    uint64_t classes[3];
+    /**
+     * Reflective pixels within `border_pixels` of the border.
+     */
+    uint64_t border;
+    /**
+     * Reflective pixels whose id is past the object list (in no object).
+     */
+    uint64_t unlisted;
+    /**
+     * Tiles without a reflective pixel, then tiles per roughness class of
+     * their sharpest reflective pixel (a mirror pixel makes a mirror tile).
+     */
+    uint64_t tiles[4];
+} refl_frame_summary;
+#endif
+
+#if (defined(REFL_FEATURE_DEPTH_IMAGE) || defined(REFL_FEATURE_HIZ) || defined(REFL_FEATURE_MIRROR))
+/**
+ * What one object's reflective pixels add up to (zero-initialize before
+ * the first band). The sums feed `refl_object_summary_plane`.
+ */
+typedef struct refl_object_summary {
+    /**
+     * Reflective pixels.
+     */
+    uint64_t pixels;
+    /**
+     * Of them, per roughness class (0 mirror, 1 glossy, 2 rough).
+     */
+    uint64_t classes[3];
+    /**
+     * Of them, within `border_pixels` of the border.
+     */
+    uint64_t border_pixels;
+    /**
+     * Bounding rectangle `x0, y0, x1, y1` (exclusive ends) of the
+     * reflective pixels; all zero while there are none.
+     */
+    uint32_t rect[4];
+    /**
+     * The first point seen, the origin of the point sums.
+     */
+    double origin[3];
+    /**
+     * Sum of the unit normals.
+     */
+    double normal_sum[3];
+    /**
+     * Sum of the points relative to `origin`.
+     */
+    double point_sum[3];
+    /**
+     * Sums of the products of the relative coordinates: xx, yy, zz, xy,
+     * xz, yz.
+     */
+    double point_products[6];
+    /**
+     * Sum of the linear depths.
+     */
+    double depth_sum;
+} refl_object_summary;
+#endif
+
+#if (defined(REFL_FEATURE_DEPTH_IMAGE) || defined(REFL_FEATURE_HIZ) || defined(REFL_FEATURE_MIRROR))
+/**
+ * The best plane through an object's reflective points
+ * (`refl_object_summary_plane`).
+ */
+typedef struct refl_plane_fit {
+    /**
+     * Unit mean normal.
+     */
+    double normal[3];
+    /**
+     * The mean point.
+     */
+    double point[3];
+    /**
+     * Length of the mean of the unit normals: 1 when all agree.
+     */
+    double coherence;
+    /**
+     * RMS distance of the points from the plane through `point` with
+     * `normal`.
+     */
+    double rms_distance;
+    /**
+     * Mean linear depth of the points.
+     */
+    double mean_depth;
+    /**
+     * 1 if the object passes the plane test of the options (at least
+     * three pixels, `coherence >= normal_cos`, `rms_distance <=
+     * plane_tolerance * mean_depth`), else 0.
+     */
+    uint32_t planar;
+} refl_plane_fit;
 #endif
 
 #if defined(REFL_FEATURE_TCRR)
@@ -5812,6 +5985,98 @@ uint32_t refl_version_number(void);
  * `dst` must be NULL or writable for `dst_len` bytes.
  */
 size_t refl_last_error_message(char *dst, size_t dst_len);
+
+#if ((defined(REFL_FEATURE_DEPTH_IMAGE) || defined(REFL_FEATURE_HIZ) || defined(REFL_FEATURE_MIRROR)) && (defined(REFL_FEATURE_DEPTH_IMAGE) || defined(REFL_FEATURE_HIZ) || defined(REFL_FEATURE_MIRROR)))
+/**
+ * The defaults: mirror up to roughness 0.1, glossy up to 1.0, a border of
+ * one tile, plane tolerance 1e-3 of the depth, normals within 0.99.
+ */
+struct refl_summary_options refl_summary_options_default(void);
+#endif
+
+#if (defined(REFL_FEATURE_DEPTH_IMAGE) || defined(REFL_FEATURE_HIZ) || defined(REFL_FEATURE_MIRROR))
+/**
+ * Summarizes the rows `rows` of `gbuffer` into `*frame` and
+ * `objects[0 .. objects_len]`, adding to what they hold (zero them before
+ * a frame's first band; bands may run on several threads into separate
+ * summaries merged with `refl_frame_summary_merge` and
+ * `refl_object_summary_merge`). `ids` (`data` NULL: none, every pixel is
+ * object 0) gives each pixel's object, an index into `objects` or
+ * `REFL_SUMMARY_NO_OBJECT`; ids past `objects_len` are counted in
+ * `frame->unlisted`. A band starts on a multiple of `REFL_SUMMARY_TILE`
+ * rows and ends on one or at the bottom of the image.
+ *
+ * Returns `REFL_STATUS_NULL_POINTER` if `frame`, `gbuffer`, `options`,
+ * `objects` (with `objects_len > 0`) or a required image is NULL;
+ * `REFL_STATUS_INSUFFICIENT_SIZE` if `objects_len` is 0 or an image's
+ * `len` is too small; `REFL_STATUS_INVALID_ARGUMENT` for options out of
+ * range, `ids` not of the G-buffer's size, rows beyond the height or not
+ * on tile rows, a misaligned pointer, or `frame` / `objects` overlapping
+ * each other or an input; the G-buffer's errors as the passes report
+ * them. Nothing is written on error.
+ *
+ * # Safety
+ * `frame` NULL or readable and writable; `objects` NULL or readable and
+ * writable for `objects_len` records; `gbuffer` and `options` NULL or
+ * readable, the G-buffer's images and `ids.data` readable for their
+ * lengths and not written during the call.
+ */
+refl_status refl_summarize_rows(struct refl_frame_summary *frame,
+                                struct refl_object_summary *objects,
+                                size_t objects_len,
+                                const struct refl_gbuffer *gbuffer,
+                                struct refl_image_u32 ids,
+                                const struct refl_summary_options *options,
+                                struct refl_row_range rows);
+#endif
+
+#if (defined(REFL_FEATURE_DEPTH_IMAGE) || defined(REFL_FEATURE_HIZ) || defined(REFL_FEATURE_MIRROR))
+/**
+ * Adds `*src` (another band's counts of the same frame) to `*dst`.
+ *
+ * Returns `REFL_STATUS_NULL_POINTER` if a pointer is NULL,
+ * `REFL_STATUS_INVALID_ARGUMENT` if one is misaligned. `dst` may be `src`
+ * (the counts double).
+ *
+ * # Safety
+ * `dst` NULL or readable and writable, `src` NULL or readable.
+ */
+refl_status refl_frame_summary_merge(struct refl_frame_summary *dst,
+                                     const struct refl_frame_summary *src);
+#endif
+
+#if (defined(REFL_FEATURE_DEPTH_IMAGE) || defined(REFL_FEATURE_HIZ) || defined(REFL_FEATURE_MIRROR))
+/**
+ * Adds `*src` (the same object in another band) to `*dst`; the point sums
+ * move to `dst`'s origin.
+ *
+ * Returns `REFL_STATUS_NULL_POINTER` if a pointer is NULL,
+ * `REFL_STATUS_INVALID_ARGUMENT` if one is misaligned.
+ *
+ * # Safety
+ * `dst` NULL or readable and writable, `src` NULL or readable.
+ */
+refl_status refl_object_summary_merge(struct refl_object_summary *dst,
+                                      const struct refl_object_summary *src);
+#endif
+
+#if (defined(REFL_FEATURE_DEPTH_IMAGE) || defined(REFL_FEATURE_HIZ) || defined(REFL_FEATURE_MIRROR))
+/**
+ * The best plane through an object's reflective points, and whether it
+ * passes the plane test of `options`, into `*out`.
+ *
+ * Returns `REFL_STATUS_NULL_POINTER` if a pointer is NULL;
+ * `REFL_STATUS_INVALID_ARGUMENT` for options out of range or a misaligned
+ * pointer; `REFL_STATUS_DEGENERATE_GEOMETRY` when there is no plane (no
+ * pixels, or normals that cancel out). Nothing is written on error.
+ *
+ * # Safety
+ * `out` NULL or writable; `summary` and `options` NULL or readable.
+ */
+refl_status refl_object_summary_plane(struct refl_plane_fit *out,
+                                      const struct refl_object_summary *summary,
+                                      const struct refl_summary_options *options);
+#endif
 
 #if defined(REFL_FEATURE_TCRR)
 /**

@@ -184,6 +184,7 @@ impl<'a, T: Copy> ImageView<'a, T> {
 
     /// The texels (at least [`try_required_len`] of them): texel `(x, y)` is
     /// `data()[y * stride + x]`.
+    #[cfg(feature = "depth-image")]
     pub(crate) const fn data(&self) -> &'a [T] {
         self.data
     }

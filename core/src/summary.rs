@@ -144,7 +144,9 @@ impl SummaryOptions {
 }
 
 /// Counts over the whole image (or the bands summarized so far).
+/// `repr(C)`: the C ABI's `refl_frame_summary` is this struct.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash)]
+#[repr(C)]
 pub struct FrameSummary {
     /// Pixels summarized.
     pub pixels: u64,
@@ -183,8 +185,10 @@ impl FrameSummary {
 }
 
 /// What one object's reflective pixels add up to. Caller memory: one per
-/// object id, [`Default`] before the first band.
-#[derive(Clone, Copy, Debug, PartialEq)]
+/// object id, [`Default`] (all zero) before the first band. `repr(C)`:
+/// the C ABI's `refl_object_summary` is this struct.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+#[repr(C)]
 pub struct ObjectSummary {
     /// Reflective pixels.
     pub pixels: u64,
@@ -193,7 +197,7 @@ pub struct ObjectSummary {
     /// Of them, within [`SummaryOptions::border_pixels`] of the border.
     pub border_pixels: u64,
     /// Bounding rectangle `[x0, y0, x1, y1)` of the reflective pixels
-    /// (`x0 > x1` while there are none).
+    /// (all zero while there are none).
     pub rect: [u32; 4],
     /// The first point seen: the origin of the sums below.
     pub origin: DVec3,
@@ -208,22 +212,6 @@ pub struct ObjectSummary {
     pub depth_sum: f64,
 }
 
-impl Default for ObjectSummary {
-    fn default() -> Self {
-        Self {
-            pixels: 0,
-            classes: [0; 3],
-            border_pixels: 0,
-            rect: [u32::MAX, u32::MAX, 0, 0],
-            origin: DVec3::ZERO,
-            normal_sum: DVec3::ZERO,
-            point_sum: DVec3::ZERO,
-            point_products: [0.0; 6],
-            depth_sum: 0.0,
-        }
-    }
-}
-
 /// The best plane through an object's reflective points
 /// ([`ObjectSummary::plane`]).
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -232,7 +220,8 @@ pub struct PlaneFit {
     pub normal: DVec3,
     /// The mean point.
     pub point: DVec3,
-    /// `|sum n| / N`: 1 when every normal is the same.
+    /// `|sum n| / N`: 1 when every normal is the same (up to the f32
+    /// rounding of the unit normals, so it may exceed 1 by about 1e-7).
     pub coherence: f64,
     /// Root mean square distance of the points from the plane through
     /// `point` with `normal`.
@@ -245,6 +234,7 @@ impl ObjectSummary {
     fn add(&mut self, x: u32, y: u32, p: DVec3, n: DVec3, depth: f64) {
         if self.pixels == 0 {
             self.origin = p;
+            self.rect = [x, y, x + 1, y + 1];
         }
         self.pixels += 1;
         self.rect[0] = self.rect[0].min(x);

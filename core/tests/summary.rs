@@ -68,7 +68,7 @@ fn oracle(f: &Frame, mask: &[u8], rough: &[f32], o: &SummaryOptions) -> Oracle {
         pixels: [0; 3],
         classes: [[0; 3]; 3],
         border: [0; 3],
-        rect: [[u32::MAX, u32::MAX, 0, 0]; 3],
+        rect: [[0; 4]; 3],
         frame: FrameSummary::default(),
     };
     let b = o.border_pixels;
@@ -98,6 +98,9 @@ fn oracle(f: &Frame, mask: &[u8], rough: &[f32], o: &SummaryOptions) -> Oracle {
             r.pixels[k] += 1;
             r.classes[k][class] += 1;
             r.border[k] += u64::from(border);
+            if r.pixels[k] == 1 {
+                r.rect[k] = [x, y, x + 1, y + 1];
+            }
             r.rect[k] = [
                 r.rect[k][0].min(x),
                 r.rect[k][1].min(y),

@@ -69,6 +69,8 @@ mod ptr;
 #[cfg(any(feature = "depth-image", feature = "hiz"))]
 mod ssr;
 mod status;
+#[cfg(any(feature = "depth-image", feature = "hiz", feature = "mirror"))]
+mod summary;
 #[cfg(feature = "tcrr")]
 mod tcrr;
 #[cfg(any(feature = "depth-image", feature = "hiz", feature = "mirror"))]
@@ -115,6 +117,8 @@ pub use planar::*;
 #[cfg(any(feature = "depth-image", feature = "hiz"))]
 pub use ssr::*;
 pub use status::*;
+#[cfg(any(feature = "depth-image", feature = "hiz", feature = "mirror"))]
+pub use summary::*;
 #[cfg(feature = "tcrr")]
 pub use tcrr::*;
 #[cfg(any(feature = "depth-image", feature = "hiz", feature = "mirror"))]

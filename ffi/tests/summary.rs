@@ -1,0 +1,309 @@
+//! refl_summary_* / refl_summarize_rows / refl_*_summary_merge /
+//! refl_object_summary_plane: the C calls equal refl-core's
+//! `summary` functions bit for bit (every convention, whole image and tile
+//! bands merged), errors return their documented status and leave every
+//! output untouched, and no export allocates.
+#![cfg(any(feature = "depth-image", feature = "hiz", feature = "mirror"))]
+
+use refl::*;
+use refl_core::summary::{try_summarize_rows, FrameSummary, ObjectSummary, SummaryOptions};
+use refl_core::{DepthConvention, ImageView, RowRange};
+#[path = "common/gbuffer.rs"]
+mod common;
+use common::{counted, render, Frame, H, W};
+
+fn ids_c(f: &Frame) -> refl_image_u32 {
+    refl_image_u32 {
+        data: f.ids.as_ptr(),
+        len: f.ids.len(),
+        width: W,
+        height: H,
+        stride: W,
+    }
+}
+
+fn no_ids() -> refl_image_u32 {
+    refl_image_u32 {
+        data: core::ptr::null(),
+        len: 0,
+        width: 0,
+        height: 0,
+        stride: 0,
+    }
+}
+
+fn last_error() -> String {
+    let mut buf = [0u8; 256];
+    // SAFETY: valid buffer.
+    let k = unsafe { refl_last_error_message(buf.as_mut_ptr().cast(), buf.len()) };
+    String::from_utf8_lossy(&buf[..k.min(255)]).to_string()
+}
+
+fn c_summary(
+    f: &Frame,
+    ids: refl_image_u32,
+    rows: refl_row_range,
+    o: &refl_summary_options,
+) -> (
+    refl_status,
+    refl_frame_summary,
+    [refl_object_summary; 2],
+    u64,
+) {
+    let g = f.gbuffer_c(false);
+    let mut frame = refl_frame_summary::default();
+    let mut objects = [refl_object_summary::default(); 2];
+    let (s, allocs) = counted(|| {
+        // SAFETY: valid pointers and images.
+        unsafe { refl_summarize_rows(&mut frame, objects.as_mut_ptr(), 2, &g, ids, o, rows) }
+    });
+    (s, frame, objects, allocs)
+}
+
+#[test]
+fn options_default_is_the_rust_default() {
+    let c = refl_summary_options_default();
+    assert_eq!(SummaryOptions::from(c), SummaryOptions::default());
+}
+
+#[test]
+fn c_summary_equals_the_rust_summary_bit_for_bit_without_allocating() {
+    for conv in [
+        DepthConvention::Linear,
+        DepthConvention::ZeroToOne,
+        DepthConvention::ReversedZ,
+    ] {
+        let f = render(conv);
+        let o = refl_summary_options_default();
+        let (s, frame, objects, allocs) =
+            c_summary(&f, ids_c(&f), refl_row_range { begin: 0, end: H }, &o);
+        assert_eq!(s, refl_status::Ok, "{}", last_error());
+        assert_eq!(allocs, 0);
+        let g = f.gbuffer(false);
+        let (mut rf, mut ro) = (FrameSummary::default(), [ObjectSummary::default(); 2]);
+        let v = ImageView::try_new(&f.ids, W, H, W).unwrap();
+        try_summarize_rows(
+            &mut rf,
+            &mut ro,
+            &g,
+            Some(&v),
+            RowRange::try_all(H).unwrap(),
+            &o.into(),
+        )
+        .unwrap();
+        assert_eq!(FrameSummary::from(frame), rf);
+        for k in 0..2 {
+            assert_eq!(ObjectSummary::from(objects[k]), ro[k], "object {k}");
+        }
+        assert!(frame.reflective > 1000 && objects[0].pixels > 500 && objects[1].pixels > 100);
+        // The floor is a plane, the sphere is not.
+        let mut fit = refl_plane_fit::default();
+        // SAFETY: valid pointers.
+        let s = unsafe { refl_object_summary_plane(&mut fit, &objects[0], &o) };
+        assert_eq!(s, refl_status::Ok);
+        assert_eq!(fit.planar, 1, "{fit:?}");
+        assert!((fit.normal[1] - 1.0).abs() < 1e-9, "{fit:?}");
+        // SAFETY: valid pointers.
+        let s = unsafe { refl_object_summary_plane(&mut fit, &objects[1], &o) };
+        assert_eq!(s, refl_status::Ok);
+        assert_eq!(fit.planar, 0, "{fit:?}");
+        // Without ids every pixel is object 0.
+        let (s, all, objs, _) = c_summary(&f, no_ids(), refl_row_range { begin: 0, end: H }, &o);
+        assert_eq!(s, refl_status::Ok);
+        assert_eq!(all.reflective, frame.reflective);
+        assert_eq!(objs[0].pixels, frame.reflective);
+        assert_eq!(objs[1].pixels, 0);
+    }
+}
+
+#[test]
+fn tile_bands_merged_equal_one_call() {
+    let f = render(DepthConvention::ReversedZ);
+    let o = refl_summary_options_default();
+    let (_, whole, whole_o, _) = c_summary(&f, ids_c(&f), refl_row_range { begin: 0, end: H }, &o);
+    let mut frame = refl_frame_summary::default();
+    let mut objects = [refl_object_summary::default(); 2];
+    let mut y = 0;
+    while y < H {
+        let rows = refl_row_range {
+            begin: y,
+            end: (y + 2 * REFL_SUMMARY_TILE).min(H),
+        };
+        let (s, bf, bo, _) = c_summary(&f, ids_c(&f), rows, &o);
+        assert_eq!(s, refl_status::Ok, "{}", last_error());
+        // SAFETY: valid pointers.
+        unsafe {
+            assert_eq!(refl_frame_summary_merge(&mut frame, &bf), refl_status::Ok);
+            for k in 0..2 {
+                assert_eq!(
+                    refl_object_summary_merge(&mut objects[k], &bo[k]),
+                    refl_status::Ok
+                );
+            }
+        }
+        y += 2 * REFL_SUMMARY_TILE;
+    }
+    assert_eq!(frame, whole);
+    for k in 0..2 {
+        let (a, b) = (objects[k], whole_o[k]);
+        assert_eq!(
+            (a.pixels, a.classes, a.border_pixels, a.rect),
+            (b.pixels, b.classes, b.border_pixels, b.rect)
+        );
+        let (mut fa, mut fb) = (refl_plane_fit::default(), refl_plane_fit::default());
+        // SAFETY: valid pointers.
+        unsafe {
+            refl_object_summary_plane(&mut fa, &a, &o);
+            refl_object_summary_plane(&mut fb, &b, &o);
+        }
+        assert_eq!(fa.planar, fb.planar);
+        assert!((fa.rms_distance - fb.rms_distance).abs() < 1e-9);
+    }
+}
+
+#[test]
+fn errors_name_their_cause_and_leave_every_output_untouched() {
+    let f = render(DepthConvention::Linear);
+    let g = f.gbuffer_c(false);
+    let d = refl_summary_options_default();
+    let all = refl_row_range { begin: 0, end: H };
+    use refl_status::{
+        DegenerateGeometry as Degenerate, InsufficientSize as Short, InvalidArgument as Bad,
+        NullPointer as Null,
+    };
+    let sentinel_f = refl_frame_summary {
+        pixels: 77,
+        ..Default::default()
+    };
+    let sentinel_o = refl_object_summary {
+        pixels: 99,
+        depth_sum: -1.0,
+        ..Default::default()
+    };
+    let run = |want: refl_status,
+               gb: *const refl_gbuffer,
+               ids: refl_image_u32,
+               o: *const refl_summary_options,
+               rows: refl_row_range,
+               k: usize,
+               null_objects: bool| {
+        let mut frame = sentinel_f;
+        let mut objects = [sentinel_o; 2];
+        let p = if null_objects {
+            core::ptr::null_mut()
+        } else {
+            objects.as_mut_ptr()
+        };
+        let (s, allocs) = counted(|| {
+            // SAFETY: valid or NULL pointers.
+            unsafe { refl_summarize_rows(&mut frame, p, k, gb, ids, o, rows) }
+        });
+        assert_eq!(s, want, "{}", last_error());
+        assert_eq!(allocs, 0);
+        assert_eq!(frame, sentinel_f);
+        assert!(objects.iter().all(|x| *x == sentinel_o));
+        assert!(
+            last_error().starts_with("refl_summarize_rows: "),
+            "{}",
+            last_error()
+        );
+    };
+    // NULLs.
+    run(Null, core::ptr::null(), ids_c(&f), &d, all, 2, false);
+    run(Null, &g, ids_c(&f), core::ptr::null(), all, 2, false);
+    run(Null, &g, ids_c(&f), &d, all, 2, true);
+    // Options out of range.
+    for bad in [
+        refl_summary_options {
+            mirror_roughness: f32::NAN,
+            ..d
+        },
+        refl_summary_options {
+            glossy_roughness: 0.0,
+            mirror_roughness: 0.5,
+            ..d
+        },
+        refl_summary_options {
+            normal_cos: 2.0,
+            ..d
+        },
+    ] {
+        run(Bad, &g, ids_c(&f), &bad, all, 2, false);
+        assert!(last_error().contains("`options`"), "{}", last_error());
+    }
+    // Rows: beyond the height, off a tile row.
+    run(
+        Bad,
+        &g,
+        ids_c(&f),
+        &d,
+        refl_row_range {
+            begin: 0,
+            end: H + 1,
+        },
+        2,
+        false,
+    );
+    run(
+        Bad,
+        &g,
+        ids_c(&f),
+        &d,
+        refl_row_range { begin: 3, end: 16 },
+        2,
+        false,
+    );
+    // Ids of another size; no objects.
+    let short = refl_image_u32 {
+        width: W - 1,
+        ..ids_c(&f)
+    };
+    run(Bad, &g, short, &d, all, 2, false);
+    run(Short, &g, ids_c(&f), &d, all, 0, false);
+    // Objects over the ids (an output overlapping an input).
+    let mut frame = sentinel_f;
+    let mut ids_copy = f.ids.clone();
+    let ids_alias = refl_image_u32 {
+        data: ids_copy.as_ptr(),
+        ..ids_c(&f)
+    };
+    // SAFETY: the objects alias the ids on purpose (refused before use).
+    let s = unsafe {
+        refl_summarize_rows(
+            &mut frame,
+            ids_copy.as_mut_ptr().cast(),
+            1,
+            &g,
+            ids_alias,
+            &d,
+            all,
+        )
+    };
+    assert_eq!(s, Bad, "{}", last_error());
+    assert_eq!(frame, sentinel_f);
+    assert_eq!(ids_copy, f.ids);
+    // A plane of nothing.
+    let mut fit = refl_plane_fit {
+        planar: 7,
+        ..Default::default()
+    };
+    let empty = refl_object_summary::default();
+    // SAFETY: valid pointers.
+    let s = unsafe { refl_object_summary_plane(&mut fit, &empty, &d) };
+    assert_eq!(s, Degenerate);
+    assert_eq!(fit.planar, 7);
+    // SAFETY: NULL pointers.
+    unsafe {
+        assert_eq!(
+            refl_object_summary_plane(core::ptr::null_mut(), &empty, &d),
+            Null
+        );
+        assert_eq!(
+            refl_frame_summary_merge(core::ptr::null_mut(), &sentinel_f),
+            Null
+        );
+        let mut dst = sentinel_o;
+        assert_eq!(refl_object_summary_merge(&mut dst, core::ptr::null()), Null);
+        assert_eq!(dst, sentinel_o);
+    }
+}
