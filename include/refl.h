@@ -12,9 +12,13 @@
  *    refl_<module>_options_default(void) functions. Names and signatures
  *    follow docs/api.md (module prefixes, *_options with their defaults,
  *    (pointer, x_len) pairs, bool flags, refl_row_range rows).
- *  - NULL pointers are reported first (REFL_STATUS_NULL_POINTER), then
- *    invalid arguments; NaN/Inf parameters, zero or overflowing sizes,
- *    short buffers and unknown enum values are reported, never undefined.
+ *  - Every pointer is checked (NULL, then alignment) before it is read;
+ *    REFL_STATUS_NULL_POINTER comes only with a NULL pointer, and a pass
+ *    checks its required pointers before any size. When several arguments
+ *    are bad, which one is reported is not specified:
+ *    refl_last_error_message names it. NaN/Inf parameters, zero or
+ *    overflowing sizes, short buffers and unknown enum values are
+ *    reported, never undefined.
  *  - Outputs are written only on success; a failed call leaves them
  *    byte-for-byte untouched. A single-value output may alias an input;
  *    an output array must not overlap an input array.
