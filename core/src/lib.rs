@@ -29,8 +29,8 @@
 //! | `all` | all of the above | | every family |
 //!
 //! The shared modules come with the families that use them: `gbuffer`,
-//! `trace` and `summary` (the frame summary a planner reads) with
-//! `mirror`, `hiz` or `depth-image`; `ssr` (the screen-space
+//! `trace`, `summary` (the frame summary a planner reads) and `plan` (the
+//! passes a frame needs) with `mirror`, `hiz` or `depth-image`; `ssr` (the screen-space
 //! mirror pass) and `backface` with `hiz` or `depth-image`. Each module's
 //! documentation has a runnable example (`# Example`) of its main pass or
 //! kernel.
@@ -66,6 +66,8 @@ pub mod layered;
 pub mod layered_pass;
 #[cfg(feature = "mirror")]
 pub mod mirror;
+#[cfg(any(feature = "depth-image", feature = "hiz", feature = "mirror"))]
+pub mod plan;
 #[cfg(feature = "mirror")]
 pub mod planar;
 #[cfg(any(feature = "depth-image", feature = "hiz"))]
