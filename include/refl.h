@@ -167,7 +167,7 @@
 #if (defined(REFL_FEATURE_DEPTH_IMAGE) || defined(REFL_FEATURE_HIZ) || defined(REFL_FEATURE_MIRROR))
 /**
  * Side of a classification tile in pixels: bands of
- * `refl_summarize_rows` start on a multiple of it.
+ * `refl_summary_rows` start on a multiple of it.
  */
 #define REFL_SUMMARY_TILE 8
 #endif
@@ -177,6 +177,13 @@
  * The object id of a pixel that belongs to no object.
  */
 #define REFL_SUMMARY_NO_OBJECT 4294967295
+#endif
+
+#if (defined(REFL_FEATURE_DEPTH_IMAGE) || defined(REFL_FEATURE_HIZ) || defined(REFL_FEATURE_MIRROR))
+/**
+ * Number of passes in `refl_plan.passes`.
+ */
+#define REFL_PLAN_PASS_COUNT 9
 #endif
 
 #if defined(REFL_FEATURE_TCRR)
@@ -979,6 +986,148 @@ enum refl_layered_pass_status
 typedef enum refl_layered_pass_status refl_layered_pass_status;
 #else
 typedef uint32_t refl_layered_pass_status;
+#endif // __STDC_VERSION__ >= 202311L
+#endif // __cplusplus
+#endif
+
+#if (defined(REFL_FEATURE_DEPTH_IMAGE) || defined(REFL_FEATURE_HIZ) || defined(REFL_FEATURE_MIRROR))
+/**
+ * The passes of a frame (`refl_plan_decision.pass`), in the order they
+ * run (`refl_core::plan::Pass`).
+ */
+enum refl_plan_pass
+#if defined(__cplusplus) || __STDC_VERSION__ >= 202311L
+  : uint32_t
+#endif // defined(__cplusplus) || __STDC_VERSION__ >= 202311L
+ {
+#if (defined(REFL_FEATURE_DEPTH_IMAGE) || defined(REFL_FEATURE_HIZ) || defined(REFL_FEATURE_MIRROR))
+    /**
+     * The Hi-Z pyramid of the depth image.
+     */
+    REFL_PLAN_PASS_HIZ = 0,
+#endif
+#if (defined(REFL_FEATURE_DEPTH_IMAGE) || defined(REFL_FEATURE_HIZ) || defined(REFL_FEATURE_MIRROR))
+    /**
+     * The planar pass (extra views of planar mirrors).
+     */
+    REFL_PLAN_PASS_PLANAR = 1,
+#endif
+#if (defined(REFL_FEATURE_DEPTH_IMAGE) || defined(REFL_FEATURE_HIZ) || defined(REFL_FEATURE_MIRROR))
+    /**
+     * The screen-space mirror pass.
+     */
+    REFL_PLAN_PASS_MIRROR = 2,
+#endif
+#if (defined(REFL_FEATURE_DEPTH_IMAGE) || defined(REFL_FEATURE_HIZ) || defined(REFL_FEATURE_MIRROR))
+    /**
+     * The color pyramid of the lit image (glossy cones).
+     */
+    REFL_PLAN_PASS_COLOR_PYRAMID = 3,
+#endif
+#if (defined(REFL_FEATURE_DEPTH_IMAGE) || defined(REFL_FEATURE_HIZ) || defined(REFL_FEATURE_MIRROR))
+    /**
+     * The visibility pyramid (glossy cones).
+     */
+    REFL_PLAN_PASS_VISIBILITY_PYRAMID = 4,
+#endif
+#if (defined(REFL_FEATURE_DEPTH_IMAGE) || defined(REFL_FEATURE_HIZ) || defined(REFL_FEATURE_MIRROR))
+    /**
+     * The glossy pass.
+     */
+    REFL_PLAN_PASS_GLOSSY = 5,
+#endif
+#if (defined(REFL_FEATURE_DEPTH_IMAGE) || defined(REFL_FEATURE_HIZ) || defined(REFL_FEATURE_MIRROR))
+    /**
+     * The layered-maps pass.
+     */
+    REFL_PLAN_PASS_LAYERED = 6,
+#endif
+#if (defined(REFL_FEATURE_DEPTH_IMAGE) || defined(REFL_FEATURE_HIZ) || defined(REFL_FEATURE_MIRROR))
+    /**
+     * The lists of unresolved rays for the host's tracer.
+     */
+    REFL_PLAN_PASS_HOST_RAYS = 7,
+#endif
+#if (defined(REFL_FEATURE_DEPTH_IMAGE) || defined(REFL_FEATURE_HIZ) || defined(REFL_FEATURE_MIRROR))
+    /**
+     * Environment probe lookups for rough pixels.
+     */
+    REFL_PLAN_PASS_PROBE = 8,
+#endif
+};
+#ifndef __cplusplus
+#if __STDC_VERSION__ >= 202311L
+typedef enum refl_plan_pass refl_plan_pass;
+#else
+typedef uint32_t refl_plan_pass;
+#endif // __STDC_VERSION__ >= 202311L
+#endif // __cplusplus
+#endif
+
+#if (defined(REFL_FEATURE_DEPTH_IMAGE) || defined(REFL_FEATURE_HIZ) || defined(REFL_FEATURE_MIRROR))
+/**
+ * Why a pass runs or is skipped (`refl_plan_decision.reason`,
+ * `refl_core::plan::SkipReason`).
+ */
+enum refl_plan_reason
+#if defined(__cplusplus) || __STDC_VERSION__ >= 202311L
+  : uint32_t
+#endif // defined(__cplusplus) || __STDC_VERSION__ >= 202311L
+ {
+#if (defined(REFL_FEATURE_DEPTH_IMAGE) || defined(REFL_FEATURE_HIZ) || defined(REFL_FEATURE_MIRROR))
+    /**
+     * It runs.
+     */
+    REFL_PLAN_REASON_RUNS = 0,
+#endif
+#if (defined(REFL_FEATURE_DEPTH_IMAGE) || defined(REFL_FEATURE_HIZ) || defined(REFL_FEATURE_MIRROR))
+    /**
+     * Its family is not compiled in (`refl_config.h`).
+     */
+    REFL_PLAN_REASON_NOT_BUILT = 1,
+#endif
+#if (defined(REFL_FEATURE_DEPTH_IMAGE) || defined(REFL_FEATURE_HIZ) || defined(REFL_FEATURE_MIRROR))
+    /**
+     * No reflective pixel of its class is left for it.
+     */
+    REFL_PLAN_REASON_NO_PIXELS = 2,
+#endif
+#if (defined(REFL_FEATURE_DEPTH_IMAGE) || defined(REFL_FEATURE_HIZ) || defined(REFL_FEATURE_MIRROR))
+    /**
+     * Every mirror pixel is on the planar pass.
+     */
+    REFL_PLAN_REASON_ALL_MIRRORS_PLANAR = 3,
+#endif
+#if (defined(REFL_FEATURE_DEPTH_IMAGE) || defined(REFL_FEATURE_HIZ) || defined(REFL_FEATURE_MIRROR))
+    /**
+     * Nothing that would read it runs (a pyramid without its pass).
+     */
+    REFL_PLAN_REASON_NO_READER = 4,
+#endif
+#if (defined(REFL_FEATURE_DEPTH_IMAGE) || defined(REFL_FEATURE_HIZ) || defined(REFL_FEATURE_MIRROR))
+    /**
+     * The host cannot do what it needs (extra views, a tracer, a probe).
+     */
+    REFL_PLAN_REASON_NO_HOST_SUPPORT = 5,
+#endif
+#if (defined(REFL_FEATURE_DEPTH_IMAGE) || defined(REFL_FEATURE_HIZ) || defined(REFL_FEATURE_MIRROR))
+    /**
+     * No object has layered maps.
+     */
+    REFL_PLAN_REASON_NO_MAPS = 6,
+#endif
+#if (defined(REFL_FEATURE_DEPTH_IMAGE) || defined(REFL_FEATURE_HIZ) || defined(REFL_FEATURE_MIRROR))
+    /**
+     * The pass's own setting leaves it out.
+     */
+    REFL_PLAN_REASON_NOT_USED = 7,
+#endif
+};
+#ifndef __cplusplus
+#if __STDC_VERSION__ >= 202311L
+typedef enum refl_plan_reason refl_plan_reason;
+#else
+typedef uint32_t refl_plan_reason;
 #endif // __STDC_VERSION__ >= 202311L
 #endif // __cplusplus
 #endif
@@ -2926,7 +3075,7 @@ typedef struct refl_summary_options {
  * Counts over the bands summarized so far (zero-initialize before the
  * first band). Roughness classes are indexed 0 mirror, 1 glossy, 2 rough.
  */
-typedef struct refl_frame_summary {
+typedef struct refl_summary_frame {
     /**
      * Pixels summarized.
      */
@@ -2958,15 +3107,15 @@ typedef struct refl_frame_summary {
      * their sharpest reflective pixel (a mirror pixel makes a mirror tile).
      */
     uint64_t tiles[4];
-} refl_frame_summary;
+} refl_summary_frame;
 #endif
 
 #if (defined(REFL_FEATURE_DEPTH_IMAGE) || defined(REFL_FEATURE_HIZ) || defined(REFL_FEATURE_MIRROR))
 /**
  * What one object's reflective pixels add up to (zero-initialize before
- * the first band). The sums feed `refl_object_summary_plane`.
+ * the first band). The sums feed `refl_summary_object_plane`.
  */
-typedef struct refl_object_summary {
+typedef struct refl_summary_object {
     /**
      * Reflective pixels.
      */
@@ -3005,15 +3154,15 @@ typedef struct refl_object_summary {
      * Sum of the linear depths.
      */
     double depth_sum;
-} refl_object_summary;
+} refl_summary_object;
 #endif
 
 #if (defined(REFL_FEATURE_DEPTH_IMAGE) || defined(REFL_FEATURE_HIZ) || defined(REFL_FEATURE_MIRROR))
 /**
  * The best plane through an object's reflective points
- * (`refl_object_summary_plane`).
+ * (`refl_summary_object_plane`).
  */
-typedef struct refl_plane_fit {
+typedef struct refl_summary_plane_fit {
     /**
      * Unit mean normal.
      */
@@ -3036,12 +3185,108 @@ typedef struct refl_plane_fit {
      */
     double mean_depth;
     /**
-     * 1 if the object passes the plane test of the options (at least
+     * Whether the object passes the plane test of the options (at least
      * three pixels, `coherence >= normal_cos`, `rms_distance <=
-     * plane_tolerance * mean_depth`), else 0.
+     * plane_tolerance * mean_depth`).
      */
-    uint32_t planar;
-} refl_plane_fit;
+    bool planar;
+} refl_summary_plane_fit;
+#endif
+
+#if (defined(REFL_FEATURE_DEPTH_IMAGE) || defined(REFL_FEATURE_HIZ) || defined(REFL_FEATURE_MIRROR))
+/**
+ * How the passes that run are set up (`refl_core::plan::PlanOptions`);
+ * `refl_plan_options_default` gives the defaults.
+ */
+typedef struct refl_plan_options {
+    /**
+     * The mirror pass traces with Hi-Z (else it steps: no pyramid).
+     * Default true.
+     */
+    bool mirror_hiz;
+    /**
+     * The glossy options read a visibility pyramid. Default true.
+     */
+    bool glossy_visibility;
+} refl_plan_options;
+#endif
+
+#if (defined(REFL_FEATURE_DEPTH_IMAGE) || defined(REFL_FEATURE_HIZ) || defined(REFL_FEATURE_MIRROR))
+/**
+ * One pass's decision.
+ */
+typedef struct refl_plan_decision {
+    /**
+     * The pass (`refl_plan_pass`).
+     */
+    uint32_t pass;
+    /**
+     * Why it runs or not (`refl_plan_reason`; `REFL_PLAN_REASON_RUNS`
+     * when it runs).
+     */
+    uint32_t reason;
+    /**
+     * Bytes of the buffer it builds (pyramids; 0 for the others and when
+     * skipped).
+     */
+    size_t bytes;
+} refl_plan_decision;
+#endif
+
+#if (defined(REFL_FEATURE_DEPTH_IMAGE) || defined(REFL_FEATURE_HIZ) || defined(REFL_FEATURE_MIRROR))
+/**
+ * The decisions of a frame.
+ */
+typedef struct refl_plan {
+    /**
+     * One per pass, indexed by `refl_plan_pass`.
+     */
+    struct refl_plan_decision passes[REFL_PLAN_PASS_COUNT];
+    /**
+     * Objects sent to the planar pass.
+     */
+    uint32_t planar_objects;
+    /**
+     * Mirror-class pixels left to the mirror pass.
+     */
+    uint64_t mirror_pixels;
+} refl_plan;
+#endif
+
+#if (defined(REFL_FEATURE_DEPTH_IMAGE) || defined(REFL_FEATURE_HIZ) || defined(REFL_FEATURE_MIRROR))
+/**
+ * What the host states about one object (`refl_core::plan::ObjectHints`).
+ */
+typedef struct refl_plan_object_hints {
+    /**
+     * A planar mirror (the host knows its plane).
+     */
+    bool planar_mirror;
+    /**
+     * The object has layered depth maps the layered pass can trace.
+     */
+    bool layered_map;
+} refl_plan_object_hints;
+#endif
+
+#if (defined(REFL_FEATURE_DEPTH_IMAGE) || defined(REFL_FEATURE_HIZ) || defined(REFL_FEATURE_MIRROR))
+/**
+ * What the host can do (`refl_core::plan::HostCaps`).
+ */
+typedef struct refl_plan_host_caps {
+    /**
+     * It can rasterize extra views (the planar pass's mirrored camera).
+     */
+    bool planar_views;
+    /**
+     * It has a ray tracer for the rays the screen cannot answer.
+     */
+    bool ray_tracer;
+    /**
+     * It has a prefiltered environment probe for rough reflections.
+     */
+    bool probe;
+} refl_plan_host_caps;
 #endif
 
 #if defined(REFL_FEATURE_TCRR)
@@ -6003,8 +6248,8 @@ struct refl_summary_options refl_summary_options_default(void);
  * Summarizes the rows `rows` of `gbuffer` into `*frame` and
  * `objects[0 .. objects_len]`, adding to what they hold (zero them before
  * a frame's first band; bands may run on several threads into separate
- * summaries merged with `refl_frame_summary_merge` and
- * `refl_object_summary_merge`). `ids` (`data` NULL: none, every pixel is
+ * summaries merged with `refl_summary_merge_frame` and
+ * `refl_summary_merge_object`). `ids` (`data` NULL: none, every pixel is
  * object 0) gives each pixel's object, an index into `objects` or
  * `REFL_SUMMARY_NO_OBJECT`; ids past `objects_len` are counted in
  * `frame->unlisted`. A band starts on a multiple of `REFL_SUMMARY_TILE`
@@ -6025,13 +6270,13 @@ struct refl_summary_options refl_summary_options_default(void);
  * readable, the G-buffer's images and `ids.data` readable for their
  * lengths and not written during the call.
  */
-refl_status refl_summarize_rows(struct refl_frame_summary *frame,
-                                struct refl_object_summary *objects,
-                                size_t objects_len,
-                                const struct refl_gbuffer *gbuffer,
-                                struct refl_image_u32 ids,
-                                const struct refl_summary_options *options,
-                                struct refl_row_range rows);
+refl_status refl_summary_rows(struct refl_summary_frame *frame,
+                              struct refl_summary_object *objects,
+                              size_t objects_len,
+                              const struct refl_gbuffer *gbuffer,
+                              struct refl_image_u32 ids,
+                              const struct refl_summary_options *options,
+                              struct refl_row_range rows);
 #endif
 
 #if (defined(REFL_FEATURE_DEPTH_IMAGE) || defined(REFL_FEATURE_HIZ) || defined(REFL_FEATURE_MIRROR))
@@ -6045,8 +6290,8 @@ refl_status refl_summarize_rows(struct refl_frame_summary *frame,
  * # Safety
  * `dst` NULL or readable and writable, `src` NULL or readable.
  */
-refl_status refl_frame_summary_merge(struct refl_frame_summary *dst,
-                                     const struct refl_frame_summary *src);
+refl_status refl_summary_merge_frame(struct refl_summary_frame *dst,
+                                     const struct refl_summary_frame *src);
 #endif
 
 #if (defined(REFL_FEATURE_DEPTH_IMAGE) || defined(REFL_FEATURE_HIZ) || defined(REFL_FEATURE_MIRROR))
@@ -6060,8 +6305,8 @@ refl_status refl_frame_summary_merge(struct refl_frame_summary *dst,
  * # Safety
  * `dst` NULL or readable and writable, `src` NULL or readable.
  */
-refl_status refl_object_summary_merge(struct refl_object_summary *dst,
-                                      const struct refl_object_summary *src);
+refl_status refl_summary_merge_object(struct refl_summary_object *dst,
+                                      const struct refl_summary_object *src);
 #endif
 
 #if (defined(REFL_FEATURE_DEPTH_IMAGE) || defined(REFL_FEATURE_HIZ) || defined(REFL_FEATURE_MIRROR))
@@ -6077,9 +6322,60 @@ refl_status refl_object_summary_merge(struct refl_object_summary *dst,
  * # Safety
  * `out` NULL or writable; `summary` and `options` NULL or readable.
  */
-refl_status refl_object_summary_plane(struct refl_plane_fit *out,
-                                      const struct refl_object_summary *summary,
+refl_status refl_summary_object_plane(struct refl_summary_plane_fit *out,
+                                      const struct refl_summary_object *summary,
                                       const struct refl_summary_options *options);
+#endif
+
+#if ((defined(REFL_FEATURE_DEPTH_IMAGE) || defined(REFL_FEATURE_HIZ) || defined(REFL_FEATURE_MIRROR)) && (defined(REFL_FEATURE_DEPTH_IMAGE) || defined(REFL_FEATURE_HIZ) || defined(REFL_FEATURE_MIRROR)))
+/**
+ * The defaults: Hi-Z for the mirror pass, a visibility pyramid for the
+ * glossy pass.
+ */
+struct refl_plan_options refl_plan_options_default(void);
+#endif
+
+#if (defined(REFL_FEATURE_DEPTH_IMAGE) || defined(REFL_FEATURE_HIZ) || defined(REFL_FEATURE_MIRROR))
+/**
+ * Decides every pass of a `width x height` frame into `*out` from its
+ * summary (`*frame`, `objects[0 .. objects_len]`: `refl_summary_rows`
+ * over the whole image), the host's `hints` per object (`hints_len` equal
+ * to `objects_len`, or 0 with `hints` NULL: nothing stated), `*caps` and
+ * the options, and writes into `planar[k]` whether object `k` goes to the
+ * planar pass (`planar_len >= objects_len`). The rules (`refl_core::plan`):
+ * planar mirrors (stated, or passing the plane test with only mirror
+ * pixels) go to the planar pass when the host renders extra views; the
+ * mirror pass runs for the mirror pixels left; the glossy pass and its
+ * pyramids for glossy pixels; Hi-Z when the mirror pass uses it or the
+ * glossy pass runs; the layered pass when an object has maps and a
+ * screen-space pass runs; host rays with a tracer; the probe for rough
+ * pixels. A skip says why, and `bytes` are those of the pyramids built.
+ *
+ * Returns `REFL_STATUS_NULL_POINTER` if `out`, `frame`, `caps`,
+ * `summary_options`, `options`, or `objects` / `planar` / `hints` with a
+ * non-zero length is NULL; `REFL_STATUS_INSUFFICIENT_SIZE` if
+ * `planar_len < objects_len`; `REFL_STATUS_INVALID_ARGUMENT` for
+ * `hints_len` neither 0 nor `objects_len`, summary options out of range,
+ * a zero size, a misaligned pointer, or `planar` overlapping an input.
+ * Nothing is written on error.
+ *
+ * # Safety
+ * `out` NULL or writable; `planar` NULL or writable for `planar_len`
+ * bools; the inputs NULL or readable for their lengths.
+ */
+refl_status refl_plan_passes(struct refl_plan *out,
+                             bool *planar,
+                             size_t planar_len,
+                             const struct refl_summary_frame *frame,
+                             const struct refl_summary_object *objects,
+                             size_t objects_len,
+                             const struct refl_plan_object_hints *hints,
+                             size_t hints_len,
+                             const struct refl_plan_host_caps *caps,
+                             const struct refl_summary_options *summary_options,
+                             const struct refl_plan_options *options,
+                             uint32_t width,
+                             uint32_t height);
 #endif
 
 #if defined(REFL_FEATURE_TCRR)

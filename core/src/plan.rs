@@ -44,8 +44,9 @@ pub struct HostCaps {
 }
 
 /// What the host states about one object (indexed as the summary's
-/// objects).
+/// objects). `repr(C)`: the C ABI's `refl_object_hints` is this struct.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash)]
+#[repr(C)]
 pub struct ObjectHints {
     /// A planar mirror (the host knows its plane).
     pub planar_mirror: bool,

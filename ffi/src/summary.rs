@@ -6,15 +6,20 @@
 
 use crate::gbuffer::{gbuffer, gbuffer_ranges, refl_gbuffer};
 use crate::image::{refl_image_u32, refl_row_range};
-use crate::ptr::{byte_len, check_pointer, disjoint, range, read, slice_mut_or_empty, Out};
+use crate::ptr::{
+    byte_len, check_pointer, disjoint, range, read, slice_mut_or_empty, slice_or_empty, Out,
+};
 use crate::status::{fail, guard, refl_status};
+use refl_core::plan::{
+    try_plan_passes, HostCaps, ObjectHints, Pass, PassPlan, PlanOptions, SkipReason, PASS_COUNT,
+};
 use refl_core::summary::{
     try_summarize_rows, FrameSummary, ObjectSummary, SummaryOptions, NO_OBJECT, TILE,
 };
 use refl_core::Error;
 
 /// Side of a classification tile in pixels: bands of
-/// `refl_summarize_rows` start on a multiple of it.
+/// `refl_summary_rows` start on a multiple of it.
 pub const REFL_SUMMARY_TILE: u32 = 8;
 
 /// The object id of a pixel that belongs to no object.
@@ -73,7 +78,7 @@ impl From<SummaryOptions> for refl_summary_options {
 /// first band). Roughness classes are indexed 0 mirror, 1 glossy, 2 rough.
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
-pub struct refl_frame_summary {
+pub struct refl_summary_frame {
     /// Pixels summarized.
     pub pixels: u64,
     /// Of them, pixels with a surface (depth in front of the far plane, a
@@ -94,10 +99,10 @@ pub struct refl_frame_summary {
 }
 
 /// What one object's reflective pixels add up to (zero-initialize before
-/// the first band). The sums feed `refl_object_summary_plane`.
+/// the first band). The sums feed `refl_summary_object_plane`.
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
-pub struct refl_object_summary {
+pub struct refl_summary_object {
     /// Reflective pixels.
     pub pixels: u64,
     /// Of them, per roughness class (0 mirror, 1 glossy, 2 rough).
@@ -124,25 +129,33 @@ pub struct refl_object_summary {
 // summarized in place, without a copy).
 const _: () = {
     use core::mem::{align_of, offset_of, size_of};
-    assert!(size_of::<refl_frame_summary>() == size_of::<FrameSummary>());
-    assert!(align_of::<refl_frame_summary>() == align_of::<FrameSummary>());
-    assert!(offset_of!(refl_frame_summary, tiles) == offset_of!(FrameSummary, tiles));
-    assert!(offset_of!(refl_frame_summary, unlisted) == offset_of!(FrameSummary, unlisted));
-    assert!(size_of::<refl_object_summary>() == size_of::<ObjectSummary>());
-    assert!(align_of::<refl_object_summary>() == align_of::<ObjectSummary>());
-    assert!(offset_of!(refl_object_summary, rect) == offset_of!(ObjectSummary, rect));
-    assert!(offset_of!(refl_object_summary, origin) == offset_of!(ObjectSummary, origin));
-    assert!(offset_of!(refl_object_summary, normal_sum) == offset_of!(ObjectSummary, normal_sum));
-    assert!(offset_of!(refl_object_summary, point_sum) == offset_of!(ObjectSummary, point_sum));
+    assert!(size_of::<refl_summary_frame>() == size_of::<FrameSummary>());
+    assert!(align_of::<refl_summary_frame>() == align_of::<FrameSummary>());
+    assert!(offset_of!(refl_summary_frame, tiles) == offset_of!(FrameSummary, tiles));
+    assert!(offset_of!(refl_summary_frame, unlisted) == offset_of!(FrameSummary, unlisted));
+    assert!(size_of::<refl_summary_object>() == size_of::<ObjectSummary>());
+    assert!(align_of::<refl_summary_object>() == align_of::<ObjectSummary>());
+    assert!(offset_of!(refl_summary_object, rect) == offset_of!(ObjectSummary, rect));
+    assert!(offset_of!(refl_summary_object, origin) == offset_of!(ObjectSummary, origin));
+    assert!(offset_of!(refl_summary_object, normal_sum) == offset_of!(ObjectSummary, normal_sum));
+    assert!(offset_of!(refl_summary_object, point_sum) == offset_of!(ObjectSummary, point_sum));
     assert!(
-        offset_of!(refl_object_summary, point_products)
+        offset_of!(refl_summary_object, point_products)
             == offset_of!(ObjectSummary, point_products)
     );
-    assert!(offset_of!(refl_object_summary, depth_sum) == offset_of!(ObjectSummary, depth_sum));
+    assert!(offset_of!(refl_summary_object, depth_sum) == offset_of!(ObjectSummary, depth_sum));
+    assert!(size_of::<refl_plan_object_hints>() == size_of::<ObjectHints>());
+    assert!(align_of::<refl_plan_object_hints>() == align_of::<ObjectHints>());
+    assert!(
+        offset_of!(refl_plan_object_hints, planar_mirror) == offset_of!(ObjectHints, planar_mirror)
+    );
+    assert!(
+        offset_of!(refl_plan_object_hints, layered_map) == offset_of!(ObjectHints, layered_map)
+    );
 };
 
-impl From<refl_frame_summary> for FrameSummary {
-    fn from(f: refl_frame_summary) -> Self {
+impl From<refl_summary_frame> for FrameSummary {
+    fn from(f: refl_summary_frame) -> Self {
         Self {
             pixels: f.pixels,
             surfaces: f.surfaces,
@@ -155,7 +168,7 @@ impl From<refl_frame_summary> for FrameSummary {
     }
 }
 
-impl From<FrameSummary> for refl_frame_summary {
+impl From<FrameSummary> for refl_summary_frame {
     fn from(f: FrameSummary) -> Self {
         Self {
             pixels: f.pixels,
@@ -169,8 +182,8 @@ impl From<FrameSummary> for refl_frame_summary {
     }
 }
 
-impl From<refl_object_summary> for ObjectSummary {
-    fn from(o: refl_object_summary) -> Self {
+impl From<refl_summary_object> for ObjectSummary {
+    fn from(o: refl_summary_object) -> Self {
         Self {
             pixels: o.pixels,
             classes: o.classes,
@@ -185,7 +198,7 @@ impl From<refl_object_summary> for ObjectSummary {
     }
 }
 
-impl From<ObjectSummary> for refl_object_summary {
+impl From<ObjectSummary> for refl_summary_object {
     fn from(o: ObjectSummary) -> Self {
         Self {
             pixels: o.pixels,
@@ -202,10 +215,10 @@ impl From<ObjectSummary> for refl_object_summary {
 }
 
 /// The best plane through an object's reflective points
-/// (`refl_object_summary_plane`).
+/// (`refl_summary_object_plane`).
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
-pub struct refl_plane_fit {
+pub struct refl_summary_plane_fit {
     /// Unit mean normal.
     pub normal: [f64; 3],
     /// The mean point.
@@ -217,10 +230,10 @@ pub struct refl_plane_fit {
     pub rms_distance: f64,
     /// Mean linear depth of the points.
     pub mean_depth: f64,
-    /// 1 if the object passes the plane test of the options (at least
+    /// Whether the object passes the plane test of the options (at least
     /// three pixels, `coherence >= normal_cos`, `rms_distance <=
-    /// plane_tolerance * mean_depth`), else 0.
-    pub planar: u32,
+    /// plane_tolerance * mean_depth`).
+    pub planar: bool,
 }
 
 /// The defaults: mirror up to roughness 0.1, glossy up to 1.0, a border of
@@ -234,8 +247,8 @@ pub extern "C" fn refl_summary_options_default() -> refl_summary_options {
 /// Summarizes the rows `rows` of `gbuffer` into `*frame` and
 /// `objects[0 .. objects_len]`, adding to what they hold (zero them before
 /// a frame's first band; bands may run on several threads into separate
-/// summaries merged with `refl_frame_summary_merge` and
-/// `refl_object_summary_merge`). `ids` (`data` NULL: none, every pixel is
+/// summaries merged with `refl_summary_merge_frame` and
+/// `refl_summary_merge_object`). `ids` (`data` NULL: none, every pixel is
 /// object 0) gives each pixel's object, an index into `objects` or
 /// `REFL_SUMMARY_NO_OBJECT`; ids past `objects_len` are counted in
 /// `frame->unlisted`. A band starts on a multiple of `REFL_SUMMARY_TILE`
@@ -256,16 +269,16 @@ pub extern "C" fn refl_summary_options_default() -> refl_summary_options {
 /// readable, the G-buffer's images and `ids.data` readable for their
 /// lengths and not written during the call.
 #[no_mangle]
-pub unsafe extern "C" fn refl_summarize_rows(
-    frame: *mut refl_frame_summary,
-    objects: *mut refl_object_summary,
+pub unsafe extern "C" fn refl_summary_rows(
+    frame: *mut refl_summary_frame,
+    objects: *mut refl_summary_object,
     objects_len: usize,
     gbuffer: *const refl_gbuffer,
     ids: refl_image_u32,
     options: *const refl_summary_options,
     rows: refl_row_range,
 ) -> refl_status {
-    guard("refl_summarize_rows", || {
+    guard("refl_summary_rows", || {
         let frame_out = Out::new(frame, "frame")?;
         if objects_len > 0 {
             check_pointer(objects.cast_const(), "objects")?;
@@ -290,7 +303,7 @@ pub unsafe extern "C" fn refl_summarize_rows(
                 format_args!("`objects_len` is 0: the summary needs object 0 at least"),
             ));
         }
-        let obj_bytes = byte_len::<refl_object_summary>(objects as usize, objects_len)?;
+        let obj_bytes = byte_len::<refl_summary_object>(objects as usize, objects_len)?;
         let mut ins: [(usize, usize); 9] = [(0, 0); 9];
         ins[..6].copy_from_slice(&gbuffer_ranges(&g));
         ins[6] = range(ids.data, if ids.data.is_null() { 0 } else { ids.len });
@@ -298,13 +311,13 @@ pub unsafe extern "C" fn refl_summarize_rows(
         ins[8] = range(options, 1);
         disjoint(
             &[
-                (frame as usize, core::mem::size_of::<refl_frame_summary>()),
+                (frame as usize, core::mem::size_of::<refl_summary_frame>()),
                 (objects as usize, obj_bytes),
             ],
             &ins,
         )?;
         // SAFETY: caller contract (readable and writable, disjoint from the
-        // inputs: checked above); refl_object_summary is ObjectSummary field
+        // inputs: checked above); refl_summary_object is ObjectSummary field
         // for field (asserted above).
         let objs =
             unsafe { slice_mut_or_empty(objects.cast::<ObjectSummary>(), objects_len, "objects") }?;
@@ -331,11 +344,11 @@ pub unsafe extern "C" fn refl_summarize_rows(
 /// # Safety
 /// `dst` NULL or readable and writable, `src` NULL or readable.
 #[no_mangle]
-pub unsafe extern "C" fn refl_frame_summary_merge(
-    dst: *mut refl_frame_summary,
-    src: *const refl_frame_summary,
+pub unsafe extern "C" fn refl_summary_merge_frame(
+    dst: *mut refl_summary_frame,
+    src: *const refl_summary_frame,
 ) -> refl_status {
-    guard("refl_frame_summary_merge", || {
+    guard("refl_summary_merge_frame", || {
         let out = Out::new(dst, "dst")?;
         // SAFETY: caller contract.
         let (mut a, b) = unsafe { (read(dst.cast_const(), "dst")?, read(src, "src")?) };
@@ -357,11 +370,11 @@ pub unsafe extern "C" fn refl_frame_summary_merge(
 /// # Safety
 /// `dst` NULL or readable and writable, `src` NULL or readable.
 #[no_mangle]
-pub unsafe extern "C" fn refl_object_summary_merge(
-    dst: *mut refl_object_summary,
-    src: *const refl_object_summary,
+pub unsafe extern "C" fn refl_summary_merge_object(
+    dst: *mut refl_summary_object,
+    src: *const refl_summary_object,
 ) -> refl_status {
-    guard("refl_object_summary_merge", || {
+    guard("refl_summary_merge_object", || {
         let out = Out::new(dst, "dst")?;
         // SAFETY: caller contract.
         let (a, b) = unsafe { (read(dst.cast_const(), "dst")?, read(src, "src")?) };
@@ -384,12 +397,12 @@ pub unsafe extern "C" fn refl_object_summary_merge(
 /// # Safety
 /// `out` NULL or writable; `summary` and `options` NULL or readable.
 #[no_mangle]
-pub unsafe extern "C" fn refl_object_summary_plane(
-    out: *mut refl_plane_fit,
-    summary: *const refl_object_summary,
+pub unsafe extern "C" fn refl_summary_object_plane(
+    out: *mut refl_summary_plane_fit,
+    summary: *const refl_summary_object,
     options: *const refl_summary_options,
 ) -> refl_status {
-    guard("refl_object_summary_plane", || {
+    guard("refl_summary_object_plane", || {
         let out = Out::new(out, "out")?;
         // SAFETY: caller contract.
         let (s, o) = unsafe { (read(summary, "summary")?, read(options, "options")?) };
@@ -405,15 +418,324 @@ pub unsafe extern "C" fn refl_object_summary_plane(
         })?;
         // SAFETY: checked; caller contract.
         unsafe {
-            out.write(refl_plane_fit {
+            out.write(refl_summary_plane_fit {
                 normal: fit.normal.into(),
                 point: fit.point.into(),
                 coherence: fit.coherence,
                 rms_distance: fit.rms_distance,
                 mean_depth: fit.mean_depth,
-                planar: u32::from(s.is_planar(&opts)),
+                planar: s.is_planar(&opts),
             })
         };
         Ok(())
     })
+}
+
+/// The passes of a frame (`refl_plan_decision.pass`), in the order they
+/// run (`refl_core::plan::Pass`).
+#[repr(u32)]
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum refl_plan_pass {
+    /// The Hi-Z pyramid of the depth image.
+    Hiz = 0,
+    /// The planar pass (extra views of planar mirrors).
+    Planar = 1,
+    /// The screen-space mirror pass.
+    Mirror = 2,
+    /// The color pyramid of the lit image (glossy cones).
+    ColorPyramid = 3,
+    /// The visibility pyramid (glossy cones).
+    VisibilityPyramid = 4,
+    /// The glossy pass.
+    Glossy = 5,
+    /// The layered-maps pass.
+    Layered = 6,
+    /// The lists of unresolved rays for the host's tracer.
+    HostRays = 7,
+    /// Environment probe lookups for rough pixels.
+    Probe = 8,
+}
+
+/// Why a pass runs or is skipped (`refl_plan_decision.reason`,
+/// `refl_core::plan::SkipReason`).
+#[repr(u32)]
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum refl_plan_reason {
+    /// It runs.
+    Runs = 0,
+    /// Its family is not compiled in (`refl_config.h`).
+    NotBuilt = 1,
+    /// No reflective pixel of its class is left for it.
+    NoPixels = 2,
+    /// Every mirror pixel is on the planar pass.
+    AllMirrorsPlanar = 3,
+    /// Nothing that would read it runs (a pyramid without its pass).
+    NoReader = 4,
+    /// The host cannot do what it needs (extra views, a tracer, a probe).
+    NoHostSupport = 5,
+    /// No object has layered maps.
+    NoMaps = 6,
+    /// The pass's own setting leaves it out.
+    NotUsed = 7,
+}
+
+/// Number of passes in `refl_plan.passes`.
+pub const REFL_PLAN_PASS_COUNT: usize = 9;
+
+const _: () = assert!(REFL_PLAN_PASS_COUNT == PASS_COUNT);
+
+/// What the host can do (`refl_core::plan::HostCaps`).
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct refl_plan_host_caps {
+    /// It can rasterize extra views (the planar pass's mirrored camera).
+    pub planar_views: bool,
+    /// It has a ray tracer for the rays the screen cannot answer.
+    pub ray_tracer: bool,
+    /// It has a prefiltered environment probe for rough reflections.
+    pub probe: bool,
+}
+
+/// What the host states about one object (`refl_core::plan::ObjectHints`).
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct refl_plan_object_hints {
+    /// A planar mirror (the host knows its plane).
+    pub planar_mirror: bool,
+    /// The object has layered depth maps the layered pass can trace.
+    pub layered_map: bool,
+}
+
+/// How the passes that run are set up (`refl_core::plan::PlanOptions`);
+/// `refl_plan_options_default` gives the defaults.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct refl_plan_options {
+    /// The mirror pass traces with Hi-Z (else it steps: no pyramid).
+    /// Default true.
+    pub mirror_hiz: bool,
+    /// The glossy options read a visibility pyramid. Default true.
+    pub glossy_visibility: bool,
+}
+
+/// One pass's decision.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct refl_plan_decision {
+    /// The pass (`refl_plan_pass`).
+    pub pass: u32,
+    /// Why it runs or not (`refl_plan_reason`; `REFL_PLAN_REASON_RUNS`
+    /// when it runs).
+    pub reason: u32,
+    /// Bytes of the buffer it builds (pyramids; 0 for the others and when
+    /// skipped).
+    pub bytes: usize,
+}
+
+/// The decisions of a frame.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct refl_plan {
+    /// One per pass, indexed by `refl_plan_pass`.
+    pub passes: [refl_plan_decision; REFL_PLAN_PASS_COUNT],
+    /// Objects sent to the planar pass.
+    pub planar_objects: u32,
+    /// Mirror-class pixels left to the mirror pass.
+    pub mirror_pixels: u64,
+}
+
+impl From<Pass> for refl_plan_pass {
+    fn from(p: Pass) -> Self {
+        match p {
+            Pass::HiZ => Self::Hiz,
+            Pass::Planar => Self::Planar,
+            Pass::Mirror => Self::Mirror,
+            Pass::ColorPyramid => Self::ColorPyramid,
+            Pass::VisibilityPyramid => Self::VisibilityPyramid,
+            Pass::Glossy => Self::Glossy,
+            Pass::Layered => Self::Layered,
+            Pass::HostRays => Self::HostRays,
+            Pass::Probe => Self::Probe,
+        }
+    }
+}
+
+impl From<SkipReason> for refl_plan_reason {
+    fn from(r: SkipReason) -> Self {
+        match r {
+            SkipReason::Runs => Self::Runs,
+            SkipReason::NotBuilt => Self::NotBuilt,
+            SkipReason::NoPixels => Self::NoPixels,
+            SkipReason::AllMirrorsPlanar => Self::AllMirrorsPlanar,
+            SkipReason::NoReader => Self::NoReader,
+            SkipReason::NoHostSupport => Self::NoHostSupport,
+            SkipReason::NoMaps => Self::NoMaps,
+            SkipReason::NotUsed => Self::NotUsed,
+        }
+    }
+}
+
+impl From<PassPlan> for refl_plan {
+    fn from(p: PassPlan) -> Self {
+        Self {
+            passes: p.passes.map(|d| refl_plan_decision {
+                pass: refl_plan_pass::from(d.pass) as u32,
+                reason: refl_plan_reason::from(d.reason) as u32,
+                bytes: d.bytes,
+            }),
+            planar_objects: p.planar_objects,
+            mirror_pixels: p.mirror_pixels,
+        }
+    }
+}
+
+/// The defaults: Hi-Z for the mirror pass, a visibility pyramid for the
+/// glossy pass.
+#[no_mangle]
+#[cfg(any(feature = "depth-image", feature = "hiz", feature = "mirror"))]
+pub extern "C" fn refl_plan_options_default() -> refl_plan_options {
+    let o = PlanOptions::default();
+    refl_plan_options {
+        mirror_hiz: o.mirror_hiz,
+        glossy_visibility: o.glossy_visibility,
+    }
+}
+
+/// Decides every pass of a `width x height` frame into `*out` from its
+/// summary (`*frame`, `objects[0 .. objects_len]`: `refl_summary_rows`
+/// over the whole image), the host's `hints` per object (`hints_len` equal
+/// to `objects_len`, or 0 with `hints` NULL: nothing stated), `*caps` and
+/// the options, and writes into `planar[k]` whether object `k` goes to the
+/// planar pass (`planar_len >= objects_len`). The rules (`refl_core::plan`):
+/// planar mirrors (stated, or passing the plane test with only mirror
+/// pixels) go to the planar pass when the host renders extra views; the
+/// mirror pass runs for the mirror pixels left; the glossy pass and its
+/// pyramids for glossy pixels; Hi-Z when the mirror pass uses it or the
+/// glossy pass runs; the layered pass when an object has maps and a
+/// screen-space pass runs; host rays with a tracer; the probe for rough
+/// pixels. A skip says why, and `bytes` are those of the pyramids built.
+///
+/// Returns `REFL_STATUS_NULL_POINTER` if `out`, `frame`, `caps`,
+/// `summary_options`, `options`, or `objects` / `planar` / `hints` with a
+/// non-zero length is NULL; `REFL_STATUS_INSUFFICIENT_SIZE` if
+/// `planar_len < objects_len`; `REFL_STATUS_INVALID_ARGUMENT` for
+/// `hints_len` neither 0 nor `objects_len`, summary options out of range,
+/// a zero size, a misaligned pointer, or `planar` overlapping an input.
+/// Nothing is written on error.
+///
+/// # Safety
+/// `out` NULL or writable; `planar` NULL or writable for `planar_len`
+/// bools; the inputs NULL or readable for their lengths.
+#[no_mangle]
+#[allow(clippy::too_many_arguments)]
+pub unsafe extern "C" fn refl_plan_passes(
+    out: *mut refl_plan,
+    planar: *mut bool,
+    planar_len: usize,
+    frame: *const refl_summary_frame,
+    objects: *const refl_summary_object,
+    objects_len: usize,
+    hints: *const refl_plan_object_hints,
+    hints_len: usize,
+    caps: *const refl_plan_host_caps,
+    summary_options: *const refl_summary_options,
+    options: *const refl_plan_options,
+    width: u32,
+    height: u32,
+) -> refl_status {
+    guard("refl_plan_passes", || {
+        let out_w = Out::new(out, "out")?;
+        if planar_len > 0 {
+            check_pointer(planar.cast_const(), "planar")?;
+        }
+        if objects_len > 0 {
+            check_pointer(objects, "objects")?;
+        }
+        if hints_len > 0 {
+            check_pointer(hints, "hints")?;
+        }
+        // SAFETY: caller contract.
+        let (f, c, so, o) = unsafe {
+            (
+                read(frame, "frame")?,
+                read(caps, "caps")?,
+                read(summary_options, "summary_options")?,
+                read(options, "options")?,
+            )
+        };
+        let planar_bytes = byte_len::<bool>(planar as usize, planar_len)?;
+        let objects_bytes = byte_len::<refl_summary_object>(objects as usize, objects_len)?;
+        let hints_bytes = byte_len::<refl_plan_object_hints>(hints as usize, hints_len)?;
+        disjoint(
+            &[(planar as usize, planar_bytes)],
+            &[
+                (objects as usize, objects_bytes),
+                (hints as usize, hints_bytes),
+                range(frame, 1),
+                range(caps, 1),
+                range(summary_options, 1),
+                range(options, 1),
+                range(out.cast_const(), 1),
+            ],
+        )?;
+        // SAFETY: checked pointers, readable for their lengths (contract);
+        // refl_summary_object is ObjectSummary field for field (asserted),
+        // refl_plan_object_hints is two bools as ObjectHints is (converted).
+        let objs =
+            unsafe { slice_or_empty(objects.cast::<ObjectSummary>(), objects_len, "objects") }?;
+        // SAFETY: as above.
+        let hs = unsafe { slice_or_empty(hints, hints_len, "hints") }?;
+        // SAFETY: checked, writable for planar_len (contract), disjoint.
+        let pl = unsafe { slice_mut_or_empty(planar, planar_len, "planar") }?;
+        let caps = HostCaps {
+            planar_views: c.planar_views,
+            ray_tracer: c.ray_tracer,
+            probe: c.probe,
+        };
+        let po = PlanOptions {
+            mirror_hiz: o.mirror_hiz,
+            glossy_visibility: o.glossy_visibility,
+        };
+        let plan = plan_with_hints(pl, &f.into(), objs, hs, &caps, &so.into(), &po, (width, height))
+            .map_err(|e| {
+                fail(
+                    e,
+                    format_args!(
+                        "`hints_len` must be 0 or `objects_len`, `planar_len` at least `objects_len`, the size and `summary_options` valid"
+                    ),
+                )
+            })?;
+        // SAFETY: checked; caller contract.
+        unsafe { out_w.write(plan.into()) };
+        Ok(())
+    })
+}
+
+/// `try_plan_passes` with the C hints (layout-identical to
+/// `ObjectHints`: two bools, asserted).
+#[allow(clippy::too_many_arguments)]
+fn plan_with_hints(
+    planar: &mut [bool],
+    frame: &FrameSummary,
+    objects: &[ObjectSummary],
+    hints: &[refl_plan_object_hints],
+    caps: &HostCaps,
+    summary_options: &SummaryOptions,
+    options: &PlanOptions,
+    size: (u32, u32),
+) -> Result<PassPlan, Error> {
+    // SAFETY: refl_plan_object_hints and ObjectHints are both two bools in the
+    // same order (asserted below), so the slice reinterprets in place.
+    let hints: &[ObjectHints] =
+        unsafe { core::slice::from_raw_parts(hints.as_ptr().cast(), hints.len()) };
+    try_plan_passes(
+        planar,
+        frame,
+        objects,
+        hints,
+        caps,
+        summary_options,
+        options,
+        size,
+    )
 }

@@ -291,6 +291,7 @@ fn no_export_allocates() {
     cluster_pass(&mut cov);
     tcrr(&mut cov);
     epipolar(&mut cov);
+    summary(&mut cov);
     check_coverage(&cov, &header_functions(&header()));
 }
 
@@ -938,6 +939,121 @@ fn ssr(cov: &mut Coverage) {
             scratch.as_ptr(),
             len,
             rows(3, 2)
+        )
+    );
+}
+
+fn summary(cov: &mut Coverage) {
+    let s = scene();
+    let g = refl_gbuffer {
+        depth: s.depth_image(),
+        normals: vec3_img(&s.normals),
+        normal_space: refl_normal_space::World as u32,
+        mask: refl_image_u8 {
+            data: core::ptr::null(),
+            len: 0,
+            width: 0,
+            height: 0,
+            stride: 0,
+        },
+        roughness: no_f32(),
+        color: vec3_img(&s.color),
+        back_depth: no_f32(),
+    };
+    let no_ids = refl_image_u32 {
+        data: core::ptr::null(),
+        len: 0,
+        width: 0,
+        height: 0,
+        stride: 0,
+    };
+    let o = value!(cov, refl_summary_options_default());
+    let mut frame = refl_summary_frame::default();
+    let mut objects = [refl_summary_object::default(); 2];
+    ok!(
+        cov,
+        refl_summary_rows(
+            &mut frame,
+            objects.as_mut_ptr(),
+            2,
+            &g,
+            no_ids,
+            &o,
+            rows(0, H)
+        )
+    );
+    assert!(frame.reflective > 0);
+    err!(
+        cov,
+        refl_summary_rows(
+            &mut frame,
+            objects.as_mut_ptr(),
+            2,
+            &g,
+            no_ids,
+            &o,
+            rows(3, H)
+        )
+    );
+    let (f2, o2) = (frame, objects[0]);
+    ok!(cov, refl_summary_merge_frame(&mut frame, &f2));
+    err!(cov, refl_summary_merge_frame(core::ptr::null_mut(), &f2));
+    ok!(cov, refl_summary_merge_object(&mut objects[0], &o2));
+    err!(
+        cov,
+        refl_summary_merge_object(&mut objects[0], core::ptr::null())
+    );
+    let mut fit = uninit::<refl_summary_plane_fit>();
+    ok!(
+        cov,
+        refl_summary_object_plane(fit.as_mut_ptr(), &objects[0], &o)
+    );
+    err!(
+        cov,
+        refl_summary_object_plane(fit.as_mut_ptr(), &objects[1], &o)
+    );
+    let po = value!(cov, refl_plan_options_default());
+    let caps = refl_plan_host_caps {
+        planar_views: true,
+        ray_tracer: true,
+        probe: true,
+    };
+    let mut plan = uninit::<refl_plan>();
+    let mut planar = [false; 2];
+    ok!(
+        cov,
+        refl_plan_passes(
+            plan.as_mut_ptr(),
+            planar.as_mut_ptr(),
+            2,
+            &frame,
+            objects.as_ptr(),
+            2,
+            core::ptr::null(),
+            0,
+            &caps,
+            &o,
+            &po,
+            W,
+            H
+        )
+    );
+    err!(
+        cov,
+        refl_plan_passes(
+            plan.as_mut_ptr(),
+            planar.as_mut_ptr(),
+            1,
+            &frame,
+            objects.as_ptr(),
+            2,
+            core::ptr::null(),
+            0,
+            &caps,
+            &o,
+            &po,
+            W,
+            H
         )
     );
 }

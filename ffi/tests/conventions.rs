@@ -10,9 +10,9 @@ use std::collections::{BTreeMap, BTreeSet};
 
 /// The function and type modules of the C ABI (docs/api.md, "Modules"),
 /// with the pass modules of issue 13.
-const MODULES: [&str; 15] = [
+const MODULES: [&str; 17] = [
     "camera", "plane", "mirror", "image", "trace", "step", "hiz", "ssr", "cone", "layered",
-    "cluster", "tcrr", "epipolar", "glossy", "planar",
+    "cluster", "tcrr", "epipolar", "glossy", "planar", "summary", "plan",
 ];
 
 /// Library-level functions without a module.

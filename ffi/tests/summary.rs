@@ -1,5 +1,5 @@
-//! refl_summary_* / refl_summarize_rows / refl_*_summary_merge /
-//! refl_object_summary_plane: the C calls equal refl-core's
+//! refl_summary_* / refl_summary_rows / refl_*_summary_merge /
+//! refl_summary_object_plane: the C calls equal refl-core's
 //! `summary` functions bit for bit (every convention, whole image and tile
 //! bands merged), errors return their documented status and leave every
 //! output untouched, and no export allocates.
@@ -46,16 +46,16 @@ fn c_summary(
     o: &refl_summary_options,
 ) -> (
     refl_status,
-    refl_frame_summary,
-    [refl_object_summary; 2],
+    refl_summary_frame,
+    [refl_summary_object; 2],
     u64,
 ) {
     let g = f.gbuffer_c(false);
-    let mut frame = refl_frame_summary::default();
-    let mut objects = [refl_object_summary::default(); 2];
+    let mut frame = refl_summary_frame::default();
+    let mut objects = [refl_summary_object::default(); 2];
     let (s, allocs) = counted(|| {
         // SAFETY: valid pointers and images.
-        unsafe { refl_summarize_rows(&mut frame, objects.as_mut_ptr(), 2, &g, ids, o, rows) }
+        unsafe { refl_summary_rows(&mut frame, objects.as_mut_ptr(), 2, &g, ids, o, rows) }
     });
     (s, frame, objects, allocs)
 }
@@ -97,16 +97,16 @@ fn c_summary_equals_the_rust_summary_bit_for_bit_without_allocating() {
         }
         assert!(frame.reflective > 1000 && objects[0].pixels > 500 && objects[1].pixels > 100);
         // The floor is a plane, the sphere is not.
-        let mut fit = refl_plane_fit::default();
+        let mut fit = refl_summary_plane_fit::default();
         // SAFETY: valid pointers.
-        let s = unsafe { refl_object_summary_plane(&mut fit, &objects[0], &o) };
+        let s = unsafe { refl_summary_object_plane(&mut fit, &objects[0], &o) };
         assert_eq!(s, refl_status::Ok);
-        assert_eq!(fit.planar, 1, "{fit:?}");
+        assert!(fit.planar, "{fit:?}");
         assert!((fit.normal[1] - 1.0).abs() < 1e-9, "{fit:?}");
         // SAFETY: valid pointers.
-        let s = unsafe { refl_object_summary_plane(&mut fit, &objects[1], &o) };
+        let s = unsafe { refl_summary_object_plane(&mut fit, &objects[1], &o) };
         assert_eq!(s, refl_status::Ok);
-        assert_eq!(fit.planar, 0, "{fit:?}");
+        assert!(!fit.planar, "{fit:?}");
         // Without ids every pixel is object 0.
         let (s, all, objs, _) = c_summary(&f, no_ids(), refl_row_range { begin: 0, end: H }, &o);
         assert_eq!(s, refl_status::Ok);
@@ -121,8 +121,8 @@ fn tile_bands_merged_equal_one_call() {
     let f = render(DepthConvention::ReversedZ);
     let o = refl_summary_options_default();
     let (_, whole, whole_o, _) = c_summary(&f, ids_c(&f), refl_row_range { begin: 0, end: H }, &o);
-    let mut frame = refl_frame_summary::default();
-    let mut objects = [refl_object_summary::default(); 2];
+    let mut frame = refl_summary_frame::default();
+    let mut objects = [refl_summary_object::default(); 2];
     let mut y = 0;
     while y < H {
         let rows = refl_row_range {
@@ -133,10 +133,10 @@ fn tile_bands_merged_equal_one_call() {
         assert_eq!(s, refl_status::Ok, "{}", last_error());
         // SAFETY: valid pointers.
         unsafe {
-            assert_eq!(refl_frame_summary_merge(&mut frame, &bf), refl_status::Ok);
+            assert_eq!(refl_summary_merge_frame(&mut frame, &bf), refl_status::Ok);
             for k in 0..2 {
                 assert_eq!(
-                    refl_object_summary_merge(&mut objects[k], &bo[k]),
+                    refl_summary_merge_object(&mut objects[k], &bo[k]),
                     refl_status::Ok
                 );
             }
@@ -150,11 +150,14 @@ fn tile_bands_merged_equal_one_call() {
             (a.pixels, a.classes, a.border_pixels, a.rect),
             (b.pixels, b.classes, b.border_pixels, b.rect)
         );
-        let (mut fa, mut fb) = (refl_plane_fit::default(), refl_plane_fit::default());
+        let (mut fa, mut fb) = (
+            refl_summary_plane_fit::default(),
+            refl_summary_plane_fit::default(),
+        );
         // SAFETY: valid pointers.
         unsafe {
-            refl_object_summary_plane(&mut fa, &a, &o);
-            refl_object_summary_plane(&mut fb, &b, &o);
+            refl_summary_object_plane(&mut fa, &a, &o);
+            refl_summary_object_plane(&mut fb, &b, &o);
         }
         assert_eq!(fa.planar, fb.planar);
         assert!((fa.rms_distance - fb.rms_distance).abs() < 1e-9);
@@ -171,11 +174,11 @@ fn errors_name_their_cause_and_leave_every_output_untouched() {
         DegenerateGeometry as Degenerate, InsufficientSize as Short, InvalidArgument as Bad,
         NullPointer as Null,
     };
-    let sentinel_f = refl_frame_summary {
+    let sentinel_f = refl_summary_frame {
         pixels: 77,
         ..Default::default()
     };
-    let sentinel_o = refl_object_summary {
+    let sentinel_o = refl_summary_object {
         pixels: 99,
         depth_sum: -1.0,
         ..Default::default()
@@ -196,14 +199,14 @@ fn errors_name_their_cause_and_leave_every_output_untouched() {
         };
         let (s, allocs) = counted(|| {
             // SAFETY: valid or NULL pointers.
-            unsafe { refl_summarize_rows(&mut frame, p, k, gb, ids, o, rows) }
+            unsafe { refl_summary_rows(&mut frame, p, k, gb, ids, o, rows) }
         });
         assert_eq!(s, want, "{}", last_error());
         assert_eq!(allocs, 0);
         assert_eq!(frame, sentinel_f);
         assert!(objects.iter().all(|x| *x == sentinel_o));
         assert!(
-            last_error().starts_with("refl_summarize_rows: "),
+            last_error().starts_with("refl_summary_rows: "),
             "{}",
             last_error()
         );
@@ -269,7 +272,7 @@ fn errors_name_their_cause_and_leave_every_output_untouched() {
     };
     // SAFETY: the objects alias the ids on purpose (refused before use).
     let s = unsafe {
-        refl_summarize_rows(
+        refl_summary_rows(
             &mut frame,
             ids_copy.as_mut_ptr().cast(),
             1,
@@ -283,27 +286,158 @@ fn errors_name_their_cause_and_leave_every_output_untouched() {
     assert_eq!(frame, sentinel_f);
     assert_eq!(ids_copy, f.ids);
     // A plane of nothing.
-    let mut fit = refl_plane_fit {
-        planar: 7,
+    let mut fit = refl_summary_plane_fit {
+        planar: true,
         ..Default::default()
     };
-    let empty = refl_object_summary::default();
+    let empty = refl_summary_object::default();
     // SAFETY: valid pointers.
-    let s = unsafe { refl_object_summary_plane(&mut fit, &empty, &d) };
+    let s = unsafe { refl_summary_object_plane(&mut fit, &empty, &d) };
     assert_eq!(s, Degenerate);
-    assert_eq!(fit.planar, 7);
+    assert!(fit.planar);
     // SAFETY: NULL pointers.
     unsafe {
         assert_eq!(
-            refl_object_summary_plane(core::ptr::null_mut(), &empty, &d),
+            refl_summary_object_plane(core::ptr::null_mut(), &empty, &d),
             Null
         );
         assert_eq!(
-            refl_frame_summary_merge(core::ptr::null_mut(), &sentinel_f),
+            refl_summary_merge_frame(core::ptr::null_mut(), &sentinel_f),
             Null
         );
         let mut dst = sentinel_o;
-        assert_eq!(refl_object_summary_merge(&mut dst, core::ptr::null()), Null);
+        assert_eq!(refl_summary_merge_object(&mut dst, core::ptr::null()), Null);
         assert_eq!(dst, sentinel_o);
+    }
+}
+
+/// `refl_plan_passes` equals `refl_core::plan::try_plan_passes` on the
+/// summary of the shared scene, and refuses bad input without writing.
+#[test]
+fn plan_passes_equals_the_rust_plan() {
+    use refl_core::plan::{try_plan_passes, HostCaps, ObjectHints, PlanOptions};
+    let f = render(DepthConvention::ZeroToOne);
+    let o = refl_summary_options_default();
+    let (s, frame, objects, _) = c_summary(&f, ids_c(&f), refl_row_range { begin: 0, end: H }, &o);
+    assert_eq!(s, refl_status::Ok);
+    let po = refl_plan_options_default();
+    assert!(po.mirror_hiz && po.glossy_visibility);
+    for (planar_views, hint) in [(true, false), (false, false), (true, true)] {
+        let caps = refl_plan_host_caps {
+            planar_views,
+            ray_tracer: true,
+            probe: false,
+        };
+        let hints = [
+            refl_plan_object_hints::default(),
+            refl_plan_object_hints {
+                planar_mirror: hint,
+                layered_map: true,
+            },
+        ];
+        let mut out = refl_plan::default();
+        let mut planar = [false; 2];
+        let (st, allocs) = counted(|| {
+            // SAFETY: valid pointers and lengths.
+            unsafe {
+                refl_plan_passes(
+                    &mut out,
+                    planar.as_mut_ptr(),
+                    2,
+                    &frame,
+                    objects.as_ptr(),
+                    2,
+                    hints.as_ptr(),
+                    2,
+                    &caps,
+                    &o,
+                    &po,
+                    W,
+                    H,
+                )
+            }
+        });
+        assert_eq!(st, refl_status::Ok, "{}", last_error());
+        assert_eq!(allocs, 0);
+        let rh = [
+            ObjectHints::default(),
+            ObjectHints {
+                planar_mirror: hint,
+                layered_map: true,
+            },
+        ];
+        let ro = [
+            ObjectSummary::from(objects[0]),
+            ObjectSummary::from(objects[1]),
+        ];
+        let mut rp = [false; 2];
+        let want = try_plan_passes(
+            &mut rp,
+            &frame.into(),
+            &ro,
+            &rh,
+            &HostCaps {
+                planar_views,
+                ray_tracer: true,
+                probe: false,
+            },
+            &o.into(),
+            &PlanOptions::default(),
+            (W, H),
+        )
+        .unwrap();
+        assert_eq!(planar, rp);
+        assert_eq!(out, refl_plan::from(want));
+        // The floor is planar: with extra views it goes to the planar pass.
+        assert_eq!(planar[0], planar_views);
+        for (k, d) in out.passes.iter().enumerate() {
+            assert_eq!(d.pass as usize, k);
+            assert!(d.reason <= refl_plan_reason::NotUsed as u32);
+            assert!(d.reason == refl_plan_reason::Runs as u32 || d.bytes == 0);
+        }
+    }
+    // Refusals: hints of another length, planar too short, NULL frame.
+    let caps = refl_plan_host_caps::default();
+    let sentinel = refl_plan {
+        planar_objects: 77,
+        ..Default::default()
+    };
+    let one_hint = [refl_plan_object_hints::default()];
+    for (want, planar_len, hints_len, null_frame) in [
+        (refl_status::InvalidArgument, 2usize, 1usize, false),
+        (refl_status::InsufficientSize, 1, 0, false),
+        (refl_status::NullPointer, 2, 0, true),
+    ] {
+        let mut out = sentinel;
+        let mut planar = [true, true];
+        // SAFETY: valid pointers for the stated lengths, or NULL.
+        let st = unsafe {
+            refl_plan_passes(
+                &mut out,
+                planar.as_mut_ptr(),
+                planar_len,
+                if null_frame {
+                    core::ptr::null()
+                } else {
+                    &frame
+                },
+                objects.as_ptr(),
+                2,
+                if hints_len > 0 {
+                    one_hint.as_ptr()
+                } else {
+                    core::ptr::null()
+                },
+                hints_len,
+                &caps,
+                &o,
+                &po,
+                W,
+                H,
+            )
+        };
+        assert_eq!(st, want, "{}", last_error());
+        assert_eq!(out, sentinel);
+        assert_eq!(planar, [true, true]);
     }
 }

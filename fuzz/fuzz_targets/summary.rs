@@ -1,6 +1,7 @@
-//! The frame summary (issue 15 part 1): `refl_summary_options_default`,
-//! `refl_summarize_rows`, `refl_frame_summary_merge`,
-//! `refl_object_summary_merge`, `refl_object_summary_plane`.
+//! The frame summary and the pass plan (issue 15): `refl_summary_options_default`,
+//! `refl_summary_rows`, `refl_summary_merge_frame`,
+//! `refl_summary_merge_object`, `refl_summary_object_plane`,
+//! `refl_plan_options_default`, `refl_plan_passes`.
 //!
 //! A fuzzed G-buffer (`fuzz/src/gbuffer.rs`, shared with `ssr`: its corpus
 //! seeds this one), an object-id image (sometimes absent, of another size,
@@ -67,17 +68,82 @@ fn rows_ok(r: refl_row_range, h: u32) -> bool {
     r.begin <= r.end && r.end <= h && r.begin % TILE == 0 && (r.end % TILE == 0 || r.end == h)
 }
 
+/// `refl_plan_passes` on a summary: the NULL and error rules, and on OK
+/// the rules of `refl_core::plan` as the header states them.
+fn check_plan(b: &mut Bytes, f: &refl_summary_frame, objs: &[refl_summary_object], so: &refl_summary_options, size: (u32, u32)) {
+    let n = objs.len();
+    let caps = refl_plan_host_caps { planar_views: b.bool(), ray_tracer: b.bool(), probe: b.bool() };
+    let hints_len = match b.u8() % 4 {
+        0 => 0,
+        1 => n.saturating_sub(1),
+        _ => n,
+    };
+    let hints: Vec<refl_plan_object_hints> =
+        (0..hints_len).map(|_| refl_plan_object_hints { planar_mirror: b.bool(), layered_map: b.bool() }).collect();
+    let po = refl_plan_options { mirror_hiz: b.bool(), glossy_visibility: b.bool() };
+    let planar_len = if b.chance(16) { n.saturating_sub(1) } else { n };
+    let mut planar = vec![true; planar_len.max(1)];
+    let (w, h) = if b.chance(8) { (0, size.1) } else { size };
+    let mut out = refl_plan { planar_objects: 99, ..Default::default() };
+    // SAFETY: valid pointers for the stated lengths.
+    let s = unsafe {
+        refl_plan_passes(&mut out, planar.as_mut_ptr(), planar_len, f, objs.as_ptr(), n, if hints_len > 0 { hints.as_ptr() } else { core::ptr::null() }, hints_len, &caps, so, &po, w, h)
+    };
+    let what = "refl_plan_passes";
+    null_rules_m(s, false, false, false, what);
+    if s != refl_status::Ok {
+        assert_eq!(out.planar_objects, 99, "{what}: wrote on error");
+        assert!(planar.iter().all(|&p| p), "{what}: wrote planar on error");
+        return;
+    }
+    assert!(hints_len == 0 || hints_len == n, "{what}: accepted {hints_len} hints for {n} objects");
+    assert!(planar_len >= n && w > 0 && h > 0, "{what}: accepted planar_len {planar_len} or size {w}x{h}");
+    let runs = |p: u32| out.passes[p as usize].reason == refl_plan_reason::Runs as u32;
+    let mut planar_pixels = 0;
+    for k in 0..n {
+        let o = &objs[k];
+        if planar[k] {
+            assert!(caps.planar_views && o.pixels > 0 && o.classes[0] == o.pixels, "{what}: object {k} planar: {o:?}");
+            planar_pixels += o.pixels;
+        }
+    }
+    assert_eq!(out.planar_objects as usize, planar[..n].iter().filter(|&&p| p).count());
+    for (k, d) in out.passes.iter().enumerate() {
+        assert_eq!(d.pass as usize, k, "{what}: pass order");
+        assert!(d.reason <= refl_plan_reason::NotUsed as u32, "{what}: reason {}", d.reason);
+        assert!(d.reason == refl_plan_reason::Runs as u32 || d.bytes == 0, "{what}: bytes of a skipped pass");
+    }
+    let listed_mirror: u64 = objs.iter().map(|o| o.classes[0]).sum();
+    let want_mirror = listed_mirror - planar_pixels + f.classes[0].saturating_sub(listed_mirror);
+    assert_eq!(out.mirror_pixels, want_mirror, "{what}: mirror pixels");
+    assert_eq!(runs(refl_plan_pass::Mirror as u32), want_mirror > 0, "{what}: mirror pass");
+    assert_eq!(runs(refl_plan_pass::Glossy as u32), f.classes[1] > 0, "{what}: glossy pass");
+    assert_eq!(runs(refl_plan_pass::ColorPyramid as u32), f.classes[1] > 0, "{what}: color pyramid");
+    assert_eq!(runs(refl_plan_pass::VisibilityPyramid as u32), f.classes[1] > 0 && po.glossy_visibility, "{what}: visibility pyramid");
+    let glossy = runs(refl_plan_pass::Glossy as u32);
+    let mirror = runs(refl_plan_pass::Mirror as u32);
+    assert_eq!(runs(refl_plan_pass::Hiz as u32), glossy || (mirror && po.mirror_hiz), "{what}: Hi-Z");
+    assert_eq!(runs(refl_plan_pass::Planar as u32), out.planar_objects > 0, "{what}: planar pass");
+    assert_eq!(runs(refl_plan_pass::Probe as u32), f.classes[2] > 0 && caps.probe, "{what}: probe");
+    if runs(refl_plan_pass::HostRays as u32) {
+        assert!(caps.ray_tracer && (mirror || glossy || runs(refl_plan_pass::Layered as u32)), "{what}: host rays");
+    }
+    if runs(refl_plan_pass::Layered as u32) {
+        assert!(hints.iter().any(|h| h.layered_map) && (mirror || glossy), "{what}: layered pass");
+    }
+}
+
 fn summarize(
     g: &refl_gbuffer,
     ids: refl_image_u32,
     o: &refl_summary_options,
     n: usize,
     r: refl_row_range,
-) -> (refl_status, refl_frame_summary, Vec<refl_object_summary>) {
-    let mut f = refl_frame_summary::default();
-    let mut objs = vec![refl_object_summary::default(); n.max(1)];
+) -> (refl_status, refl_summary_frame, Vec<refl_summary_object>) {
+    let mut f = refl_summary_frame::default();
+    let mut objs = vec![refl_summary_object::default(); n.max(1)];
     // SAFETY: valid pointers; the G-buffer's images as fuzzed (accepted once).
-    let s = unsafe { refl_summarize_rows(&mut f, objs.as_mut_ptr(), n, g, ids, o, r) };
+    let s = unsafe { refl_summary_rows(&mut f, objs.as_mut_ptr(), n, g, ids, o, r) };
     (s, f, objs)
 }
 
@@ -124,19 +190,19 @@ fuzz_target!(|data: &[u8]| {
     // Outputs: the frame (sometimes NULL / misaligned), the objects
     // (sometimes NULL, misaligned, or over the ids).
     // The summary adds to what they hold: zero, as a frame's first band.
-    let mut frame = Buf::from_slice(&[refl_frame_summary::default()], b.ptr_kind());
+    let mut frame = Buf::from_slice(&[refl_summary_frame::default()], b.ptr_kind());
     let okind = if nobj > 0 { b.ptr_kind() } else { PtrKind::Null };
-    let mut objs = Buf::from_slice(&vec![refl_object_summary::default(); nobj], okind);
+    let mut objs = Buf::from_slice(&vec![refl_summary_object::default(); nobj], okind);
     let (frame_snap, objs_snap) = (frame.snapshot(), objs.snapshot());
     let alias = with_ids && nobj > 0 && ids.usable() && b.chance(10);
     let r = rows(&mut b, h);
     let gb = Buf::from_slice(&[g], b.ptr_kind());
     let ob = Buf::from_slice(&[o], b.ptr_kind());
-    let optr = if alias { ids.cptr() as *mut refl_object_summary } else { objs.ptr() };
+    let optr = if alias { ids.cptr() as *mut refl_summary_object } else { objs.ptr() };
     // SAFETY: pointers NULL, misaligned or valid for their lengths (an
     // aliased list is refused before it is touched).
-    let s = unsafe { refl_summarize_rows(frame.ptr(), optr, nobj, gb.cptr(), if with_ids { idesc } else { refl_image_u32 { data: core::ptr::null(), len: 0, width: 0, height: 0, stride: 0 } }, ob.cptr(), r) };
-    let what = "refl_summarize_rows";
+    let s = unsafe { refl_summary_rows(frame.ptr(), optr, nobj, gb.cptr(), if with_ids { idesc } else { refl_image_u32 { data: core::ptr::null(), len: 0, width: 0, height: 0, stride: 0 } }, ob.cptr(), r) };
+    let what = "refl_summary_rows";
     let required_null = frame.is_null() || gb.is_null() || ob.is_null() || (nobj > 0 && optr.is_null());
     let nested_null = fg.normals.0.is_null() || fg.img.buf.is_null() || (with_ids && ids.is_null());
     let mis = [
@@ -153,7 +219,7 @@ fuzz_target!(|data: &[u8]| {
         fg.back.0.kind(),
     ]
     .contains(&PtrKind::Misaligned)
-        || (optr as usize) % core::mem::align_of::<refl_object_summary>() != 0;
+        || (optr as usize) % core::mem::align_of::<refl_summary_object>() != 0;
     let nested_null = nested_null || fg.mask.0.is_null() || fg.roughness.0.is_null() || fg.color.0.is_null() || fg.back.0.is_null();
     null_rules_m(s, required_null, required_null || nested_null, mis, what);
     on_error_untouched(
@@ -201,10 +267,10 @@ fuzz_target!(|data: &[u8]| {
             assert_eq!(x.rect, [0; 4]);
         }
         // The plane fit.
-        let mut fit = refl_plane_fit::default();
+        let mut fit = refl_summary_plane_fit::default();
         // SAFETY: valid pointers.
-        let ps = unsafe { refl_object_summary_plane(&mut fit, &x, &o) };
-        no_panic(ps, "refl_object_summary_plane");
+        let ps = unsafe { refl_summary_object_plane(&mut fit, &x, &o) };
+        no_panic(ps, "refl_summary_object_plane");
         if x.pixels == 0 {
             assert_eq!(ps, refl_status::DegenerateGeometry, "plane of nothing");
         }
@@ -214,8 +280,7 @@ fuzz_target!(|data: &[u8]| {
             // (At most 1 up to the f32 rounding of the unit normals.)
             assert!(fit.coherence >= 0.0 && fit.coherence <= 1.0 + 1e-6, "coherence {fit:?}");
             assert!(fit.rms_distance >= 0.0 && !fit.rms_distance.is_nan(), "rms {fit:?}");
-            assert!(fit.planar <= 1);
-            if fit.planar == 1 {
+            if fit.planar {
                 assert!(x.pixels >= 3 && fit.coherence >= f64::from(o.normal_cos));
             }
         }
@@ -224,6 +289,8 @@ fuzz_target!(|data: &[u8]| {
     if !ids_present {
         assert_eq!(f.unlisted, 0);
     }
+
+    check_plan(&mut b, &f, &objs.to_vec(), &o, (w, h));
 
     // Two half bands (on a tile row) merged give the same counts.
     if r.end - r.begin > TILE {
@@ -235,9 +302,9 @@ fuzz_target!(|data: &[u8]| {
             assert!(s1 == refl_status::Ok && s2 == refl_status::Ok, "halves refused: {}", last_error());
             // SAFETY: valid pointers.
             unsafe {
-                assert_eq!(refl_frame_summary_merge(&mut f1, &f2), refl_status::Ok);
+                assert_eq!(refl_summary_merge_frame(&mut f1, &f2), refl_status::Ok);
                 for k in 0..nobj {
-                    assert_eq!(refl_object_summary_merge(&mut o1[k], &o2[k]), refl_status::Ok);
+                    assert_eq!(refl_summary_merge_object(&mut o1[k], &o2[k]), refl_status::Ok);
                 }
             }
             assert_eq!(f1, f, "merged halves differ from one call");
