@@ -3951,6 +3951,104 @@ void layered_pass_functions() {
     }
 }
 
+// The frame summary and the pass plan (issue 15): every export, its
+// refusals with outputs untouched.
+void summary_functions() {
+    const refl_camera cam = good_camera();
+    const uint32_t w = cam.width, h = cam.height;
+    const size_t n = size_t(w) * h;
+    std::vector<float> depth(n, 0.5f);
+    std::vector<refl_vec3> normals(n, v3(0, 1, 0));
+    std::vector<uint32_t> ids(n, 0u);
+    const refl_image_f32 none{nullptr, 0, 0, 0, 0};
+    refl_gbuffer gb{};
+    gb.depth = {{depth.data(), n, w, h, w}, cam, REFL_DEPTH_CONVENTION_ZERO_TO_ONE};
+    gb.normals = {normals.data(), n, w, h, w};
+    gb.normal_space = REFL_NORMAL_SPACE_WORLD;
+    gb.mask = {nullptr, 0, 0, 0, 0};
+    gb.roughness = none;
+    gb.color = {nullptr, 0, 0, 0, 0};
+    gb.back_depth = none;
+    const refl_summary_options def = refl_summary_options_default();
+    CHECK(def.mirror_roughness == 0.1f && def.glossy_roughness == 1.0f && def.border_pixels == REFL_SUMMARY_TILE);
+    const refl_image_u32 idimg{ids.data(), n, w, h, w};
+    const refl_row_range all{0, h};
+    refl_summary_object objs[2] = {};
+    const refl_summary_frame frame = expect_ok<refl_summary_frame>(
+        "summary", [&](refl_summary_frame* f) { return refl_summary_rows(f, objs, 2, &gb, idimg, &def, all); });
+    CHECK_EQ(frame.pixels, uint64_t(n));
+    CHECK_EQ(objs[0].pixels, frame.reflective);
+    refl_summary_object scratch_objs[2] = {};
+    auto rows_call = [&](const char* what, refl_status want, const refl_gbuffer* g, refl_image_u32 im,
+                         const refl_summary_options* o, refl_row_range r, size_t k, refl_summary_object* op) {
+        expect<refl_summary_frame>(what, want, [&](refl_summary_frame* f) {
+            return refl_summary_rows(f, op, k, g, im, o, r);
+        });
+    };
+    refl_summary_options bad = def;
+    bad.normal_cos = kNaN;
+    refl_image_u32 short_ids = idimg;
+    short_ids.width -= 1;
+    rows_call("summary NULL gbuffer", REFL_STATUS_NULL_POINTER, nullptr, idimg, &def, all, 2, scratch_objs);
+    rows_call("summary NULL options", REFL_STATUS_NULL_POINTER, &gb, idimg, nullptr, all, 2, scratch_objs);
+    rows_call("summary NULL objects", REFL_STATUS_NULL_POINTER, &gb, idimg, &def, all, 2, nullptr);
+    rows_call("summary options NaN", REFL_STATUS_INVALID_ARGUMENT, &gb, idimg, &bad, all, 2, scratch_objs);
+    rows_call("summary rows off a tile row", REFL_STATUS_INVALID_ARGUMENT, &gb, idimg, &def, refl_row_range{3, h}, 2,
+              scratch_objs);
+    rows_call("summary ids of another size", REFL_STATUS_INVALID_ARGUMENT, &gb, short_ids, &def, all, 2, scratch_objs);
+    rows_call("summary no objects", REFL_STATUS_INSUFFICIENT_SIZE, &gb, idimg, &def, all, 0, scratch_objs);
+    for (const refl_summary_object& o : scratch_objs) CHECK_EQ(o.pixels, uint64_t(0));
+
+    // Merges and the plane fit.
+    const refl_summary_frame twice = expect_ok<refl_summary_frame>("merge frame", [&](refl_summary_frame* d) {
+        *d = frame;
+        return refl_summary_merge_frame(d, &frame);
+    });
+    CHECK_EQ(twice.pixels, 2 * uint64_t(n));
+    expect<refl_summary_frame>("merge frame NULL src", REFL_STATUS_NULL_POINTER,
+                               [&](refl_summary_frame* d) { return refl_summary_merge_frame(d, nullptr); });
+    const refl_summary_object both = expect_ok<refl_summary_object>("merge object", [&](refl_summary_object* d) {
+        *d = objs[0];
+        return refl_summary_merge_object(d, &objs[0]);
+    });
+    CHECK_EQ(both.pixels, 2 * objs[0].pixels);
+    expect<refl_summary_object>("merge object NULL src", REFL_STATUS_NULL_POINTER,
+                                [&](refl_summary_object* d) { return refl_summary_merge_object(d, nullptr); });
+    const refl_summary_plane_fit fit = expect_ok<refl_summary_plane_fit>(
+        "plane", [&](refl_summary_plane_fit* p) { return refl_summary_object_plane(p, &objs[0], &def); });
+    CHECK(std::fabs(fit.normal[1] - 1.0) < 1e-9 && fit.coherence > 0.999);
+    expect<refl_summary_plane_fit>("plane of an empty object", REFL_STATUS_DEGENERATE_GEOMETRY,
+                                   [&](refl_summary_plane_fit* p) { return refl_summary_object_plane(p, &objs[1], &def); });
+    expect<refl_summary_plane_fit>("plane options NaN", REFL_STATUS_INVALID_ARGUMENT,
+                                   [&](refl_summary_plane_fit* p) { return refl_summary_object_plane(p, &objs[0], &bad); });
+
+    // The plan.
+    const refl_plan_options po = refl_plan_options_default();
+    CHECK(po.mirror_hiz && po.glossy_visibility);
+    const refl_plan_host_caps caps{true, true, true};
+    bool planar[2] = {false, false};
+    const refl_plan plan = expect_ok<refl_plan>("plan", [&](refl_plan* p) {
+        return refl_plan_passes(p, planar, 2, &frame, objs, 2, nullptr, 0, &caps, &def, &po, w, h);
+    });
+    for (size_t k = 0; k < REFL_PLAN_PASS_COUNT; ++k) {
+        CHECK_EQ(plan.passes[k].pass, uint32_t(k));
+        CHECK(plan.passes[k].reason == REFL_PLAN_REASON_RUNS || plan.passes[k].bytes == 0);
+    }
+    const refl_plan_object_hints one_hint[1] = {{true, false}};
+    auto plan_call = [&](const char* what, refl_status want, size_t planar_len, const refl_plan_object_hints* hints,
+                         size_t hints_len, uint32_t width) {
+        bool pl[2] = {true, true};
+        expect<refl_plan>(what, want, [&](refl_plan* p) {
+            return refl_plan_passes(p, pl, planar_len, &frame, objs, 2, hints, hints_len, &caps, &def, &po, width, h);
+        });
+        CHECK(pl[0] && pl[1]);
+    };
+    plan_call("plan planar too short", REFL_STATUS_INSUFFICIENT_SIZE, 1, nullptr, 0, w);
+    plan_call("plan hints of another count", REFL_STATUS_INVALID_ARGUMENT, 2, one_hint, 1, w);
+    plan_call("plan hints NULL", REFL_STATUS_NULL_POINTER, 2, nullptr, 2, w);
+    plan_call("plan zero width", REFL_STATUS_INVALID_ARGUMENT, 2, nullptr, 0, 0);
+}
+
 int main() {
     status_strings();
     camera_functions();
@@ -3969,5 +4067,6 @@ int main() {
     planar_functions();
     cluster_pass_functions();
     layered_pass_functions();
+    summary_functions();
     return check::finish("hostile_input");
 }
