@@ -2883,6 +2883,24 @@ void glossy_functions() {
 
 }  // namespace
 
+// A G-buffer of `cam`'s size over `depth` (zero-to-one) and world-space
+// `normals`, without mask, roughness, color or back faces (the planar,
+// layered and summary checks).
+refl_gbuffer plain_gbuffer(const refl_camera& cam, const std::vector<float>& depth,
+                           const std::vector<refl_vec3>& normals) {
+    const uint32_t w = cam.width, h = cam.height;
+    const refl_image_f32 none{nullptr, 0, 0, 0, 0};
+    refl_gbuffer gb{};
+    gb.depth = {{depth.data(), depth.size(), w, h, w}, cam, REFL_DEPTH_CONVENTION_ZERO_TO_ONE};
+    gb.normals = {normals.data(), normals.size(), w, h, w};
+    gb.normal_space = REFL_NORMAL_SPACE_WORLD;
+    gb.mask = {nullptr, 0, 0, 0, 0};
+    gb.roughness = none;
+    gb.color = {nullptr, 0, 0, 0, 0};
+    gb.back_depth = none;
+    return gb;
+}
+
 // The planar mirror pass and the back-face depth helpers: NULL pointers,
 // unknown enums, options out of range, bad planes, short, misaligned and
 // aliased buffers, rows out of range, renders of another size. Every output
@@ -2909,15 +2927,8 @@ void planar_functions() {
             REQUIRE(refl_camera_encode_depth(&depth[size_t(y) * w + x], &cam, z, REFL_DEPTH_CONVENTION_ZERO_TO_ONE) ==
                     REFL_STATUS_OK);
         }
+    const refl_gbuffer gb = plain_gbuffer(cam, depth, normals);
     const refl_image_f32 none{nullptr, 0, 0, 0, 0};
-    refl_gbuffer gb{};
-    gb.depth = {{depth.data(), n, w, h, w}, cam, REFL_DEPTH_CONVENTION_ZERO_TO_ONE};
-    gb.normals = {normals.data(), n, w, h, w};
-    gb.normal_space = REFL_NORMAL_SPACE_WORLD;
-    gb.mask = {nullptr, 0, 0, 0, 0};
-    gb.roughness = none;
-    gb.color = {nullptr, 0, 0, 0, 0};
-    gb.back_depth = none;
     const refl_planar_mirror mirror{refl_plane{v3(0, 1, 0), 0.0f}, {ids.data(), n, w, h, w}, 0u};
     const refl_planar_options def = refl_planar_options_default();
     CHECK(def.scale == 1 && def.oblique && def.plane_tolerance > 0.0f);
@@ -3636,15 +3647,7 @@ void layered_pass_functions() {
     std::vector<float> depth(n, 0.5f);
     std::vector<refl_vec3> normals(n, v3(0, 1, 0));
     std::vector<uint32_t> ids(n, 0u);
-    const refl_image_f32 none{nullptr, 0, 0, 0, 0};
-    refl_gbuffer gb{};
-    gb.depth = {{depth.data(), n, w, h, w}, cam, REFL_DEPTH_CONVENTION_ZERO_TO_ONE};
-    gb.normals = {normals.data(), n, w, h, w};
-    gb.normal_space = REFL_NORMAL_SPACE_WORLD;
-    gb.mask = {nullptr, 0, 0, 0, 0};
-    gb.roughness = none;
-    gb.color = {nullptr, 0, 0, 0, 0};
-    gb.back_depth = none;
+    const refl_gbuffer gb = plain_gbuffer(cam, depth, normals);
     // One map, cleared (empty): a map of its grid.
     const float ident[16] = {1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1, 0, 0, 0.5f, 0, 1};
     refl_layered_grid grid{};
@@ -3960,15 +3963,7 @@ void summary_functions() {
     std::vector<float> depth(n, 0.5f);
     std::vector<refl_vec3> normals(n, v3(0, 1, 0));
     std::vector<uint32_t> ids(n, 0u);
-    const refl_image_f32 none{nullptr, 0, 0, 0, 0};
-    refl_gbuffer gb{};
-    gb.depth = {{depth.data(), n, w, h, w}, cam, REFL_DEPTH_CONVENTION_ZERO_TO_ONE};
-    gb.normals = {normals.data(), n, w, h, w};
-    gb.normal_space = REFL_NORMAL_SPACE_WORLD;
-    gb.mask = {nullptr, 0, 0, 0, 0};
-    gb.roughness = none;
-    gb.color = {nullptr, 0, 0, 0, 0};
-    gb.back_depth = none;
+    const refl_gbuffer gb = plain_gbuffer(cam, depth, normals);
     const refl_summary_options def = refl_summary_options_default();
     CHECK(def.mirror_roughness == 0.1f && def.glossy_roughness == 1.0f && def.border_pixels == REFL_SUMMARY_TILE);
     const refl_image_u32 idimg{ids.data(), n, w, h, w};
