@@ -309,33 +309,39 @@ pub fn run(
 
 // ------------------------------------------------------------ the study
 
-/// A roughness assignment of the study's room variants.
+/// A roughness assignment of the study's variants of a scene.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub enum Glossiness {
     /// Every reflective surface gets this roughness.
     Uniform(f32),
-    /// Roughness rising linearly with world x from `lo` at x = -6 to `hi`
-    /// at x = +6 (the room's width): a ramp across the floor.
+    /// Roughness rising linearly with world x from `lo` at the scene's
+    /// smallest x to `hi` at its largest (on the room, -6 to +6: a ramp
+    /// across the floor).
     Ramp(f32, f32),
 }
 
 impl Glossiness {
-    /// Scene label suffix.
-    pub fn label(&self) -> String {
+    /// The variant's label: the scene's label and the roughness
+    /// (`room-glossy-0.20`, `room-ramp-0.10-0.45`).
+    pub fn label(&self, scene: &str) -> String {
         match self {
-            Glossiness::Uniform(r) => format!("room-glossy-{r:.2}"),
-            Glossiness::Ramp(lo, hi) => format!("room-ramp-{lo:.2}-{hi:.2}"),
+            Glossiness::Uniform(r) => format!("{scene}-glossy-{r:.2}"),
+            Glossiness::Ramp(lo, hi) => format!("{scene}-ramp-{lo:.2}-{hi:.2}"),
         }
     }
 
-    /// Overrides the roughness of every reflective pixel of `g`.
-    pub fn apply(&self, g: &mut GBuffer) {
+    /// Overrides the roughness of every reflective pixel of `g`; a ramp
+    /// runs over world x from `x_range.0` to `x_range.1` (the scene's
+    /// bounds).
+    pub fn apply(&self, g: &mut GBuffer, x_range: (f32, f32)) {
+        let (x0, x1) = x_range;
+        let width = (x1 - x0).max(f32::MIN_POSITIVE);
         for i in 0..g.len() {
             if g.is_reflective(i) {
                 g.roughness[i] = match *self {
                     Glossiness::Uniform(r) => r,
                     Glossiness::Ramp(lo, hi) => {
-                        let s = ((g.position[i].x + 6.0) / 12.0).clamp(0.0, 1.0);
+                        let s = ((g.position[i].x - x0) / width).clamp(0.0, 1.0);
                         lo + (hi - lo) * s
                     }
                 };
@@ -549,7 +555,7 @@ pub fn reference_ms_at_error(points: &[(f64, f64)], e: f64) -> Option<f64> {
     None
 }
 
-/// Runs the glossy study on the room: per variant, the converged reference
+/// Runs the glossy study on `scene`: per variant, the converged reference
 /// (and its noise check at half the samples), the `reference` rows at low
 /// sample counts, `cone` and `multiray` rows; all on the glossy pixels,
 /// same threads. Returns the rows and a Markdown section.
@@ -587,16 +593,17 @@ pub fn report_rows(
     let probe_t = timed(|| pool.install(|| PrefilteredEnv::build(env_map, probe_sizes)));
     let probe_ms = probe_t.ms;
     let probe = probe_t.value;
-    let mut md = String::from(
-        "\n## Glossy reflections (cone tracing, multi-ray, Monte-Carlo reference)\n\n\
-         Room, camera pose 0, every reflective surface made glossy (two levels and a roughness ramp across \
-         the room). Error on the glossy pixels (mean absolute difference on 0..255 of 8-bit sRGB composites, \
+    let mut md = format!(
+        "\n## Glossy reflections on `{}` (cone tracing, multi-ray, Monte-Carlo reference)\n\n\
+         Camera pose 0, every reflective surface made glossy (two levels and a roughness ramp across \
+         the scene). Error on the glossy pixels (mean absolute difference on 0..255 of 8-bit sRGB composites, \
          PSNR) against the converged Monte-Carlo reference (Phong-lobe importance sampling, obvhs); \
          time is the whole reflection pass on those pixels, same threads. Cone and multi-ray include building \
          the Hi-Z, color and visibility pyramids. Where the cone's mirror ray finds no hit on screen, or its \
          circles do not cover the lobe, the cone takes the environment pre-filtered for the pixel's roughness \
          (`src/probe.rs`; the row with `;fallback=unfiltered` takes the unfiltered environment in the mirror \
          direction instead); multi-ray gives the same probe the lobe share of its rays that miss.\n\n",
+        scene.name
     );
     let dims = probe.level_dims();
     let _ = writeln!(
@@ -616,9 +623,10 @@ pub fn report_rows(
         probe_ms
     );
     for variant in variants {
-        let label = variant.label();
+        let label = variant.label(&scene.name);
         let mut g = GBuffer::render(scene, tracer, &camera, pool);
-        variant.apply(&mut g);
+        let bounds = scene.bounds();
+        variant.apply(&mut g, (bounds.min.x, bounds.max.x));
         let mask = glossy_mask(&g);
         let n_glossy = mask.iter().filter(|&&m| m).count();
         if n_glossy == 0 {

@@ -236,26 +236,38 @@ pub enum Gaze {
 }
 
 impl PathSizes {
-    /// Quick (tests, `--quick`) or default sizes.
+    /// `refl report --quick` and the tests: 10 frames at 256x192.
+    pub const QUICK: PathSizes = PathSizes {
+        width: 256,
+        height: 192,
+        frames: 10,
+        step: 0.05,
+        start: 0.3,
+        gaze: Gaze::AlongPath,
+    };
+
+    /// The default report: 16 frames at 512x384.
+    pub const DEFAULT: PathSizes = PathSizes {
+        frames: 16,
+        ..PathSizes::LONG
+    };
+
+    /// `refl report --long`: 48 frames at 512x384 (2.4 m of walk).
+    pub const LONG: PathSizes = PathSizes {
+        width: 512,
+        height: 384,
+        frames: 48,
+        step: 0.05,
+        start: 0.3,
+        gaze: Gaze::AlongPath,
+    };
+
+    /// [`PathSizes::QUICK`] or [`PathSizes::LONG`].
     pub fn new(quick: bool) -> Self {
         if quick {
-            PathSizes {
-                width: 256,
-                height: 192,
-                frames: 10,
-                step: 0.05,
-                start: 0.3,
-                gaze: Gaze::AlongPath,
-            }
+            PathSizes::QUICK
         } else {
-            PathSizes {
-                width: 512,
-                height: 384,
-                frames: 48,
-                step: 0.05,
-                start: 0.3,
-                gaze: Gaze::AlongPath,
-            }
+            PathSizes::LONG
         }
     }
 }

@@ -36,7 +36,8 @@ fn setup(gloss: Glossiness) -> Setup {
     let tracer = Tracer::new(&scene);
     let cam = scene.camera(0, W, H).unwrap();
     let mut g = GBuffer::render(&scene, &tracer, &cam, &pool);
-    gloss.apply(&mut g);
+    let bounds = scene.bounds();
+    gloss.apply(&mut g, (bounds.min.x, bounds.max.x));
     let depth = DepthBuffer::new(&g, DepthConvention::ReversedZ, f32::INFINITY).unwrap();
     Setup {
         scene,
