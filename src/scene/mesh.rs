@@ -28,6 +28,8 @@ impl Builder {
                 camera_path: Vec::new(),
                 near: 0.05,
                 far: 1.0,
+                skipped_degenerate_triangles: 0,
+                load_notes: Vec::new(),
             },
         }
     }

@@ -18,6 +18,15 @@
 //! | [`Scene::concave`] | concave hemispherical bowl, concave cylindrical mirror | cup (U profile) in the bowl, arch (U shape), spheres, checkered ground |
 //! | [`Scene::walkthrough`] | mirror floors in some rooms, mirror spheres, glossy pillars | walls with doorways, pillars, crates |
 //! | [`Scene::stage`] | planar mirror floor (near and grazing views) | a torus standing on the mirror, a wall, a box |
+//!
+//! [`Scene::load_obj`] loads a Wavefront OBJ file instead; it refuses bad
+//! input with an [`ObjError`] and records what it worked around in
+//! [`Scene::load_notes`].
+//!
+//! Source layout: this file holds the data model; `mesh.rs` the scene
+//! builder and tessellation, `path.rs` the camera paths, `obj.rs` the OBJ
+//! loader, and `room.rs`, `concave.rs`, `walkthrough.rs` and `stage.rs` one
+//! built-in scene each.
 
 mod concave;
 mod mesh;
@@ -26,6 +35,8 @@ mod path;
 mod room;
 mod stage;
 mod walkthrough;
+
+pub use obj::ObjError;
 
 use glam::Vec3;
 use refl_core::{Camera, Error, Plane};
@@ -298,6 +309,13 @@ pub struct Scene {
     /// Far plane distance for the path's cameras (covers the whole scene from
     /// every pose).
     pub far: f32,
+    /// Triangles [`Scene::load_obj`] dropped because they have zero area
+    /// (repeated or collinear vertices); 0 for the built-in scenes.
+    pub skipped_degenerate_triangles: usize,
+    /// What [`Scene::load_obj`] worked around, one sentence each, for a
+    /// report to print: the degenerate triangles dropped per object, an MTL
+    /// file that failed to load. Empty for the built-in scenes.
+    pub load_notes: Vec<String>,
 }
 
 impl Scene {
