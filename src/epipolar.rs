@@ -59,6 +59,8 @@ impl ObjectTracers {
                     camera_path: Vec::new(),
                     near: scene.near,
                     far: scene.far,
+                    skipped_degenerate_triangles: 0,
+                    load_notes: Vec::new(),
                 };
                 (Tracer::new(&sub), o.tris.start)
             })

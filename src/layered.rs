@@ -95,6 +95,8 @@ pub fn object_tracer(scene: &Scene, object_id: u32) -> Result<(Tracer, &Object),
         camera_path: Vec::new(),
         near: scene.near,
         far: scene.far,
+        skipped_degenerate_triangles: 0,
+        load_notes: Vec::new(),
     };
     Ok((Tracer::new(&sub), obj))
 }

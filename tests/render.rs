@@ -230,6 +230,8 @@ fn pixel_grid_scene(cells: u32, w: u32) -> (Scene, Camera) {
         }],
         near: 0.1,
         far: 10.0,
+        skipped_degenerate_triangles: 0,
+        load_notes: Vec::new(),
     };
     (scene, cam)
 }

@@ -2,7 +2,7 @@
 //! structure and flags; the OBJ loader; materials.
 
 use glam::Vec3;
-use refl_app::scene::{phong_exponent, Material, Scene};
+use refl_app::scene::{phong_exponent, Material, ObjError, Scene};
 use std::path::PathBuf;
 
 type Maker = fn(usize) -> Scene;
@@ -95,6 +95,8 @@ fn structure_is_consistent() {
         }
         assert!(s.diameter() > 1.0 && s.diameter().is_finite());
         assert!(s.near > 0.0 && s.far > s.diameter());
+        assert_eq!(s.skipped_degenerate_triangles, 0);
+        assert!(s.load_notes.is_empty());
     }
 }
 
@@ -274,6 +276,233 @@ fn load_obj_with_reflective_flags() {
     }
     assert!((8..=16).contains(&s.camera_path.len()));
     assert!(s.camera(0, 32, 32).is_ok());
+    assert_eq!(s.skipped_degenerate_triangles, 0);
+    assert!(s.load_notes.is_empty(), "{:?}", s.load_notes);
+}
+
+/// Writes `text` to `<temp>/<file>`, loads it with no reflective objects and
+/// removes the directory again.
+fn load_text(file: &str, text: &str) -> Result<Scene, ObjError> {
+    let dir = temp_dir(file.trim_end_matches(".obj"));
+    let path = dir.join(file);
+    std::fs::write(&path, text).unwrap();
+    let result = Scene::load_obj(&path, &[]);
+    std::fs::remove_dir_all(&dir).unwrap();
+    result
+}
+
+/// The error of loading `text` as `file`, and its message, which must start
+/// with the file's path.
+fn load_error(file: &str, text: &str) -> (ObjError, String) {
+    let e = load_text(file, text).expect_err(file);
+    let message = e.to_string();
+    assert!(message.contains(file), "{message}");
+    (e, message)
+}
+
+fn assert_contains(message: &str, parts: &[&str]) {
+    for part in parts {
+        assert!(message.contains(part), "{part:?} not in {message:?}");
+    }
+}
+
+#[test]
+fn load_obj_names_a_nan_vertex() {
+    let (e, message) = load_error(
+        "nan_vertex.obj",
+        "o good\n\
+         v 0 0 0\nv 1 0 0\nv 0 1 0\n\
+         f 1 2 3\n\
+         o bad\n\
+         v 0 0 1\nv NaN 0 1\nv 0 1 1\n\
+         f 4 5 6\n",
+    );
+    assert!(
+        matches!(
+            &e,
+            ObjError::NonFiniteVertex { object, vertex: Some((5, 8)), axis: 'x', value, .. }
+                if object == "bad" && value.is_nan()
+        ),
+        "{e:?}"
+    );
+    assert_contains(
+        &message,
+        &[
+            "line 8",
+            "vertex 5",
+            "object \"bad\"",
+            "non-finite",
+            "x = NaN",
+        ],
+    );
+}
+
+#[test]
+fn load_obj_names_an_infinite_vertex() {
+    // Written as infinity, and overflowing on parse.
+    let (_, message) = load_error(
+        "inf_vertex.obj",
+        "o tri\nv 0 0 0\nv 1 0 0\nv 0 1 -inf\nf 1 2 3\n",
+    );
+    assert_contains(
+        &message,
+        &[
+            "line 4",
+            "vertex 3",
+            "object \"tri\"",
+            "non-finite",
+            "z = -inf",
+        ],
+    );
+    let (_, message) = load_error(
+        "overflow_vertex.obj",
+        "v 0 0 0\nv 0 1e39 0\nv 0 1 1\nf 1 2 3\n",
+    );
+    assert_contains(
+        &message,
+        &["line 2", "vertex 2", "object \"unnamed_object\"", "y = inf"],
+    );
+    // Finite coordinates divided by a tiny w.
+    let (_, message) = load_error(
+        "w_vertex.obj",
+        "o w\nv 0 0 0\nv 1 0 0\nv 0 1e30 0 1e-30\nf 1 2 3\n",
+    );
+    assert_contains(&message, &["line 4", "vertex 3", "object \"w\"", "y = inf"]);
+}
+
+#[test]
+fn load_obj_refuses_an_empty_file() {
+    let (e, message) = load_error("empty.obj", "");
+    assert!(matches!(e, ObjError::NoFaces { .. }), "{e:?}");
+    assert_contains(&message, &["no triangles", "no faces"]);
+    // Vertices and a line, but no face.
+    let (e, _) = load_error("no_faces.obj", "v 0 0 0\nv 1 0 0\nl 1 2\n");
+    assert!(matches!(e, ObjError::NoFaces { .. }), "{e:?}");
+}
+
+#[test]
+fn load_obj_refuses_only_degenerate_triangles() {
+    let (e, message) = load_error(
+        "degenerate.obj",
+        "v 0 0 0\nv 1 0 0\nv 2 0 0\nv 0 1 0\n\
+         f 1 2 3\n\
+         f 1 1 4\n\
+         f 4 2 4\n",
+    );
+    assert!(
+        matches!(e, ObjError::AllTrianglesDegenerate { triangles: 3, .. }),
+        "{e:?}"
+    );
+    assert_contains(
+        &message,
+        &["no triangles", "all 3 triangle(s)", "degenerate"],
+    );
+}
+
+#[test]
+fn load_obj_refuses_a_single_point() {
+    let (e, message) = load_error(
+        "point.obj",
+        "o dot\nv 1 2 -3\nv 1 2 -3\nv 1 2 -3\nf 1 2 3\nf 3 2 1\n",
+    );
+    assert!(
+        matches!(e, ObjError::SinglePoint { point, corners: 6, .. }
+            if point == Vec3::new(1.0, 2.0, -3.0)),
+        "{e:?}"
+    );
+    assert_contains(
+        &message,
+        &[
+            "degenerate bounds",
+            "all 6 face corners",
+            "single point",
+            "(1.0, 2.0, -3.0)",
+        ],
+    );
+}
+
+#[test]
+fn load_obj_skips_and_counts_degenerate_triangles() {
+    let s = load_text(
+        "some_degenerate.obj",
+        "o quad\n\
+         v -1 0 -1\nv 1 0 -1\nv 1 0 1\nv -1 0 1\n\
+         f 1 2 3 4\n\
+         f 1 1 2\n\
+         o thing\n\
+         v 0 1 0\nv 1 1 0\nv 0 2 0\nv 0 1 1\nv 2 1 0\n\
+         f 5 6 7\nf 5 7 8\nf 5 8 6\nf 6 8 7\n\
+         f 5 6 9\n\
+         f 7 7 7\n",
+    )
+    .unwrap();
+    assert_eq!(s.tri_count(), 2 + 4);
+    assert_eq!(s.objects.len(), 2);
+    assert_eq!(s.skipped_degenerate_triangles, 3);
+    assert_eq!(s.load_notes.len(), 1, "{:?}", s.load_notes);
+    assert_contains(
+        &s.load_notes[0],
+        &[
+            "skipped 3 degenerate",
+            "1 in object \"quad\"",
+            "2 in object \"thing\"",
+        ],
+    );
+    assert!(s.camera(0, 32, 32).is_ok());
+}
+
+#[test]
+fn load_obj_names_an_out_of_range_face() {
+    let (e, message) = load_error(
+        "bad_index.obj",
+        "o a\nv 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n\
+         o b\nv 0 0 1\nv 1 0 1\nf 4 5 9\n",
+    );
+    assert!(
+        matches!(
+            &e,
+            ObjError::FaceIndexOutOfRange { object, face: 2, line: 9, index: 9, vertices: 5, .. }
+                if object == "b"
+        ),
+        "{e:?}"
+    );
+    assert_contains(
+        &message,
+        &[
+            "line 9",
+            "face 2",
+            "object \"b\"",
+            "index 9",
+            "out of range",
+        ],
+    );
+    // Index 0 and a relative index before the first vertex.
+    let (_, message) = load_error("zero_index.obj", "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 0 1 2\n");
+    assert_contains(&message, &["line 4", "face 1", "index 0", "out of range"]);
+    let (_, message) = load_error("relative.obj", "v 0 0 0\nv 1 0 0\nv 0 1 0\nf -1 -2 -4\n");
+    assert_contains(&message, &["line 4", "face 1", "index -4", "out of range"]);
+}
+
+#[test]
+fn load_obj_refuses_an_extent_beyond_f32() {
+    let (e, message) = load_error("huge.obj", "v -3e38 0 0\nv 3e38 0 0\nv 0 3e38 0\nf 1 2 3\n");
+    assert!(matches!(e, ObjError::Extent { .. }), "{e:?}");
+    assert_contains(
+        &message,
+        &["no valid camera", "(-3e38, 0.0, 0.0)", "overflows f32"],
+    );
+}
+
+#[test]
+fn load_obj_notes_a_missing_mtl_file() {
+    let s = load_text(
+        "no_mtl.obj",
+        "mtllib missing.mtl\nusemtl red\nv 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n",
+    )
+    .unwrap();
+    assert_eq!(s.load_notes.len(), 1, "{:?}", s.load_notes);
+    assert_contains(&s.load_notes[0], &["materials", "open file failed"]);
+    assert_eq!(s.materials[0].albedo, Vec3::splat(0.7));
 }
 
 #[test]
