@@ -73,6 +73,12 @@ pub struct Options {
     /// matching object names containing NAME (repeatable).
     #[arg(long)]
     pub reflective: Vec<String>,
+    /// A camera path replacing the scenes' own: one pose per line, `eye_x
+    /// eye_y eye_z target_x target_y target_z [fov_y_degrees]` (see
+    /// [`crate::scene::load_camera_path`]). An OBJ interior walked by such
+    /// a path gets the epipolar walk.
+    #[arg(long)]
+    pub camera_path: Option<PathBuf>,
 }
 
 impl Default for Options {
@@ -88,6 +94,7 @@ impl Default for Options {
             tris: None,
             growth: Vec::new(),
             reflective: Vec::new(),
+            camera_path: None,
         }
     }
 }
@@ -206,36 +213,77 @@ pub const METHODS: [&str; 14] = [
     "multiray",
 ];
 
-fn load_scene(name: &str, opts: &Options, sizes: &Sizes) -> Result<Scene, String> {
-    match name {
-        "room" => Ok(Scene::room(sizes.tris)),
-        "concave" => Ok(Scene::concave(sizes.tris)),
-        "walkthrough" => Ok(Scene::walkthrough(sizes.tris)),
-        "stage" => Ok(Scene::stage(sizes.tris)),
-        path if path.ends_with(".obj") => {
-            let mut flags = Vec::new();
-            for f in &opts.reflective {
-                let parts: Vec<&str> = f.split(':').collect();
-                let parse = |s: &str| {
-                    s.parse::<f32>()
-                        .map_err(|e| format!("--reflective {f}: {e}"))
-                };
-                match parts.as_slice() {
-                    [n, s, r] => flags.push((n.to_string(), parse(s)?, parse(r)?)),
-                    _ => {
-                        return Err(format!(
-                            "--reflective {f}: expected NAME:SPECULAR:ROUGHNESS"
-                        ))
-                    }
+/// What the command line says about the scenes' input, checked before
+/// anything is loaded or written.
+struct SceneInput {
+    /// `--reflective` flags: name part, specular, roughness.
+    reflective: Vec<(String, f32, f32)>,
+    /// `--camera-path`, read.
+    camera_path: Option<Vec<crate::scene::CameraPose>>,
+}
+
+impl SceneInput {
+    fn of(opts: &Options) -> Result<Self, String> {
+        let mut reflective = Vec::new();
+        for f in &opts.reflective {
+            let parse = |s: &str, what: &str, max: f32| match s.parse::<f32>() {
+                Ok(v) if (0.0..=max).contains(&v) => Ok(v),
+                Ok(v) => Err(format!(
+                    "--reflective {f}: {what} {v} is outside [0, {max}]"
+                )),
+                Err(e) => Err(format!("--reflective {f}: {what}: {e}")),
+            };
+            match f.split(':').collect::<Vec<&str>>().as_slice() {
+                [n, s, r] => reflective.push((
+                    n.to_string(),
+                    parse(s, "specular", 1.0)?,
+                    parse(r, "roughness", 1.0)?,
+                )),
+                _ => {
+                    return Err(format!(
+                        "--reflective {f}: expected NAME:SPECULAR:ROUGHNESS"
+                    ))
                 }
             }
-            let flags: Vec<(&str, f32, f32)> =
-                flags.iter().map(|(n, s, r)| (n.as_str(), *s, *r)).collect();
-            Scene::load_obj(Path::new(path), &flags).map_err(|e| format!("{path}: {e}"))
         }
-        other => Err(format!(
-            "unknown scene '{other}' (room, concave, walkthrough, stage or a .obj path)"
-        )),
+        let camera_path = opts
+            .camera_path
+            .as_deref()
+            .map(crate::scene::load_camera_path)
+            .transpose()?;
+        Ok(SceneInput {
+            reflective,
+            camera_path,
+        })
+    }
+
+    /// Scene `name` (built-in or an OBJ path) with the camera path, if
+    /// given.
+    fn load(&self, name: &str, sizes: &Sizes) -> Result<Scene, String> {
+        let mut scene = match name {
+            "room" => Scene::room(sizes.tris),
+            "concave" => Scene::concave(sizes.tris),
+            "walkthrough" => Scene::walkthrough(sizes.tris),
+            "stage" => Scene::stage(sizes.tris),
+            path if path.ends_with(".obj") => {
+                let flags: Vec<(&str, f32, f32)> = self
+                    .reflective
+                    .iter()
+                    .map(|(n, s, r)| (n.as_str(), *s, *r))
+                    .collect();
+                // The error names the file.
+                Scene::load_obj(Path::new(path), &flags).map_err(|e| e.to_string())?
+            }
+            other => {
+                return Err(format!(
+                    "unknown scene '{other}' (room, concave, walkthrough, stage or a .obj path)"
+                ))
+            }
+        };
+        if let Some(path) = &self.camera_path {
+            scene.camera_path.clone_from(path);
+        }
+        Ok(scene)
     }
 }
 
@@ -298,6 +346,7 @@ pub fn run(opts: &Options) -> Result<PathBuf, String> {
     let sizes = Sizes::of(opts);
     let scenes = scene_names(opts)?;
     let selected = selected_methods(opts)?;
+    let input = SceneInput::of(opts)?;
     let threads = opts
         .threads
         .unwrap_or_else(|| std::thread::available_parallelism().map_or(1, |n| n.get()))
@@ -338,7 +387,7 @@ pub fn run(opts: &Options) -> Result<PathBuf, String> {
     // Every scene loaded first, so the bar knows the whole run.
     let mut loaded = Vec::with_capacity(scenes.len());
     for name in &scenes {
-        loaded.push(load(name, opts, &run, &methods, &studies)?);
+        loaded.push(load(name, &input, &run, &methods, &studies)?);
     }
     bar.set_length(loaded.iter().map(work_of).sum());
     let mut gathered = Gathered::default();
@@ -393,14 +442,14 @@ fn selected_methods(opts: &Options) -> Result<Vec<&'static str>, String> {
 /// decides from their content what runs on it.
 fn load(
     name: &str,
-    opts: &Options,
+    input: &SceneInput,
     run: &Run<'_>,
     methods: &[Box<dyn methods::Method>],
     studies: &[Box<dyn Study>],
 ) -> Result<Loaded, String> {
     let sizes = &run.sizes;
     run.bar.set_message(format!("{name}: scene + BVH"));
-    let scene = load_scene(name, opts, sizes)?;
+    let scene = input.load(name, sizes)?;
     let label = scene.name.clone();
     let tracer = Tracer::new(&scene);
     let poses = frame_poses(scene.camera_path.len(), sizes.frames);
@@ -415,6 +464,9 @@ fn load(
         poses,
         scene.camera_path.len()
     );
+    for line in &scene.load_notes {
+        let _ = writeln!(notes, "  - {line}");
+    }
     // G-buffers of every frame first: which passes the scene needs is
     // decided over all its frames, so every row pools the same frames.
     let mut frames = Vec::with_capacity(poses.len());

@@ -37,6 +37,7 @@ mod stage;
 mod walkthrough;
 
 pub use obj::ObjError;
+pub use path::load_camera_path;
 
 use glam::Vec3;
 use refl_core::{Camera, Error, Plane};

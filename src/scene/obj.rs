@@ -382,7 +382,8 @@ impl Scene {
         let path_poses = orbit_path(
             c,
             radius * 1.4,
-            (c.y + radius * 0.5, c.y + radius * 0.3),
+            // Heights above the center (orbit_path adds the center).
+            (radius * 0.5, radius * 0.3),
             (-0.5, 0.5),
             12,
             c,
