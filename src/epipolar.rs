@@ -16,7 +16,7 @@
 
 use crate::gbuffer::pixel_center;
 use crate::render::{median, timed};
-use crate::report_out::{self, Row};
+use crate::report_out;
 use crate::scene::Scene;
 use crate::tracer::{Hit, Tracer};
 use glam::Vec3;
@@ -26,7 +26,6 @@ use refl_core::epipolar::{
     BACKGROUND_OBJECT,
 };
 use refl_core::Camera;
-use std::fmt::Write as _;
 use std::path::Path;
 
 /// The method names this module reports (rows of `summary.csv`).
@@ -544,28 +543,154 @@ pub struct Totals {
     pub times: Vec<f64>,
 }
 
-/// Everything a walkthrough run measured.
-pub struct PathReport {
-    /// Report rows (`orsa`, `irsa`, one `epipolar` row per setting).
-    pub rows: Vec<Row>,
-    /// Totals per setting (same order as [`variants`]).
+/// Everything a walkthrough run measured: ORSA and IRSA per frame, the
+/// method's totals per setting, the view-frustum check on both gazes.
+pub struct PathMeasure {
+    /// Frames rendered.
+    pub frames: usize,
+    /// Frame pairs failing the view-frustum check (Sec. 4.1) with the
+    /// run's gaze.
+    pub frustum_fails: usize,
+    /// The other gaze and how many frame pairs would fail with it.
+    pub other_gaze: (Gaze, usize),
+    /// Build time of the per-object BVHs, ms.
+    pub objects_build_ms: f64,
+    /// ORSA time per frame, ms (median of the runs).
+    pub orsa_ms: Vec<f64>,
+    /// IRSA time per frame, ms (median of the runs).
+    pub irsa_ms: Vec<f64>,
+    /// IRSA's visibility errors against ORSA.
+    pub irsa_errors: Vec<Mismatch>,
+    /// IRSA's ties with ORSA (same point, another object).
+    pub irsa_ties: usize,
+    /// The method's totals per setting (same order as [`variants`]).
     pub totals: Vec<(String, Totals)>,
-    /// Markdown notes for `summary.md`.
-    pub notes: String,
+}
+
+/// ORSA's hits per frame (the ground truth of visibility) with the ORSA
+/// and IRSA timings and IRSA's disagreements.
+struct Truth {
+    hits: Vec<Vec<Option<Hit>>>,
+    orsa_ms: Vec<f64>,
+    irsa_ms: Vec<f64>,
+    irsa_errors: Vec<Mismatch>,
+    irsa_ties: usize,
+}
+
+/// The pixel of index `i` in a `width`-wide image.
+fn pixel_of(i: usize, width: u32) -> (u32, u32) {
+    ((i % width as usize) as u32, (i / width as usize) as u32)
+}
+
+/// ORSA and IRSA on every camera of `cams` (median of `runs` each), IRSA
+/// checked against ORSA.
+fn truth_frames(
+    scene: &Scene,
+    tracer: &Tracer,
+    objects: &ObjectTracers,
+    cams: &[Camera],
+    width: u32,
+    runs: usize,
+    pool: &rayon::ThreadPool,
+) -> Truth {
+    let mut t = Truth {
+        hits: Vec::with_capacity(cams.len()),
+        orsa_ms: Vec::new(),
+        irsa_ms: Vec::new(),
+        irsa_errors: Vec::new(),
+        irsa_ties: 0,
+    };
+    for (f, cam) in cams.iter().enumerate() {
+        let mut times = Vec::new();
+        let mut hits = None;
+        for _ in 0..runs.max(1) {
+            let r = timed(|| orsa(tracer, cam, pool));
+            times.push(r.ms);
+            hits.get_or_insert(r.value);
+        }
+        t.orsa_ms.push(median(times));
+        let hits = hits.expect("runs >= 1");
+        let mut times = Vec::new();
+        for rep in 0..runs.max(1) {
+            let r = timed(|| irsa(scene, objects, cam, &hits, pool));
+            times.push(r.ms);
+            if rep > 0 {
+                continue;
+            }
+            for (i, (a, b)) in r.value.iter().zip(&hits).enumerate() {
+                match agreement(scene, a, b) {
+                    Agreement::Same => {}
+                    Agreement::Tie => t.irsa_ties += 1,
+                    Agreement::Error => t.irsa_errors.push(Mismatch {
+                        frame: f,
+                        pixel: pixel_of(i, width),
+                        orsa: b.map(|h| (h.prim, h.t)),
+                        method: a.map(|h| (h.prim, h.t)),
+                        path: PixelPath::Resolved,
+                    }),
+                }
+            }
+        }
+        t.irsa_ms.push(median(times));
+        t.hits.push(hits);
+    }
+    t
+}
+
+/// Adds one frame of the method (`out`) against ORSA's hits `truth` to `tot`.
+fn add_frame(
+    scene: &Scene,
+    tot: &mut Totals,
+    frame: usize,
+    width: u32,
+    out: &[(Option<Hit>, PixelPath)],
+    truth: &[Option<Hit>],
+) {
+    for (i, ((hit, path), t)) in out.iter().zip(truth).enumerate() {
+        tot.pixels += 1;
+        match path {
+            PixelPath::Resolved => tot.resolved += 1,
+            PixelPath::Failed => tot.failed += 1,
+            PixelPath::Abrupt => {
+                tot.failed += 1;
+                tot.abrupt += 1
+            }
+            PixelPath::Resampled => tot.resampled += 1,
+            PixelPath::Unavailable => tot.unavailable += 1,
+        }
+        let agree = agreement(scene, hit, t);
+        if agree != Agreement::Same {
+            let m = Mismatch {
+                frame,
+                pixel: pixel_of(i, width),
+                orsa: t.map(|h| (h.prim, h.t)),
+                method: hit.map(|h| (h.prim, h.t)),
+                path: *path,
+            };
+            if agree == Agreement::Tie {
+                tot.ties.push(m);
+            } else {
+                tot.mismatches.push(m);
+            }
+        }
+    }
 }
 
 /// Renders the walkthrough stretch with ORSA, IRSA and every setting of
-/// the method, and writes the path images (which pixels took which path)
-/// into `images` (when given).
-pub fn run(
+/// the method, and writes the path images (which pixels took which path,
+/// for the middle frame) into `images` (when given).
+///
+/// # Errors
+/// A message for an empty camera path, a camera the path cannot make, or a
+/// failed method frame.
+pub fn measure(
     scene: &Scene,
     tracer: &Tracer,
     sizes: &PathSizes,
     runs: usize,
     pool: &rayon::ThreadPool,
-    threads: usize,
     images: Option<&Path>,
-) -> Result<PathReport, String> {
+) -> Result<PathMeasure, String> {
     let cams = path_cameras(scene, sizes)?;
     // Sec. 4.1 on the other gaze: how many frames would fail the
     // view-frustum check (and be rendered by ORSA alone).
@@ -585,51 +710,9 @@ pub fn run(
             ..*sizes
         },
     )?;
-    let (fails, other_fails) = (frustum_fails(&cams), frustum_fails(&other));
     let build = timed(|| ObjectTracers::new(scene));
     let objects = build.value;
-    // ORSA and IRSA per frame (median of `runs`).
-    let mut truth = Vec::with_capacity(cams.len());
-    let (mut orsa_ms, mut irsa_ms) = (Vec::new(), Vec::new());
-    // IRSA against ORSA: errors and ties (pixels listed in the notes).
-    let (mut irsa_errors, mut irsa_ties) = (Vec::new(), 0usize);
-    for (f, cam) in cams.iter().enumerate() {
-        let mut t = Vec::new();
-        let mut hits = None;
-        for _ in 0..runs.max(1) {
-            let r = timed(|| orsa(tracer, cam, pool));
-            t.push(r.ms);
-            hits.get_or_insert(r.value);
-        }
-        orsa_ms.push(median(t));
-        let hits = hits.expect("runs >= 1");
-        let mut t = Vec::new();
-        for rep in 0..runs.max(1) {
-            let r = timed(|| irsa(scene, &objects, cam, &hits, pool));
-            t.push(r.ms);
-            if rep > 0 {
-                continue;
-            }
-            for (i, (a, b)) in r.value.iter().zip(&hits).enumerate() {
-                match agreement(scene, a, b) {
-                    Agreement::Same => {}
-                    Agreement::Tie => irsa_ties += 1,
-                    Agreement::Error => irsa_errors.push(Mismatch {
-                        frame: f,
-                        pixel: (
-                            (i % sizes.width as usize) as u32,
-                            (i / sizes.width as usize) as u32,
-                        ),
-                        orsa: b.map(|h| (h.prim, h.t)),
-                        method: a.map(|h| (h.prim, h.t)),
-                        path: PixelPath::Resolved,
-                    }),
-                }
-            }
-        }
-        irsa_ms.push(median(t));
-        truth.push(hits);
-    }
+    let truth = truth_frames(scene, tracer, &objects, &cams, sizes.width, runs, pool);
     let n = sizes.width as usize * sizes.height as usize;
     let mut totals = Vec::new();
     for v in variants() {
@@ -658,224 +741,32 @@ pub fn run(
                 if rep > 0 {
                     continue;
                 }
-                for (i, ((hit, path), t)) in out.iter().zip(&truth[f]).enumerate() {
-                    tot.pixels += 1;
-                    match path {
-                        PixelPath::Resolved => tot.resolved += 1,
-                        PixelPath::Failed => tot.failed += 1,
-                        PixelPath::Abrupt => {
-                            tot.failed += 1;
-                            tot.abrupt += 1
-                        }
-                        PixelPath::Resampled => tot.resampled += 1,
-                        PixelPath::Unavailable => tot.unavailable += 1,
-                    }
-                    let agree = agreement(scene, hit, t);
-                    if agree != Agreement::Same {
-                        let m = Mismatch {
-                            frame: f,
-                            pixel: (
-                                (i % sizes.width as usize) as u32,
-                                (i / sizes.width as usize) as u32,
-                            ),
-                            orsa: t.map(|h| (h.prim, h.t)),
-                            method: hit.map(|h| (h.prim, h.t)),
-                            path: *path,
-                        };
-                        if agree == Agreement::Tie {
-                            tot.ties.push(m);
-                        } else {
-                            tot.mismatches.push(m);
-                        }
-                    }
-                }
-                if f == cams.len() / 2 {
-                    if let Some(dir) = images {
-                        let stem = v.setting.replace(['=', ';', '/', ' ', '(', ')'], "-");
-                        save_path_image(
-                            &dir.join(format!("{}_epipolar_{stem}_paths.png", scene.name)),
-                            scene,
-                            sizes,
-                            &out,
-                            &truth[f],
-                        )?;
-                    }
+                add_frame(scene, &mut tot, f, sizes.width, &out, &truth.hits[f]);
+                if let (true, Some(dir)) = (f == cams.len() / 2, images) {
+                    let stem = v.setting.replace(['=', ';', '/', ' ', '(', ')'], "-");
+                    save_path_image(
+                        &dir.join(format!("{}_epipolar_{stem}_paths.png", scene.name)),
+                        scene,
+                        sizes,
+                        &out,
+                        &truth.hits[f],
+                    )?;
                 }
             }
         }
         tot.times = frame_times.into_iter().map(median).collect();
         totals.push((v.setting.clone(), tot));
     }
-
-    // Rows: frame 0 has no reprojection; time and shares are over frames
-    // 1.. (the steady state), mismatches over every frame.
-    let frames = cams.len();
-    let steady = |v: &[f64]| {
-        if v.len() > 1 {
-            v[1..].iter().sum::<f64>() / (v.len() - 1) as f64
-        } else {
-            v.iter().sum::<f64>()
-        }
-    };
-    let (o_ms, i_ms) = (steady(&orsa_ms), steady(&irsa_ms));
-    let mut rows = Vec::new();
-    let base = |method: &str, setting: &str, ms: f64| Row {
-        scene: scene.name.clone(),
-        method: method.into(),
-        setting: setting.into(),
-        threads,
-        time_ms: ms,
-        reference_ms: o_ms,
-        speedup: if ms > 0.0 { o_ms / ms } else { f64::INFINITY },
-        coverage: 1.0,
-        mean_abs_255: 0.0,
-        psnr_db: f64::INFINITY,
-        share_over_8: 0.0,
-        extra: Vec::new(),
-    };
-    let mut orsa_row = base("orsa", "full_traversal", o_ms);
-    orsa_row.extra = vec![
-        ("frames".into(), frames.to_string()),
-        ("irsa_ms".into(), format!("{i_ms:.4}")),
-    ];
-    rows.push(orsa_row);
-    let mut irsa_row = base("irsa", "known_object", i_ms);
-    irsa_row.extra = vec![
-        ("frames".into(), frames.to_string()),
-        ("visibility_errors".into(), irsa_errors.len().to_string()),
-        ("ties".into(), irsa_ties.to_string()),
-        ("irsa_ms".into(), format!("{i_ms:.4}")),
-    ];
-    rows.push(irsa_row);
-    let mut notes = String::new();
-    let _ = writeln!(
-        notes,
-        "- `{}` walkthrough (seed 002): {frames} frames at {}x{}, eye step {} per frame from path position {}; \
-         per-object BVHs built in {:.1} ms; ORSA {o_ms:.2} ms/frame, IRSA {i_ms:.2} ms/frame (frames 1..); \
-         IRSA visibility errors against ORSA: {}, ties (same point, another object): {irsa_ties}; camera gaze {:?}: {fails} of {} frame \
-         pairs fail the view-frustum check (Sec. 4.1), with gaze {other_gaze:?} {other_fails} would",
-        scene.name,
-        sizes.width,
-        sizes.height,
-        sizes.step,
-        sizes.start,
-        build.ms,
-        irsa_errors.len(),
-        sizes.gaze,
-        frames.saturating_sub(1)
-    );
-    for m in irsa_errors.iter().take(20) {
-        let _ = writeln!(
-            notes,
-            "  - IRSA frame {} pixel {:?}: ORSA {:?}, IRSA {:?}",
-            m.frame, m.pixel, m.orsa, m.method
-        );
-    }
-    // Every mismatch and tie of every setting, one CSV line each.
-    let mut csv =
-        String::from("setting,kind,frame,x,y,path,orsa_prim,orsa_t,method_prim,method_t\n");
-    let fmt_hit = |h: Option<(u32, f32)>| match h {
-        Some((p, t)) => format!("{p},{t}"),
-        None => ",".to_string(),
-    };
-    let irsa_list = irsa_errors.iter().map(|m| ("irsa", "error", m));
-    let method_lists = totals.iter().flat_map(|(setting, t)| {
-        t.mismatches
-            .iter()
-            .map(move |m| (setting.as_str(), "error", m))
-            .chain(t.ties.iter().map(move |m| (setting.as_str(), "tie", m)))
-    });
-    for (setting, kind, m) in irsa_list.chain(method_lists) {
-        let _ = writeln!(
-            csv,
-            "{setting},{kind},{},{},{},{:?},{},{}",
-            m.frame,
-            m.pixel.0,
-            m.pixel.1,
-            m.path,
-            fmt_hit(m.orsa),
-            fmt_hit(m.method)
-        );
-    }
-    if let Some(dir) = images {
-        let file = dir.join(format!("{}_epipolar_mismatches.csv", scene.name));
-        std::fs::write(&file, csv).map_err(|e| format!("{}: {e}", file.display()))?;
-        let _ = writeln!(
-            notes,
-            "  - every visibility error and tie: `images/{}`",
-            file.file_name()
-                .map_or(String::new(), |f| f.to_string_lossy().into_owned())
-        );
-    }
-    for (setting, t) in &totals {
-        // Shares over the frames that had a reprojection (frame 0 and
-        // frames failing the view-frustum check are all ORSA).
-        let steady_px = (t.pixels - t.unavailable).max(1) as f64;
-        let share = |c: usize| c as f64 / steady_px;
-        let ms = steady(&t.times);
-        // Visibility error as image error: share of mismatched pixels.
-        let err_share = t.mismatches.len() as f64 / t.pixels.max(1) as f64;
-        let mut row = base("epipolar", setting, ms);
-        row.mean_abs_255 = 255.0 * err_share;
-        row.share_over_8 = err_share;
-        row.psnr_db = if t.mismatches.is_empty() {
-            f64::INFINITY
-        } else {
-            0.0
-        };
-        row.extra = vec![
-            ("frames".into(), frames.to_string()),
-            ("c_R".into(), format!("{:.4}", share(t.resolved))),
-            ("c_E".into(), format!("{:.4}", share(t.failed))),
-            ("c_O".into(), format!("{:.4}", share(t.resampled))),
-            ("c_abrupt".into(), format!("{:.4}", share(t.abrupt))),
-            (
-                "c_unavailable".into(),
-                format!(
-                    "{:.4}",
-                    t.unavailable.saturating_sub(n) as f64 / (t.pixels - n).max(1) as f64
-                ),
-            ),
-            ("visibility_errors".into(), t.mismatches.len().to_string()),
-            ("ties".into(), t.ties.len().to_string()),
-            ("irsa_ms".into(), format!("{i_ms:.4}")),
-            (
-                "vs_irsa".into(),
-                format!("{:.4}", if ms > 0.0 { i_ms / ms } else { 0.0 }),
-            ),
-        ];
-        rows.push(row);
-        let _ = writeln!(
-            notes,
-            "  - `epipolar` {setting}: c_R {:.1}%, c_E {:.1}%, c_O {:.1}% (of frames with reprojection; \
-             {} of {} frames without), {:.2} ms/frame ({:.2}x ORSA, {:.2}x IRSA time), \
-             {} visibility errors, {} ties",
-            100.0 * share(t.resolved),
-            100.0 * share(t.failed),
-            100.0 * share(t.resampled),
-            t.unavailable / n,
-            frames,
-            ms,
-            if ms > 0.0 { o_ms / ms } else { 0.0 },
-            if i_ms > 0.0 { ms / i_ms } else { 0.0 },
-            t.mismatches.len(),
-            t.ties.len()
-        );
-        for m in t.mismatches.iter().take(20) {
-            let _ = writeln!(
-                notes,
-                "    - frame {} pixel {:?}: ORSA {:?}, method {:?} ({:?})",
-                m.frame, m.pixel, m.orsa, m.method, m.path
-            );
-        }
-        if t.mismatches.len() > 20 {
-            let _ = writeln!(notes, "    - ... {} more", t.mismatches.len() - 20);
-        }
-    }
-    Ok(PathReport {
-        rows,
+    Ok(PathMeasure {
+        frames: cams.len(),
+        frustum_fails: frustum_fails(&cams),
+        other_gaze: (other_gaze, frustum_fails(&other)),
+        objects_build_ms: build.ms,
+        orsa_ms: truth.orsa_ms,
+        irsa_ms: truth.irsa_ms,
+        irsa_errors: truth.irsa_errors,
+        irsa_ties: truth.irsa_ties,
         totals,
-        notes,
     })
 }
 

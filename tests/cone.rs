@@ -4,11 +4,10 @@
 #![allow(clippy::needless_range_loop)]
 
 use glam::Vec3;
-use refl_app::cone::{
-    glossy_mask, reference_ms_at_error, run, Glossiness, GlossyBuffers, GlossyMethod, GlossyStats,
-};
+use refl_app::cone::{glossy_mask, run, Glossiness, GlossyBuffers, GlossyMethod, GlossyStats};
 use refl_app::gbuffer::GBuffer;
 use refl_app::render::{compare, composite, direct_image, reference_masked, ReflectionImage};
+use refl_app::report::glossy::reference_ms_at_error;
 use refl_app::scene::Scene;
 use refl_app::screen::DepthBuffer;
 use refl_app::shade::{env_map, Shader};

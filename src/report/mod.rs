@@ -14,6 +14,8 @@
 
 mod accum;
 pub mod content;
+pub mod epipolar;
+pub mod glossy;
 pub mod methods;
 pub mod studies;
 
@@ -394,9 +396,10 @@ pub fn run(opts: &Options) -> Result<PathBuf, String> {
     for l in &loaded {
         run_scene(l, &run, &studies, &selected, &mut gathered)?;
     }
-    let long_md = long_sections(opts, &scenes, &selected, &run, &out)?;
+    let long_md = long_sections(opts, &selected, &run, &out)?;
     bar.finish_and_clear();
-    write(opts, &run, &out, &gathered, &long_md)?;
+    let elapsed = bar.elapsed().as_secs_f64();
+    write(opts, &run, &out, &gathered, &long_md, elapsed)?;
     Ok(out)
 }
 
@@ -540,6 +543,7 @@ fn run_scene(
     gathered: &mut Gathered,
 ) -> Result<(), String> {
     let (label, scene, sizes) = (l.label.as_str(), &l.scene, &run.sizes);
+    let start = std::time::Instant::now();
     let shader = Shader::new(scene, &l.tracer);
     let mut notes = l.notes.clone();
     // (method, setting) -> sums over frames, in first-seen order.
@@ -652,15 +656,29 @@ fn run_scene(
         pool: &run.pool,
         images: &run.images,
     };
+    let per_frame_s = start.elapsed().as_secs_f64();
+    let mut study_s = Vec::new();
     for &i in &l.studies {
         let study = &studies[i];
         run.bar.set_message(format!("{label}: {}", study.name()));
+        let t = std::time::Instant::now();
         let out = study.run(&scene_run, selected)?;
+        study_s.push(format!(
+            "{} {:.0} s",
+            study.name(),
+            t.elapsed().as_secs_f64()
+        ));
         gathered.rows.extend(out.rows);
         notes.push_str(&out.notes);
         gathered.sections.push_str(&out.section);
         run.bar.inc(1);
     }
+    let _ = writeln!(
+        notes,
+        "  - run time: per-frame methods {per_frame_s:.0} s{}{}",
+        if study_s.is_empty() { "" } else { ", " },
+        study_s.join(", ")
+    );
     gathered.notes.push_str(&notes);
     Ok(())
 }
@@ -671,14 +689,13 @@ fn run_scene(
 /// rebuild per frame).
 fn long_sections(
     opts: &Options,
-    scenes: &[String],
     selected: &[&str],
     run: &Run<'_>,
     out: &Path,
 ) -> Result<String, String> {
     let (sizes, threads, pool) = (&run.sizes, run.threads, &run.pool);
     let growth_sizes: Vec<usize> = if opts.growth.is_empty() {
-        if opts.long && scenes.iter().any(|s| s == "room") {
+        if opts.long {
             vec![10_000, 100_000, 1_000_000]
         } else {
             Vec::new()
@@ -744,6 +761,7 @@ fn write(
     out: &Path,
     g: &Gathered,
     long_md: &str,
+    elapsed_s: f64,
 ) -> Result<(), String> {
     let sizes = &run.sizes;
     let csv = out.join("summary.csv");
@@ -752,7 +770,7 @@ fn write(
     report_out::plot_error_vs_time(&plot, &g.rows)
         .map_err(|e| format!("{}: {e}", plot.display()))?;
     let md = format!(
-        "# refl report\n\n{} run, {} thread(s), {} frame(s) per scene. Time is the reflection pass only \
+        "# refl report\n\n{} run, {} thread(s), {} frame(s) per scene, {elapsed_s:.0} s in all. Time is the reflection pass only \
          (median of {} runs, mean over frames); `reference_ms` is the ray-traced reference (obvhs) on the same \
          pixels in the same run, same threads. Error is measured against the ground truth (the reference at {} \
          glossy samples per pixel) on the pixels each method handles, pooled over frames: mean absolute difference \

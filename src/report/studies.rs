@@ -120,7 +120,7 @@ impl Study for TcrrPath {
 
 /// Cone tracing (seed 004) and multi-ray (seed 003 Sec. 3.5) against the
 /// Monte-Carlo reference at low sample counts on the scene's reflectors
-/// made glossy ([`crate::cone::report_rows`]).
+/// made glossy ([`super::glossy::report_rows`]).
 struct GlossyStudy;
 
 impl Study for GlossyStudy {
@@ -143,7 +143,7 @@ impl Study for GlossyStudy {
     fn run(&self, s: &SceneRun<'_>, selected: &[&str]) -> Result<StudyOut, String> {
         // Quick (CI): half the frame, 64-sample ground truth.
         let sizes = s.sizes;
-        let study = crate::cone::StudySizes {
+        let study = super::glossy::StudySizes {
             width: if sizes.quick {
                 sizes.width / 2
             } else {
@@ -158,7 +158,7 @@ impl Study for GlossyStudy {
             runs: sizes.runs,
             quick: sizes.quick,
         };
-        let (rows, section) = crate::cone::report_rows(
+        let (rows, section) = super::glossy::report_rows(
             s.scene,
             s.tracer,
             study,
@@ -176,7 +176,8 @@ impl Study for GlossyStudy {
 }
 
 /// Seed 002's reprojected ray casting of primary visibility along the
-/// camera path, against ORSA and IRSA ([`crate::epipolar::run`]).
+/// camera path, against ORSA and IRSA ([`crate::epipolar::measure`],
+/// [`super::epipolar::rows`]).
 struct EpipolarPath;
 
 impl Study for EpipolarPath {
@@ -199,22 +200,22 @@ impl Study for EpipolarPath {
     }
 
     fn run(&self, s: &SceneRun<'_>, selected: &[&str]) -> Result<StudyOut, String> {
-        let path = crate::epipolar::run(
+        let measured = crate::epipolar::measure(
             s.scene,
             s.tracer,
             &s.sizes.path,
             s.sizes.runs,
             s.pool,
-            s.threads,
             Some(s.images),
         )?;
+        let (rows, notes) =
+            super::epipolar::rows(s.scene, &s.sizes.path, &measured, s.threads, Some(s.images))?;
         Ok(StudyOut {
-            rows: path
-                .rows
+            rows: rows
                 .into_iter()
                 .filter(|r| selected.contains(&r.method.as_str()))
                 .collect(),
-            notes: path.notes,
+            notes,
             section: String::new(),
         })
     }

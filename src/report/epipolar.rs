@@ -1,0 +1,213 @@
+//! The epipolar walk's rows, notes and mismatch list (seed 002): the report
+//! side of [`crate::epipolar::measure`].
+
+use crate::epipolar::{PathMeasure, PathSizes};
+use crate::report_out::Row;
+use crate::scene::Scene;
+use std::fmt::Write as _;
+use std::path::Path;
+
+/// Mean over frames 1.. (frame 0 has no reprojection: the steady state).
+fn steady(v: &[f64]) -> f64 {
+    if v.len() > 1 {
+        v[1..].iter().sum::<f64>() / (v.len() - 1) as f64
+    } else {
+        v.iter().sum::<f64>()
+    }
+}
+
+/// The rows (`orsa`, `irsa`, one `epipolar` row per setting) and the notes
+/// of walk `m` on `scene`; with `images`, every visibility error and tie is
+/// written to `images/{scene}_epipolar_mismatches.csv`.
+///
+/// Time and shares are over frames 1.. (the steady state), mismatches over
+/// every frame. A setting's error is its share of mismatched pixels
+/// (`mean_abs_255` = 255 x that share, `psnr_db` infinite without
+/// mismatches and 0 with: visibility is right or wrong, not graded).
+///
+/// # Errors
+/// An I/O failure writing the mismatch list.
+pub fn rows(
+    scene: &Scene,
+    sizes: &PathSizes,
+    m: &PathMeasure,
+    threads: usize,
+    images: Option<&Path>,
+) -> Result<(Vec<Row>, String), String> {
+    let frames = m.frames;
+    let n = sizes.width as usize * sizes.height as usize;
+    let (o_ms, i_ms) = (steady(&m.orsa_ms), steady(&m.irsa_ms));
+    let base = |method: &str, setting: &str, ms: f64, extra: Vec<(String, String)>| Row {
+        scene: scene.name.clone(),
+        method: method.into(),
+        setting: setting.into(),
+        threads,
+        time_ms: ms,
+        reference_ms: o_ms,
+        speedup: if ms > 0.0 { o_ms / ms } else { f64::INFINITY },
+        coverage: 1.0,
+        mean_abs_255: 0.0,
+        psnr_db: f64::INFINITY,
+        share_over_8: 0.0,
+        extra,
+    };
+    let mut rows = vec![
+        base(
+            "orsa",
+            "full_traversal",
+            o_ms,
+            vec![
+                ("frames".into(), frames.to_string()),
+                ("irsa_ms".into(), format!("{i_ms:.4}")),
+            ],
+        ),
+        base(
+            "irsa",
+            "known_object",
+            i_ms,
+            vec![
+                ("frames".into(), frames.to_string()),
+                ("visibility_errors".into(), m.irsa_errors.len().to_string()),
+                ("ties".into(), m.irsa_ties.to_string()),
+                ("irsa_ms".into(), format!("{i_ms:.4}")),
+            ],
+        ),
+    ];
+    let mut notes = String::new();
+    let _ = writeln!(
+        notes,
+        "- `{}` walkthrough (seed 002): {frames} frames at {}x{}, eye step {} per frame from path position {}; \
+         per-object BVHs built in {:.1} ms; ORSA {o_ms:.2} ms/frame, IRSA {i_ms:.2} ms/frame (frames 1..); \
+         IRSA visibility errors against ORSA: {}, ties (same point, another object): {}; camera gaze {:?}: {} of {} frame \
+         pairs fail the view-frustum check (Sec. 4.1), with gaze {:?} {} would",
+        scene.name,
+        sizes.width,
+        sizes.height,
+        sizes.step,
+        sizes.start,
+        m.objects_build_ms,
+        m.irsa_errors.len(),
+        m.irsa_ties,
+        sizes.gaze,
+        m.frustum_fails,
+        frames.saturating_sub(1),
+        m.other_gaze.0,
+        m.other_gaze.1,
+    );
+    for e in m.irsa_errors.iter().take(20) {
+        let _ = writeln!(
+            notes,
+            "  - IRSA frame {} pixel {:?}: ORSA {:?}, IRSA {:?}",
+            e.frame, e.pixel, e.orsa, e.method
+        );
+    }
+    if let Some(dir) = images {
+        let file = dir.join(format!("{}_epipolar_mismatches.csv", scene.name));
+        std::fs::write(&file, mismatch_csv(m)).map_err(|e| format!("{}: {e}", file.display()))?;
+        let _ = writeln!(
+            notes,
+            "  - every visibility error and tie: `images/{}`",
+            file.file_name()
+                .map_or(String::new(), |f| f.to_string_lossy().into_owned())
+        );
+    }
+    for (setting, t) in &m.totals {
+        // Shares over the frames that had a reprojection (frame 0 and
+        // frames failing the view-frustum check are all ORSA).
+        let steady_px = (t.pixels - t.unavailable).max(1) as f64;
+        let share = |c: usize| c as f64 / steady_px;
+        let ms = steady(&t.times);
+        let err_share = t.mismatches.len() as f64 / t.pixels.max(1) as f64;
+        let mut row = base(
+            "epipolar",
+            setting,
+            ms,
+            vec![
+                ("frames".into(), frames.to_string()),
+                ("c_R".into(), format!("{:.4}", share(t.resolved))),
+                ("c_E".into(), format!("{:.4}", share(t.failed))),
+                ("c_O".into(), format!("{:.4}", share(t.resampled))),
+                ("c_abrupt".into(), format!("{:.4}", share(t.abrupt))),
+                (
+                    "c_unavailable".into(),
+                    format!(
+                        "{:.4}",
+                        t.unavailable.saturating_sub(n) as f64 / (t.pixels - n).max(1) as f64
+                    ),
+                ),
+                ("visibility_errors".into(), t.mismatches.len().to_string()),
+                ("ties".into(), t.ties.len().to_string()),
+                ("irsa_ms".into(), format!("{i_ms:.4}")),
+                (
+                    "vs_irsa".into(),
+                    format!("{:.4}", if ms > 0.0 { i_ms / ms } else { 0.0 }),
+                ),
+            ],
+        );
+        row.mean_abs_255 = 255.0 * err_share;
+        row.share_over_8 = err_share;
+        row.psnr_db = if t.mismatches.is_empty() {
+            f64::INFINITY
+        } else {
+            0.0
+        };
+        rows.push(row);
+        let _ = writeln!(
+            notes,
+            "  - `epipolar` {setting}: c_R {:.1}%, c_E {:.1}%, c_O {:.1}% (of frames with reprojection; \
+             {} of {} frames without), {:.2} ms/frame ({:.2}x ORSA, {:.2}x IRSA time), \
+             {} visibility errors, {} ties",
+            100.0 * share(t.resolved),
+            100.0 * share(t.failed),
+            100.0 * share(t.resampled),
+            t.unavailable / n,
+            frames,
+            ms,
+            if ms > 0.0 { o_ms / ms } else { 0.0 },
+            if i_ms > 0.0 { ms / i_ms } else { 0.0 },
+            t.mismatches.len(),
+            t.ties.len()
+        );
+        for e in t.mismatches.iter().take(20) {
+            let _ = writeln!(
+                notes,
+                "    - frame {} pixel {:?}: ORSA {:?}, method {:?} ({:?})",
+                e.frame, e.pixel, e.orsa, e.method, e.path
+            );
+        }
+        if t.mismatches.len() > 20 {
+            let _ = writeln!(notes, "    - ... {} more", t.mismatches.len() - 20);
+        }
+    }
+    Ok((rows, notes))
+}
+
+/// Every mismatch and tie of IRSA and of every setting, one CSV line each.
+fn mismatch_csv(m: &PathMeasure) -> String {
+    let mut csv =
+        String::from("setting,kind,frame,x,y,path,orsa_prim,orsa_t,method_prim,method_t\n");
+    let fmt_hit = |h: Option<(u32, f32)>| match h {
+        Some((p, t)) => format!("{p},{t}"),
+        None => ",".to_string(),
+    };
+    let irsa_list = m.irsa_errors.iter().map(|e| ("irsa", "error", e));
+    let method_lists = m.totals.iter().flat_map(|(setting, t)| {
+        t.mismatches
+            .iter()
+            .map(move |e| (setting.as_str(), "error", e))
+            .chain(t.ties.iter().map(move |e| (setting.as_str(), "tie", e)))
+    });
+    for (setting, kind, e) in irsa_list.chain(method_lists) {
+        let _ = writeln!(
+            csv,
+            "{setting},{kind},{},{},{},{:?},{},{}",
+            e.frame,
+            e.pixel.0,
+            e.pixel.1,
+            e.path,
+            fmt_hit(e.orsa),
+            fmt_hit(e.method)
+        );
+    }
+    csv
+}
