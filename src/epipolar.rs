@@ -247,9 +247,11 @@ impl PathSizes {
         gaze: Gaze::AlongPath,
     };
 
-    /// The default report: 16 frames at 512x384.
+    /// The default report: 12 frames at 384x288.
     pub const DEFAULT: PathSizes = PathSizes {
-        frames: 16,
+        width: 384,
+        height: 288,
+        frames: 12,
         ..PathSizes::LONG
     };
 

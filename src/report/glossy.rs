@@ -4,6 +4,7 @@
 //! rows at low sample counts and the `cone` and `multiray` rows, all on the
 //! glossy pixels.
 
+use super::Level;
 use crate::cone::{glossy_mask, run, Glossiness, GlossyBuffers, GlossyMethod, VARIANTS};
 use crate::gbuffer::GBuffer;
 use crate::probe::{PrefilteredEnv, ProbeSizes};
@@ -31,8 +32,9 @@ pub struct StudySizes {
     pub truth_samples: u32,
     /// Timed repetitions (median).
     pub runs: usize,
-    /// `--quick`: fewer settings, variants and samples.
-    pub quick: bool,
+    /// Quick: fewer settings and samples, one variant; default: every
+    /// setting, one variant, two reference counts; long: everything.
+    pub level: Level,
 }
 
 /// The cone settings of the study: 4, 8 and 16 circles with the seed's
@@ -134,11 +136,11 @@ pub fn multiray_settings(quick: bool) -> Vec<(GlossyMethod, String)> {
 }
 
 /// The reference sample counts of the study's `reference` rows.
-pub fn reference_counts(quick: bool) -> &'static [u32] {
-    if quick {
-        &[8]
-    } else {
-        &[8, 32, 64]
+pub fn reference_counts(level: Level) -> &'static [u32] {
+    match level {
+        Level::Quick => &[8],
+        Level::Default => &[8, 32],
+        Level::Long => &[8, 32, 64],
     }
 }
 
@@ -269,15 +271,15 @@ pub fn report_rows(
     let camera = scene
         .camera(0, sizes.width, sizes.height)
         .map_err(|e| format!("glossy study: camera: {e}"))?;
-    let variants: &[Glossiness] = if sizes.quick {
-        &VARIANTS[..1]
-    } else {
+    let variants: &[Glossiness] = if sizes.level == Level::Long {
         &VARIANTS
+    } else {
+        &VARIANTS[..1]
     };
     // The cone's fallback: the environment pre-filtered per roughness, built
     // once per scene outside the timed passes (an engine prefilters its
     // probes at load).
-    let probe_sizes = if sizes.quick {
+    let probe_sizes = if sizes.level == Level::Quick {
         ProbeSizes::QUICK
     } else {
         ProbeSizes::DEFAULT
@@ -323,7 +325,7 @@ pub fn report_rows(
         probe.sizes().samples,
         probe_t.ms
     );
-    let settings = study_settings(sizes.quick, methods);
+    let settings = study_settings(sizes.level == Level::Quick, methods);
     let mut rows = Vec::new();
     for glossiness in variants {
         let Some(v) = study.variant(&camera, glossiness, &mut rows, &mut md)? else {
@@ -456,7 +458,7 @@ impl Study<'_> {
             visible,
             ref_points: Vec::new(),
         };
-        for &spp in reference_counts(sizes.quick) {
+        for &spp in reference_counts(sizes.level) {
             let (img, ms) = median_ms(sizes.runs, || {
                 timed(|| crate::render::reference_masked(shader, &v.g, spp, &v.mask, pool))
             });

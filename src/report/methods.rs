@@ -401,7 +401,7 @@ impl Method for Step {
             false,
             "stride=1;refine=off".into(),
         ));
-        if !sizes.quick {
+        if !sizes.quick() {
             for c in [DepthConvention::Linear, DepthConvention::ZeroToOne] {
                 out.push(ScreenSetting::boxed(
                     base,
@@ -468,7 +468,7 @@ impl Method for HiZ {
             false,
             format!("{};refine=off", label(base)),
         ));
-        if !sizes.quick {
+        if !sizes.quick() {
             for c in [DepthConvention::Linear, DepthConvention::ZeroToOne] {
                 out.push(ScreenSetting::boxed(
                     ScreenMethod::HiZ(base),
@@ -504,7 +504,7 @@ impl Method for Layered {
             return Err("no compact non-reflective object to map".into());
         }
         need_reflective(content)?;
-        let res: &[u32] = if sizes.quick {
+        let res: &[u32] = if sizes.quick() {
             &[32, 64]
         } else {
             &[32, 64, 128]
@@ -618,7 +618,7 @@ impl Method for Cluster {
         use crate::cluster::ClusterSettings;
         need_reflective(content)?;
         let base = ClusterSettings::default();
-        let mut v: Vec<ClusterSettings> = if sizes.quick {
+        let mut v: Vec<ClusterSettings> = if sizes.quick() {
             vec![ClusterSettings { gain: 16.0, ..base }, base]
         } else {
             let mut v: Vec<ClusterSettings> = [1.0, 16.0, 64.0, 256.0]

@@ -18,6 +18,7 @@ pub mod epipolar;
 pub mod glossy;
 pub mod methods;
 pub mod studies;
+pub mod tcrr;
 
 use crate::gbuffer::GBuffer;
 use crate::render::{self, compare, composite, direct_image, timed, ReflectionImage};
@@ -122,8 +123,21 @@ pub struct Sizes {
     pub glossy_truth_samples: u32,
     /// The epipolar walkthrough's frames and image size.
     pub path: crate::epipolar::PathSizes,
-    /// `--quick`: fewer settings.
-    pub quick: bool,
+    /// How much the studies measure; `Quick` also runs fewer per-frame
+    /// settings.
+    pub level: Level,
+}
+
+/// How much a report run measures.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Level {
+    /// `--quick`: the tests' sizes, fewest settings.
+    Quick,
+    /// The default run: every method and scene, studies trimmed (one glossy
+    /// variant, a 16-frame TCRR path).
+    Default,
+    /// `--long`: converged references, every study setting.
+    Long,
 }
 
 impl Sizes {
@@ -138,14 +152,14 @@ impl Sizes {
         frames: 2,
         glossy_truth_samples: 64,
         path: crate::epipolar::PathSizes::QUICK,
-        quick: true,
+        level: Level::Quick,
     };
 
-    /// The default run's sizes: every method and scene at the full image
-    /// size, with references converged enough to rank the methods.
+    /// The default run's sizes: every method and scene at 384x288, with
+    /// references converged enough to rank the methods.
     pub const DEFAULT: Sizes = Sizes {
-        width: 512,
-        height: 384,
+        width: 384,
+        height: 288,
         tris: 150_000,
         truth_samples: 128,
         reference_samples: &[4, 16, 64],
@@ -153,7 +167,7 @@ impl Sizes {
         frames: 2,
         glossy_truth_samples: 256,
         path: crate::epipolar::PathSizes::DEFAULT,
-        quick: false,
+        level: Level::Default,
     };
 
     /// `--long`: converged references and more frames.
@@ -167,8 +181,13 @@ impl Sizes {
         frames: 4,
         glossy_truth_samples: 1024,
         path: crate::epipolar::PathSizes::LONG,
-        quick: false,
+        level: Level::Long,
     };
+
+    /// Whether this is a `--quick` run (fewer per-frame settings).
+    pub fn quick(&self) -> bool {
+        self.level == Level::Quick
+    }
 
     /// The sizes `opts` asks for (`--quick`, `--long` or the default, with
     /// `--tris`).

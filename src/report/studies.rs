@@ -75,7 +75,7 @@ pub fn all() -> Vec<Box<dyn Study>> {
 
 /// Seed 000's temporally coherent reflection reprojection and its naive
 /// warping baseline along a dense stretch of the camera path
-/// ([`crate::tcrr::report_rows`]).
+/// ([`super::tcrr::report_rows`]).
 struct TcrrPath;
 
 impl Study for TcrrPath {
@@ -98,10 +98,10 @@ impl Study for TcrrPath {
     }
 
     fn run(&self, s: &SceneRun<'_>, selected: &[&str]) -> Result<StudyOut, String> {
-        let (rows, notes) = crate::tcrr::report_rows(
+        let (rows, notes) = super::tcrr::report_rows(
             s.shader,
             s.label,
-            s.sizes.quick,
+            s.sizes.level,
             s.sizes.width,
             s.sizes.height,
             selected.contains(&"tcrr"),
@@ -143,20 +143,13 @@ impl Study for GlossyStudy {
     fn run(&self, s: &SceneRun<'_>, selected: &[&str]) -> Result<StudyOut, String> {
         // Quick (CI): half the frame, 64-sample ground truth.
         let sizes = s.sizes;
+        let scale = if sizes.quick() { 2 } else { 1 };
         let study = super::glossy::StudySizes {
-            width: if sizes.quick {
-                sizes.width / 2
-            } else {
-                sizes.width
-            },
-            height: if sizes.quick {
-                sizes.height / 2
-            } else {
-                sizes.height
-            },
+            width: sizes.width / scale,
+            height: sizes.height / scale,
             truth_samples: sizes.glossy_truth_samples,
             runs: sizes.runs,
-            quick: sizes.quick,
+            level: sizes.level,
         };
         let (rows, section) = super::glossy::report_rows(
             s.scene,
