@@ -469,6 +469,82 @@ fn plan_entries_equal_build_camera_per_cluster() {
     }
 }
 
+/// Finalizes every cluster of the plan `p` from its own thread into
+/// `texels` (the whole image), in two row bands, with its render in
+/// `rconv` (or none, for clusters without a camera); returns each
+/// cluster's host rays, bands in order.
+fn finalize_in_threads(
+    g: refl_gbuffer,
+    o: &refl_cluster_pass_options,
+    p: &Plan,
+    renders: &[Option<(Vec<f32>, Vec<[f32; 3]>)>],
+    rconv: DepthConvention,
+    texels: &mut [refl_cluster_texel],
+) -> Vec<Vec<refl_host_ray>> {
+    let tp = Shared(texels.as_mut_ptr());
+    let gs = Shared(g);
+    std::thread::scope(|sc| {
+        let hs: Vec<_> = p
+            .entries
+            .iter()
+            .zip(renders)
+            .map(|(e, r)| {
+                let (g, s, tp) = (&gs, &p.scratch, &tp);
+                sc.spawn(move || {
+                    let rv = r.as_ref().map(|(d, c)| {
+                        let (w, h) = (e.camera.camera.width, e.camera.camera.height);
+                        refl_cluster_render {
+                            depth: refl_depth_image {
+                                depth: f32_img(d, w, h),
+                                camera: e.camera.camera,
+                                convention: conv_c(rconv),
+                            },
+                            color: vec3_img(c, w, h),
+                            back_depth: none_f32(),
+                        }
+                    });
+                    let rp = rv.as_ref().map_or(core::ptr::null(), |r| r as *const _);
+                    let rows = e.rows;
+                    let mid = rows.begin + (rows.end - rows.begin) / 2;
+                    let mut out = Vec::new();
+                    for band in [(rows.begin, mid), (mid, rows.end)] {
+                        if band.0 == band.1 {
+                            continue;
+                        }
+                        let mut host = vec![refl_host_ray::default(); N];
+                        let mut st = refl_cluster_stats::default();
+                        let r = unsafe {
+                            refl_cluster_finalize_rows(
+                                &mut st,
+                                *tp.get(),
+                                N,
+                                host.as_mut_ptr(),
+                                N,
+                                g.get(),
+                                o,
+                                s.as_ptr(),
+                                s.len(),
+                                e,
+                                rp,
+                                refl_row_range {
+                                    begin: band.0,
+                                    end: band.1,
+                                },
+                            )
+                        };
+                        assert_eq!(r, refl_status::Ok);
+                        assert_eq!(st.host_rays_written, st.host_rays);
+                        host.truncate(st.host_rays as usize);
+                        out.extend(host);
+                    }
+                    out
+                })
+            })
+            .collect();
+        hs.into_iter().map(|h| h.join().unwrap()).collect()
+    })
+}
+
 /// Finalize: every cluster with a camera from its own thread into one
 /// image, in two row bands, equals the kernel export per cluster; its host
 /// rays are the mirror pass's; pixels of no cluster are untouched.
@@ -490,68 +566,7 @@ fn finalize_rows_from_threads_equals_finalize_and_the_mirror_pass_host_rays() {
             .map(|e| (e.camera.fallback == 0).then(|| render_cluster(e, rconv)))
             .collect();
         let mut texels = vec![refl_cluster_texel::default(); N];
-        let tp = Shared(texels.as_mut_ptr());
-        let gs = Shared(g);
-        let hosts: Vec<Vec<refl_host_ray>> = std::thread::scope(|sc| {
-            let hs: Vec<_> = p
-                .entries
-                .iter()
-                .zip(&renders)
-                .map(|(e, r)| {
-                    let (g, o, s, tp) = (&gs, &o, &p.scratch, &tp);
-                    sc.spawn(move || {
-                        let rv = r.as_ref().map(|(d, c)| {
-                            let (w, h) = (e.camera.camera.width, e.camera.camera.height);
-                            refl_cluster_render {
-                                depth: refl_depth_image {
-                                    depth: f32_img(d, w, h),
-                                    camera: e.camera.camera,
-                                    convention: conv_c(rconv),
-                                },
-                                color: vec3_img(c, w, h),
-                                back_depth: none_f32(),
-                            }
-                        });
-                        let rp = rv.as_ref().map_or(core::ptr::null(), |r| r as *const _);
-                        let rows = e.rows;
-                        let mid = rows.begin + (rows.end - rows.begin) / 2;
-                        let mut out = Vec::new();
-                        for band in [(rows.begin, mid), (mid, rows.end)] {
-                            if band.0 == band.1 {
-                                continue;
-                            }
-                            let mut host = vec![refl_host_ray::default(); N];
-                            let mut st = refl_cluster_stats::default();
-                            let r = unsafe {
-                                refl_cluster_finalize_rows(
-                                    &mut st,
-                                    *tp.get(),
-                                    N,
-                                    host.as_mut_ptr(),
-                                    N,
-                                    g.get(),
-                                    o,
-                                    s.as_ptr(),
-                                    s.len(),
-                                    e,
-                                    rp,
-                                    refl_row_range {
-                                        begin: band.0,
-                                        end: band.1,
-                                    },
-                                )
-                            };
-                            assert_eq!(r, refl_status::Ok);
-                            assert_eq!(st.host_rays_written, st.host_rays);
-                            host.truncate(st.host_rays as usize);
-                            out.extend(host);
-                        }
-                        out
-                    })
-                })
-                .collect();
-            hs.into_iter().map(|h| h.join().unwrap()).collect()
-        });
+        let hosts = finalize_in_threads(g, &o, &p, &renders, rconv, &mut texels);
         let gb = f.gbuffer(false);
         let mirror = refl_core::MirrorPass::try_new(
             gb,
