@@ -469,6 +469,10 @@ fn plan_entries_equal_build_camera_per_cluster() {
     }
 }
 
+/// A cluster's render (depth, color), or none for a cluster without a
+/// camera.
+type Render = Option<(Vec<f32>, Vec<[f32; 3]>)>;
+
 /// Finalizes every cluster of the plan `p` from its own thread into
 /// `texels` (the whole image), in two row bands, with its render in
 /// `rconv` (or none, for clusters without a camera); returns each
@@ -477,7 +481,7 @@ fn finalize_in_threads(
     g: refl_gbuffer,
     o: &refl_cluster_pass_options,
     p: &Plan,
-    renders: &[Option<(Vec<f32>, Vec<[f32; 3]>)>],
+    renders: &[Render],
     rconv: DepthConvention,
     texels: &mut [refl_cluster_texel],
 ) -> Vec<Vec<refl_host_ray>> {
