@@ -320,15 +320,28 @@ fn cluster_cameras_equal_core() {
     assert!(cameras >= 3, "{cameras}");
 }
 
+/// [`for_each_cluster_camera`] on the clusters refl-core gives a camera.
+fn for_each_cluster_with_a_camera(
+    f: &Frame,
+    mut check: impl FnMut(&[u32], &refl_cluster_camera, cluster::ClusterCamera),
+) {
+    for_each_cluster_camera(f, |px, out, core_view| {
+        if let ClusterView::Camera(cc) = core_view {
+            check(px, out, cc);
+        }
+    });
+}
+
 /// A flat depth image at half the far distance of a cluster camera,
-/// colored by texel: its size, depth and color.
-fn flat_render(cam: &Camera) -> (u32, u32, Vec<f32>, Vec<[f32; 3]>) {
+/// colored by texel: its size, depth, color and C depth image.
+fn flat_render(cam: &Camera) -> (u32, u32, Vec<f32>, Vec<[f32; 3]>, refl_depth_image) {
     let (dw, dh) = (cam.width(), cam.height());
     let depth = vec![cam.far() * 0.5; (dw * dh) as usize];
     let color: Vec<[f32; 3]> = (0..dw * dh)
         .map(|i| [i as f32 / (dw * dh) as f32, 0.5, 0.25])
         .collect();
-    (dw, dh, depth, color)
+    let di_c = depth_c(cam, &depth, dw, dh);
+    (dw, dh, depth, color, di_c)
 }
 
 /// The depth image `depth` (`dw x dh`, linear) seen by `cam`.
@@ -381,12 +394,8 @@ fn finalize_of_every_cluster_camera_equals_core() {
         positions: ImageView::try_new(&f.pos, W, H, W).unwrap(),
         normals: ImageView::try_new(&f.nor, W, H, W).unwrap(),
     };
-    for_each_cluster_camera(&f, |px, out, core_view| {
-        let ClusterView::Camera(cc) = core_view else {
-            return;
-        };
-        let (dw, dh, depth, color) = flat_render(&cc.camera);
-        let di_c = depth_c(&cc.camera, &depth, dw, dh);
+    for_each_cluster_with_a_camera(&f, |px, out, cc| {
+        let (dw, dh, depth, color, di_c) = flat_render(&cc.camera);
         let fp = finalize_input();
         let mut shades = vec![refl_cluster_shade::default(); px.len()];
         let mut fell = 0u32;
@@ -449,12 +458,9 @@ fn finalize_of_every_cluster_camera_equals_core() {
 #[test]
 fn finalize_errors_leave_the_shades_untouched() {
     let f = frame();
-    for_each_cluster_camera(&f, |px, out, core_view| {
-        let ClusterView::Camera(cc) = core_view else {
-            return;
-        };
-        let (dw, dh, depth, color) = flat_render(&cc.camera);
-        let di_c = depth_c(&cc.camera, &depth, dw, dh);
+    for_each_cluster_with_a_camera(&f, |px, out, cc| {
+        // `_depth` is the buffer `di_c` points into: kept to the end.
+        let (dw, dh, _depth, color, di_c) = flat_render(&cc.camera);
         let fp = finalize_input();
         let sentinel = refl_cluster_shade {
             rays: 99,

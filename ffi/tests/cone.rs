@@ -411,9 +411,15 @@ fn multiray_ray() -> Ray {
     }
 }
 
-/// An infinite constant thickness.
-fn infinite_thickness() -> refl_trace_thickness {
-    refl_trace_thickness {
+/// `refl_cone_multiray` on the pyramids `pyr` with the tests' ray, an
+/// infinite constant thickness, normal +y, the fallback color and the
+/// options `mo`.
+fn multiray_c(
+    out: &mut refl_cone_multiray_result,
+    pyr: &refl_cone_pyramids,
+    mo: &refl_cone_multiray_options,
+) -> refl_status {
+    let th = refl_trace_thickness {
         constant: f32::INFINITY,
         back_faces: refl_image_f32 {
             data: core::ptr::null(),
@@ -422,6 +428,20 @@ fn infinite_thickness() -> refl_trace_thickness {
             height: 0,
             stride: 0,
         },
+    };
+    unsafe {
+        refl_cone_multiray(
+            out,
+            pyr,
+            &th,
+            multiray_ray().into(),
+            Vec3::Y.into(),
+            100.0,
+            0.2,
+            30.0,
+            mo,
+            FALLBACK,
+        )
     }
 }
 
@@ -429,29 +449,10 @@ fn infinite_thickness() -> refl_trace_thickness {
 fn multiray_equals_core() {
     for conv in DepthConvention::ALL {
         let p = pyramids(conv);
-        let pyr = p.c();
-        let (mo, ray, th, fb) = (
-            MULTIRAY_OPTIONS,
-            multiray_ray(),
-            infinite_thickness(),
-            FALLBACK,
-        );
+        let ray = multiray_ray();
         let mut mr = refl_cone_multiray_result::default();
         assert_eq!(
-            unsafe {
-                refl_cone_multiray(
-                    &mut mr,
-                    &pyr,
-                    &th,
-                    ray.into(),
-                    Vec3::Y.into(),
-                    100.0,
-                    0.2,
-                    30.0,
-                    &mo,
-                    fb,
-                )
-            },
+            multiray_c(&mut mr, &p.c(), &MULTIRAY_OPTIONS),
             refl_status::Ok
         );
         let cr = refl_core::try_multiray(
@@ -484,32 +485,19 @@ fn multiray_equals_core() {
 fn multiray_refuses_zero_rays_untouched() {
     for conv in DepthConvention::ALL {
         let p = pyramids(conv);
-        let pyr = p.c();
-        let (mo, ray, th, fb) = (
-            MULTIRAY_OPTIONS,
-            multiray_ray(),
-            infinite_thickness(),
-            FALLBACK,
-        );
         let mut mr2 = refl_cone_multiray_result {
             traced: 77,
             ..Default::default()
         };
         assert_eq!(
-            unsafe {
-                refl_cone_multiray(
-                    &mut mr2,
-                    &pyr,
-                    &th,
-                    ray.into(),
-                    Vec3::Y.into(),
-                    100.0,
-                    0.2,
-                    30.0,
-                    &refl_cone_multiray_options { rays: 0, ..mo },
-                    fb,
-                )
-            },
+            multiray_c(
+                &mut mr2,
+                &p.c(),
+                &refl_cone_multiray_options {
+                    rays: 0,
+                    ..MULTIRAY_OPTIONS
+                }
+            ),
             refl_status::InvalidArgument
         );
         assert_eq!(mr2.traced, 77);

@@ -185,11 +185,17 @@ fn build_by_row_bands_from_threads_equals_core_bit_for_bit() {
 /// The depth convention of the build error tests.
 const BUILD_CONV: DepthConvention = DepthConvention::ReversedZ;
 
-#[test]
-fn build_errors_leave_dst_untouched() {
+/// The front depth image in [`BUILD_CONV`] (and the buffer it points into).
+fn build_input() -> (Vec<f32>, refl_depth_image) {
     let cam = SCENE.camera();
     let (front, _) = SCENE.images(&cam, BUILD_CONV);
     let img = depth_image_c(&cam, &front, BUILD_CONV);
+    (front, img)
+}
+
+#[test]
+fn build_errors_leave_dst_untouched() {
+    let (_front, img) = build_input();
     let n = try_hiz_len(W, H).unwrap();
     let sentinel = refl_vec2 { x: 5.0, y: 6.0 };
     let mut dst = vec![sentinel; n];
@@ -246,9 +252,7 @@ fn build_errors_leave_dst_untouched() {
 
 #[test]
 fn build_rows_errors_leave_dst_untouched() {
-    let cam = SCENE.camera();
-    let (front, _) = SCENE.images(&cam, BUILD_CONV);
-    let img = depth_image_c(&cam, &front, BUILD_CONV);
+    let (_front, img) = build_input();
     let n = try_hiz_len(W, H).unwrap();
     let sentinel = refl_vec2 { x: 5.0, y: 6.0 };
     let mut dst = vec![sentinel; n];

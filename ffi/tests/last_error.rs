@@ -253,16 +253,23 @@ fn big_wall() -> (Camera, Vec<f32>) {
     (big, depth)
 }
 
-/// The Hi-Z pyramid of [`big_wall`] built through the C ABI.
-fn big_wall_pyramid() -> (Camera, Vec<refl_vec2>) {
-    let (big, depth) = big_wall();
-    let img = depth_image_c(&big, &depth, HIZ_CONV);
+/// The texel count of a 512x384 Hi-Z pyramid, through the C ABI (checked
+/// to succeed).
+fn hiz_len_512x384() -> usize {
     let (mut n, mut levels) = (0usize, 0u32);
     // SAFETY: valid outputs.
     assert_eq!(
         unsafe { refl_hiz_len(&mut n, &mut levels, 512, 384) },
         refl_status::Ok
     );
+    n
+}
+
+/// The Hi-Z pyramid of [`big_wall`] built through the C ABI.
+fn big_wall_pyramid() -> (Camera, Vec<refl_vec2>) {
+    let (big, depth) = big_wall();
+    let img = depth_image_c(&big, &depth, HIZ_CONV);
+    let n = hiz_len_512x384();
     let mut pyr = vec![refl_vec2::default(); n];
     // SAFETY: pyr is writable for n texels.
     assert_eq!(
@@ -276,12 +283,7 @@ fn big_wall_pyramid() -> (Camera, Vec<refl_vec2>) {
 fn hiz_build_names_the_length_a_short_pyramid_needs() {
     let (big, depth) = big_wall();
     let img = depth_image_c(&big, &depth, HIZ_CONV);
-    let (mut n, mut levels) = (0usize, 0u32);
-    // SAFETY: valid outputs.
-    assert_eq!(
-        unsafe { refl_hiz_len(&mut n, &mut levels, 512, 384) },
-        refl_status::Ok
-    );
+    let n = hiz_len_512x384();
     let mut pyr = vec![refl_vec2::default(); n];
     // Too short by the stamp: refused, naming the length needed.
     // SAFETY: pyr is writable for n - 1 texels.
@@ -373,13 +375,7 @@ fn hiz_pyramid_of_another_size_or_camera_is_refused() {
 fn hiz_pyramid_never_built_is_refused() {
     let big = look(512, 384, 0.5);
     let (th, opts, ray) = wall_trace();
-    let mut n = 0usize;
-    let mut levels = 0u32;
-    // SAFETY: valid outputs.
-    assert_eq!(
-        unsafe { refl_hiz_len(&mut n, &mut levels, 512, 384) },
-        refl_status::Ok
-    );
+    let n = hiz_len_512x384();
     let blank = vec![refl_vec2::default(); n];
     let hz = hiz_c(&big, &blank, HIZ_CONV);
     let mut out = trace_sentinel();

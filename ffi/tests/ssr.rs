@@ -7,7 +7,9 @@
 #[path = "common/gbuffer.rs"]
 mod common;
 
-use common::{bands_from_threads, color_mut, counted, refused_outputs, render, Shared, H, W};
+use common::{
+    bands_from_threads, color_mut, counted, refused_outputs, render, Frame, Shared, H, W,
+};
 use refl::*;
 use refl_core::glam::Vec3;
 use refl_core::{
@@ -281,10 +283,17 @@ fn refused(
     );
 }
 
-#[test]
-fn options_out_of_range_are_refused_untouched() {
+/// The ZeroToOne scene and its G-buffer (without back faces), which
+/// points into it.
+fn zero_to_one() -> (Frame, refl_gbuffer) {
     let f = render(DepthConvention::ZeroToOne);
     let g = f.gbuffer_c(false);
+    (f, g)
+}
+
+#[test]
+fn options_out_of_range_are_refused_untouched() {
+    let (_f, g) = zero_to_one();
     let d = refl_ssr_options_default();
     let all = refl_row_range { begin: 0, end: H };
     let n = (W * H) as usize;
@@ -318,8 +327,7 @@ fn options_out_of_range_are_refused_untouched() {
 
 #[test]
 fn bad_rows_sizes_and_gbuffer_fields_are_refused_untouched() {
-    let f = render(DepthConvention::ZeroToOne);
-    let g = f.gbuffer_c(false);
+    let (_f, g) = zero_to_one();
     let d = refl_ssr_options_default();
     let all = refl_row_range { begin: 0, end: H };
     let n = (W * H) as usize;
@@ -379,8 +387,7 @@ fn hiz_options() -> refl_ssr_options {
 /// another camera; the last error names the scratch.
 #[test]
 fn a_missing_short_or_foreign_hiz_scratch_is_refused_naming_it() {
-    let f = render(DepthConvention::ZeroToOne);
-    let g = f.gbuffer_c(false);
+    let (_f, g) = zero_to_one();
     let all = refl_row_range { begin: 0, end: H };
     let n = (W * H) as usize;
     let inv = refl_status::InvalidArgument;

@@ -322,10 +322,14 @@ fn step_rays(
     }
 }
 
-/// The test rays as C rays, and their `t_max`.
-fn rays_c(cam: &Camera) -> (Vec<refl_ray>, Vec<f32>) {
-    let (rs, tms): (Vec<Ray>, Vec<f32>) = rays(cam).into_iter().unzip();
-    (rs.iter().map(ray_c).collect(), tms)
+/// The inputs of the batch tests: the depth image in [`BATCH_CONV`] (and
+/// the buffer it points into), the test rays as C rays and their `t_max`.
+fn batch_inputs() -> (Vec<f32>, refl_depth_image, Vec<refl_ray>, Vec<f32>) {
+    let cam = SCENE.camera();
+    let (front, _) = SCENE.images(&cam, BATCH_CONV);
+    let img = depth_image_c(&cam, &front, BATCH_CONV);
+    let (rs, tms): (Vec<Ray>, Vec<f32>) = rays(&cam).into_iter().unzip();
+    (front, img, rs.iter().map(ray_c).collect(), tms)
 }
 
 /// A trace result no export writes.
@@ -338,18 +342,13 @@ fn batch_sentinel() -> refl_trace_result {
 
 #[test]
 fn step_rays_matches_step_ray_and_writes_only_its_rays() {
-    let cam = SCENE.camera();
-    let (front, _) = SCENE.images(&cam, BATCH_CONV);
-    let img = depth_image_c(&cam, &front, BATCH_CONV);
-    let th = constant(0.5);
-    let opts = BATCH_OPTIONS;
-    let (rc, tms) = rays_c(&cam);
+    let (_front, img, rc, tms) = batch_inputs();
+    let (th, opts, sentinel) = (constant(0.5), BATCH_OPTIONS, batch_sentinel());
     let n = rc.len();
-    let sentinel = batch_sentinel();
-    let mut out = vec![sentinel; n + 1];
     let call = |out: &mut [refl_trace_result], out_len: usize, rays: &[refl_ray], t: &[f32]| {
         step_rays(&img, &th, out, out_len, rays, t)
     };
+    let mut out = vec![sentinel; n + 1];
     assert_eq!(call(&mut out, n + 1, &rc, &tms), refl_status::Ok);
     for i in 0..n {
         let (s, one) = call_one(&img, &th, rc[i], tms[i], &opts);
@@ -364,14 +363,9 @@ fn step_rays_matches_step_ray_and_writes_only_its_rays() {
 
 #[test]
 fn step_rays_errors_leave_the_outputs_untouched() {
-    let cam = SCENE.camera();
-    let (front, _) = SCENE.images(&cam, BATCH_CONV);
-    let img = depth_image_c(&cam, &front, BATCH_CONV);
-    let th = constant(0.5);
-    let opts = BATCH_OPTIONS;
-    let (rc, tms) = rays_c(&cam);
+    let (_front, img, rc, tms) = batch_inputs();
+    let (th, opts, sentinel) = (constant(0.5), BATCH_OPTIONS, batch_sentinel());
     let n = rc.len();
-    let sentinel = batch_sentinel();
     let call = |out: &mut [refl_trace_result], out_len: usize, rays: &[refl_ray], t: &[f32]| {
         step_rays(&img, &th, out, out_len, rays, t)
     };
