@@ -11,9 +11,9 @@ mod common;
 use refl_core::glam::{Affine3A, DVec3, Quat, Vec3};
 use refl_core::layered::NO_PAYLOAD;
 use refl_core::{
-    try_layered_len, try_prr_classify, Error, Face, LayerHit, LayeredGrid, LayeredMap,
-    LayeredMapMut, LayeredMiss, LayeredOptions, LayeredStamp, LayeredTrace, PrrClass, Ray,
-    LAYERED_STAMP_LEN,
+    try_layered_len, try_prr_classify, ColumnRay, Error, Face, LayerHit, LayeredGrid, LayeredHit,
+    LayeredMap, LayeredMapMut, LayeredMiss, LayeredOptions, LayeredStamp, LayeredTrace, PrrClass,
+    Ray, LAYERED_STAMP_LEN,
 };
 
 // ---------------------------------------------------------------- oracles
@@ -207,6 +207,25 @@ struct Owned {
 }
 
 impl Owned {
+    /// Zeroed buffers of `grid`'s lengths (not a map until cleared).
+    fn zeroed(grid: LayeredGrid) -> Owned {
+        let len = grid.len();
+        Owned {
+            grid,
+            depth: vec![0.0; len.depth],
+            payload: vec![0; len.payload],
+            counts: vec![0; len.counts],
+            bounds: vec![0.0; len.bounds],
+        }
+    }
+
+    /// A cleared (empty) map of `grid`.
+    fn cleared(grid: LayeredGrid) -> Owned {
+        let mut o = Owned::zeroed(grid);
+        o.map_mut().clear();
+        o
+    }
+
     fn map(&self) -> LayeredMap<'_> {
         LayeredMap::try_new(
             self.grid,
@@ -217,6 +236,40 @@ impl Owned {
         )
         .unwrap()
     }
+
+    fn map_mut(&mut self) -> LayeredMapMut<'_> {
+        LayeredMapMut::try_new(
+            self.grid,
+            &mut self.depth,
+            &mut self.payload,
+            &mut self.counts,
+            &mut self.bounds,
+        )
+        .unwrap()
+    }
+}
+
+/// A cleared map of `grid` whose columns of `faces` are filled with
+/// `hits(face, i, j, column ray)`, bounds not built (the "never skip"
+/// marks the fill leaves).
+fn fill(
+    grid: LayeredGrid,
+    faces: &[Face],
+    mut hits: impl FnMut(Face, u32, u32, &ColumnRay) -> Vec<LayerHit>,
+) -> Owned {
+    let mut o = Owned::cleared(grid);
+    let mut m = o.map_mut();
+    let res = grid.face_res();
+    for &face in faces {
+        for j in 0..res {
+            for i in 0..res {
+                let ray = grid.try_face_ray(face, i, j).unwrap();
+                let mut column = hits(face, i, j, &ray);
+                m.try_fill_column(face, i, j, &mut column).unwrap();
+            }
+        }
+    }
+    o
 }
 
 /// Builds the map by casting every column ray of `faces` (one per axis)
@@ -225,60 +278,26 @@ impl Owned {
 /// texel index times 64 (unique per surface sample).
 fn build(shape: &Shape, grid: LayeredGrid, faces: [Face; 3]) -> Owned {
     let mut o = build_unbounded(shape, grid, faces);
-    let mut m = LayeredMapMut::try_new(
-        grid,
-        &mut o.depth,
-        &mut o.payload,
-        &mut o.counts,
-        &mut o.bounds,
-    )
-    .unwrap();
-    m.build_bounds();
+    o.map_mut().build_bounds();
     o
 }
 
 /// [`build`] without [`LayeredMapMut::build_bounds`]: the bounds are the
 /// "never skip" marks the fill leaves.
 fn build_unbounded(shape: &Shape, grid: LayeredGrid, faces: [Face; 3]) -> Owned {
-    let len = grid.len();
-    let (mut depth, mut payload, mut counts, mut bounds) = (
-        vec![0.0; len.depth],
-        vec![0; len.payload],
-        vec![0; len.counts],
-        vec![0.0; len.bounds],
-    );
-    {
-        let mut m =
-            LayeredMapMut::try_new(grid, &mut depth, &mut payload, &mut counts, &mut bounds)
-                .unwrap();
-        m.clear();
-        let res = grid.face_res();
-        for face in faces {
-            for j in 0..res {
-                for i in 0..res {
-                    let ray = grid.try_face_ray(face, i, j).unwrap();
-                    let mut hits: Vec<LayerHit> = shape
-                        .crossings(ray.origin.as_dvec3(), ray.dir.as_dvec3(), ray.t_max as f64)
-                        .iter()
-                        .enumerate()
-                        .map(|(k, &(t, front))| LayerHit {
-                            t: t as f32,
-                            id: (j * res + i) * 64 + k as u32,
-                            front,
-                        })
-                        .collect();
-                    m.try_fill_column(face, i, j, &mut hits).unwrap();
-                }
-            }
-        }
-    }
-    Owned {
-        grid,
-        depth,
-        payload,
-        counts,
-        bounds,
-    }
+    let res = grid.face_res();
+    fill(grid, &faces, |_, i, j, ray| {
+        shape
+            .crossings(ray.origin.as_dvec3(), ray.dir.as_dvec3(), ray.t_max as f64)
+            .iter()
+            .enumerate()
+            .map(|(k, &(t, front))| LayerHit {
+                t: t as f32,
+                id: (j * res + i) * 64 + k as u32,
+                front,
+            })
+            .collect()
+    })
 }
 
 /// The grid of `shape`'s box enlarged by `margin` of its size on each side.
@@ -490,13 +509,13 @@ fn grid_rejects_non_finite_and_degenerate_boxes() {
 #[test]
 fn map_views_reject_short_buffers() {
     let g = LayeredGrid::try_new(Vec3::ZERO, Vec3::ONE, 4, 2).unwrap();
-    let l = g.len();
-    let (d, p, c, b) = (
-        vec![0.0; l.depth],
-        vec![0; l.payload],
-        vec![0; l.counts],
-        vec![0.0; l.bounds],
-    );
+    let Owned {
+        depth: d,
+        payload: p,
+        counts: c,
+        bounds: b,
+        ..
+    } = Owned::zeroed(g);
     // Never cleared: no stamp, refused.
     assert_eq!(
         LayeredMap::try_new(g, &d, &p, &c, &b).err(),
@@ -628,15 +647,8 @@ fn hit(t: f32, id: u32, front: bool) -> LayerHit {
 fn fill_column_pairs_a_face_with_its_opposite() {
     // Box of length 10 along x: intervals [1,2], [4,6], [8,9] along +x.
     let g = LayeredGrid::try_new(Vec3::ZERO, Vec3::new(10.0, 1.0, 1.0), 2, 3).unwrap();
-    let l = g.len();
-    let (mut d, mut p, mut c, mut b) = (
-        vec![0.0; l.depth],
-        vec![0; l.payload],
-        vec![0; l.counts],
-        vec![0.0; l.bounds],
-    );
-    let mut m = LayeredMapMut::try_new(g, &mut d, &mut p, &mut c, &mut b).unwrap();
-    m.clear();
+    let mut o = Owned::cleared(g);
+    let mut m = o.map_mut();
     // Unsorted, with a duplicate front hit (shared edge) and a stray exit.
     let mut hits = vec![
         hit(6.0, 13, false),
@@ -686,18 +698,11 @@ fn fill_column_pairs_a_face_with_its_opposite() {
 #[test]
 fn fill_column_from_either_face_gives_the_same_map() {
     let g = LayeredGrid::try_new(Vec3::ZERO, Vec3::new(10.0, 1.0, 1.0), 1, 2).unwrap();
-    let l = g.len();
     let fill = |face: Face, hits: &mut Vec<LayerHit>| {
-        let (mut d, mut p, mut c, mut b) = (
-            vec![0.0; l.depth],
-            vec![0; l.payload],
-            vec![0; l.counts],
-            vec![0.0; l.bounds],
-        );
-        let mut m = LayeredMapMut::try_new(g, &mut d, &mut p, &mut c, &mut b).unwrap();
-        m.clear();
+        let mut o = Owned::cleared(g);
+        let mut m = o.map_mut();
         m.try_fill_column(face, 0, 0, hits).unwrap();
-        (d, p, c)
+        (o.depth, o.payload, o.counts)
     };
     let mut from_minus = vec![
         hit(1.0, 1, true),
@@ -724,15 +729,8 @@ fn fill_column_from_either_face_gives_the_same_map() {
 #[test]
 fn fill_column_merges_the_smallest_gap_when_layers_run_out() {
     let g = LayeredGrid::try_new(Vec3::ZERO, Vec3::new(10.0, 1.0, 1.0), 1, 2).unwrap();
-    let l = g.len();
-    let (mut d, mut p, mut c, mut b) = (
-        vec![0.0; l.depth],
-        vec![0; l.payload],
-        vec![0; l.counts],
-        vec![0.0; l.bounds],
-    );
-    let mut m = LayeredMapMut::try_new(g, &mut d, &mut p, &mut c, &mut b).unwrap();
-    m.clear();
+    let mut o = Owned::cleared(g);
+    let mut m = o.map_mut();
     // Gaps: 2 (between [1,2] and [4,5]), 0.5 (between [4,5] and [5.5,6]),
     // then an interval left open (ends at the far face).
     let mut hits = vec![
@@ -774,19 +772,21 @@ fn fill_column_merges_the_smallest_gap_when_layers_run_out() {
     let _ = near;
 }
 
+/// `o` is as cleared: no layer in any texel, every depth infinite, no
+/// payload.
+fn assert_cleared(o: &Owned) {
+    let texels = o.counts.len() - LAYERED_STAMP_LEN;
+    assert!(o.counts[..texels].iter().all(|&n| n == 0));
+    assert!(o.depth.iter().all(|x| x.is_infinite()));
+    assert!(o.payload.iter().all(|&x| x == NO_PAYLOAD));
+}
+
 #[test]
 fn fill_column_rejects_bad_hits_and_leaves_the_map_untouched() {
     let g = LayeredGrid::try_new(Vec3::ZERO, Vec3::ONE, 2, 2).unwrap();
-    let l = g.len();
-    let (mut d, mut p, mut c, mut b) = (
-        vec![0.0; l.depth],
-        vec![0; l.payload],
-        vec![0; l.counts],
-        vec![0.0; l.bounds],
-    );
+    let mut o = Owned::cleared(g);
     {
-        let mut m = LayeredMapMut::try_new(g, &mut d, &mut p, &mut c, &mut b).unwrap();
-        m.clear();
+        let mut m = o.map_mut();
         for bad in [f32::NAN, f32::INFINITY, f32::NEG_INFINITY] {
             let mut hits = vec![hit(0.2, 1, true), hit(bad, 2, false)];
             assert_eq!(
@@ -800,10 +800,7 @@ fn fill_column_rejects_bad_hits_and_leaves_the_map_untouched() {
             Err(Error::InvalidArgument)
         );
     }
-    let texels = c.len() - LAYERED_STAMP_LEN;
-    assert!(c[..texels].iter().all(|&n| n == 0));
-    assert!(d.iter().all(|x| x.is_infinite()));
-    assert!(p.iter().all(|&x| x == NO_PAYLOAD));
+    assert_cleared(&o);
 }
 
 #[test]
@@ -813,15 +810,6 @@ fn fill_face_equals_its_columns_and_rebuilds_both_faces_bounds() {
         r: 1.0,
     };
     let grid = grid_of(&shape, 16, 2, 0.05);
-    let len = grid.len();
-    let alloc = || {
-        (
-            vec![0.0f32; len.depth],
-            vec![0u32; len.payload],
-            vec![0u32; len.counts],
-            vec![0.0f32; len.bounds],
-        )
-    };
     // Crossings of every column ray of -Y with the sphere, in CSR layout.
     let face = Face::NegY;
     let (mut all, mut offsets) = (Vec::new(), vec![0usize]);
@@ -840,16 +828,14 @@ fn fill_face_equals_its_columns_and_rebuilds_both_faces_bounds() {
             offsets.push(all.len());
         }
     }
-    let (mut d1, mut p1, mut c1, mut b1) = alloc();
-    let (mut d2, mut p2, mut c2, mut b2) = alloc();
-    let approx = {
-        let mut m = LayeredMapMut::try_new(grid, &mut d1, &mut p1, &mut c1, &mut b1).unwrap();
-        m.clear();
-        m.try_fill_face(face, &mut all.clone(), &offsets).unwrap()
-    };
+    let mut one = Owned::cleared(grid);
+    let mut two = Owned::cleared(grid);
+    let approx = one
+        .map_mut()
+        .try_fill_face(face, &mut all.clone(), &offsets)
+        .unwrap();
     {
-        let mut m = LayeredMapMut::try_new(grid, &mut d2, &mut p2, &mut c2, &mut b2).unwrap();
-        m.clear();
+        let mut m = two.map_mut();
         for k in 0..256 {
             let mut col = all[offsets[k]..offsets[k + 1]].to_vec();
             let (i, j) = (k as u32 % 16, k as u32 / 16);
@@ -860,16 +846,16 @@ fn fill_face_equals_its_columns_and_rebuilds_both_faces_bounds() {
     }
     assert_eq!(approx, 0);
     assert_eq!(
-        d1.iter().map(|x| x.to_bits()).collect::<Vec<_>>(),
-        d2.iter().map(|x| x.to_bits()).collect::<Vec<_>>()
+        one.depth.iter().map(|x| x.to_bits()).collect::<Vec<_>>(),
+        two.depth.iter().map(|x| x.to_bits()).collect::<Vec<_>>()
     );
-    assert_eq!(p1, p2);
-    assert_eq!(c1, c2);
+    assert_eq!(one.payload, two.payload);
+    assert_eq!(one.counts, two.counts);
     assert_eq!(
-        b1.iter().map(|x| x.to_bits()).collect::<Vec<_>>(),
-        b2.iter().map(|x| x.to_bits()).collect::<Vec<_>>()
+        one.bounds.iter().map(|x| x.to_bits()).collect::<Vec<_>>(),
+        two.bounds.iter().map(|x| x.to_bits()).collect::<Vec<_>>()
     );
-    assert!(c1.iter().any(|&n| n > 0));
+    assert!(one.counts.iter().any(|&n| n > 0));
 }
 
 /// Fuzz finding F15: with a huge scale, some column rays of a face are not
@@ -896,17 +882,10 @@ fn fill_face_validates_every_column_before_writing() {
         g.try_face_ray(face, 1, 1).err(),
         Some(Error::DegenerateGeometry)
     );
-    let l = g.len();
-    let (mut d, mut p, mut c, mut b) = (
-        vec![0.0; l.depth],
-        vec![0; l.payload],
-        vec![0; l.counts],
-        vec![0.0; l.bounds],
-    );
+    let mut o = Owned::cleared(g);
     let mut hits = vec![hit(0.1, 1, true), hit(0.2, 1, false)];
     {
-        let mut m = LayeredMapMut::try_new(g, &mut d, &mut p, &mut c, &mut b).unwrap();
-        m.clear();
+        let mut m = o.map_mut();
         // Every column gets the same interval.
         let offsets = [0usize, 2, 2, 2, 2];
         assert_eq!(
@@ -926,13 +905,18 @@ fn fill_face_validates_every_column_before_writing() {
             Err(Error::InvalidArgument)
         );
     }
-    let texels = c.len() - LAYERED_STAMP_LEN;
-    assert!(c[..texels].iter().all(|&n| n == 0));
-    assert!(d.iter().all(|x| x.is_infinite()));
-    assert!(p.iter().all(|&x| x == NO_PAYLOAD));
+    assert_cleared(&o);
 }
 
 // ---------------------------------------------------------------- tracing
+
+/// The hit of `ray`, traced without a length limit, which must hit.
+fn hit_of(map: &LayeredMap<'_>, ray: &Ray, params: &LayeredOptions) -> LayeredHit {
+    *map.try_trace(ray, f32::INFINITY, params)
+        .unwrap()
+        .hit()
+        .unwrap()
+}
 
 #[test]
 fn sphere_one_layer_agrees_with_the_analytic_sphere() {
@@ -1036,12 +1020,7 @@ fn cup_cavity_needs_two_layers() {
         origin: Vec3::new(-0.4, 3.0, 0.2),
         dir: Vec3::new(0.0, -1.0, 0.0),
     };
-    let h = *two
-        .map()
-        .try_trace(&ray, f32::INFINITY, &params)
-        .unwrap()
-        .hit()
-        .unwrap();
+    let h = hit_of(&two.map(), &ray, &params);
     assert!(
         (h.position.y + 0.5).abs() <= texel(&two.grid) as f32,
         "{h:?}"
@@ -1052,12 +1031,7 @@ fn cup_cavity_needs_two_layers() {
         origin: Vec3::new(-3.0, 0.5, 0.2),
         dir: Vec3::X,
     };
-    let h = *two
-        .map()
-        .try_trace(&ray, f32::INFINITY, &params)
-        .unwrap()
-        .hit()
-        .unwrap();
+    let h = hit_of(&two.map(), &ray, &params);
     assert!(
         (h.position.x + 1.4).abs() <= texel(&two.grid) as f32,
         "{h:?}"
@@ -1066,12 +1040,7 @@ fn cup_cavity_needs_two_layers() {
         origin: Vec3::new(-0.4, 0.5, 0.2),
         dir: Vec3::X,
     };
-    let h = *two
-        .map()
-        .try_trace(&ray, f32::INFINITY, &params)
-        .unwrap()
-        .hit()
-        .unwrap();
+    let h = hit_of(&two.map(), &ray, &params);
     assert!(
         (h.position.x - 0.1).abs() <= texel(&two.grid) as f32,
         "{h:?}"
@@ -1114,35 +1083,14 @@ fn transformed_map_traces_in_the_objects_frame() {
             .filter(|(t, _)| *t >= 0.0 && *t <= tmax)
             .collect()
     };
-    let len = grid.len();
-    let (mut d, mut p, mut c, mut b) = (
-        vec![0.0; len.depth],
-        vec![0; len.payload],
-        vec![0; len.counts],
-        vec![0.0; len.bounds],
-    );
-    {
-        let mut m = LayeredMapMut::try_new(grid, &mut d, &mut p, &mut c, &mut b).unwrap();
-        m.clear();
-        for face in MINUS {
-            for j in 0..128 {
-                for i in 0..128 {
-                    let r = grid.try_face_ray(face, i, j).unwrap();
-                    let mut hits: Vec<_> =
-                        world(r.origin.as_dvec3(), r.dir.as_dvec3(), r.t_max as f64)
-                            .into_iter()
-                            .map(|(t, f)| hit(t as f32, 0, f))
-                            .collect();
-                    m.try_fill_column(face, i, j, &mut hits).unwrap();
-                }
-            }
-        }
-    }
-    {
-        let mut m = LayeredMapMut::try_new(grid, &mut d, &mut p, &mut c, &mut b).unwrap();
-        m.build_bounds();
-    }
-    let map = LayeredMap::try_new(grid, &d, &p, &c, &b).unwrap();
+    let mut owned = fill(grid, &MINUS, |_, _, _, r| {
+        world(r.origin.as_dvec3(), r.dir.as_dvec3(), r.t_max as f64)
+            .into_iter()
+            .map(|(t, f)| hit(t as f32, 0, f))
+            .collect()
+    });
+    owned.map_mut().build_bounds();
+    let map = owned.map();
     let mut rng = Rng(5);
     let (mut agree, mut n, mut worst) = (0, 0, 0.0f64);
     // World texel: the largest texel of the scaled box (2 x 2.04 / 128).
@@ -1225,11 +1173,7 @@ fn axis_aligned_rays_hit_the_poles() {
             origin: axis * 3.0,
             dir: -axis,
         };
-        let h = *map
-            .try_trace(&ray, f32::INFINITY, &LayeredOptions::default())
-            .unwrap()
-            .hit()
-            .unwrap();
+        let h = hit_of(&map, &ray, &LayeredOptions::default());
         assert!((h.t - 2.0).abs() <= tex, "{axis} {h:?}");
         assert!((h.position - axis).length() <= tex);
         // Off-center along the axis, through a texel center and an edge.
@@ -1237,11 +1181,7 @@ fn axis_aligned_rays_hit_the_poles() {
             origin: axis * 3.0 + axis.any_orthonormal_vector() * 0.5,
             dir: -axis,
         };
-        let h = *map
-            .try_trace(&ray, f32::INFINITY, &LayeredOptions::default())
-            .unwrap()
-            .hit()
-            .unwrap();
+        let h = hit_of(&map, &ray, &LayeredOptions::default());
         let expect = 3.0 - (1.0f32 - 0.25).sqrt();
         assert!((h.t - expect).abs() <= tex, "{axis} {h:?}");
     }
@@ -1288,11 +1228,7 @@ fn rays_starting_inside_the_box_and_inside_the_object() {
         origin: o,
         dir: -o.normalize(),
     };
-    let h = *map
-        .try_trace(&ray, f32::INFINITY, &params)
-        .unwrap()
-        .hit()
-        .unwrap();
+    let h = hit_of(&map, &ray, &params);
     let t = shape
         .first_hit(o.as_dvec3(), ray.dir.as_dvec3(), 10.0)
         .unwrap();
@@ -1481,11 +1417,7 @@ fn payload_identifies_the_surface_sample_hit() {
         origin: Vec3::new(0.2, 0.1, 4.0),
         dir: -Vec3::Z,
     };
-    let h = *map
-        .try_trace(&ray, f32::INFINITY, &LayeredOptions::default())
-        .unwrap()
-        .hit()
-        .unwrap();
+    let h = hit_of(&map, &ray, &LayeredOptions::default());
     // The hit comes from the +Z face (its layer 0 is the top of the sphere).
     assert_eq!(h.face, Face::PosZ);
     assert_eq!(h.layer, 0);
@@ -1665,55 +1597,24 @@ fn refilled_columns_are_never_skipped_until_the_bounds_are_rebuilt() {
     let col = grid.try_face_ray(Face::NegX, i, j).unwrap();
     let t = |x: f32| x - col.origin.x;
     {
-        let mut m = LayeredMapMut::try_new(
-            grid,
-            &mut o.depth,
-            &mut o.payload,
-            &mut o.counts,
-            &mut o.bounds,
-        )
-        .unwrap();
+        let mut m = o.map_mut();
         let mut hits = vec![hit(t(0.2), 7, true), hit(t(0.3), 8, false)];
         m.try_fill_column(Face::NegX, i, j, &mut hits).unwrap();
     }
-    let stale = *o
-        .map()
-        .try_trace(&ray, f32::INFINITY, &p)
-        .unwrap()
-        .hit()
-        .unwrap();
+    let stale = hit_of(&o.map(), &ray, &p);
     assert!(
         (stale.position.x - 0.2).abs() <= texel(&grid) as f32,
         "{stale:?}"
     );
     {
-        let mut m = LayeredMapMut::try_new(
-            grid,
-            &mut o.depth,
-            &mut o.payload,
-            &mut o.counts,
-            &mut o.bounds,
-        )
-        .unwrap();
+        let mut m = o.map_mut();
         m.build_bounds();
     }
-    let rebuilt = *o
-        .map()
-        .try_trace(&ray, f32::INFINITY, &p)
-        .unwrap()
-        .hit()
-        .unwrap();
+    let rebuilt = hit_of(&o.map(), &ray, &p);
     assert_eq!(rebuilt.position, stale.position);
     // Clearing leaves exact (empty) bounds: nothing to hit, nothing read.
     {
-        let mut m = LayeredMapMut::try_new(
-            grid,
-            &mut o.depth,
-            &mut o.payload,
-            &mut o.counts,
-            &mut o.bounds,
-        )
-        .unwrap();
+        let mut m = o.map_mut();
         m.clear();
     }
     let empty = o.map().try_trace(&ray, f32::INFINITY, &p).unwrap();
@@ -2123,41 +2024,24 @@ fn thin_boxes_and_huge_step_caps_end_in_bounded_work() {
         2,
     )
     .unwrap();
-    let len = grid.len();
-    let (mut depth, mut payload, mut counts, mut bounds) = (
-        vec![0.0; len.depth],
-        vec![0; len.payload],
-        vec![0; len.counts],
-        vec![0.0; len.bounds],
-    );
     // A solid filling the upper 0.4 of the slab: one interval per column of
     // the -Z face (and so of the +Z face).
-    {
-        let mut m =
-            LayeredMapMut::try_new(grid, &mut depth, &mut payload, &mut counts, &mut bounds)
-                .unwrap();
-        m.clear();
-        for j in 0..res {
-            for i in 0..res {
-                let col = grid.try_face_ray(Face::NegZ, i, j).unwrap();
-                let mut hits = [
-                    LayerHit {
-                        t: 0.6 * col.t_max,
-                        id: 1,
-                        front: true,
-                    },
-                    LayerHit {
-                        t: col.t_max,
-                        id: 2,
-                        front: false,
-                    },
-                ];
-                m.try_fill_column(Face::NegZ, i, j, &mut hits).unwrap();
-            }
-        }
-        m.build_bounds();
-    }
-    let map = LayeredMap::try_new(grid, &depth, &payload, &counts, &bounds).unwrap();
+    let mut owned = fill(grid, &[Face::NegZ], |_, _, _, col| {
+        vec![
+            LayerHit {
+                t: 0.6 * col.t_max,
+                id: 1,
+                front: true,
+            },
+            LayerHit {
+                t: col.t_max,
+                id: 2,
+                front: false,
+            },
+        ]
+    });
+    owned.map_mut().build_bounds();
+    let map = owned.map();
     let p = LayeredOptions {
         max_steps: u32::MAX,
         ..LayeredOptions::default()

@@ -5,9 +5,10 @@
 //! fails if the header gains a function this test does not call.
 #![allow(clippy::undocumented_unsafe_blocks)]
 
-mod common;
+#[path = "common/counting.rs"]
+mod counting;
 
-use common::counted;
+use counting::counted;
 use refl::*;
 use refl_core::glam::{Vec2, Vec3};
 use refl_core::{try_build_hiz, try_hiz_len, Camera, DepthConvention, DepthImage, ImageView};
@@ -15,7 +16,7 @@ use std::collections::BTreeSet;
 use std::mem::MaybeUninit;
 
 #[global_allocator]
-static GLOBAL: common::Counting = common::Counting;
+static GLOBAL: counting::Counting = counting::Counting;
 
 const W: u32 = 32;
 const H: u32 = 24;

@@ -82,14 +82,26 @@ fn vec3_img(d: &[[f32; 3]], w: u32, h: u32) -> refl_image_vec3 {
     }
 }
 
-#[test]
-fn abi_pipeline_equals_core() {
-    let f = frame();
+/// The clustering options of the pipeline tests.
+fn params() -> refl_cluster_options {
     let mut params = refl_cluster_options_default();
     params.gain = 8.0;
-    let cp = ClusterOptions::from(params);
+    params
+}
 
-    // Counts in two bands.
+/// The pipeline through the C ABI up to the pixel lists, each call
+/// checked to succeed: object counts (in two bands), the bin layout and
+/// cluster ids (in two bands) give the bin count and the pixels of every
+/// cluster in order.
+struct Pipeline {
+    counts: [u32; 2],
+    total: u32,
+    offsets: Vec<u32>,
+    order: Vec<u32>,
+    clustered: u32,
+}
+
+fn c_counts(f: &Frame) -> [u32; 2] {
     let mut counts = [0u32; 2];
     for (b, e) in [(0, 13), (13, H)] {
         let st = unsafe {
@@ -102,12 +114,10 @@ fn abi_pipeline_equals_core() {
         };
         assert_eq!(st, refl_status::Ok);
     }
-    let mut core_counts = [0u32; 2];
-    let ov = ImageView::try_new(&f.obj, W, H, W).unwrap();
-    cluster::try_count_objects(&mut core_counts, &ov, RowRange::try_all(H).unwrap()).unwrap();
-    assert_eq!(counts, core_counts);
-    assert!(counts[0] > 100 && counts[1] > 50, "{counts:?}");
+    counts
+}
 
+fn c_layout(counts: &[u32; 2]) -> ([refl_cluster_object_bins; 2], u32) {
     let mut layout = [refl_cluster_object_bins::default(); 2];
     let mut total = 0u32;
     let st = unsafe {
@@ -118,25 +128,14 @@ fn abi_pipeline_equals_core() {
             counts.as_ptr(),
             2,
             u64::from(W * H),
-            &params,
+            &params(),
         )
     };
     assert_eq!(st, refl_status::Ok);
-    let mut core_layout = [cluster::ObjectBins::default(); 2];
-    let core_total =
-        cluster::try_bin_layout(&mut core_layout, &counts, u64::from(W * H), &cp).unwrap();
-    assert_eq!(total, core_total);
-    for k in 0..2 {
-        assert_eq!(cluster::ObjectBins::from(layout[k]), core_layout[k]);
-    }
-    let mut max = 0u32;
-    assert_eq!(
-        unsafe { refl_cluster_bins_max(&mut max, 2, &params) },
-        refl_status::Ok
-    );
-    assert!(total <= max);
+    (layout, total)
+}
 
-    // Ids in two bands.
+fn c_ids(f: &Frame, layout: &[refl_cluster_object_bins; 2]) -> Vec<u32> {
     let mut ids = vec![0u32; (W * H) as usize];
     for (b, e) in [(0, 7), (7, H)] {
         let img = refl_image_u32_mut {
@@ -158,17 +157,13 @@ fn abi_pipeline_equals_core() {
         };
         assert_eq!(st, refl_status::Ok);
     }
-    let mut core_ids = vec![0u32; (W * H) as usize];
-    let nv = ImageView::try_new(&f.nor, W, H, W).unwrap();
-    cluster::try_assign_clusters(
-        &mut ImageViewMut::try_new(&mut core_ids, W, H, W).unwrap(),
-        &nv,
-        &ov,
-        &core_layout,
-    )
-    .unwrap();
-    assert_eq!(ids, core_ids);
+    ids
+}
 
+fn pipeline(f: &Frame) -> Pipeline {
+    let counts = c_counts(f);
+    let (layout, total) = c_layout(&counts);
+    let ids = c_ids(f, &layout);
     let mut offsets = vec![0u32; total as usize + 1];
     let mut order = vec![0u32; (W * H) as usize];
     let mut clustered = 0u32;
@@ -184,16 +179,106 @@ fn abi_pipeline_equals_core() {
         )
     };
     assert_eq!(st, refl_status::Ok);
-    assert_eq!(clustered, counts[0] + counts[1]);
+    Pipeline {
+        counts,
+        total,
+        offsets,
+        order,
+        clustered,
+    }
+}
 
-    // Cameras and finalization of every non-empty cluster equal the core's.
+/// refl-core's bin layout for the object counts `counts`.
+fn core_layout(counts: &[u32; 2]) -> ([cluster::ObjectBins; 2], u32) {
+    let mut core_layout = [cluster::ObjectBins::default(); 2];
+    let core_total = cluster::try_bin_layout(
+        &mut core_layout,
+        counts,
+        u64::from(W * H),
+        &ClusterOptions::from(params()),
+    )
+    .unwrap();
+    (core_layout, core_total)
+}
+
+#[test]
+fn counts_in_row_bands_equal_core() {
+    let f = frame();
+    let counts = c_counts(&f);
+    let mut core_counts = [0u32; 2];
+    let ov = ImageView::try_new(&f.obj, W, H, W).unwrap();
+    cluster::try_count_objects(&mut core_counts, &ov, RowRange::try_all(H).unwrap()).unwrap();
+    assert_eq!(counts, core_counts);
+    assert!(counts[0] > 100 && counts[1] > 50, "{counts:?}");
+}
+
+#[test]
+fn bin_layout_equals_core_within_bins_max() {
+    let f = frame();
+    let params = params();
+    let counts = c_counts(&f);
+    let (layout, total) = c_layout(&counts);
+    let (core_layout, core_total) = core_layout(&counts);
+    assert_eq!(total, core_total);
+    for k in 0..2 {
+        assert_eq!(cluster::ObjectBins::from(layout[k]), core_layout[k]);
+    }
+    let mut max = 0u32;
+    assert_eq!(
+        unsafe { refl_cluster_bins_max(&mut max, 2, &params) },
+        refl_status::Ok
+    );
+    assert!(total <= max);
+}
+
+#[test]
+fn assign_in_row_bands_equals_core() {
+    let f = frame();
+    let counts = c_counts(&f);
+    let (layout, _) = c_layout(&counts);
+    let ids = c_ids(&f, &layout);
+    let (core_layout, _) = core_layout(&counts);
+    let mut core_ids = vec![0u32; (W * H) as usize];
+    let ov = ImageView::try_new(&f.obj, W, H, W).unwrap();
+    let nv = ImageView::try_new(&f.nor, W, H, W).unwrap();
+    cluster::try_assign_clusters(
+        &mut ImageViewMut::try_new(&mut core_ids, W, H, W).unwrap(),
+        &nv,
+        &ov,
+        &core_layout,
+    )
+    .unwrap();
+    assert_eq!(ids, core_ids);
+}
+
+#[test]
+fn ranges_hold_every_counted_pixel() {
+    let f = frame();
+    let p = pipeline(&f);
+    assert_eq!(p.clustered, p.counts[0] + p.counts[1]);
+}
+
+/// The camera options of the pipeline tests.
+fn cam_params() -> refl_cluster_camera_options {
     let mut cam_params = refl_cluster_camera_options_default();
     cam_params.far_distance = 30.0;
+    cam_params
+}
+
+/// Runs `check(px, camera, core view)` on every non-empty cluster of the
+/// pipeline: its pixels, its camera through the C ABI (checked to
+/// succeed) and refl-core's.
+fn for_each_cluster_camera(
+    f: &Frame,
+    mut check: impl FnMut(&[u32], &refl_cluster_camera, ClusterView),
+) {
+    let p = pipeline(f);
+    let (offsets, order, total) = (&p.offsets, &p.order, p.total);
+    let cam_params = cam_params();
     let input = ClusterInput {
         positions: ImageView::try_new(&f.pos, W, H, W).unwrap(),
-        normals: nv,
+        normals: ImageView::try_new(&f.nor, W, H, W).unwrap(),
     };
-    let mut cameras = 0;
     for c in 0..total as usize {
         let px = &order[offsets[c] as usize..offsets[c + 1] as usize];
         if px.is_empty() {
@@ -216,53 +301,102 @@ fn abi_pipeline_equals_core() {
         let core_view =
             cluster::try_cluster_camera(&input, px, f.eye, &ClusterCameraOptions::from(cam_params))
                 .unwrap();
-        assert_eq!(out, refl_cluster_camera::from_view(&core_view));
-        let ClusterView::Camera(cc) = core_view else {
+        check(px, &out, core_view);
+    }
+}
+
+#[test]
+fn cluster_cameras_equal_core() {
+    let f = frame();
+    let mut cameras = 0;
+    for_each_cluster_camera(&f, |_, out, core_view| {
+        assert_eq!(*out, refl_cluster_camera::from_view(&core_view));
+        let ClusterView::Camera(_) = core_view else {
             assert_ne!(out.fallback, 0);
-            continue;
+            return;
         };
         cameras += 1;
-        // A flat depth image at half the far distance, colored by texel.
-        let (dw, dh) = (cc.camera.width(), cc.camera.height());
-        let depth = vec![cc.camera.far() * 0.5; (dw * dh) as usize];
-        let color: Vec<[f32; 3]> = (0..dw * dh)
-            .map(|i| [i as f32 / (dw * dh) as f32, 0.5, 0.25])
-            .collect();
-        let di_c = refl_depth_image {
-            depth: refl_image_f32 {
-                data: depth.as_ptr(),
-                len: depth.len(),
-                width: dw,
-                height: dh,
-                stride: dw,
+    });
+    assert!(cameras >= 3, "{cameras}");
+}
+
+/// [`for_each_cluster_camera`] on the clusters refl-core gives a camera.
+fn for_each_cluster_with_a_camera(
+    f: &Frame,
+    mut check: impl FnMut(&[u32], &refl_cluster_camera, cluster::ClusterCamera),
+) {
+    for_each_cluster_camera(f, |px, out, core_view| {
+        if let ClusterView::Camera(cc) = core_view {
+            check(px, out, cc);
+        }
+    });
+}
+
+/// A flat depth image at half the far distance of a cluster camera,
+/// colored by texel: its size, depth, color and C depth image.
+fn flat_render(cam: &Camera) -> (u32, u32, Vec<f32>, Vec<[f32; 3]>, refl_depth_image) {
+    let (dw, dh) = (cam.width(), cam.height());
+    let depth = vec![cam.far() * 0.5; (dw * dh) as usize];
+    let color: Vec<[f32; 3]> = (0..dw * dh)
+        .map(|i| [i as f32 / (dw * dh) as f32, 0.5, 0.25])
+        .collect();
+    let di_c = depth_c(cam, &depth, dw, dh);
+    (dw, dh, depth, color, di_c)
+}
+
+/// The depth image `depth` (`dw x dh`, linear) seen by `cam`.
+fn depth_c(cam: &Camera, depth: &[f32], dw: u32, dh: u32) -> refl_depth_image {
+    refl_depth_image {
+        depth: refl_image_f32 {
+            data: depth.as_ptr(),
+            len: depth.len(),
+            width: dw,
+            height: dh,
+            stride: dw,
+        },
+        camera: cam.into(),
+        convention: DepthConvention::Linear as u32,
+    }
+}
+
+/// The finalize input of the pipeline tests.
+fn finalize_input() -> refl_cluster_finalize_input {
+    refl_cluster_finalize_input {
+        thickness: refl_trace_thickness {
+            constant: f32::INFINITY,
+            back_faces: refl_image_f32 {
+                data: core::ptr::null(),
+                len: 0,
+                width: 0,
+                height: 0,
+                stride: 0,
             },
-            camera: (&cc.camera).into(),
-            convention: DepthConvention::Linear as u32,
-        };
-        let fp = refl_cluster_finalize_input {
-            thickness: refl_trace_thickness {
-                constant: f32::INFINITY,
-                back_faces: refl_image_f32 {
-                    data: core::ptr::null(),
-                    len: 0,
-                    width: 0,
-                    height: 0,
-                    stride: 0,
-                },
-            },
-            step: refl_step_options {
-                stride: 1,
-                max_steps: u32::MAX,
-            },
-            refine: false,
-            lobe: refl_cluster_lobe {
-                rays: 8,
-                exponent: 30.0,
-                max_angle: 0.4,
-            },
-            fade: false,
-            seed: 3,
-        };
+        },
+        step: refl_step_options {
+            stride: 1,
+            max_steps: u32::MAX,
+        },
+        refine: false,
+        lobe: refl_cluster_lobe {
+            rays: 8,
+            exponent: 30.0,
+            max_angle: 0.4,
+        },
+        fade: false,
+        seed: 3,
+    }
+}
+
+#[test]
+fn finalize_of_every_cluster_camera_equals_core() {
+    let f = frame();
+    let input = ClusterInput {
+        positions: ImageView::try_new(&f.pos, W, H, W).unwrap(),
+        normals: ImageView::try_new(&f.nor, W, H, W).unwrap(),
+    };
+    for_each_cluster_with_a_camera(&f, |px, out, cc| {
+        let (dw, dh, depth, color, di_c) = flat_render(&cc.camera);
+        let fp = finalize_input();
         let mut shades = vec![refl_cluster_shade::default(); px.len()];
         let mut fell = 0u32;
         let st = unsafe {
@@ -275,7 +409,7 @@ fn abi_pipeline_equals_core() {
                 px.as_ptr(),
                 px.len(),
                 f.eye.into(),
-                &out,
+                out,
                 &di_c,
                 vec3_img(&color, dw, dh),
                 &fp,
@@ -316,7 +450,18 @@ fn abi_pipeline_equals_core() {
         for (a, b) in shades.iter().zip(&core_shades) {
             assert_eq!(*a, refl_cluster_shade::from(b));
         }
-        // Hostile: short output, NaN eye, fallback record: untouched.
+    });
+}
+
+/// Hostile finalize input: short output, NaN eye, fallback record; the
+/// shades and the fallen count untouched.
+#[test]
+fn finalize_errors_leave_the_shades_untouched() {
+    let f = frame();
+    for_each_cluster_with_a_camera(&f, |px, out, cc| {
+        // `_depth` is the buffer `di_c` points into: kept to the end.
+        let (dw, dh, _depth, color, di_c) = flat_render(&cc.camera);
+        let fp = finalize_input();
         let sentinel = refl_cluster_shade {
             rays: 99,
             ..Default::default()
@@ -344,26 +489,27 @@ fn abi_pipeline_equals_core() {
             )
         };
         assert_eq!(
-            call(&mut keep, px.len() - 1, f.eye, &out, &mut fell2),
+            call(&mut keep, px.len() - 1, f.eye, out, &mut fell2),
             refl_status::InsufficientSize
         );
         assert_eq!(
-            call(&mut keep, px.len(), Vec3::NAN, &out, &mut fell2),
+            call(&mut keep, px.len(), Vec3::NAN, out, &mut fell2),
             refl_status::InvalidArgument
         );
-        let fallback = refl_cluster_camera { fallback: 1, ..out };
+        let fallback = refl_cluster_camera {
+            fallback: 1,
+            ..*out
+        };
         assert_eq!(
             call(&mut keep, px.len(), f.eye, &fallback, &mut fell2),
             refl_status::InvalidArgument
         );
         assert!(keep.iter().all(|s| *s == sentinel) && fell2 == 1234);
-    }
-    assert!(cameras >= 3, "{cameras}");
+    });
 }
 
 #[test]
-fn abi_errors_leave_outputs_untouched() {
-    let f = frame();
+fn bins_max_errors_leave_the_output_untouched() {
     let params = refl_cluster_options {
         max_theta_bins: 13,
         max_phi_bins: 8,
@@ -379,7 +525,11 @@ fn abi_errors_leave_outputs_untouched() {
         refl_status::NullPointer
     );
     assert_eq!(max, 7);
-    // Counts: a row range beyond the image.
+}
+
+#[test]
+fn counts_of_rows_beyond_the_image_are_refused_untouched() {
+    let f = frame();
     let mut counts = [5u32; 2];
     let st = unsafe {
         refl_cluster_count_objects(
@@ -394,9 +544,18 @@ fn abi_errors_leave_outputs_untouched() {
     };
     assert_eq!(st, refl_status::InvalidArgument);
     assert_eq!(counts, [5, 5]);
-    // Assign: a NaN normal on a clustered pixel.
+}
+
+/// The first pixel of object 0.
+fn first_of_object_0(f: &Frame) -> usize {
+    f.obj.iter().position(|&o| o == 0).unwrap()
+}
+
+#[test]
+fn assign_refuses_a_nan_normal_on_a_clustered_pixel_untouched() {
+    let f = frame();
     let mut nor = f.nor.clone();
-    let first = f.obj.iter().position(|&o| o == 0).unwrap();
+    let first = first_of_object_0(&f);
     nor[first] = [f32::NAN, 1.0, 0.0];
     let layout = [refl_cluster_object_bins {
         theta_bins: 1,
@@ -423,7 +582,11 @@ fn abi_errors_leave_outputs_untouched() {
     };
     assert_eq!(st, refl_status::InvalidArgument);
     assert!(ids.iter().all(|&v| v == 42));
-    // Ranges: too few offsets.
+}
+
+#[test]
+fn ranges_refuse_too_few_offsets_untouched() {
+    let f = frame();
     let mut offsets = [9u32; 1];
     let mut order = vec![9u32; (W * H) as usize];
     let mut total = 9u32;
@@ -440,7 +603,12 @@ fn abi_errors_leave_outputs_untouched() {
     };
     assert_eq!(st, refl_status::InsufficientSize);
     assert!(total == 9 && offsets == [9] && order.iter().all(|&v| v == 9));
-    // Camera: NaN position.
+}
+
+#[test]
+fn build_camera_refuses_a_nan_position_untouched() {
+    let f = frame();
+    let first = first_of_object_0(&f);
     let mut pos = f.pos.clone();
     pos[first] = [f32::NAN; 3];
     let px = [
@@ -464,6 +632,10 @@ fn abi_errors_leave_outputs_untouched() {
     };
     assert_eq!(st, refl_status::InvalidArgument);
     assert_eq!(unsafe { out.assume_init() }.camera.width, 0);
+}
+
+#[test]
+fn lobe_angle_refuses_a_negative_exponent_untouched() {
     let mut a = 3.0f32;
     assert_eq!(
         unsafe { refl_cluster_lobe_angle(&mut a, -1.0, 0.5) },

@@ -250,115 +250,192 @@ fn shade_bits(s: &refl_cluster_shade) -> [u32; 15] {
     ]
 }
 
+/// The pass's inputs on the scene in one convention: the frame, the
+/// options and the lobes.
+struct Setup {
+    f: Frame,
+    o: refl_cluster_pass_options,
+    lobes: [refl_cluster_lobe; 2],
+}
+
+impl Setup {
+    fn new(conv: DepthConvention) -> Setup {
+        Setup {
+            f: render(conv),
+            o: options(),
+            lobes: lobes(),
+        }
+    }
+
+    fn g(&self) -> refl_gbuffer {
+        self.f.gbuffer_c(false)
+    }
+
+    /// The frame's ids (objects 0 and 1) with the two lobes.
+    fn objects(&self) -> refl_cluster_objects {
+        refl_cluster_objects {
+            ids: u32_img(&self.f.ids, W, H),
+            lobes: self.lobes.as_ptr(),
+            lobes_len: self.lobes.len(),
+        }
+    }
+
+    /// The pass's plan through the C ABI.
+    fn plan(&self) -> Plan {
+        plan(&self.g(), &self.objects(), &self.o)
+    }
+}
+
+/// The seed 003 clustering exports on the frame's surfaces (each checked
+/// to succeed): what the plan wraps.
+struct Kernels {
+    pos: Vec<[f32; 3]>,
+    nor: Vec<[f32; 3]>,
+    obj: Vec<u32>,
+    counts: [u32; 2],
+    layout: [refl_cluster_object_bins; 2],
+    bins: u32,
+    ids: Vec<u32>,
+    offsets: Vec<u32>,
+    order: Vec<u32>,
+    total: u32,
+}
+
+impl Kernels {
+    fn pv(&self) -> refl_image_vec3 {
+        vec3_img(&self.pos, W, H)
+    }
+
+    fn nv(&self) -> refl_image_vec3 {
+        vec3_img(&self.nor, W, H)
+    }
+}
+
+fn kernels(f: &Frame, o: &refl_cluster_pass_options) -> Kernels {
+    let (pos, nor, obj) = derive(&f.gbuffer(false), &f.ids, 2);
+    let (nv, ov) = (vec3_img(&nor, W, H), u32_img(&obj, W, H));
+    let mut counts = [0u32; 2];
+    let all = refl_row_range { begin: 0, end: H };
+    assert_eq!(
+        unsafe { refl_cluster_count_objects(counts.as_mut_ptr(), 2, ov, all) },
+        refl_status::Ok
+    );
+    let mut layout = [refl_cluster_object_bins::default(); 2];
+    let mut bins = 0u32;
+    assert_eq!(
+        unsafe {
+            refl_cluster_bin_layout(
+                &mut bins,
+                layout.as_mut_ptr(),
+                2,
+                counts.as_ptr(),
+                2,
+                N as u64,
+                &o.cluster,
+            )
+        },
+        refl_status::Ok
+    );
+    let mut ids = vec![0u32; N];
+    assert_eq!(
+        unsafe {
+            refl_cluster_assign(
+                refl_image_u32_mut {
+                    data: ids.as_mut_ptr(),
+                    len: N,
+                    width: W,
+                    height: H,
+                    stride: W,
+                },
+                all,
+                nv,
+                ov,
+                layout.as_ptr(),
+                2,
+            )
+        },
+        refl_status::Ok
+    );
+    let mut offsets = vec![0u32; bins as usize + 1];
+    let mut order = vec![0u32; N];
+    let mut total = 0u32;
+    assert_eq!(
+        unsafe {
+            refl_cluster_ranges(
+                &mut total,
+                offsets.as_mut_ptr(),
+                offsets.len(),
+                order.as_mut_ptr(),
+                N,
+                u32_img(&ids, W, H),
+                bins,
+            )
+        },
+        refl_status::Ok
+    );
+    Kernels {
+        pos,
+        nor,
+        obj,
+        counts,
+        layout,
+        bins,
+        ids,
+        offsets,
+        order,
+        total,
+    }
+}
+
+/// The scene's conventions and the conventions of its clusters' renders.
+const CONVENTIONS: [(DepthConvention, DepthConvention); 2] = [
+    (DepthConvention::Linear, DepthConvention::Linear),
+    (DepthConvention::ReversedZ, DepthConvention::ZeroToOne),
+];
+
 #[test]
-fn plan_and_finalize_equal_the_kernel_exports_bit_for_bit() {
-    let mut statuses = [0usize; 10];
-    for (conv, rconv) in [
-        (DepthConvention::Linear, DepthConvention::Linear),
-        (DepthConvention::ReversedZ, DepthConvention::ZeroToOne),
-    ] {
-        let f: Frame = render(conv);
-        let g = f.gbuffer_c(false);
-        let o = options();
-        let lobes = lobes();
-        let objects = refl_cluster_objects {
-            ids: u32_img(&f.ids, W, H),
-            lobes: lobes.as_ptr(),
-            lobes_len: lobes.len(),
-        };
-        let p = plan(&g, &objects, &o);
-        let (pos, nor, obj) = derive(&f.gbuffer(false), &f.ids, 2);
-        let (pv, nv, ov) = (
-            vec3_img(&pos, W, H),
-            vec3_img(&nor, W, H),
-            u32_img(&obj, W, H),
-        );
-        // The clustering exports.
-        let mut counts = [0u32; 2];
-        let all = refl_row_range { begin: 0, end: H };
-        assert_eq!(
-            unsafe { refl_cluster_count_objects(counts.as_mut_ptr(), 2, ov, all) },
-            refl_status::Ok
-        );
-        let mut layout = [refl_cluster_object_bins::default(); 2];
-        let mut bins = 0u32;
-        assert_eq!(
-            unsafe {
-                refl_cluster_bin_layout(
-                    &mut bins,
-                    layout.as_mut_ptr(),
-                    2,
-                    counts.as_ptr(),
-                    2,
-                    N as u64,
-                    &o.cluster,
-                )
-            },
-            refl_status::Ok
-        );
-        let mut ids = vec![0u32; N];
-        assert_eq!(
-            unsafe {
-                refl_cluster_assign(
-                    refl_image_u32_mut {
-                        data: ids.as_mut_ptr(),
-                        len: N,
-                        width: W,
-                        height: H,
-                        stride: W,
-                    },
-                    all,
-                    nv,
-                    ov,
-                    layout.as_ptr(),
-                    2,
-                )
-            },
-            refl_status::Ok
-        );
-        let mut offsets = vec![0u32; bins as usize + 1];
-        let mut order = vec![0u32; N];
-        let mut total = 0u32;
-        assert_eq!(
-            unsafe {
-                refl_cluster_ranges(
-                    &mut total,
-                    offsets.as_mut_ptr(),
-                    offsets.len(),
-                    order.as_mut_ptr(),
-                    N,
-                    u32_img(&ids, W, H),
-                    bins,
-                )
-            },
-            refl_status::Ok
-        );
+fn plan_scratch_and_stats_equal_the_clustering_exports() {
+    for (conv, _) in CONVENTIONS {
+        let setup = Setup::new(conv);
+        let p = setup.plan();
+        let k = kernels(&setup.f, &setup.o);
         // The scratch: ids, order, offsets, counts, layout.
         let s = &p.scratch;
-        assert_eq!(&s[..N], &ids[..]);
-        assert_eq!(&s[N..N + total as usize], &order[..total as usize]);
+        assert_eq!(&s[..N], &k.ids[..]);
+        assert_eq!(&s[N..N + k.total as usize], &k.order[..k.total as usize]);
         let off = 2 * N;
         let n_off = p.sizes.scratch_len - 2 * N - 2 * 4;
-        assert_eq!(&s[off..off + offsets.len()], &offsets[..]);
-        assert_eq!(&s[off + n_off..off + n_off + 2], &counts[..]);
-        let lay: Vec<u32> = layout
+        assert_eq!(&s[off..off + k.offsets.len()], &k.offsets[..]);
+        assert_eq!(&s[off + n_off..off + n_off + 2], &k.counts[..]);
+        let lay: Vec<u32> = k
+            .layout
             .iter()
             .flat_map(|b| [b.theta_bins, b.phi_bins, b.first])
             .collect();
         assert_eq!(&s[off + n_off + 2..], &lay[..]);
-        assert_eq!((p.stats.bins, p.stats.pixels), (bins, total));
-        // The cameras.
-        let eye: refl_vec3 = f.cam.eye().into();
-        let mut k = 0;
-        for c in 0..bins as usize {
-            let (a, b) = (offsets[c], offsets[c + 1]);
+        assert_eq!((p.stats.bins, p.stats.pixels), (k.bins, k.total));
+    }
+}
+
+#[test]
+fn plan_entries_equal_build_camera_per_cluster() {
+    for (conv, _) in CONVENTIONS {
+        let setup = Setup::new(conv);
+        let (o, lobes) = (setup.o, setup.lobes);
+        let p = setup.plan();
+        let k = kernels(&setup.f, &o);
+        let (pv, nv) = (k.pv(), k.nv());
+        let eye: refl_vec3 = setup.f.cam.eye().into();
+        let mut n = 0;
+        for c in 0..k.bins as usize {
+            let (a, b) = (k.offsets[c], k.offsets[c + 1]);
             if b == a {
                 continue;
             }
-            let e = &p.entries[k];
-            k += 1;
-            let px = &order[a as usize..b as usize];
-            let object = obj[px[0] as usize];
+            let e = &p.entries[n];
+            n += 1;
+            let px = &k.order[a as usize..b as usize];
+            let object = k.obj[px[0] as usize];
             let lobe = lobes[object as usize];
             let mut co = o.camera;
             if lobe.rays > 1 {
@@ -388,77 +465,112 @@ fn plan_and_finalize_equal_the_kernel_exports_bit_for_bit() {
                 }
             }
         }
-        assert_eq!(k, p.entries.len());
-        // Finalize: every cluster with a camera from its own thread into
-        // one image, in two row bands; the kernel export per cluster.
+        assert_eq!(n, p.entries.len());
+    }
+}
+
+/// A cluster's render (depth, color), or none for a cluster without a
+/// camera.
+type Render = Option<(Vec<f32>, Vec<[f32; 3]>)>;
+
+/// Finalizes every cluster of the plan `p` from its own thread into
+/// `texels` (the whole image), in two row bands, with its render in
+/// `rconv` (or none, for clusters without a camera); returns each
+/// cluster's host rays, bands in order.
+fn finalize_in_threads(
+    g: refl_gbuffer,
+    o: &refl_cluster_pass_options,
+    p: &Plan,
+    renders: &[Render],
+    rconv: DepthConvention,
+    texels: &mut [refl_cluster_texel],
+) -> Vec<Vec<refl_host_ray>> {
+    let tp = Shared(texels.as_mut_ptr());
+    let gs = Shared(g);
+    std::thread::scope(|sc| {
+        let hs: Vec<_> = p
+            .entries
+            .iter()
+            .zip(renders)
+            .map(|(e, r)| {
+                let (g, s, tp) = (&gs, &p.scratch, &tp);
+                sc.spawn(move || {
+                    let rv = r.as_ref().map(|(d, c)| {
+                        let (w, h) = (e.camera.camera.width, e.camera.camera.height);
+                        refl_cluster_render {
+                            depth: refl_depth_image {
+                                depth: f32_img(d, w, h),
+                                camera: e.camera.camera,
+                                convention: conv_c(rconv),
+                            },
+                            color: vec3_img(c, w, h),
+                            back_depth: none_f32(),
+                        }
+                    });
+                    let rp = rv.as_ref().map_or(core::ptr::null(), |r| r as *const _);
+                    let rows = e.rows;
+                    let mid = rows.begin + (rows.end - rows.begin) / 2;
+                    let mut out = Vec::new();
+                    for band in [(rows.begin, mid), (mid, rows.end)] {
+                        if band.0 == band.1 {
+                            continue;
+                        }
+                        let mut host = vec![refl_host_ray::default(); N];
+                        let mut st = refl_cluster_stats::default();
+                        let r = unsafe {
+                            refl_cluster_finalize_rows(
+                                &mut st,
+                                *tp.get(),
+                                N,
+                                host.as_mut_ptr(),
+                                N,
+                                g.get(),
+                                o,
+                                s.as_ptr(),
+                                s.len(),
+                                e,
+                                rp,
+                                refl_row_range {
+                                    begin: band.0,
+                                    end: band.1,
+                                },
+                            )
+                        };
+                        assert_eq!(r, refl_status::Ok);
+                        assert_eq!(st.host_rays_written, st.host_rays);
+                        host.truncate(st.host_rays as usize);
+                        out.extend(host);
+                    }
+                    out
+                })
+            })
+            .collect();
+        hs.into_iter().map(|h| h.join().unwrap()).collect()
+    })
+}
+
+/// Finalize: every cluster with a camera from its own thread into one
+/// image, in two row bands, equals the kernel export per cluster; its host
+/// rays are the mirror pass's; pixels of no cluster are untouched.
+#[test]
+fn finalize_rows_from_threads_equals_finalize_and_the_mirror_pass_host_rays() {
+    let mut statuses = [0usize; 10];
+    for (conv, rconv) in CONVENTIONS {
+        let setup = Setup::new(conv);
+        let (f, o) = (&setup.f, setup.o);
+        let g = setup.g();
+        let p = setup.plan();
+        let k = kernels(f, &o);
+        let (pv, nv) = (k.pv(), k.nv());
+        let (ids, order) = (&k.ids, &k.order);
+        let eye: refl_vec3 = f.cam.eye().into();
         let renders: Vec<_> = p
             .entries
             .iter()
             .map(|e| (e.camera.fallback == 0).then(|| render_cluster(e, rconv)))
             .collect();
         let mut texels = vec![refl_cluster_texel::default(); N];
-        let tp = Shared(texels.as_mut_ptr());
-        let gs = Shared(g);
-        let hosts: Vec<Vec<refl_host_ray>> = std::thread::scope(|sc| {
-            let hs: Vec<_> = p
-                .entries
-                .iter()
-                .zip(&renders)
-                .map(|(e, r)| {
-                    let (g, o, s, tp) = (&gs, &o, &p.scratch, &tp);
-                    sc.spawn(move || {
-                        let rv = r.as_ref().map(|(d, c)| {
-                            let (w, h) = (e.camera.camera.width, e.camera.camera.height);
-                            refl_cluster_render {
-                                depth: refl_depth_image {
-                                    depth: f32_img(d, w, h),
-                                    camera: e.camera.camera,
-                                    convention: conv_c(rconv),
-                                },
-                                color: vec3_img(c, w, h),
-                                back_depth: none_f32(),
-                            }
-                        });
-                        let rp = rv.as_ref().map_or(core::ptr::null(), |r| r as *const _);
-                        let rows = e.rows;
-                        let mid = rows.begin + (rows.end - rows.begin) / 2;
-                        let mut out = Vec::new();
-                        for band in [(rows.begin, mid), (mid, rows.end)] {
-                            if band.0 == band.1 {
-                                continue;
-                            }
-                            let mut host = vec![refl_host_ray::default(); N];
-                            let mut st = refl_cluster_stats::default();
-                            let r = unsafe {
-                                refl_cluster_finalize_rows(
-                                    &mut st,
-                                    *tp.get(),
-                                    N,
-                                    host.as_mut_ptr(),
-                                    N,
-                                    g.get(),
-                                    o,
-                                    s.as_ptr(),
-                                    s.len(),
-                                    e,
-                                    rp,
-                                    refl_row_range {
-                                        begin: band.0,
-                                        end: band.1,
-                                    },
-                                )
-                            };
-                            assert_eq!(r, refl_status::Ok);
-                            assert_eq!(st.host_rays_written, st.host_rays);
-                            host.truncate(st.host_rays as usize);
-                            out.extend(host);
-                        }
-                        out
-                    })
-                })
-                .collect();
-            hs.into_iter().map(|h| h.join().unwrap()).collect()
-        });
+        let hosts = finalize_in_threads(g, &o, &p, &renders, rconv, &mut texels);
         let gb = f.gbuffer(false);
         let mirror = refl_core::MirrorPass::try_new(
             gb,
@@ -551,20 +663,15 @@ fn plan_and_finalize_equal_the_kernel_exports_bit_for_bit() {
     assert!(statuses[4..].iter().sum::<usize>() > 0, "{statuses:?}");
 }
 
+/// The last error message.
+fn msg() -> String {
+    with_last_error_message(|m| m.to_owned())
+}
+
 #[test]
-fn hostile_input_gets_its_status_and_writes_nothing() {
-    let f: Frame = render(DepthConvention::Linear);
-    let g = f.gbuffer_c(false);
-    let o = options();
-    let lobes = lobes();
-    let objects = refl_cluster_objects {
-        ids: u32_img(&f.ids, W, H),
-        lobes: lobes.as_ptr(),
-        lobes_len: lobes.len(),
-    };
-    let p = plan(&g, &objects, &o);
-    let msg = || with_last_error_message(|m| m.to_owned());
-    // Size query.
+fn plan_len_refuses_null_and_nan_input_untouched() {
+    let setup = Setup::new(DepthConvention::Linear);
+    let (g, objects, o) = (setup.g(), setup.objects(), setup.o);
     let mut sz = refl_cluster_plan_sizes {
         scratch_len: 5,
         clusters_len: 5,
@@ -607,7 +714,15 @@ fn hostile_input_gets_its_status_and_writes_nothing() {
         assert_eq!((s, a), (want, 0));
         assert_eq!(sz, keep);
     }
-    // Plan: each case on fresh sentinel outputs.
+}
+
+#[test]
+fn plan_refuses_hostile_input_writing_nothing() {
+    let setup = Setup::new(DepthConvention::Linear);
+    let (f, lobes) = (&setup.f, setup.lobes);
+    let (g, objects, o) = (setup.g(), setup.objects(), setup.o);
+    let p = setup.plan();
+    // Each case on fresh sentinel outputs.
     let bad_lobes = [
         lobes[0],
         refl_cluster_lobe {
@@ -721,7 +836,13 @@ fn hostile_input_gets_its_status_and_writes_nothing() {
         assert!(list.iter().all(|e| *e == zero_entry()));
         assert_eq!(st.bins, 77);
     }
-    // Finalize.
+}
+
+#[test]
+fn finalize_rows_refuses_hostile_input_writing_nothing() {
+    let setup = Setup::new(DepthConvention::Linear);
+    let (g, o) = (setup.g(), setup.o);
+    let p = setup.plan();
     let e = *p.entries.iter().find(|e| e.camera.fallback == 0).unwrap();
     let (d, c) = render_cluster(&e, DepthConvention::Linear);
     let (w, h) = (e.camera.camera.width, e.camera.camera.height);
@@ -935,7 +1056,14 @@ fn hostile_input_gets_its_status_and_writes_nothing() {
         true,
     ));
     assert_eq!(sentinel_scratch, scratch_copy);
-    // An entry without a camera needs no render.
+}
+
+#[test]
+fn finalize_rows_of_an_entry_without_a_camera_needs_no_render() {
+    let setup = Setup::new(DepthConvention::Linear);
+    let (g, o) = (setup.g(), setup.o);
+    let p = setup.plan();
+    let e = *p.entries.iter().find(|e| e.camera.fallback == 0).unwrap();
     let mut fb = e;
     fb.camera = refl_cluster_camera::from_view(&ClusterView::Fallback(
         refl_core::cluster::ClusterFallback::TooFewPixels,

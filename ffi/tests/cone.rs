@@ -65,54 +65,151 @@ fn image_c(f: &Frame) -> refl_image_vec3 {
     }
 }
 
+/// The pyramid lengths through the C ABI (checked to succeed).
+fn pyramid_lens() -> (usize, usize) {
+    let (mut n, mut nv) = (0usize, 0usize);
+    assert_eq!(
+        unsafe { refl_cone_pyramid_len(&mut n, &mut nv, W, H) },
+        refl_status::Ok
+    );
+    (n, nv)
+}
+
+/// The Hi-Z level count through the C ABI (checked to succeed).
+fn hiz_levels() -> u32 {
+    let mut levels = 0u32;
+    let mut hiz_n = 0usize;
+    assert_eq!(
+        unsafe { refl_hiz_len(&mut hiz_n, &mut levels, W, H) },
+        refl_status::Ok
+    );
+    levels
+}
+
+/// Level `level` of the Hi-Z layout through the C ABI (checked to
+/// succeed).
+fn hiz_level(level: u32) -> refl_hiz_level_info {
+    let mut info = refl_hiz_level_info::default();
+    assert_eq!(
+        unsafe { refl_hiz_level(&mut info, W, H, level) },
+        refl_status::Ok
+    );
+    info
+}
+
+/// A frame's cone pyramids built whole through the C ABI (checked to
+/// succeed), and refl-core's.
+struct Pyramids {
+    f: Frame,
+    conv: DepthConvention,
+    color: Vec<refl_vec3>,
+    vis: Vec<f32>,
+    core_color: Vec<[f32; 3]>,
+    core_hiz: Vec<[f32; 2]>,
+    core_vis: Vec<f32>,
+}
+
+fn pyramids(conv: DepthConvention) -> Pyramids {
+    let f = frame(conv);
+    let (n, nv) = pyramid_lens();
+    let img = image_c(&f);
+    let mut color = vec![refl_vec3::default(); n];
+    assert_eq!(
+        unsafe { refl_cone_build_color(color.as_mut_ptr(), n, &img, 1.0) },
+        refl_status::Ok
+    );
+    let core_img: Vec<[f32; 3]> = f.img.iter().map(|v| [v.x, v.y, v.z]).collect();
+    let mut core_color = vec![[0.0f32; 3]; n];
+    refl_core::try_build_color_pyramid(
+        &mut core_color,
+        &ImageView::try_new(&core_img, W, H, W).unwrap(),
+        1.0,
+    )
+    .unwrap();
+    let hz = hiz_c(&f, conv);
+    let mut vis = vec![0.0f32; nv];
+    assert_eq!(
+        unsafe { refl_cone_build_visibility(vis.as_mut_ptr(), nv, &hz) },
+        refl_status::Ok
+    );
+    let core_hiz: Vec<[f32; 2]> = f.hiz.iter().map(|t| [t.x, t.y]).collect();
+    let chz = HiZ::try_new(&core_hiz, f.cam, conv).unwrap();
+    let mut core_vis = vec![0.0f32; nv];
+    refl_core::try_build_visibility_pyramid(&mut core_vis, &chz).unwrap();
+    Pyramids {
+        f,
+        conv,
+        color,
+        vis,
+        core_color,
+        core_hiz,
+        core_vis,
+    }
+}
+
+impl Pyramids {
+    /// The C pyramids.
+    fn c(&self) -> refl_cone_pyramids {
+        refl_cone_pyramids {
+            hiz: hiz_c(&self.f, self.conv),
+            color: self.color.as_ptr(),
+            color_len: self.color.len(),
+            visibility: self.vis.as_ptr(),
+            visibility_len: self.vis.len(),
+        }
+    }
+
+    /// refl-core's pyramids.
+    fn core(&self) -> ConePyramids<'_> {
+        let chz = HiZ::try_new(&self.core_hiz, self.f.cam, self.conv).unwrap();
+        ConePyramids::try_new(chz, &self.core_color, &self.core_vis).unwrap()
+    }
+}
+
+fn bits(v: &[f32]) -> Vec<u32> {
+    v.iter().map(|x| x.to_bits()).collect()
+}
+
 #[test]
-fn pyramids_and_trace_equal_core() {
+fn pyramid_lengths_equal_core_and_match_the_hiz_layout() {
+    let (n, nv) = pyramid_lens();
+    assert_eq!(n, refl_core::try_color_pyramid_len(W, H).unwrap());
+    assert_eq!(nv, refl_core::try_visibility_pyramid_len(W, H).unwrap());
+    let mut levels = 0u32;
+    let mut hiz_n = 0usize;
+    assert_eq!(
+        unsafe { refl_hiz_len(&mut hiz_n, &mut levels, W, H) },
+        refl_status::Ok
+    );
+    // The Hi-Z pyramid ends with its stamp; the cone pyramids do not.
+    assert_eq!(
+        hiz_n - refl_core::HIZ_STAMP_TEXELS,
+        n - refl_core::COLOR_STAMP_TEXELS
+    );
+}
+
+#[test]
+fn color_pyramid_equals_core() {
     for conv in DepthConvention::ALL {
-        let f = frame(conv);
-        let (mut n, mut nv) = (0usize, 0usize);
-        assert_eq!(
-            unsafe { refl_cone_pyramid_len(&mut n, &mut nv, W, H) },
-            refl_status::Ok
-        );
-        assert_eq!(n, refl_core::try_color_pyramid_len(W, H).unwrap());
-        assert_eq!(nv, refl_core::try_visibility_pyramid_len(W, H).unwrap());
-        let img = image_c(&f);
-        let mut color = vec![refl_vec3::default(); n];
-        assert_eq!(
-            unsafe { refl_cone_build_color(color.as_mut_ptr(), n, &img, 1.0) },
-            refl_status::Ok
-        );
-        let core_img: Vec<[f32; 3]> = f.img.iter().map(|v| [v.x, v.y, v.z]).collect();
-        let mut core_color = vec![[0.0f32; 3]; n];
-        refl_core::try_build_color_pyramid(
-            &mut core_color,
-            &ImageView::try_new(&core_img, W, H, W).unwrap(),
-            1.0,
-        )
-        .unwrap();
-        assert!(color
+        let p = pyramids(conv);
+        assert!(p
+            .color
             .iter()
-            .zip(&core_color)
+            .zip(&p.core_color)
             .all(|(a, b)| [a.x, a.y, a.z] == *b));
+    }
+}
+
+#[test]
+fn color_pyramid_row_bands_equal_the_whole_build() {
+    for conv in DepthConvention::ALL {
+        let p = pyramids(conv);
+        let n = p.color.len();
+        let img = image_c(&p.f);
         // Row bands, level by level, equal the whole build.
         let mut banded = vec![refl_vec3::default(); n];
-        let mut levels = 0u32;
-        let mut hiz_n = 0usize;
-        assert_eq!(
-            unsafe { refl_hiz_len(&mut hiz_n, &mut levels, W, H) },
-            refl_status::Ok
-        );
-        // The Hi-Z pyramid ends with its stamp; the cone pyramids do not.
-        assert_eq!(
-            hiz_n - refl_core::HIZ_STAMP_TEXELS,
-            n - refl_core::COLOR_STAMP_TEXELS
-        );
-        for level in 0..levels {
-            let mut info = refl_hiz_level_info::default();
-            assert_eq!(
-                unsafe { refl_hiz_level(&mut info, W, H, level) },
-                refl_status::Ok
-            );
+        for level in 0..hiz_levels() {
+            let info = hiz_level(level);
             let mid = info.height / 2;
             for (a, b) in [(0, mid), (mid, info.height)] {
                 if a == b {
@@ -133,21 +230,19 @@ fn pyramids_and_trace_equal_core() {
                 );
             }
         }
-        assert_eq!(banded, color);
+        assert_eq!(banded, p.color);
+    }
+}
 
-        let hz = hiz_c(&f, conv);
-        let mut vis = vec![0.0f32; nv];
-        assert_eq!(
-            unsafe { refl_cone_build_visibility(vis.as_mut_ptr(), nv, &hz) },
-            refl_status::Ok
-        );
+#[test]
+fn visibility_pyramid_rows_equal_the_whole_build() {
+    for conv in DepthConvention::ALL {
+        let p = pyramids(conv);
+        let nv = p.vis.len();
+        let hz = hiz_c(&p.f, conv);
         let mut vb = vec![0.0f32; nv];
-        for level in 0..levels {
-            let mut info = refl_hiz_level_info::default();
-            assert_eq!(
-                unsafe { refl_hiz_level(&mut info, W, H, level) },
-                refl_status::Ok
-            );
+        for level in 0..hiz_levels() {
+            let info = hiz_level(level);
             assert_eq!(
                 unsafe {
                     refl_cone_build_visibility_rows(
@@ -164,46 +259,56 @@ fn pyramids_and_trace_equal_core() {
                 refl_status::Ok
             );
         }
-        let bits = |v: &[f32]| v.iter().map(|x| x.to_bits()).collect::<Vec<_>>();
-        assert_eq!(bits(&vb), bits(&vis));
-        let core_hiz: Vec<[f32; 2]> = f.hiz.iter().map(|t| [t.x, t.y]).collect();
-        let chz = HiZ::try_new(&core_hiz, f.cam, conv).unwrap();
-        let mut core_vis = vec![0.0f32; nv];
-        refl_core::try_build_visibility_pyramid(&mut core_vis, &chz).unwrap();
-        assert_eq!(bits(&core_vis), bits(&vis));
+        assert_eq!(bits(&vb), bits(&p.vis));
+    }
+}
 
-        // Trace.
-        let pyr = refl_cone_pyramids {
-            hiz: hz,
-            color: color.as_ptr(),
-            color_len: n,
-            visibility: vis.as_ptr(),
-            visibility_len: nv,
-        };
+#[test]
+fn visibility_pyramid_equals_core() {
+    for conv in DepthConvention::ALL {
+        let p = pyramids(conv);
+        assert_eq!(bits(&p.core_vis), bits(&p.vis));
+    }
+}
+
+#[test]
+fn cone_options_default_is_cores() {
+    let opts = refl_cone_options_default();
+    assert_eq!(ConeOptions::from(opts), ConeOptions::default());
+}
+
+/// The traced cone, through the C ABI.
+const CONE: refl_cone = refl_cone {
+    apex: refl_vec2 { x: 18.0, y: 20.0 },
+    apex_depth: 4.0,
+    hit: refl_vec2 { x: 20.0, y: 5.0 },
+    hit_depth: 8.0,
+    theta: 0.1,
+    n_dot_v: 0.7,
+    travel: 3.0,
+};
+
+/// The fallback color.
+const FALLBACK: refl_vec3 = refl_vec3 {
+    x: 0.1,
+    y: 0.2,
+    z: 0.3,
+};
+
+#[test]
+fn cone_trace_equals_core() {
+    for conv in DepthConvention::ALL {
+        let p = pyramids(conv);
+        let pyr = p.c();
         let opts = refl_cone_options_default();
-        assert_eq!(ConeOptions::from(opts), ConeOptions::default());
-        let c = refl_cone {
-            apex: refl_vec2 { x: 18.0, y: 20.0 },
-            apex_depth: 4.0,
-            hit: refl_vec2 { x: 20.0, y: 5.0 },
-            hit_depth: 8.0,
-            theta: 0.1,
-            n_dot_v: 0.7,
-            travel: 3.0,
-        };
+        let (c, fb) = (CONE, FALLBACK);
         let mut out = refl_cone_result::default();
-        let fb = refl_vec3 {
-            x: 0.1,
-            y: 0.2,
-            z: 0.3,
-        };
         assert_eq!(
             unsafe { refl_cone_trace(&mut out, &pyr, &c, fb, &opts) },
             refl_status::Ok
         );
-        let cp = ConePyramids::try_new(chz, &core_color, &core_vis).unwrap();
         let r = refl_core::try_cone_trace(
-            &cp,
+            &p.core(),
             &Cone {
                 apex: Vec2::new(18.0, 20.0),
                 apex_depth: 4.0,
@@ -223,8 +328,17 @@ fn pyramids_and_trace_equal_core() {
             (r.coverage, r.circles, r.fetches)
         );
         assert!(out.coverage > 0.0);
+    }
+}
 
-        // Bad inputs leave the output untouched.
+#[test]
+fn cone_trace_errors_leave_the_output_untouched() {
+    for conv in DepthConvention::ALL {
+        let p = pyramids(conv);
+        let pyr = p.c();
+        let n = p.color.len();
+        let opts = refl_cone_options_default();
+        let (c, fb) = (CONE, FALLBACK);
         let sentinel = refl_cone_result {
             coverage: 42.0,
             ..Default::default()
@@ -274,52 +388,75 @@ fn pyramids_and_trace_equal_core() {
             refl_status::InsufficientSize
         );
         assert_eq!(o, sentinel);
+    }
+}
 
-        // Multi-ray equals core.
-        let mo = refl_cone_multiray_options {
-            rays: 9,
-            rotation: refl_vec2 { x: 0.25, y: 0.5 },
-            hiz: refl_hiz_options {
-                start_level: 2,
-                stop_level: 0,
-                max_iterations: 256,
-                prologue_steps: 4,
-            },
-        };
-        let ray = Ray {
-            origin: Vec3::new(0.0, -0.5, -3.5),
-            dir: Vec3::new(0.0, 0.2, -1.0).normalize(),
-        };
-        let th = refl_trace_thickness {
-            constant: f32::INFINITY,
-            back_faces: refl_image_f32 {
-                data: core::ptr::null(),
-                len: 0,
-                width: 0,
-                height: 0,
-                stride: 0,
-            },
-        };
+/// The multi-ray options of the tests, through the C ABI.
+const MULTIRAY_OPTIONS: refl_cone_multiray_options = refl_cone_multiray_options {
+    rays: 9,
+    rotation: refl_vec2 { x: 0.25, y: 0.5 },
+    hiz: refl_hiz_options {
+        start_level: 2,
+        stop_level: 0,
+        max_iterations: 256,
+        prologue_steps: 4,
+    },
+};
+
+/// The multi-ray tests' ray.
+fn multiray_ray() -> Ray {
+    Ray {
+        origin: Vec3::new(0.0, -0.5, -3.5),
+        dir: Vec3::new(0.0, 0.2, -1.0).normalize(),
+    }
+}
+
+/// `refl_cone_multiray` on the pyramids `pyr` with the tests' ray, an
+/// infinite constant thickness, normal +y, the fallback color and the
+/// options `mo`.
+fn multiray_c(
+    out: &mut refl_cone_multiray_result,
+    pyr: &refl_cone_pyramids,
+    mo: &refl_cone_multiray_options,
+) -> refl_status {
+    let th = refl_trace_thickness {
+        constant: f32::INFINITY,
+        back_faces: refl_image_f32 {
+            data: core::ptr::null(),
+            len: 0,
+            width: 0,
+            height: 0,
+            stride: 0,
+        },
+    };
+    unsafe {
+        refl_cone_multiray(
+            out,
+            pyr,
+            &th,
+            multiray_ray().into(),
+            Vec3::Y.into(),
+            100.0,
+            0.2,
+            30.0,
+            mo,
+            FALLBACK,
+        )
+    }
+}
+
+#[test]
+fn multiray_equals_core() {
+    for conv in DepthConvention::ALL {
+        let p = pyramids(conv);
+        let ray = multiray_ray();
         let mut mr = refl_cone_multiray_result::default();
         assert_eq!(
-            unsafe {
-                refl_cone_multiray(
-                    &mut mr,
-                    &pyr,
-                    &th,
-                    ray.into(),
-                    Vec3::Y.into(),
-                    100.0,
-                    0.2,
-                    30.0,
-                    &mo,
-                    fb,
-                )
-            },
+            multiray_c(&mut mr, &p.c(), &MULTIRAY_OPTIONS),
             refl_status::Ok
         );
         let cr = refl_core::try_multiray(
-            &cp,
+            &p.core(),
             Thickness::Constant(f32::INFINITY),
             ray,
             Vec3::Y,
@@ -341,25 +478,26 @@ fn pyramids_and_trace_equal_core() {
         .unwrap();
         assert_eq!([mr.color.x, mr.color.y, mr.color.z], cr.color);
         assert_eq!((mr.traced, mr.hits), (cr.traced, cr.hits));
+    }
+}
+
+#[test]
+fn multiray_refuses_zero_rays_untouched() {
+    for conv in DepthConvention::ALL {
+        let p = pyramids(conv);
         let mut mr2 = refl_cone_multiray_result {
             traced: 77,
             ..Default::default()
         };
         assert_eq!(
-            unsafe {
-                refl_cone_multiray(
-                    &mut mr2,
-                    &pyr,
-                    &th,
-                    ray.into(),
-                    Vec3::Y.into(),
-                    100.0,
-                    0.2,
-                    30.0,
-                    &refl_cone_multiray_options { rays: 0, ..mo },
-                    fb,
-                )
-            },
+            multiray_c(
+                &mut mr2,
+                &p.c(),
+                &refl_cone_multiray_options {
+                    rays: 0,
+                    ..MULTIRAY_OPTIONS
+                }
+            ),
             refl_status::InvalidArgument
         );
         assert_eq!(mr2.traced, 77);
@@ -367,7 +505,7 @@ fn pyramids_and_trace_equal_core() {
 }
 
 #[test]
-fn angles_fades_and_build_errors() {
+fn cone_angles_equal_core_and_errors_leave_the_output_untouched() {
     let mut t = -1.0f32;
     assert_eq!(
         unsafe { refl_cone_angle_from_phong(&mut t, 10.0) },
@@ -393,7 +531,10 @@ fn angles_fades_and_build_errors() {
         unsafe { refl_cone_angle_from_phong(core::ptr::null_mut(), 1.0) },
         refl_status::NullPointer
     );
+}
 
+#[test]
+fn fades_equal_core_and_bad_ranges_leave_the_output_untouched() {
     let fades = refl_cone_fades {
         toward_camera: refl_cone_fade_range {
             enabled: false,
@@ -460,7 +601,10 @@ fn angles_fades_and_build_errors() {
         );
     }
     assert_eq!(v, keep);
+}
 
+#[test]
+fn color_pyramid_build_errors_leave_dst_untouched() {
     let f = frame(DepthConvention::ReversedZ);
     let n = refl_core::try_color_pyramid_len(W, H).unwrap();
     let mut color = vec![
@@ -508,6 +652,11 @@ fn angles_fades_and_build_errors() {
         refl_status::InvalidArgument
     );
     assert!(color.iter().all(|c| c.x == 7.0));
+}
+
+#[test]
+fn visibility_pyramid_build_errors_leave_dst_untouched() {
+    let f = frame(DepthConvention::ReversedZ);
     let hz = hiz_c(&f, DepthConvention::ReversedZ);
     let n = refl_core::try_visibility_pyramid_len(W, H).unwrap();
     let mut vis = vec![7.0f32; n];

@@ -85,8 +85,17 @@ fn defaults_and_scratch_len_match_core() {
     );
 }
 
-#[test]
-fn reprojection_and_decisions_match_core() {
+/// The reprojection of the first camera's POS into a second camera
+/// slightly moved and turned, through the C ABI (checked to succeed) and
+/// refl-core: the AIP and stats of each.
+struct Reprojected {
+    aip: Vec<refl_epipolar_aip_entry>,
+    stats: refl_epipolar_stats,
+    core_aip: Vec<AipEntry>,
+    core_stats: refl_core::epipolar::ReprojectStats,
+}
+
+fn reprojected() -> Reprojected {
     let c0 = cam(Vec3::new(0.0, 1.5, 0.0), Vec3::new(0.0, 1.3, -10.0));
     let c1 = cam(Vec3::new(0.05, 1.5, -0.2), Vec3::new(0.3, 1.3, -10.0));
     let pos = pos_of(&c0);
@@ -131,24 +140,48 @@ fn reprojection_and_decisions_match_core() {
         &EpipolarOptions::default(),
     )
     .unwrap();
+    Reprojected {
+        aip,
+        stats,
+        core_aip,
+        core_stats: st,
+    }
+}
+
+#[test]
+fn reprojection_equals_core() {
+    let n = (W * H) as usize;
+    let r = reprojected();
+    let (stats, st) = (r.stats, r.core_stats);
+    let (aip, core_aip) = (&r.aip, &r.core_aip);
     assert_eq!(stats.points, st.points);
     assert_eq!(stats.splatted, st.splatted);
     assert_eq!(stats.occlusion_rejected, st.occlusion_rejected);
     assert_eq!(stats.frustum_failed, st.frustum_failed);
     assert!(st.splatted > n as u32 / 2, "{st:?}");
-    for (a, b) in aip.iter().zip(&core_aip) {
+    for (a, b) in aip.iter().zip(core_aip) {
         assert_eq!(
             (a.object, a.t.to_bits(), a.cnt, a.t_other.to_bits(), a.flags),
             (b.object, b.t.to_bits(), b.cnt, b.t_other.to_bits(), b.flags)
         );
     }
-    // Decisions of two row bands equal the core's, background included.
-    let sentinel = refl_epipolar_decision {
-        object: 12345,
-        tmax: -1.0,
-        tmin: -1.0,
-        reason: 99,
-    };
+}
+
+/// A decision no export writes.
+const DECISION_SENTINEL: refl_epipolar_decision = refl_epipolar_decision {
+    object: 12345,
+    tmax: -1.0,
+    tmin: -1.0,
+    reason: 99,
+};
+
+#[test]
+fn decisions_of_two_row_bands_equal_core_background_included() {
+    let n = (W * H) as usize;
+    let p = params();
+    let r = reprojected();
+    let (aip, core_aip) = (&r.aip, &r.core_aip);
+    let sentinel = DECISION_SENTINEL;
     let mut out = vec![sentinel; n];
     for (b, e) in [(0, H / 2), (H / 2, H)] {
         let s = unsafe {
@@ -182,7 +215,14 @@ fn reprojection_and_decisions_match_core() {
         }
     }
     assert!(background > 0);
-    // One band only touches its rows.
+}
+
+#[test]
+fn one_row_band_touches_only_its_rows() {
+    let n = (W * H) as usize;
+    let p = params();
+    let aip = reprojected().aip;
+    let sentinel = DECISION_SENTINEL;
     let mut out2 = vec![sentinel; n];
     let s = unsafe {
         refl_epipolar_decide_rows(
@@ -203,20 +243,28 @@ fn reprojection_and_decisions_match_core() {
     }
 }
 
-#[test]
-fn bad_input_is_refused_and_outputs_untouched() {
+/// The inputs of the reprojection error tests: the first camera's POS,
+/// and the first and a second camera moved back.
+fn error_inputs() -> (Vec<refl_epipolar_pos_entry>, refl_camera, refl_camera) {
     let c0 = cam(Vec3::new(0.0, 1.5, 0.0), Vec3::new(0.0, 1.3, -10.0));
     let c1 = cam(Vec3::new(0.0, 1.5, -0.2), Vec3::new(0.0, 1.3, -10.0));
-    let pos = pos_of(&c0);
+    (pos_of(&c0), (&c0).into(), (&c1).into())
+}
+
+/// An AIP entry no export writes.
+const AIP_SENTINEL: refl_epipolar_aip_entry = refl_epipolar_aip_entry {
+    object: 7,
+    t: 3.0,
+    cnt: 9,
+    t_other: 4.0,
+    flags: 0,
+};
+
+#[test]
+fn reproject_refuses_bad_sizes_options_and_cameras_untouched() {
+    let (pos, rc0, rc1) = error_inputs();
     let n = (W * H) as usize;
-    let (rc0, rc1): (refl_camera, refl_camera) = ((&c0).into(), (&c1).into());
-    let sentinel = refl_epipolar_aip_entry {
-        object: 7,
-        t: 3.0,
-        cnt: 9,
-        t_other: 4.0,
-        flags: 0,
-    };
+    let sentinel = AIP_SENTINEL;
     let sl = try_scratch_len(W, H).unwrap();
     let run = |aip_len: usize,
                scratch_len: usize,
@@ -279,7 +327,15 @@ fn bad_input_is_refused_and_outputs_untouched() {
     let mut nan = rc0;
     nan.fov_y = f32::NAN;
     run(n, sl, n, &nan, &p, refl_status::InvalidArgument);
-    // Null pointers.
+}
+
+#[test]
+fn reproject_refuses_null_pointers_and_a_scratch_over_the_aip() {
+    let (pos, rc0, rc1) = error_inputs();
+    let n = (W * H) as usize;
+    let sentinel = AIP_SENTINEL;
+    let sl = try_scratch_len(W, H).unwrap();
+    let p = params();
     let mut aip = vec![sentinel; n];
     let mut scratch = vec![0.0f32; sl];
     let mut stats = refl_epipolar_stats::default();
@@ -330,8 +386,12 @@ fn bad_input_is_refused_and_outputs_untouched() {
     };
     assert_eq!(s, refl_status::InvalidArgument);
     assert!(aip.iter().all(|a| *a == sentinel));
+}
 
-    // Decisions.
+#[test]
+fn decide_rows_refuses_bad_input_untouched() {
+    let n = (W * H) as usize;
+    let p = params();
     let dsent = refl_epipolar_decision {
         object: 1,
         tmax: 2.0,
@@ -404,7 +464,22 @@ fn bad_input_is_refused_and_outputs_untouched() {
         )
     };
     assert_eq!(s, refl_status::NullPointer);
-    // The UNAVAILABLE fill gives full traversal everywhere.
+}
+
+#[test]
+fn decisions_of_unavailable_entries_are_full_traversals() {
+    let n = (W * H) as usize;
+    let p = params();
+    let aip = vec![UNAVAILABLE; n];
+    let mut out = vec![
+        refl_epipolar_decision {
+            object: 1,
+            tmax: 2.0,
+            tmin: 3.0,
+            reason: 4,
+        };
+        n
+    ];
     let s = unsafe {
         refl_epipolar_decide_rows(
             out.as_mut_ptr(),

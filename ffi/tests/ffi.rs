@@ -107,7 +107,7 @@ fn version() {
 }
 
 #[test]
-fn look_at_matches_core_and_validates() {
+fn look_at_matches_core_and_the_camera_validates() {
     let c = camera();
     let core = Camera::try_look_at(
         Vec3::new(1.0, 2.0, 5.0),
@@ -122,7 +122,10 @@ fn look_at_matches_core_and_validates() {
     .unwrap();
     assert_eq!(core_camera(&c), core);
     assert_eq!(unsafe { refl_camera_validate(&c) }, refl_status::Ok);
+}
 
+#[test]
+fn look_at_refuses_bad_input_untouched() {
     let look = |eye: refl_vec3, target: refl_vec3, fov: f32, n: f32, f: f32, w: u32, h: u32| {
         move |o: *mut refl_camera| unsafe {
             refl_camera_look_at(o, eye, target, v3(0.0, 1.0, 0.0), fov, n, f, w, h)
@@ -163,8 +166,23 @@ fn look_at_matches_core_and_validates() {
     ] {
         untouched(refl_status::InvalidArgument, look(e, t, fov, n, f, w, h));
     }
-    // Infinite far plane is fine; huge sizes are fine.
-    ok(look(e, t, 1.0, 0.1, f32::INFINITY, u32::MAX, u32::MAX));
+}
+
+#[test]
+fn look_at_accepts_an_infinite_far_plane_and_huge_sizes() {
+    ok(|o| unsafe {
+        refl_camera_look_at(
+            o,
+            v3(0.0, 0.0, 5.0),
+            v3(0.0, 0.0, 0.0),
+            v3(0.0, 1.0, 0.0),
+            1.0,
+            0.1,
+            f32::INFINITY,
+            u32::MAX,
+            u32::MAX,
+        )
+    });
 }
 
 #[test]
@@ -206,8 +224,11 @@ fn validate_rejects_bad_cameras() {
         unsafe { refl_camera_validate(p) },
         refl_status::InvalidArgument
     );
+}
 
-    // Every camera-taking function reports the invalid camera untouched.
+/// Every camera-taking function reports the invalid camera untouched.
+#[test]
+fn camera_taking_functions_refuse_an_invalid_camera_untouched() {
     let bad = refl_camera {
         fov_y: f32::NAN,
         ..camera()
@@ -447,8 +468,24 @@ fn reprojection_agrees_with_matrix() {
     });
 }
 
+/// The non-unit plane 2y - 2 = 0, filled by hand.
+fn hand_plane() -> refl_plane {
+    refl_plane {
+        normal: v3(0.0, 2.0, 0.0),
+        d: -2.0,
+    }
+}
+
+/// A ray straight down from (0, 5, 0).
+fn down_ray() -> refl_ray {
+    refl_ray {
+        origin: v3(0.0, 5.0, 0.0),
+        dir: v3(0.0, -1.0, 0.0),
+    }
+}
+
 #[test]
-fn planes_and_mirrors() {
+fn plane_from_triangle_matches_core() {
     let t: refl_plane = ok(|o| unsafe {
         refl_plane_from_triangle(o, v3(0.0, 1.0, 0.0), v3(0.0, 1.0, 1.0), v3(1.0, 1.0, 0.0))
     });
@@ -459,11 +496,12 @@ fn planes_and_mirrors() {
     )
     .unwrap();
     assert_eq!(t, refl_plane::from(&core_t));
+}
+
+#[test]
+fn plane_and_mirror_functions_of_a_non_unit_plane_are_exact() {
     // Signed distance through a hand-filled, non-unit plane: 2y - 2 = 0.
-    let hand = refl_plane {
-        normal: v3(0.0, 2.0, 0.0),
-        d: -2.0,
-    };
+    let hand = hand_plane();
     let s: f32 = ok(|o| unsafe { refl_plane_signed_distance(o, &hand, v3(5.0, 3.0, 1.0)) });
     assert_eq!(s, 2.0);
     let m: refl_vec3 = ok(|o| unsafe { refl_mirror_point(o, &hand, v3(5.0, 3.0, 1.0)) });
@@ -475,14 +513,12 @@ fn planes_and_mirrors() {
     let r: refl_vec3 =
         ok(|o| unsafe { refl_mirror_reflect(o, v3(1.0, 1.0, 0.0), v3(0.0, 1.0, 0.0)) });
     assert_eq!(r, v3(-1.0, 1.0, 0.0));
-    let ray = refl_ray {
-        origin: v3(0.0, 5.0, 0.0),
-        dir: v3(0.0, -1.0, 0.0),
-    };
-    let th: f32 = ok(|o| unsafe { refl_plane_intersect_ray(o, &hand, ray) });
+    let th: f32 = ok(|o| unsafe { refl_plane_intersect_ray(o, &hand, down_ray()) });
     assert_eq!(th, 4.0);
+}
 
-    // Errors.
+#[test]
+fn plane_constructors_refuse_degenerate_and_non_finite_input_untouched() {
     untouched(refl_status::DegenerateGeometry, |o| unsafe {
         refl_plane_from_triangle(o, v3(0.0, 0.0, 0.0), v3(1.0, 1.0, 1.0), v3(2.0, 2.0, 2.0))
     });
@@ -500,6 +536,11 @@ fn planes_and_mirrors() {
     untouched(refl_status::InvalidArgument, |o| unsafe {
         refl_plane_from_point_normal(o, v3(0.0, 0.0, f32::INFINITY), v3(0.0, 1.0, 0.0))
     });
+}
+
+#[test]
+fn plane_taking_functions_refuse_a_zero_or_nan_plane_untouched() {
+    let ray = down_ray();
     let zero = refl_plane::default();
     let nan = refl_plane {
         normal: v3(0.0, 1.0, 0.0),
@@ -519,6 +560,11 @@ fn planes_and_mirrors() {
         untouched(want, |o| unsafe { refl_plane_intersect_ray(o, p, ray) });
         untouched(want, |o| unsafe { refl_mirror_camera(o, &camera(), p) });
     }
+}
+
+#[test]
+fn mirror_and_intersection_errors_leave_the_output_untouched() {
+    let hand = hand_plane();
     untouched(refl_status::NullPointer, |o| unsafe {
         refl_mirror_matrix(o, core::ptr::null())
     });
@@ -717,19 +763,26 @@ fn convert_depth_rows_and_padding() {
     }
 }
 
-#[test]
-fn convert_depth_errors_leave_dst_untouched() {
-    let c = camera();
-    let src = vec![1.0f32; 64];
+/// Calls `f` with a 4x4 destination image filled with -7, expects status
+/// `want` and that not one destination texel changed.
+fn convert_refused(want: refl_status, f: &dyn Fn(refl_image_f32_mut) -> refl_status) {
     let mut dst = vec![-7.0f32; 64];
-    let check =
-        |dst: &mut Vec<f32>, want: refl_status, f: &dyn Fn(refl_image_f32_mut) -> refl_status| {
-            let d = img_mut(dst, 4, 4, 4);
-            assert_eq!(f(d), want);
-            assert!(dst.iter().all(|v| *v == -7.0));
-        };
+    let d = img_mut(&mut dst, 4, 4, 4);
+    assert_eq!(f(d), want);
+    assert!(dst.iter().all(|v| *v == -7.0));
+}
+
+/// A 4x4 source image of ones.
+fn ones() -> Vec<f32> {
+    vec![1.0f32; 64]
+}
+
+#[test]
+fn convert_depth_refuses_null_pointers_untouched() {
+    let c = camera();
+    let src = ones();
     let s44 = img(&src, 4, 4, 4);
-    check(&mut dst, refl_status::NullPointer, &|d| unsafe {
+    convert_refused(refl_status::NullPointer, &|d| unsafe {
         refl_image_convert_depth(
             d,
             s44,
@@ -739,7 +792,7 @@ fn convert_depth_errors_leave_dst_untouched() {
             refl_row_range { begin: 0, end: 4 },
         )
     });
-    check(&mut dst, refl_status::NullPointer, &|d| unsafe {
+    convert_refused(refl_status::NullPointer, &|d| unsafe {
         refl_image_convert_depth(
             d,
             refl_image_f32 {
@@ -752,7 +805,7 @@ fn convert_depth_errors_leave_dst_untouched() {
             refl_row_range { begin: 0, end: 4 },
         )
     });
-    check(&mut dst, refl_status::NullPointer, &|d| unsafe {
+    convert_refused(refl_status::NullPointer, &|d| unsafe {
         refl_image_convert_depth(
             refl_image_f32_mut {
                 data: core::ptr::null_mut(),
@@ -765,6 +818,13 @@ fn convert_depth_errors_leave_dst_untouched() {
             refl_row_range { begin: 0, end: 4 },
         )
     });
+}
+
+#[test]
+fn convert_depth_refuses_bad_conventions_and_rows_untouched() {
+    let c = camera();
+    let src = ones();
+    let s44 = img(&src, 4, 4, 4);
     for (from, to, b, e) in [
         (3, 1, 0, 4),
         (0, 9, 0, 4),
@@ -772,10 +832,17 @@ fn convert_depth_errors_leave_dst_untouched() {
         (0, 1, 3, 2),
         (0, 1, 0, 5),
     ] {
-        check(&mut dst, refl_status::InvalidArgument, &|d| unsafe {
+        convert_refused(refl_status::InvalidArgument, &|d| unsafe {
             refl_image_convert_depth(d, s44, &c, from, to, refl_row_range { begin: b, end: e })
         });
     }
+}
+
+#[test]
+fn convert_depth_refuses_bad_sizes_and_short_buffers_untouched() {
+    let c = camera();
+    let src = ones();
+    let s44 = img(&src, 4, 4, 4);
     // Size mismatch, zero sizes, stride < width, overflowing sizes.
     for (w, h, st) in [
         (4, 3, 4),
@@ -791,12 +858,12 @@ fn convert_depth_errors_leave_dst_untouched() {
             len: usize::MAX,
             ..s44
         };
-        check(&mut dst, refl_status::InvalidArgument, &|d| unsafe {
+        convert_refused(refl_status::InvalidArgument, &|d| unsafe {
             refl_image_convert_depth(d, s, &c, 0, 1, refl_row_range { begin: 0, end: 4 })
         });
     }
     // Short buffers.
-    check(&mut dst, refl_status::InsufficientSize, &|d| unsafe {
+    convert_refused(refl_status::InsufficientSize, &|d| unsafe {
         refl_image_convert_depth(
             d,
             refl_image_f32 { len: 15, ..s44 },
@@ -806,7 +873,7 @@ fn convert_depth_errors_leave_dst_untouched() {
             refl_row_range { begin: 0, end: 4 },
         )
     });
-    check(&mut dst, refl_status::InsufficientSize, &|d| unsafe {
+    convert_refused(refl_status::InsufficientSize, &|d| unsafe {
         refl_image_convert_depth(
             refl_image_f32_mut { len: 15, ..d },
             s44,
@@ -816,6 +883,13 @@ fn convert_depth_errors_leave_dst_untouched() {
             refl_row_range { begin: 0, end: 4 },
         )
     });
+}
+
+#[test]
+fn convert_depth_refuses_misaligned_and_overlapping_images_untouched() {
+    let c = camera();
+    let src = ones();
+    let s44 = img(&src, 4, 4, 4);
     // Misaligned data.
     let bytes = Scratch([0u8; 256]);
     let mis = refl_image_f32 {
@@ -823,10 +897,11 @@ fn convert_depth_errors_leave_dst_untouched() {
         len: 16,
         ..s44
     };
-    check(&mut dst, refl_status::InvalidArgument, &|d| unsafe {
+    convert_refused(refl_status::InvalidArgument, &|d| unsafe {
         refl_image_convert_depth(d, mis, &c, 0, 1, refl_row_range { begin: 0, end: 4 })
     });
     // Partial overlap: src starts one texel into dst.
+    let mut dst = vec![-7.0f32; 64];
     let d = img_mut(&mut dst, 4, 4, 4);
     let shifted = refl_image_f32 {
         data: unsafe { d.data.add(1) },
@@ -856,9 +931,15 @@ fn convert_depth_errors_leave_dst_untouched() {
         refl_status::InvalidArgument
     );
     assert!(dst.iter().all(|v| *v == -7.0));
-    // Invalid camera.
+}
+
+#[test]
+fn convert_depth_refuses_an_invalid_camera_untouched() {
+    let c = camera();
+    let src = ones();
+    let s44 = img(&src, 4, 4, 4);
     let bad = refl_camera { z_near: 0.0, ..c };
-    check(&mut dst, refl_status::InvalidArgument, &|d| unsafe {
+    convert_refused(refl_status::InvalidArgument, &|d| unsafe {
         refl_image_convert_depth(d, s44, &bad, 0, 1, refl_row_range { begin: 0, end: 4 })
     });
 }

@@ -412,16 +412,36 @@ fn last_error() -> String {
     String::from_utf8_lossy(&buf[..k.min(255)]).to_string()
 }
 
+/// The inputs of the error tests: the ZeroToOne scene and its roughness.
+struct ErrorSetup {
+    f: Frame,
+    rough: Vec<f32>,
+}
+
+impl ErrorSetup {
+    fn new() -> ErrorSetup {
+        let f = render(DepthConvention::ZeroToOne);
+        let rough = roughness(&f);
+        ErrorSetup { f, rough }
+    }
+
+    /// The G-buffer (no back faces), the default options and a scratch
+    /// prepared for them.
+    fn c(&self) -> (refl_gbuffer, refl_glossy_options, Vec<f32>) {
+        let g = gbuffer_c(&self.f, &self.rough, false);
+        let d = refl_glossy_options_default();
+        let (scratch, _) = prepare(&g, &d);
+        (g, d, scratch)
+    }
+}
+
 #[test]
-fn errors_name_their_cause_and_leave_every_output_untouched() {
-    let f = render(DepthConvention::ZeroToOne);
-    let rough = roughness(&f);
-    let g = gbuffer_c(&f, &rough, false);
-    let d = refl_glossy_options_default();
+fn options_out_of_range_are_refused_by_prepare_and_trace_naming_them() {
+    let e = ErrorSetup::new();
+    let (g, d, scratch) = e.c();
     let all = refl_row_range { begin: 0, end: H };
     let n = (W * H) as usize;
     let inv = refl_status::InvalidArgument;
-    let (scratch, _) = prepare(&g, &d);
     let on = refl_glossy_fade {
         enabled: true,
         start: 1.0,
@@ -474,7 +494,15 @@ fn errors_name_their_cause_and_leave_every_output_untouched() {
             assert!(last_error().contains("options"), "{}", last_error());
         }
     }
-    // A G-buffer without roughness or color; rows; sizes.
+}
+
+#[test]
+fn a_gbuffer_without_roughness_or_color_is_refused_naming_the_roughness() {
+    let e = ErrorSetup::new();
+    let (g, d, scratch) = e.c();
+    let all = refl_row_range { begin: 0, end: H };
+    let n = (W * H) as usize;
+    let inv = refl_status::InvalidArgument;
     for gb in [
         refl_gbuffer {
             roughness: common::none_f32(),
@@ -495,6 +523,15 @@ fn errors_name_their_cause_and_leave_every_output_untouched() {
         refused(inv, &gb, &d, &scratch, false, all, n, true);
         assert!(last_error().contains("roughness"), "{}", last_error());
     }
+}
+
+#[test]
+fn bad_rows_sizes_and_gbuffer_fields_are_refused() {
+    let e = ErrorSetup::new();
+    let (g, d, scratch) = e.c();
+    let all = refl_row_range { begin: 0, end: H };
+    let n = (W * H) as usize;
+    let inv = refl_status::InvalidArgument;
     refused(
         inv,
         &g,
@@ -547,8 +584,17 @@ fn errors_name_their_cause_and_leave_every_output_untouched() {
         n,
         true,
     );
-    // Scratch: NULL, short, never prepared, prepared for another camera,
-    // prepared without the visibility pyramid the options read.
+}
+
+/// Scratch: NULL, short, never prepared, prepared for another camera,
+/// prepared without the visibility pyramid the options read.
+#[test]
+fn a_null_short_or_foreign_scratch_is_refused() {
+    let e = ErrorSetup::new();
+    let (g, d, scratch) = e.c();
+    let all = refl_row_range { begin: 0, end: H };
+    let n = (W * H) as usize;
+    let inv = refl_status::InvalidArgument;
     refused(
         refl_status::NullPointer,
         &g,
@@ -602,7 +648,15 @@ fn errors_name_their_cause_and_leave_every_output_untouched() {
     let mut padded = scratch.clone();
     padded.resize(vis_len, 0.0);
     refused(inv, &g, &vis, &padded, false, all, n, true);
-    // Outputs aliasing the scratch or the G-buffer.
+}
+
+#[test]
+fn trace_output_over_the_scratch_is_refused() {
+    let e = ErrorSetup::new();
+    let (g, d, scratch) = e.c();
+    let all = refl_row_range { begin: 0, end: H };
+    let n = (W * H) as usize;
+    let inv = refl_status::InvalidArgument;
     let mut big = scratch.clone();
     big.resize(scratch.len() + 16 * n, 0.0);
     let mut st = refl_glossy_stats::default();
@@ -623,7 +677,15 @@ fn errors_name_their_cause_and_leave_every_output_untouched() {
         )
     };
     assert_eq!(s, inv);
-    // Prepare: short scratch, scratch over the depth image.
+}
+
+#[test]
+fn prepare_refuses_a_short_scratch_one_over_the_depth_image_and_a_non_finite_color() {
+    let e = ErrorSetup::new();
+    let (g, d, scratch) = e.c();
+    let n = (W * H) as usize;
+    let inv = refl_status::InvalidArgument;
+    let f = &e.f;
     prepare_refused(refl_status::InsufficientSize, &g, &d, scratch.len() - 1);
     let mut g7 = g;
     let aliased = vec![0.0f32; scratch.len() + n];
@@ -637,7 +699,13 @@ fn errors_name_their_cause_and_leave_every_output_untouched() {
     let mut g8 = g;
     g8.color.data = hot.as_ptr().cast();
     prepare_refused(inv, &g8, &d, scratch.len());
-    // The size query: NULLs, unknown method.
+}
+
+#[test]
+fn scratch_len_refuses_nulls_and_an_unknown_method_untouched() {
+    let e = ErrorSetup::new();
+    let (g, d, _) = e.c();
+    let inv = refl_status::InvalidArgument;
     let mut len = 5usize;
     // SAFETY: valid or NULL pointers.
     unsafe {

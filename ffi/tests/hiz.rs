@@ -7,67 +7,26 @@ use core::mem::MaybeUninit;
 use refl::*;
 use refl_core::glam::Vec3;
 use refl_core::{
-    try_build_hiz, try_hiz_len, try_trace_hiz, Camera, DepthConvention, DepthImage, HiZ, HiZLayout,
-    HiZOptions, ImageView, Ray, Thickness,
+    try_hiz_len, try_trace_hiz, Camera, DepthConvention, HiZ, HiZLayout, HiZOptions, ImageView,
+    Ray, Thickness,
 };
+
+#[path = "common/wall.rs"]
+mod wall;
+use wall::{core_pyramid, depth_image_c, hiz_c, no_image, texels_c};
 
 const W: u32 = 37;
 const H: u32 = 23;
 
-fn camera() -> Camera {
-    Camera::try_look_at(
-        Vec3::new(0.5, 1.5, 4.0),
-        Vec3::new(0.0, 0.5, -5.0),
-        Vec3::Y,
-        1.0,
-        0.1,
-        100.0,
-        W,
-        H,
-    )
-    .unwrap()
-}
-
 /// A wall at depth 8, a box at depth 3 with back faces at 4, a NaN hole.
-fn images(cam: &Camera, conv: DepthConvention) -> (Vec<f32>, Vec<f32>) {
-    let mut front = vec![cam.encode_depth(8.0, conv); (W * H) as usize];
-    let mut back = vec![cam.encode_depth(9.0, conv); (W * H) as usize];
-    for y in 8..16 {
-        for x in 12..25 {
-            front[(y * W + x) as usize] = cam.encode_depth(3.0, conv);
-            back[(y * W + x) as usize] = cam.encode_depth(4.0, conv);
-        }
-    }
-    for x in 30..34 {
-        front[(4 * W + x) as usize] = f32::NAN;
-    }
-    (front, back)
-}
-
-fn image_c(data: &[f32]) -> refl_image_f32 {
-    refl_image_f32 {
-        data: data.as_ptr(),
-        len: data.len(),
-        width: W,
-        height: H,
-        stride: W,
-    }
-}
-
-fn depth_image_c(cam: &Camera, data: &[f32], conv: DepthConvention) -> refl_depth_image {
-    refl_depth_image {
-        depth: image_c(data),
-        camera: cam.into(),
-        convention: conv as u32,
-    }
-}
-
-fn core_pyramid(cam: &Camera, data: &[f32], conv: DepthConvention) -> Vec<[f32; 2]> {
-    let img = DepthImage::try_new(ImageView::try_new(data, W, H, W).unwrap(), *cam, conv).unwrap();
-    let mut p = vec![[0.0f32; 2]; try_hiz_len(W, H).unwrap()];
-    try_build_hiz(&mut p, &img).unwrap();
-    p
-}
+const SCENE: wall::Scene = wall::Scene {
+    width: W,
+    height: H,
+    box_x: 12..25,
+    box_y: 8..16,
+    hole_y: 4,
+    hole_x: 30..34,
+};
 
 fn bits(p: &[refl_vec2]) -> Vec<[u32; 2]> {
     p.iter().map(|t| [t.x.to_bits(), t.y.to_bits()]).collect()
@@ -90,15 +49,6 @@ fn rays() -> Vec<refl_ray> {
         .into(),
     );
     v
-}
-
-fn hiz_c(cam: &Camera, p: &[refl_vec2], conv: DepthConvention) -> refl_hiz {
-    refl_hiz {
-        data: p.as_ptr(),
-        len: p.len(),
-        camera: cam.into(),
-        convention: conv as u32,
-    }
 }
 
 #[test]
@@ -138,6 +88,10 @@ fn len_and_level_match_core() {
         );
         assert_eq!(info.offset, 7);
     }
+}
+
+#[test]
+fn len_and_level_refuse_bad_sizes_and_null_outputs() {
     let (mut n, mut c) = (5usize, 5u32);
     // SAFETY: valid or null outputs.
     unsafe {
@@ -159,30 +113,41 @@ fn len_and_level_match_core() {
         );
     }
     assert_eq!((n, c), (5, 5));
+}
+
+#[test]
+fn options_default_is_cores() {
     let o = refl_hiz_options_default();
     assert_eq!(HiZOptions::from(o), HiZOptions::default());
 }
 
 #[test]
-fn build_whole_and_banded_from_threads_equal_core() {
-    let cam = camera();
+fn whole_build_equals_core_bit_for_bit() {
+    let cam = SCENE.camera();
     for conv in DepthConvention::ALL {
-        let (front, _) = images(&cam, conv);
-        let want = core_pyramid(&cam, &front, conv);
+        let (front, _) = SCENE.images(&cam, conv);
+        let want_c = texels_c(&core_pyramid(&cam, &front, conv));
         let img = depth_image_c(&cam, &front, conv);
-        let n = want.len();
+        let n = want_c.len();
         let mut whole = vec![refl_vec2::default(); n];
         // SAFETY: valid buffers.
         assert_eq!(
             unsafe { refl_hiz_build(whole.as_mut_ptr(), n, &img) },
             refl_status::Ok
         );
-        let want_c: Vec<refl_vec2> = want
-            .iter()
-            .map(|t| refl_vec2 { x: t[0], y: t[1] })
-            .collect();
         assert_eq!(bits(&whole), bits(&want_c));
-        // Banded: each level in 3 bands on 3 threads, one level at a time.
+    }
+}
+
+#[test]
+fn build_by_row_bands_from_threads_equals_core_bit_for_bit() {
+    let cam = SCENE.camera();
+    for conv in DepthConvention::ALL {
+        let (front, _) = SCENE.images(&cam, conv);
+        let want_c = texels_c(&core_pyramid(&cam, &front, conv));
+        let img = depth_image_c(&cam, &front, conv);
+        let n = want_c.len();
+        // Each level in 3 bands on 3 threads, one level at a time.
         let mut banded = vec![refl_vec2::default(); n];
         let layout = HiZLayout::try_new(W, H).unwrap();
         let base = banded.as_mut_ptr() as usize;
@@ -217,12 +182,20 @@ fn build_whole_and_banded_from_threads_equal_core() {
     }
 }
 
+/// The depth convention of the build error tests.
+const BUILD_CONV: DepthConvention = DepthConvention::ReversedZ;
+
+/// The front depth image in [`BUILD_CONV`] (and the buffer it points into).
+fn build_input() -> (Vec<f32>, refl_depth_image) {
+    let cam = SCENE.camera();
+    let (front, _) = SCENE.images(&cam, BUILD_CONV);
+    let img = depth_image_c(&cam, &front, BUILD_CONV);
+    (front, img)
+}
+
 #[test]
 fn build_errors_leave_dst_untouched() {
-    let cam = camera();
-    let conv = DepthConvention::ReversedZ;
-    let (front, _) = images(&cam, conv);
-    let img = depth_image_c(&cam, &front, conv);
+    let (_front, img) = build_input();
     let n = try_hiz_len(W, H).unwrap();
     let sentinel = refl_vec2 { x: 5.0, y: 6.0 };
     let mut dst = vec![sentinel; n];
@@ -273,7 +246,20 @@ fn build_errors_leave_dst_untouched() {
             refl_hiz_build(mis, n - 1, &img),
             refl_status::InvalidArgument
         );
-        // Rows: bad level, empty or reversed rows, rows past the level.
+    }
+    assert!(dst.iter().all(|t| *t == sentinel));
+}
+
+#[test]
+fn build_rows_errors_leave_dst_untouched() {
+    let (_front, img) = build_input();
+    let n = try_hiz_len(W, H).unwrap();
+    let sentinel = refl_vec2 { x: 5.0, y: 6.0 };
+    let mut dst = vec![sentinel; n];
+    let p = dst.as_mut_ptr();
+    // SAFETY: valid or null pointers; lengths as stated.
+    unsafe {
+        // Bad level, empty or reversed rows, rows past the level.
         assert_eq!(
             refl_hiz_build_rows(p, n, &img, 99, refl_row_range { begin: 0, end: 1 }),
             refl_status::InvalidArgument
@@ -306,10 +292,16 @@ fn build_errors_leave_dst_untouched() {
         );
     }
     assert!(dst.iter().all(|t| *t == sentinel));
-    // The pyramid overlapping the depth image is refused.
+}
+
+#[test]
+fn build_into_its_own_depth_image_is_refused() {
+    let cam = SCENE.camera();
+    let (front, _) = SCENE.images(&cam, BUILD_CONV);
+    let n = try_hiz_len(W, H).unwrap();
     let mut shared = vec![0.0f32; 4 * n + front.len()];
     shared[..front.len()].copy_from_slice(&front);
-    let img2 = depth_image_c(&cam, &shared[..front.len()], conv);
+    let img2 = depth_image_c(&cam, &shared[..front.len()], BUILD_CONV);
     let before = shared.clone();
     // SAFETY: the pointer covers `shared`, which holds 2n floats from index 2.
     let st = unsafe { refl_hiz_build(shared.as_mut_ptr().add(2) as *mut refl_vec2, n, &img2) };
@@ -320,16 +312,17 @@ fn build_errors_leave_dst_untouched() {
     );
 }
 
-#[test]
-fn traces_equal_core_single_and_batched() {
-    let cam = camera();
+/// Runs `check(hz, th_core, h, th_c, o)` on the scene's pyramid in every
+/// convention, with the constant thickness 0.5 and the back-face image,
+/// under the default options and a coarse stop level without prologue.
+fn for_each_trace_case(
+    mut check: impl FnMut(&HiZ, Thickness, &refl_hiz, &refl_trace_thickness, HiZOptions),
+) {
+    let cam = SCENE.camera();
     for conv in DepthConvention::ALL {
-        let (front, back) = images(&cam, conv);
+        let (front, back) = SCENE.images(&cam, conv);
         let want = core_pyramid(&cam, &front, conv);
-        let pyr_c: Vec<refl_vec2> = want
-            .iter()
-            .map(|t| refl_vec2 { x: t[0], y: t[1] })
-            .collect();
+        let pyr_c = texels_c(&want);
         let hz = HiZ::try_new(&want, cam, conv).unwrap();
         let h = hiz_c(&cam, &pyr_c, conv);
         let bv = ImageView::try_new(&back, W, H, W).unwrap();
@@ -346,106 +339,118 @@ fn traces_equal_core_single_and_batched() {
                 Thickness::Constant(0.5),
                 refl_trace_thickness {
                     constant: 0.5,
-                    back_faces: refl_image_f32 {
-                        data: core::ptr::null(),
-                        len: 0,
-                        width: 0,
-                        height: 0,
-                        stride: 0,
-                    },
+                    back_faces: no_image(),
                 },
             ),
             (
                 Thickness::BackFaces(bv),
                 refl_trace_thickness {
                     constant: 0.0,
-                    back_faces: image_c(&back),
+                    back_faces: SCENE.image_c(&back),
                 },
             ),
         ] {
             for o in opts_list {
-                let oc: refl_hiz_options = o.into();
-                let rs = rays();
-                let mut hits = 0;
-                for r in &rs {
-                    let ray = Ray {
-                        origin: r.origin.into(),
-                        dir: r.dir.into(),
-                    };
-                    let want = refl_trace_result::from(
-                        try_trace_hiz(&hz, th_core, ray, 30.0, &o).unwrap(),
-                    );
-                    hits += (want.miss == 0) as usize;
-                    let mut got = MaybeUninit::<refl_trace_result>::uninit();
-                    // SAFETY: valid pointers.
-                    let st =
-                        unsafe { refl_hiz_trace_ray(got.as_mut_ptr(), &h, &th_c, *r, 30.0, &oc) };
-                    assert_eq!(st, refl_status::Ok);
-                    // SAFETY: written on success.
-                    assert_eq!(unsafe { got.assume_init() }, want);
-                }
-                assert!(hits >= rs.len() / 2, "{hits} hits");
-                let mut out = vec![refl_trace_result::default(); rs.len() + 1];
-                let tm = [30.0f32];
-                // SAFETY: valid pointers and lengths.
-                let st = unsafe {
-                    refl_hiz_trace_rays(
-                        out.as_mut_ptr(),
-                        out.len(),
-                        &h,
-                        &th_c,
-                        rs.as_ptr(),
-                        rs.len(),
-                        tm.as_ptr(),
-                        1,
-                        &oc,
-                    )
-                };
-                assert_eq!(st, refl_status::Ok);
-                for (i, r) in rs.iter().enumerate() {
-                    let ray = Ray {
-                        origin: r.origin.into(),
-                        dir: r.dir.into(),
-                    };
-                    let want = refl_trace_result::from(
-                        try_trace_hiz(&hz, th_core, ray, 30.0, &o).unwrap(),
-                    );
-                    assert_eq!(out[i], want);
-                }
-                assert_eq!(out[rs.len()], refl_trace_result::default());
+                check(&hz, th_core, &h, &th_c, o);
             }
         }
     }
 }
 
-#[test]
-fn trace_errors_leave_outputs_untouched() {
-    let cam = camera();
-    let conv = DepthConvention::ZeroToOne;
-    let (front, _) = images(&cam, conv);
-    let want = core_pyramid(&cam, &front, conv);
-    let pyr: Vec<refl_vec2> = want
-        .iter()
-        .map(|t| refl_vec2 { x: t[0], y: t[1] })
-        .collect();
-    let h = hiz_c(&cam, &pyr, conv);
-    let th = refl_trace_thickness {
-        constant: 0.5,
-        back_faces: refl_image_f32 {
-            data: core::ptr::null(),
-            len: 0,
-            width: 0,
-            height: 0,
-            stride: 0,
-        },
+/// refl-core's trace of the C ray `r`.
+fn core_trace(
+    hz: &HiZ,
+    th: Thickness,
+    r: &refl_ray,
+    t_max: f32,
+    o: &HiZOptions,
+) -> refl_trace_result {
+    let ray = Ray {
+        origin: r.origin.into(),
+        dir: r.dir.into(),
     };
-    let o: refl_hiz_options = HiZOptions::default().into();
-    let good = rays()[0];
-    let sentinel = refl_trace_result {
+    refl_trace_result::from(try_trace_hiz(hz, th, ray, t_max, o).unwrap())
+}
+
+#[test]
+fn trace_ray_equals_core() {
+    for_each_trace_case(|hz, th_core, h, th_c, o| {
+        let oc: refl_hiz_options = o.into();
+        let rs = rays();
+        let mut hits = 0;
+        for r in &rs {
+            let want = core_trace(hz, th_core, r, 30.0, &o);
+            hits += (want.miss == 0) as usize;
+            let mut got = MaybeUninit::<refl_trace_result>::uninit();
+            // SAFETY: valid pointers.
+            let st = unsafe { refl_hiz_trace_ray(got.as_mut_ptr(), h, th_c, *r, 30.0, &oc) };
+            assert_eq!(st, refl_status::Ok);
+            // SAFETY: written on success.
+            assert_eq!(unsafe { got.assume_init() }, want);
+        }
+        assert!(hits >= rs.len() / 2, "{hits} hits");
+    });
+}
+
+#[test]
+fn trace_rays_equals_core_and_writes_only_its_rays() {
+    for_each_trace_case(|hz, th_core, h, th_c, o| {
+        let oc: refl_hiz_options = o.into();
+        let rs = rays();
+        let mut out = vec![refl_trace_result::default(); rs.len() + 1];
+        let tm = [30.0f32];
+        // SAFETY: valid pointers and lengths.
+        let st = unsafe {
+            refl_hiz_trace_rays(
+                out.as_mut_ptr(),
+                out.len(),
+                h,
+                th_c,
+                rs.as_ptr(),
+                rs.len(),
+                tm.as_ptr(),
+                1,
+                &oc,
+            )
+        };
+        assert_eq!(st, refl_status::Ok);
+        for (i, r) in rs.iter().enumerate() {
+            let want = core_trace(hz, th_core, r, 30.0, &o);
+            assert_eq!(out[i], want);
+        }
+        assert_eq!(out[rs.len()], refl_trace_result::default());
+    });
+}
+
+/// The inputs of the trace error tests: the scene's camera and its
+/// ZeroToOne pyramid.
+fn zero_to_one_pyramid() -> (Camera, Vec<refl_vec2>) {
+    let cam = SCENE.camera();
+    let conv = DepthConvention::ZeroToOne;
+    let (front, _) = SCENE.images(&cam, conv);
+    (cam, texels_c(&core_pyramid(&cam, &front, conv)))
+}
+
+/// A trace result no export writes.
+fn trace_sentinel() -> refl_trace_result {
+    refl_trace_result {
         miss: 77,
         steps: 77,
         ..Default::default()
+    }
+}
+
+#[test]
+fn trace_ray_errors_leave_the_output_untouched() {
+    let (cam, pyr) = zero_to_one_pyramid();
+    let h = hiz_c(&cam, &pyr, DepthConvention::ZeroToOne);
+    let th = refl_trace_thickness {
+        constant: 0.5,
+        back_faces: no_image(),
     };
+    let o: refl_hiz_options = HiZOptions::default().into();
+    let good = rays()[0];
+    let sentinel = trace_sentinel();
     let mut out = sentinel;
     // SAFETY: valid or null pointers.
     unsafe {
@@ -521,13 +526,7 @@ fn trace_errors_leave_outputs_untouched() {
         let small = [0.0f32; 4];
         let tb = refl_trace_thickness {
             constant: 0.0,
-            back_faces: refl_image_f32 {
-                data: small.as_ptr(),
-                len: 4,
-                width: 2,
-                height: 2,
-                stride: 2,
-            },
+            back_faces: wall::image_c(&small, 2, 2),
         };
         assert_eq!(
             refl_hiz_trace_ray(&mut out, &h, &tb, good, 1.0, &o),
@@ -535,7 +534,18 @@ fn trace_errors_leave_outputs_untouched() {
         );
     }
     assert_eq!(out, sentinel);
-    // Batches.
+}
+
+#[test]
+fn trace_rays_errors_leave_the_outputs_untouched() {
+    let (cam, pyr) = zero_to_one_pyramid();
+    let h = hiz_c(&cam, &pyr, DepthConvention::ZeroToOne);
+    let th = refl_trace_thickness {
+        constant: 0.5,
+        back_faces: no_image(),
+    };
+    let o: refl_hiz_options = HiZOptions::default().into();
+    let sentinel = trace_sentinel();
     let rs = rays();
     let mut outs = vec![sentinel; rs.len()];
     let tm = [10.0f32, f32::NAN];

@@ -5,8 +5,11 @@
 
 use core::ptr::{null, null_mut};
 use refl::*;
-use refl_core::glam::Vec3;
-use refl_core::{try_build_hiz, try_hiz_len, Camera, DepthConvention, DepthImage, ImageView};
+use refl_core::{Camera, DepthConvention};
+
+#[path = "common/wall.rs"]
+mod wall;
+use wall::{core_pyramid, depth_image_c, hiz_c, look, no_image};
 
 /// The message as C sees it, through `refl_last_error_message`.
 fn message() -> String {
@@ -36,20 +39,6 @@ fn refused(status: refl_status, want: refl_status, call: &str, says: &[&str]) {
 
 fn v3(x: f32, y: f32, z: f32) -> refl_vec3 {
     refl_vec3 { x, y, z }
-}
-
-fn look(w: u32, h: u32, eye_x: f32) -> Camera {
-    Camera::try_look_at(
-        Vec3::new(eye_x, 1.5, 4.0),
-        Vec3::new(0.0, 0.5, -5.0),
-        Vec3::Y,
-        1.0,
-        0.1,
-        100.0,
-        w,
-        h,
-    )
-    .unwrap()
 }
 
 #[test]
@@ -203,13 +192,7 @@ fn image_and_step_refusals_name_the_argument() {
     let cam = look(8, 6, 0.5);
     let src = [0.5f32; 48];
     let mut dst = vec![0.0f32; 48];
-    let s_img = refl_image_f32 {
-        data: src.as_ptr(),
-        len: 48,
-        width: 8,
-        height: 6,
-        stride: 8,
-    };
+    let s_img = wall::image_c(&src, 8, 6);
     let d_img = refl_image_f32_mut {
         data: dst.as_mut_ptr(),
         len: 48,
@@ -249,13 +232,7 @@ fn image_and_step_refusals_name_the_argument() {
     let mut out = core::mem::MaybeUninit::<refl_trace_result>::uninit();
     let th = refl_trace_thickness {
         constant: 1.0,
-        back_faces: refl_image_f32 {
-            data: null(),
-            len: 0,
-            width: 0,
-            height: 0,
-            stride: 0,
-        },
+        back_faces: no_image(),
     };
     let ray = refl_ray {
         origin: v3(0.0, 1.0, 2.0),
@@ -266,34 +243,47 @@ fn image_and_step_refusals_name_the_argument() {
     refused(s, refl_status::NullPointer, "refl_step_ray", &["is NULL"]);
 }
 
-/// The case: a pyramid built for 512x384 traced with a 256x192
-/// camera was OK with every ray missing.
-#[test]
-fn hiz_pyramid_of_another_size_or_camera_is_refused() {
-    let conv = DepthConvention::ReversedZ;
-    let (big, small, moved) = (
-        look(512, 384, 0.5),
-        look(256, 192, 0.5),
-        look(512, 384, 0.6),
-    );
-    let depth = vec![big.encode_depth(8.0, conv); 512 * 384];
-    let img = refl_depth_image {
-        depth: refl_image_f32 {
-            data: depth.as_ptr(),
-            len: depth.len(),
-            width: 512,
-            height: 384,
-            stride: 512,
-        },
-        camera: (&big).into(),
-        convention: conv as u32,
-    };
+/// The depth convention of the Hi-Z pyramid tests.
+const HIZ_CONV: DepthConvention = DepthConvention::ReversedZ;
+
+/// A 512x384 view of a wall at depth 8: the camera and its depth image.
+fn big_wall() -> (Camera, Vec<f32>) {
+    let big = look(512, 384, 0.5);
+    let depth = vec![big.encode_depth(8.0, HIZ_CONV); 512 * 384];
+    (big, depth)
+}
+
+/// The texel count of a 512x384 Hi-Z pyramid, through the C ABI (checked
+/// to succeed).
+fn hiz_len_512x384() -> usize {
     let (mut n, mut levels) = (0usize, 0u32);
     // SAFETY: valid outputs.
     assert_eq!(
         unsafe { refl_hiz_len(&mut n, &mut levels, 512, 384) },
         refl_status::Ok
     );
+    n
+}
+
+/// The Hi-Z pyramid of [`big_wall`] built through the C ABI.
+fn big_wall_pyramid() -> (Camera, Vec<refl_vec2>) {
+    let (big, depth) = big_wall();
+    let img = depth_image_c(&big, &depth, HIZ_CONV);
+    let n = hiz_len_512x384();
+    let mut pyr = vec![refl_vec2::default(); n];
+    // SAFETY: pyr is writable for n texels.
+    assert_eq!(
+        unsafe { refl_hiz_build(pyr.as_mut_ptr(), n, &img) },
+        refl_status::Ok
+    );
+    (big, pyr)
+}
+
+#[test]
+fn hiz_build_names_the_length_a_short_pyramid_needs() {
+    let (big, depth) = big_wall();
+    let img = depth_image_c(&big, &depth, HIZ_CONV);
+    let n = hiz_len_512x384();
     let mut pyr = vec![refl_vec2::default(); n];
     // Too short by the stamp: refused, naming the length needed.
     // SAFETY: pyr is writable for n - 1 texels.
@@ -304,40 +294,38 @@ fn hiz_pyramid_of_another_size_or_camera_is_refused() {
         "refl_hiz_build",
         &["`dst_len`", &format!("{n}")],
     );
-    // SAFETY: pyr is writable for n texels.
-    assert_eq!(
-        unsafe { refl_hiz_build(pyr.as_mut_ptr(), n, &img) },
-        refl_status::Ok
-    );
+}
+
+#[test]
+fn hiz_build_equals_core_stamp_included() {
+    let (big, depth) = big_wall();
+    let (_, pyr) = big_wall_pyramid();
     // Bit for bit the core build, stamp included.
-    let view = ImageView::try_new(&depth, 512, 384, 512).unwrap();
-    let mut core_pyr = vec![[0.0f32; 2]; try_hiz_len(512, 384).unwrap()];
-    try_build_hiz(
-        &mut core_pyr,
-        &DepthImage::try_new(view, big, conv).unwrap(),
-    )
-    .unwrap();
+    let core_pyr = core_pyramid(&big, &depth, HIZ_CONV);
     assert!(pyr
         .iter()
         .zip(&core_pyr)
         .all(|(a, b)| a.x.to_bits() == b[0].to_bits() && a.y.to_bits() == b[1].to_bits()));
+}
 
+/// A unit thickness, the default options and a ray at the wall: the trace
+/// inputs of the Hi-Z pyramid tests.
+fn wall_trace() -> (refl_trace_thickness, refl_hiz_options, refl_ray) {
     let th = refl_trace_thickness {
         constant: 1.0,
-        back_faces: refl_image_f32 {
-            data: null(),
-            len: 0,
-            width: 0,
-            height: 0,
-            stride: 0,
-        },
+        back_faces: no_image(),
     };
     let opts = refl_hiz_options_default();
     let ray = refl_ray {
         origin: v3(0.5, 1.5, 3.0),
         dir: v3(0.0, 0.0, -1.0),
     };
-    let sentinel = refl_trace_result {
+    (th, opts, ray)
+}
+
+/// A trace result no export writes.
+fn trace_sentinel() -> refl_trace_result {
+    refl_trace_result {
         pixel: refl_vec2 { x: -9.0, y: -9.0 },
         t: -9.0,
         depth: -9.0,
@@ -346,17 +334,22 @@ fn hiz_pyramid_of_another_size_or_camera_is_refused() {
         steps: 1,
         fetches: 2,
         iterations: 3,
-    };
+    }
+}
+
+/// The case: a pyramid built for 512x384 traced with a 256x192
+/// camera was OK with every ray missing.
+#[test]
+fn hiz_pyramid_of_another_size_or_camera_is_refused() {
+    let (small, moved) = (look(256, 192, 0.5), look(512, 384, 0.6));
+    let (big, pyr) = big_wall_pyramid();
+    let (th, opts, ray) = wall_trace();
+    let sentinel = trace_sentinel();
     for (cam, says) in [
         (small, "built for 512x384, the camera is 256x192"),
         (moved, "another camera of the same size"),
     ] {
-        let hz = refl_hiz {
-            data: pyr.as_ptr(),
-            len: pyr.len(),
-            camera: (&cam).into(),
-            convention: conv as u32,
-        };
+        let hz = hiz_c(&cam, &pyr, HIZ_CONV);
         let mut out = sentinel;
         // SAFETY: valid pointers; pyr readable for its length.
         let s = unsafe { refl_hiz_trace_ray(&mut out, &hz, &th, ray, f32::INFINITY, &opts) };
@@ -368,15 +361,24 @@ fn hiz_pyramid_of_another_size_or_camera_is_refused() {
         );
         assert_eq!(out, sentinel);
     }
-    // Never built.
-    let blank = vec![refl_vec2::default(); n];
-    let hz = refl_hiz {
-        data: blank.as_ptr(),
-        len: n,
-        camera: (&big).into(),
-        convention: conv as u32,
-    };
+    // The right camera traces and hits the wall.
+    let hz = hiz_c(&big, &pyr, HIZ_CONV);
     let mut out = sentinel;
+    // SAFETY: valid pointers.
+    let s = unsafe { refl_hiz_trace_ray(&mut out, &hz, &th, ray, f32::INFINITY, &opts) };
+    assert_eq!(s, refl_status::Ok);
+    assert_eq!(out.miss, 0, "REFL_TRACE_MISS_NONE: a hit");
+    assert_eq!(message(), "");
+}
+
+#[test]
+fn hiz_pyramid_never_built_is_refused() {
+    let big = look(512, 384, 0.5);
+    let (th, opts, ray) = wall_trace();
+    let n = hiz_len_512x384();
+    let blank = vec![refl_vec2::default(); n];
+    let hz = hiz_c(&big, &blank, HIZ_CONV);
+    let mut out = trace_sentinel();
     // SAFETY: valid pointers.
     let s = unsafe { refl_hiz_trace_ray(&mut out, &hz, &th, ray, f32::INFINITY, &opts) };
     refused(
@@ -385,18 +387,6 @@ fn hiz_pyramid_of_another_size_or_camera_is_refused() {
         "refl_hiz_trace_ray",
         &["no pyramid stamp"],
     );
-    // The right camera traces and hits the wall.
-    let hz = refl_hiz {
-        data: pyr.as_ptr(),
-        len: pyr.len(),
-        camera: (&big).into(),
-        convention: conv as u32,
-    };
-    // SAFETY: valid pointers.
-    let s = unsafe { refl_hiz_trace_ray(&mut out, &hz, &th, ray, f32::INFINITY, &opts) };
-    assert_eq!(s, refl_status::Ok);
-    assert_eq!(out.miss, 0, "REFL_TRACE_MISS_NONE: a hit");
-    assert_eq!(message(), "");
 }
 
 #[test]

@@ -323,22 +323,32 @@ fn filling_through_the_abi_equals_filling_in_rust() {
     assert_eq!(b.bounds, snapshot);
 }
 
+impl Bufs {
+    /// Copies of the four buffers.
+    fn snapshot(&self) -> (Vec<f32>, Vec<u32>, Vec<u32>, Vec<f32>) {
+        (
+            self.depth.clone(),
+            self.payload.clone(),
+            self.counts.clone(),
+            self.bounds.clone(),
+        )
+    }
+}
+
+/// A hit the fill accepts.
+const GOOD_HIT: refl_layered_layer_hit = refl_layered_layer_hit {
+    t: 0.5,
+    id: 1,
+    front: true,
+};
+
 #[test]
-fn fill_errors_leave_the_map_untouched() {
+fn fill_column_errors_leave_the_map_untouched() {
     let g = grid_c(4, 2);
     let mut b = Bufs::new(&g);
-    let snapshot = (
-        b.depth.clone(),
-        b.payload.clone(),
-        b.counts.clone(),
-        b.bounds.clone(),
-    );
+    let snapshot = b.snapshot();
     let m = b.map_mut(g);
-    let mut good = [refl_layered_layer_hit {
-        t: 0.5,
-        id: 1,
-        front: true,
-    }];
+    let mut good = [GOOD_HIT];
     let mut fill = refl_layered_column_fill {
         intervals: 77,
         stored: 77,
@@ -390,7 +400,18 @@ fn fill_errors_leave_the_map_untouched() {
         unsafe { refl_layered_fill_column(&mut fill, &m, 0, 0, 0, core::ptr::null_mut(), 1) },
         refl_status::NullPointer
     );
-    // Face fill: bad offsets.
+    assert_eq!(fill.intervals, 77);
+    assert_eq!(b.snapshot(), snapshot);
+}
+
+#[test]
+fn fill_face_errors_leave_the_map_untouched() {
+    let g = grid_c(4, 2);
+    let mut b = Bufs::new(&g);
+    let snapshot = b.snapshot();
+    let m = b.map_mut(g);
+    let mut good = [GOOD_HIT];
+    // Bad offsets.
     let offs_bad = vec![0usize, 1, 0, 1, 1, 1, 1, 1, 1, 1, 1, 1, 1, 1, 1, 1, 1];
     let mut approx = 55u32;
     assert_eq!(
@@ -437,16 +458,8 @@ fn fill_errors_leave_the_map_untouched() {
         },
         refl_status::InsufficientSize
     );
-    assert_eq!((fill.intervals, approx), (77, 55));
-    assert_eq!(
-        (
-            b.depth.clone(),
-            b.payload.clone(),
-            b.counts.clone(),
-            b.bounds.clone()
-        ),
-        snapshot
-    );
+    assert_eq!(approx, 55);
+    assert_eq!(b.snapshot(), snapshot);
 }
 
 #[test]
@@ -515,26 +528,41 @@ fn traces_through_the_abi_equal_the_core() {
     assert!(hits > 50, "{hits}");
 }
 
+/// A ray at the sphere from +z.
+fn good_ray() -> refl_ray {
+    refl_ray {
+        origin: v3(Vec3::new(0.0, 0.0, 3.0)),
+        dir: v3(-Vec3::Z),
+    }
+}
+
+/// [`good_ray`] from a NaN origin.
+fn nan_ray() -> refl_ray {
+    refl_ray {
+        origin: v3(Vec3::new(f32::NAN, 0.0, 3.0)),
+        dir: v3(-Vec3::Z),
+    }
+}
+
+/// A trace result no export writes.
+fn result_sentinel() -> refl_layered_result {
+    refl_layered_result {
+        hit: true,
+        miss: 99,
+        ..Default::default()
+    }
+}
+
 #[test]
-fn trace_errors_leave_outputs_untouched() {
+fn trace_ray_errors_leave_the_output_untouched() {
     let g = grid_c(8, 1);
     let b = build_c(g);
     let map = b.map(g);
     let params = refl_layered_options_default();
-    let good = refl_ray {
-        origin: v3(Vec3::new(0.0, 0.0, 3.0)),
-        dir: v3(-Vec3::Z),
-    };
-    let sentinel = refl_layered_result {
-        hit: true,
-        miss: 99,
-        ..Default::default()
-    };
+    let good = good_ray();
+    let sentinel = result_sentinel();
     let mut out = sentinel;
-    let bad_ray = refl_ray {
-        origin: v3(Vec3::new(f32::NAN, 0.0, 3.0)),
-        dir: v3(-Vec3::Z),
-    };
+    let bad_ray = nan_ray();
     let unnormalized = refl_ray {
         origin: good.origin,
         dir: v3(Vec3::new(0.0, 0.0, -2.0)),
@@ -600,7 +628,17 @@ fn trace_errors_leave_outputs_untouched() {
         );
     }
     assert_eq!(out, sentinel);
-    // Batch: one bad ray spoils the call, nothing written.
+}
+
+/// One bad ray spoils the batch call, nothing written; zero rays need no
+/// arrays.
+#[test]
+fn trace_rays_errors_leave_the_outputs_untouched() {
+    let g = grid_c(8, 1);
+    let b = build_c(g);
+    let map = b.map(g);
+    let params = refl_layered_options_default();
+    let (good, bad_ray, sentinel) = (good_ray(), nan_ray(), result_sentinel());
     let rays = [good, bad_ray, good];
     let mut outs = [sentinel; 3];
     unsafe {

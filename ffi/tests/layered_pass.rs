@@ -616,19 +616,49 @@ fn prepare_refused(
     assert!(scratch.iter().all(|b| *b == sentinel));
 }
 
+/// The inputs of the error tests: the two maps, their C descriptors and
+/// the ZeroToOne scene.
+struct ErrorSetup {
+    owned: [Owned; 2],
+    descs: [refl_layered_map; 2],
+    f: Frame,
+}
+
+impl ErrorSetup {
+    fn new() -> ErrorSetup {
+        let owned = maps();
+        let descs = [owned[0].c(), owned[1].c()];
+        ErrorSetup {
+            owned,
+            descs,
+            f: render(DepthConvention::ZeroToOne),
+        }
+    }
+
+    /// The pass input with ids, the default options and a scratch
+    /// prepared for them.
+    fn c(
+        &self,
+    ) -> (
+        refl_layered_pass_input,
+        refl_layered_pass_options,
+        Vec<refl_layered_bound>,
+    ) {
+        let d = refl_layered_pass_options_default();
+        let inp = input(&self.f, &self.descs, true);
+        let (scratch, _) = prepare(&inp, &d);
+        (inp, d, scratch)
+    }
+}
+
+use refl_status::{InsufficientSize as Short, InvalidArgument as Bad, NullPointer as Null};
+
 #[test]
-fn errors_name_their_cause_and_leave_every_output_untouched() {
-    let owned = maps();
-    let descs = [owned[0].c(), owned[1].c()];
-    let f = render(DepthConvention::ZeroToOne);
-    let d = refl_layered_pass_options_default();
-    let inp = input(&f, &descs, true);
-    let (scratch, _) = prepare(&inp, &d);
+fn options_out_of_range_are_refused_naming_the_options() {
+    let e = ErrorSetup::new();
+    let (inp, d, scratch) = e.c();
     let all = refl_row_range { begin: 0, end: H };
     let n = (W * H) as usize;
-    use refl_status::{InsufficientSize as Short, InvalidArgument as Bad, NullPointer as Null};
-
-    // Options out of range.
     for bad in [
         refl_layered_pass_options {
             t_max: f32::NAN,
@@ -651,7 +681,14 @@ fn errors_name_their_cause_and_leave_every_output_untouched() {
         assert!(last_error().contains("`options`"), "{}", last_error());
         prepare_refused(Bad, &inp, &bad, 2);
     }
-    // NULL arguments.
+}
+
+#[test]
+fn null_arguments_are_refused_before_any_size_or_input_error() {
+    let e = ErrorSetup::new();
+    let (inp, d, scratch) = e.c();
+    let all = refl_row_range { begin: 0, end: H };
+    let n = (W * H) as usize;
     refused(Null, core::ptr::null(), &d, &scratch, all, n, false);
     refused(Null, &inp, core::ptr::null(), &scratch, all, n, false);
     // SAFETY: NULL scratch with maps.
@@ -708,6 +745,14 @@ fn errors_name_their_cause_and_leave_every_output_untouched() {
     };
     assert_eq!(s, Null, "{}", last_error());
     assert!(out.iter().all(|t| *t == refl_layered_pass_texel::default()));
+}
+
+#[test]
+fn bad_sizes_and_a_color_output_without_payload_colors_are_refused() {
+    let e = ErrorSetup::new();
+    let (inp, d, scratch) = e.c();
+    let all = refl_row_range { begin: 0, end: H };
+    let n = (W * H) as usize;
     // Sizes: out, rows, scratch.
     refused(Short, &inp, &d, &scratch, all, n - 1, false);
     refused(
@@ -737,29 +782,47 @@ fn errors_name_their_cause_and_leave_every_output_untouched() {
     // A color output without payload colors.
     refused(Bad, &inp, &d, &scratch, all, n, true);
     assert!(last_error().contains("`color`"), "{}", last_error());
-    // A scratch prepared for other maps (swapped, a map moved).
+}
+
+#[test]
+fn a_scratch_prepared_for_other_maps_is_refused() {
+    let e = ErrorSetup::new();
+    let (_, d, scratch) = e.c();
+    let all = refl_row_range { begin: 0, end: H };
+    let n = (W * H) as usize;
+    let (f, descs) = (&e.f, e.descs);
+    // Swapped, a map moved.
     let swapped = [descs[1], descs[0]];
     let inp_swapped = refl_layered_pass_input {
         map_ids: [5u32, 1].as_ptr(),
-        ..input(&f, &swapped, true)
+        ..input(f, &swapped, true)
     };
     refused(Bad, &inp_swapped, &d, &scratch, all, n, false);
     assert!(last_error().contains("`scratch`"), "{}", last_error());
     let mut moved = descs;
     moved[1].grid.world_from_local.m[13] += 0.25;
-    refused(Bad, &input(&f, &moved, true), &d, &scratch, all, n, false);
-    // Maps: a short buffer, a NULL buffer, another grid than the stamp's,
+    refused(Bad, &input(f, &moved, true), &d, &scratch, all, n, false);
+}
+
+#[test]
+fn bad_maps_are_refused_untouched() {
+    let e = ErrorSetup::new();
+    let (inp, d, scratch) = e.c();
+    let all = refl_row_range { begin: 0, end: H };
+    let n = (W * H) as usize;
+    let (f, descs) = (&e.f, e.descs);
+    // A short buffer, a NULL buffer, another grid than the stamp's,
     // a non-affine placement, a NULL map list with maps.
     let mut m = descs;
     m[0].bounds_len -= 1;
-    refused(Short, &input(&f, &m, true), &d, &scratch, all, n, false);
-    prepare_refused(Short, &input(&f, &m, true), &d, 2);
+    refused(Short, &input(f, &m, true), &d, &scratch, all, n, false);
+    prepare_refused(Short, &input(f, &m, true), &d, 2);
     let mut m = descs;
     m[1].payload = core::ptr::null();
-    refused(Null, &input(&f, &m, true), &d, &scratch, all, n, false);
+    refused(Null, &input(f, &m, true), &d, &scratch, all, n, false);
     let mut m = descs;
     m[0].grid.min.x -= 0.1;
-    refused(Bad, &input(&f, &m, true), &d, &scratch, all, n, false);
+    refused(Bad, &input(f, &m, true), &d, &scratch, all, n, false);
     assert!(
         last_error().contains("input.maps[0]") || last_error().contains("`map`"),
         "{}",
@@ -767,12 +830,20 @@ fn errors_name_their_cause_and_leave_every_output_untouched() {
     );
     let mut m = descs;
     m[1].grid.world_from_local.m[3] = 0.5;
-    refused(Bad, &input(&f, &m, true), &d, &scratch, all, n, false);
+    refused(Bad, &input(f, &m, true), &d, &scratch, all, n, false);
     let null_maps = refl_layered_pass_input {
         maps: core::ptr::null(),
         ..inp
     };
     refused(Null, &null_maps, &d, &scratch, all, n, false);
+}
+
+#[test]
+fn bad_ids_and_gbuffer_images_are_refused_untouched() {
+    let e = ErrorSetup::new();
+    let (inp, d, scratch) = e.c();
+    let all = refl_row_range { begin: 0, end: H };
+    let n = (W * H) as usize;
     // Ids of another size; too few map ids; NULL map ids.
     let wrong_ids = refl_layered_pass_input {
         ids: refl_image_u32 {
@@ -802,8 +873,16 @@ fn errors_name_their_cause_and_leave_every_output_untouched() {
     let mut nan = inp;
     nan.gbuffer.depth.camera.fov_y = f32::NAN;
     refused(Bad, &nan, &d, &scratch, all, n, false);
+}
 
-    // Outputs overlapping inputs: out over the scratch, over a map buffer.
+/// Outputs overlapping inputs: out over the scratch, over a map buffer.
+#[test]
+fn outputs_over_their_inputs_are_refused_untouched() {
+    let e = ErrorSetup::new();
+    let (inp, d, scratch) = e.c();
+    let all = refl_row_range { begin: 0, end: H };
+    let n = (W * H) as usize;
+    let (f, descs, owned) = (&e.f, e.descs, &e.owned);
     let mut texels = vec![refl_layered_pass_texel::default(); n];
     let mut stats = refl_layered_pass_stats::default();
     // The scratch's last three records hold one host ray.
@@ -831,7 +910,7 @@ fn errors_name_their_cause_and_leave_every_output_untouched() {
     let mut buf = owned[0].depth.clone();
     let mut aliased = descs;
     aliased[0].depth = buf.as_ptr();
-    let ainp = input(&f, &aliased, true);
+    let ainp = input(f, &aliased, true);
     let mut ascratch = vec![refl_layered_bound::default(); 2];
     // SAFETY: valid pointers; the scratch aliases a map buffer on purpose.
     let s = unsafe { refl_layered_pass_prepare(buf.as_mut_ptr().cast(), 2, &ainp, &d) };
@@ -845,8 +924,13 @@ fn errors_name_their_cause_and_leave_every_output_untouched() {
         unsafe { refl_layered_pass_prepare(ascratch.as_mut_ptr(), 2, &ainp, &d) },
         refl_status::Ok
     );
+}
 
-    // Listed rays: a NaN ray, a non-unit one, t_max not above t_min, a
+#[test]
+fn bad_listed_rays_are_refused_untouched() {
+    let e = ErrorSetup::new();
+    let (inp, d, scratch) = e.c();
+    // A NaN ray, a non-unit one, t_max not above t_min, a
     // short out, color without payload colors; nothing written.
     let good = refl_host_ray {
         x: 3,

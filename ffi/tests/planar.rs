@@ -15,7 +15,9 @@ use refl_core::{
 };
 #[path = "common/gbuffer.rs"]
 mod common;
-use common::{conv_c, counted, render as render_scene, Frame, H, W};
+use common::{
+    color_mut, conv_c, counted, no_color, none_f32, render as render_scene, Frame, Shared, H, W,
+};
 
 const N: usize = (W * H) as usize;
 
@@ -55,22 +57,8 @@ fn img_vec3(d: &[[f32; 3]], w: u32, h: u32) -> refl_image_vec3 {
     }
 }
 
-const NO_F32: refl_image_f32 = refl_image_f32 {
-    data: core::ptr::null(),
-    len: 0,
-    width: 0,
-    height: 0,
-    stride: 0,
-};
 const NO_VEC3: refl_image_vec3 = refl_image_vec3 {
     data: core::ptr::null(),
-    len: 0,
-    width: 0,
-    height: 0,
-    stride: 0,
-};
-const NO_VEC3_MUT: refl_image_vec3_mut = refl_image_vec3_mut {
-    data: core::ptr::null_mut(),
     len: 0,
     width: 0,
     height: 0,
@@ -98,9 +86,9 @@ impl Frame {
                 height: 0,
                 stride: 0,
             },
-            roughness: NO_F32,
+            roughness: none_f32(),
             color: NO_VEC3,
-            back_depth: NO_F32,
+            back_depth: none_f32(),
         }
     }
 
@@ -223,8 +211,19 @@ fn defaults_are_refl_cores() {
     assert_eq!(d, opts_c(PlanarOptions::default()));
 }
 
-#[test]
-fn c_pass_equals_the_rust_pass_bit_for_bit_without_allocating() {
+/// Runs `check(conv, f, g, m, oc, pass)` on the scene in every convention
+/// at full resolution with ids and an oblique projection, at half
+/// resolution without ids and at a quarter without the oblique projection:
+/// `g`, `m` and `oc` the C descriptors of the Rust `pass`.
+fn for_each_pass_case(
+    mut check: impl FnMut(
+        DepthConvention,
+        &refl_gbuffer,
+        &refl_planar_mirror,
+        &refl_planar_options,
+        &PlanarPass<'_>,
+    ),
+) {
     for conv in CONVENTIONS {
         let f = render(conv);
         let g = f.planar_gbuffer_c();
@@ -237,144 +236,158 @@ fn c_pass_equals_the_rust_pass_bit_for_bit_without_allocating() {
             let oc = opts_c(o);
             let m = f.mirror_c(with_ids);
             let pass = f.pass(o, with_ids);
-            // Prepare.
-            let (st, s, a) = setup_c(&g, &m, &oc);
-            assert_eq!((st, a), (refl_status::Ok, 0));
-            let r = pass.prepare();
-            assert_eq!(s.camera, refl_camera::from(&r.camera));
-            assert_eq!(bits_m(s.projection), bits_m(r.projection.into()));
-            assert_eq!(s.clip_plane, refl_plane::from(&r.clip_plane));
-            assert_eq!(
-                [
-                    s.view_clip_plane.x,
-                    s.view_clip_plane.y,
-                    s.view_clip_plane.z,
-                    s.view_clip_plane.w
-                ]
-                .map(f32::to_bits),
-                r.view_clip_plane.to_array().map(f32::to_bits)
-            );
-            assert_eq!(
-                (s.flip_winding, s.covered, s.covered_pixels),
-                (r.flip_winding, r.covered, r.covered_pixels)
-            );
-            assert_eq!(
-                (s.rect.x0, s.rect.y0, s.rect.x1, s.rect.y1),
-                (r.rect.x0, r.rect.y0, r.rect.x1, r.rect.y1)
-            );
-            assert_eq!(
-                (s.scissor.x0, s.scissor.y0, s.scissor.x1, s.scissor.y1),
-                (r.scissor.x0, r.scissor.y0, r.scissor.x1, r.scissor.y1)
-            );
-            assert!(s.covered && s.covered_pixels > 1000);
-            // Cover.
-            let all = refl_row_range { begin: 0, end: H };
-            let mut bytes = vec![0xEEu8; N];
-            let mut cs = refl_planar_stats::default();
-            // SAFETY: valid buffers.
-            let (st, a) = counted(|| unsafe {
-                refl_planar_cover_rows(&mut cs, bytes.as_mut_ptr(), N, &g, &m, &oc, all)
-            });
-            assert_eq!((st, a), (refl_status::Ok, 0));
-            let mut rs = vec![PlanarStatus::Environment; N];
-            let rst = pass
-                .try_cover(&mut ImageViewMut::try_new(&mut rs, W, H, W).unwrap())
-                .unwrap();
-            assert!(bytes.iter().zip(&rs).all(|(b, s)| *b == *s as u8));
-            assert_eq!(cs, refl_planar_stats::from(rst));
-            // Counts alone (no output).
-            let mut cs2 = refl_planar_stats::default();
-            // SAFETY: valid pointers.
-            let st = unsafe {
-                refl_planar_cover_rows(&mut cs2, core::ptr::null_mut(), 0, &g, &m, &oc, all)
-            };
-            assert_eq!((st, cs2), (refl_status::Ok, cs));
-            // Resolve.
-            let (rw, rh) = pass.render_size();
-            let (depth, color) = fake_render(conv, rw, rh);
-            let render_c = refl_planar_render {
-                depth: img_f32(&depth, rw, rh),
-                color: img_vec3(&color, rw, rh),
-            };
-            let mut texels = vec![refl_planar_texel::default(); N];
-            let mut col = vec![[7.0f32; 3]; N];
-            let mut host = vec![refl_host_ray::default(); N];
-            let mut ss = refl_planar_stats::default();
-            let cm = refl_image_vec3_mut {
-                data: col.as_mut_ptr().cast(),
-                len: N,
-                width: W,
-                height: H,
-                stride: W,
-            };
-            // SAFETY: valid buffers.
-            let (st, a) = counted(|| unsafe {
-                refl_planar_resolve_rows(
-                    &mut ss,
-                    texels.as_mut_ptr(),
-                    N,
-                    cm,
-                    host.as_mut_ptr(),
-                    N,
-                    &g,
-                    &m,
-                    &oc,
-                    &render_c,
-                    all,
-                )
-            });
-            assert_eq!((st, a), (refl_status::Ok, 0));
-            let rv = PlanarRender::try_new(
-                ImageView::try_new(&depth, rw, rh, rw).unwrap(),
-                Some(ImageView::try_new(&color, rw, rh, rw).unwrap()),
-            )
-            .unwrap();
-            let mut rt = vec![PlanarTexel::default(); N];
-            let mut rc = vec![[0.0f32; 3]; N];
-            let mut rh_ = vec![PlanarRay::default(); N];
-            let rst = pass
-                .try_resolve(
-                    &mut ImageViewMut::try_new(&mut rt, W, H, W).unwrap(),
-                    Some(&mut ImageViewMut::try_new(&mut rc, W, H, W).unwrap()),
-                    &mut rh_,
-                    &rv,
-                )
-                .unwrap();
-            assert_eq!(ss, refl_planar_stats::from(rst));
-            assert!(rst.hits > 500 && rst.environment > 10, "{rst:?}");
-            for i in 0..N {
-                let (a, b) = (texels[i], rt[i]);
-                assert_eq!(a.status, b.status as u32);
-                assert_eq!(
-                    [a.pixel.x, a.pixel.y, a.t].map(f32::to_bits),
-                    [b.pixel.x, b.pixel.y, b.t].map(f32::to_bits)
-                );
-                assert_eq!([a.texel_x, a.texel_y], b.texel);
-                assert_eq!(col[i].map(f32::to_bits), rc[i].map(f32::to_bits));
-            }
-            for k in 0..rst.host_rays_written as usize {
-                let (a, b) = (host[k], rh_[k]);
-                assert_eq!((a.x, a.y), (b.x, b.y));
-                assert_eq!(a.status, refl_planar_status::Environment as u32);
-                assert_eq!((a.t_min, a.t_max), (0.0, f32::INFINITY));
-                assert_eq!(
-                    [a.origin.x, a.origin.y, a.origin.z, a.dir.x, a.dir.y, a.dir.z]
-                        .map(f32::to_bits),
-                    [b.origin.x, b.origin.y, b.origin.z, b.dir.x, b.dir.y, b.dir.z]
-                        .map(f32::to_bits)
-                );
-            }
+            check(conv, &g, &m, &oc, &pass);
         }
     }
 }
 
-/// Descriptors shared by the band threads (each writes only its rows).
-struct Shared<T>(T);
-// SAFETY: the threads read the inputs and write disjoint rows.
-unsafe impl<T> Sync for Shared<T> {}
+#[test]
+fn c_prepare_equals_the_rust_pass_bit_for_bit_without_allocating() {
+    for_each_pass_case(|_, g, m, oc, pass| {
+        let (st, s, a) = setup_c(g, m, oc);
+        assert_eq!((st, a), (refl_status::Ok, 0));
+        let r = pass.prepare();
+        assert_eq!(s.camera, refl_camera::from(&r.camera));
+        assert_eq!(bits_m(s.projection), bits_m(r.projection.into()));
+        assert_eq!(s.clip_plane, refl_plane::from(&r.clip_plane));
+        assert_eq!(
+            [
+                s.view_clip_plane.x,
+                s.view_clip_plane.y,
+                s.view_clip_plane.z,
+                s.view_clip_plane.w
+            ]
+            .map(f32::to_bits),
+            r.view_clip_plane.to_array().map(f32::to_bits)
+        );
+        assert_eq!(
+            (s.flip_winding, s.covered, s.covered_pixels),
+            (r.flip_winding, r.covered, r.covered_pixels)
+        );
+        assert_eq!(
+            (s.rect.x0, s.rect.y0, s.rect.x1, s.rect.y1),
+            (r.rect.x0, r.rect.y0, r.rect.x1, r.rect.y1)
+        );
+        assert_eq!(
+            (s.scissor.x0, s.scissor.y0, s.scissor.x1, s.scissor.y1),
+            (r.scissor.x0, r.scissor.y0, r.scissor.x1, r.scissor.y1)
+        );
+        assert!(s.covered && s.covered_pixels > 1000);
+    });
+}
 
 #[test]
-fn row_bands_from_threads_equal_the_whole_image() {
+fn c_cover_equals_the_rust_pass_without_allocating_with_or_without_output() {
+    for_each_pass_case(|_, g, m, oc, pass| {
+        let all = refl_row_range { begin: 0, end: H };
+        let mut bytes = vec![0xEEu8; N];
+        let mut cs = refl_planar_stats::default();
+        // SAFETY: valid buffers.
+        let (st, a) = counted(|| unsafe {
+            refl_planar_cover_rows(&mut cs, bytes.as_mut_ptr(), N, g, m, oc, all)
+        });
+        assert_eq!((st, a), (refl_status::Ok, 0));
+        let mut rs = vec![PlanarStatus::Environment; N];
+        let rst = pass
+            .try_cover(&mut ImageViewMut::try_new(&mut rs, W, H, W).unwrap())
+            .unwrap();
+        assert!(bytes.iter().zip(&rs).all(|(b, s)| *b == *s as u8));
+        assert_eq!(cs, refl_planar_stats::from(rst));
+        // Counts alone (no output).
+        let mut cs2 = refl_planar_stats::default();
+        // SAFETY: valid pointers.
+        let st =
+            unsafe { refl_planar_cover_rows(&mut cs2, core::ptr::null_mut(), 0, g, m, oc, all) };
+        assert_eq!((st, cs2), (refl_status::Ok, cs));
+    });
+}
+
+#[test]
+fn c_resolve_equals_the_rust_pass_bit_for_bit_without_allocating() {
+    for_each_pass_case(|conv, g, m, oc, pass| {
+        let all = refl_row_range { begin: 0, end: H };
+        let (rw, rh) = pass.render_size();
+        let (depth, color) = fake_render(conv, rw, rh);
+        let render_c = refl_planar_render {
+            depth: img_f32(&depth, rw, rh),
+            color: img_vec3(&color, rw, rh),
+        };
+        let mut texels = vec![refl_planar_texel::default(); N];
+        let mut col = vec![[7.0f32; 3]; N];
+        let mut host = vec![refl_host_ray::default(); N];
+        let mut ss = refl_planar_stats::default();
+        let cm = color_mut(&mut col);
+        // SAFETY: valid buffers.
+        let (st, a) = counted(|| unsafe {
+            refl_planar_resolve_rows(
+                &mut ss,
+                texels.as_mut_ptr(),
+                N,
+                cm,
+                host.as_mut_ptr(),
+                N,
+                g,
+                m,
+                oc,
+                &render_c,
+                all,
+            )
+        });
+        assert_eq!((st, a), (refl_status::Ok, 0));
+        let rv = PlanarRender::try_new(
+            ImageView::try_new(&depth, rw, rh, rw).unwrap(),
+            Some(ImageView::try_new(&color, rw, rh, rw).unwrap()),
+        )
+        .unwrap();
+        let mut rt = vec![PlanarTexel::default(); N];
+        let mut rc = vec![[0.0f32; 3]; N];
+        let mut rh_ = vec![PlanarRay::default(); N];
+        let rst = pass
+            .try_resolve(
+                &mut ImageViewMut::try_new(&mut rt, W, H, W).unwrap(),
+                Some(&mut ImageViewMut::try_new(&mut rc, W, H, W).unwrap()),
+                &mut rh_,
+                &rv,
+            )
+            .unwrap();
+        assert_eq!(ss, refl_planar_stats::from(rst));
+        assert!(rst.hits > 500 && rst.environment > 10, "{rst:?}");
+        for i in 0..N {
+            let (a, b) = (texels[i], rt[i]);
+            assert_eq!(a.status, b.status as u32);
+            assert_eq!(
+                [a.pixel.x, a.pixel.y, a.t].map(f32::to_bits),
+                [b.pixel.x, b.pixel.y, b.t].map(f32::to_bits)
+            );
+            assert_eq!([a.texel_x, a.texel_y], b.texel);
+            assert_eq!(col[i].map(f32::to_bits), rc[i].map(f32::to_bits));
+        }
+        for k in 0..rst.host_rays_written as usize {
+            let (a, b) = (host[k], rh_[k]);
+            assert_eq!((a.x, a.y), (b.x, b.y));
+            assert_eq!(a.status, refl_planar_status::Environment as u32);
+            assert_eq!((a.t_min, a.t_max), (0.0, f32::INFINITY));
+            assert_eq!(
+                [a.origin.x, a.origin.y, a.origin.z, a.dir.x, a.dir.y, a.dir.z].map(f32::to_bits),
+                [b.origin.x, b.origin.y, b.origin.z, b.dir.x, b.dir.y, b.dir.z].map(f32::to_bits)
+            );
+        }
+    });
+}
+
+/// The C descriptors of the row-band tests: the ReversedZ scene with ids
+/// at half resolution, and a render of that size.
+struct BandInputs {
+    g: refl_gbuffer,
+    m: refl_planar_mirror,
+    oc: refl_planar_options,
+    render_c: refl_planar_render,
+    // The buffers the descriptors point into.
+    _f: Frame,
+    _render: (Vec<f32>, Vec<[f32; 3]>),
+}
+
+fn band_inputs() -> BandInputs {
     let f = render(DepthConvention::ReversedZ);
     let g = f.planar_gbuffer_c();
     let m = f.mirror_c(true);
@@ -396,88 +409,103 @@ fn row_bands_from_threads_equal_the_whole_image() {
         depth: img_f32(&depth, rw, rh),
         color: img_vec3(&color, rw, rh),
     };
-    let run =
-        |texels: &mut [refl_planar_texel], col: &mut [[f32; 3]], bytes: &mut [u8], bands: u32| {
-            let tp = texels.as_mut_ptr() as usize;
-            let bp = bytes.as_mut_ptr() as usize;
-            let cm = refl_image_vec3_mut {
-                data: col.as_mut_ptr().cast(),
-                len: N,
-                width: W,
-                height: H,
-                stride: W,
-            };
-            let shared = Shared((g, m, oc, render_c, cm));
-            let per_band: Vec<(Vec<refl_host_ray>, refl_planar_rect)> = std::thread::scope(|s| {
-                let hs: Vec<_> = (0..bands)
-                    .map(|b| {
-                        let shared = &shared;
-                        s.spawn(move || {
-                            let (g, m, oc, r, cm) = shared.0;
-                            let mut rows = refl_row_range::default();
-                            // SAFETY: valid pointer.
-                            assert_eq!(
-                                unsafe { refl_image_row_band(&mut rows, H, b, bands) },
-                                refl_status::Ok
-                            );
-                            let mut host = vec![refl_host_ray::default(); N];
-                            let mut st = refl_planar_stats::default();
-                            let mut cst = refl_planar_stats::default();
-                            // SAFETY: each thread writes only its own rows.
-                            unsafe {
-                                assert_eq!(
-                                    refl_planar_resolve_rows(
-                                        &mut st,
-                                        tp as *mut refl_planar_texel,
-                                        N,
-                                        cm,
-                                        host.as_mut_ptr(),
-                                        N,
-                                        &g,
-                                        &m,
-                                        &oc,
-                                        &r,
-                                        rows
-                                    ),
-                                    refl_status::Ok
-                                );
-                                assert_eq!(
-                                    refl_planar_cover_rows(
-                                        &mut cst,
-                                        bp as *mut u8,
-                                        N,
-                                        &g,
-                                        &m,
-                                        &oc,
-                                        rows
-                                    ),
-                                    refl_status::Ok
-                                );
-                            }
-                            host.truncate(st.host_rays_written as usize);
-                            (host, cst.rect)
-                        })
-                    })
-                    .collect();
-                hs.into_iter().map(|h| h.join().unwrap()).collect()
-            });
-            per_band
-        };
+    BandInputs {
+        g,
+        m,
+        oc,
+        render_c,
+        _f: f,
+        _render: (depth, color),
+    }
+}
+
+/// Resolves and covers the image in `bands` row bands, one thread each,
+/// all writing into `texels`, `col` and `bytes`; returns each band's host
+/// rays and coverage rectangle, in band order.
+fn resolve_and_cover_in_bands(
+    inputs: &BandInputs,
+    texels: &mut [refl_planar_texel],
+    col: &mut [[f32; 3]],
+    bytes: &mut [u8],
+    bands: u32,
+) -> Vec<(Vec<refl_host_ray>, refl_planar_rect)> {
+    let tp = texels.as_mut_ptr() as usize;
+    let bp = bytes.as_mut_ptr() as usize;
+    let cm = color_mut(col);
+    let shared = Shared((inputs.g, inputs.m, inputs.oc, inputs.render_c, cm));
+    std::thread::scope(|s| {
+        let hs: Vec<_> = (0..bands)
+            .map(|b| {
+                let shared = &shared;
+                s.spawn(move || {
+                    let (g, m, oc, r, cm) = shared.0;
+                    let mut rows = refl_row_range::default();
+                    // SAFETY: valid pointer.
+                    assert_eq!(
+                        unsafe { refl_image_row_band(&mut rows, H, b, bands) },
+                        refl_status::Ok
+                    );
+                    let mut host = vec![refl_host_ray::default(); N];
+                    let mut st = refl_planar_stats::default();
+                    let mut cst = refl_planar_stats::default();
+                    // SAFETY: each thread writes only its own rows.
+                    unsafe {
+                        assert_eq!(
+                            refl_planar_resolve_rows(
+                                &mut st,
+                                tp as *mut refl_planar_texel,
+                                N,
+                                cm,
+                                host.as_mut_ptr(),
+                                N,
+                                &g,
+                                &m,
+                                &oc,
+                                &r,
+                                rows
+                            ),
+                            refl_status::Ok
+                        );
+                        assert_eq!(
+                            refl_planar_cover_rows(&mut cst, bp as *mut u8, N, &g, &m, &oc, rows),
+                            refl_status::Ok
+                        );
+                    }
+                    host.truncate(st.host_rays_written as usize);
+                    (host, cst.rect)
+                })
+            })
+            .collect();
+        hs.into_iter().map(|h| h.join().unwrap()).collect()
+    })
+}
+
+#[test]
+fn row_bands_from_threads_equal_the_whole_image() {
+    let inputs = band_inputs();
     let mut t1 = vec![refl_planar_texel::default(); N];
     let mut c1 = vec![[0.0f32; 3]; N];
     let mut b1 = vec![0u8; N];
-    let whole = run(&mut t1, &mut c1, &mut b1, 1);
+    let whole = resolve_and_cover_in_bands(&inputs, &mut t1, &mut c1, &mut b1, 1);
     let mut t5 = vec![refl_planar_texel::default(); N];
     let mut c5 = vec![[0.0f32; 3]; N];
     let mut b5 = vec![0u8; N];
-    let bands = run(&mut t5, &mut c5, &mut b5, 5);
+    let bands = resolve_and_cover_in_bands(&inputs, &mut t5, &mut c5, &mut b5, 5);
     assert_eq!(t1, t5);
     assert_eq!(c1, c5);
     assert_eq!(b1, b5);
     let hosts: Vec<refl_host_ray> = bands.iter().flat_map(|b| b.0.clone()).collect();
     assert_eq!(hosts, whole[0].0);
-    // The bands' rectangles merge to the setup's.
-    let (_, s, _) = setup_c(&g, &m, &oc);
+}
+
+#[test]
+fn row_bands_coverage_rectangles_merge_to_the_setups() {
+    let inputs = band_inputs();
+    let mut t5 = vec![refl_planar_texel::default(); N];
+    let mut c5 = vec![[0.0f32; 3]; N];
+    let mut b5 = vec![0u8; N];
+    let bands = resolve_and_cover_in_bands(&inputs, &mut t5, &mut c5, &mut b5, 5);
+    let (_, s, _) = setup_c(&inputs.g, &inputs.m, &inputs.oc);
     let merged = bands
         .iter()
         .map(|b| b.1)
@@ -530,15 +558,9 @@ fn refused(
         ..Default::default()
     };
     let cm = if with_color {
-        refl_image_vec3_mut {
-            data: color.as_mut_ptr().cast(),
-            len: N,
-            width: W,
-            height: H,
-            stride: W,
-        }
+        color_mut(&mut color)
     } else {
-        NO_VEC3_MUT
+        no_color()
     };
     let (s, allocs) = counted(|| {
         // SAFETY: valid buffers (out_len <= N).
@@ -590,20 +612,50 @@ fn refused(
     }
 }
 
+/// The inputs of the error tests: the ZeroToOne scene with ids and a
+/// full-size render.
+struct ErrorInputs {
+    f: Frame,
+    depth: Vec<f32>,
+    color: Vec<[f32; 3]>,
+}
+
+impl ErrorInputs {
+    fn new() -> Self {
+        let f = render(DepthConvention::ZeroToOne);
+        let (depth, color) = fake_render(DepthConvention::ZeroToOne, W, H);
+        ErrorInputs { f, depth, color }
+    }
+
+    /// The G-buffer, the mirror, the default options and the render.
+    fn c(
+        &self,
+    ) -> (
+        refl_gbuffer,
+        refl_planar_mirror,
+        refl_planar_options,
+        refl_planar_render,
+    ) {
+        let r = refl_planar_render {
+            depth: img_f32(&self.depth, W, H),
+            color: img_vec3(&self.color, W, H),
+        };
+        (
+            self.f.planar_gbuffer_c(),
+            self.f.mirror_c(true),
+            refl_planar_options_default(),
+            r,
+        )
+    }
+}
+
+const ALL: refl_row_range = refl_row_range { begin: 0, end: H };
+const INV: refl_status = refl_status::InvalidArgument;
+
 #[test]
-fn errors_name_their_cause_and_leave_every_output_untouched() {
-    let f = render(DepthConvention::ZeroToOne);
-    let g = f.planar_gbuffer_c();
-    let m = f.mirror_c(true);
-    let d = refl_planar_options_default();
-    let all = refl_row_range { begin: 0, end: H };
-    let inv = refl_status::InvalidArgument;
-    let (depth, color) = fake_render(DepthConvention::ZeroToOne, W, H);
-    let r = refl_planar_render {
-        depth: img_f32(&depth, W, H),
-        color: img_vec3(&color, W, H),
-    };
-    // Options out of range.
+fn options_out_of_range_are_refused_untouched() {
+    let e = ErrorInputs::new();
+    let (g, m, d, r) = e.c();
     for o in [
         refl_planar_options { scale: 0, ..d },
         refl_planar_options {
@@ -623,12 +675,18 @@ fn errors_name_their_cause_and_leave_every_output_untouched() {
             ..d
         },
     ] {
-        refused(inv, &g, &m, &o, &r, all, N, false);
+        refused(INV, &g, &m, &o, &r, ALL, N, false);
     }
+}
+
+#[test]
+fn a_bad_plane_or_ids_are_refused_untouched() {
+    let e = ErrorInputs::new();
+    let (g, m, d, r) = e.c();
     // The plane: non-finite, zero normal.
     let mut m2 = m;
     m2.plane.d = f32::INFINITY;
-    refused(inv, &g, &m2, &d, &r, all, N, false);
+    refused(INV, &g, &m2, &d, &r, ALL, N, false);
     m2 = m;
     m2.plane.normal = refl_vec3 {
         x: 0.0,
@@ -641,7 +699,7 @@ fn errors_name_their_cause_and_leave_every_output_untouched() {
         &m2,
         &d,
         &r,
-        all,
+        ALL,
         N,
         false,
     );
@@ -649,7 +707,7 @@ fn errors_name_their_cause_and_leave_every_output_untouched() {
     m2 = m;
     m2.ids.width = W - 1;
     m2.ids.stride = W - 1;
-    refused(inv, &g, &m2, &d, &r, all, N, false);
+    refused(INV, &g, &m2, &d, &r, ALL, N, false);
     m2 = m;
     m2.ids.len = N - 1;
     refused(
@@ -658,23 +716,34 @@ fn errors_name_their_cause_and_leave_every_output_untouched() {
         &m2,
         &d,
         &r,
-        all,
+        ALL,
         N,
         false,
     );
-    // G-buffer fields.
+}
+
+#[test]
+fn bad_gbuffer_fields_are_refused_untouched() {
+    let e = ErrorInputs::new();
+    let (g, m, d, r) = e.c();
     let mut g2 = g;
     g2.normal_space = 5;
-    refused(inv, &g2, &m, &d, &r, all, N, false);
+    refused(INV, &g2, &m, &d, &r, ALL, N, false);
     g2 = g;
     g2.depth.convention = 9;
-    refused(inv, &g2, &m, &d, &r, all, N, false);
+    refused(INV, &g2, &m, &d, &r, ALL, N, false);
     g2 = g;
     g2.depth.depth.data = core::ptr::null();
-    refused(refl_status::NullPointer, &g2, &m, &d, &r, all, N, false);
-    // Rows, sizes, the render.
+    refused(refl_status::NullPointer, &g2, &m, &d, &r, ALL, N, false);
+}
+
+#[test]
+fn bad_rows_sizes_and_renders_are_refused_untouched() {
+    let e = ErrorInputs::new();
+    let (g, m, d, r) = e.c();
+    let (depth, color) = (&e.depth, &e.color);
     refused(
-        inv,
+        INV,
         &g,
         &m,
         &d,
@@ -684,7 +753,7 @@ fn errors_name_their_cause_and_leave_every_output_untouched() {
         false,
     );
     refused(
-        inv,
+        INV,
         &g,
         &m,
         &d,
@@ -702,7 +771,7 @@ fn errors_name_their_cause_and_leave_every_output_untouched() {
         &m,
         &d,
         &r,
-        all,
+        ALL,
         N - 1,
         false,
     );
@@ -710,19 +779,19 @@ fn errors_name_their_cause_and_leave_every_output_untouched() {
         depth: img_f32(&depth[..N / 4], W / 2, H / 2),
         color: NO_VEC3,
     };
-    refused(inv, &g, &m, &d, &small, all, N, false);
+    refused(INV, &g, &m, &d, &small, ALL, N, false);
     let nocolor = refl_planar_render {
-        depth: img_f32(&depth, W, H),
+        depth: img_f32(depth, W, H),
         color: NO_VEC3,
     };
-    refused(inv, &g, &m, &d, &nocolor, all, N, true);
+    refused(INV, &g, &m, &d, &nocolor, ALL, N, true);
     let badcolor = refl_planar_render {
-        depth: img_f32(&depth, W, H),
+        depth: img_f32(depth, W, H),
         color: img_vec3(&color[..N / 4], W / 2, H / 2),
     };
-    refused(inv, &g, &m, &d, &badcolor, all, N, false);
+    refused(INV, &g, &m, &d, &badcolor, ALL, N, false);
     let nodepth = refl_planar_render {
-        depth: NO_F32,
+        depth: none_f32(),
         color: NO_VEC3,
     };
     refused(
@@ -731,11 +800,20 @@ fn errors_name_their_cause_and_leave_every_output_untouched() {
         &m,
         &d,
         &nodepth,
-        all,
+        ALL,
         N,
         false,
     );
-    // The last error names the call and the argument.
+}
+
+#[test]
+fn the_last_error_names_the_call_and_the_argument() {
+    let e = ErrorInputs::new();
+    let (g, m, d, _) = e.c();
+    let small = refl_planar_render {
+        depth: img_f32(&e.depth[..N / 4], W / 2, H / 2),
+        color: NO_VEC3,
+    };
     let mut st = refl_planar_stats::default();
     let mut texels = vec![refl_planar_texel::default(); N];
     // SAFETY: valid buffers; refused (the render's size).
@@ -744,17 +822,17 @@ fn errors_name_their_cause_and_leave_every_output_untouched() {
             &mut st,
             texels.as_mut_ptr(),
             N,
-            NO_VEC3_MUT,
+            no_color(),
             core::ptr::null_mut(),
             0,
             &g,
             &m,
             &d,
             &small,
-            all,
+            ALL,
         )
     };
-    assert_eq!(s, inv);
+    assert_eq!(s, INV);
     let mut buf = [0u8; 256];
     // SAFETY: valid buffer.
     let k = unsafe { refl_last_error_message(buf.as_mut_ptr().cast(), buf.len()) };
@@ -763,7 +841,14 @@ fn errors_name_their_cause_and_leave_every_output_untouched() {
         msg.contains("refl_planar_resolve_rows") && msg.contains("render.depth"),
         "{msg}"
     );
-    // NULL inputs and outputs.
+}
+
+#[test]
+fn null_inputs_and_outputs_and_misaligned_texels_are_refused() {
+    let e = ErrorInputs::new();
+    let (g, m, d, r) = e.c();
+    let mut st = refl_planar_stats::default();
+    let mut texels = vec![refl_planar_texel::default(); N];
     // SAFETY: NULL pointers are refused before use.
     unsafe {
         let call = |st: *mut refl_planar_stats,
@@ -776,14 +861,14 @@ fn errors_name_their_cause_and_leave_every_output_untouched() {
                 st,
                 out,
                 N,
-                NO_VEC3_MUT,
+                no_color(),
                 core::ptr::null_mut(),
                 0,
                 g,
                 m,
                 o,
                 r,
-                all,
+                ALL,
             )
         };
         let tp = texels.as_mut_ptr();
@@ -800,20 +885,20 @@ fn errors_name_their_cause_and_leave_every_output_untouched() {
                 &mut st,
                 tp,
                 N,
-                NO_VEC3_MUT,
+                no_color(),
                 core::ptr::null_mut(),
                 4,
                 &g,
                 &m,
                 &d,
                 &r,
-                all
+                ALL
             ),
             null
         );
         // Misaligned texels.
         let mis = (tp as *mut u8).add(1).cast::<refl_planar_texel>();
-        assert_eq!(call(&mut st, mis, &g, &m, &d, &r), inv);
+        assert_eq!(call(&mut st, mis, &g, &m, &d, &r), INV);
         let mut s = core::mem::MaybeUninit::<refl_planar_setup>::uninit();
         assert_eq!(refl_planar_prepare(core::ptr::null_mut(), &g, &m, &d), null);
         assert_eq!(
@@ -836,65 +921,61 @@ fn errors_name_their_cause_and_leave_every_output_untouched() {
                 &g,
                 &m,
                 &d,
-                all
+                ALL
             ),
             null
         );
         assert_eq!(
-            refl_planar_cover_rows(&mut st, core::ptr::null_mut(), N, &g, &m, &d, all),
+            refl_planar_cover_rows(&mut st, core::ptr::null_mut(), N, &g, &m, &d, ALL),
             null
         );
     }
-    // Aliasing: texels over the normals they read; a cover output over
-    // the ids.
+}
+
+/// Aliasing: texels over the normals they read, the setup over the normals
+/// it reads, a cover output over the ids.
+#[test]
+fn outputs_over_the_inputs_they_read_are_refused_untouched() {
+    let e = ErrorInputs::new();
+    let (g, m, d, r) = e.c();
+    let f = &e.f;
+    let mut st = refl_planar_stats::default();
     let mut big = vec![[0.0f32, 1.0, 0.0]; 4 * N];
     let mut g3 = g;
-    g3.normals = refl_image_vec3 {
-        data: big.as_ptr().cast(),
-        len: N,
-        width: W,
-        height: H,
-        stride: W,
-    };
+    g3.normals = img_vec3(&big[..N], W, H);
     // SAFETY: valid (overlapping) pointers; refused before any write.
     let s = unsafe {
         refl_planar_resolve_rows(
             &mut st,
             big.as_mut_ptr().cast(),
             N,
-            NO_VEC3_MUT,
+            no_color(),
             core::ptr::null_mut(),
             0,
             &g3,
             &m,
             &d,
             &r,
-            all,
+            ALL,
         )
     };
-    assert_eq!(s, inv);
+    assert_eq!(s, INV);
     assert!(big.iter().all(|v| *v == [0.0, 1.0, 0.0]));
     // The setup over the normals it reads.
     let mut big2 = vec![[0.0f32, 1.0, 0.0]; 4 * N];
     let mut g5 = g;
-    g5.normals = refl_image_vec3 {
-        data: big2.as_ptr().cast(),
-        len: N,
-        width: W,
-        height: H,
-        stride: W,
-    };
+    g5.normals = img_vec3(&big2[..N], W, H);
     // SAFETY: valid (overlapping) pointers; refused before any write.
     let s = unsafe { refl_planar_prepare(big2.as_mut_ptr().cast(), &g5, &m, &d) };
-    assert_eq!(s, inv);
+    assert_eq!(s, INV);
     assert!(big2.iter().all(|v| *v == [0.0, 1.0, 0.0]));
     let mut ids = f.ids.clone();
     let mut m4 = m;
     m4.ids.data = ids.as_ptr();
     // SAFETY: valid (overlapping) pointers; refused before any write.
     let s =
-        unsafe { refl_planar_cover_rows(&mut st, ids.as_mut_ptr().cast(), N, &g, &m4, &d, all) };
-    assert_eq!(s, inv);
+        unsafe { refl_planar_cover_rows(&mut st, ids.as_mut_ptr().cast(), N, &g, &m4, &d, ALL) };
+    assert_eq!(s, INV);
     assert_eq!(ids, f.ids);
 }
 
@@ -998,37 +1079,60 @@ fn f32_mut(d: &mut [f32]) -> refl_image_f32_mut {
     }
 }
 
+/// The second pass through the C ABI and refl-core on the scene `f`:
+/// the C call's destination and stats (checked to succeed without
+/// allocating), refl-core's destination and stats.
+fn back_depth_both(
+    f: &Frame,
+) -> (
+    Vec<f32>,
+    refl_trace_back_depth_stats,
+    Vec<f32>,
+    refl_core::BackDepthStats,
+) {
+    let front_c = f.depth_c();
+    let all = refl_row_range { begin: 0, end: H };
+    let mut c_dst = vec![-1.0f32; N];
+    let mut st = refl_trace_back_depth_stats::default();
+    let dm = f32_mut(&mut c_dst);
+    // SAFETY: valid buffers.
+    let (s, a) = counted(|| unsafe {
+        refl_trace_back_depth_rows(&mut st, dm, &front_c, img_f32(&f.back, W, H), all)
+    });
+    assert_eq!((s, a), (refl_status::Ok, 0));
+    let mut r_dst = vec![-1.0f32; N];
+    let rs = try_back_depth(
+        &mut ImageViewMut::try_new(&mut r_dst, W, H, W).unwrap(),
+        &f.front(),
+        &ImageView::try_new(&f.back, W, H, W).unwrap(),
+    )
+    .unwrap();
+    (c_dst, st, r_dst, rs)
+}
+
 #[test]
-fn back_depth_exports_equal_refl_core_bit_for_bit_without_allocating() {
-    let map = sphere_map();
-    let mc = map.c();
+fn back_depth_rows_equals_refl_core_bit_for_bit_without_allocating() {
     for conv in CONVENTIONS {
         let f = render(conv);
-        let front_c = f.depth_c();
-        let all = refl_row_range { begin: 0, end: H };
-        // Second pass.
-        let mut c_dst = vec![-1.0f32; N];
-        let mut st = refl_trace_back_depth_stats::default();
-        let dm = f32_mut(&mut c_dst);
-        // SAFETY: valid buffers.
-        let (s, a) = counted(|| unsafe {
-            refl_trace_back_depth_rows(&mut st, dm, &front_c, img_f32(&f.back, W, H), all)
-        });
-        assert_eq!((s, a), (refl_status::Ok, 0));
-        let mut r_dst = vec![-1.0f32; N];
-        let rs = try_back_depth(
-            &mut ImageViewMut::try_new(&mut r_dst, W, H, W).unwrap(),
-            &f.front(),
-            &ImageView::try_new(&f.back, W, H, W).unwrap(),
-        )
-        .unwrap();
+        let (c_dst, st, r_dst, rs) = back_depth_both(&f);
         assert_eq!(st, refl_trace_back_depth_stats::from(rs));
         assert!(c_dst
             .iter()
             .zip(&r_dst)
             .all(|(a, b)| a.to_bits() == b.to_bits()));
         assert!(rs.clamped > 100 && rs.cleared > 1000, "{rs:?}");
-        // Layered, on top, per band from threads.
+    }
+}
+
+#[test]
+fn back_depth_layered_rows_from_threads_equal_refl_core_bit_for_bit_without_allocating() {
+    let map = sphere_map();
+    let mc = map.c();
+    for conv in CONVENTIONS {
+        let f = render(conv);
+        let front_c = f.depth_c();
+        // On top of the second pass, per band from threads.
+        let (mut c_dst, _, mut r_dst, _) = back_depth_both(&f);
         let tp = c_dst.as_mut_ptr() as usize;
         let shared = Shared((front_c, mc));
         let sums: Vec<u32> = std::thread::scope(|sc| {
@@ -1084,28 +1188,29 @@ fn back_depth_exports_equal_refl_core_bit_for_bit_without_allocating() {
     }
 }
 
+/// Calls `call(dst, stats)` with a destination of -1 and stats with 55
+/// surfaces, expects status `want`, no allocation and both untouched.
+fn back_depth_refused(
+    want: refl_status,
+    call: &dyn Fn(refl_image_f32_mut, *mut refl_trace_back_depth_stats) -> refl_status,
+) {
+    let mut dst = vec![-1.0f32; N];
+    let mut st = refl_trace_back_depth_stats {
+        surfaces: 55,
+        ..Default::default()
+    };
+    let (s, a) = counted(|| call(f32_mut(&mut dst), &mut st));
+    assert_eq!((s, a), (want, 0));
+    assert!(dst.iter().all(|v| *v == -1.0));
+    assert_eq!(st.surfaces, 55);
+}
+
 #[test]
-fn back_depth_errors_leave_dst_untouched() {
+fn back_depth_rows_errors_leave_dst_untouched() {
     let f = render(DepthConvention::ReversedZ);
-    let map = sphere_map();
-    let mc = map.c();
     let front_c = f.depth_c();
     let all = refl_row_range { begin: 0, end: H };
-    let check = |want: refl_status,
-                 call: &dyn Fn(
-        refl_image_f32_mut,
-        *mut refl_trace_back_depth_stats,
-    ) -> refl_status| {
-        let mut dst = vec![-1.0f32; N];
-        let mut st = refl_trace_back_depth_stats {
-            surfaces: 55,
-            ..Default::default()
-        };
-        let (s, a) = counted(|| call(f32_mut(&mut dst), &mut st));
-        assert_eq!((s, a), (want, 0));
-        assert!(dst.iter().all(|v| *v == -1.0));
-        assert_eq!(st.surfaces, 55);
-    };
+    let check = back_depth_refused;
     let back = img_f32(&f.back, W, H);
     let inv = refl_status::InvalidArgument;
     // SAFETY (all closures): valid or deliberately bad descriptors, refused
@@ -1133,7 +1238,7 @@ fn back_depth_errors_leave_dst_untouched() {
         refl_trace_back_depth_rows(s, d, core::ptr::null(), back, all)
     });
     check(refl_status::NullPointer, &|d, s| unsafe {
-        refl_trace_back_depth_rows(s, d, &front_c, NO_F32, all)
+        refl_trace_back_depth_rows(s, d, &front_c, none_f32(), all)
     });
     check(refl_status::InsufficientSize, &|mut d, s| unsafe {
         d.len = N - 1;
@@ -1144,6 +1249,19 @@ fn back_depth_errors_leave_dst_untouched() {
     check(inv, &|d, s| unsafe {
         refl_trace_back_depth_rows(s, d, &bad, back, all)
     });
+}
+
+#[test]
+fn back_depth_layered_rows_errors_leave_dst_untouched() {
+    let f = render(DepthConvention::ReversedZ);
+    let map = sphere_map();
+    let mc = map.c();
+    let front_c = f.depth_c();
+    let all = refl_row_range { begin: 0, end: H };
+    let check = back_depth_refused;
+    let inv = refl_status::InvalidArgument;
+    // SAFETY (all closures): valid or deliberately bad descriptors, refused
+    // before any write.
     check(refl_status::NullPointer, &|d, s| unsafe {
         refl_trace_back_depth_layered_rows(s, d, &front_c, core::ptr::null(), all)
     });
@@ -1164,7 +1282,18 @@ fn back_depth_errors_leave_dst_untouched() {
             },
         )
     });
-    // dst over the front it reads, over the back, over a map buffer.
+}
+
+/// dst over the front it reads, over a map buffer.
+#[test]
+fn back_depth_dst_over_its_inputs_is_refused() {
+    let f = render(DepthConvention::ReversedZ);
+    let map = sphere_map();
+    let mc = map.c();
+    let front_c = f.depth_c();
+    let all = refl_row_range { begin: 0, end: H };
+    let back = img_f32(&f.back, W, H);
+    let inv = refl_status::InvalidArgument;
     let mut alias = f.depth.clone();
     let mut fa = front_c;
     fa.depth.data = alias.as_ptr();

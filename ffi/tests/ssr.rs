@@ -7,7 +7,9 @@
 #[path = "common/gbuffer.rs"]
 mod common;
 
-use common::{bands_from_threads, color_mut, counted, refused_outputs, render, Shared, H, W};
+use common::{
+    bands_from_threads, color_mut, counted, refused_outputs, render, Frame, Shared, H, W,
+};
 use refl::*;
 use refl_core::glam::Vec3;
 use refl_core::{
@@ -281,15 +283,21 @@ fn refused(
     );
 }
 
-#[test]
-fn errors_name_their_cause_and_leave_every_output_untouched() {
+/// The ZeroToOne scene and its G-buffer (without back faces), which
+/// points into it.
+fn zero_to_one() -> (Frame, refl_gbuffer) {
     let f = render(DepthConvention::ZeroToOne);
     let g = f.gbuffer_c(false);
+    (f, g)
+}
+
+#[test]
+fn options_out_of_range_are_refused_untouched() {
+    let (_f, g) = zero_to_one();
     let d = refl_ssr_options_default();
     let all = refl_row_range { begin: 0, end: H };
     let n = (W * H) as usize;
     let inv = refl_status::InvalidArgument;
-    // Options out of range.
     for o in [
         refl_ssr_options {
             thickness: -1.0,
@@ -315,7 +323,15 @@ fn errors_name_their_cause_and_leave_every_output_untouched() {
     ] {
         refused(inv, &g, &o, &[], all, n, true);
     }
-    // Rows, sizes, G-buffer fields.
+}
+
+#[test]
+fn bad_rows_sizes_and_gbuffer_fields_are_refused_untouched() {
+    let (_f, g) = zero_to_one();
+    let d = refl_ssr_options_default();
+    let all = refl_row_range { begin: 0, end: H };
+    let n = (W * H) as usize;
+    let inv = refl_status::InvalidArgument;
     refused(
         inv,
         &g,
@@ -357,12 +373,25 @@ fn errors_name_their_cause_and_leave_every_output_untouched() {
     let mut g5 = g;
     g5.depth.depth.data = core::ptr::null();
     refused(refl_status::NullPointer, &g5, &d, &[], all, n, true);
-    // Hi-Z: no scratch, a short one, one never prepared, one prepared for
-    // another camera.
-    let hz = refl_ssr_options {
+}
+
+/// The Hi-Z method with the default options.
+fn hiz_options() -> refl_ssr_options {
+    refl_ssr_options {
         method: refl_ssr_method::Hiz as u32,
-        ..d
-    };
+        ..refl_ssr_options_default()
+    }
+}
+
+/// Hi-Z: no scratch, a short one, one never prepared, one prepared for
+/// another camera; the last error names the scratch.
+#[test]
+fn a_missing_short_or_foreign_hiz_scratch_is_refused_naming_it() {
+    let (_f, g) = zero_to_one();
+    let all = refl_row_range { begin: 0, end: H };
+    let n = (W * H) as usize;
+    let inv = refl_status::InvalidArgument;
+    let hz = hiz_options();
     refused(refl_status::NullPointer, &g, &hz, &[], all, n, true);
     let (scratch, _) = prepare(&g, &hz);
     refused(
@@ -397,7 +426,16 @@ fn errors_name_their_cause_and_leave_every_output_untouched() {
     let k = unsafe { refl_last_error_message(buf.as_mut_ptr().cast(), buf.len()) };
     let msg = String::from_utf8_lossy(&buf[..k.min(255)]).to_string();
     assert!(msg.contains("scratch"), "{msg}");
-    // Prepare refuses a short scratch without writing.
+}
+
+#[test]
+fn prepare_refuses_a_short_scratch_and_one_over_the_depth_untouched() {
+    let f = render(DepthConvention::ZeroToOne);
+    let g = f.gbuffer_c(false);
+    let inv = refl_status::InvalidArgument;
+    let hz = hiz_options();
+    let (scratch, _) = prepare(&g, &hz);
+    // A short scratch, not written.
     let mut short = vec![refl_vec2 { x: 1.5, y: 1.5 }; 10];
     // SAFETY: valid pointers.
     let s = unsafe { refl_ssr_prepare(short.as_mut_ptr(), short.len(), &g, &hz) };

@@ -6,57 +6,23 @@ use refl::*;
 use refl_core::glam::{Vec2, Vec3};
 use refl_core::{try_step, Camera, DepthConvention, DepthImage, ImageView, Ray, Thickness, Trace};
 
+#[path = "common/wall.rs"]
+mod wall;
+use wall::{depth_image_c, no_image};
+
 const W: u32 = 48;
 const H: u32 = 32;
 
-fn camera() -> Camera {
-    Camera::try_look_at(
-        Vec3::new(0.5, 1.5, 4.0),
-        Vec3::new(0.0, 0.5, -5.0),
-        Vec3::Y,
-        1.0,
-        0.1,
-        100.0,
-        W,
-        H,
-    )
-    .unwrap()
-}
-
 /// A wall at depth 8 with a box at depth 3 (thickness 1 in the back-face
 /// image) in the middle, and a hole of NaN texels.
-fn images(cam: &Camera, conv: DepthConvention) -> (Vec<f32>, Vec<f32>) {
-    let mut front = vec![cam.encode_depth(8.0, conv); (W * H) as usize];
-    let mut back = vec![cam.encode_depth(9.0, conv); (W * H) as usize];
-    for y in 10..20 {
-        for x in 15..30 {
-            front[(y * W + x) as usize] = cam.encode_depth(3.0, conv);
-            back[(y * W + x) as usize] = cam.encode_depth(4.0, conv);
-        }
-    }
-    for x in 40..44 {
-        front[(5 * W + x) as usize] = f32::NAN;
-    }
-    (front, back)
-}
-
-fn image_c(data: &[f32]) -> refl_image_f32 {
-    refl_image_f32 {
-        data: data.as_ptr(),
-        len: data.len(),
-        width: W,
-        height: H,
-        stride: W,
-    }
-}
-
-fn depth_image_c(cam: &Camera, data: &[f32], conv: DepthConvention) -> refl_depth_image {
-    refl_depth_image {
-        depth: image_c(data),
-        camera: cam.into(),
-        convention: conv as u32,
-    }
-}
+const SCENE: wall::Scene = wall::Scene {
+    width: W,
+    height: H,
+    box_x: 15..30,
+    box_y: 10..20,
+    hole_y: 5,
+    hole_x: 40..44,
+};
 
 fn ray_c(r: &Ray) -> refl_ray {
     (*r).into()
@@ -143,12 +109,20 @@ fn expect_same(c: &refl_trace_result, t: &Trace) {
     }
 }
 
+/// The constant thickness `constant`, no back-face image.
+fn constant(constant: f32) -> refl_trace_thickness {
+    refl_trace_thickness {
+        constant,
+        back_faces: no_image(),
+    }
+}
+
 #[test]
 fn step_ray_matches_core_in_every_convention() {
-    let cam = camera();
+    let cam = SCENE.camera();
     let mut reasons = std::collections::HashSet::new();
     for conv in DepthConvention::ALL {
-        let (front, back) = images(&cam, conv);
+        let (front, back) = SCENE.images(&cam, conv);
         let img = depth_image_c(&cam, &front, conv);
         let core_img =
             DepthImage::try_new(ImageView::try_new(&front, W, H, W).unwrap(), cam, conv).unwrap();
@@ -161,15 +135,9 @@ fn step_ray_matches_core_in_every_convention() {
             let th = refl_trace_thickness {
                 constant: 0.5,
                 back_faces: if back_faces {
-                    image_c(&back)
+                    SCENE.image_c(&back)
                 } else {
-                    refl_image_f32 {
-                        data: core::ptr::null(),
-                        len: 0,
-                        width: 0,
-                        height: 0,
-                        stride: 0,
-                    }
+                    no_image()
                 },
             };
             let core_th = if back_faces {
@@ -188,19 +156,15 @@ fn step_ray_matches_core_in_every_convention() {
     }
     // Hits and four miss reasons were exercised.
     assert_eq!(reasons.len(), 5, "{reasons:?}");
-    let planar = rays(&camera())[2].0;
-    let (front, _) = images(&cam, DepthConvention::ReversedZ);
+}
+
+#[test]
+fn planar_ray_hits_the_box_in_one_step() {
+    let cam = SCENE.camera();
+    let planar = rays(&SCENE.camera())[2].0;
+    let (front, _) = SCENE.images(&cam, DepthConvention::ReversedZ);
     let img = depth_image_c(&cam, &front, DepthConvention::ReversedZ);
-    let th = refl_trace_thickness {
-        constant: 1.0,
-        back_faces: refl_image_f32 {
-            data: core::ptr::null(),
-            len: 0,
-            width: 0,
-            height: 0,
-            stride: 0,
-        },
-    };
+    let th = constant(1.0);
     let (_, c) = call_one(&img, &th, ray_c(&planar), f32::INFINITY, &default_options());
     assert_eq!((c.miss, c.steps, c.fetches), (0, 1, 1));
     assert!((c.surface_depth - 3.0).abs() < 1e-4);
@@ -228,23 +192,15 @@ fn untouched_one(
     );
 }
 
+/// The depth convention of the error tests.
+const ERR_CONV: DepthConvention = DepthConvention::ZeroToOne;
+
 #[test]
-fn step_ray_errors_leave_the_output_untouched() {
-    let cam = camera();
-    let conv = DepthConvention::ZeroToOne;
-    let (front, back) = images(&cam, conv);
-    let img = depth_image_c(&cam, &front, conv);
-    let null_view = refl_image_f32 {
-        data: core::ptr::null(),
-        len: 0,
-        width: 0,
-        height: 0,
-        stride: 0,
-    };
-    let th = refl_trace_thickness {
-        constant: 0.5,
-        back_faces: null_view,
-    };
+fn step_ray_refuses_null_pointers_and_bad_arguments_untouched() {
+    let cam = SCENE.camera();
+    let (front, _) = SCENE.images(&cam, ERR_CONV);
+    let img = depth_image_c(&cam, &front, ERR_CONV);
+    let th = constant(0.5);
     let opts = default_options();
     let good = ray_c(&rays(&cam)[0].0);
     use core::ptr::null;
@@ -253,7 +209,7 @@ fn step_ray_errors_leave_the_output_untouched() {
     untouched_one(NullPointer, &img, null(), good, 1.0, &opts);
     untouched_one(NullPointer, &img, &th, good, 1.0, null());
     let no_data = refl_depth_image {
-        depth: null_view,
+        depth: no_image(),
         ..img
     };
     untouched_one(NullPointer, &no_data, &th, good, 1.0, &opts);
@@ -282,11 +238,22 @@ fn step_ray_errors_leave_the_output_untouched() {
         let t = refl_trace_thickness { constant: c, ..th };
         untouched_one(InvalidArgument, &img, &t, good, 1.0, &opts);
     }
+}
+
+#[test]
+fn step_ray_refuses_bad_images_and_cameras_untouched() {
+    let cam = SCENE.camera();
+    let (front, back) = SCENE.images(&cam, ERR_CONV);
+    let img = depth_image_c(&cam, &front, ERR_CONV);
+    let th = constant(0.5);
+    let opts = default_options();
+    let good = ray_c(&rays(&cam)[0].0);
+    use refl_status::*;
     // Back-face image of the wrong size, and too short.
     let small = refl_trace_thickness {
         back_faces: refl_image_f32 {
             width: W - 1,
-            ..image_c(&back)
+            ..SCENE.image_c(&back)
         },
         ..th
     };
@@ -294,7 +261,7 @@ fn step_ray_errors_leave_the_output_untouched() {
     let short_back = refl_trace_thickness {
         back_faces: refl_image_f32 {
             len: back.len() - 1,
-            ..image_c(&back)
+            ..SCENE.image_c(&back)
         },
         ..th
     };
@@ -321,47 +288,67 @@ fn step_ray_errors_leave_the_output_untouched() {
     untouched_one(InvalidArgument, &bad_cam, &th, good, 1.0, &opts);
 }
 
-#[test]
-fn step_rays_matches_step_ray_and_writes_only_on_success() {
-    let cam = camera();
-    let conv = DepthConvention::ReversedZ;
-    let (front, _) = images(&cam, conv);
-    let img = depth_image_c(&cam, &front, conv);
-    let th = refl_trace_thickness {
-        constant: 0.5,
-        back_faces: refl_image_f32 {
-            data: core::ptr::null(),
-            len: 0,
-            width: 0,
-            height: 0,
-            stride: 0,
-        },
-    };
-    let opts = refl_step_options {
-        stride: 4,
-        max_steps: 500,
-    };
-    let (rs, tms): (Vec<Ray>, Vec<f32>) = rays(&cam).into_iter().unzip();
-    let rc: Vec<refl_ray> = rs.iter().map(ray_c).collect();
-    let n = rc.len();
-    let sentinel = refl_trace_result {
-        miss: 77,
-        ..Default::default()
-    };
-    let mut out = vec![sentinel; n + 1];
-    let call = |out: &mut [refl_trace_result], out_len: usize, rays: &[refl_ray], t: &[f32]| unsafe {
+/// The depth convention of the batch tests.
+const BATCH_CONV: DepthConvention = DepthConvention::ReversedZ;
+
+/// The options of the batch tests.
+const BATCH_OPTIONS: refl_step_options = refl_step_options {
+    stride: 4,
+    max_steps: 500,
+};
+
+/// `refl_step_rays` writing `out[..out_len]` for `rays` with the
+/// `t_max` values `t` (their whole lengths).
+fn step_rays(
+    img: &refl_depth_image,
+    th: &refl_trace_thickness,
+    out: &mut [refl_trace_result],
+    out_len: usize,
+    rays: &[refl_ray],
+    t: &[f32],
+) -> refl_status {
+    unsafe {
         refl_step_rays(
             out.as_mut_ptr(),
             out_len,
-            &img,
-            &th,
+            img,
+            th,
             rays.as_ptr(),
             rays.len(),
             t.as_ptr(),
             t.len(),
-            &opts,
+            &BATCH_OPTIONS,
         )
+    }
+}
+
+/// The inputs of the batch tests: the depth image in [`BATCH_CONV`] (and
+/// the buffer it points into), the test rays as C rays and their `t_max`.
+fn batch_inputs() -> (Vec<f32>, refl_depth_image, Vec<refl_ray>, Vec<f32>) {
+    let cam = SCENE.camera();
+    let (front, _) = SCENE.images(&cam, BATCH_CONV);
+    let img = depth_image_c(&cam, &front, BATCH_CONV);
+    let (rs, tms): (Vec<Ray>, Vec<f32>) = rays(&cam).into_iter().unzip();
+    (front, img, rs.iter().map(ray_c).collect(), tms)
+}
+
+/// A trace result no export writes.
+fn batch_sentinel() -> refl_trace_result {
+    refl_trace_result {
+        miss: 77,
+        ..Default::default()
+    }
+}
+
+#[test]
+fn step_rays_matches_step_ray_and_writes_only_its_rays() {
+    let (_front, img, rc, tms) = batch_inputs();
+    let (th, opts, sentinel) = (constant(0.5), BATCH_OPTIONS, batch_sentinel());
+    let n = rc.len();
+    let call = |out: &mut [refl_trace_result], out_len: usize, rays: &[refl_ray], t: &[f32]| {
+        step_rays(&img, &th, out, out_len, rays, t)
     };
+    let mut out = vec![sentinel; n + 1];
     assert_eq!(call(&mut out, n + 1, &rc, &tms), refl_status::Ok);
     for i in 0..n {
         let (s, one) = call_one(&img, &th, rc[i], tms[i], &opts);
@@ -372,7 +359,16 @@ fn step_rays_matches_step_ray_and_writes_only_on_success() {
     // One t_max for every ray.
     assert_eq!(call(&mut out, n, &rc, &[2.0]), refl_status::Ok);
     assert_eq!(out[1], call_one(&img, &th, rc[1], 2.0, &opts).1);
-    // Errors leave `out` alone.
+}
+
+#[test]
+fn step_rays_errors_leave_the_outputs_untouched() {
+    let (_front, img, rc, tms) = batch_inputs();
+    let (th, opts, sentinel) = (constant(0.5), BATCH_OPTIONS, batch_sentinel());
+    let n = rc.len();
+    let call = |out: &mut [refl_trace_result], out_len: usize, rays: &[refl_ray], t: &[f32]| {
+        step_rays(&img, &th, out, out_len, rays, t)
+    };
     let mut out = vec![sentinel; n];
     assert_eq!(
         call(&mut out, n - 1, &rc, &tms),
@@ -422,26 +418,16 @@ fn step_rays_matches_step_ray_and_writes_only_on_success() {
 }
 
 /// `refl_trace_refine_hit` equals `refl_core::trace::refine_hit` on every hit
-/// of the ray set, passes misses through, and leaves `out` untouched on
-/// error.
+/// of the ray set and passes misses through.
 #[test]
 fn refine_hit_matches_core() {
-    let cam = camera();
+    let cam = SCENE.camera();
     for conv in DepthConvention::ALL {
-        let (front, _) = images(&cam, conv);
+        let (front, _) = SCENE.images(&cam, conv);
         let img_c = depth_image_c(&cam, &front, conv);
         let view = ImageView::try_new(&front, cam.width(), cam.height(), cam.width()).unwrap();
         let img = DepthImage::try_new(view, cam, conv).unwrap();
-        let th = refl_trace_thickness {
-            constant: 0.5,
-            back_faces: refl_image_f32 {
-                data: core::ptr::null(),
-                len: 0,
-                width: 0,
-                height: 0,
-                stride: 0,
-            },
-        };
+        let th = constant(0.5);
         let mut refined = 0;
         for (ray, t_max) in rays(&cam) {
             let (s, hit) = call_one(&img_c, &th, ray_c(&ray), t_max, &default_options());
@@ -470,7 +456,16 @@ fn refine_hit_matches_core() {
             }
         }
         assert!(refined > 0, "{conv:?}: nothing refined");
-        // Errors leave the output untouched.
+    }
+}
+
+/// `refl_trace_refine_hit` leaves `out` untouched on error.
+#[test]
+fn refine_hit_errors_leave_the_output_untouched() {
+    let cam = SCENE.camera();
+    for conv in DepthConvention::ALL {
+        let (front, _) = SCENE.images(&cam, conv);
+        let img_c = depth_image_c(&cam, &front, conv);
         let sentinel = refl_trace_result {
             miss: 77,
             ..Default::default()

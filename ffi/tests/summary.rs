@@ -164,53 +164,70 @@ fn tile_bands_merged_equal_one_call() {
     }
 }
 
+use refl_status::{
+    DegenerateGeometry as Degenerate, InsufficientSize as Short, InvalidArgument as Bad,
+    NullPointer as Null,
+};
+
+/// A frame summary no export writes.
+fn frame_sentinel() -> refl_summary_frame {
+    refl_summary_frame {
+        pixels: 77,
+        ..Default::default()
+    }
+}
+
+/// Runs `refl_summary_rows` on sentinel outputs (`k` objects, or a NULL
+/// object list), expects status `want`, no allocation, both outputs
+/// untouched and a last error naming the call.
+fn run(
+    want: refl_status,
+    gb: *const refl_gbuffer,
+    ids: refl_image_u32,
+    o: *const refl_summary_options,
+    rows: refl_row_range,
+    k: usize,
+    null_objects: bool,
+) {
+    let sentinel_f = frame_sentinel();
+    let sentinel_o = object_sentinel();
+    let mut frame = sentinel_f;
+    let mut objects = [sentinel_o; 2];
+    let p = if null_objects {
+        core::ptr::null_mut()
+    } else {
+        objects.as_mut_ptr()
+    };
+    let (s, allocs) = counted(|| {
+        // SAFETY: valid or NULL pointers.
+        unsafe { refl_summary_rows(&mut frame, p, k, gb, ids, o, rows) }
+    });
+    assert_eq!(s, want, "{}", last_error());
+    assert_eq!(allocs, 0);
+    assert_eq!(frame, sentinel_f);
+    assert!(objects.iter().all(|x| *x == sentinel_o));
+    assert!(
+        last_error().starts_with("refl_summary_rows: "),
+        "{}",
+        last_error()
+    );
+}
+
+/// An object summary no export writes.
+fn object_sentinel() -> refl_summary_object {
+    refl_summary_object {
+        pixels: 99,
+        depth_sum: -1.0,
+        ..Default::default()
+    }
+}
+
 #[test]
-fn errors_name_their_cause_and_leave_every_output_untouched() {
+fn summary_rows_refuses_nulls_and_bad_options_untouched() {
     let f = render(DepthConvention::Linear);
     let g = f.gbuffer_c(false);
     let d = refl_summary_options_default();
     let all = refl_row_range { begin: 0, end: H };
-    use refl_status::{
-        DegenerateGeometry as Degenerate, InsufficientSize as Short, InvalidArgument as Bad,
-        NullPointer as Null,
-    };
-    let sentinel_f = refl_summary_frame {
-        pixels: 77,
-        ..Default::default()
-    };
-    let sentinel_o = refl_summary_object {
-        pixels: 99,
-        depth_sum: -1.0,
-        ..Default::default()
-    };
-    let run = |want: refl_status,
-               gb: *const refl_gbuffer,
-               ids: refl_image_u32,
-               o: *const refl_summary_options,
-               rows: refl_row_range,
-               k: usize,
-               null_objects: bool| {
-        let mut frame = sentinel_f;
-        let mut objects = [sentinel_o; 2];
-        let p = if null_objects {
-            core::ptr::null_mut()
-        } else {
-            objects.as_mut_ptr()
-        };
-        let (s, allocs) = counted(|| {
-            // SAFETY: valid or NULL pointers.
-            unsafe { refl_summary_rows(&mut frame, p, k, gb, ids, o, rows) }
-        });
-        assert_eq!(s, want, "{}", last_error());
-        assert_eq!(allocs, 0);
-        assert_eq!(frame, sentinel_f);
-        assert!(objects.iter().all(|x| *x == sentinel_o));
-        assert!(
-            last_error().starts_with("refl_summary_rows: "),
-            "{}",
-            last_error()
-        );
-    };
     // NULLs.
     run(Null, core::ptr::null(), ids_c(&f), &d, all, 2, false);
     run(Null, &g, ids_c(&f), core::ptr::null(), all, 2, false);
@@ -234,6 +251,14 @@ fn errors_name_their_cause_and_leave_every_output_untouched() {
         run(Bad, &g, ids_c(&f), &bad, all, 2, false);
         assert!(last_error().contains("`options`"), "{}", last_error());
     }
+}
+
+#[test]
+fn summary_rows_refuses_bad_rows_ids_and_object_counts_untouched() {
+    let f = render(DepthConvention::Linear);
+    let g = f.gbuffer_c(false);
+    let d = refl_summary_options_default();
+    let all = refl_row_range { begin: 0, end: H };
     // Rows: beyond the height, off a tile row.
     run(
         Bad,
@@ -263,7 +288,16 @@ fn errors_name_their_cause_and_leave_every_output_untouched() {
     };
     run(Bad, &g, short, &d, all, 2, false);
     run(Short, &g, ids_c(&f), &d, all, 0, false);
-    // Objects over the ids (an output overlapping an input).
+}
+
+/// Objects over the ids (an output overlapping an input).
+#[test]
+fn summary_rows_refuses_objects_over_the_ids() {
+    let f = render(DepthConvention::Linear);
+    let g = f.gbuffer_c(false);
+    let d = refl_summary_options_default();
+    let all = refl_row_range { begin: 0, end: H };
+    let sentinel_f = frame_sentinel();
     let mut frame = sentinel_f;
     let mut ids_copy = f.ids.clone();
     let ids_alias = refl_image_u32 {
@@ -285,6 +319,12 @@ fn errors_name_their_cause_and_leave_every_output_untouched() {
     assert_eq!(s, Bad, "{}", last_error());
     assert_eq!(frame, sentinel_f);
     assert_eq!(ids_copy, f.ids);
+}
+
+#[test]
+fn plane_of_nothing_is_degenerate_and_nulls_are_refused_untouched() {
+    let d = refl_summary_options_default();
+    let (sentinel_f, sentinel_o) = (frame_sentinel(), object_sentinel());
     // A plane of nothing.
     let mut fit = refl_summary_plane_fit {
         planar: true,
@@ -313,13 +353,24 @@ fn errors_name_their_cause_and_leave_every_output_untouched() {
 
 /// `refl_plan_passes` equals `refl_core::plan::try_plan_passes` on the
 /// summary of the shared scene, and refuses bad input without writing.
-#[test]
-fn plan_passes_equals_the_rust_plan() {
-    use refl_core::plan::{try_plan_passes, HostCaps, ObjectHints, PlanOptions};
+/// The ZeroToOne scene's summary through the C ABI (checked to succeed)
+/// with the default options.
+fn scene_summary() -> (
+    refl_summary_frame,
+    [refl_summary_object; 2],
+    refl_summary_options,
+) {
     let f = render(DepthConvention::ZeroToOne);
     let o = refl_summary_options_default();
     let (s, frame, objects, _) = c_summary(&f, ids_c(&f), refl_row_range { begin: 0, end: H }, &o);
     assert_eq!(s, refl_status::Ok);
+    (frame, objects, o)
+}
+
+#[test]
+fn plan_passes_equals_the_rust_plan() {
+    use refl_core::plan::{try_plan_passes, HostCaps, ObjectHints, PlanOptions};
+    let (frame, objects, o) = scene_summary();
     let po = refl_plan_options_default();
     assert!(po.mirror_hiz && po.glossy_visibility);
     for (planar_views, hint) in [(true, false), (false, false), (true, true)] {
@@ -396,7 +447,13 @@ fn plan_passes_equals_the_rust_plan() {
             assert!(d.reason == refl_plan_reason::Runs as u32 || d.bytes == 0);
         }
     }
-    // Refusals: hints of another length, planar too short, NULL frame.
+}
+
+/// Hints of another length, planar too short, NULL frame.
+#[test]
+fn plan_passes_refuses_bad_lengths_and_a_null_frame_untouched() {
+    let (frame, objects, o) = scene_summary();
+    let po = refl_plan_options_default();
     let caps = refl_plan_host_caps::default();
     let sentinel = refl_plan {
         planar_objects: 77,

@@ -497,9 +497,10 @@ fn untouched_f32(expected: refl_status, f: impl FnOnce(*mut f32) -> refl_status)
     assert_eq!(v, -7.5);
 }
 
+use refl_status::{DegenerateGeometry, InsufficientSize, InvalidArgument, NullPointer};
+
 #[test]
-fn bad_input_returns_its_status_and_writes_nothing() {
-    use refl_status::{DegenerateGeometry, InsufficientSize, InvalidArgument, NullPointer};
+fn scalar_exports_refuse_bad_input_untouched() {
     let (eye, w, n, r) = (
         v3(Vec3::Y * 2.0),
         v3(Vec3::ZERO),
@@ -538,22 +539,50 @@ fn bad_input_returns_its_status_and_writes_nothing() {
         InvalidArgument
     );
     assert_eq!(bytes, 5);
+}
 
-    let key = render(Vec3::new(0.0, 1.5, 3.0));
+/// The key frame of the error tests.
+fn error_key() -> Frame {
+    render(Vec3::new(0.0, 1.5, 3.0))
+}
+
+/// The eye of the error tests' current frame.
+fn error_eye() -> refl_vec3 {
+    v3(Vec3::new(0.1, 1.5, 2.9))
+}
+
+/// `refl_tcrr_search` without stats.
+fn search(
+    off: refl_image_vec2_mut,
+    k: *const refl_tcrr_key,
+    eye: refl_vec3,
+    p: *const refl_tcrr_options,
+    r: refl_row_range,
+) -> refl_status {
+    unsafe { refl_tcrr_search(off, core::ptr::null_mut(), k, eye, p, r) }
+}
+
+/// The search offsets of the error tests' frame (checked to succeed).
+fn searched_offsets(k: &refl_tcrr_key) -> Vec<[f32; 2]> {
+    let mut offsets = vec![[3.25f32, -1.0]; (W * H) as usize];
+    let p = refl_tcrr_options_default();
+    assert_eq!(
+        search(mut_vec2(&mut offsets), k, error_eye(), &p, rows(0, H)),
+        refl_status::Ok
+    );
+    offsets
+}
+
+#[test]
+fn search_refuses_bad_input_untouched_and_accepts_it_repaired() {
+    let key = error_key();
     let k = key_desc(&key, None);
     let mut p: refl_tcrr_options = refl_tcrr_options_default();
     let n = (W * H) as usize;
     let sentinel = [3.25f32, -1.0];
     let mut offsets = vec![sentinel; n];
     let all = rows(0, H);
-    let eye = v3(Vec3::new(0.1, 1.5, 2.9));
-    let search = |off: refl_image_vec2_mut,
-                  k: *const refl_tcrr_key,
-                  eye,
-                  p: *const refl_tcrr_options,
-                  r| unsafe {
-        refl_tcrr_search(off, core::ptr::null_mut(), k, eye, p, r)
-    };
+    let eye = error_eye();
     assert_eq!(
         search(mut_vec2(&mut offsets), core::ptr::null(), eye, &p, all),
         NullPointer
@@ -596,8 +625,16 @@ fn bad_input_returns_its_status_and_writes_nothing() {
         search(mut_vec2(&mut offsets), &k, eye, &p, all),
         refl_status::Ok
     );
+}
 
-    // Shift, warp, compose, list and prepare refuse bad input untouched.
+#[test]
+fn shift_refuses_bad_input_untouched() {
+    let key = error_key();
+    let k = key_desc(&key, None);
+    let p = refl_tcrr_options_default();
+    let n = (W * H) as usize;
+    let all = rows(0, H);
+    let offsets = searched_offsets(&k);
     let mut inter = vec![[4.0f32; 3]; n];
     let mut idepth = vec![4.0f32; n];
     let mut cov = vec![4u8; n];
@@ -627,6 +664,16 @@ fn bad_input_returns_its_status_and_writes_nothing() {
     );
     assert!(inter.iter().all(|c| *c == [4.0; 3]) && idepth.iter().all(|d| *d == 4.0));
     assert!(cov.iter().all(|c| *c == 4));
+}
+
+#[test]
+fn warp_and_compose_refuse_bad_input_untouched() {
+    let key = error_key();
+    let k = key_desc(&key, None);
+    let p = refl_tcrr_options_default();
+    let n = (W * H) as usize;
+    let all = rows(0, H);
+    let (inter, idepth, cov) = (vec![[4.0f32; 3]; n], vec![4.0f32; n], vec![4u8; n]);
     let cur = current_desc(&key);
     let mut color = vec![[6.0f32; 3]; n];
     let mut mask = vec![6u8; n];
@@ -664,6 +711,11 @@ fn bad_input_returns_its_status_and_writes_nothing() {
         InvalidArgument
     );
     assert!(color.iter().all(|c| *c == [6.0; 3]) && mask.iter().all(|m| *m == 6));
+}
+
+#[test]
+fn retrace_list_refuses_a_short_list_and_a_null_count_untouched() {
+    let n = (W * H) as usize;
     let mut count = 11usize;
     let mut list = [77u32; 2];
     let all_retrace = vec![REFL_TCRR_MASK_RETRACE; n];
@@ -683,6 +735,14 @@ fn bad_input_returns_its_status_and_writes_nothing() {
         },
         NullPointer
     );
+}
+
+#[test]
+fn prepare_refuses_a_wrong_size_and_a_null_key_untouched() {
+    let key = error_key();
+    let k = key_desc(&key, None);
+    let n = (W * H) as usize;
+    let all = rows(0, H);
     let mut surfels = vec![refl_tcrr_surfel::default(); n];
     let img = refl_image_tcrr_surfel_mut {
         data: surfels.as_mut_ptr(),

@@ -1,52 +1,22 @@
 //! The test frame of the C G-buffer passes (`tests/ssr.rs`,
-//! `tests/glossy.rs`; included with `#[path]`): a counting global
-//! allocator (zero-allocation checks), a floor and a unit sphere rendered
-//! exactly into a G-buffer, and its C and Rust descriptors.
+//! `tests/glossy.rs`, `tests/planar.rs`, `tests/layered_pass.rs`,
+//! `tests/cluster_pass.rs`, `tests/summary.rs`; included with `#[path]`):
+//! the counting global allocator of `common/counting.rs` (zero-allocation
+//! checks), a floor and a unit sphere rendered exactly into a G-buffer, and
+//! its C and Rust descriptors.
+// Each including test uses a different subset of the frame.
 #![allow(dead_code)]
 
 use refl::*;
 use refl_core::glam::{Vec2, Vec3};
 use refl_core::{Camera, DepthConvention, DepthImage, GBuffer, ImageView, NormalSpace};
-use std::alloc::{GlobalAlloc, Layout, System};
-use std::cell::Cell;
 
-/// Counts allocations made by the current thread while `COUNTING` is set.
-pub struct Counting;
-
-thread_local! {
-    static COUNTING: Cell<bool> = const { Cell::new(false) };
-    static ALLOCS: Cell<u64> = const { Cell::new(0) };
-}
-
-// SAFETY: forwards to the system allocator; the counters are thread-local
-// cells that do not allocate.
-unsafe impl GlobalAlloc for Counting {
-    unsafe fn alloc(&self, l: Layout) -> *mut u8 {
-        let _ = COUNTING.try_with(|c| {
-            if c.get() {
-                let _ = ALLOCS.try_with(|a| a.set(a.get() + 1));
-            }
-        });
-        // SAFETY: forwarded contract.
-        unsafe { System.alloc(l) }
-    }
-    unsafe fn dealloc(&self, p: *mut u8, l: Layout) {
-        // SAFETY: forwarded contract.
-        unsafe { System.dealloc(p, l) }
-    }
-}
+#[path = "counting.rs"]
+mod counting;
+pub use counting::counted;
 
 #[global_allocator]
-static GLOBAL: Counting = Counting;
-
-/// Runs `f` and returns its result with the number of allocations it made.
-pub fn counted<R>(f: impl FnOnce() -> R) -> (R, u64) {
-    ALLOCS.with(|a| a.set(0));
-    COUNTING.with(|c| c.set(true));
-    let r = f();
-    COUNTING.with(|c| c.set(false));
-    (r, ALLOCS.with(|a| a.get()))
-}
+static GLOBAL: counting::Counting = counting::Counting;
 
 pub const W: u32 = 96;
 pub const H: u32 = 64;

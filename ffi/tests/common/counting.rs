@@ -1,6 +1,8 @@
-//! A counting global allocator shared by the C ABI's tests: `counted(f)`
-//! runs `f` and says how many allocations the current thread made meanwhile
-//! (refl-ffi promises none in any export).
+//! A counting global allocator shared by the C ABI's tests (`tests/alloc.rs`
+//! and, through `common/gbuffer.rs`, the G-buffer passes' tests; included
+//! with `#[path]`): `counted(f)` runs `f` and says how many allocations the
+//! current thread made meanwhile (refl-ffi promises none in any export). The
+//! including test installs it with `#[global_allocator]`.
 
 use std::alloc::{GlobalAlloc, Layout, System};
 use std::cell::Cell;
