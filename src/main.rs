@@ -1,5 +1,6 @@
 //! The `refl` command line: `refl report` (error against run time for every
-//! method) and `refl export-crosscheck` (scene + rays + obvhs hits for the
+//! method), `refl plan` (refl-core's pass plan per camera pose) and
+//! `refl export-crosscheck` (scene + rays + obvhs hits for the
 //! Embree cross-check in cpp_tests).
 
 use clap::{Parser, Subcommand};
@@ -22,6 +23,9 @@ enum Command {
     /// Render the built-in scenes with every method at several settings and
     /// write the error-vs-time report (summary.csv, summary.md, plot, images).
     Report(refl_app::report::Options),
+    /// Print refl-core's frame summary and plan (passes run and skipped,
+    /// with the reason) for every camera pose of the scenes.
+    Plan(refl_app::report::PlanArgs),
     /// Write a scene (OBJ), a ray set and its obvhs hits for the C++
     /// obvhs-vs-Embree cross-check.
     ExportCrosscheck {
@@ -42,6 +46,7 @@ fn main() -> ExitCode {
         Command::Report(opts) => {
             refl_app::report::run(&opts).map(|dir| println!("report written to {}", dir.display()))
         }
+        Command::Plan(args) => refl_app::report::plans(&args).map(|text| print!("{text}")),
         Command::ExportCrosscheck { dir, tris } => refl_app::export::export_crosscheck(&dir, tris)
             .map(|()| println!("cross-check data written to {}", dir.display()))
             .map_err(|e| e.to_string()),

@@ -151,6 +151,8 @@ fn an_obj_interior_gets_the_glossy_study_and_the_epipolar_walk() {
     assert!(!rows.iter().any(|r| r.1 == "multiray" || r.1 == "irsa"));
     let md = std::fs::read_to_string(out.join("summary.md")).unwrap();
     assert!(md.contains("camera path of 5 poses, inside walls"), "{md}");
+    // Every frame's plan from refl-core's planner is listed.
+    assert!(md.contains("refl-core's plan (`refl plan`): "), "{md}");
     // The floor is planar but glossy, not a mirror.
     assert!(
         md.contains("`planar-mirror` skipped: no planar mirror in view"),
@@ -231,4 +233,46 @@ fn bad_scene_input_is_refused_before_anything_is_written() {
     assert!(err.contains("specular 1.5 is outside [0, 1]"), "{err}");
     assert!(!out.exists());
     std::fs::remove_dir_all(&dir).unwrap();
+}
+
+#[test]
+fn refl_plan_skips_what_a_frame_cannot_use_and_says_why() {
+    let args = |bare_host| refl_app::report::PlanArgs {
+        scene: vec!["room".into(), "concave".into()],
+        width: 128,
+        height: 96,
+        tris: 4_000,
+        reflective: Vec::new(),
+        camera_path: None,
+        bare_host,
+    };
+    let text = refl_app::report::plans(&args(false)).unwrap();
+    let (room, concave) = text.split_at(text.find("concave:").unwrap());
+    // The room's mirror floor goes to the planar pass; its glossy torus
+    // needs the color pyramid.
+    assert_eq!(room.matches("  pose ").count(), 12, "{room}");
+    assert!(
+        room.lines()
+            .skip(1)
+            .all(|l| l.contains("planar pass for mirror_floor") && l.contains("color pyramid (")),
+        "{room}"
+    );
+    // Concave: mirrors only, none planar: no color or visibility pyramid,
+    // no planar pass, no glossy pass.
+    for l in concave.lines().skip(1) {
+        for skipped in [
+            "color pyramid (nothing reads it)",
+            "visibility pyramid (nothing reads it)",
+            "glossy pass (no pixels of its class)",
+            "planar pass (no pixels of its class)",
+        ] {
+            assert!(l.contains(skipped), "{skipped}: {l}");
+        }
+    }
+    // A host without extra views or a tracer keeps the mirror floor on the
+    // mirror pass and traces nothing itself.
+    let bare = refl_app::report::plans(&args(true)).unwrap();
+    assert!(!bare.contains("planar pass for"), "{bare}");
+    assert!(bare.contains("planar pass (the host cannot)"), "{bare}");
+    assert!(bare.contains("host rays (the host cannot)"), "{bare}");
 }

@@ -17,6 +17,7 @@ pub mod content;
 pub mod epipolar;
 pub mod glossy;
 pub mod methods;
+pub mod plan;
 pub mod studies;
 pub mod tcrr;
 
@@ -317,6 +318,89 @@ fn frame_poses(path_len: usize, frames: usize) -> Vec<usize> {
     poses
 }
 
+/// Command-line options of `refl plan`.
+#[derive(Clone, Debug, clap::Args)]
+pub struct PlanArgs {
+    /// Scenes, as for `refl report` (default: the four built-in scenes).
+    #[arg(long)]
+    pub scene: Vec<String>,
+    /// Image width.
+    #[arg(long, default_value_t = 512)]
+    pub width: u32,
+    /// Image height.
+    #[arg(long, default_value_t = 384)]
+    pub height: u32,
+    /// Triangle budget of the built-in scenes.
+    #[arg(long, default_value_t = 30_000)]
+    pub tris: usize,
+    /// Reflective materials for an OBJ scene, as for `refl report`.
+    #[arg(long)]
+    pub reflective: Vec<String>,
+    /// A camera path replacing the scenes' own, as for `refl report`.
+    #[arg(long)]
+    pub camera_path: Option<PathBuf>,
+    /// The host has no ray tracer, no extra views, no probe (what is left
+    /// for the screen-space passes alone).
+    #[arg(long)]
+    pub bare_host: bool,
+}
+
+/// `refl plan`: per scene and camera pose, refl-core's frame summary and
+/// plan (passes run and skipped with the reason, pyramid bytes, planar
+/// objects), as text.
+///
+/// # Errors
+/// As [`run`] for bad scene input; refl-core's errors as text.
+pub fn plans(args: &PlanArgs) -> Result<String, String> {
+    let opts = Options {
+        scene: args.scene.clone(),
+        reflective: args.reflective.clone(),
+        camera_path: args.camera_path.clone(),
+        ..Options::default()
+    };
+    let scenes = scene_names(&opts)?;
+    let input = SceneInput::of(&opts)?;
+    let sizes = Sizes {
+        width: args.width,
+        height: args.height,
+        tris: args.tris,
+        ..Sizes::DEFAULT
+    };
+    let caps = if args.bare_host {
+        refl_core::plan::HostCaps::default()
+    } else {
+        plan::REPORT_HOST
+    };
+    let pool = rayon::ThreadPoolBuilder::new()
+        .build()
+        .map_err(|e| e.to_string())?;
+    let mut out = String::new();
+    for name in &scenes {
+        let scene = input.load(name, &sizes)?;
+        let tracer = Tracer::new(&scene);
+        let _ = writeln!(out, "{}: {} triangles", scene.name, scene.tri_count());
+        for pose in 0..scene.camera_path.len() {
+            let camera = scene
+                .camera(pose, sizes.width, sizes.height)
+                .map_err(|e| format!("{}: camera: {e}", scene.name))?;
+            let g = GBuffer::render(&scene, &tracer, &camera, &pool);
+            let p = plan::plan_frame(&scene, &g, &caps)?;
+            let f = &p.frame;
+            let _ = writeln!(
+                out,
+                "  pose {pose}: {} reflective pixels ({} mirror, {} glossy, {} rough, {} near the border); {}",
+                f.reflective,
+                f.classes[0],
+                f.classes[1],
+                f.classes[2],
+                f.border,
+                plan::describe(&p)
+            );
+        }
+    }
+    Ok(out)
+}
+
 /// A scene loaded, its BVH built and its frames' G-buffers rendered: what
 /// the report knows of it before any method runs.
 struct Loaded {
@@ -497,6 +581,12 @@ fn load(
             .camera(pose, sizes.width, sizes.height)
             .map_err(|e| format!("{label}: camera: {e}"))?;
         let g = timed(|| GBuffer::render(&scene, &tracer, &camera, &run.pool));
+        let p = plan::plan_frame(&scene, &g.value, &plan::REPORT_HOST)?;
+        let _ = writeln!(
+            notes,
+            "  - pose {pose}, refl-core's plan (`refl plan`): {}",
+            plan::describe(&p)
+        );
         frames.push((pose, g.value, g.ms));
     }
     let content = Content::of_scene(&scene, &tracer, frames.iter().map(|f| &f.1));
