@@ -547,3 +547,32 @@ fn stage_has_a_mesh_standing_on_a_mirror_floor_and_grazing_poses() {
         assert!(d < 3.5, "eye {:?} is {d} from the torus", p.eye);
     }
 }
+
+/// The orbit an OBJ scene gets sits above the model's center by 0.3 to 0.5
+/// of its half diagonal, wherever the model is (it once added the center's
+/// height twice: a model at y = 100 put the eye at y = 200).
+#[test]
+fn load_obj_orbits_at_a_height_relative_to_the_model() {
+    for lift in [0.0f32, 100.0, -40.0] {
+        let dir = temp_dir(&format!("orbit{}", lift as i32));
+        let path = dir.join("box.obj");
+        let mut text = String::new();
+        for (x, y, z) in [(-1, 0, -1), (1, 0, -1), (1, 0, 1), (-1, 0, 1), (0, 2, 0)] {
+            text.push_str(&format!("v {x} {} {z}\n", y as f32 + lift));
+        }
+        text.push_str("f 1 2 3\nf 1 3 4\nf 1 2 5\nf 2 3 5\n");
+        std::fs::write(&path, text).unwrap();
+        let s = Scene::load_obj(&path, &[]).unwrap();
+        std::fs::remove_dir_all(&dir).unwrap();
+        let b = s.bounds();
+        let (center, half) = (b.center(), b.diagonal() * 0.5);
+        for pose in &s.camera_path {
+            let above = pose.eye.y - center.y;
+            assert!(
+                above >= 0.3 * half - 1e-3 && above <= 0.5 * half + 1e-3,
+                "lift {lift}: eye {:?}, center {center:?}, half diagonal {half}",
+                pose.eye
+            );
+        }
+    }
+}
