@@ -247,11 +247,11 @@ impl PathSizes {
         gaze: Gaze::AlongPath,
     };
 
-    /// The default report: 12 frames at 384x288.
+    /// The default report: 8 frames at 384x288.
     pub const DEFAULT: PathSizes = PathSizes {
         width: 384,
         height: 288,
-        frames: 12,
+        frames: 8,
         ..PathSizes::LONG
     };
 

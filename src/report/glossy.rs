@@ -126,9 +126,14 @@ pub fn cone_settings(quick: bool) -> Vec<(GlossyMethod, String)> {
     v
 }
 
-/// The multi-ray settings of the study (seed 003 Sec. 3.5: 8 to 49).
-pub fn multiray_settings(quick: bool) -> Vec<(GlossyMethod, String)> {
-    let counts: &[u32] = if quick { &[8] } else { &[8, 16, 49] };
+/// The multi-ray settings of the study (seed 003 Sec. 3.5: 8 to 49; quick:
+/// 8, default: 8 and 16).
+pub fn multiray_settings(level: Level) -> Vec<(GlossyMethod, String)> {
+    let counts: &[u32] = match level {
+        Level::Quick => &[8],
+        Level::Default => &[8, 16],
+        Level::Long => &[8, 16, 49],
+    };
     counts
         .iter()
         .map(|&n| (GlossyMethod::MultiRay { rays: n }, format!("rays={n}")))
@@ -325,7 +330,7 @@ pub fn report_rows(
         probe.sizes().samples,
         probe_t.ms
     );
-    let settings = study_settings(sizes.level == Level::Quick, methods);
+    let settings = study_settings(sizes.level, methods);
     let mut rows = Vec::new();
     for glossiness in variants {
         let Some(v) = study.variant(&camera, glossiness, &mut rows, &mut md)? else {
@@ -354,7 +359,8 @@ pub fn report_rows(
 /// The study's cone and multi-ray rows (`methods`: cone, multi-ray), the
 /// best cone setting followed by the same with the unfiltered fallback
 /// (same cache and load conditions for the timing).
-fn study_settings(quick: bool, methods: (bool, bool)) -> Vec<StudySetting> {
+fn study_settings(level: Level, methods: (bool, bool)) -> Vec<StudySetting> {
+    let quick = level == Level::Quick;
     let mut settings = Vec::new();
     if methods.0 {
         let best = if quick {
@@ -374,7 +380,7 @@ fn study_settings(quick: bool, methods: (bool, bool)) -> Vec<StudySetting> {
     }
     if methods.1 {
         settings.extend(
-            multiray_settings(quick)
+            multiray_settings(level)
                 .into_iter()
                 .map(|(m, s)| ("multiray", m, s, false)),
         );

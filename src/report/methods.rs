@@ -611,20 +611,23 @@ impl Method for Cluster {
         "cluster"
     }
 
-    /// The cluster-count knob (bin gain) and the depth-image resolution, the
-    /// error-vs-time points of seed 003 Tables 3 and 5, and 49 glossy rays
-    /// (Sec. 3.5's upper end).
+    /// The cluster-count knob (bin gain, the error-vs-time points of seed
+    /// 003 Table 3); `--long` adds the depth-image resolution (Table 5) and
+    /// 49 glossy rays (Sec. 3.5's upper end).
     fn settings(&self, sizes: &Sizes, content: &Content) -> Result<Vec<Box<dyn Setting>>, String> {
         use crate::cluster::ClusterSettings;
         need_reflective(content)?;
         let base = ClusterSettings::default();
-        let mut v: Vec<ClusterSettings> = if sizes.quick() {
+        let v: Vec<ClusterSettings> = if sizes.quick() {
             vec![ClusterSettings { gain: 16.0, ..base }, base]
         } else {
             let mut v: Vec<ClusterSettings> = [1.0, 16.0, 64.0, 256.0]
                 .into_iter()
                 .map(|gain| ClusterSettings { gain, ..base })
                 .collect();
+            if sizes.level != super::Level::Long {
+                return Ok(boxed_cluster(v));
+            }
             v.push(ClusterSettings {
                 resolution_scale: 0.5,
                 ..base
@@ -639,16 +642,21 @@ impl Method for Cluster {
             });
             v
         };
-        v.dedup();
-        Ok(v.into_iter()
-            .map(|settings| {
-                Box::new(ClusterSetting {
-                    label: settings.label(),
-                    settings,
-                }) as Box<dyn Setting>
-            })
-            .collect())
+        Ok(boxed_cluster(v))
     }
+}
+
+/// The cluster settings `v` (duplicates dropped) as [`Setting`]s.
+fn boxed_cluster(mut v: Vec<crate::cluster::ClusterSettings>) -> Vec<Box<dyn Setting>> {
+    v.dedup();
+    v.into_iter()
+        .map(|settings| {
+            Box::new(ClusterSetting {
+                label: settings.label(),
+                settings,
+            }) as Box<dyn Setting>
+        })
+        .collect()
 }
 
 impl Setting for ClusterSetting {
