@@ -9,14 +9,14 @@ use crate::tracer::Tracer;
 use glam::Vec3;
 
 /// Azimuths probed per eye and elevation by [`Content::interior`]'s test.
-const PROBE_AZIMUTHS: u32 = 32;
+pub const PROBE_AZIMUTHS: u32 = 32;
 /// Elevations (degrees) probed by the interior test: around the horizon,
 /// where walls are (a walled interior may be open to the sky).
-const PROBE_ELEVATIONS: [f32; 3] = [-5.0, 0.0, 5.0];
+pub const PROBE_ELEVATIONS: [f32; 3] = [-5.0, 0.0, 5.0];
 /// Eyes along the camera path probed by the interior test.
-const PROBE_EYES: u32 = 8;
+pub const PROBE_EYES: u32 = 8;
 /// Share of probe rays that must hit geometry for an enclosed path.
-const ENCLOSED_SHARE: f64 = 0.95;
+pub const ENCLOSED_SHARE: f64 = 0.95;
 
 /// The content of one scene over the frames the report renders.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
