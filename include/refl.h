@@ -3864,7 +3864,8 @@ typedef struct refl_planar_texel {
     uint32_t texel_y;
     /**
      * Distance from the mirror to the reflected surface along the
-     * reflected ray; 0 unless HIT.
+     * reflected ray; 0 unless HIT. Always finite: a distance beyond the
+     * float range (a render depth near FLT_MAX) saturates at FLT_MAX.
      */
     float t;
 } refl_planar_texel;

@@ -337,7 +337,9 @@ pub struct PlanarTexel {
     /// `[0, 0]` unless `Hit` or `Environment`.
     pub texel: [u32; 2],
     /// Distance along the reflected ray from the mirror to the reflected
-    /// surface (world units); `0` unless `Hit`.
+    /// surface (world units); `0` unless `Hit`. Finite: a distance beyond
+    /// the f32 range (a render depth near `f32::MAX`) saturates at
+    /// `f32::MAX`.
     pub t: f32,
 }
 
@@ -410,6 +412,15 @@ struct Cover {
     depth: f32,
     /// `|w|`: length of the view ray scaled to unit depth.
     ray_len: f32,
+}
+
+impl Cover {
+    /// The distance from the mirror to a reflected surface at linear depth
+    /// `z` of the mirrored view: `(z - depth) |w|`, at least 0, saturated
+    /// at `f32::MAX` (a depth near `f32::MAX` times `|w| > 1` overflows).
+    fn distance_to(&self, z: f32) -> f32 {
+        ((z - self.depth).max(0.0) * self.ray_len).min(f32::MAX)
+    }
 }
 
 /// The planar mirror pass over one frame (module docs).
@@ -875,7 +886,7 @@ impl<'a> PlanarPass<'a> {
         out.status = PlanarStatus::Hit;
         let Some(rc) = render.color.as_ref() else {
             // No color to blend: the anchor answers (a visibility host).
-            out.t = (za - cover.depth).max(0.0) * cover.ray_len;
+            out.t = cover.distance_to(za);
             return (out, [0.0; 3], None);
         };
         // The depth-guided bilinear mean around q.
@@ -921,7 +932,7 @@ impl<'a> PlanarPass<'a> {
             (0, _) | (_, None) => (za, color_at(a[0], a[1])),
             _ => (sz / sw, sc.map(|v| v / sw)),
         };
-        out.t = (zr - cover.depth).max(0.0) * cover.ray_len;
+        out.t = cover.distance_to(zr);
         (out, color, None)
     }
 

@@ -1104,3 +1104,33 @@ fn bad_input_is_refused_and_nothing_is_written() {
     assert!(out.iter().all(|t| t.status != PlanarStatus::Hit));
     assert!(out.iter().any(|t| t.status == PlanarStatus::Environment));
 }
+
+/// F27 (fuzz, `planar`): a render depth near `f32::MAX` times the view
+/// ray's length overflowed the reflected distance to `+inf` on a `Hit`.
+/// The distance saturates at `f32::MAX`, with and without a render color.
+#[test]
+fn a_render_depth_near_the_float_maximum_gives_a_finite_distance() {
+    let sc = Scene::floor(1.0, DVec3::ZERO);
+    let cam = overview(&sc, f32::INFINITY, 48, 32);
+    let f = render(&sc, cam, DepthConvention::Linear);
+    let pass = PlanarPass::try_new(f.gbuffer(), sc.plane(), PlanarOptions::default()).unwrap();
+    let r = pass.prepare().camera;
+    let (rw, rh) = (r.width(), r.height());
+    let n = (rw * rh) as usize;
+    let depth = vec![3.0e38f32; n];
+    let color = vec![[0.5f32; 3]; n];
+    let (out, _, _) = resolve(&pass, &depth, &color, rw, rh);
+    let no_color =
+        PlanarRender::try_new(ImageView::try_new(&depth, rw, rh, rw).unwrap(), None).unwrap();
+    let hits = out.iter().filter(|t| t.status == PlanarStatus::Hit).count();
+    assert!(hits > 0);
+    for (k, t) in out.iter().enumerate() {
+        if t.status == PlanarStatus::Hit {
+            assert!(t.t.is_finite() && t.t > 1e38, "{k}: {}", t.t);
+            let (x, y) = (k as u32 % 48, k as u32 / 48);
+            let (bare, _, _) = pass.pixel(&no_color, x, y);
+            assert_eq!(bare.status, PlanarStatus::Hit);
+            assert!(bare.t.is_finite() && bare.t > 1e38, "{k}: {}", bare.t);
+        }
+    }
+}

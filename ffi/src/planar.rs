@@ -203,7 +203,8 @@ pub struct refl_planar_texel {
     /// Row of that texel.
     pub texel_y: u32,
     /// Distance from the mirror to the reflected surface along the
-    /// reflected ray; 0 unless HIT.
+    /// reflected ray; 0 unless HIT. Always finite: a distance beyond the
+    /// float range (a render depth near FLT_MAX) saturates at FLT_MAX.
     pub t: f32,
 }
 
