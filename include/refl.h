@@ -4311,8 +4311,10 @@ typedef struct refl_layered_pass_texel {
      */
     uint32_t texel_y;
     /**
-     * The hit's position on the face in texels (sub-texel; its floor is
-     * about the texel); 0 without a hit.
+     * The hit's position on the face in texels (sub-texel), always within
+     * the texel's cell `[texel_x, texel_x + 1] x [texel_y, texel_y + 1]`
+     * (also where a map transform stretched beyond float precision puts
+     * `position` outside the box); 0 without a hit.
      */
     struct refl_vec2 uv;
     /**

@@ -267,8 +267,10 @@ pub struct LayeredPassTexel {
     /// The texel `(i, j)` of that face; `[0, 0]` without a hit.
     pub texel: [u32; 2],
     /// The hit's position on that face in texels (the texel axes of
-    /// [`Face::uv_axes`], `0..face_res`; the sub-texel position); `[0, 0]`
-    /// without a hit.
+    /// [`Face::uv_axes`], `0..face_res`; the sub-texel position), always
+    /// within `texel`'s cell `[i, i + 1] x [j, j + 1]`: where the map's
+    /// transform is so stretched that `position` at f32 resolution falls
+    /// outside the box, the cell bounds it; `[0, 0]` without a hit.
     pub uv: Vec2,
     /// The layer of that texel the hit lies in; 0 without a hit.
     pub layer: u32,
@@ -738,7 +740,14 @@ impl<'a, M: LayeredMapSet + ?Sized> LayeredPass<'a, M> {
         t.map = k as u32;
         t.face = h.face;
         t.texel = h.texel;
-        t.uv = Vec2::new(q[u] * res, q[v] * res);
+        // F28: a transform stretched beyond f32 (a shear of 1e21) puts
+        // `position` outside the box; the texel is the search's, so the
+        // sub-texel position stays in its cell.
+        let (ti, tj) = (h.texel[0] as f32, h.texel[1] as f32);
+        t.uv = Vec2::new(
+            (q[u] * res).max(ti).min(ti + 1.0),
+            (q[v] * res).max(tj).min(tj + 1.0),
+        );
         t.layer = h.layer;
         t.payload = h.payload;
         t.t = t_start + h.t;

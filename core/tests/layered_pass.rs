@@ -289,7 +289,12 @@ fn by_hand_segment(
     t.map = k as u32;
     t.face = h.face;
     t.texel = h.texel;
-    t.uv = Vec2::new(q[u] * res, q[v] * res);
+    // The sub-texel position, kept within the hit texel's cell (F28).
+    let (ti, tj) = (h.texel[0] as f32, h.texel[1] as f32);
+    t.uv = Vec2::new(
+        (q[u] * res).max(ti).min(ti + 1.0),
+        (q[v] * res).max(tj).min(tj + 1.0),
+    );
     t.layer = h.layer;
     t.payload = h.payload;
     t.t = t_start + h.t;

@@ -134,8 +134,10 @@ pub struct refl_layered_pass_texel {
     pub texel_x: u32,
     /// Texel row `j` on that face; 0 without a hit.
     pub texel_y: u32,
-    /// The hit's position on the face in texels (sub-texel; its floor is
-    /// about the texel); 0 without a hit.
+    /// The hit's position on the face in texels (sub-texel), always within
+    /// the texel's cell `[texel_x, texel_x + 1] x [texel_y, texel_y + 1]`
+    /// (also where a map transform stretched beyond float precision puts
+    /// `position` outside the box); 0 without a hit.
     pub uv: refl_vec2,
     /// Layer of that texel; 0 without a hit.
     pub layer: u32,
