@@ -4997,7 +4997,7 @@ refl_status refl_cone_angle_from_phong(float *out, float power);
 #if defined(REFL_FEATURE_CONE)
 /**
  * The cone half-angle for a perceptual roughness in [0, 1] (Phong power
- * `2 / r^4 - 2`, `refl_core::cone::try_phong_power_from_roughness`) into
+ * `2 / r^4 - 2`, `refl_core::lobe::try_phong_power_from_roughness`) into
  * `*out`.
  *
  * Returns `REFL_STATUS_NULL_POINTER` if `out` is NULL,

@@ -566,7 +566,7 @@ pub fn cluster_image(g: &GBuffer, f: &ClusterFrame, marks: bool) -> Vec<Vec3> {
             if c == NO_CLUSTER {
                 return Vec3::splat(0.25);
             }
-            let hsh = crate::shade::hash32(c.wrapping_add(0x9e37_79b9));
+            let hsh = refl_core::lobe::pixel_hash(c.wrapping_add(0x9e37_79b9));
             let ch = |s: u32| 0.25 + 0.75 * ((hsh >> s) & 0xff) as f32 / 255.0;
             let col = Vec3::new(ch(0), ch(8), ch(16));
             if marks {

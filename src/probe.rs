@@ -10,12 +10,12 @@
 //! / (levels - 1)` and stores, per texel direction `d`, the mean of `env`
 //! over the normalized Phong lobe `(n + 1) / (2 pi) cos^n theta` around `d`
 //! with `n =` [`crate::scene::phong_exponent`]`(r_k)`: the same lobe the
-//! reference samples ([`crate::shade::sample_phong_lobe`]), without the
+//! reference samples ([`refl_core::lobe::sample_phong_lobe`]), without the
 //! reference's rejection of directions below the surface (a probe knows no
 //! surface). Level 0 stores `env` itself (unfiltered).
 //!
 //! The integral is estimated with `samples` Hammersley points
-//! ([`crate::shade::hammersley`]) under a per-texel Cranley-Patterson
+//! ([`refl_core::lobe::hammersley`]) under a per-texel Cranley-Patterson
 //! rotation, importance-sampling the lobe. With the report's default
 //! ([`ProbeSizes::DEFAULT`]: 512 samples) the table's own Monte-Carlo noise is
 //! measured by `tests/probe.rs` against a second table with a different
@@ -41,9 +41,9 @@
 //! height` (row 0 at the zenith).
 
 use crate::scene::phong_exponent;
-use crate::shade::{hammersley, hash32, sample_phong_lobe};
-use glam::{Vec2, Vec3};
+use glam::Vec3;
 use rayon::prelude::*;
+use refl_core::lobe::{hammersley, hash_rotation, pixel_hash, sample_phong_lobe};
 use std::f32::consts::{PI, TAU};
 
 /// Table sizes of a [`PrefilteredEnv`].
@@ -181,11 +181,8 @@ impl PrefilteredEnv {
                         if k == 0 {
                             return env(d);
                         }
-                        let hsh = hash32(t ^ k.wrapping_mul(0x9e37_79b9) ^ hash32(seed));
-                        let rot = Vec2::new(
-                            (hsh & 0xffff) as f32 / 65_536.0,
-                            (hsh >> 16) as f32 / 65_536.0,
-                        );
+                        let hsh = pixel_hash(t ^ k.wrapping_mul(0x9e37_79b9) ^ pixel_hash(seed));
+                        let rot = hash_rotation(hsh);
                         let mut sum = Vec3::ZERO;
                         for i in 0..sizes.samples {
                             let xi = (hammersley(i, sizes.samples) + rot).fract();

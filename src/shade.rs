@@ -20,8 +20,10 @@
 //! [`crate::scene::phong_exponent`]`(r)` around the mirror direction,
 //! `(n + 1) / (2 pi) cos^n(theta)`. It is estimated by importance sampling that
 //! lobe (inverse CDF `cos theta = xi^(1 / (n + 1))`, design.md erratum of seed
-//! 004 Eq. 4.1) with a Hammersley point set under a per-pixel Cranley-Patterson
-//! rotation (deterministic, stratified). Samples below the geometric surface
+//! 004 Eq. 4.1; [`refl_core::lobe::sample_phong_lobe`]) with a Hammersley point
+//! set under a per-pixel Cranley-Patterson rotation
+//! ([`refl_core::lobe::hammersley`], [`refl_core::lobe::hash_rotation`];
+//! deterministic, stratified): the lobe math of refl-core, not a copy. Samples below the geometric surface
 //! are rejected and the estimate is the mean over the accepted ones, i.e. the
 //! lobe is renormalized to the part above the surface; if every sample is
 //! rejected the mirror direction is used. There is no Fresnel or cosine
@@ -29,8 +31,8 @@
 
 use crate::scene::{phong_exponent, Light, Scene};
 use crate::tracer::{Hit, Tracer};
-use glam::{Vec2, Vec3};
-use std::f32::consts::TAU;
+use glam::Vec3;
+use refl_core::lobe::{hammersley, hash_rotation, pixel_hash, sample_phong_lobe};
 
 /// Unit direction toward the sun, shared by the environment map's sun disc
 /// and the built-in scenes' directional light (elevation about 53 degrees).
@@ -38,13 +40,6 @@ pub const SUN_DIRECTION: Vec3 = Vec3::new(0.477_670_4, 0.796_117_3, 0.371_521_4)
 
 /// Cosine of the sun disc's angular radius (1.5 degrees).
 const SUN_COS_RADIUS: f32 = 0.999_657_3;
-
-/// A 32-bit integer hash (Wellons' "lowbias32": refl-core's
-/// `glossy::pixel_hash`, with which the glossy pass rotates its multi-ray
-/// sets); the only source of pseudo-randomness in the crate.
-pub fn hash32(x: u32) -> u32 {
-    refl_core::glossy::pixel_hash(x)
-}
 
 /// The environment seen by rays that leave the scene, as a function of the
 /// (not necessarily unit) direction only.
@@ -156,26 +151,6 @@ pub fn reflection_dir(view: Vec3, ns: Vec3, ng: Vec3) -> Vec3 {
     }
 }
 
-/// Point `i` of the `n`-point Hammersley set in `[0, 1)^2`:
-/// `(i / n, radical_inverse_2(i))`.
-pub fn hammersley(i: u32, n: u32) -> Vec2 {
-    Vec2::new(
-        i as f32 / n as f32,
-        i.reverse_bits() as f32 * (1.0 / 4_294_967_296.0),
-    )
-}
-
-/// A direction of the Phong lobe of exponent `exponent` around the unit
-/// direction `axis` for the uniform sample `xi`: `cos theta = xi.x^(1 / (n +
-/// 1))`, `phi = 2 pi xi.y`. Its density is `(n + 1) / (2 pi) cos^n theta`.
-pub fn sample_phong_lobe(axis: Vec3, exponent: f32, xi: Vec2) -> Vec3 {
-    let cos_t = xi.x.powf(1.0 / (exponent + 1.0));
-    let sin_t = (1.0 - cos_t * cos_t).max(0.0).sqrt();
-    let (s, c) = (TAU * xi.y).sin_cos();
-    let (t, b) = axis.any_orthonormal_pair();
-    (axis * cos_t + (t * c + b * s) * sin_t).normalize()
-}
-
 /// Shading and reflection tracing over one scene and its tracer.
 #[derive(Clone, Copy)]
 pub struct Shader<'a> {
@@ -279,8 +254,7 @@ impl<'a> Shader<'a> {
         }
         let exponent = phong_exponent(roughness);
         let samples = samples.max(1);
-        let h = hash32(seed);
-        let rotation = Vec2::new((h & 0xffff) as f32 / 65_536.0, (h >> 16) as f32 / 65_536.0);
+        let rotation = hash_rotation(pixel_hash(seed));
         let mut sum = Vec3::ZERO;
         let mut accepted = 0u32;
         for i in 0..samples {

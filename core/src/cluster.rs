@@ -1251,21 +1251,19 @@ impl Lobe {
     }
 }
 
-/// The half-angle of the Phong lobe `cos^n` (density `(n + 1) / (2 pi)
-/// cos^n theta` over the hemisphere) that holds the share `energy` of its
-/// samples: `P(cos theta >= c) = 1 - c^(n + 1)`, so
-/// `theta = acos((1 - energy)^(1 / (n + 1)))` (the inverse CDF of design.md's
-/// erratum to seed 004 Eq. 4.1).
+/// The half-angle of the Phong lobe `cos^n` that holds the share
+/// `energy` of its samples ([`crate::lobe::try_phong_lobe_angle`], here
+/// also refusing an infinite exponent: a cluster lobe of several rays has a
+/// finite one).
 ///
 /// # Errors
 /// [`Error::InvalidArgument`] for a negative or non-finite exponent or an
 /// `energy` outside `(0, 1)`.
 pub fn try_lobe_angle(exponent: f32, energy: f32) -> Result<f32, Error> {
-    if !(exponent >= 0.0 && exponent.is_finite() && energy > 0.0 && energy < 1.0) {
+    if !exponent.is_finite() {
         return Err(Error::InvalidArgument);
     }
-    let c = libm::powf(1.0 - energy, 1.0 / (exponent + 1.0));
-    Ok(libm::acosf(c.clamp(-1.0, 1.0)))
+    crate::lobe::try_phong_lobe_angle(exponent, energy)
 }
 
 /// What [`try_finalize_cluster`] needs besides the cluster's pixels, its
@@ -1317,38 +1315,13 @@ pub struct ClusterShade {
     pub steps: u32,
 }
 
-/// Point `i` of the `n`-point Hammersley set.
-fn hammersley(i: u32, n: u32) -> Vec2 {
-    Vec2::new(
-        i as f32 / n as f32,
-        i.reverse_bits() as f32 * (1.0 / 4_294_967_296.0),
-    )
-}
-
-/// A 32-bit integer hash (a "lowbias32" variant).
-fn hash32(mut x: u32) -> u32 {
-    x ^= x >> 16;
-    x = x.wrapping_mul(0x7feb_352d);
-    x ^= x >> 15;
-    x = x.wrapping_mul(0x846c_a68b);
-    x ^= x >> 16;
-    x
-}
-
 /// Direction `k` of `lobe` around the unit `axis` for a pixel with sample
 /// rotation `rot`: Hammersley points, rotated, through the inverse CDF of
-/// the truncated Phong lobe, `cos theta = (c^(n+1) + xi (1 - c^(n+1)))^(1 /
-/// (n + 1))` with `c = cos(max_angle)`, `phi = 2 pi xi_2`.
+/// the truncated Phong lobe ([`crate::lobe::sample_truncated_phong_lobe`]).
 fn lobe_dir(lobe: &Lobe, axis: Vec3, k: u32, rot: Vec2) -> Vec3 {
-    let xi = hammersley(k, lobe.rays) + rot;
+    let xi = crate::lobe::hammersley(k, lobe.rays) + rot;
     let xi = xi - xi.floor();
-    let np1 = lobe.exponent + 1.0;
-    let c_lo = libm::powf(libm::cosf(lobe.max_angle), np1);
-    let cos_t = libm::powf(c_lo + xi.x * (1.0 - c_lo), 1.0 / np1).clamp(-1.0, 1.0);
-    let sin_t = libm::sqrtf((1.0 - cos_t * cos_t).max(0.0));
-    let phi = core::f32::consts::TAU * xi.y;
-    let (t, b) = axis.any_orthonormal_pair();
-    (axis * cos_t + (t * libm::cosf(phi) + b * libm::sinf(phi)) * sin_t).normalize()
+    crate::lobe::sample_truncated_phong_lobe(axis, lobe.exponent, lobe.max_angle, xi)
 }
 
 /// The color at a hit: bilinear between the 2x2 texel centers around
@@ -1535,8 +1508,8 @@ pub(crate) fn finalize_pixel(
     };
     let (mut env_dir, mut misses) = (Vec3::ZERO, 0u32);
     let mut unanswered = None;
-    let h = hash32(p ^ hash32(finalize.seed));
-    let rot = Vec2::new((h & 0xffff) as f32 / 65_536.0, (h >> 16) as f32 / 65_536.0);
+    let hash = crate::lobe::pixel_hash;
+    let rot = crate::lobe::hash_rotation(hash(p ^ hash(finalize.seed)));
     let mut trace = |dir: Vec3, shade: &mut ClusterShade| {
         shade.rays += 1;
         let dn = dir.dot(nc);

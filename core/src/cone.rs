@@ -152,17 +152,6 @@ use glam::{Vec2, Vec3};
 /// One color texel, linear RGB.
 pub type ColorTexel = [f32; 3];
 
-/// The `xi` of seed 004 Eq. 4.1 (hard-coded 0.244 in the seed).
-pub const CONE_XI: f32 = 0.244;
-
-/// Phong power at which [`try_cone_angle_from_phong`] starts blending the
-/// angle down to 0 (seed 004 Sec. 4.4.5: "any specular power in the range
-/// of 1024-2048 should be interpolated down to an angle of 0").
-pub const MIRROR_POWER_START: f32 = 1024.0;
-
-/// Phong power at and above which the cone angle is 0 (a mirror).
-pub const MIRROR_POWER_END: f32 = 2048.0;
-
 /// Default Gaussian standard deviation of the pre-convolution, in texels of
 /// the finer level. The seed's 7-tap weights (Sec. 4.5.4: 0.001, 0.028,
 /// 0.233, 0.474, ...) correspond to about 0.84; 1.0 suppresses more
@@ -185,63 +174,13 @@ pub const MAX_STRETCH_SAMPLES: u32 = 8;
 
 // ------------------------------------------------------------ cone angle
 
-/// The cone half-angle for a Phong specular power `power` (seed 004
-/// Eq. 4.1, design.md erratum: `theta = acos(xi^(1 / (power + 1)))`, the
-/// inverse CDF of the normalized Phong lobe at `xi =` [`CONE_XI`]). Between
-/// [`MIRROR_POWER_START`] and [`MIRROR_POWER_END`] the angle is scaled
-/// linearly down to 0; at and above the end (and for `+inf`) it is 0.
-///
-/// # Errors
-/// [`Error::InvalidArgument`] for a NaN or negative power.
-pub fn try_cone_angle_from_phong(power: f32) -> Result<f32, Error> {
-    if !(power >= 0.0) {
-        return Err(Error::InvalidArgument);
-    }
-    if power >= MIRROR_POWER_END {
-        return Ok(0.0);
-    }
-    // acos(x) for x = xi^(1/(p+1)) near 1 is ill-conditioned in f32; with
-    // u = 1 - x = -expm1(ln(xi) / (p + 1)) (exact to rounding), acos(x) =
-    // 2 asin(sqrt(u / 2)).
-    let u = -libm::expm1f(libm::logf(CONE_XI) / (power + 1.0));
-    let theta = 2.0 * libm::asinf(libm::sqrtf(0.5 * u));
-    let blend = if power > MIRROR_POWER_START {
-        (MIRROR_POWER_END - power) / (MIRROR_POWER_END - MIRROR_POWER_START)
-    } else {
-        1.0
-    };
-    Ok(theta * blend)
-}
-
-/// The Phong power for a perceptual ("GGX") roughness `r` in `[0, 1]`:
-/// `alpha = r^2` (Burley 2012, "Physically-Based Shading at Disney",
-/// Sec. 5.4: the artist-facing roughness is squared) and the Beckmann to
-/// Phong equivalence `power = 2 / alpha^2 - 2` (Walter et al. 2007,
-/// "Microfacet Models for Refraction through Rough Surfaces", Eq. 30),
-/// so `power = 2 / r^4 - 2`. `r = 0` gives `+inf` (a mirror), `r = 1`
-/// gives 0. This is also the mapping of the root package's scenes.
-///
-/// # Errors
-/// [`Error::InvalidArgument`] for NaN or `r` outside `[0, 1]`.
-pub fn try_phong_power_from_roughness(roughness: f32) -> Result<f32, Error> {
-    if !(0.0..=1.0).contains(&roughness) {
-        return Err(Error::InvalidArgument);
-    }
-    if roughness == 0.0 {
-        return Ok(f32::INFINITY);
-    }
-    let a2 = roughness * roughness * roughness * roughness;
-    Ok((2.0 / a2 - 2.0).max(0.0))
-}
-
-/// The cone half-angle for a perceptual roughness:
-/// [`try_cone_angle_from_phong`] of [`try_phong_power_from_roughness`].
-///
-/// # Errors
-/// As [`try_phong_power_from_roughness`].
-pub fn try_cone_angle_from_roughness(roughness: f32) -> Result<f32, Error> {
-    try_cone_angle_from_phong(try_phong_power_from_roughness(roughness)?)
-}
+/// The lobe math of the cone angle and the multi-ray directions lives in
+/// [`crate::lobe`]; these are its names in the cone family.
+pub use crate::lobe::{
+    cone_ray_direction, phong_lobe_weight, try_cone_angle_from_phong,
+    try_cone_angle_from_roughness, try_phong_power_from_roughness, CONE_XI, MIRROR_POWER_END,
+    MIRROR_POWER_START,
+};
 
 // ------------------------------------------------ isosceles triangle
 
@@ -1308,29 +1247,6 @@ pub fn blend_fade(color: ColorTexel, fallback: ColorTexel, fade: f32) -> ColorTe
 
 // ------------------------------------------------------------ multi-ray
 
-/// Direction `xi` (in `[0, 1)^2`) of the rays sampling the cone of
-/// half-angle `theta` around the unit `axis` uniformly in solid angle (seed
-/// 003 Sec. 3.5: "the reflected rays sample uniformly a cone"): `cos t = 1 -
-/// xi.x (1 - cos theta)`, `phi = 2 pi xi.y`.
-pub fn cone_ray_direction(axis: Vec3, theta: f32, xi: Vec2) -> Vec3 {
-    let cos_max = libm::cosf(theta);
-    let cos_t = 1.0 - xi.x * (1.0 - cos_max);
-    let sin_t = libm::sqrtf((1.0 - cos_t * cos_t).max(0.0));
-    let (s, c) = libm::sincosf(core::f32::consts::TAU * xi.y);
-    let (t, b) = axis.any_orthonormal_pair();
-    (axis * cos_t + (t * c + b * s) * sin_t).normalize()
-}
-
-/// The Phong lobe weight `cos^power` of a direction at cosine `cos` from
-/// the axis (0 for `cos <= 0`); the multi-ray average weights by it.
-pub fn phong_lobe_weight(cos: f32, power: f32) -> f32 {
-    if cos > 0.0 {
-        libm::powf(cos.min(1.0), power)
-    } else {
-        0.0
-    }
-}
-
 /// Settings of [`try_multiray`].
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct MultiRayOptions {
@@ -1424,10 +1340,7 @@ pub fn try_multiray(
     let (mut traced, mut hits, mut iterations) = (0u32, 0u32, 0u32);
     let n = options.rays;
     for i in 0..n {
-        let xi = Vec2::new(
-            i as f32 / n as f32,
-            i.reverse_bits() as f32 * (1.0 / 4_294_967_296.0),
-        ) + options.rotation;
+        let xi = crate::lobe::hammersley(i, n) + options.rotation;
         let xi = xi - xi.floor();
         let dir = cone_ray_direction(axis, theta, xi);
         if dir.dot(normal) <= 0.0 {

@@ -426,23 +426,15 @@ pub fn try_prepare_glossy(
 }
 
 /// The rotation of the multi-ray Hammersley set at pixel `(x, y)` of an
-/// image `width` pixels wide: the two 16-bit halves of [`pixel_hash`] of
-/// the pixel index, in `[0, 1)^2` (decorrelates neighboring pixels).
+/// image `width` pixels wide: [`crate::lobe::hash_rotation`] of
+/// [`pixel_hash`] of the pixel index, in `[0, 1)^2` (decorrelates
+/// neighboring pixels).
 pub fn multiray_rotation(x: u32, y: u32, width: u32) -> Vec2 {
-    let h = pixel_hash(y.wrapping_mul(width).wrapping_add(x));
-    Vec2::new((h & 0xffff) as f32 / 65_536.0, (h >> 16) as f32 / 65_536.0)
+    crate::lobe::hash_rotation(pixel_hash(y.wrapping_mul(width).wrapping_add(x)))
 }
 
-/// An integer hash with good avalanche (xor-shift / multiply rounds with
-/// the constants of Wellons' "lowbias32", 2018).
-pub const fn pixel_hash(mut x: u32) -> u32 {
-    x ^= x >> 16;
-    x = x.wrapping_mul(0x7feb_352d);
-    x ^= x >> 15;
-    x = x.wrapping_mul(0x846c_a68b);
-    x ^= x >> 16;
-    x
-}
+/// The per-pixel hash of the multi-ray rotation ([`crate::lobe::pixel_hash`]).
+pub use crate::lobe::pixel_hash;
 
 /// One pixel of the glossy pass's output.
 #[derive(Clone, Copy, Debug, Default, PartialEq)]

@@ -17,7 +17,7 @@
 //!
 //! | feature | modules | seed (paper) | what it enables |
 //! |---|---|---|---|
-//! | (always) | `camera`, `error`, `image` | | cameras and the three depth conventions, reprojection, image views over caller memory, the one `Error` |
+//! | (always) | `camera`, `error`, `image`, `lobe` | | cameras and the three depth conventions, reprojection, image views over caller memory, the one `Error`; lobe math (roughness to Phong power, the lobe's inverse CDF, cone angle, Hammersley points, lobe and cone sampling) |
 //! | `mirror` (default) | `mirror`, `planar` | 001 appendix, 004 Sec. 4.4.3 | planar reflection: mirror matrix, mirrored camera, oblique projection, the planar mirror pass |
 //! | `hiz` | `hiz` | 004 (Hi-Z cone tracing) Sec. 4.4.1, 4.4.3, 4.6.6, 4.6.7, 4.7.1 | Hi-Z min/max pyramid and traversal; the mirror pass with `MirrorMethod::HiZ` |
 //! | `depth-image` | `step` | 003 (second-order feed-forward) Sec. 3.4 | ray / depth-image intersection by per-pixel stepping; the mirror pass with `MirrorMethod::Step` |
@@ -64,6 +64,7 @@ pub mod image;
 pub mod layered;
 #[cfg(all(feature = "layered", any(feature = "depth-image", feature = "hiz")))]
 pub mod layered_pass;
+pub mod lobe;
 #[cfg(feature = "mirror")]
 pub mod mirror;
 #[cfg(any(feature = "depth-image", feature = "hiz", feature = "mirror"))]

@@ -111,7 +111,7 @@ pub unsafe extern "C" fn refl_cone_angle_from_phong(out: *mut f32, power: f32) -
 }
 
 /// The cone half-angle for a perceptual roughness in [0, 1] (Phong power
-/// `2 / r^4 - 2`, `refl_core::cone::try_phong_power_from_roughness`) into
+/// `2 / r^4 - 2`, `refl_core::lobe::try_phong_power_from_roughness`) into
 /// `*out`.
 ///
 /// Returns `REFL_STATUS_NULL_POINTER` if `out` is NULL,

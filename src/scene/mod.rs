@@ -10,7 +10,7 @@
 //! plotted against scene size; each lands within 10% of the target for targets
 //! from 10k to 1M (below ~5k the fixed minimum tessellation of the small
 //! objects dominates). They are deterministic: the only "randomness" is the
-//! integer hash [`crate::shade::hash32`].
+//! integer hash [`refl_core::lobe::pixel_hash`].
 //!
 //! | scene | reflectors | reflected objects |
 //! |---|---|---|
@@ -208,12 +208,15 @@ impl Material {
 /// The Phong exponent for a roughness: `2 / r^4 - 2`, the Blinn-Phong power
 /// matching a Beckmann lobe of slope `m = r^2` (Walter et al. 2007). Roughness
 /// 0 gives `+inf` (a perfect mirror), 0.25 gives 510, 0.3 gives 245, 1 gives 0.
+/// This is [`refl_core::lobe::try_phong_power_from_roughness`] with the
+/// roughness clamped to `0..=1` (NaN reads as 1).
 pub fn phong_exponent(roughness: f32) -> f32 {
-    if roughness <= 0.0 {
-        f32::INFINITY
+    let r = if roughness.is_nan() {
+        1.0
     } else {
-        (2.0 / roughness.powi(4) - 2.0).max(0.0)
-    }
+        roughness.clamp(0.0, 1.0)
+    };
+    refl_core::lobe::try_phong_power_from_roughness(r).unwrap_or(0.0)
 }
 
 /// A light source. Shading is Lambertian, see [`crate::shade::Shader::direct`].

@@ -3,8 +3,9 @@
 use super::mesh::{cuboid, cylinder, grid_for, sphere, Builder, Mesh};
 use super::path::catmull_rom;
 use super::{CameraPose, Light, Material, Scene};
-use crate::shade::{hash32, SUN_DIRECTION};
+use crate::shade::SUN_DIRECTION;
 use glam::{Affine3A, Quat, Vec3};
+use refl_core::lobe::pixel_hash;
 use refl_core::Plane;
 
 impl Scene {
@@ -120,7 +121,7 @@ impl Scene {
         for j in 0..NZ {
             for i in 0..NX {
                 let c = center(i, j);
-                let h = hash32((j * NX + i) as u32 + 17);
+                let h = pixel_hash((j * NX + i) as u32 + 17);
                 let glossy = (i + 2 * j) % 3 == 0;
                 for (k, (sx, sz)) in [(-1.0, -1.0), (1.0, -1.0), (-1.0, 1.0), (1.0, 1.0)]
                     .into_iter()
@@ -133,7 +134,7 @@ impl Scene {
                     b.object(&format!("pillar_{i}_{j}_{k}"), m, mesh, None);
                 }
                 for k in 0..2u32 {
-                    let hk = hash32(h ^ (k + 1).wrapping_mul(0x9e37_79b9));
+                    let hk = pixel_hash(h ^ (k + 1).wrapping_mul(0x9e37_79b9));
                     let unit = |shift: u32| ((hk >> shift) & 0xff) as f32 / 255.0;
                     let sx = if k == 0 { -1.0 } else { 1.0 };
                     let sz = if hk & 1 == 0 { -1.0 } else { 1.0 };
