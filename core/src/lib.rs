@@ -31,7 +31,8 @@
 //! The shared modules come with the families that use them: `gbuffer`,
 //! `trace`, `summary` (the frame summary a planner reads) and `plan` (the
 //! passes a frame needs) with `mirror`, `hiz` or `depth-image`; `ssr` (the screen-space
-//! mirror pass) and `backface` with `hiz` or `depth-image`. Each module's
+//! mirror pass), `backface` and `temporal` (the history buffer and temporal
+//! filter of seed 004 Sec. 4.6.4-4.6.5) with `hiz` or `depth-image`. Each module's
 //! documentation has a runnable example (`# Example`) of its main pass or
 //! kernel.
 //!
@@ -79,6 +80,8 @@ pub mod step;
 pub mod summary;
 #[cfg(feature = "tcrr")]
 pub mod tcrr;
+#[cfg(any(feature = "depth-image", feature = "hiz"))]
+pub mod temporal;
 #[cfg(any(feature = "depth-image", feature = "hiz", feature = "mirror"))]
 pub mod trace;
 

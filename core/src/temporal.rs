@@ -1,0 +1,548 @@
+//! Temporal filtering of screen-space reflections (seed 004 Sec. 4.6.5,
+//! with the re-projection of Sec. 4.6.4, Listing 4.9): a history buffer in
+//! caller memory accumulates each pixel's reflection over frames; every
+//! frame re-projects the current pixel's surface point into the previous
+//! frame, rejects history that shows another surface (depth and,
+//! optionally, normal), blends the current result into the history that
+//! survives, and lets pixels whose ray failed this frame take the history
+//! where it is valid ("we can just rely on the previous re-projected result
+//! that is already stored in the history buffer and have a chance of
+//! recovering that missing pixel").
+//!
+//! Described once ([`TemporalPass::try_new`]: the current G-buffer, this
+//! frame's reflection colors and which of them were answered, the previous
+//! history with its camera, the options), executed over row bands
+//! ([`TemporalPass::try_run`] into the next history; bands are
+//! independent). The history written this frame is the next frame's input:
+//! the host keeps two buffers and swaps them ("this history buffer is the
+//! same buffer we write our final reflection computation to").
+//!
+//! # Per pixel
+//! 1. **Surface.** A pixel without a usable surface ([`GBuffer::surface`])
+//!    or with mask 0 is [`TemporalStatus::Skipped`]: its history texel is
+//!    emptied (`frames = 0`) and its color is this frame's, unchanged.
+//! 2. **Re-projection** (Sec. 4.6.4, Listing 4.9's `VP_prev VP_curr^-1`):
+//!    the pixel's world point `P` (the G-buffer's unprojection of the pixel
+//!    center) is projected by the history's camera to a sub-pixel position
+//!    `q` and a linear depth `z_prev`. `P` behind that camera or `q`
+//!    outside its image: no history ([`TemporalStats::off_screen`]).
+//! 3. **Rejection.** The 2x2 history texels around `q` (bilinear, texel
+//!    centers at `i + 0.5`) are each kept only if they hold history
+//!    (`frames > 0`, finite color), their own surface point (the history
+//!    camera's unprojection of the texel center at its stored depth) lies
+//!    within [`TemporalOptions::depth_tolerance`] `* z_prev` of the current
+//!    surface's tangent plane (the seed's depth test, "compare them by an
+//!    epsilon", taken along the normal: for a surface facing the camera it
+//!    is the depth difference, and on a floor seen at a grazing angle,
+//!    whose depth changes by more than the tolerance from one texel to
+//!    the next, it still keeps the texels of the same floor), and their
+//!    stored normal has a cosine of at least
+//!    [`TemporalOptions::normal_cos`] with
+//!    the current one (the seed's "to get even more accurate results, one
+//!    could also use the normal"; `-1` turns it off). The kept texels'
+//!    bilinear weights are renormalized; if they sum to less than
+//!    [`MIN_HISTORY_WEIGHT`] there is no history (the pixel was disoccluded,
+//!    [`TemporalStats::rejected`]).
+//! 4. **Blend.** Answered this frame with history (its color the kept
+//!    texels' renormalized bilinear mean, its `frames` the fewest among
+//!    them): with `n = min(frames + 1,`
+//!    [`TemporalOptions::max_frames`]`)`, `color = history + (current -
+//!    history) / n` ([`TemporalStatus::Blended`]): the running mean of the
+//!    frames seen, which becomes an exponential average of weight `1 /
+//!    max_frames` once `n` reaches the cap (the cap bounds the lag of
+//!    reflections that move against their reflector). Answered without
+//!    history: the current color, `frames = 1`
+//!    ([`TemporalStatus::Reset`]).
+//! 5. **Recovery.** Not answered (or a non-finite color) with history and
+//!    [`TemporalOptions::recover`]: the history's color and frame count
+//!    ([`TemporalStatus::Recovered`]). Without history: the current color
+//!    as given (the host's fallback), `frames = 0`, so that no later frame
+//!    takes it for history ([`TemporalStatus::Unanswered`]).
+//! 6. The texel written stores the current surface's linear depth and unit
+//!    world normal for the next frame's test.
+//!
+//! What normals add: the depth test alone accepts history from a surface
+//! at the same depth with another orientation (a crease, an edge seen
+//! edge-on, a normal map that changed), whose reflection points elsewhere;
+//! the normal test rejects those. It costs 12 bytes a texel of history.
+//!
+//! Re-projecting the reflector's surface point (as the seed does) is exact
+//! for the reflector, not for what it reflects: a reflection whose object
+//! lies at another depth than the mirror moves differently under camera
+//! motion (parallax), so accumulated history lags behind it.
+//! [`TemporalOptions::max_frames`] bounds that lag; the reflection-aware
+//! re-projection is seed 000's (`crate::tcrr`).
+//!
+//! # Example
+//! ```rust
+//! use core::f32::consts::FRAC_PI_2;
+//! use refl_core::glam::Vec3;
+//! use refl_core::temporal::{History, HistoryTexel, TemporalOptions, TemporalPass, TemporalStatus};
+//! use refl_core::{Camera, DepthConvention, DepthImage, GBuffer, ImageView, ImageViewMut, NormalSpace};
+//!
+//! // 8 x 8 pixels of a wall at linear depth 4, reflecting red this frame,
+//! // except pixel (3, 3), whose ray failed.
+//! let cam = Camera::try_look_at(Vec3::ZERO, Vec3::NEG_Z, Vec3::Y, FRAC_PI_2, 0.1, 100.0, 8, 8)?;
+//! let (depth, normals) = (vec![4.0f32; 64], vec![[0.0, 0.0, 1.0f32]; 64]);
+//! let depth = DepthImage::try_new(ImageView::try_new(&depth, 8, 8, 8)?, cam, DepthConvention::Linear)?;
+//! let gbuffer = GBuffer::try_new(depth, ImageView::try_new(&normals, 8, 8, 8)?, NormalSpace::World)?;
+//! let color = vec![[1.0f32, 0.0, 0.0]; 64];
+//! let mut answered = vec![1u8; 64];
+//! answered[3 * 8 + 3] = 0;
+//!
+//! // The last frame (same camera) had green everywhere, pixel (3, 3) included.
+//! let green = HistoryTexel { color: [0.0, 1.0, 0.0], frames: 1.0, normal: [0.0, 0.0, 1.0], depth: 4.0 };
+//! let last = vec![green; 64];
+//! let history = History::try_new(cam, ImageView::try_new(&last, 8, 8, 8)?)?;
+//!
+//! let pass = TemporalPass::try_new(
+//!     gbuffer,
+//!     ImageView::try_new(&color, 8, 8, 8)?,
+//!     ImageView::try_new(&answered, 8, 8, 8)?,
+//!     Some(history),
+//!     TemporalOptions::default(),
+//! )?;
+//! let mut next = vec![HistoryTexel::default(); 64];
+//! let stats = pass.try_run(&mut ImageViewMut::try_new(&mut next, 8, 8, 8)?, None)?;
+//! assert_eq!((stats.blended, stats.recovered), (63, 1));
+//! // Two frames averaged where answered; the failed pixel keeps the history.
+//! assert_eq!(next[0].color, [0.5, 0.5, 0.0]);
+//! assert_eq!(next[3 * 8 + 3].color, [0.0, 1.0, 0.0]);
+//! assert_eq!(pass.pixel(3, 3).1, TemporalStatus::Recovered);
+//! # Ok::<(), refl_core::Error>(())
+//! ```
+
+use crate::{Camera, DepthConvention, Error, GBuffer, ImageView, ImageViewMut, RowRange};
+use glam::{Vec2, Vec3};
+
+/// One texel of a history buffer: the accumulated reflection of the
+/// surface the pixel showed, with that surface's depth and normal for the
+/// next frame's rejection test. 32 bytes, `repr(C)`.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+#[repr(C)]
+pub struct HistoryTexel {
+    /// Accumulated reflection color (linear RGB).
+    pub color: [f32; 3],
+    /// Frames accumulated into `color` (the fewest of the texels it was
+    /// re-projected from), at most
+    /// [`TemporalOptions::max_frames`]; `0` marks a texel without history
+    /// (a cleared buffer of zeros is an empty history).
+    pub frames: f32,
+    /// Unit world-space normal of the surface.
+    pub normal: [f32; 3],
+    /// Linear depth of the surface in the history's camera (positive).
+    pub depth: f32,
+}
+
+/// The previous frame's history: its texels and the camera they were
+/// written with.
+#[derive(Clone, Copy, Debug)]
+pub struct History<'a> {
+    camera: Camera,
+    texels: ImageView<'a, HistoryTexel>,
+}
+
+impl<'a> History<'a> {
+    /// Binds the history written last frame to that frame's camera.
+    ///
+    /// # Errors
+    /// [`Error::InvalidArgument`] if `texels` is not the camera's size.
+    pub fn try_new(camera: Camera, texels: ImageView<'a, HistoryTexel>) -> Result<Self, Error> {
+        if texels.width() != camera.width() || texels.height() != camera.height() {
+            return Err(Error::InvalidArgument);
+        }
+        Ok(Self { camera, texels })
+    }
+
+    /// The camera the history was written with.
+    pub const fn camera(&self) -> &Camera {
+        &self.camera
+    }
+
+    /// The history's texels.
+    pub const fn texels(&self) -> &ImageView<'a, HistoryTexel> {
+        &self.texels
+    }
+}
+
+/// Least sum of the kept texels' bilinear weights that still counts as
+/// history (module docs, step 3): a sample whose surviving texels carry
+/// less than this share of the bilinear footprint sits on a silhouette.
+pub const MIN_HISTORY_WEIGHT: f32 = 0.05;
+
+/// Settings of the temporal filter.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct TemporalOptions {
+    /// Most frames the history averages (`>= 1`; `+inf` is the running
+    /// mean of every frame). `1` turns the blend off (recovery remains).
+    /// Default 8.
+    pub max_frames: f32,
+    /// Relative tolerance of the rejection test (`>= 0`, finite): a
+    /// history texel is kept when its surface point lies within
+    /// `depth_tolerance * z_prev` of the current surface's tangent plane
+    /// (module docs, step 3). Default 0.02.
+    pub depth_tolerance: f32,
+    /// Least cosine between the history texel's normal and the current
+    /// one (in `[-1, 1]`; `-1` tests depth only, as the seed's demo does).
+    /// Default 0.9 (about 25 degrees).
+    pub normal_cos: f32,
+    /// Pixels whose ray failed this frame take the history where it is
+    /// valid. Default `true`.
+    pub recover: bool,
+}
+
+impl Default for TemporalOptions {
+    fn default() -> Self {
+        Self {
+            max_frames: 8.0,
+            depth_tolerance: 0.02,
+            normal_cos: 0.9,
+            recover: true,
+        }
+    }
+}
+
+impl TemporalOptions {
+    /// # Errors
+    /// [`Error::InvalidArgument`] if a field is NaN or outside its range.
+    pub fn try_validate(&self) -> Result<(), Error> {
+        let ok = self.max_frames >= 1.0
+            && self.depth_tolerance >= 0.0
+            && self.depth_tolerance.is_finite()
+            && (-1.0..=1.0).contains(&self.normal_cos);
+        if ok {
+            Ok(())
+        } else {
+            Err(Error::InvalidArgument)
+        }
+    }
+}
+
+/// What the filter did at one pixel (module docs, steps 1, 4, 5).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash)]
+#[repr(u8)]
+pub enum TemporalStatus {
+    /// No usable surface or mask 0: the history is emptied there.
+    #[default]
+    Skipped = 0,
+    /// Answered this frame and blended with the history.
+    Blended = 1,
+    /// Answered this frame without usable history (first frame,
+    /// off-screen, disoccluded): the current color alone.
+    Reset = 2,
+    /// Not answered this frame; the history's color is used.
+    Recovered = 3,
+    /// Not answered and no history: the current (fallback) color, marked
+    /// as no history.
+    Unanswered = 4,
+}
+
+/// Counts of one run over a band.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct TemporalStats {
+    /// Pixels answered and blended with history.
+    pub blended: u32,
+    /// Pixels answered without usable history.
+    pub reset: u32,
+    /// Failed pixels recovered from history.
+    pub recovered: u32,
+    /// Failed pixels without history.
+    pub unanswered: u32,
+    /// Pixels with a surface whose re-projected point lies behind the
+    /// history's camera or outside its image.
+    pub off_screen: u32,
+    /// Pixels whose re-projected history texels were all rejected (depth,
+    /// normal, empty) although the point lies in the history's image.
+    pub rejected: u32,
+}
+
+/// The history a pixel's re-projection found: color and frames.
+#[derive(Clone, Copy, Debug, PartialEq)]
+struct Found {
+    color: Vec3,
+    frames: f32,
+}
+
+/// Why a pixel found no history.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+enum NoHistory {
+    /// First frame (no history given).
+    None,
+    /// Behind the history's camera or outside its image.
+    OffScreen,
+    /// Every texel around the point was rejected.
+    Rejected,
+}
+
+/// The temporal filter over one frame (module docs).
+#[derive(Clone, Copy, Debug)]
+pub struct TemporalPass<'a> {
+    gbuffer: GBuffer<'a>,
+    current: ImageView<'a, [f32; 3]>,
+    answered: ImageView<'a, u8>,
+    history: Option<History<'a>>,
+    options: TemporalOptions,
+}
+
+impl<'a> TemporalPass<'a> {
+    /// Binds this frame's G-buffer, its reflection colors `current` (e.g.
+    /// the mirror pass's color output, with the host's answers or
+    /// fallbacks filled in), `answered` (non-zero where `current` holds an
+    /// answer: for the mirror pass, [`crate::MirrorStatus::Hit`] and
+    /// [`crate::MirrorStatus::Sky`], plus the pixels the host traced), the
+    /// previous frame's history (`None` on the first frame or after a
+    /// cut) and the options.
+    ///
+    /// # Errors
+    /// [`Error::InvalidArgument`] if `current`, `answered` or the history
+    /// is not the G-buffer's size, or the options are out of range.
+    pub fn try_new(
+        gbuffer: GBuffer<'a>,
+        current: ImageView<'a, [f32; 3]>,
+        answered: ImageView<'a, u8>,
+        history: Option<History<'a>>,
+        options: TemporalOptions,
+    ) -> Result<Self, Error> {
+        options.try_validate()?;
+        let (w, h) = (gbuffer.width(), gbuffer.height());
+        let same = |vw: u32, vh: u32| vw == w && vh == h;
+        if !same(current.width(), current.height())
+            || !same(answered.width(), answered.height())
+            || history.is_some_and(|hi| !same(hi.texels.width(), hi.texels.height()))
+        {
+            return Err(Error::InvalidArgument);
+        }
+        Ok(Self {
+            gbuffer,
+            current,
+            answered,
+            history,
+            options,
+        })
+    }
+
+    /// The options.
+    pub const fn options(&self) -> &TemporalOptions {
+        &self.options
+    }
+
+    /// History texel `(x, y)`, if kept for the surface point `p` with unit
+    /// normal `n` re-projected at depth `z` (module docs, step 3).
+    fn kept(
+        &self,
+        hist: &History<'_>,
+        x: i64,
+        y: i64,
+        p: Vec3,
+        n: Vec3,
+        z: f32,
+    ) -> Option<HistoryTexel> {
+        if x < 0 || y < 0 {
+            return None;
+        }
+        let t = hist.texels.get(x as u32, y as u32)?;
+        if !(t.frames > 0.0 && t.frames.is_finite() && Vec3::from_array(t.color).is_finite()) {
+            return None;
+        }
+        // The texel's own surface point, from its center and stored depth.
+        let center = Vec2::new(x as f32 + 0.5, y as f32 + 0.5);
+        let at = hist
+            .camera
+            .unproject(center, t.depth, DepthConvention::Linear);
+        let plane_ok = (at - p).dot(n).abs() <= self.options.depth_tolerance * z;
+        let normal_ok = self.options.normal_cos <= -1.0
+            || Vec3::from_array(t.normal).dot(n) >= self.options.normal_cos;
+        (t.depth > 0.0 && plane_ok && normal_ok).then_some(t)
+    }
+
+    /// Steps 2 and 3 for the surface point `p` with unit normal `n`.
+    fn find(&self, p: Vec3, n: Vec3) -> Result<Found, NoHistory> {
+        let hist = self.history.as_ref().ok_or(NoHistory::None)?;
+        let cam = &hist.camera;
+        let q = cam.project(p).ok_or(NoHistory::OffScreen)?;
+        let (w, h) = (cam.width() as f32, cam.height() as f32);
+        if !(q.x >= 0.0 && q.x <= w && q.y >= 0.0 && q.y <= h) {
+            return Err(NoHistory::OffScreen);
+        }
+        let f = Vec2::new(q.x - 0.5, q.y - 0.5);
+        let (fx, fy) = (libm::floorf(f.x), libm::floorf(f.y));
+        let (ax, ay) = (f.x - fx, f.y - fy);
+        let (x0, y0) = (fx as i64, fy as i64);
+        let mut sum = Vec3::ZERO;
+        let (mut wsum, mut frames) = (0.0f32, f32::INFINITY);
+        for (dx, dy, wt) in [
+            (0, 0, (1.0 - ax) * (1.0 - ay)),
+            (1, 0, ax * (1.0 - ay)),
+            (0, 1, (1.0 - ax) * ay),
+            (1, 1, ax * ay),
+        ] {
+            if !(wt > 0.0) {
+                continue;
+            }
+            if let Some(t) = self.kept(hist, x0 + dx, y0 + dy, p, n, q.z) {
+                sum += Vec3::from_array(t.color) * wt;
+                frames = frames.min(t.frames);
+                wsum += wt;
+            }
+        }
+        if !(wsum >= MIN_HISTORY_WEIGHT) {
+            return Err(NoHistory::Rejected);
+        }
+        let color = sum / wsum;
+        // A weighted mean of finite colors is finite unless the sum
+        // overflowed; such history is dropped rather than propagated.
+        if !color.is_finite() {
+            return Err(NoHistory::Rejected);
+        }
+        Ok(Found { color, frames })
+    }
+
+    /// Pixel `(x, y)`'s next history texel and status (module docs), and
+    /// why it found no history, if it did not.
+    fn resolve(&self, x: u32, y: u32) -> (HistoryTexel, TemporalStatus, Option<NoHistory>) {
+        let cur = self.current.get(x, y).unwrap_or([0.0; 3]);
+        let masked = self
+            .gbuffer
+            .mask()
+            .is_some_and(|m| m.get(x, y).unwrap_or(0) == 0);
+        let surface = if masked {
+            None
+        } else {
+            self.gbuffer.surface(x, y)
+        };
+        let Some(s) = surface else {
+            let t = HistoryTexel {
+                color: cur,
+                ..HistoryTexel::default()
+            };
+            return (t, TemporalStatus::Skipped, None);
+        };
+        let cur_v = Vec3::from_array(cur);
+        let answered = self.answered.get(x, y).unwrap_or(0) != 0 && cur_v.is_finite();
+        let found = self.find(s.position, s.normal);
+        let texel = |color: Vec3, frames: f32| HistoryTexel {
+            color: color.to_array(),
+            frames,
+            normal: s.normal.to_array(),
+            depth: s.depth,
+        };
+        match (answered, found) {
+            (true, Ok(hist)) => {
+                let n = (hist.frames + 1.0).min(self.options.max_frames);
+                let color = hist.color + (cur_v - hist.color) / n;
+                // current and history finite: so is a convex combination,
+                // except where `cur - hist` overflows; fall back to the
+                // current color there.
+                let color = if color.is_finite() { color } else { cur_v };
+                (texel(color, n), TemporalStatus::Blended, None)
+            }
+            (true, Err(why)) => (texel(cur_v, 1.0), TemporalStatus::Reset, Some(why)),
+            (false, Ok(hist)) if self.options.recover => (
+                texel(hist.color, hist.frames),
+                TemporalStatus::Recovered,
+                None,
+            ),
+            (false, found) => {
+                let mut t = texel(Vec3::ZERO, 0.0);
+                t.color = cur;
+                (t, TemporalStatus::Unanswered, found.err())
+            }
+        }
+    }
+
+    /// Pixel `(x, y)`'s next history texel and what the filter did there
+    /// (what [`TemporalPass::try_run`] writes); `(default, Skipped)`
+    /// outside the image.
+    pub fn pixel(&self, x: u32, y: u32) -> (HistoryTexel, TemporalStatus) {
+        if x >= self.gbuffer.width() || y >= self.gbuffer.height() {
+            return (HistoryTexel::default(), TemporalStatus::Skipped);
+        }
+        let (t, s, _) = self.resolve(x, y);
+        (t, s)
+    }
+
+    /// Runs the filter over the rows `next` owns (a whole image or a band
+    /// from [`ImageViewMut::try_band`]): writes every pixel's next history
+    /// texel (its `color` is this frame's filtered reflection) and, if
+    /// given, its [`TemporalStatus`] as a byte into `status`.
+    ///
+    /// Contract: `next` is the next frame's history, not the one this pass
+    /// reads (Rust's borrows guarantee it); `next` and `status` are the
+    /// G-buffer's size and own the same rows.
+    ///
+    /// # Errors
+    /// [`Error::InvalidArgument`] if `next` or `status` is not the
+    /// G-buffer's size or their bands differ. Nothing is written then.
+    pub fn try_run(
+        &self,
+        next: &mut ImageViewMut<'_, HistoryTexel>,
+        mut status: Option<&mut ImageViewMut<'_, u8>>,
+    ) -> Result<TemporalStats, Error> {
+        let (w, h) = (self.gbuffer.width(), self.gbuffer.height());
+        if next.width() != w || next.height() != h {
+            return Err(Error::InvalidArgument);
+        }
+        if let Some(s) = status.as_deref() {
+            if s.width() != w || s.height() != h || s.owned_rows() != next.owned_rows() {
+                return Err(Error::InvalidArgument);
+            }
+        }
+        let Some(rows) = next.owned_rows() else {
+            return Ok(TemporalStats::default());
+        };
+        Ok(self.run_rows(rows, &mut |x, y, t, st| {
+            if let Some(p) = next.get_mut(x, y) {
+                *p = *t;
+            }
+            if let Some(p) = status.as_deref_mut().and_then(|s| s.get_mut(x, y)) {
+                *p = st as u8;
+            }
+        }))
+    }
+
+    /// Runs the filter over `rows` (checked against the G-buffer's height)
+    /// and hands every pixel's texel and status to `sink`: the loop of
+    /// [`TemporalPass::try_run`] for hosts whose buffers are not
+    /// [`ImageViewMut`]s.
+    ///
+    /// # Errors
+    /// [`Error::InvalidArgument`] if `rows` ends beyond the G-buffer's
+    /// height. Nothing is handed to `sink` then.
+    pub fn try_run_rows(
+        &self,
+        rows: RowRange,
+        sink: &mut impl FnMut(u32, u32, &HistoryTexel, TemporalStatus),
+    ) -> Result<TemporalStats, Error> {
+        if rows.end() > self.gbuffer.height() {
+            return Err(Error::InvalidArgument);
+        }
+        Ok(self.run_rows(rows, sink))
+    }
+
+    fn run_rows(
+        &self,
+        rows: RowRange,
+        sink: &mut impl FnMut(u32, u32, &HistoryTexel, TemporalStatus),
+    ) -> TemporalStats {
+        let mut stats = TemporalStats::default();
+        for y in rows.rows() {
+            for x in 0..self.gbuffer.width() {
+                let (t, s, why) = self.resolve(x, y);
+                match s {
+                    TemporalStatus::Skipped => {}
+                    TemporalStatus::Blended => stats.blended += 1,
+                    TemporalStatus::Reset => stats.reset += 1,
+                    TemporalStatus::Recovered => stats.recovered += 1,
+                    TemporalStatus::Unanswered => stats.unanswered += 1,
+                }
+                match why {
+                    Some(NoHistory::OffScreen) => stats.off_screen += 1,
+                    Some(NoHistory::Rejected) => stats.rejected += 1,
+                    Some(NoHistory::None) | None => {}
+                }
+                sink(x, y, &t, s);
+            }
+        }
+        stats
+    }
+}
