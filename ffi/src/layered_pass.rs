@@ -463,7 +463,10 @@ unsafe fn scratch_required<T>(
     Ok(())
 }
 
-/// The prepared scratch as refl-core's records.
+/// The prepared scratch as refl-core's records, and its length as the
+/// overlap checks see it. Without maps the scratch is not read: a NULL
+/// `scratch` is then empty whatever `scratch_len` says (the header's
+/// "NULL or readable for `scratch_len` records"; fuzz finding F29).
 ///
 /// # Safety
 /// `scratch` NULL or readable for `scratch_len` records, not written
@@ -471,10 +474,17 @@ unsafe fn scratch_required<T>(
 unsafe fn bounds<'a>(
     scratch: *const refl_layered_bound,
     scratch_len: usize,
-) -> Result<&'a [LayeredBound], Error> {
+    maps_len: usize,
+) -> Result<(&'a [LayeredBound], usize), Error> {
+    let len = if maps_len == 0 && scratch.is_null() {
+        0
+    } else {
+        scratch_len
+    };
     // SAFETY: caller contract; refl_layered_bound is LayeredBound field for
     // field (asserted above).
-    unsafe { slice_or_empty(scratch.cast::<LayeredBound>(), scratch_len, "scratch") }
+    let sc = unsafe { slice_or_empty(scratch.cast::<LayeredBound>(), len, "scratch") }?;
+    Ok((sc, len))
 }
 
 /// The pass of a trace call: `inputs` with the prepared `scratch` (its
@@ -718,7 +728,7 @@ pub unsafe extern "C" fn refl_layered_trace_rows(
             byte_len::<[f32; 3]>(color.data as usize, color.len)?
         };
         // SAFETY: caller contract.
-        let sc = unsafe { bounds(scratch, scratch_len) }?;
+        let (sc, sc_len) = unsafe { bounds(scratch, scratch_len, i.inp.maps_len) }?;
         i.disjoint(
             &[
                 (out as usize, out_bytes),
@@ -729,7 +739,7 @@ pub unsafe extern "C" fn refl_layered_trace_rows(
                     core::mem::size_of::<refl_layered_pass_stats>(),
                 ),
             ],
-            &[range(scratch, scratch_len)],
+            &[range(scratch, sc_len)],
         )?;
         let p = pass(&i, sc)?;
         let color_view = if color.data.is_null() {
@@ -827,7 +837,7 @@ pub unsafe extern "C" fn refl_layered_trace_host_rays(
             ));
         }
         // SAFETY: caller contract.
-        let sc = unsafe { bounds(scratch, scratch_len) }?;
+        let (sc, sc_len) = unsafe { bounds(scratch, scratch_len, i.inp.maps_len) }?;
         i.disjoint(
             &[
                 (out as usize, out_bytes),
@@ -838,7 +848,7 @@ pub unsafe extern "C" fn refl_layered_trace_host_rays(
                     core::mem::size_of::<refl_layered_pass_stats>(),
                 ),
             ],
-            &[range(scratch, scratch_len), (rays as usize, rays_bytes)],
+            &[range(scratch, sc_len), (rays as usize, rays_bytes)],
         )?;
         let p = pass(&i, sc)?;
         // SAFETY: checked non-null (or empty), aligned, sizes fit isize;

@@ -748,6 +748,81 @@ fn null_arguments_are_refused_before_any_size_or_input_error() {
 }
 
 #[test]
+fn without_maps_a_null_scratch_of_any_length_is_empty() {
+    // Finding F29: with no maps the scratch is not read, and the header
+    // allows it NULL; a NULL scratch with a non-zero `scratch_len` was
+    // refused as NULL_POINTER by both trace calls.
+    let e = ErrorSetup::new();
+    let (inp, d, _) = e.c();
+    let no_maps = refl_layered_pass_input {
+        maps: core::ptr::null(),
+        maps_len: 0,
+        ..inp
+    };
+    let n = (W * H) as usize;
+    let all = refl_row_range { begin: 0, end: H };
+    for len in [0usize, 3, usize::MAX] {
+        let mut out = vec![refl_layered_pass_texel::default(); n];
+        let mut st = refl_layered_pass_stats::default();
+        // SAFETY: valid outputs, no maps, NULL scratch.
+        let s = unsafe {
+            refl_layered_trace_rows(
+                &mut st,
+                out.as_mut_ptr(),
+                n,
+                no_color(),
+                core::ptr::null_mut(),
+                0,
+                &no_maps,
+                &d,
+                core::ptr::null(),
+                len,
+                all,
+            )
+        };
+        assert_eq!(s, refl_status::Ok, "scratch_len {len}: {}", last_error());
+        let ray = refl_host_ray {
+            x: 3,
+            y: 4,
+            origin: refl_vec3 {
+                x: 0.0,
+                y: 1.0,
+                z: 5.0,
+            },
+            dir: refl_vec3 {
+                x: 0.0,
+                y: 0.0,
+                z: -1.0,
+            },
+            t_min: 0.0,
+            t_max: 10.0,
+            status: 0,
+        };
+        let rays = [ray; 2];
+        let mut ray_out = vec![refl_layered_pass_texel::default(); 2];
+        // SAFETY: as above, two listed rays.
+        let s = unsafe {
+            refl_layered_trace_host_rays(
+                &mut st,
+                ray_out.as_mut_ptr(),
+                2,
+                core::ptr::null_mut(),
+                0,
+                core::ptr::null_mut(),
+                0,
+                &no_maps,
+                &d,
+                core::ptr::null(),
+                len,
+                rays.as_ptr(),
+                rays.len(),
+            )
+        };
+        assert_eq!(s, refl_status::Ok, "scratch_len {len}: {}", last_error());
+    }
+}
+
+#[test]
 fn bad_sizes_and_a_color_output_without_payload_colors_are_refused() {
     let e = ErrorSetup::new();
     let (inp, d, scratch) = e.c();
