@@ -23,4 +23,5 @@ pub mod scene;
 pub mod screen;
 pub mod shade;
 pub mod tcrr;
+pub mod temporal;
 pub mod tracer;

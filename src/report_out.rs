@@ -182,11 +182,13 @@ pub enum Marker {
     Hourglass,
     /// Two triangles meeting at their tips, side by side.
     Bowtie,
+    /// An arrowhead pointing up (a triangle with a notch in its base).
+    Chevron,
 }
 
 impl Marker {
     /// Every shape, in the order the unknown-method fallback indexes them.
-    pub const ALL: [Marker; 14] = [
+    pub const ALL: [Marker; 15] = [
         Marker::Circle,
         Marker::Square,
         Marker::Diamond,
@@ -201,6 +203,7 @@ impl Marker {
         Marker::Cross,
         Marker::Hourglass,
         Marker::Bowtie,
+        Marker::Chevron,
     ];
 
     /// The shape's outline as pixel offsets from the point it marks (`y`
@@ -267,6 +270,7 @@ impl Marker {
             }
             Marker::Hourglass => hourglass(r),
             Marker::Bowtie => hourglass(r).into_iter().map(|(x, y)| (y, x)).collect(),
+            Marker::Chevron => vec![(0.0, -1.2 * r), (r, r), (0.0, 0.35 * r), (-r, r)],
         };
         pts.into_iter()
             .map(|(x, y)| (x.round() as i32, y.round() as i32))
@@ -294,7 +298,7 @@ const fn style(r: u8, g: u8, b: u8, marker: Marker) -> MethodStyle {
 /// own color and its own shape, so a method reads the same in every panel
 /// and every run. The colors are far apart (CIEDE2000 at least 20 between
 /// any two) and dark enough to read on white.
-pub const KNOWN_METHOD_STYLES: [(&str, MethodStyle); 14] = [
+pub const KNOWN_METHOD_STYLES: [(&str, MethodStyle); 15] = [
     ("reference", style(0x00, 0x00, 0x00, Marker::Circle)),
     ("envmap", style(0x65, 0x45, 0x22, Marker::Square)),
     ("planar-mirror", style(0xE3, 0x77, 0xC2, Marker::Diamond)),
@@ -309,6 +313,7 @@ pub const KNOWN_METHOD_STYLES: [(&str, MethodStyle); 14] = [
     ("naive-warp", style(0xC2, 0xB2, 0x80, Marker::TriangleLeft)),
     ("cone", style(0x4B, 0x00, 0x82, Marker::Plus)),
     ("multiray", style(0xFA, 0x80, 0x72, Marker::Hourglass)),
+    ("hiz-temporal", style(0x4B, 0x00, 0x1E, Marker::Chevron)),
 ];
 
 /// Styles for methods missing from [`KNOWN_METHOD_STYLES`]. No known

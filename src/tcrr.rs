@@ -169,7 +169,7 @@ pub fn trace_mirror(shader: &Shader, g: &GBuffer, i: usize) -> (Vec3, f32) {
 
 /// Traces every handled pixel: colors and distances (zero / `inf`
 /// elsewhere).
-fn trace_all(
+pub fn trace_all(
     shader: &Shader,
     g: &GBuffer,
     handled: &[bool],

@@ -58,20 +58,37 @@
 //!    ([`TemporalStatus::Recovered`]). Without history: the current color
 //!    as given (the host's fallback), `frames = 0`, so that no later frame
 //!    takes it for history ([`TemporalStatus::Unanswered`]).
-//! 6. The texel written stores the current surface's linear depth and unit
-//!    world normal for the next frame's test.
+//! 6. The texel written stores the current surface's linear depth, unit
+//!    world normal and reflection distance for the next frame's tests.
 //!
 //! What normals add: the depth test alone accepts history from a surface
 //! at the same depth with another orientation (a crease, an edge seen
 //! edge-on, a normal map that changed), whose reflection points elsewhere;
 //! the normal test rejects those. It costs 12 bytes a texel of history.
 //!
+//! # Reflection-aware re-projection
+//!
 //! Re-projecting the reflector's surface point (as the seed does) is exact
 //! for the reflector, not for what it reflects: a reflection whose object
 //! lies at another depth than the mirror moves differently under camera
-//! motion (parallax), so accumulated history lags behind it.
-//! [`TemporalOptions::max_frames`] bounds that lag; the reflection-aware
-//! re-projection is seed 000's (`crate::tcrr`).
+//! motion (parallax), so accumulated history lags behind it and ghosts
+//! ([`TemporalOptions::max_frames`] bounds the lag). Given this frame's
+//! reflection distances ([`TemporalPass::try_with_distance`]: the mirror
+//! pass's hit `t`), the pass re-projects instead the reflection's
+//! *virtual point*, the point the eye sees through the mirror, `eye + (P -
+//! eye) (|P - eye| + t) / |P - eye|` (exact for a planar mirror, an
+//! approximation on curved ones; the re-projection of Stachowiak's
+//! "Stochastic Screen-Space Reflections", SIGGRAPH 2015, a production
+//! extension beyond the seed), at `1e6 |P - eye|` for the sky. The
+//! texels found there must still pass step 3's surface tests (they show
+//! the same reflector) and their own virtual point must lie as far from
+//! the history's eye as this one within the tolerance (the same reflected
+//! surface; the sky only with the sky). A
+//! failed pixel, which has no distance this frame, takes the one the
+//! history holds at its surface's re-projection, refined twice by the one
+//! it holds at that distance's virtual point. The history stores each
+//! texel's distance for the next frame. TCRR (`crate::tcrr`, seed 000)
+//! is refl's full reflection re-projection, with its own search.
 //!
 //! # Example
 //! ```rust
@@ -91,7 +108,7 @@
 //! answered[3 * 8 + 3] = 0;
 //!
 //! // The last frame (same camera) had green everywhere, pixel (3, 3) included.
-//! let green = HistoryTexel { color: [0.0, 1.0, 0.0], frames: 1.0, normal: [0.0, 0.0, 1.0], depth: 4.0 };
+//! let green = HistoryTexel { color: [0.0, 1.0, 0.0], frames: 1.0, normal: [0.0, 0.0, 1.0], depth: 4.0, distance: 0.0 };
 //! let last = vec![green; 64];
 //! let history = History::try_new(cam, ImageView::try_new(&last, 8, 8, 8)?)?;
 //!
@@ -112,12 +129,14 @@
 //! # Ok::<(), refl_core::Error>(())
 //! ```
 
+use crate::gbuffer::Surface;
 use crate::{Camera, DepthConvention, Error, GBuffer, ImageView, ImageViewMut, RowRange};
 use glam::{Vec2, Vec3};
 
 /// One texel of a history buffer: the accumulated reflection of the
-/// surface the pixel showed, with that surface's depth and normal for the
-/// next frame's rejection test. 32 bytes, `repr(C)`.
+/// surface the pixel showed, with that surface's depth and normal and the
+/// reflection's distance for the next frame's re-projection and rejection
+/// tests. 36 bytes, `repr(C)`.
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
 #[repr(C)]
 pub struct HistoryTexel {
@@ -132,6 +151,11 @@ pub struct HistoryTexel {
     pub normal: [f32; 3],
     /// Linear depth of the surface in the history's camera (positive).
     pub depth: f32,
+    /// Distance from the surface to what it reflects (the mirror pass's
+    /// hit `t`; `+inf` for a reflection of the sky); `0` where unknown (no
+    /// distance image). A recovered pixel stores the distance its
+    /// re-projection used (module docs, "Reflection-aware re-projection").
+    pub distance: f32,
 }
 
 /// The previous frame's history: its texels and the camera they were
@@ -261,6 +285,93 @@ pub struct TemporalStats {
 struct Found {
     color: Vec3,
     frames: f32,
+    /// The kept texels' reflection ([`Reflections::mean`]).
+    reflected: Reflected,
+}
+
+/// The virtual point of a reflection at distance `t` from the surface
+/// point `p` seen from `eye`: `eye + (p - eye) (|p - eye| + t) / |p -
+/// eye|`, at [`SKY_DISTANCE`] `|p - eye|` past `p` for the sky (module
+/// docs, "Reflection-aware re-projection").
+#[inline]
+fn virtual_point(eye: Vec3, p: Vec3, t: f32) -> Vec3 {
+    let v = p - eye;
+    let d = v.length();
+    let t = if t.is_finite() { t } else { SKY_DISTANCE * d };
+    eye + v * ((d + t) / d)
+}
+
+/// A reflection distance that is known: positive (`+inf` for the sky).
+#[inline]
+fn known_distance(t: f32) -> Option<f32> {
+    (t > 0.0).then_some(t)
+}
+
+/// What a history texel reflects.
+#[derive(Clone, Copy, Debug, PartialEq)]
+enum Reflected {
+    /// No distance stored.
+    Unknown,
+    /// The sky.
+    Sky,
+    /// The virtual point (module docs, "Reflection-aware re-projection").
+    Point(Vec3),
+}
+
+/// The reflections of the kept texels: the weighted mean of their virtual
+/// points when all have one, the sky when all are the sky, otherwise
+/// (mixed or unknown) the reflection of the texel of the largest bilinear
+/// weight.
+#[derive(Clone, Copy, Debug)]
+struct Reflections {
+    sum: Vec3,
+    weight: f32,
+    sky: bool,
+    unknown: bool,
+    nearest: (Reflected, f32),
+}
+
+impl Default for Reflections {
+    fn default() -> Self {
+        Self {
+            sum: Vec3::ZERO,
+            weight: 0.0,
+            sky: false,
+            unknown: false,
+            nearest: (Reflected::Unknown, 0.0),
+        }
+    }
+}
+
+impl Reflections {
+    fn add(&mut self, r: Reflected, w: f32) {
+        if w > self.nearest.1 {
+            self.nearest = (r, w);
+        }
+        match r {
+            Reflected::Point(v) => {
+                self.sum += v * w;
+                self.weight += w;
+            }
+            Reflected::Sky => self.sky = true,
+            Reflected::Unknown => self.unknown = true,
+        }
+    }
+
+    fn mean(&self) -> Reflected {
+        match (self.unknown, self.sky, self.weight > 0.0) {
+            (false, true, false) => Reflected::Sky,
+            (false, false, true) => {
+                let v = self.sum / self.weight;
+                if v.is_finite() {
+                    Reflected::Point(v)
+                } else {
+                    self.nearest.0
+                }
+            }
+            _ => self.nearest.0,
+        }
+    }
 }
 
 /// Why a pixel found no history.
@@ -280,9 +391,15 @@ pub struct TemporalPass<'a> {
     gbuffer: GBuffer<'a>,
     current: ImageView<'a, [f32; 3]>,
     answered: ImageView<'a, u8>,
+    distance: Option<ImageView<'a, f32>>,
     history: Option<History<'a>>,
     options: TemporalOptions,
 }
+
+/// How far past a surface a reflection of the sky is re-projected, in
+/// multiples of the surface's distance from the eye (a point at infinity
+/// for every camera the history can hold).
+const SKY_DISTANCE: f32 = 1e6;
 
 impl<'a> TemporalPass<'a> {
     /// Binds this frame's G-buffer, its reflection colors `current` (e.g.
@@ -316,9 +433,26 @@ impl<'a> TemporalPass<'a> {
             gbuffer,
             current,
             answered,
+            distance: None,
             history,
             options,
         })
+    }
+
+    /// Adds this frame's reflection distances (the mirror pass's hit `t`
+    /// of each answered pixel, `+inf` for the sky; `0`, negative or NaN
+    /// where unknown): the history is then re-projected through the
+    /// reflection's virtual point (module docs, "Reflection-aware
+    /// re-projection") instead of the reflector's surface point.
+    ///
+    /// # Errors
+    /// [`Error::InvalidArgument`] if `distance` is not the G-buffer's size.
+    pub fn try_with_distance(mut self, distance: ImageView<'a, f32>) -> Result<Self, Error> {
+        if distance.width() != self.gbuffer.width() || distance.height() != self.gbuffer.height() {
+            return Err(Error::InvalidArgument);
+        }
+        self.distance = Some(distance);
+        Ok(self)
     }
 
     /// The options.
@@ -327,7 +461,10 @@ impl<'a> TemporalPass<'a> {
     }
 
     /// History texel `(x, y)`, if kept for the surface point `p` with unit
-    /// normal `n` re-projected at depth `z` (module docs, step 3).
+    /// normal `n` at depth `z` in the history's camera, whose reflection's
+    /// virtual point is `expect` if known (with its distance: module docs,
+    /// step 3 and "Reflection-aware re-projection").
+    #[allow(clippy::too_many_arguments)]
     fn kept(
         &self,
         hist: &History<'_>,
@@ -336,7 +473,8 @@ impl<'a> TemporalPass<'a> {
         p: Vec3,
         n: Vec3,
         z: f32,
-    ) -> Option<HistoryTexel> {
+        expect: Option<(Vec3, f32)>,
+    ) -> Option<(HistoryTexel, Reflected)> {
         if x < 0 || y < 0 {
             return None;
         }
@@ -352,14 +490,47 @@ impl<'a> TemporalPass<'a> {
         let plane_ok = (at - p).dot(n).abs() <= self.options.depth_tolerance * z;
         let normal_ok = self.options.normal_cos <= -1.0
             || Vec3::from_array(t.normal).dot(n) >= self.options.normal_cos;
-        (t.depth > 0.0 && plane_ok && normal_ok).then_some(t)
+        let eye = hist.camera.eye();
+        let reflected = match known_distance(t.distance) {
+            Some(d) if d.is_finite() => Reflected::Point(virtual_point(eye, at, d)),
+            Some(_) => Reflected::Sky,
+            None => Reflected::Unknown,
+        };
+        // The same reflected surface: the texel's own virtual point as far
+        // from the history's eye as this one within the tolerance (its
+        // lateral offset is the texel's footprint, not a difference), or
+        // both the sky.
+        let distance_ok = match (expect, reflected) {
+            (Some((v, e)), Reflected::Point(vh)) if e.is_finite() => {
+                let r = (v - eye).length();
+                ((vh - eye).length() - r).abs() <= self.options.depth_tolerance * r
+            }
+            (Some(_), Reflected::Point(_)) => false,
+            (Some((_, e)), Reflected::Sky) => !e.is_finite(),
+            _ => true,
+        };
+        (t.depth > 0.0 && plane_ok && normal_ok && distance_ok).then_some((t, reflected))
     }
 
-    /// Steps 2 and 3 for the surface point `p` with unit normal `n`.
-    fn find(&self, p: Vec3, n: Vec3) -> Result<Found, NoHistory> {
+    /// Steps 2 and 3 for the surface point `p` with unit normal `n`,
+    /// re-projecting the point `at` (`p` itself, or the reflection's
+    /// virtual point) and expecting the reflection distance `expect` if
+    /// known.
+    fn find(
+        &self,
+        at: Vec3,
+        p: Vec3,
+        n: Vec3,
+        expect: Option<(Vec3, f32)>,
+    ) -> Result<Found, NoHistory> {
         let hist = self.history.as_ref().ok_or(NoHistory::None)?;
         let cam = &hist.camera;
-        let q = cam.project(p).ok_or(NoHistory::OffScreen)?;
+        let q = cam.project(at).ok_or(NoHistory::OffScreen)?;
+        // The tolerance scale: the surface's depth in the history's camera.
+        let z = if at == p { q.z } else { cam.linear_depth(p) };
+        if !(z > 0.0) {
+            return Err(NoHistory::OffScreen);
+        }
         let (w, h) = (cam.width() as f32, cam.height() as f32);
         if !(q.x >= 0.0 && q.x <= w && q.y >= 0.0 && q.y <= h) {
             return Err(NoHistory::OffScreen);
@@ -370,6 +541,7 @@ impl<'a> TemporalPass<'a> {
         let (x0, y0) = (fx as i64, fy as i64);
         let mut sum = Vec3::ZERO;
         let (mut wsum, mut frames) = (0.0f32, f32::INFINITY);
+        let mut reflections = Reflections::default();
         for (dx, dy, wt) in [
             (0, 0, (1.0 - ax) * (1.0 - ay)),
             (1, 0, ax * (1.0 - ay)),
@@ -379,9 +551,10 @@ impl<'a> TemporalPass<'a> {
             if !(wt > 0.0) {
                 continue;
             }
-            if let Some(t) = self.kept(hist, x0 + dx, y0 + dy, p, n, q.z) {
+            if let Some((t, r)) = self.kept(hist, x0 + dx, y0 + dy, p, n, z, expect) {
                 sum += Vec3::from_array(t.color) * wt;
                 frames = frames.min(t.frames);
+                reflections.add(r, wt);
                 wsum += wt;
             }
         }
@@ -394,7 +567,64 @@ impl<'a> TemporalPass<'a> {
         if !color.is_finite() {
             return Err(NoHistory::Rejected);
         }
-        Ok(Found { color, frames })
+        Ok(Found {
+            color,
+            frames,
+            reflected: reflections.mean(),
+        })
+    }
+
+    /// Steps 2 and 3 for the surface `s` seen from `eye` (module docs):
+    /// through the reflection's virtual point at distance `t` where known
+    /// (this frame's), or else at the distance the history's virtual point
+    /// puts it (a failed pixel), through the surface point otherwise. Also
+    /// returns the distance used, `0` for none.
+    fn find_for(&self, s: &Surface, eye: Vec3, t: Option<f32>) -> (Result<Found, NoHistory>, f32) {
+        let (p, n) = (s.position, s.normal);
+        if self.distance.is_none() {
+            return (self.find(p, p, n, None), 0.0);
+        }
+        let t = match t {
+            Some(t) => Some(t),
+            // A failed pixel: the distance along its own ray to the virtual
+            // point the history holds where its surface was, refined twice by
+            // the virtual point the history holds there (a fixed point where
+            // the reflection varies smoothly, as on a planar mirror).
+            None => {
+                let d = (p - eye).length();
+                let along = |r: Reflected| match r {
+                    Reflected::Point(v) => known_distance((v - eye).length() - d),
+                    Reflected::Sky => Some(f32::INFINITY),
+                    Reflected::Unknown => None,
+                };
+                let probe = |at: Vec3| {
+                    self.find(at, p, n, None)
+                        .ok()
+                        .and_then(|f| along(f.reflected))
+                };
+                let mut t = probe(p);
+                for _ in 0..2 {
+                    let Some(guess) = t else { break };
+                    let at = virtual_point(eye, p, guess);
+                    if !at.is_finite() {
+                        break;
+                    }
+                    t = probe(at).or(Some(guess));
+                }
+                t
+            }
+        };
+        match t {
+            Some(t) => {
+                let at = virtual_point(eye, p, t);
+                if at.is_finite() {
+                    (self.find(at, p, n, Some((at, t))), t)
+                } else {
+                    (self.find(p, p, n, None), 0.0)
+                }
+            }
+            None => (self.find(p, p, n, None), 0.0),
+        }
     }
 
     /// Pixel `(x, y)`'s next history texel and status (module docs), and
@@ -419,13 +649,23 @@ impl<'a> TemporalPass<'a> {
         };
         let cur_v = Vec3::from_array(cur);
         let answered = self.answered.get(x, y).unwrap_or(0) != 0 && cur_v.is_finite();
-        let found = self.find(s.position, s.normal);
-        let texel = |color: Vec3, frames: f32| HistoryTexel {
+        let t_cur = if answered {
+            self.distance
+                .as_ref()
+                .and_then(|d| d.get(x, y))
+                .and_then(known_distance)
+        } else {
+            None
+        };
+        let (found, t_used) = self.find_for(&s, self.gbuffer.camera().eye(), t_cur);
+        let texel = |color: Vec3, frames: f32, distance: f32| HistoryTexel {
             color: color.to_array(),
             frames,
             normal: s.normal.to_array(),
             depth: s.depth,
+            distance,
         };
+        let t_now = t_cur.unwrap_or(0.0);
         match (answered, found) {
             (true, Ok(hist)) => {
                 let n = (hist.frames + 1.0).min(self.options.max_frames);
@@ -434,16 +674,16 @@ impl<'a> TemporalPass<'a> {
                 // except where `cur - hist` overflows; fall back to the
                 // current color there.
                 let color = if color.is_finite() { color } else { cur_v };
-                (texel(color, n), TemporalStatus::Blended, None)
+                (texel(color, n, t_now), TemporalStatus::Blended, None)
             }
-            (true, Err(why)) => (texel(cur_v, 1.0), TemporalStatus::Reset, Some(why)),
+            (true, Err(why)) => (texel(cur_v, 1.0, t_now), TemporalStatus::Reset, Some(why)),
             (false, Ok(hist)) if self.options.recover => (
-                texel(hist.color, hist.frames),
+                texel(hist.color, hist.frames, t_used),
                 TemporalStatus::Recovered,
                 None,
             ),
             (false, found) => {
-                let mut t = texel(Vec3::ZERO, 0.0);
+                let mut t = texel(Vec3::ZERO, 0.0, 0.0);
                 t.color = cur;
                 (t, TemporalStatus::Unanswered, found.err())
             }

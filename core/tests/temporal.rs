@@ -767,6 +767,7 @@ fn bands_equal_one_call_and_errors_leave_outputs_untouched() {
         frames: 7.0,
         normal: [7.0; 3],
         depth: 7.0,
+        distance: 7.0,
     };
     let mut out = vec![sentinel; N];
     let mut wrong = vec![sentinel; N / 2];
@@ -835,4 +836,227 @@ fn masked_pixels_and_pixels_without_a_surface_empty_the_history() {
             assert_eq!(pass.pixel(x, y).1, TemporalStatus::Skipped);
         }
     }
+}
+
+/// The floor as a mirror: per pixel of `f`, the reflected ray's hit kind,
+/// its color (the smooth color of the hit point) and its distance `t`.
+fn floor_reflections(scene: Scene, f: &Frame) -> (Vec<Kind>, Vec<[f32; 3]>, Vec<f32>) {
+    let e = f.cam.eye().as_dvec3();
+    let (mut kind, mut color, mut dist) = (vec![Kind::Sky; N], vec![[0.0; 3]; N], vec![0.0; N]);
+    for i in 0..N {
+        if f.kind[i] != Kind::Floor {
+            continue;
+        }
+        let p = f.point[i];
+        let d = (p - e).normalize();
+        let r = d - 2.0 * d.dot(DVec3::Y) * DVec3::Y;
+        let (k, t, _) = scene.cast(p + r * 1e-9, r);
+        kind[i] = k;
+        if k == Kind::Sky {
+            color[i] = [0.2, 0.3, 0.9];
+            dist[i] = f32::INFINITY;
+        } else {
+            color[i] = shade(p + r * t, scene.s);
+            dist[i] = t as f32;
+        }
+    }
+    (kind, color, dist)
+}
+
+#[test]
+fn reflection_distances_re_project_a_mirrors_reflection_without_lag() {
+    // The floor is a mirror reflecting the wall; the camera moves up and
+    // sideways. The reflection moves against the floor (parallax): the
+    // floor point's history holds another part of the wall, the virtual
+    // point's holds the same one.
+    let scene = Scene { s: 1.0 };
+    let eye0 = Vec3::new(0.0, -0.4, 0.0);
+    let eye1 = Vec3::new(0.15, -0.25, -0.05);
+    let dir = Vec3::new(0.0, -0.35, -1.0);
+    let f0 = Frame::new(scene, eye0, eye0 + dir, DepthConvention::ReversedZ);
+    let f1 = Frame::new(scene, eye1, eye1 + dir, DepthConvention::ReversedZ);
+    let (k0, c0, t0) = floor_reflections(scene, &f0);
+    let (k1, c1, t1) = floor_reflections(scene, &f1);
+    let answered: Vec<u8> = f0
+        .kind
+        .iter()
+        .map(|k| u8::from(*k == Kind::Floor))
+        .collect();
+    let answered1: Vec<u8> = f1
+        .kind
+        .iter()
+        .map(|k| u8::from(*k == Kind::Floor))
+        .collect();
+    let opts = TemporalOptions::default();
+    let run_d = |f: &Frame,
+                 c: &[[f32; 3]],
+                 a: &[u8],
+                 t: &[f32],
+                 hist: Option<(&Camera, &[HistoryTexel])>,
+                 with_distance: bool| {
+        let h = hist.map(|(cam, t)| {
+            History::try_new(*cam, ImageView::try_new(t, W, H, W).unwrap()).unwrap()
+        });
+        let mut pass = TemporalPass::try_new(
+            f.gbuffer(),
+            ImageView::try_new(c, W, H, W).unwrap(),
+            ImageView::try_new(a, W, H, W).unwrap(),
+            h,
+            opts,
+        )
+        .unwrap();
+        if with_distance {
+            pass = pass
+                .try_with_distance(ImageView::try_new(t, W, H, W).unwrap())
+                .unwrap();
+        }
+        let mut next = vec![HistoryTexel::default(); N];
+        let mut st = vec![0u8; N];
+        pass.try_run(
+            &mut ImageViewMut::try_new(&mut next, W, H, W).unwrap(),
+            Some(&mut ImageViewMut::try_new(&mut st, W, H, W).unwrap()),
+        )
+        .unwrap();
+        (next, st)
+    };
+    let (h0d, _) = run_d(&f0, &c0, &answered, &t0, None, true);
+    let (h0s, _) = run_d(&f0, &c0, &answered, &t0, None, false);
+    for i in 0..N {
+        if f0.kind[i] == Kind::Floor {
+            assert_eq!(h0d[i].distance, t0[i]);
+            assert_eq!(h0s[i].distance, 0.0, "no distance image: unknown");
+        }
+    }
+    let (h1d, s1d) = run_d(&f1, &c1, &answered1, &t1, Some((&f0.cam, &h0d)), true);
+    let (h1s, s1s) = run_d(&f1, &c1, &answered1, &t1, Some((&f0.cam, &h0s)), false);
+    let (mut n, mut err_d, mut err_s) = (0, 0.0f64, 0.0f64);
+    for i in 0..N {
+        if f1.kind[i] != Kind::Floor || k1[i] != Kind::Wall {
+            continue;
+        }
+        // The virtual point's pixel in frame 0, and a clean neighbourhood
+        // there: floor reflecting the wall.
+        let e1 = f1.cam.eye().as_dvec3();
+        let p = f1.point[i];
+        let v = p - e1;
+        let virt = e1 + v * ((v.length() + f64::from(t1[i])) / v.length());
+        let Some(q) = f0.cam.project(virt.as_vec3()) else {
+            continue;
+        };
+        let Some(around) = kinds_around(&f0, q) else {
+            continue;
+        };
+        let (cx, cy) = ((q.x - 0.5).floor() as i64, (q.y - 0.5).floor() as i64);
+        let clean = around.iter().all(|k| *k == Kind::Floor)
+            && (-1..=2).all(|dy| {
+                (-1..=2).all(|dx| k0[((cy + dy) * W as i64 + cx + dx) as usize] == Kind::Wall)
+            });
+        if !clean {
+            continue;
+        }
+        assert_eq!(s1d[i], BLENDED, "pixel {i}");
+        n += 1;
+        for c in 0..3 {
+            err_d += f64::from((h1d[i].color[c] - c1[i][c]).abs());
+            err_s += f64::from((h1s[i].color[c] - c1[i][c]).abs());
+        }
+        assert!(
+            (0..3).all(|c| (h1d[i].color[c] - c1[i][c]).abs() < 0.02),
+            "pixel {i}: {:?} vs {:?}",
+            h1d[i].color,
+            c1[i]
+        );
+        let _ = s1s[i];
+    }
+    assert!(n >= 200, "only {n} clean pixels");
+    let (err_d, err_s) = (err_d / (3.0 * n as f64), err_s / (3.0 * n as f64));
+    assert!(
+        err_s > 4.0 * err_d,
+        "surface re-projection {err_s:.4} vs virtual {err_d:.4}"
+    );
+
+    // Failed pixels (every other clean floor pixel) have no distance this
+    // frame: they take the one the history holds where their surface was,
+    // and recover the same wall point's color.
+    let mut failed = answered1.clone();
+    let mut fallback = c1.clone();
+    let mut targets = Vec::new();
+    for i in (0..N).step_by(2) {
+        if s1d[i] == BLENDED && k1[i] == Kind::Wall {
+            failed[i] = 0;
+            fallback[i] = [1.0, 0.0, 1.0];
+            targets.push(i);
+        }
+    }
+    let (h1f, s1f) = run_d(&f1, &fallback, &failed, &t1, Some((&f0.cam, &h0d)), true);
+    let (mut recovered, mut close) = (0, 0);
+    for &i in &targets {
+        if s1f[i] != RECOVERED {
+            continue;
+        }
+        recovered += 1;
+        assert!(h1f[i].distance > 0.0, "pixel {i}: {:?}", h1f[i]);
+        if (0..3).all(|c| (h1f[i].color[c] - c1[i][c]).abs() < 0.03) {
+            close += 1;
+        }
+    }
+    let m = targets.len();
+    assert!(m >= 100, "{m} targets");
+    assert!(recovered * 10 >= m * 9, "{recovered} of {m} recovered");
+    assert!(
+        close * 10 >= m * 9,
+        "{close} of {m} close to the true reflection"
+    );
+
+    // The sky: a reflection of the sky is re-projected at infinity and kept
+    // only by history of the sky.
+    let sky = vec![f32::INFINITY; N];
+    let sky_color = vec![[0.2f32, 0.3, 0.9]; N];
+    let (hs0, _) = run_d(&f0, &sky_color, &answered, &sky, None, true);
+    let (hs1, ss1) = run_d(
+        &f1,
+        &sky_color,
+        &answered1,
+        &sky,
+        Some((&f0.cam, &hs0)),
+        true,
+    );
+    let (_, sx1) = run_d(
+        &f1,
+        &sky_color,
+        &answered1,
+        &t1,
+        Some((&f0.cam, &hs0)),
+        true,
+    );
+    let floor1: Vec<usize> = (0..N).filter(|&i| f1.kind[i] == Kind::Floor).collect();
+    let blended = floor1.iter().filter(|&&i| ss1[i] == BLENDED).count();
+    assert!(
+        blended * 10 >= floor1.len() * 8,
+        "{blended} of {}",
+        floor1.len()
+    );
+    assert!(floor1.iter().all(|&i| hs1[i].distance == f32::INFINITY));
+    // Finite distances against a history of the sky: rejected.
+    assert!(
+        floor1
+            .iter()
+            .all(|&i| !t1[i].is_finite() || sx1[i] != BLENDED),
+        "sky history blended into a wall reflection"
+    );
+    // A distance image of another size is refused.
+    let short = vec![0.0f32; N / 2];
+    let pass = TemporalPass::try_new(
+        f1.gbuffer(),
+        ImageView::try_new(&c1, W, H, W).unwrap(),
+        ImageView::try_new(&answered1, W, H, W).unwrap(),
+        None,
+        opts,
+    )
+    .unwrap();
+    assert_eq!(
+        pass.try_with_distance(ImageView::try_new(&short, W, H / 2, W).unwrap())
+            .err(),
+        Some(Error::InvalidArgument)
+    );
 }

@@ -20,6 +20,7 @@ pub mod methods;
 pub mod plan;
 pub mod studies;
 pub mod tcrr;
+pub mod temporal;
 
 use crate::gbuffer::GBuffer;
 use crate::render::{self, compare, composite, direct_image, timed, ReflectionImage};
@@ -55,7 +56,7 @@ pub struct Options {
     pub scene: Vec<String>,
     /// Methods: `reference`, `envmap`, `planar-mirror`, `epipolar`, `orsa`,
     /// `irsa`, `step`, `hiz`, `layered`, `cluster`, `tcrr`, `naive-warp`,
-    /// `cone`, `multiray` (repeatable; default: all).
+    /// `cone`, `multiray`, `hiz-temporal` (repeatable; default: all).
     #[arg(long)]
     pub method: Vec<String>,
     /// Output folder.
@@ -211,7 +212,7 @@ impl Sizes {
 pub const BUILT_IN_SCENES: [&str; 4] = ["room", "concave", "walkthrough", "stage"];
 
 /// Every method name the report knows, in report order.
-pub const METHODS: [&str; 14] = [
+pub const METHODS: [&str; 15] = [
     "reference",
     "envmap",
     "planar-mirror",
@@ -233,6 +234,10 @@ pub const METHODS: [&str; 14] = [
     // made glossy: see [`studies`] and [`crate::cone`].
     "cone",
     "multiray",
+    // Seed 004 Sec. 4.6.5: the Hi-Z mirror pass with temporal filtering
+    // along the camera path, a study: see [`studies`] and
+    // [`crate::temporal`].
+    "hiz-temporal",
 ];
 
 /// What the command line says about the scenes' input, checked before

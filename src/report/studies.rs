@@ -3,7 +3,8 @@
 //! each one implementation of [`Study`].
 //!
 //! Whether a study runs on a scene comes from the scene's [`Content`]: the
-//! TCRR path wherever there is a camera path and reflective pixels, the
+//! TCRR path and the temporal-filtering path wherever there is a camera
+//! path and reflective pixels, the
 //! glossy study wherever glossy reflectors are in view, the epipolar path
 //! wherever the camera path runs inside walls (an interior walk).
 
@@ -68,9 +69,46 @@ pub trait Study {
 pub fn all() -> Vec<Box<dyn Study>> {
     vec![
         Box::new(TcrrPath),
+        Box::new(TemporalPath),
         Box::new(GlossyStudy),
         Box::new(EpipolarPath),
     ]
+}
+
+/// Seed 004's temporal filtering of the Hi-Z mirror pass along a dense
+/// stretch of the camera path ([`super::temporal::report_rows`]).
+struct TemporalPath;
+
+impl Study for TemporalPath {
+    fn name(&self) -> &'static str {
+        "temporal path"
+    }
+
+    fn methods(&self) -> &'static [&'static str] {
+        &["hiz-temporal"]
+    }
+
+    fn applies(&self, content: &Content) -> Result<(), String> {
+        TcrrPath.applies(content)
+    }
+
+    fn run(&self, s: &SceneRun<'_>, _selected: &[&str]) -> Result<StudyOut, String> {
+        let (rows, notes) = super::temporal::report_rows(
+            s.shader,
+            s.label,
+            s.sizes.level,
+            s.sizes.width,
+            s.sizes.height,
+            s.threads,
+            s.pool,
+            s.images,
+        )?;
+        Ok(StudyOut {
+            rows,
+            notes,
+            section: String::new(),
+        })
+    }
 }
 
 /// Seed 000's temporally coherent reflection reprojection and its naive
