@@ -203,22 +203,29 @@ fn flicker(a: &[Vec3], am: &[bool], b: &[Vec3], bm: &[bool]) -> Option<f64> {
 }
 
 /// The temporal filter over one frame on `pool`, in bands: the next history
-/// and the summed counts.
+/// with every pixel's [`TemporalStatus`] byte, and the summed counts.
+#[allow(clippy::type_complexity)]
 fn filter_frame(
     pass: &TemporalPass<'_>,
     w: u32,
     h: u32,
     pool: &rayon::ThreadPool,
-) -> Result<(Vec<HistoryTexel>, TemporalStats), refl_core::Error> {
-    let mut next = vec![HistoryTexel::default(); w as usize * h as usize];
+) -> Result<((Vec<HistoryTexel>, Vec<u8>), TemporalStats), refl_core::Error> {
+    let n = w as usize * h as usize;
+    let (mut next, mut status) = (vec![HistoryTexel::default(); n], vec![0u8; n]);
     let band = BAND as usize * w as usize;
     let stats = pool.install(|| {
         next.par_chunks_mut(band)
+            .zip(status.par_chunks_mut(band))
             .enumerate()
-            .map(|(k, t)| {
+            .map(|(k, (t, st))| {
                 let y0 = k as u32 * BAND;
                 let rows = RowRange::try_new(y0, (y0 + BAND).min(h), h)?;
-                pass.try_run(&mut ImageViewMut::try_band(t, w, h, w, rows)?, None)
+                let mut st = ImageViewMut::try_band(st, w, h, w, rows)?;
+                pass.try_run(
+                    &mut ImageViewMut::try_band(t, w, h, w, rows)?,
+                    Some(&mut st),
+                )
             })
             .try_reduce(TemporalStats::default, |a, b| {
                 Ok(TemporalStats {
@@ -231,7 +238,7 @@ fn filter_frame(
                 })
             })
     })?;
-    Ok((next, stats))
+    Ok(((next, status), stats))
 }
 
 /// Runs every setting over the frame cameras; the composite of the last
@@ -352,20 +359,19 @@ pub fn run_path(
                     }
                     let filtered = timed(|| filter_frame(&pass, w, h, pool));
                     let (next, stats) = filtered.value.map_err(err)?;
-                    let mut n = 0;
-                    for i in 0..g.len() {
-                        if handled[i] {
-                            let (_, s) = pass.pixel(i as u32 % w, i as u32 / w);
-                            if matches!(
-                                s,
-                                TemporalStatus::Blended
-                                    | TemporalStatus::Reset
-                                    | TemporalStatus::Recovered
-                            ) {
-                                n += 1;
-                            }
-                        }
-                    }
+                    let (next, status) = next;
+                    let n = handled
+                        .iter()
+                        .zip(&status)
+                        .filter(|(h, s)| {
+                            **h && [
+                                TemporalStatus::Blended as u8,
+                                TemporalStatus::Reset as u8,
+                                TemporalStatus::Recovered as u8,
+                            ]
+                            .contains(s)
+                        })
+                        .count();
                     let s = &mut st.totals.stats;
                     s.blended += stats.blended;
                     s.reset += stats.reset;
