@@ -39,6 +39,86 @@
 //! The specification is five papers ("seeds"); every formula cites the seed
 //! and the equation or section it implements. Errata found in the seeds are
 //! noted where they are corrected.
+//!
+//! # Seeds to items
+//!
+//! Where each cited section, algorithm and equation of the seeds is
+//! implemented (paths from the crate root; each item needs its module's
+//! feature). The seeds: 000 Xie, Wang, Dutré, "Reflection reprojection
+//! using temporal coherence" (TCRR); 001 Zhang, Hsieh, Shen, "Real-time
+//! Reflections on Curved Objects Using Layered Depth Textures"; 002 Havran,
+//! Bittner, Seidel, "Exploiting Temporal Coherence in Ray Casted
+//! Walkthroughs"; 003 Wang, Xie, Ke, Popescu, "Second-Order Feed-Forward
+//! Rendering for Specular and Glossy Reflections"; 004 Uludag, "Hi-Z
+//! Screen-Space Cone-Traced Reflections".
+//!
+//! | seed | section / equation | item |
+//! |---|---|---|
+//! | 000 (TCRR) | Alg. 1 (the method: key frame, reuse, re-trace) | `tcrr` |
+//! | 000 (TCRR) | Sec. 3.1 reflection buffers generation | `tcrr::ReflectionBuffers` |
+//! | 000 (TCRR) | Sec. 3.2.1 reflection pixel matching, Fig. 4 distance function | `tcrr::reflection_distance` |
+//! | 000 (TCRR) | Sec. 3.2.1, Alg. 2 neighborhood search | `tcrr::try_search`, `tcrr::Surfel`, `tcrr::INVALID_OFFSET` |
+//! | 000 (TCRR) | Sec. 3.2.2 reflection shifting | `tcrr::try_shift` |
+//! | 000 (TCRR) | Sec. 3.2.2, Fig. 5 motion-parallax cuts | `tcrr::TcrrOptions::reflected_discontinuity` |
+//! | 000 (TCRR) | Sec. 3.3 depth-based warping | `tcrr::try_warp` |
+//! | 000 (TCRR) | Sec. 3.3 re-trace list | `tcrr::try_retrace_list` |
+//! | 000 (TCRR) | Sec. 3.3 Fresnel blending, Alg. 1 line 7 composition | `tcrr::fresnel_weight`, `tcrr::try_compose` |
+//! | 000 (TCRR) | Sec. 4.1 implementation parameters | `tcrr::TcrrOptions` |
+//! | 000 (TCRR) | Sec. 4.3 / 4.4 reflection-reuse strategy | `tcrr::KeyFramePolicy` |
+//! | 000 (TCRR) | Sec. 5 (future work): re-trace by local contrast | `tcrr::TcrrOptions::retrace_contrast` |
+//! | 001 (layered depth textures) | Sec. 3.2 potential reflection regions, Fig. 2 | `layered::try_prr_classify`, `layered::PrrClass` |
+//! | 001 (layered depth textures) | Sec. 3.3 orthographic face rendering | `layered::LayeredGrid::try_face_ray` |
+//! | 001 (layered depth textures) | Sec. 3.3 ray in the object's local space | `layered::LayeredGrid::try_with_transform` |
+//! | 001 (layered depth textures) | Sec. 3.3, Alg. 1 linear then binary search | `layered::LayeredMap::try_trace`, `layered::LayeredOptions` |
+//! | 001 (layered depth textures) | Sec. 3.3 early-stop threshold | `layered::LayeredOptions::early_stop_texels` |
+//! | 001 (layered depth textures) | Sec. 3.4 concave objects: layers, back depth from the opposite face | `layered::LayeredMapMut::try_fill_column` |
+//! | 001 (layered depth textures) | Sec. 3.4, Alg. 1 lines 6-17 inside test | `layered::LayeredMap::inside`, `layered::LayeredMap::exit` |
+//! | 001 (layered depth textures) | Fig. 5 the face that sees the surface | `layered::LayeredHit::mismatch` |
+//! | 001 (layered depth textures) | Sec. 3.2-3.4 as one pass | `layered_pass::LayeredPass` |
+//! | 001 (layered depth textures) | Appendix: the reflector plane | `mirror::Plane::try_from_triangle` |
+//! | 001 (layered depth textures) | Appendix: mirror matrix and virtual camera | `mirror::mirror_matrix`, `mirror::try_mirrored_camera` |
+//! | 001 (layered depth textures) | Appendix: planar reflection pass | `planar::PlanarPass` |
+//! | 002 (ray-casted walkthroughs) | Sec. 3.1 data structures (POS, AIP) | `epipolar::PosEntry`, `epipolar::AipEntry` |
+//! | 002 (ray-casted walkthroughs) | Sec. 3.2, Alg. 1 reprojection | `epipolar::try_reproject` |
+//! | 002 (ray-casted walkthroughs) | Sec. 3.3, Alg. 2 rendering | `epipolar::decide`, `epipolar::try_decide_band` |
+//! | 002 (ray-casted walkthroughs) | Sec. 4.1 view frustum error | `epipolar::frustum_contains` |
+//! | 002 (ray-casted walkthroughs) | Sec. 4.2 occlusion error: epipoles | `epipolar::Epipoles` |
+//! | 002 (ray-casted walkthroughs) | Sec. 4.2, Fig. 4 occlusion-compatible order | `epipolar::Quadrants` |
+//! | 002 (ray-casted walkthroughs) | Sec. 4.2 epipolar lines | `epipolar::line_bins`, `epipolar::OCCLUDER_GAP` |
+//! | 002 (ray-casted walkthroughs) | Sec. 4.3 regular resampling | `epipolar::resample_slot` |
+//! | 002 (ray-casted walkthroughs) | Sec. 4.3.1 abrupt camera motion | `epipolar::EpipolarOptions::abrupt_frames` |
+//! | 002 (ray-casted walkthroughs) | Sec. 5.1 implementing reprojection | `epipolar::Reprojector` |
+//! | 002 (ray-casted walkthroughs) | Sec. 5.2 handling background | `epipolar::PosEntry::background`, `epipolar::BACKGROUND_OBJECT` |
+//! | 002 (ray-casted walkthroughs) | Sec. 5.3 shifting ray origin | `epipolar::EpipolarOptions::shift_origin` |
+//! | 002 (ray-casted walkthroughs) | Fig. 6 why a pixel is traced | `epipolar::Reason` |
+//! | 003 (second-order feed-forward) | Sec. 3.2 clustering: object shares, bin layout | `cluster::try_count_objects`, `cluster::try_bin_layout` |
+//! | 003 (second-order feed-forward) | Sec. 3.2 clustering: normal bins, cluster ids | `cluster::normal_bin`, `cluster::try_assign_clusters`, `cluster::try_cluster_ranges` |
+//! | 003 (second-order feed-forward) | Sec. 3.3 cluster camera construction, Eq. 1 | `cluster::try_cluster_camera`, `cluster::ClusterCamera` |
+//! | 003 (second-order feed-forward) | Sec. 3.4 reflected ray / depth image intersection | `step::try_step`, `trace::refine_hit` |
+//! | 003 (second-order feed-forward) | Sec. 3.1 step 3c, Sec. 3.4 finalization of a cluster | `cluster::try_finalize_cluster` |
+//! | 003 (second-order feed-forward) | Sec. 3.5 item 1: the widened cluster frame | `cluster::ClusterCameraOptions::cone_half_angle` |
+//! | 003 (second-order feed-forward) | Sec. 3.5 item 2: glossy fade | `cluster::FinalizeInput::fade` |
+//! | 003 (second-order feed-forward) | Sec. 3.5 item 3: the lobe of reflected rays | `cluster::Lobe`, `lobe::sample_truncated_phong_lobe` |
+//! | 003 (second-order feed-forward) | Sec. 3.5 multi-ray glossy reflections | `cone::try_multiray`, `lobe::phong_lobe_weight`, `lobe::cone_ray_direction` |
+//! | 003 (second-order feed-forward) | Sec. 3.2-3.5 as one pass | `cluster::ClusterPass` |
+//! | 003 (second-order feed-forward) | Sec. 4.1.1 small clusters | `cluster::ClusterFallback` |
+//! | 003 (second-order feed-forward) | Sec. 4.3 planar reflectors | `step::try_step` |
+//! | 004 (Hi-Z cone tracing) | Sec. 4.4.1 / 4.5.1, Listing 4.3 Hi-Z pass | `hiz::try_build_hiz`, `hiz::try_build_hiz_level_rows` |
+//! | 004 (Hi-Z cone tracing) | Sec. 4.4.2 / 4.5.2, Listing 4.4 pre-integration | `cone::try_build_visibility_pyramid`, `cone::try_build_visibility_level_rows` |
+//! | 004 (Hi-Z cone tracing) | Sec. 4.4.3, Listings 4.2 / 4.5 ray-tracing pass | `hiz::try_trace_hiz`, `hiz::HiZOptions` |
+//! | 004 (Hi-Z cone tracing) | Sec. 4.4.3 reflection vector | `mirror::reflect`, `mirror::try_reflect` |
+//! | 004 (Hi-Z cone tracing) | Sec. 4.4.3 depth linear in screen space | `camera::DepthConvention` |
+//! | 004 (Hi-Z cone tracing) | Sec. 4.4.4 / 4.5.4 pre-convolution | `cone::try_build_color_pyramid`, `cone::convolution_weights` |
+//! | 004 (Hi-Z cone tracing) | Sec. 4.4.5, Eq. 4.1 cone angle | `lobe::try_cone_angle_from_phong`, `lobe::CONE_XI`, `lobe::MIRROR_POWER_START` |
+//! | 004 (Hi-Z cone tracing) | Eq. 4.1 the Phong lobe's inverse CDF | `lobe::try_phong_lobe_angle`, `lobe::sample_phong_lobe` |
+//! | 004 (Hi-Z cone tracing) | Sec. 4.4.5, Eq. 4.2 isosceles triangle | `cone::isosceles_opposite`, `cone::isosceles_inradius` |
+//! | 004 (Hi-Z cone tracing) | Sec. 4.4.5 / 4.5.5, Listing 4.7 cone tracing | `cone::try_cone_trace`, `cone::ConeCircles`, `cone::cone_mip_level` |
+//! | 004 (Hi-Z cone tracing) | Sec. 4.6.1, Listing 4.8 fading artifacts | `cone::Fades`, `cone::FadeRange`, `cone::blend_fade` |
+//! | 004 (Hi-Z cone tracing) | Sec. 4.6.4 reprojection matrix | `camera::try_reprojection_matrix` |
+//! | 004 (Hi-Z cone tracing) | Sec. 4.6.6 travel behind surfaces, 4.6.7 marching toward the camera | `hiz::try_trace_hiz` |
+//! | 004 (Hi-Z cone tracing) | Sec. 4.6.8 anisotropic reflections | `cone::ConeOptions::max_stretch` |
+//! | 004 (Hi-Z cone tracing) | Sec. 4.7.1 combining linear and Hi-Z traversal | `hiz::HiZOptions::prologue_steps`, `hiz::HiZOptions::stop_level` |
+//! | 004 (Hi-Z cone tracing) | Sec. 4.4-4.6 as one pass | `glossy::GlossyPass` |
 #![no_std]
 #![cfg_attr(docsrs, feature(doc_cfg))]
 #![deny(missing_docs)]

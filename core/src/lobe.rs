@@ -4,8 +4,8 @@
 //! low-discrepancy points and per-pixel rotations the multi-ray methods
 //! sample with, and directions drawn from a lobe or a cone.
 //!
-//! One implementation of each, used by [`crate::cone`] (cone angle,
-//! multi-ray), [`crate::glossy`] (per-pixel rotation), [`crate::cluster`]
+//! One implementation of each, used by `crate::cone` (cone angle,
+//! multi-ray), `crate::glossy` (per-pixel rotation), `crate::cluster`
 //! (the truncated lobe of the cluster pass) and the root package's
 //! reference renderer and probes.
 //!
