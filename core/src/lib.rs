@@ -115,6 +115,7 @@
 //! | 004 (Hi-Z cone tracing) | Sec. 4.4.5 / 4.5.5, Listing 4.7 cone tracing | `cone::try_cone_trace`, `cone::ConeCircles`, `cone::cone_mip_level` |
 //! | 004 (Hi-Z cone tracing) | Sec. 4.6.1, Listing 4.8 fading artifacts | `cone::Fades`, `cone::FadeRange`, `cone::blend_fade` |
 //! | 004 (Hi-Z cone tracing) | Sec. 4.6.4 reprojection matrix | `camera::try_reprojection_matrix` |
+//! | 004 (Hi-Z cone tracing) | Sec. 4.6.4 Listing 4.9 re-projection into the previous frame, 4.6.5 temporal filtering | `temporal::TemporalPass`, `temporal::History`, `temporal::HistoryTexel` |
 //! | 004 (Hi-Z cone tracing) | Sec. 4.6.6 travel behind surfaces, 4.6.7 marching toward the camera | `hiz::try_trace_hiz` |
 //! | 004 (Hi-Z cone tracing) | Sec. 4.6.8 anisotropic reflections | `cone::ConeOptions::max_stretch` |
 //! | 004 (Hi-Z cone tracing) | Sec. 4.7.1 combining linear and Hi-Z traversal | `hiz::HiZOptions::prologue_steps`, `hiz::HiZOptions::stop_level` |
