@@ -23,6 +23,7 @@ use crate::gbuffer::GBuffer;
 use crate::render::{
     compare, composite, direct_image, save_png, timed, ImageError, ReflectionImage,
 };
+use crate::report::accum::{Accum, Extra};
 use crate::report_out::Row;
 use crate::scene::Scene;
 use crate::shade::{env_map, reflection_dir, Shader};
@@ -364,35 +365,30 @@ fn reuse_frame(
     })
 }
 
-/// Sums over the frames of one setting.
+/// Sums over the frames of one setting: the columns every method has
+/// ([`Accum`]) and TCRR's own.
 #[derive(Clone, Debug, Default)]
 struct Totals {
+    base: Accum,
     frames: usize,
     key_frames: usize,
-    time_ms: f64,
-    reference_ms: f64,
     handled: usize,
-    reflective_all: usize,
     retraced: usize,
-    abs_sum: f64,
-    sq_sum: f64,
-    over_8: f64,
     /// Error sums over the reuse (non-key) frames only.
     reuse_abs: f64,
     reuse_channels: f64,
 }
 
 impl Totals {
-    fn add_error(&mut self, err: &ImageError, key: bool) {
-        let ch = 3.0 * err.pixels as f64;
-        self.abs_sum += err.mean_abs * ch;
-        self.sq_sum += if err.psnr.is_finite() {
-            255.0 * 255.0 / 10f64.powf(err.psnr / 10.0) * ch
-        } else {
-            0.0
-        };
-        self.over_8 += err.share_over_8() * err.pixels as f64;
+    /// Adds one frame: its time, the reference's, the reflective pixel
+    /// count and the error over the handled pixels.
+    fn add(&mut self, ms: f64, reference_ms: f64, reflective: usize, err: &ImageError, key: bool) {
+        self.base
+            .add(ms, reference_ms, reflective, err, &Extra::None);
+        self.frames += 1;
+        self.handled += err.pixels;
         if !key {
+            let ch = 3.0 * err.pixels as f64;
             self.reuse_abs += err.mean_abs * ch;
             self.reuse_channels += ch;
         }
@@ -400,47 +396,26 @@ impl Totals {
 
     fn row(&self, scene: &str, setting: &Setting, threads: usize) -> Row {
         let frames = self.frames.max(1) as f64;
-        let (t, r) = (self.time_ms / frames, self.reference_ms / frames);
-        let ch = 3.0 * self.handled.max(1) as f64;
-        let mse = self.sq_sum / ch;
-        Row {
-            scene: scene.to_owned(),
-            method: setting.scheme.name().to_owned(),
-            setting: setting.label(),
-            threads,
-            time_ms: t,
-            reference_ms: r,
-            speedup: if t > 0.0 { r / t } else { f64::INFINITY },
-            coverage: if self.reflective_all > 0 {
-                self.handled as f64 / self.reflective_all as f64
-            } else {
-                0.0
-            },
-            mean_abs_255: self.abs_sum / ch,
-            psnr_db: if mse > 0.0 {
-                10.0 * (255.0 * 255.0 / mse).log10()
-            } else {
-                f64::INFINITY
-            },
-            share_over_8: self.over_8 / self.handled.max(1) as f64,
-            extra: vec![
-                ("frames".into(), self.frames.to_string()),
-                ("key_frames".into(), self.key_frames.to_string()),
-                (
-                    "key_interval".into(),
-                    format!("{:.2}", frames / self.key_frames.max(1) as f64),
-                ),
-                (
-                    "retraced_share".into(),
-                    format!("{:.4}", self.retraced as f64 / self.handled.max(1) as f64),
-                ),
-                (
-                    "mean_abs_255_reuse_frames".into(),
-                    format!("{:.4}", self.reuse_abs / self.reuse_channels.max(1.0)),
-                ),
-                ("bytes_per_pixel".into(), BYTES_PER_PIXEL.to_string()),
-            ],
-        }
+        let mut row = self
+            .base
+            .row(scene, setting.scheme.name(), &setting.label(), threads);
+        row.extra.extend([
+            ("key_frames".into(), self.key_frames.to_string()),
+            (
+                "key_interval".into(),
+                format!("{:.2}", frames / self.key_frames.max(1) as f64),
+            ),
+            (
+                "retraced_share".into(),
+                format!("{:.4}", self.retraced as f64 / self.handled.max(1) as f64),
+            ),
+            (
+                "mean_abs_255_reuse_frames".into(),
+                format!("{:.4}", self.reuse_abs / self.reuse_channels.max(1.0)),
+            ),
+            ("bytes_per_pixel".into(), BYTES_PER_PIXEL.to_string()),
+        ]);
+        row
     }
 }
 
@@ -634,12 +609,7 @@ pub fn run_path(
             };
             let fin = composite(&g, &direct, &img);
             let e = compare(&truth_final, &fin, &handled);
-            st.totals.frames += 1;
-            st.totals.time_ms += time;
-            st.totals.reference_ms += full.ms;
-            st.totals.handled += n_handled;
-            st.totals.reflective_all += n_reflective;
-            st.totals.add_error(&e, is_key);
+            st.totals.add(time, full.ms, n_reflective, &e, is_key);
             st.per_frame.push((is_key, retrace_share, e.mean_abs));
         }
     }

@@ -25,7 +25,8 @@
 //! frames, 0..255), next to the reference's own.
 
 use crate::gbuffer::GBuffer;
-use crate::render::{compare, composite, direct_image, save_png, timed, ImageError};
+use crate::render::{compare, composite, direct_image, save_png, timed};
+use crate::report::accum::{Accum, Extra};
 use crate::report_out::Row;
 use crate::screen::{self, DepthBuffer, PassImages, ScreenMethod};
 use crate::shade::{env_map, reflection_dir, Shader};
@@ -78,18 +79,14 @@ impl Setting {
     }
 }
 
-/// Per-setting sums along the path.
+/// Per-setting sums along the path: the columns every method has
+/// ([`Accum`]) and the study's own.
 #[derive(Default)]
 struct Totals {
+    base: Accum,
     frames: usize,
-    time_ms: f64,
-    reference_ms: f64,
     handled: usize,
     answered: usize,
-    reflective_all: usize,
-    abs_sum: f64,
-    sq_sum: f64,
-    over_8: f64,
     worst_frame: f64,
     flicker_sum: f64,
     flicker_frames: usize,
@@ -98,80 +95,43 @@ struct Totals {
 }
 
 impl Totals {
-    fn add_error(&mut self, e: &ImageError) {
-        let ch = 3.0 * e.pixels as f64;
-        self.abs_sum += e.mean_abs * ch;
-        self.sq_sum += if e.psnr.is_finite() {
-            255.0 * 255.0 / 10f64.powf(e.psnr / 10.0) * ch
-        } else {
-            0.0
-        };
-        self.over_8 += e.share_over_8() * e.pixels as f64;
-        self.worst_frame = self.worst_frame.max(e.mean_abs);
-    }
-
     fn row(&self, scene: &str, setting: &Setting, threads: usize, ref_flicker: f64) -> Row {
         let frames = self.frames.max(1) as f64;
-        let (t, r) = (self.time_ms / frames, self.reference_ms / frames);
-        let ch = 3.0 * self.handled.max(1) as f64;
-        let mse = self.sq_sum / ch;
         let s = &self.stats;
-        Row {
-            scene: scene.to_owned(),
-            method: "hiz-temporal".into(),
-            setting: setting.label(),
-            threads,
-            time_ms: t,
-            reference_ms: r,
-            speedup: if t > 0.0 { r / t } else { f64::INFINITY },
-            coverage: if self.reflective_all > 0 {
-                self.handled as f64 / self.reflective_all as f64
-            } else {
-                0.0
-            },
-            mean_abs_255: self.abs_sum / ch,
-            psnr_db: if mse > 0.0 {
-                10.0 * (255.0 * 255.0 / mse).log10()
-            } else {
-                f64::INFINITY
-            },
-            share_over_8: self.over_8 / self.handled.max(1) as f64,
-            extra: vec![
-                ("frames".into(), self.frames.to_string()),
-                (
-                    "worst_frame_mean_abs_255".into(),
-                    format!("{:.4}", self.worst_frame),
+        let mut row = self
+            .base
+            .row(scene, "hiz-temporal", &setting.label(), threads);
+        row.extra.extend([
+            (
+                "worst_frame_mean_abs_255".into(),
+                format!("{:.4}", self.worst_frame),
+            ),
+            (
+                "answered_share".into(),
+                format!("{:.4}", self.answered as f64 / self.handled.max(1) as f64),
+            ),
+            (
+                "flicker_255".into(),
+                format!(
+                    "{:.4}",
+                    self.flicker_sum / self.flicker_frames.max(1) as f64
                 ),
-                (
-                    "answered_share".into(),
-                    format!("{:.4}", self.answered as f64 / self.handled.max(1) as f64),
-                ),
-                (
-                    "flicker_255".into(),
-                    format!(
-                        "{:.4}",
-                        self.flicker_sum / self.flicker_frames.max(1) as f64
-                    ),
-                ),
-                ("reference_flicker_255".into(), format!("{ref_flicker:.4}")),
-                (
-                    "rays_per_frame".into(),
-                    format!("{:.0}", self.rays as f64 / frames),
-                ),
-                ("recovered".into(), s.recovered.to_string()),
-                ("rejected".into(), (s.rejected + s.off_screen).to_string()),
-                (
-                    "bytes_per_pixel".into(),
-                    if setting.filter.is_some() {
-                        // Two history buffers (read, write) of 32 bytes and
-                        // the answered mask.
-                        "65".into()
-                    } else {
-                        "0".into()
-                    },
-                ),
-            ],
-        }
+            ),
+            ("reference_flicker_255".into(), format!("{ref_flicker:.4}")),
+            (
+                "rays_per_frame".into(),
+                format!("{:.0}", self.rays as f64 / frames),
+            ),
+            ("recovered".into(), s.recovered.to_string()),
+            ("rejected".into(), (s.rejected + s.off_screen).to_string()),
+            (
+                "bytes_per_pixel".into(),
+                // Two history buffers (read, write) of 36 bytes, the
+                // answered mask and the distances.
+                if setting.filter.is_some() { "77" } else { "0" }.into(),
+            ),
+        ]);
+        row
     }
 }
 
@@ -419,14 +379,12 @@ pub fn run_path(
             }
             st.last_final = Some((fin, handled.clone()));
             let t = &mut st.totals;
+            t.base.add(time, full.ms, n_reflective, &e, &Extra::None);
             t.frames += 1;
-            t.time_ms += time;
-            t.reference_ms += full.ms;
             t.handled += n_handled;
             t.answered += answered_n;
-            t.reflective_all += n_reflective;
             t.rays += rays;
-            t.add_error(&e);
+            t.worst_frame = t.worst_frame.max(e.mean_abs);
             st.per_frame.push(e.mean_abs);
         }
     }

@@ -182,6 +182,16 @@ impl Frame {
     }
 }
 
+/// The frame from the origin looking at the wall, in convention `conv`.
+fn front(conv: DepthConvention) -> Frame {
+    Frame::new(
+        Scene { s: 1.0 },
+        Vec3::ZERO,
+        Vec3::new(0.0, 0.0, -6.0),
+        conv,
+    )
+}
+
 /// Runs one frame of the filter: the next history, statuses and stats.
 fn run(
     f: &Frame,
@@ -190,9 +200,21 @@ fn run(
     history: Option<(&Camera, &[HistoryTexel])>,
     options: TemporalOptions,
 ) -> (Vec<HistoryTexel>, Vec<u8>, TemporalStats) {
+    run_with(f, color, answered, None, history, options)
+}
+
+/// [`run`] with the reflection distances `distance`, if given.
+fn run_with(
+    f: &Frame,
+    color: &[[f32; 3]],
+    answered: &[u8],
+    distance: Option<&[f32]>,
+    history: Option<(&Camera, &[HistoryTexel])>,
+    options: TemporalOptions,
+) -> (Vec<HistoryTexel>, Vec<u8>, TemporalStats) {
     let hist = history
         .map(|(c, t)| History::try_new(*c, ImageView::try_new(t, W, H, W).unwrap()).unwrap());
-    let pass = TemporalPass::try_new(
+    let mut pass = TemporalPass::try_new(
         f.gbuffer(),
         ImageView::try_new(color, W, H, W).unwrap(),
         ImageView::try_new(answered, W, H, W).unwrap(),
@@ -200,6 +222,11 @@ fn run(
         options,
     )
     .unwrap();
+    if let Some(d) = distance {
+        pass = pass
+            .try_with_distance(ImageView::try_new(d, W, H, W).unwrap())
+            .unwrap();
+    }
     let mut next = vec![HistoryTexel::default(); N];
     let mut status = vec![0xA5u8; N];
     let stats = pass
@@ -345,13 +372,7 @@ fn noisy(frame: u32, i: usize) -> [f32; 3] {
 
 #[test]
 fn a_static_camera_converges_to_the_mean_of_its_frames() {
-    let scene = Scene { s: 1.0 };
-    let f = Frame::new(
-        scene,
-        Vec3::ZERO,
-        Vec3::new(0.0, 0.0, -6.0),
-        DepthConvention::ReversedZ,
-    );
+    let f = front(DepthConvention::ReversedZ);
     let all = vec![1u8; N];
     for max_frames in [f32::INFINITY, 4.0] {
         let opts = TemporalOptions {
@@ -398,13 +419,7 @@ fn a_static_camera_converges_to_the_mean_of_its_frames() {
 
 #[test]
 fn failed_pixels_take_the_history_and_unanswered_ones_are_not_history() {
-    let scene = Scene { s: 1.0 };
-    let f = Frame::new(
-        scene,
-        Vec3::ZERO,
-        Vec3::new(0.0, 0.0, -6.0),
-        DepthConvention::ZeroToOne,
-    );
+    let f = front(DepthConvention::ZeroToOne);
     let all = vec![1u8; N];
     let opts = TemporalOptions::default();
     let (h0, _, _) = run(&f, &f.color, &all, None, opts);
@@ -468,19 +483,8 @@ fn failed_pixels_take_the_history_and_unanswered_ones_are_not_history() {
 
 #[test]
 fn the_normal_test_rejects_a_turned_surface_that_depth_alone_keeps() {
-    let scene = Scene { s: 1.0 };
-    let f0 = Frame::new(
-        scene,
-        Vec3::ZERO,
-        Vec3::new(0.0, 0.0, -6.0),
-        DepthConvention::Linear,
-    );
-    let mut f1 = Frame::new(
-        scene,
-        Vec3::ZERO,
-        Vec3::new(0.0, 0.0, -6.0),
-        DepthConvention::Linear,
-    );
+    let f0 = front(DepthConvention::Linear);
+    let mut f1 = front(DepthConvention::Linear);
     // Same depths; the left half's normals turned by 60 degrees.
     let turned = Vec3::new((60f32).to_radians().sin(), 0.0, (60f32).to_radians().cos());
     for y in 0..H {
@@ -584,12 +588,7 @@ fn a_grazing_floor_keeps_its_history_under_motion() {
 #[test]
 fn a_point_behind_or_outside_the_last_view_has_no_history() {
     let scene = Scene { s: 1.0 };
-    let f0 = Frame::new(
-        scene,
-        Vec3::ZERO,
-        Vec3::new(0.0, 0.0, -6.0),
-        DepthConvention::Linear,
-    );
+    let f0 = front(DepthConvention::Linear);
     // Behind the first eye, looking the other way: the floor it sees lies
     // behind the first camera.
     let f1 = Frame::new(
@@ -618,12 +617,7 @@ fn a_point_behind_or_outside_the_last_view_has_no_history() {
 #[test]
 fn bands_equal_one_call_and_errors_leave_outputs_untouched() {
     let scene = Scene { s: 1.0 };
-    let f0 = Frame::new(
-        scene,
-        Vec3::ZERO,
-        Vec3::new(0.0, 0.0, -6.0),
-        DepthConvention::Linear,
-    );
+    let f0 = front(DepthConvention::Linear);
     let eye1 = Vec3::new(0.2, 0.1, 0.0);
     let f1 = Frame::new(
         scene,
@@ -797,13 +791,7 @@ fn bands_equal_one_call_and_errors_leave_outputs_untouched() {
 
 #[test]
 fn masked_pixels_and_pixels_without_a_surface_empty_the_history() {
-    let scene = Scene { s: 1.0 };
-    let f = Frame::new(
-        scene,
-        Vec3::ZERO,
-        Vec3::new(0.0, 0.0, -6.0),
-        DepthConvention::Linear,
-    );
+    let f = front(DepthConvention::Linear);
     let all = vec![1u8; N];
     let (h0, _, _) = run(&f, &f.color, &all, None, TemporalOptions::default());
     let mut mask = vec![1u8; N];
@@ -894,29 +882,7 @@ fn reflection_distances_re_project_a_mirrors_reflection_without_lag() {
                  t: &[f32],
                  hist: Option<(&Camera, &[HistoryTexel])>,
                  with_distance: bool| {
-        let h = hist.map(|(cam, t)| {
-            History::try_new(*cam, ImageView::try_new(t, W, H, W).unwrap()).unwrap()
-        });
-        let mut pass = TemporalPass::try_new(
-            f.gbuffer(),
-            ImageView::try_new(c, W, H, W).unwrap(),
-            ImageView::try_new(a, W, H, W).unwrap(),
-            h,
-            opts,
-        )
-        .unwrap();
-        if with_distance {
-            pass = pass
-                .try_with_distance(ImageView::try_new(t, W, H, W).unwrap())
-                .unwrap();
-        }
-        let mut next = vec![HistoryTexel::default(); N];
-        let mut st = vec![0u8; N];
-        pass.try_run(
-            &mut ImageViewMut::try_new(&mut next, W, H, W).unwrap(),
-            Some(&mut ImageViewMut::try_new(&mut st, W, H, W).unwrap()),
-        )
-        .unwrap();
+        let (next, st, _) = run_with(f, c, a, with_distance.then_some(t), hist, opts);
         (next, st)
     };
     let (h0d, _) = run_d(&f0, &c0, &answered, &t0, None, true);

@@ -747,6 +747,27 @@ fn null_arguments_are_refused_before_any_size_or_input_error() {
     assert!(out.iter().all(|t| *t == refl_layered_pass_texel::default()));
 }
 
+/// A valid listed ray at pixel (3, 4): from (0, 1, 5) down -z, `[0, t_max]`.
+fn listed_ray(t_max: f32) -> refl_host_ray {
+    refl_host_ray {
+        x: 3,
+        y: 4,
+        origin: refl_vec3 {
+            x: 0.0,
+            y: 1.0,
+            z: 5.0,
+        },
+        dir: refl_vec3 {
+            x: 0.0,
+            y: 0.0,
+            z: -1.0,
+        },
+        t_min: 0.0,
+        t_max,
+        status: 0,
+    }
+}
+
 #[test]
 fn without_maps_a_null_scratch_of_any_length_is_empty() {
     // Finding F29: with no maps the scratch is not read, and the header
@@ -781,24 +802,7 @@ fn without_maps_a_null_scratch_of_any_length_is_empty() {
             )
         };
         assert_eq!(s, refl_status::Ok, "scratch_len {len}: {}", last_error());
-        let ray = refl_host_ray {
-            x: 3,
-            y: 4,
-            origin: refl_vec3 {
-                x: 0.0,
-                y: 1.0,
-                z: 5.0,
-            },
-            dir: refl_vec3 {
-                x: 0.0,
-                y: 0.0,
-                z: -1.0,
-            },
-            t_min: 0.0,
-            t_max: 10.0,
-            status: 0,
-        };
-        let rays = [ray; 2];
+        let rays = [listed_ray(10.0); 2];
         let mut ray_out = vec![refl_layered_pass_texel::default(); 2];
         // SAFETY: as above, two listed rays.
         let s = unsafe {
@@ -1007,23 +1011,7 @@ fn bad_listed_rays_are_refused_untouched() {
     let (inp, d, scratch) = e.c();
     // A NaN ray, a non-unit one, t_max not above t_min, a
     // short out, color without payload colors; nothing written.
-    let good = refl_host_ray {
-        x: 3,
-        y: 4,
-        origin: refl_vec3 {
-            x: 0.0,
-            y: 1.0,
-            z: 5.0,
-        },
-        dir: refl_vec3 {
-            x: 0.0,
-            y: 0.0,
-            z: -1.0,
-        },
-        t_min: 0.0,
-        t_max: f32::INFINITY,
-        status: 0,
-    };
+    let good = listed_ray(f32::INFINITY);
     let bad_rays = [
         refl_host_ray {
             origin: refl_vec3 {

@@ -12,7 +12,7 @@
 //! pixels (so a method that handles planar mirrors only is compared with
 //! tracing those mirrors only).
 
-mod accum;
+pub mod accum;
 pub mod content;
 pub mod epipolar;
 pub mod glossy;

@@ -47,6 +47,17 @@ pub struct StudyOut {
     pub section: String,
 }
 
+impl StudyOut {
+    /// Rows and notes, no section of its own.
+    pub fn of_rows((rows, notes): (Vec<Row>, String)) -> Self {
+        Self {
+            rows,
+            notes,
+            section: String::new(),
+        }
+    }
+}
+
 /// A multi-frame study of the report.
 pub trait Study {
     /// What `summary.md` calls the study.
@@ -93,21 +104,7 @@ impl Study for TemporalPath {
     }
 
     fn run(&self, s: &SceneRun<'_>, _selected: &[&str]) -> Result<StudyOut, String> {
-        let (rows, notes) = super::temporal::report_rows(
-            s.shader,
-            s.label,
-            s.sizes.level,
-            s.sizes.width,
-            s.sizes.height,
-            s.threads,
-            s.pool,
-            s.images,
-        )?;
-        Ok(StudyOut {
-            rows,
-            notes,
-            section: String::new(),
-        })
+        super::temporal::report_rows(s).map(StudyOut::of_rows)
     }
 }
 
@@ -136,23 +133,12 @@ impl Study for TcrrPath {
     }
 
     fn run(&self, s: &SceneRun<'_>, selected: &[&str]) -> Result<StudyOut, String> {
-        let (rows, notes) = super::tcrr::report_rows(
-            s.shader,
-            s.label,
-            s.sizes.level,
-            s.sizes.width,
-            s.sizes.height,
+        super::tcrr::report_rows(
+            s,
             selected.contains(&"tcrr"),
             selected.contains(&"naive-warp"),
-            s.threads,
-            s.pool,
-            s.images,
-        )?;
-        Ok(StudyOut {
-            rows,
-            notes,
-            section: String::new(),
-        })
+        )
+        .map(StudyOut::of_rows)
     }
 }
 

@@ -1,13 +1,13 @@
 //! The TCRR path's rows and notes (seed 000): the report side of
 //! [`crate::tcrr::run_path`].
 
+use super::studies::SceneRun;
 use super::Level;
 use crate::report_out::Row;
-use crate::shade::Shader;
 use crate::tcrr::{path_cameras, run_path, Scheme, Setting, BYTES_PER_PIXEL};
 use refl_core::tcrr::TcrrOptions;
+use refl_core::Camera;
 use std::fmt::Write as _;
-use std::path::Path;
 
 /// The settings the report runs at `level`: the key-frame threshold swept
 /// at the seed's parameters, then the iteration cap, the re-trace contrast
@@ -79,49 +79,59 @@ pub fn report_settings(level: Level, tcrr: bool, naive: bool) -> Vec<Setting> {
     v
 }
 
-/// Runs the report's TCRR rows for one scene: a dense frame sequence along
-/// its camera path (quick: 5 frames over the first 2% of the path;
-/// default: 16 frames, long: 60 frames over the first quarter, the same
-/// camera step) at the report's image size.
-/// Returns the rows and a Markdown note.
-///
-/// # Errors
-/// As [`run_path`].
-#[allow(clippy::too_many_arguments)]
-pub fn report_rows(
-    shader: &Shader,
-    label: &str,
-    level: Level,
-    width: u32,
-    height: u32,
-    tcrr: bool,
-    naive: bool,
-    threads: usize,
-    pool: &rayon::ThreadPool,
-    images: &Path,
-) -> Result<(Vec<Row>, String), String> {
-    let settings = report_settings(level, tcrr, naive);
-    if settings.is_empty() || shader.scene.camera_path.is_empty() {
-        return Ok((Vec::new(), String::new()));
-    }
-    // About 2.5 cm of camera travel per frame on the room path (a walking
-    // camera at 60 frames per second); seed 000 Sec. 4.4 uses 500-frame
-    // paths.
-    let (frames, span) = match level {
+/// The frames of the path studies at `level` and the path parameters they
+/// span: quick 5 frames over the first 2% of the path, default 16, long 60
+/// frames over the first quarter, the same camera step: about 2.5 cm of
+/// camera travel per frame on the room path (a walking camera at 60 frames
+/// per second); seed 000 Sec. 4.4 uses 500-frame paths.
+pub fn path_frames(level: Level) -> (usize, (f32, f32)) {
+    match level {
         Level::Quick => (5, (0.0, 0.02)),
         Level::Default => (16, (0.0, 0.25 * 16.0 / 60.0)),
         Level::Long => (60, (0.0, 0.25)),
-    };
-    let cameras = path_cameras(shader.scene, frames, span, width, height)
-        .map_err(|e| format!("{label}: camera: {e}"))?;
+    }
+}
+
+/// A path study's cameras, their count and the path parameters they span.
+pub type StudyCameras = (Vec<Camera>, usize, (f32, f32));
+
+/// The cameras of a path study on `s`'s scene: [`path_frames`] at the
+/// run's level and image size; also the frame count and the span.
+///
+/// # Errors
+/// A pose the scene's path cannot give, as a message.
+pub fn study_cameras(s: &SceneRun<'_>) -> Result<StudyCameras, String> {
+    let (frames, span) = path_frames(s.sizes.level);
+    let cameras = path_cameras(s.scene, frames, span, s.sizes.width, s.sizes.height)
+        .map_err(|e| format!("{}: camera: {e}", s.label))?;
+    Ok((cameras, frames, span))
+}
+
+/// Runs the report's TCRR rows for one scene: a dense frame sequence along
+/// its camera path ([`path_frames`]) at the report's image size. Returns
+/// the rows and a Markdown note.
+///
+/// # Errors
+/// As [`run_path`].
+pub fn report_rows(
+    s: &SceneRun<'_>,
+    tcrr: bool,
+    naive: bool,
+) -> Result<(Vec<Row>, String), String> {
+    let (shader, label) = (s.shader, s.label);
+    let settings = report_settings(s.sizes.level, tcrr, naive);
+    if settings.is_empty() || shader.scene.camera_path.is_empty() {
+        return Ok((Vec::new(), String::new()));
+    }
+    let (cameras, frames, span) = study_cameras(s)?;
     let out = run_path(
         shader,
         label,
         &cameras,
         &settings,
-        threads,
-        pool,
-        Some((images, 1)),
+        s.threads,
+        s.pool,
+        Some((s.images, 1)),
     )?;
     let mut note = String::new();
     let _ = writeln!(

@@ -1,14 +1,12 @@
 //! The temporal-filtering path's rows and notes (seed 004 Sec. 4.6.5):
 //! the report side of [`crate::temporal::run_path`].
 
+use super::studies::SceneRun;
 use super::Level;
 use crate::report_out::Row;
-use crate::shade::Shader;
-use crate::tcrr::path_cameras;
 use crate::temporal::{run_path, Setting};
 use refl_core::temporal::TemporalOptions;
 use std::fmt::Write as _;
-use std::path::Path;
 
 /// The settings the report runs at `level`: the pass alone (`off`),
 /// recovery alone (`max_frames` 1), the filter at the default options
@@ -65,42 +63,26 @@ pub fn report_settings(level: Level) -> Vec<Setting> {
 }
 
 /// Runs the report's temporal rows for one scene over the TCRR study's
-/// frames (quick: 5 frames over the first 2% of the path; default: 16,
-/// long: 60 frames over the first quarter, about 2.5 cm of travel a frame
-/// on the room path). Returns the rows and a Markdown note.
+/// frames ([`super::tcrr::study_cameras`]). Returns the rows and a
+/// Markdown note.
 ///
 /// # Errors
 /// As [`run_path`].
-#[allow(clippy::too_many_arguments)]
-pub fn report_rows(
-    shader: &Shader,
-    label: &str,
-    level: Level,
-    width: u32,
-    height: u32,
-    threads: usize,
-    pool: &rayon::ThreadPool,
-    images: &Path,
-) -> Result<(Vec<Row>, String), String> {
+pub fn report_rows(s: &SceneRun<'_>) -> Result<(Vec<Row>, String), String> {
+    let (shader, label) = (s.shader, s.label);
     if shader.scene.camera_path.is_empty() {
         return Ok((Vec::new(), String::new()));
     }
-    let (frames, span) = match level {
-        Level::Quick => (5, (0.0, 0.02)),
-        Level::Default => (16, (0.0, 0.25 * 16.0 / 60.0)),
-        Level::Long => (60, (0.0, 0.25)),
-    };
-    let cameras = path_cameras(shader.scene, frames, span, width, height)
-        .map_err(|e| format!("{label}: camera: {e}"))?;
-    let settings = report_settings(level);
+    let (cameras, frames, span) = super::tcrr::study_cameras(s)?;
+    let settings = report_settings(s.sizes.level);
     let out = run_path(
         shader,
         label,
         &cameras,
         &settings,
-        threads,
-        pool,
-        Some(images),
+        s.threads,
+        s.pool,
+        Some(s.images),
     )?;
     let mut note = String::new();
     let _ = writeln!(
