@@ -201,6 +201,179 @@ fn filter_frame(
     Ok(((next, status), stats))
 }
 
+/// One frame of the path: its G-buffer, the reference and the mirror
+/// pass's output as the filter takes it.
+struct PathFrame {
+    g: GBuffer,
+    handled: Vec<bool>,
+    n_handled: usize,
+    n_reflective: usize,
+    direct: Vec<Vec3>,
+    truth_final: Vec<Vec3>,
+    reference_ms: f64,
+    depth: DepthBuffer,
+    images: PassImages,
+    pass_ms: f64,
+    rays: u64,
+    /// The pass's color where it answered, the environment elsewhere.
+    current: Vec<[f32; 3]>,
+    answered: Vec<u8>,
+    /// The hit distance, `+inf` for the sky, 0 where not answered.
+    distance: Vec<f32>,
+}
+
+impl PathFrame {
+    /// Renders the frame of `cam`, traces the reference and runs the Hi-Z
+    /// mirror pass (module docs).
+    fn new(
+        shader: &Shader,
+        cam: &Camera,
+        pool: &rayon::ThreadPool,
+    ) -> Result<Self, refl_core::Error> {
+        let g = GBuffer::render(shader.scene, shader.tracer, cam, pool);
+        let handled = handled_mask(&g);
+        let full = timed(|| trace_all(shader, &g, &handled, pool));
+        let direct = direct_image(shader, &g, pool);
+        let truth = crate::render::ReflectionImage {
+            width: g.width(),
+            height: g.height(),
+            rgb: full.value.0,
+            handled: handled.clone(),
+        };
+        let truth_final = composite(&g, &direct, &truth);
+        let depth = DepthBuffer::new(&g, DepthConvention::ReversedZ, f32::INFINITY)?;
+        let images = PassImages::new(&g, Some(&direct));
+        let method = ScreenMethod::HiZ(HiZOptions::default());
+        let run = screen::run(method, true, &depth.image()?, &images, pool)?;
+        let n = g.len();
+        let (mut current, mut answered, mut distance) =
+            (vec![[0.0f32; 3]; n], vec![0u8; n], vec![0.0f32; n]);
+        for i in (0..n).filter(|&i| g.is_reflective(i)) {
+            let t = &run.value.texels[i];
+            (current[i], answered[i], distance[i]) = match t.status {
+                MirrorStatus::Hit => (run.value.color[i], 1, t.t),
+                st => {
+                    let view = -g.primary_ray(i).dir;
+                    let env =
+                        env_map(reflection_dir(view, g.normal[i], g.geo_normal[i])).to_array();
+                    if st == MirrorStatus::Sky {
+                        (env, 1, f32::INFINITY)
+                    } else {
+                        (env, 0, 0.0)
+                    }
+                }
+            };
+        }
+        Ok(Self {
+            n_handled: handled.iter().filter(|&&x| x).count(),
+            n_reflective: (0..n).filter(|&i| g.is_reflective(i)).count(),
+            g,
+            handled,
+            direct,
+            truth_final,
+            reference_ms: full.ms,
+            depth,
+            images,
+            pass_ms: run.ms,
+            rays: u64::from(run.value.stats.traced),
+            current,
+            answered,
+            distance,
+        })
+    }
+
+    /// The reflection colors of `setting` this frame, the mirror pixels it
+    /// answered or recovered, and its time; the setting's history moves on.
+    fn filtered(
+        &self,
+        st: &mut State,
+        pool: &rayon::ThreadPool,
+    ) -> Result<(Vec<[f32; 3]>, usize, f64), refl_core::Error> {
+        let Some(opts) = st.setting.filter else {
+            let n = self
+                .handled
+                .iter()
+                .zip(&self.answered)
+                .filter(|(h, a)| **h && **a != 0)
+                .count();
+            return Ok((self.current.clone(), n, self.pass_ms));
+        };
+        let (w, h) = (self.g.width(), self.g.height());
+        let hist = match &st.history {
+            Some((c, t)) => Some(History::try_new(*c, ImageView::try_new(t, w, h, w)?)?),
+            None => None,
+        };
+        let mut pass = TemporalPass::try_new(
+            self.images.gbuffer(self.depth.image()?)?,
+            ImageView::try_new(&self.current, w, h, w)?,
+            ImageView::try_new(&self.answered, w, h, w)?,
+            hist,
+            opts,
+        )?;
+        if st.setting.distances {
+            pass = pass.try_with_distance(ImageView::try_new(&self.distance, w, h, w)?)?;
+        }
+        let filtered = timed(|| filter_frame(&pass, w, h, pool));
+        let ((next, status), stats) = filtered.value?;
+        let kept = [
+            TemporalStatus::Blended as u8,
+            TemporalStatus::Reset as u8,
+            TemporalStatus::Recovered as u8,
+        ];
+        let n = self
+            .handled
+            .iter()
+            .zip(&status)
+            .filter(|(h, s)| **h && kept.contains(s))
+            .count();
+        let s = &mut st.totals.stats;
+        s.blended += stats.blended;
+        s.reset += stats.reset;
+        s.recovered += stats.recovered;
+        s.unanswered += stats.unanswered;
+        s.off_screen += stats.off_screen;
+        s.rejected += stats.rejected;
+        let rgb = next.iter().map(|t| t.color).collect();
+        st.history = Some((self.depth.camera, next));
+        Ok((rgb, n, self.pass_ms + filtered.ms))
+    }
+
+    /// Runs `st`'s setting on this frame and adds the frame to its totals;
+    /// returns the composited frame.
+    fn step(
+        &self,
+        st: &mut State,
+        pool: &rayon::ThreadPool,
+    ) -> Result<Vec<Vec3>, refl_core::Error> {
+        let (rgb, answered, time) = self.filtered(st, pool)?;
+        let img = crate::render::ReflectionImage {
+            width: self.g.width(),
+            height: self.g.height(),
+            rgb: rgb.iter().map(|c| Vec3::from_array(*c)).collect(),
+            handled: self.handled.clone(),
+        };
+        let fin = composite(&self.g, &self.direct, &img);
+        let e = compare(&self.truth_final, &fin, &self.handled);
+        let t = &mut st.totals;
+        if let Some((last, lm)) = &st.last_final {
+            if let Some(d) = flicker(last, lm, &fin, &self.handled) {
+                t.flicker_sum += d;
+                t.flicker_frames += 1;
+            }
+        }
+        st.last_final = Some((fin.clone(), self.handled.clone()));
+        t.base
+            .add(time, self.reference_ms, self.n_reflective, &e, &Extra::None);
+        t.frames += 1;
+        t.handled += self.n_handled;
+        t.answered += answered;
+        t.rays += self.rays;
+        t.worst_frame = t.worst_frame.max(e.mean_abs);
+        st.per_frame.push(e.mean_abs);
+        Ok(fin)
+    }
+}
+
 /// Runs every setting over the frame cameras; the composite of the last
 /// frame of the first filtered setting and of `off` go to `images` as
 /// `<label>_temporal.png` and `<label>_temporal_off.png`.
@@ -217,7 +390,6 @@ pub fn run_path(
     pool: &rayon::ThreadPool,
     images: Option<&Path>,
 ) -> Result<PathOutcome, String> {
-    let scene = shader.scene;
     let err = |e: refl_core::Error| format!("{label}: temporal: {e}");
     let mut states: Vec<State> = settings
         .iter()
@@ -229,166 +401,34 @@ pub fn run_path(
             per_frame: Vec::new(),
         })
         .collect();
-    let (mut ref_last, mut ref_flicker, mut ref_flicker_n) =
-        (None::<(Vec<Vec3>, Vec<bool>)>, 0.0, 0);
-    let method = ScreenMethod::HiZ(HiZOptions::default());
+    let mut reference = (None::<(Vec<Vec3>, Vec<bool>)>, 0.0, 0usize);
     for (f, cam) in cameras.iter().enumerate() {
-        let g = GBuffer::render(scene, shader.tracer, cam, pool);
-        let handled = handled_mask(&g);
-        let n_handled = handled.iter().filter(|&&x| x).count();
-        let n_reflective = (0..g.len()).filter(|&i| g.is_reflective(i)).count();
-        let full = timed(|| trace_all(shader, &g, &handled, pool));
-        let direct = direct_image(shader, &g, pool);
-        let truth = crate::render::ReflectionImage {
-            width: g.width(),
-            height: g.height(),
-            rgb: full.value.0.clone(),
-            handled: handled.clone(),
-        };
-        let truth_final = composite(&g, &direct, &truth);
-        if let Some((last, lm)) = &ref_last {
-            if let Some(d) = flicker(last, lm, &truth_final, &handled) {
-                ref_flicker += d;
-                ref_flicker_n += 1;
+        let frame = PathFrame::new(shader, cam, pool).map_err(err)?;
+        if let Some((last, lm)) = &reference.0 {
+            if let Some(d) = flicker(last, lm, &frame.truth_final, &frame.handled) {
+                reference.1 += d;
+                reference.2 += 1;
             }
         }
-        ref_last = Some((truth_final.clone(), handled.clone()));
-
-        // The pass, once per frame (every setting starts from its output).
-        let depth = DepthBuffer::new(&g, DepthConvention::ReversedZ, f32::INFINITY).map_err(err)?;
-        let depth_image = depth.image().map_err(err)?;
-        let pass_images = PassImages::new(&g, Some(&direct));
-        let run = screen::run(method, true, &depth_image, &pass_images, pool).map_err(err)?;
-        let (w, h) = (g.width(), g.height());
-        let mut current = vec![[0.0f32; 3]; g.len()];
-        let mut answered = vec![0u8; g.len()];
-        let mut distance = vec![0.0f32; g.len()];
-        for i in 0..g.len() {
-            if !g.is_reflective(i) {
-                continue;
-            }
-            let t = &run.value.texels[i];
-            current[i] = match t.status {
-                MirrorStatus::Hit => {
-                    answered[i] = 1;
-                    distance[i] = t.t;
-                    run.value.color[i]
-                }
-                _ => {
-                    answered[i] = u8::from(t.status == MirrorStatus::Sky);
-                    if t.status == MirrorStatus::Sky {
-                        distance[i] = f32::INFINITY;
-                    }
-                    let view = -g.primary_ray(i).dir;
-                    env_map(reflection_dir(view, g.normal[i], g.geo_normal[i])).to_array()
-                }
-            };
-        }
-        let rays = u64::from(run.value.stats.traced);
-        let last_frame = f + 1 == cameras.len();
+        reference.0 = Some((frame.truth_final.clone(), frame.handled.clone()));
         let mut saved_filtered = false;
         for st in &mut states {
-            let (rgb, answered_n, time) = match st.setting.filter {
-                None => {
-                    let n = (0..g.len())
-                        .filter(|&i| handled[i] && answered[i] != 0)
-                        .count();
-                    (current.clone(), n, run.ms)
+            let fin = frame.step(st, pool).map_err(err)?;
+            let name = match st.setting.filter {
+                None => Some(format!("{label}_temporal_off.png")),
+                Some(_) if !saved_filtered => {
+                    saved_filtered = true;
+                    Some(format!("{label}_temporal.png"))
                 }
-                Some(opts) => {
-                    let gb = pass_images.gbuffer(depth_image).map_err(err)?;
-                    let hist = match &st.history {
-                        Some((c, t)) => Some(
-                            History::try_new(*c, ImageView::try_new(t, w, h, w).map_err(err)?)
-                                .map_err(err)?,
-                        ),
-                        None => None,
-                    };
-                    let mut pass = TemporalPass::try_new(
-                        gb,
-                        ImageView::try_new(&current, w, h, w).map_err(err)?,
-                        ImageView::try_new(&answered, w, h, w).map_err(err)?,
-                        hist,
-                        opts,
-                    )
-                    .map_err(err)?;
-                    if st.setting.distances {
-                        pass = pass
-                            .try_with_distance(ImageView::try_new(&distance, w, h, w).map_err(err)?)
-                            .map_err(err)?;
-                    }
-                    let filtered = timed(|| filter_frame(&pass, w, h, pool));
-                    let (next, stats) = filtered.value.map_err(err)?;
-                    let (next, status) = next;
-                    let n = handled
-                        .iter()
-                        .zip(&status)
-                        .filter(|(h, s)| {
-                            **h && [
-                                TemporalStatus::Blended as u8,
-                                TemporalStatus::Reset as u8,
-                                TemporalStatus::Recovered as u8,
-                            ]
-                            .contains(s)
-                        })
-                        .count();
-                    let s = &mut st.totals.stats;
-                    s.blended += stats.blended;
-                    s.reset += stats.reset;
-                    s.recovered += stats.recovered;
-                    s.unanswered += stats.unanswered;
-                    s.off_screen += stats.off_screen;
-                    s.rejected += stats.rejected;
-                    let rgb = next.iter().map(|t| t.color).collect();
-                    st.history = Some((depth.camera, next));
-                    (rgb, n, run.ms + filtered.ms)
-                }
+                Some(_) => None,
             };
-            let img = crate::render::ReflectionImage {
-                width: w,
-                height: h,
-                rgb: rgb
-                    .iter()
-                    .map(|c: &[f32; 3]| Vec3::from_array(*c))
-                    .collect(),
-                handled: handled.clone(),
-            };
-            let fin = composite(&g, &direct, &img);
-            let e = compare(&truth_final, &fin, &handled);
-            if let Some((last, lm)) = &st.last_final {
-                if let Some(d) = flicker(last, lm, &fin, &handled) {
-                    st.totals.flicker_sum += d;
-                    st.totals.flicker_frames += 1;
-                }
+            if let (Some(dir), Some(name), true) = (images, name, f + 1 == cameras.len()) {
+                let (w, h) = (frame.g.width(), frame.g.height());
+                save_png(&dir.join(&name), w, h, &fin).map_err(|e| format!("{name}: {e}"))?;
             }
-            if last_frame {
-                if let Some(dir) = images {
-                    let name = match st.setting.filter {
-                        None => Some(format!("{label}_temporal_off.png")),
-                        Some(_) if !saved_filtered => {
-                            saved_filtered = true;
-                            Some(format!("{label}_temporal.png"))
-                        }
-                        Some(_) => None,
-                    };
-                    if let Some(name) = name {
-                        save_png(&dir.join(&name), w, h, &fin)
-                            .map_err(|e| format!("{name}: {e}"))?;
-                    }
-                }
-            }
-            st.last_final = Some((fin, handled.clone()));
-            let t = &mut st.totals;
-            t.base.add(time, full.ms, n_reflective, &e, &Extra::None);
-            t.frames += 1;
-            t.handled += n_handled;
-            t.answered += answered_n;
-            t.rays += rays;
-            t.worst_frame = t.worst_frame.max(e.mean_abs);
-            st.per_frame.push(e.mean_abs);
         }
     }
-    let reference_flicker = ref_flicker / ref_flicker_n.max(1) as f64;
+    let reference_flicker = reference.1 / reference.2.max(1) as f64;
     Ok(PathOutcome {
         rows: states
             .iter()
