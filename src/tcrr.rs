@@ -467,6 +467,23 @@ pub fn path_cameras(
         .collect()
 }
 
+/// What a path study runs on: the shader (scene and tracer), the label
+/// of its rows and files, the frame cameras, and the pool (and its thread
+/// count) every timed pass and the reference run on.
+#[derive(Clone, Copy)]
+pub struct PathRun<'a> {
+    /// Scene, tracer and shading.
+    pub shader: &'a Shader<'a>,
+    /// Scene label (rows, file names).
+    pub label: &'a str,
+    /// One camera per frame.
+    pub cameras: &'a [Camera],
+    /// Worker threads of `pool`.
+    pub threads: usize,
+    /// The pool.
+    pub pool: &'a rayon::ThreadPool,
+}
+
 /// Runs every setting over the frame cameras; images of frame `image_frame`
 /// (composites of the first setting of each scheme, the reference and the
 /// re-trace marks) go to `images` with file names prefixed by `label`.
@@ -474,16 +491,18 @@ pub fn path_cameras(
 /// # Errors
 /// A kernel's error (a bug: the inputs are built here) or an image write
 /// failure, as a message.
-#[allow(clippy::too_many_arguments)]
 pub fn run_path(
-    shader: &Shader,
-    label: &str,
-    cameras: &[Camera],
+    run: &PathRun<'_>,
     settings: &[Setting],
-    threads: usize,
-    pool: &rayon::ThreadPool,
     images: Option<(&Path, usize)>,
 ) -> Result<PathOutcome, String> {
+    let PathRun {
+        shader,
+        label,
+        cameras,
+        threads,
+        pool,
+    } = *run;
     let scene = shader.scene;
     let mut states: Vec<State> = settings
         .iter()

@@ -30,7 +30,7 @@ use crate::report::accum::{Accum, Extra};
 use crate::report_out::Row;
 use crate::screen::{self, DepthBuffer, PassImages, ScreenMethod};
 use crate::shade::{env_map, reflection_dir, Shader};
-use crate::tcrr::{handled_mask, trace_all};
+use crate::tcrr::{handled_mask, trace_all, PathRun};
 use glam::Vec3;
 use rayon::prelude::*;
 use refl_core::hiz::HiZOptions;
@@ -382,14 +382,11 @@ impl PathFrame {
 /// A kernel's error (a bug: the inputs are built here) or an image write
 /// failure, as a message.
 pub fn run_path(
-    shader: &Shader,
-    label: &str,
-    cameras: &[Camera],
+    run: &PathRun<'_>,
     settings: &[Setting],
-    threads: usize,
-    pool: &rayon::ThreadPool,
     images: Option<&Path>,
 ) -> Result<PathOutcome, String> {
+    let (label, cameras, pool) = (run.label, run.cameras, run.pool);
     let err = |e: refl_core::Error| format!("{label}: temporal: {e}");
     let mut states: Vec<State> = settings
         .iter()
@@ -403,7 +400,7 @@ pub fn run_path(
         .collect();
     let mut reference = (None::<(Vec<Vec3>, Vec<bool>)>, 0.0, 0usize);
     for (f, cam) in cameras.iter().enumerate() {
-        let frame = PathFrame::new(shader, cam, pool).map_err(err)?;
+        let frame = PathFrame::new(run.shader, cam, pool).map_err(err)?;
         if let Some((last, lm)) = &reference.0 {
             if let Some(d) = flicker(last, lm, &frame.truth_final, &frame.handled) {
                 reference.1 += d;
@@ -432,7 +429,10 @@ pub fn run_path(
     Ok(PathOutcome {
         rows: states
             .iter()
-            .map(|s| s.totals.row(label, &s.setting, threads, reference_flicker))
+            .map(|s| {
+                s.totals
+                    .row(label, &s.setting, run.threads, reference_flicker)
+            })
             .collect(),
         per_frame: states
             .into_iter()

@@ -4,7 +4,7 @@
 
 use refl_app::scene::Scene;
 use refl_app::shade::Shader;
-use refl_app::tcrr::{path_cameras, run_path, Scheme, Setting};
+use refl_app::tcrr::{path_cameras, run_path, PathRun, Scheme, Setting};
 use refl_app::tracer::Tracer;
 use refl_core::TcrrOptions;
 
@@ -40,13 +40,17 @@ fn stationary_camera_reproduces_the_key_frame_exactly() {
     let shader = Shader::new(&scene, &tracer);
     let cam = scene.camera(3, 128, 96).unwrap();
     let cams = vec![cam; 3];
+    let pool = pool();
+    let run = PathRun {
+        shader: &shader,
+        label: "room",
+        cameras: &cams,
+        threads: 2,
+        pool: &pool,
+    };
     let out = run_path(
-        &shader,
-        "room",
-        &cams,
+        &run,
         &[setting(Scheme::Tcrr), setting(Scheme::NaiveWarp)],
-        2,
-        &pool(),
         None,
     )
     .unwrap();
@@ -84,16 +88,15 @@ fn tcrr_beats_naive_warping_on_the_room_path() {
         threshold: 1.0,
         ..setting(Scheme::Tcrr)
     };
-    let out = run_path(
-        &shader,
-        "room",
-        &cams,
-        &[seed, setting(Scheme::NaiveWarp), strict],
-        2,
-        &pool(),
-        None,
-    )
-    .unwrap();
+    let pool = pool();
+    let run = PathRun {
+        shader: &shader,
+        label: "room",
+        cameras: &cams,
+        threads: 2,
+        pool: &pool,
+    };
+    let out = run_path(&run, &[seed, setting(Scheme::NaiveWarp), strict], None).unwrap();
     let (t, n, c) = (&out.rows[0], &out.rows[1], &out.rows[2]);
     assert_eq!(extra(c, "key_frames"), 1.0);
     assert!(

@@ -4,7 +4,7 @@
 use super::studies::SceneRun;
 use super::Level;
 use crate::report_out::Row;
-use crate::tcrr::{path_cameras, run_path, Scheme, Setting, BYTES_PER_PIXEL};
+use crate::tcrr::{path_cameras, run_path, PathRun, Scheme, Setting, BYTES_PER_PIXEL};
 use refl_core::tcrr::TcrrOptions;
 use refl_core::Camera;
 use std::fmt::Write as _;
@@ -107,6 +107,17 @@ pub fn study_cameras(s: &SceneRun<'_>) -> Result<StudyCameras, String> {
     Ok((cameras, frames, span))
 }
 
+/// The [`PathRun`] of `s` over `cameras`.
+pub fn path_run<'a>(s: &'a SceneRun<'a>, cameras: &'a [Camera]) -> PathRun<'a> {
+    PathRun {
+        shader: s.shader,
+        label: s.label,
+        cameras,
+        threads: s.threads,
+        pool: s.pool,
+    }
+}
+
 /// Runs the report's TCRR rows for one scene: a dense frame sequence along
 /// its camera path ([`path_frames`]) at the report's image size. Returns
 /// the rows and a Markdown note.
@@ -124,15 +135,7 @@ pub fn report_rows(
         return Ok((Vec::new(), String::new()));
     }
     let (cameras, frames, span) = study_cameras(s)?;
-    let out = run_path(
-        shader,
-        label,
-        &cameras,
-        &settings,
-        s.threads,
-        s.pool,
-        Some((s.images, 1)),
-    )?;
+    let out = run_path(&path_run(s, &cameras), &settings, Some((s.images, 1)))?;
     let mut note = String::new();
     let _ = writeln!(
         note,

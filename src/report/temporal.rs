@@ -76,12 +76,8 @@ pub fn report_rows(s: &SceneRun<'_>) -> Result<(Vec<Row>, String), String> {
     let (cameras, frames, span) = super::tcrr::study_cameras(s)?;
     let settings = report_settings(s.sizes.level);
     let out = run_path(
-        shader,
-        label,
-        &cameras,
+        &super::tcrr::path_run(s, &cameras),
         &settings,
-        s.threads,
-        s.pool,
         Some(s.images),
     )?;
     let mut note = String::new();
