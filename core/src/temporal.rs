@@ -53,9 +53,10 @@
 //!    reflections that move against their reflector). Answered without
 //!    history: the current color, `frames = 1`
 //!    ([`TemporalStatus::Reset`]).
-//! 5. **Recovery.** Not answered (or a non-finite color) with history and
-//!    [`TemporalOptions::recover`]: the history's color and frame count
-//!    ([`TemporalStatus::Recovered`]). Without history: the current color
+//! 5. **Recovery.** Not answered (or a non-finite color) with history
+//!    that keeps at least [`MIN_RECOVERY_WEIGHT`] of the bilinear
+//!    footprint, and [`TemporalOptions::recover`]: the history's color and
+//!    frame count ([`TemporalStatus::Recovered`]). Without history: the current color
 //!    as given (the host's fallback), `frames = 0`, so that no later frame
 //!    takes it for history ([`TemporalStatus::Unanswered`]).
 //! 6. The texel written stores the current surface's linear depth, unit
@@ -194,6 +195,16 @@ impl<'a> History<'a> {
 /// less than this share of the bilinear footprint sits on a silhouette.
 pub const MIN_HISTORY_WEIGHT: f32 = 0.05;
 
+/// Least share of the bilinear footprint a failed pixel's history must
+/// keep to be recovered (module docs, step 5): below it the pixel sits on
+/// the silhouette of what the history holds, where the surviving texels
+/// reflect the edge of what failed. Measured: with the report's recovery
+/// setting (`max_frames = 1`, virtual point), taking history down to
+/// [`MIN_HISTORY_WEIGHT`] raised the error of the Hi-Z mirror pass on the
+/// room, concave and walkthrough paths; at 0.5 it lowers it on all four
+/// (`refl report`, method `hiz-temporal`).
+pub const MIN_RECOVERY_WEIGHT: f32 = 0.5;
+
 /// Settings of the temporal filter.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct TemporalOptions {
@@ -285,6 +296,8 @@ pub struct TemporalStats {
 struct Found {
     color: Vec3,
     frames: f32,
+    /// The kept texels' share of the bilinear footprint.
+    weight: f32,
     /// The kept texels' reflection ([`Reflections::mean`]).
     reflected: Reflected,
 }
@@ -570,6 +583,7 @@ impl<'a> TemporalPass<'a> {
         Ok(Found {
             color,
             frames,
+            weight: wsum,
             reflected: reflections.mean(),
         })
     }
@@ -677,7 +691,7 @@ impl<'a> TemporalPass<'a> {
                 (texel(color, n, t_now), TemporalStatus::Blended, None)
             }
             (true, Err(why)) => (texel(cur_v, 1.0, t_now), TemporalStatus::Reset, Some(why)),
-            (false, Ok(hist)) if self.options.recover => (
+            (false, Ok(hist)) if self.options.recover && hist.weight >= MIN_RECOVERY_WEIGHT => (
                 texel(hist.color, hist.frames, t_used),
                 TemporalStatus::Recovered,
                 None,

