@@ -725,26 +725,41 @@ fn null_arguments_are_refused_before_any_size_or_input_error() {
         assert!(last_error().contains("`scratch`"), "{}", last_error());
     }
     let rays = [refl_host_ray::default(); 2];
-    // SAFETY: out_len 0 < 2 rays, NULL scratch.
-    let s = unsafe {
+    // out_len 0 < 2 rays.
+    let s = host_rays_without_scratch(&mut st, &mut out[..0], &inp, &d, 0, &rays);
+    assert_eq!(s, Null, "{}", last_error());
+    assert!(out.iter().all(|t| *t == refl_layered_pass_texel::default()));
+}
+
+/// `refl_layered_trace_host_rays` of `rays` into `out` (its length as
+/// `out_len`), no color, no host list, a NULL scratch of `scratch_len`.
+fn host_rays_without_scratch(
+    st: &mut refl_layered_pass_stats,
+    out: &mut [refl_layered_pass_texel],
+    inp: &refl_layered_pass_input,
+    d: &refl_layered_pass_options,
+    scratch_len: usize,
+    rays: &[refl_host_ray],
+) -> refl_status {
+    // SAFETY: `out` and `rays` valid for their lengths, NULL optional
+    // outputs of length 0, NULL scratch.
+    unsafe {
         refl_layered_trace_host_rays(
-            &mut st,
+            st,
             out.as_mut_ptr(),
-            0,
+            out.len(),
             core::ptr::null_mut(),
             0,
             core::ptr::null_mut(),
             0,
-            &inp,
-            &d,
+            inp,
+            d,
             core::ptr::null(),
-            0,
+            scratch_len,
             rays.as_ptr(),
             rays.len(),
         )
-    };
-    assert_eq!(s, Null, "{}", last_error());
-    assert!(out.iter().all(|t| *t == refl_layered_pass_texel::default()));
+    }
 }
 
 /// A valid listed ray at pixel (3, 4): from (0, 1, 5) down -z, `[0, t_max]`.
@@ -804,24 +819,7 @@ fn without_maps_a_null_scratch_of_any_length_is_empty() {
         assert_eq!(s, refl_status::Ok, "scratch_len {len}: {}", last_error());
         let rays = [listed_ray(10.0); 2];
         let mut ray_out = vec![refl_layered_pass_texel::default(); 2];
-        // SAFETY: as above, two listed rays.
-        let s = unsafe {
-            refl_layered_trace_host_rays(
-                &mut st,
-                ray_out.as_mut_ptr(),
-                2,
-                core::ptr::null_mut(),
-                0,
-                core::ptr::null_mut(),
-                0,
-                &no_maps,
-                &d,
-                core::ptr::null(),
-                len,
-                rays.as_ptr(),
-                rays.len(),
-            )
-        };
+        let s = host_rays_without_scratch(&mut st, &mut ray_out, &no_maps, &d, len, &rays);
         assert_eq!(s, refl_status::Ok, "scratch_len {len}: {}", last_error());
     }
 }
