@@ -123,7 +123,7 @@
 //! ([`MirrorStatus::Sky`]) is answered: within the view frustum, everything
 //! in front of the depth buffer is empty.
 
-use crate::trace::{ray_start_t, refine_hit, REFINE_CONTINUITY};
+use crate::trace::{refine_hit, RayStart, REFINE_CONTINUITY};
 use crate::{
     Camera, DepthHit, Error, GBuffer, ImageViewMut, Miss, Ray, RowRange, Thickness, Trace,
 };
@@ -483,6 +483,8 @@ pub struct MirrorPass<'a> {
     options: MirrorOptions,
     #[cfg(feature = "hiz")]
     hiz: Option<HiZ<'a>>,
+    /// [`ray_start_t`]'s per-camera constants, once per pass.
+    start: RayStart,
 }
 
 pub(crate) fn validate_options(o: &MirrorOptions) -> Result<(), Error> {
@@ -535,6 +537,7 @@ impl<'a> MirrorPass<'a> {
             }
         }
         Ok(Self {
+            start: RayStart::new(gbuffer.camera()),
             gbuffer,
             options,
             hiz,
@@ -550,7 +553,11 @@ impl<'a> MirrorPass<'a> {
     #[cfg(not(feature = "hiz"))]
     pub fn try_new(gbuffer: GBuffer<'a>, options: MirrorOptions) -> Result<Self, Error> {
         validate_options(&options)?;
-        Ok(Self { gbuffer, options })
+        Ok(Self {
+            start: RayStart::new(gbuffer.camera()),
+            gbuffer,
+            options,
+        })
     }
 
     /// A pass that only generates rays ([`MirrorPass::ray`],
@@ -565,6 +572,7 @@ impl<'a> MirrorPass<'a> {
     ) -> Result<Self, Error> {
         validate_options(&options)?;
         Ok(Self {
+            start: RayStart::new(gbuffer.camera()),
             gbuffer,
             options,
             #[cfg(feature = "hiz")]
@@ -639,7 +647,7 @@ impl<'a> MirrorPass<'a> {
             t_start: self.options.t_min,
             thickness,
         };
-        match ray_start_t(self.camera(), &ray, self.options.start_pixels) {
+        match self.start.t(&ray, self.options.start_pixels) {
             Some(t0) if thickness.is_finite() => {
                 mr.t_start = t0.max(self.options.t_min);
                 if !(mr.t_start < self.options.t_max) {
@@ -743,7 +751,9 @@ impl<'a> MirrorPass<'a> {
             dir: ray.dir,
         };
         let cam = self.camera();
-        let ray_dz = ray_start_t(cam, &at, 1.0)
+        let ray_dz = self
+            .start
+            .t(&at, 1.0)
             .map(|dt| (cam.linear_depth(at.at(dt)) - cam.linear_depth(at.origin)).abs())
             .filter(|dz| dz.is_finite())
             .unwrap_or(0.0);
@@ -871,7 +881,7 @@ impl<'a> MirrorPass<'a> {
                     origin: seg.kernel_ray().at(h.t),
                     dir: seg.dir,
                 };
-                let next = ray_start_t(self.camera(), &at, 1.0).map(|dt| seg.t_start + h.t + dt);
+                let next = self.start.t(&at, 1.0).map(|dt| seg.t_start + h.t + dt);
                 match next {
                     Some(t) if resumes < budget && t < self.options.t_max => {
                         resumes += 1;

@@ -421,30 +421,59 @@ fn below(n: u32) -> f32 {
 /// assert!(((p1.x - p0.x).hypot(p1.y - p0.y) - 1.0).abs() < 1e-3);
 /// ```
 pub fn ray_start_t(camera: &Camera, ray: &Ray, pixels: f32) -> Option<f32> {
-    if !(pixels >= 0.0 && pixels.is_finite() && ray.origin.is_finite() && ray.dir.is_finite()) {
-        return None;
+    RayStart::new(camera).t(ray, pixels)
+}
+
+/// The per-camera part of [`ray_start_t`], computed once: the view matrix
+/// in f64 and the view-plane scales `fx`, `fy` (the same f64 tangents as
+/// [`Camera::project`]). A pass builds one when it is prepared and calls
+/// [`RayStart::t`] per ray, which returns exactly what [`ray_start_t`]
+/// returns (it is [`ray_start_t`]'s body).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct RayStart {
+    view: glam::DMat4,
+    fx: f64,
+    fy: f64,
+}
+
+impl RayStart {
+    /// The constants of `camera`.
+    pub fn new(camera: &Camera) -> Self {
+        let (w, h) = (f64::from(camera.width()), f64::from(camera.height()));
+        let tan_y = libm::tan(f64::from(camera.fov_y()) * 0.5);
+        let tan_x = tan_y * w / h;
+        Self {
+            view: camera.view().as_dmat4(),
+            fx: 0.5 * w / tan_x,
+            fy: 0.5 * h / tan_y,
+        }
     }
-    let view = camera.view().as_dmat4();
-    let o = view.transform_point3(ray.origin.as_dvec3());
-    let d = view.transform_vector3(ray.dir.as_dvec3());
-    // The same f64 tangents as `Camera::project`.
-    let (w, h) = (f64::from(camera.width()), f64::from(camera.height()));
-    let tan_y = libm::tan(f64::from(camera.fov_y()) * 0.5);
-    let tan_x = tan_y * w / h;
-    let (fx, fy) = (0.5 * w / tan_x, 0.5 * h / tan_y);
-    let (w0, wd) = (-o.z, -d.z);
-    if !(w0 > 0.0) {
-        return None;
+
+    /// [`ray_start_t`] for the camera this was built from: the smallest `t`
+    /// at which `ray`'s projection has moved `pixels` pixels from its
+    /// origin's, or `None` in the cases listed there.
+    #[inline]
+    pub fn t(&self, ray: &Ray, pixels: f32) -> Option<f32> {
+        if !(pixels >= 0.0 && pixels.is_finite() && ray.origin.is_finite() && ray.dir.is_finite()) {
+            return None;
+        }
+        let o = self.view.transform_point3(ray.origin.as_dvec3());
+        let d = self.view.transform_vector3(ray.dir.as_dvec3());
+        let (fx, fy) = (self.fx, self.fy);
+        let (w0, wd) = (-o.z, -d.z);
+        if !(w0 > 0.0) {
+            return None;
+        }
+        let n = f64::from(pixels);
+        let ku = fx * (w0 * d.x - wd * o.x);
+        let kv = fy * (w0 * d.y - wd * o.y);
+        let k = libm::sqrt(ku * ku + kv * kv);
+        let den = k - n * w0 * wd;
+        if !(den > 0.0) {
+            return None;
+        }
+        let t = n * w0 * w0 / den;
+        let t32 = t as f32;
+        t32.is_finite().then_some(t32)
     }
-    let n = f64::from(pixels);
-    let ku = fx * (w0 * d.x - wd * o.x);
-    let kv = fy * (w0 * d.y - wd * o.y);
-    let k = libm::sqrt(ku * ku + kv * kv);
-    let den = k - n * w0 * wd;
-    if !(den > 0.0) {
-        return None;
-    }
-    let t = n * w0 * w0 / den;
-    let t32 = t as f32;
-    t32.is_finite().then_some(t32)
 }

@@ -1,13 +1,14 @@
 //! The ray start rule `trace::ray_start_t` against an f64 oracle that finds
 //! the same parameter by bisection on the projected distance (no closed
-//! form), and against `Camera::project`.
+//! form), and against `Camera::project`; `trace::RayStart`, the constants
+//! a pass prepares once, gives the same starts.
 #![cfg(any(feature = "depth-image", feature = "hiz"))]
 
 use glam::{DVec3, Vec3};
 use proptest::prelude::*;
 
 mod common;
-use refl_core::trace::ray_start_t;
+use refl_core::trace::{ray_start_t, RayStart};
 use refl_core::{Camera, Ray};
 
 /// f64 pixel position of a world point (the camera's formula, in f64), or
@@ -181,6 +182,12 @@ proptest! {
         prop_assume!(d.length() > 0.1);
         let r = Ray { origin: Vec3::new(ox, oy, oz), dir: d.normalize() };
         let got = ray_start_t(&c, &r, n);
+        // The prepared constants a pass keeps give the same start, also
+        // when reused for another ray.
+        let start = RayStart::new(&c);
+        let back = Ray { origin: r.origin + r.dir, dir: -r.dir };
+        prop_assert_eq!(start.t(&back, n).map(f32::to_bits), ray_start_t(&c, &back, n).map(f32::to_bits));
+        prop_assert_eq!(start.t(&r, n).map(f32::to_bits), got.map(f32::to_bits));
         let want = oracle(&c, r.origin.as_dvec3(), r.dir.as_dvec3(), f64::from(n));
         match (got, want) {
             (Some(t), Some(w)) => prop_assert!((f64::from(t) - w).abs() <= 1e-4 * w.max(1e-3), "{t} vs {w}"),
