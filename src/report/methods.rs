@@ -327,7 +327,8 @@ impl Setting for ScreenSetting {
     }
 
     fn run(&self, f: &mut Frame<'_>) -> Result<FrameRun, String> {
-        let (g, pool, pool_1t, runs) = (f.g, f.pool, f.pool_1t, f.sizes.runs);
+        let (g, pool, pool_1t, runs, runs_1t) =
+            (f.g, f.pool, f.pool_1t, f.sizes.runs, f.sizes.runs_1t);
         let (kernel, refine) = (self.kernel, self.refine);
         let sf = f.screen();
         sf.prepare_depth(g, self.convention)
@@ -339,7 +340,7 @@ impl Setting for ScreenSetting {
             screen::run(kernel, refine, &image, &sf.images, pool)
         })
         .map_err(|e| e.to_string())?;
-        let (_, ms_1t) = median_run(runs, || {
+        let (_, ms_1t) = median_run(runs_1t, || {
             screen::run(kernel, refine, &image, &sf.images, pool_1t)
         })
         .map_err(|e| e.to_string())?;
@@ -531,7 +532,8 @@ impl Setting for LayeredSetting {
     }
 
     fn run(&self, f: &mut Frame<'_>) -> Result<FrameRun, String> {
-        let (g, pool, pool_1t, runs) = (f.g, f.pool, f.pool_1t, f.sizes.runs);
+        let (g, pool, pool_1t, runs, runs_1t) =
+            (f.g, f.pool, f.pool_1t, f.sizes.runs, f.sizes.runs_1t);
         let key = (self.face_res, self.layers);
         if !f.layered_maps.iter().any(|(k, _)| *k == key) {
             let ls = LayeredScene::build(f.scene, self.face_res, self.layers, pool)
@@ -567,7 +569,7 @@ impl Setting for LayeredSetting {
             t.value.map(|v| Timed { value: v, ms: t.ms })
         };
         let (traces, ms) = median_run(runs, || trace(pool)).map_err(|e| e.to_string())?;
-        let (_, ms_1t) = median_run(runs, || trace(pool_1t)).map_err(|e| e.to_string())?;
+        let (_, ms_1t) = median_run(runs_1t, || trace(pool_1t)).map_err(|e| e.to_string())?;
         let ls_stats = crate::layered_render::evaluate(scene, ls, &sf.rays, &traces);
         let pixels = f64::from(g.width()) * f64::from(g.height());
         Ok(FrameRun {

@@ -119,6 +119,10 @@ pub struct Sizes {
     pub reference_samples: &'static [u32],
     /// Timed repetitions; the median is reported.
     pub runs: usize,
+    /// Timed repetitions of the one-thread runs of the screen-space and
+    /// layered methods (their `*_1t` columns): one in the default run,
+    /// where they took 40% of the per-frame time, `runs` with `--long`.
+    pub runs_1t: usize,
     /// Camera-path poses rendered per scene (spread over the path).
     pub frames: usize,
     /// Samples per pixel of the glossy study's converged reference.
@@ -151,6 +155,7 @@ impl Sizes {
         truth_samples: 64,
         reference_samples: &[4, 16],
         runs: 3,
+        runs_1t: 1,
         frames: 2,
         glossy_truth_samples: 64,
         path: crate::epipolar::PathSizes::QUICK,
@@ -166,6 +171,7 @@ impl Sizes {
         truth_samples: 128,
         reference_samples: &[4, 16, 64],
         runs: 3,
+        runs_1t: 1,
         frames: 2,
         glossy_truth_samples: 256,
         path: crate::epipolar::PathSizes::DEFAULT,
@@ -180,6 +186,7 @@ impl Sizes {
         truth_samples: 512,
         reference_samples: &[4, 16, 64, 256],
         runs: 3,
+        runs_1t: 3,
         frames: 4,
         glossy_truth_samples: 1024,
         path: crate::epipolar::PathSizes::LONG,
