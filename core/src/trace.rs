@@ -302,13 +302,14 @@ pub fn refine_hit(image: &DepthImage<'_>, ray: &Ray, t_max: f32, hit: &DepthHit)
                 break;
             }
         }
-        let p0 = center(x, y, z0);
         // Per axis, the surface direction: both neighbors when they lie on
         // one plane with the center (1/z is linear in screen space on a
         // plane), else the neighbor closer in depth if within
-        // REFINE_CONTINUITY.
-        let mut tangent = |cands: [(i64, i64); 2]| -> Option<glam::Vec3> {
-            let mut pts: [Option<(f32, glam::Vec3)>; 2] = [None, None];
+        // REFINE_CONTINUITY. Decided on the depths alone; only the texel
+        // centers a direction uses are unprojected.
+        let (xi, yi) = (i64::from(x), i64::from(y));
+        let mut pick = |cands: [(i64, i64); 2]| -> (Pick, [(u32, u32, f32); 2]) {
+            let mut zs = [(0u32, 0u32, f32::NAN); 2];
             for (k, (nx, ny)) in cands.into_iter().enumerate() {
                 if nx < 0 || ny < 0 || nx >= i64::from(w) || ny >= i64::from(h) {
                     continue;
@@ -317,32 +318,27 @@ pub fn refine_hit(image: &DepthImage<'_>, ray: &Ray, t_max: f32, hit: &DepthHit)
                 fetches += 1;
                 if let Some(z) = image.linear_at(nx, ny) {
                     if z > 0.0 && z.is_finite() {
-                        pts[k] = Some((z, center(nx, ny, z)));
+                        zs[k] = (nx, ny, z);
                     }
                 }
             }
-            if let [Some((za, pa)), Some((zb, pb))] = pts {
-                let (ia, ib, i0) = (1.0 / za, 1.0 / zb, 1.0 / z0);
-                if (ia + ib - 2.0 * i0).abs() <= REFINE_PLANARITY * (ib - ia).abs() + 1e-4 * i0 {
-                    return Some(pb - pa);
-                }
-            }
-            let mut best: Option<(f32, glam::Vec3)> = None;
-            for (k, p) in pts.into_iter().enumerate() {
-                let Some((z, p)) = p else { continue };
-                let dz = (z - z0).abs();
-                if dz <= REFINE_CONTINUITY * z0 && best.is_none_or(|(b, _)| dz < b) {
-                    best = Some((dz, if k == 0 { p0 - p } else { p - p0 }));
-                }
-            }
-            best.map(|(_, v)| v)
+            (pick_tangent(z0, zs[0].2, zs[1].2), zs)
         };
-        let (xi, yi) = (i64::from(x), i64::from(y));
-        let tx = tangent([(xi - 1, yi), (xi + 1, yi)]);
-        let ty = tangent([(xi, yi - 1), (xi, yi + 1)]);
-        let (Some(tx), Some(ty)) = (tx, ty) else {
+        let (px, nxs) = pick([(xi - 1, yi), (xi + 1, yi)]);
+        let (py, nys) = pick([(xi, yi - 1), (xi, yi + 1)]);
+        if px == Pick::None || py == Pick::None {
             break;
+        }
+        let p0 = center(x, y, z0);
+        let tangent = |p: Pick, n: [(u32, u32, f32); 2]| {
+            let at = |k: usize| center(n[k].0, n[k].1, n[k].2);
+            match p {
+                Pick::Both => at(1) - at(0),
+                Pick::Before => p0 - at(0),
+                Pick::After | Pick::None => at(1) - p0,
+            }
         };
+        let (tx, ty) = (tangent(px, nxs), tangent(py, nys));
         let n = tx.cross(ty);
         let denom = n.dot(ray.dir);
         if !(denom.abs() > 1e-6 * n.length()) {
@@ -374,6 +370,45 @@ pub fn refine_hit(image: &DepthImage<'_>, ray: &Ray, t_max: f32, hit: &DepthHit)
         out.depth = q.z;
     }
     out
+}
+
+/// Which texel centers give [`refine_hit`]'s surface direction along one
+/// axis.
+#[derive(Clone, Copy, PartialEq, Eq)]
+enum Pick {
+    /// Both neighbors (on one plane with the center).
+    Both,
+    /// The neighbor before the center, and the center.
+    Before,
+    /// The center, and the neighbor after it.
+    After,
+    /// No continuous neighbor.
+    None,
+}
+
+/// [`refine_hit`]'s choice along one axis from linear depths: `z0` at the
+/// center, `za` and `zb` at the neighbors before and after it (NaN where
+/// there is none or its depth is not positive and finite). Both when the
+/// three lie on one plane (`|1/za + 1/zb - 2/z0| <= REFINE_PLANARITY |1/zb -
+/// 1/za| + 1e-4/z0`), else the neighbor closer in depth within
+/// [`REFINE_CONTINUITY`] (`before` on a tie).
+#[inline(always)]
+fn pick_tangent(z0: f32, za: f32, zb: f32) -> Pick {
+    if !za.is_nan() && !zb.is_nan() {
+        let (ia, ib, i0) = (1.0 / za, 1.0 / zb, 1.0 / z0);
+        if (ia + ib - 2.0 * i0).abs() <= REFINE_PLANARITY * (ib - ia).abs() + 1e-4 * i0 {
+            return Pick::Both;
+        }
+    }
+    let limit = REFINE_CONTINUITY * z0;
+    let (da, db) = ((za - z0).abs(), (zb - z0).abs());
+    // NaN distances fail both comparisons.
+    match (da <= limit, db <= limit) {
+        (true, true) if db < da => Pick::After,
+        (true, _) => Pick::Before,
+        (false, true) => Pick::After,
+        (false, false) => Pick::None,
+    }
 }
 
 /// The largest f32 below `n` (pixel coordinates stay inside the image).
