@@ -10,7 +10,7 @@
 
 use super::accum::{ClusterAccum, Extra, ScreenAccum};
 use super::content::Content;
-use super::Sizes;
+use super::{Level, Sizes};
 use crate::gbuffer::GBuffer;
 use crate::layered_render::{LayeredFrame, LayeredScene};
 use crate::render::{self, median, timed, ReflectionImage, Timed};
@@ -369,8 +369,10 @@ impl Setting for ScreenSetting {
     }
 }
 
-/// Linear stepping (seed 003 Sec. 3.4) at several strides and caps; the
-/// default run also traces linear and `[0, 1]` depth.
+/// Linear stepping (seed 003 Sec. 3.4) at several strides and caps;
+/// `--long` also traces linear and `[0, 1]` depth (their rows equal
+/// reversed-Z's up to rounding: `core/tests/hiz.rs` and `core/tests/ssr.rs`
+/// trace every convention against one oracle).
 struct Step;
 
 impl Method for Step {
@@ -402,7 +404,7 @@ impl Method for Step {
             false,
             "stride=1;refine=off".into(),
         ));
-        if !sizes.quick() {
+        if sizes.level == Level::Long {
             for c in [DepthConvention::Linear, DepthConvention::ZeroToOne] {
                 out.push(ScreenSetting::boxed(
                     base,
@@ -417,8 +419,7 @@ impl Method for Step {
 }
 
 /// Hi-Z traversal (seed 004) at several start, stop, prologue and
-/// iteration settings; the default run also traces linear and `[0, 1]`
-/// depth.
+/// iteration settings; `--long` also traces linear and `[0, 1]` depth.
 struct HiZ;
 
 impl Method for HiZ {
@@ -469,7 +470,7 @@ impl Method for HiZ {
             false,
             format!("{};refine=off", label(base)),
         ));
-        if !sizes.quick() {
+        if sizes.level == Level::Long {
             for c in [DepthConvention::Linear, DepthConvention::ZeroToOne] {
                 out.push(ScreenSetting::boxed(
                     ScreenMethod::HiZ(base),
@@ -627,7 +628,7 @@ impl Method for Cluster {
                 .into_iter()
                 .map(|gain| ClusterSettings { gain, ..base })
                 .collect();
-            if sizes.level != super::Level::Long {
+            if sizes.level != Level::Long {
                 return Ok(boxed_cluster(v));
             }
             v.push(ClusterSettings {

@@ -140,9 +140,10 @@ pub enum Level {
     /// `--quick`: the tests' sizes, fewest settings.
     Quick,
     /// The default run: every method and scene, studies trimmed (one glossy
-    /// variant, a 16-frame TCRR path).
+    /// variant, a 16-frame TCRR path), screen-space rows in reversed-Z only.
     Default,
-    /// `--long`: converged references, every study setting.
+    /// `--long`: converged references, every study setting, the
+    /// screen-space rows in every depth convention.
     Long,
 }
 
