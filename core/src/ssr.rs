@@ -447,6 +447,16 @@ fn footprint(p: Vec2) -> [(u32, u32); 4] {
     [(x0, y0), (x0 + 1, y0), (x0, y0 + 1), (x0 + 1, y0 + 1)]
 }
 
+/// Whether a kernel hit lies on the visible surface (module docs, step 7).
+#[derive(Clone, Copy)]
+enum Front {
+    /// On it: the hit stands.
+    Visible,
+    /// Behind it: the ray may resume `resume` past the hit point (`None`:
+    /// its projection never moves a pixel from there).
+    Hidden { resume: Option<f32> },
+}
+
 /// A pixel's setup, or the status that ends it early (also what the
 /// layered pass, `crate::layered_pass`, builds on: one ray generation and
 /// start rule for every pass).
@@ -738,10 +748,13 @@ impl<'a> MirrorPass<'a> {
     /// Whether a kernel hit of `ray` lies on the visible surface (module
     /// docs, step 7): refined onto the surface's plane, or at most
     /// [`HIDDEN_SLOPES`] texel depth changes plus the ray's depth change
-    /// over one pixel behind the texel's front depth.
-    fn meets_front(&self, h: &DepthHit, refined: bool, ray: &Ray) -> bool {
+    /// over one pixel behind the texel's front depth. Hidden, it also
+    /// gives what resuming needs: the parameter past the hit point where the
+    /// ray's projection has moved one pixel (its [`RayStart::t`], computed
+    /// once for both).
+    fn front(&self, h: &DepthHit, refined: bool, ray: &Ray) -> Front {
         if refined {
-            return true;
+            return Front::Visible;
         }
         // The ray's own depth change over one pixel of its projection at
         // the hit: it may have crossed the surface anywhere on its last
@@ -751,16 +764,15 @@ impl<'a> MirrorPass<'a> {
             dir: ray.dir,
         };
         let cam = self.camera();
-        let ray_dz = self
-            .start
-            .t(&at, 1.0)
+        let resume = self.start.t(&at, 1.0);
+        let ray_dz = resume
             .map(|dt| (cam.linear_depth(at.at(dt)) - cam.linear_depth(at.origin)).abs())
             .filter(|dz| dz.is_finite())
             .unwrap_or(0.0);
         let (x, y) = (h.pixel.x as u32, h.pixel.y as u32);
         let d = self.gbuffer.depth();
         let Some(z0) = d.linear_at(x, y) else {
-            return true;
+            return Front::Visible;
         };
         // The largest depth change to a continuous neighbor (the plate
         // error of a texel on a sloped surface is up to half of it).
@@ -777,7 +789,11 @@ impl<'a> MirrorPass<'a> {
                 }
             }
         }
-        h.depth <= z0 + HIDDEN_SLOPES * slope + ray_dz + HIDDEN_EPSILON * z0
+        if h.depth <= z0 + HIDDEN_SLOPES * slope + ray_dz + HIDDEN_EPSILON * z0 {
+            Front::Visible
+        } else {
+            Front::Hidden { resume }
+        }
     }
 
     /// Whether every texel of the bilinear footprint of `p` (the up to 4
@@ -874,15 +890,14 @@ impl<'a> MirrorPass<'a> {
             } else {
                 (h, false)
             };
-            if self.options.reject_hidden_hits && !self.meets_front(&h, refined, &seg.kernel_ray())
-            {
+            let front = if self.options.reject_hidden_hits {
+                self.front(&h, refined, &seg.kernel_ray())
+            } else {
+                Front::Visible
+            };
+            if let Front::Hidden { resume } = front {
                 // Resume where the projection has left the hit's texel.
-                let at = Ray {
-                    origin: seg.kernel_ray().at(h.t),
-                    dir: seg.dir,
-                };
-                let next = self.start.t(&at, 1.0).map(|dt| seg.t_start + h.t + dt);
-                match next {
+                match resume.map(|dt| seg.t_start + h.t + dt) {
                     Some(t) if resumes < budget && t < self.options.t_max => {
                         resumes += 1;
                         seg.t_start = t;
