@@ -739,6 +739,13 @@ fn next_below(v: f32) -> f32 {
     f32::from_bits(v.to_bits() - 1)
 }
 
+/// Largest relative difference between a hit's depth from its screen
+/// parameter, `1/iz(s)`, and the depth the texel test found (the boundary
+/// the ray crossed, or its depth at the texel's entry) that [`make_hit`]
+/// still takes as resolved. Rounding alone stays near `1e-6`; the
+/// difference grows as `z (iz_a - iz_b) 2^-24` toward a vanishing point.
+const RESOLVED_DEPTH: f32 = 1e-3;
+
 fn make_hit(seg: &Segment, span: &Span, s: f32, front: f32, z: f32, work: Work) -> Trace {
     let p = seg.pixel(s);
     let (x0, y0) = (span.x as f32, span.y as f32);
@@ -747,7 +754,14 @@ fn make_hit(seg: &Segment, span: &Span, s: f32, front: f32, z: f32, work: Work) 
         p.y.clamp(y0, next_below(y0 + 1.0)),
     );
     let (mut t, mut depth) = (seg.t(s), 1.0 / seg.iz(s));
-    let unresolved = seg.t_b.is_infinite() || !(t.is_finite() && depth.is_finite());
+    // The screen parameter also fails to resolve depth on a finite segment
+    // that nearly reaches its vanishing point: a ray from depth 1 ending
+    // past 1e7 puts a surface at 6.7e6 at `s = 1 - 2^-23`, whose depth
+    // reads 2^23 (fuzz finding F31 of the step target). The known depth
+    // `z` tells: where `s` resolves depth, `1/iz(s)` equals it up to
+    // rounding.
+    let off = z.is_finite() && !((depth - z).abs() <= RESOLVED_DEPTH * z);
+    let unresolved = off || seg.t_b.is_infinite() || !(t.is_finite() && depth.is_finite());
     if unresolved && seg.dz > 0.0 {
         let z = if z.is_finite() { z } else { front };
         // A ray ending at its vanishing point (iz_b = 0): near that end the

@@ -2036,3 +2036,67 @@ fn pyramid_bands_are_the_rows_and_the_finer_level() {
         Some(Error::InsufficientSize)
     );
 }
+
+/// The step target's F31 case (`core/tests/step.rs`,
+/// `near_vanishing_point_finite_segment_reports_the_depth_it_crossed`)
+/// through Hi-Z: a finite segment nearly reaching its vanishing point,
+/// a surface at 6.65e6 seen from depth about 3; the hit's depth and `t`
+/// stay on the surface.
+#[test]
+fn near_vanishing_point_finite_segment_hit_depth() {
+    let view = glam::Mat4::from_cols_array(&[
+        -0.7737348,
+        0.11041793,
+        -0.62381274,
+        0.0,
+        0.0,
+        0.98469335,
+        0.17429559,
+        0.0,
+        0.63350964,
+        0.13485856,
+        -0.76189154,
+        0.0,
+        -0.34753847,
+        0.40155032,
+        -3.470898,
+        1.0,
+    ]);
+    let (w, h) = (41, 44);
+    let cam = Camera::try_new(view, 1.5270588, 0.7933138, f32::INFINITY, w, h).unwrap();
+    let ray = Ray {
+        origin: Vec3::new(-1.8234673, 0.54053485, -2.299697),
+        dir: Vec3::new(0.86716413, -0.43820888, 0.2366419),
+    };
+    let th = 0.38117036f32;
+    let mut hits = 0;
+    for conv in DepthConvention::ALL {
+        let data = vec![cam.encode_depth(6654798.5, conv); (w * h) as usize];
+        let img =
+            DepthImage::try_new(ImageView::try_new(&data, w, h, w).unwrap(), cam, conv).unwrap();
+        let mut pyr = vec![[0.0f32; 2]; try_hiz_len(w, h).unwrap()];
+        try_build_hiz(&mut pyr, &img).unwrap();
+        let hiz = HiZ::try_new(&pyr, cam, conv).unwrap();
+        let tr = try_trace_hiz(
+            &hiz,
+            Thickness::Constant(th),
+            ray,
+            1e30,
+            &HiZOptions::default(),
+        )
+        .unwrap();
+        let Some(hit) = tr.hit() else { continue };
+        hits += 1;
+        let tol = 1e-3 * hit.surface_depth;
+        assert!(
+            hit.depth >= hit.surface_depth - tol && hit.depth <= hit.surface_depth + th + tol,
+            "{conv:?}: {hit:?}"
+        );
+        let z_at_t = cam.linear_depth(ray.at(hit.t));
+        assert!(
+            (z_at_t - hit.depth).abs() <= 1e-3 * hit.depth,
+            "{conv:?}: z(t) {z_at_t} vs {hit:?}"
+        );
+    }
+    assert!(hits > 0, "the case hits");
+}

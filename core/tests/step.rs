@@ -2032,6 +2032,67 @@ fn vanishing_point_hit_reports_the_depth_it_crossed() {
     assert!(hits > 0, "the case hits");
 }
 
+/// Fuzz finding F31: as F16, but on a finite segment (`t_max = 1e30`)
+/// that nearly reaches its vanishing point: a ray from depth about 3 hit a
+/// surface at 6.65e6 and reported depth 2^23, where the screen parameter's
+/// last representable step below 1 puts it. The F16 fallback applied only
+/// to infinite segments; it now applies wherever the parameter's depth
+/// disagrees with the depth the texel test found.
+#[test]
+fn near_vanishing_point_finite_segment_reports_the_depth_it_crossed() {
+    let view = glam::Mat4::from_cols_array(&[
+        -0.7737348,
+        0.11041793,
+        -0.62381274,
+        0.0,
+        0.0,
+        0.98469335,
+        0.17429559,
+        0.0,
+        0.63350964,
+        0.13485856,
+        -0.76189154,
+        0.0,
+        -0.34753847,
+        0.40155032,
+        -3.470898,
+        1.0,
+    ]);
+    let (w, h) = (41, 44);
+    let cam = Camera::try_new(view, 1.5270588, 0.7933138, f32::INFINITY, w, h).unwrap();
+    let ray = Ray {
+        origin: Vec3::new(-1.8234673, 0.54053485, -2.299697),
+        dir: Vec3::new(0.86716413, -0.43820888, 0.2366419),
+    };
+    let th = 0.38117036f32;
+    let mut hits = 0;
+    for conv in DepthConvention::ALL {
+        let data = vec![cam.encode_depth(6654798.5, conv); (w * h) as usize];
+        let d =
+            DepthImage::try_new(ImageView::try_new(&data, w, h, w).unwrap(), cam, conv).unwrap();
+        for stride in [1, 3] {
+            let opts = StepOptions {
+                stride,
+                ..StepOptions::default()
+            };
+            let tr = try_step(&d, Thickness::Constant(th), ray, 1e30, opts).unwrap();
+            let Some(hit) = tr.hit() else { continue };
+            hits += 1;
+            let tol = 1e-3 * hit.surface_depth;
+            assert!(
+                hit.depth >= hit.surface_depth - tol && hit.depth <= hit.surface_depth + th + tol,
+                "{conv:?} stride {stride}: {hit:?}"
+            );
+            let z_at_t = cam.linear_depth(ray.at(hit.t));
+            assert!(
+                (z_at_t - hit.depth).abs() <= 1e-3 * hit.depth,
+                "{conv:?} stride {stride}: z(t) {z_at_t} vs {hit:?}"
+            );
+        }
+    }
+    assert!(hits > 0, "the case hits");
+}
+
 #[test]
 fn hit_far_beyond_the_start_depth_is_finite() {
     let cam = camera(1.0, f32::INFINITY, 16, 12);

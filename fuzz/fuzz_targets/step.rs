@@ -94,10 +94,12 @@ fn step_one(b: &mut Bytes, s: &Setup) -> Option<(refl_ray, f32, refl_trace_resul
         let tol = 1e-3 * r.surface_depth.abs() + 1e-4;
         assert!(
             r.depth >= r.surface_depth - tol && r.depth <= r.surface_depth + th + tol,
-            "refl_step_ray hit at depth {} outside [{}, {} + {th}]",
+            "refl_step_ray hit at depth {} outside [{}, {} + {th}]: ray {ray:?} t_max {tm} camera {:?} options {:?} result {r:?}",
             r.depth,
             r.surface_depth,
-            r.surface_depth
+            r.surface_depth,
+            s.img.cam,
+            s.opts
         );
     }
     Some((ray, tm, r))
