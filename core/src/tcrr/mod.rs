@@ -310,6 +310,12 @@ impl TcrrOptions {
 /// The key-frame policy of seed 000 Sec. 4.3/4.4: a frame becomes a key
 /// frame (its reflection buffers are re-traced) when the share of reflective
 /// pixels TCRR marks for re-tracing exceeds the threshold (0.3 in the seed).
+///
+/// A frame whose camera equals the last frame's, in a scene where nothing
+/// moved, needs neither: the last frame's reflection is this frame's, and
+/// the host skips search, shift and warp (`cpp_tests/tcrr_embree`, path
+/// `still`). Nothing here decides that; only the host knows its scene is
+/// static.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct KeyFramePolicy {
     threshold: f32,
