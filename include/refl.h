@@ -1165,7 +1165,8 @@ enum refl_temporal_status
 #endif
 #if (defined(REFL_FEATURE_DEPTH_IMAGE) || defined(REFL_FEATURE_HIZ))
     /**
-     * Not answered this frame; the history's color and frame count.
+     * Not answered this frame; the history's color and frame count (the
+     * count capped at `max_frames`).
      */
     REFL_TEMPORAL_STATUS_RECOVERED = 3,
 #endif

@@ -179,7 +179,8 @@ pub enum refl_temporal_status {
     /// Answered this frame without usable history (first frame, off
     /// screen, disoccluded): the current color alone, `frames` 1.
     Reset = 2,
-    /// Not answered this frame; the history's color and frame count.
+    /// Not answered this frame; the history's color and frame count (the
+    /// count capped at `max_frames`).
     Recovered = 3,
     /// Not answered and no history: the current (fallback) color, `frames`
     /// 0 so that no later frame takes it for history.
