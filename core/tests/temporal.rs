@@ -5,7 +5,7 @@
 //! average of the frames (f64), the colors a surface point should carry (a
 //! smooth function of the point), and the statuses that bands, depth
 //! conventions and scales must not change.
-
+#![cfg(any(feature = "depth-image", feature = "hiz"))]
 #![allow(clippy::needless_range_loop)] // pixel indices address several images at once
 
 use core::f32::consts::FRAC_PI_2;
