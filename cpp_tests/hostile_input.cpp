@@ -4,6 +4,7 @@
 // must return its documented status and leave its outputs byte-identical
 // (outputs are prefilled with a sentinel pattern and compared after).
 #include <cmath>
+#include <cstddef>
 #include <cstdint>
 #include <cstring>
 #include <limits>
@@ -3954,6 +3955,269 @@ void layered_pass_functions() {
     }
 }
 
+// The temporal filter: NULL pointers, options out of range (NaN, Inf),
+// rows out of range, images of other sizes, short and misaligned buffers,
+// a history of another size or an invalid camera, the next history over
+// the one read, outputs aliasing inputs or each other, unknown enums.
+// Every output (stats, next history, statuses) must be left untouched.
+void temporal_functions() {
+    const refl_camera g = good_camera();
+    const uint32_t w = g.width, h = g.height;
+    const size_t n = size_t(w) * h;
+    std::vector<float> depth(n, 0.5f), distance(n, 2.0f);
+    std::vector<refl_vec3> normals(n, v3(0, 1, 0)), current(n, v3(0.5f, 0.25f, 0.125f));
+    std::vector<uint8_t> answered(n, 1);
+    const refl_image_f32 none{nullptr, 0, 0, 0, 0};
+    refl_gbuffer gb{};
+    gb.depth = {{depth.data(), n, w, h, w}, g, REFL_DEPTH_CONVENTION_ZERO_TO_ONE};
+    gb.normals = {normals.data(), n, w, h, w};
+    gb.normal_space = REFL_NORMAL_SPACE_WORLD;
+    gb.mask = {nullptr, 0, 0, 0, 0};
+    gb.roughness = none;
+    gb.color = {nullptr, 0, 0, 0, 0};
+    gb.back_depth = none;
+    const refl_temporal_options def = refl_temporal_options_default();
+    CHECK(def.max_frames == 8.0f && def.depth_tolerance == 0.02f && def.normal_cos == 0.9f && def.recover);
+    const refl_row_range all{0, h};
+
+    // A first frame without history (its camera ignored, here invalid),
+    // then the history it wrote.
+    std::vector<refl_temporal_texel> first(n);
+    refl_camera zero{};
+    std::memset(static_cast<void*>(&zero), 0, sizeof zero);
+    const refl_temporal_history nothing{zero, {nullptr, 0, 0, 0, 0}};
+    const refl_temporal_stats st0 = expect_ok<refl_temporal_stats>("temporal first frame", [&](refl_temporal_stats* st) {
+        return refl_temporal_resolve_rows(st, {first.data(), n, w, h, w}, {nullptr, 0, 0, 0, 0}, &gb,
+                                          {current.data(), n, w, h, w}, {answered.data(), n, w, h, w}, none,
+                                          &nothing, &def, all);
+    });
+    CHECK_EQ(st0.reset, uint32_t(n));
+    const refl_temporal_history hist{g, {first.data(), n, w, h, w}};
+    const std::vector<refl_temporal_texel> first_copy = first;
+
+    struct Args {
+        refl_image_temporal_texel_mut next;
+        refl_image_u8_mut status;
+        const refl_gbuffer* gbuffer;
+        refl_image_vec3 current;
+        refl_image_u8 answered;
+        refl_image_f32 distance;
+        const refl_temporal_history* history;
+        const refl_temporal_options* options;
+        refl_row_range rows;
+    };
+    // Calls the filter with every output prefilled and `edit` applied to
+    // valid arguments; checks the status and that no output byte changed
+    // (with `pointers`, also a NULL and a misaligned `out_stats`).
+    auto check = [&](const char* what, refl_status want, auto edit, bool pointers = false) {
+        std::vector<refl_temporal_texel> out(n + 1);
+        std::memset(static_cast<void*>(out.data()), 0x5A, out.size() * sizeof(refl_temporal_texel));
+        std::vector<uint8_t> stat(n + 1, 0x6B);
+        Args a{{out.data(), n, w, h, w},
+               {stat.data(), n, w, h, w},
+               &gb,
+               {current.data(), n, w, h, w},
+               {answered.data(), n, w, h, w},
+               {distance.data(), n, w, h, w},
+               &hist,
+               &def,
+               all};
+        edit(a);
+        expect<refl_temporal_stats>(what, want, [&](refl_temporal_stats* st) {
+            return refl_temporal_resolve_rows(st, a.next, a.status, a.gbuffer, a.current, a.answered, a.distance,
+                                              a.history, a.options, a.rows);
+        }, pointers);
+        bool untouched = true;
+        const unsigned char* ob = reinterpret_cast<const unsigned char*>(out.data());
+        for (size_t i = 0; i < out.size() * sizeof(refl_temporal_texel); ++i) untouched = untouched && ob[i] == 0x5A;
+        for (uint8_t v : stat) untouched = untouched && v == 0x6B;
+        if (!untouched) check::fail(__FILE__, __LINE__, std::string(what) + ": an output was written");
+        // The history and the inputs are never written.
+        CHECK(std::memcmp(first.data(), first_copy.data(), n * sizeof(refl_temporal_texel)) == 0);
+        CHECK(answered[0] == 1 && answered[n - 1] == 1 && current[0].x == 0.5f && current[n - 1].x == 0.5f);
+    };
+
+    // A band with distances and statuses: the other rows stay as they were.
+    {
+        std::vector<refl_temporal_texel> out(n);
+        std::memset(static_cast<void*>(out.data()), 0x5A, n * sizeof(refl_temporal_texel));
+        std::vector<uint8_t> stat(n, 0x6B);
+        const refl_temporal_stats st = expect_ok<refl_temporal_stats>("temporal band", [&](refl_temporal_stats* s) {
+            return refl_temporal_resolve_rows(s, {out.data(), n, w, h, w}, {stat.data(), n, w, h, w}, &gb,
+                                              {current.data(), n, w, h, w}, {answered.data(), n, w, h, w},
+                                              {distance.data(), n, w, h, w}, &hist, &def, {2, 5});
+        });
+        CHECK_EQ(st.blended, 3 * w);
+        bool outside = true, inside = true;
+        const unsigned char* ob = reinterpret_cast<const unsigned char*>(out.data());
+        for (size_t i = 0; i < n * sizeof(refl_temporal_texel); ++i) {
+            const size_t row = i / sizeof(refl_temporal_texel) / w;
+            if (row < 2 || row >= 5) outside = outside && ob[i] == 0x5A;
+        }
+        for (size_t i = 0; i < n; ++i) {
+            const size_t row = i / w;
+            if (row < 2 || row >= 5) outside = outside && stat[i] == 0x6B;
+            else inside = inside && stat[i] == REFL_TEMPORAL_STATUS_BLENDED && out[i].frames == 2.0f;
+        }
+        CHECK(outside);
+        CHECK(inside);
+    }
+
+    // NULL pointers.
+    check("temporal rows reversed (and NULL / misaligned stats)", REFL_STATUS_INVALID_ARGUMENT,
+          [](Args& a) { a.rows = {3, 2}; }, true);
+    check("temporal NULL next", REFL_STATUS_NULL_POINTER, [](Args& a) { a.next.data = nullptr; });
+    check("temporal NULL gbuffer", REFL_STATUS_NULL_POINTER, [](Args& a) { a.gbuffer = nullptr; });
+    check("temporal NULL current", REFL_STATUS_NULL_POINTER, [](Args& a) { a.current.data = nullptr; });
+    check("temporal NULL answered", REFL_STATUS_NULL_POINTER, [](Args& a) { a.answered.data = nullptr; });
+    check("temporal NULL history", REFL_STATUS_NULL_POINTER, [](Args& a) { a.history = nullptr; });
+    check("temporal NULL options", REFL_STATUS_NULL_POINTER, [](Args& a) { a.options = nullptr; });
+    refl_gbuffer no_normals = gb;
+    no_normals.normals.data = nullptr;
+    no_normals.depth.depth.len = 3;
+    check("temporal NULL normals, short depth", REFL_STATUS_NULL_POINTER,
+          [&](Args& a) { a.gbuffer = &no_normals; });
+    check("temporal NULL current, short next", REFL_STATUS_NULL_POINTER, [](Args& a) {
+        a.current.data = nullptr;
+        a.next.len = 1;
+    });
+
+    // Options out of range.
+    std::vector<refl_temporal_options> bad_options;
+    for (float v : {kNaN, 0.5f, 0.0f, -kInf, -1.0f}) {
+        refl_temporal_options o = def;
+        o.max_frames = v;
+        bad_options.push_back(o);
+    }
+    for (float v : {kNaN, -0.01f, kInf, -kInf}) {
+        refl_temporal_options o = def;
+        o.depth_tolerance = v;
+        bad_options.push_back(o);
+    }
+    for (float v : {kNaN, 1.5f, -1.01f, kInf, -kInf}) {
+        refl_temporal_options o = def;
+        o.normal_cos = v;
+        bad_options.push_back(o);
+    }
+    {
+        // Every float field of 0xFF bytes (NaN).
+        refl_temporal_options o = def;
+        std::memset(static_cast<void*>(&o), 0xFF, offsetof(refl_temporal_options, recover));
+        bad_options.push_back(o);
+    }
+    for (const refl_temporal_options& o : bad_options)
+        check("temporal bad options", REFL_STATUS_INVALID_ARGUMENT, [&](Args& a) { a.options = &o; });
+    {
+        // The ends of the ranges are accepted.
+        const refl_temporal_options ends{kInf, 0.0f, -1.0f, false};
+        std::vector<refl_temporal_texel> out(n);
+        expect_ok<refl_temporal_stats>("temporal range ends", [&](refl_temporal_stats* s) {
+            return refl_temporal_resolve_rows(s, {out.data(), n, w, h, w}, {nullptr, 0, 0, 0, 0}, &gb,
+                                              {current.data(), n, w, h, w}, {answered.data(), n, w, h, w},
+                                              none, &hist, &ends, all);
+        });
+    }
+
+    // Rows, sizes, strides, lengths, misaligned buffers.
+    check("temporal rows past the end", REFL_STATUS_INVALID_ARGUMENT, [&](Args& a) { a.rows = {0, h + 1}; });
+    check("temporal empty rows", REFL_STATUS_INVALID_ARGUMENT, [](Args& a) { a.rows = {5, 5}; });
+    check("temporal rows at kMax", REFL_STATUS_INVALID_ARGUMENT, [](Args& a) { a.rows = {kMax, kMax}; });
+    check("temporal short next", REFL_STATUS_INSUFFICIENT_SIZE, [&](Args& a) { a.next.len = n - 1; });
+    check("temporal next of another size", REFL_STATUS_INVALID_ARGUMENT, [&](Args& a) { a.next.height = h - 1; });
+    check("temporal next stride below width", REFL_STATUS_INVALID_ARGUMENT, [&](Args& a) { a.next.stride = w - 1; });
+    check("temporal next of zero width", REFL_STATUS_INVALID_ARGUMENT, [](Args& a) { a.next.width = 0; });
+    check("temporal misaligned next", REFL_STATUS_INVALID_ARGUMENT, [](Args& a) {
+        a.next.data = reinterpret_cast<refl_temporal_texel*>(reinterpret_cast<char*>(a.next.data) + 1);
+    });
+    check("temporal short status", REFL_STATUS_INSUFFICIENT_SIZE, [&](Args& a) { a.status.len = n - 1; });
+    check("temporal status of another size", REFL_STATUS_INVALID_ARGUMENT, [&](Args& a) { a.status.width = w + 1; });
+    check("temporal short current", REFL_STATUS_INSUFFICIENT_SIZE, [&](Args& a) { a.current.len = n - 1; });
+    check("temporal current of another size", REFL_STATUS_INVALID_ARGUMENT, [&](Args& a) { a.current.height = h - 1; });
+    check("temporal current stride 0", REFL_STATUS_INVALID_ARGUMENT, [](Args& a) { a.current.stride = 0; });
+    check("temporal misaligned current", REFL_STATUS_INVALID_ARGUMENT, [](Args& a) {
+        a.current.data = reinterpret_cast<const refl_vec3*>(reinterpret_cast<const char*>(a.current.data) + 2);
+        a.current.len -= 1;
+    });
+    check("temporal short answered", REFL_STATUS_INSUFFICIENT_SIZE, [](Args& a) { a.answered.len = 0; });
+    check("temporal answered of another size", REFL_STATUS_INVALID_ARGUMENT, [&](Args& a) { a.answered.width = w - 1; });
+    check("temporal short distance", REFL_STATUS_INSUFFICIENT_SIZE, [&](Args& a) { a.distance.len = n - 1; });
+    check("temporal distance of another size", REFL_STATUS_INVALID_ARGUMENT,
+          [&](Args& a) { a.distance.height = h / 2; });
+    check("temporal huge current (needs more texels than len)", REFL_STATUS_INSUFFICIENT_SIZE, [](Args& a) {
+        a.current.width = kMax;
+        a.current.height = kMax;
+        a.current.stride = kMax;
+    });
+
+    // Histories: of another size, texels not of their camera's size, short,
+    // misaligned, invalid cameras.
+    refl_camera small = g;
+    REQUIRE(refl_camera_look_at(&small, v3(1, 2, 5), v3(0, 0.5f, 0), v3(0, 1, 0), 1.0f, 0.1f, 100.0f, w, h - 1) ==
+            REFL_STATUS_OK);
+    const refl_temporal_history other_size{small, {first.data(), n, w, h - 1, w}};
+    check("temporal history of another size", REFL_STATUS_INVALID_ARGUMENT,
+          [&](Args& a) { a.history = &other_size; });
+    const refl_temporal_history texels_not_camera{g, {first.data(), n, w, h - 1, w}};
+    check("temporal history texels not of their camera", REFL_STATUS_INVALID_ARGUMENT,
+          [&](Args& a) { a.history = &texels_not_camera; });
+    const refl_temporal_history short_history{g, {first.data(), n - 1, w, h, w}};
+    check("temporal short history", REFL_STATUS_INSUFFICIENT_SIZE, [&](Args& a) { a.history = &short_history; });
+    std::vector<unsigned char> raw((n + 1) * sizeof(refl_temporal_texel));
+    const refl_temporal_history misaligned_history{
+        g, {reinterpret_cast<const refl_temporal_texel*>(raw.data() + 1), n, w, h, w}};
+    check("temporal misaligned history", REFL_STATUS_INVALID_ARGUMENT,
+          [&](Args& a) { a.history = &misaligned_history; });
+    const std::vector<BadCamera> bad = bad_cameras();
+    std::vector<refl_temporal_history> bad_histories;
+    std::vector<refl_gbuffer> bad_gbuffers;
+    for (const BadCamera& bc : bad) {
+        bad_histories.push_back({bc.cam, hist.texels});
+        refl_gbuffer b = gb;
+        b.depth.camera = bc.cam;
+        bad_gbuffers.push_back(b);
+    }
+    for (size_t i = 0; i < bad.size(); ++i) {
+        check(bad[i].name, bad[i].status, [&](Args& a) { a.history = &bad_histories[i]; });
+        check(bad[i].name, bad[i].status, [&](Args& a) { a.gbuffer = &bad_gbuffers[i]; });
+    }
+    // Enums of the G-buffer.
+    refl_gbuffer bad_space = gb;
+    bad_space.normal_space = 2;
+    check("temporal bad normal space", REFL_STATUS_INVALID_ARGUMENT, [&](Args& a) { a.gbuffer = &bad_space; });
+    for (uint32_t c : kBadConventions) {
+        refl_gbuffer bc = gb;
+        bc.depth.convention = c;
+        check("temporal bad convention", REFL_STATUS_INVALID_ARGUMENT, [&](Args& a) { a.gbuffer = &bc; });
+    }
+
+    // Aliasing: the next history over the one read, over an input; the
+    // statuses over an input or the next history.
+    check("temporal next in place of the history", REFL_STATUS_INVALID_ARGUMENT,
+          [&](Args& a) { a.next.data = first.data(); });
+    check("temporal next over current", REFL_STATUS_INVALID_ARGUMENT,
+          [&](Args& a) { a.next.data = reinterpret_cast<refl_temporal_texel*>(current.data()); });
+    check("temporal status over answered", REFL_STATUS_INVALID_ARGUMENT,
+          [&](Args& a) { a.status.data = answered.data(); });
+    check("temporal status over next", REFL_STATUS_INVALID_ARGUMENT,
+          [](Args& a) { a.status.data = reinterpret_cast<uint8_t*>(a.next.data) + 40; });
+    check("temporal status over the depth", REFL_STATUS_INVALID_ARGUMENT,
+          [&](Args& a) { a.status.data = reinterpret_cast<uint8_t*>(depth.data()); });
+    {
+        std::vector<refl_temporal_texel> out(n);
+        std::memset(static_cast<void*>(out.data()), 0x5A, n * sizeof(refl_temporal_texel));
+        CHECK_STATUS(refl_temporal_resolve_rows(reinterpret_cast<refl_temporal_stats*>(out.data() + 3),
+                                                {out.data(), n, w, h, w}, {nullptr, 0, 0, 0, 0}, &gb,
+                                                {current.data(), n, w, h, w}, {answered.data(), n, w, h, w}, none,
+                                                &hist, &def, all),
+                     REFL_STATUS_INVALID_ARGUMENT);
+        const unsigned char* ob = reinterpret_cast<const unsigned char*>(out.data());
+        bool untouched = true;
+        for (size_t i = 0; i < n * sizeof(refl_temporal_texel); ++i) untouched = untouched && ob[i] == 0x5A;
+        CHECK(untouched);
+    }
+}
+
+
 // The frame summary and the pass plan (issue 15): every export, its
 // refusals with outputs untouched.
 void summary_functions() {
@@ -4063,5 +4327,6 @@ int main() {
     cluster_pass_functions();
     layered_pass_functions();
     summary_functions();
+    temporal_functions();
     return check::finish("hostile_input");
 }

@@ -1132,6 +1132,61 @@ typedef uint32_t refl_plan_reason;
 #endif // __cplusplus
 #endif
 
+#if (defined(REFL_FEATURE_DEPTH_IMAGE) || defined(REFL_FEATURE_HIZ))
+/**
+ * What the filter did at a pixel (the bytes of
+ * `refl_temporal_resolve_rows`'s `status`).
+ */
+enum refl_temporal_status
+#if defined(__cplusplus) || __STDC_VERSION__ >= 202311L
+  : uint32_t
+#endif // defined(__cplusplus) || __STDC_VERSION__ >= 202311L
+ {
+#if (defined(REFL_FEATURE_DEPTH_IMAGE) || defined(REFL_FEATURE_HIZ))
+    /**
+     * No usable surface (sky, NaN depth, zero or non-finite normal) or
+     * mask 0: the texel is emptied (`frames` 0) and its color is
+     * `current`'s, unchanged.
+     */
+    REFL_TEMPORAL_STATUS_SKIPPED = 0,
+#endif
+#if (defined(REFL_FEATURE_DEPTH_IMAGE) || defined(REFL_FEATURE_HIZ))
+    /**
+     * Answered this frame and blended with the history.
+     */
+    REFL_TEMPORAL_STATUS_BLENDED = 1,
+#endif
+#if (defined(REFL_FEATURE_DEPTH_IMAGE) || defined(REFL_FEATURE_HIZ))
+    /**
+     * Answered this frame without usable history (first frame, off
+     * screen, disoccluded): the current color alone, `frames` 1.
+     */
+    REFL_TEMPORAL_STATUS_RESET = 2,
+#endif
+#if (defined(REFL_FEATURE_DEPTH_IMAGE) || defined(REFL_FEATURE_HIZ))
+    /**
+     * Not answered this frame; the history's color and frame count (the
+     * count capped at `max_frames`).
+     */
+    REFL_TEMPORAL_STATUS_RECOVERED = 3,
+#endif
+#if (defined(REFL_FEATURE_DEPTH_IMAGE) || defined(REFL_FEATURE_HIZ))
+    /**
+     * Not answered and no history: the current (fallback) color, `frames`
+     * 0 so that no later frame takes it for history.
+     */
+    REFL_TEMPORAL_STATUS_UNANSWERED = 4,
+#endif
+};
+#ifndef __cplusplus
+#if __STDC_VERSION__ >= 202311L
+typedef enum refl_temporal_status refl_temporal_status;
+#else
+typedef uint32_t refl_temporal_status;
+#endif // __STDC_VERSION__ >= 202311L
+#endif // __cplusplus
+#endif
+
 /**
  * A 4x4 float matrix, column-major: element (row r, column c) is
  * `m[4 * c + r]`, the layout of OpenGL and glam. Points are column vectors
@@ -4352,6 +4407,192 @@ typedef struct refl_layered_pass_texel {
 } refl_layered_pass_texel;
 #endif
 
+#if (defined(REFL_FEATURE_DEPTH_IMAGE) || defined(REFL_FEATURE_HIZ))
+/**
+ * Settings of the temporal filter; `refl_temporal_options_default` gives
+ * the defaults.
+ */
+typedef struct refl_temporal_options {
+    /**
+     * Most frames the history averages, >= 1 (+infinity: the running mean
+     * of every frame; not NaN). 1 turns the blend off (recovery remains).
+     * Default 8.
+     */
+    float max_frames;
+    /**
+     * Relative tolerance of the rejection test, finite, >= 0: a history
+     * texel is kept when its surface point lies within `depth_tolerance`
+     * times the point's depth of the current surface's tangent plane.
+     * Default 0.02.
+     */
+    float depth_tolerance;
+    /**
+     * Least cosine between a history texel's normal and the current one,
+     * in [-1, 1]; -1 tests depth only (as the seed's demo does). Default
+     * 0.9 (about 25 degrees).
+     */
+    float normal_cos;
+    /**
+     * Pixels whose ray failed this frame take the history where it is
+     * valid. Default true.
+     */
+    bool recover;
+} refl_temporal_options;
+#endif
+
+#if (defined(REFL_FEATURE_DEPTH_IMAGE) || defined(REFL_FEATURE_HIZ))
+/**
+ * Counts of one `refl_temporal_resolve_rows` call over its band.
+ */
+typedef struct refl_temporal_stats {
+    /**
+     * Pixels answered and blended with history (`BLENDED`).
+     */
+    uint32_t blended;
+    /**
+     * Pixels answered without usable history (`RESET`).
+     */
+    uint32_t reset;
+    /**
+     * Failed pixels recovered from history (`RECOVERED`).
+     */
+    uint32_t recovered;
+    /**
+     * Failed pixels without history (`UNANSWERED`).
+     */
+    uint32_t unanswered;
+    /**
+     * Pixels with a surface whose re-projected point lies behind the
+     * history's camera or outside its image (with a history).
+     */
+    uint32_t off_screen;
+    /**
+     * Pixels whose re-projected history texels were all rejected (depth,
+     * normal, empty) although the point lies in the history's image.
+     */
+    uint32_t rejected;
+} refl_temporal_stats;
+#endif
+
+#if (defined(REFL_FEATURE_DEPTH_IMAGE) || defined(REFL_FEATURE_HIZ))
+/**
+ * One texel of a history buffer (refl-core's `temporal::HistoryTexel`, 36
+ * bytes): the accumulated reflection of the surface the pixel showed, with
+ * that surface's depth and normal and the reflection's distance, which the
+ * next frame's re-projection and rejection tests read. A buffer of zero
+ * bytes is an empty history.
+ */
+typedef struct refl_temporal_texel {
+    /**
+     * Accumulated reflection color (linear RGB): this frame's filtered
+     * reflection, the color to composite.
+     */
+    struct refl_vec3 color;
+    /**
+     * Frames accumulated into `color`, in [0, `max_frames`]; 0 marks a
+     * texel without history (skipped or unanswered pixels).
+     */
+    float frames;
+    /**
+     * Unit world-space normal of the pixel's surface; 0 for a skipped
+     * pixel.
+     */
+    struct refl_vec3 normal;
+    /**
+     * Linear depth of the pixel's surface in the camera the texel was
+     * written with (positive); 0 for a skipped pixel.
+     */
+    float depth;
+    /**
+     * Distance from the surface to what it reflects (this frame's
+     * `distance`, +infinity for the sky); 0 where unknown (no distance
+     * image, a skipped or unanswered pixel). A recovered pixel stores the
+     * distance its re-projection used.
+     */
+    float distance;
+} refl_temporal_texel;
+#endif
+
+#if (defined(REFL_FEATURE_DEPTH_IMAGE) || defined(REFL_FEATURE_HIZ))
+/**
+ * A writable image of `refl_temporal_texel` texels.
+ */
+typedef struct refl_image_temporal_texel_mut {
+    /**
+     * Texel (0, 0); texel (x, y) is `data[y * stride + x]`.
+     */
+    struct refl_temporal_texel *data;
+    /**
+     * Number of texels writable from `data` on (the buffer length).
+     */
+    size_t len;
+    /**
+     * Width in texels, > 0.
+     */
+    uint32_t width;
+    /**
+     * Height in texels, > 0.
+     */
+    uint32_t height;
+    /**
+     * Row stride in texels, >= `width`.
+     */
+    uint32_t stride;
+} refl_image_temporal_texel_mut;
+#endif
+
+#if (defined(REFL_FEATURE_DEPTH_IMAGE) || defined(REFL_FEATURE_HIZ))
+/**
+ * A read-only image of `refl_temporal_texel` texels (a temporal history
+ * buffer).
+ */
+typedef struct refl_image_temporal_texel {
+    /**
+     * Texel (0, 0); texel (x, y) is `data[y * stride + x]`.
+     */
+    const struct refl_temporal_texel *data;
+    /**
+     * Number of texels readable from `data` on (the buffer length).
+     */
+    size_t len;
+    /**
+     * Width in texels, > 0.
+     */
+    uint32_t width;
+    /**
+     * Height in texels, > 0.
+     */
+    uint32_t height;
+    /**
+     * Row stride in texels, >= `width`.
+     */
+    uint32_t stride;
+} refl_image_temporal_texel;
+#endif
+
+#if (defined(REFL_FEATURE_DEPTH_IMAGE) || defined(REFL_FEATURE_HIZ))
+/**
+ * The last frame's history: its texels and the camera they were written
+ * with.
+ */
+typedef struct refl_temporal_history {
+    /**
+     * The camera the texels were written with: the last frame's G-buffer
+     * camera. It may differ from this frame's in pose, field of view and
+     * planes (that is the re-projection), not in size: the texels and this
+     * camera must have the G-buffer's size. Ignored when `texels.data` is
+     * NULL.
+     */
+    struct refl_camera camera;
+    /**
+     * The texels the last `refl_temporal_resolve_rows` calls wrote to
+     * `next`; `data` NULL: no history (the first frame, or after a cut),
+     * every pixel then starts anew.
+     */
+    struct refl_image_temporal_texel texels;
+} refl_temporal_history;
+#endif
+
 /**
  * An 8-bit RGBA texel.
  */
@@ -7216,6 +7457,79 @@ refl_status refl_layered_trace_host_rays(struct refl_layered_pass_stats *out_sta
                                          size_t scratch_len,
                                          const struct refl_host_ray *rays,
                                          size_t rays_len);
+#endif
+
+#if (defined(REFL_FEATURE_DEPTH_IMAGE) || defined(REFL_FEATURE_HIZ))
+/**
+ * The filter's defaults: up to 8 frames averaged, history kept within 2%
+ * of its depth of the current surface's tangent plane and within about 25
+ * degrees of its normal (cosine 0.9), failed pixels recovered.
+ */
+struct refl_temporal_options refl_temporal_options_default(void);
+#endif
+
+#if (defined(REFL_FEATURE_DEPTH_IMAGE) || defined(REFL_FEATURE_HIZ))
+/**
+ * Runs the temporal filter over the rows `rows` of the G-buffer: for each
+ * pixel of those rows writes its next history texel to `next` (its
+ * `color` is this frame's filtered reflection) and, if `status.data` is
+ * not NULL, its `refl_temporal_status` as a byte to `status`; only the
+ * band's rows of `next` and `status` are written. The counts go to
+ * `*out_stats`. Per pixel (refl-core's `temporal` documents each step):
+ * the pixel's world point is projected into `history`'s camera, the 2x2
+ * history texels around it are kept if they hold history, lie on the
+ * current surface's tangent plane (`depth_tolerance`) and face its way
+ * (`normal_cos`); an answered pixel with history blends into it (the
+ * running mean up to `max_frames` frames), one without starts anew; a
+ * failed pixel takes the history's color where at least half of the
+ * bilinear footprint survives (`recover`), or keeps `current`'s fallback.
+ *
+ * Inputs, each the G-buffer's size: `current`, this frame's reflection
+ * colors (linear RGB; e.g. `refl_ssr_trace_rows`'s color with the host's
+ * traced rays filled in, and the host's fallback where a ray failed);
+ * `answered`, nonzero where this frame's reflection is known (a hit, the
+ * sky, a host ray the host traced), 0 where the ray failed (a non-finite
+ * `current` counts as failed); `distance`, optional (`data` NULL: the
+ * seed's re-projection of the surface point), each answered pixel's
+ * reflection distance (a hit's `t`, +infinity for the sky; 0, negative or
+ * NaN where unknown), with which the history is re-projected through the
+ * reflection's virtual point (no lag behind reflections that move against
+ * their mirror); `history`, the last frame's texels and camera (texels
+ * `data` NULL: none). `next` must not be the history's buffer: keep two
+ * and swap them every frame. Bands are independent: split the rows
+ * (`refl_image_row_band`) across threads.
+ *
+ * Returns `REFL_STATUS_NULL_POINTER` if `out_stats`, `next.data`,
+ * `gbuffer`, `current.data`, `answered.data`, `history`, `options` or a
+ * required G-buffer image is NULL; `REFL_STATUS_INSUFFICIENT_SIZE` if an
+ * image's `len` is too small; `REFL_STATUS_INVALID_ARGUMENT` for an option
+ * out of range (NaN included), rows reversed, empty or beyond the height,
+ * an image (`next`, `status`, `current`, `answered`, `distance`, the
+ * history's texels) not of the G-buffer's size, history texels not of
+ * their camera's size, a zero size or a stride below the width, a
+ * misaligned pointer, outputs overlapping each other or an input (`next`
+ * the history's own buffer included), an unknown convention or normal
+ * space; the camera's status if the G-buffer's or the history's camera is
+ * invalid. The last-error message names the argument. Nothing is written
+ * on error.
+ *
+ * # Safety
+ * `out_stats` NULL or writable; `next.data` NULL or writable for
+ * `next.len` texels and `status.data` for `status.len` bytes; `gbuffer`,
+ * `history` and `options` NULL or readable; every other image readable for
+ * its `len` texels and not written during the call. No other thread
+ * accesses the rows of `next` and `status` this call writes.
+ */
+refl_status refl_temporal_resolve_rows(struct refl_temporal_stats *out_stats,
+                                       struct refl_image_temporal_texel_mut next,
+                                       struct refl_image_u8_mut status,
+                                       const struct refl_gbuffer *gbuffer,
+                                       struct refl_image_vec3 current,
+                                       struct refl_image_u8 answered,
+                                       struct refl_image_f32 distance,
+                                       const struct refl_temporal_history *history,
+                                       const struct refl_temporal_options *options,
+                                       struct refl_row_range rows);
 #endif
 
 #ifdef __cplusplus

@@ -56,7 +56,9 @@
 //! 5. **Recovery.** Not answered (or a non-finite color) with history
 //!    that keeps at least [`MIN_RECOVERY_WEIGHT`] of the bilinear
 //!    footprint, and [`TemporalOptions::recover`]: the history's color and
-//!    frame count ([`TemporalStatus::Recovered`]). Without history: the current color
+//!    frame count, capped at [`TemporalOptions::max_frames`] (history
+//!    written with a larger cap stays in the documented range)
+//!    ([`TemporalStatus::Recovered`]). Without history: the current color
 //!    as given (the host's fallback), `frames = 0`, so that no later frame
 //!    takes it for history ([`TemporalStatus::Unanswered`]).
 //! 6. The texel written stores the current surface's linear depth, unit
@@ -691,8 +693,12 @@ impl<'a> TemporalPass<'a> {
                 (texel(color, n, t_now), TemporalStatus::Blended, None)
             }
             (true, Err(why)) => (texel(cur_v, 1.0, t_now), TemporalStatus::Reset, Some(why)),
+            // The count capped: history written with a larger
+            // `max_frames` (or by the host) may hold more frames than this
+            // frame's cap, the range `HistoryTexel::frames` promises (fuzz
+            // finding F30); the next blend caps it anyway.
             (false, Ok(hist)) if self.options.recover && hist.weight >= MIN_RECOVERY_WEIGHT => (
-                texel(hist.color, hist.frames, t_used),
+                texel(hist.color, hist.frames.min(self.options.max_frames), t_used),
                 TemporalStatus::Recovered,
                 None,
             ),

@@ -5,7 +5,7 @@
 //! average of the frames (f64), the colors a surface point should carry (a
 //! smooth function of the point), and the statuses that bands, depth
 //! conventions and scales must not change.
-
+#![cfg(any(feature = "depth-image", feature = "hiz"))]
 #![allow(clippy::needless_range_loop)] // pixel indices address several images at once
 
 use core::f32::consts::FRAC_PI_2;
@@ -479,6 +479,54 @@ fn failed_pixels_take_the_history_and_unanswered_ones_are_not_history() {
     let (_, st4, _) = run(&f, &f.color, &all, Some((&f.cam, &h1_off)), opts);
     assert_eq!(st4[(30 * W + 31) as usize], RESET);
     assert_eq!(st4[(30 * W + 32) as usize], RESET);
+}
+
+/// A failed pixel recovered from history written with a larger
+/// `max_frames` (the host lowered it, or wrote the history itself) keeps
+/// the history's color but caps its frame count at this frame's
+/// `max_frames`, the range `HistoryTexel::frames` documents. Fuzz finding
+/// F30 (`fuzz/README.md`): the recovered texel took the history's count, 8
+/// frames under `max_frames = 2`.
+#[test]
+fn recovered_frame_counts_are_capped_at_max_frames() {
+    let f = front(DepthConvention::Linear);
+    let all = vec![1u8; N];
+    let (mut h0, _, _) = run(&f, &f.color, &all, None, TemporalOptions::default());
+    for t in h0.iter_mut().filter(|t| t.frames > 0.0) {
+        t.frames = 8.0;
+    }
+    let mut answered = all.clone();
+    let failed: Vec<usize> = (0..N)
+        .filter(|&i| f.kind[i] != Kind::Sky && i % 5 == 0)
+        .collect();
+    for &i in &failed {
+        answered[i] = 0;
+    }
+    for (max_frames, want) in [(2.0, 2.0), (8.0, 8.0), (f32::INFINITY, 8.0), (1.0, 1.0)] {
+        let opts = TemporalOptions {
+            max_frames,
+            ..TemporalOptions::default()
+        };
+        let (h1, st1, stats) = run(&f, &f.color, &answered, Some((&f.cam, &h0)), opts);
+        assert_eq!(
+            stats.recovered as usize,
+            failed.len(),
+            "max_frames {max_frames}"
+        );
+        for &i in &failed {
+            assert_eq!(st1[i], RECOVERED, "pixel {i}");
+            assert_eq!(h1[i].frames, want, "pixel {i}, max_frames {max_frames}");
+            // The color is the history's (a static camera reads the texel
+            // itself, up to bilinear weights of f32 rounding).
+            for c in 0..3 {
+                assert!((h1[i].color[c] - h0[i].color[c]).abs() < 1e-4, "pixel {i}");
+            }
+        }
+        assert!(
+            h1.iter().all(|t| t.frames <= max_frames),
+            "max_frames {max_frames}"
+        );
+    }
 }
 
 #[test]

@@ -11,6 +11,8 @@ use crate::ptr::{byte_len, overlaps, read, Out};
 use crate::status::{guard, refl_status};
 #[cfg(feature = "tcrr")]
 use crate::tcrr::refl_tcrr_surfel;
+#[cfg(any(feature = "depth-image", feature = "hiz"))]
+use crate::temporal::refl_temporal_texel;
 use crate::types::{convention, refl_camera, refl_rgba8, refl_vec2, refl_vec3, refl_vec4};
 use refl_core::image::try_required_len;
 use refl_core::{Error, ImageView, ImageViewMut, RowRange};
@@ -274,6 +276,41 @@ pub struct refl_image_tcrr_surfel_mut {
     pub stride: u32,
 }
 
+/// A read-only image of `refl_temporal_texel` texels (a temporal history
+/// buffer).
+#[repr(C)]
+#[derive(Clone, Copy, Debug)]
+#[cfg(any(feature = "depth-image", feature = "hiz"))]
+pub struct refl_image_temporal_texel {
+    /// Texel (0, 0); texel (x, y) is `data[y * stride + x]`.
+    pub data: *const refl_temporal_texel,
+    /// Number of texels readable from `data` on (the buffer length).
+    pub len: usize,
+    /// Width in texels, > 0.
+    pub width: u32,
+    /// Height in texels, > 0.
+    pub height: u32,
+    /// Row stride in texels, >= `width`.
+    pub stride: u32,
+}
+
+/// A writable image of `refl_temporal_texel` texels.
+#[repr(C)]
+#[derive(Clone, Copy, Debug)]
+#[cfg(any(feature = "depth-image", feature = "hiz"))]
+pub struct refl_image_temporal_texel_mut {
+    /// Texel (0, 0); texel (x, y) is `data[y * stride + x]`.
+    pub data: *mut refl_temporal_texel,
+    /// Number of texels writable from `data` on (the buffer length).
+    pub len: usize,
+    /// Width in texels, > 0.
+    pub width: u32,
+    /// Height in texels, > 0.
+    pub height: u32,
+    /// Row stride in texels, >= `width`.
+    pub stride: u32,
+}
+
 /// Validates an image descriptor and returns the number of texels the view
 /// covers (`try_required_len`), which is also its slice length.
 ///
@@ -385,6 +422,13 @@ image_views!((
     refl_image_tcrr_surfel,
     refl_image_tcrr_surfel_mut,
     refl_core::tcrr::Surfel
+),);
+
+#[cfg(any(feature = "depth-image", feature = "hiz"))]
+image_views!((
+    refl_image_temporal_texel,
+    refl_image_temporal_texel_mut,
+    refl_core::temporal::HistoryTexel
 ),);
 
 /// A half-open range of image rows `[begin, end)`.

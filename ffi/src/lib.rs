@@ -87,6 +87,9 @@ mod cluster_pass;
 // The layered-maps pass (issue 13).
 #[cfg(all(feature = "layered", any(feature = "depth-image", feature = "hiz")))]
 mod layered_pass;
+// The temporal filter (issue 18, seed 004 Sec. 4.6.4-4.6.5).
+#[cfg(any(feature = "depth-image", feature = "hiz"))]
+mod temporal;
 
 #[cfg(any(feature = "depth-image", feature = "hiz"))]
 pub use backface::*;
@@ -121,6 +124,8 @@ pub use status::*;
 pub use summary::*;
 #[cfg(feature = "tcrr")]
 pub use tcrr::*;
+#[cfg(any(feature = "depth-image", feature = "hiz"))]
+pub use temporal::*;
 #[cfg(any(feature = "depth-image", feature = "hiz", feature = "mirror"))]
 pub use trace::*;
 pub use types::*;

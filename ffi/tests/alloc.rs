@@ -133,6 +133,16 @@ images! {
     u32_img, u32_mut: u32 => refl_image_u32, refl_image_u32_mut;
 }
 
+fn no_vec3() -> refl_image_vec3 {
+    refl_image_vec3 {
+        data: core::ptr::null(),
+        len: 0,
+        width: 0,
+        height: 0,
+        stride: 0,
+    }
+}
+
 fn no_f32() -> refl_image_f32 {
     refl_image_f32 {
         data: core::ptr::null(),
@@ -293,6 +303,7 @@ fn no_export_allocates() {
     tcrr(&mut cov);
     epipolar(&mut cov);
     summary(&mut cov);
+    temporal(&mut cov);
     check_coverage(&cov, &header_functions(&header()));
 }
 
@@ -940,6 +951,134 @@ fn ssr(cov: &mut Coverage) {
             scratch.as_ptr(),
             len,
             rows(3, 2)
+        )
+    );
+}
+
+fn temporal(cov: &mut Coverage) {
+    let s = scene();
+    let opts = value!(cov, refl_temporal_options_default());
+    let g = refl_gbuffer {
+        depth: s.depth_image(),
+        normals: vec3_img(&s.normals),
+        normal_space: refl_normal_space::World as u32,
+        mask: refl_image_u8 {
+            data: core::ptr::null(),
+            len: 0,
+            width: 0,
+            height: 0,
+            stride: 0,
+        },
+        roughness: no_f32(),
+        color: no_vec3(),
+        back_depth: no_f32(),
+    };
+    let all = vec![1u8; N];
+    let answered: Vec<u8> = (0..N).map(|i| u8::from(i % 5 != 0)).collect();
+    let texels = |d: &[refl_temporal_texel]| refl_image_temporal_texel {
+        data: d.as_ptr(),
+        len: d.len(),
+        width: W,
+        height: H,
+        stride: W,
+    };
+    let texels_mut = |d: &mut [refl_temporal_texel]| refl_image_temporal_texel_mut {
+        data: d.as_mut_ptr(),
+        len: d.len(),
+        width: W,
+        height: H,
+        stride: W,
+    };
+    // The first frame (no history), then the next from its history.
+    let mut first = vec![refl_temporal_texel::default(); N];
+    let mut next = vec![refl_temporal_texel::default(); N];
+    let mut status = vec![0u8; N];
+    let none = refl_temporal_history {
+        camera: s.camera(),
+        texels: refl_image_temporal_texel {
+            data: core::ptr::null(),
+            len: 0,
+            width: 0,
+            height: 0,
+            stride: 0,
+        },
+    };
+    let mut stats = uninit::<refl_temporal_stats>();
+    ok!(
+        cov,
+        refl_temporal_resolve_rows(
+            stats.as_mut_ptr(),
+            texels_mut(&mut first),
+            u8_mut(&mut status),
+            &g,
+            vec3_img(&s.color),
+            u8_img(&all),
+            no_f32(),
+            &none,
+            &opts,
+            rows(0, H)
+        )
+    );
+    assert!(unsafe { stats.assume_init() }.reset > 0);
+    let hist = refl_temporal_history {
+        camera: s.camera(),
+        texels: texels(&first),
+    };
+    ok!(
+        cov,
+        refl_temporal_resolve_rows(
+            stats.as_mut_ptr(),
+            texels_mut(&mut next),
+            u8_mut(&mut status),
+            &g,
+            vec3_img(&s.color),
+            u8_img(&answered),
+            f32_img(&s.dist),
+            &hist,
+            &opts,
+            rows(2, 9)
+        )
+    );
+    let st = unsafe { stats.assume_init() };
+    assert!(st.blended > 0 && st.recovered > 0, "{st:?}");
+    // The next history written over the one read: refused.
+    let mut in_place = first.clone();
+    let hist_in_place = refl_temporal_history {
+        camera: s.camera(),
+        texels: texels(&in_place),
+    };
+    err!(
+        cov,
+        refl_temporal_resolve_rows(
+            stats.as_mut_ptr(),
+            texels_mut(&mut in_place),
+            u8_mut(&mut status),
+            &g,
+            vec3_img(&s.color),
+            u8_img(&answered),
+            no_f32(),
+            &hist_in_place,
+            &opts,
+            rows(0, H)
+        )
+    );
+    let bad = refl_temporal_options {
+        max_frames: f32::NAN,
+        ..opts
+    };
+    err!(
+        cov,
+        refl_temporal_resolve_rows(
+            stats.as_mut_ptr(),
+            texels_mut(&mut next),
+            u8_mut(&mut status),
+            &g,
+            vec3_img(&s.color),
+            u8_img(&answered),
+            no_f32(),
+            &hist,
+            &bad,
+            rows(0, H)
         )
     );
 }

@@ -9,10 +9,10 @@
 use std::collections::{BTreeMap, BTreeSet};
 
 /// The function and type modules of the C ABI (docs/api.md, "Modules"),
-/// with the pass modules of issue 13.
-const MODULES: [&str; 17] = [
+/// with the pass modules of issue 13 and the temporal filter of issue 18.
+const MODULES: [&str; 18] = [
     "camera", "plane", "mirror", "image", "trace", "step", "hiz", "ssr", "cone", "layered",
-    "cluster", "tcrr", "epipolar", "glossy", "planar", "summary", "plan",
+    "cluster", "tcrr", "epipolar", "glossy", "planar", "summary", "plan", "temporal",
 ];
 
 /// Library-level functions without a module.
@@ -648,5 +648,10 @@ fn options_defaults_equal_the_core_defaults() {
     assert_eq!(
         refl_core::LayeredPassOptions::from(refl_layered_pass_options_default()),
         refl_core::LayeredPassOptions::default()
+    );
+    // The temporal filter.
+    assert_eq!(
+        refl_core::temporal::TemporalOptions::from(refl_temporal_options_default()),
+        refl_core::temporal::TemporalOptions::default()
     );
 }

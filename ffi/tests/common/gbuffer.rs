@@ -1,6 +1,7 @@
 //! The test frame of the C G-buffer passes (`tests/ssr.rs`,
 //! `tests/glossy.rs`, `tests/planar.rs`, `tests/layered_pass.rs`,
-//! `tests/cluster_pass.rs`, `tests/summary.rs`; included with `#[path]`):
+//! `tests/cluster_pass.rs`, `tests/summary.rs`, `tests/temporal.rs`;
+//! included with `#[path]`):
 //! the counting global allocator of `common/counting.rs` (zero-allocation
 //! checks), a floor and a unit sphere rendered exactly into a G-buffer, and
 //! its C and Rust descriptors.
@@ -48,7 +49,12 @@ pub struct Frame {
 
 /// A floor `y = 0` and a unit sphere at `(0, 1, 0)`, rendered exactly.
 pub fn render(conv: DepthConvention) -> Frame {
-    let cam = camera();
+    render_with(camera(), conv)
+}
+
+/// [`render`] through the camera `cam` (of `W x H` pixels).
+pub fn render_with(cam: Camera, conv: DepthConvention) -> Frame {
+    assert_eq!((cam.width(), cam.height()), (W, H));
     let n = (W * H) as usize;
     let far = cam.encode_depth(cam.far(), conv);
     let mut f = Frame {
