@@ -750,7 +750,14 @@ impl<'a, M: LayeredMapSet + ?Sized> LayeredPass<'a, M> {
         );
         t.layer = h.layer;
         t.payload = h.payload;
-        t.t = t_start + h.t;
+        // The kernel's `t` is at most `t_max - t_start`, which rounds: the
+        // sum may pass `t_max` by an ulp (F32); the hit lies at the end.
+        let sum = t_start + h.t;
+        t.t = if sum > self.options.t_max {
+            self.options.t_max
+        } else {
+            sum
+        };
         t.position = h.position;
         t.confidence = if h.mismatch <= e {
             1.0

@@ -912,7 +912,15 @@ impl<'a> MirrorPass<'a> {
             // A surface so far away (a depth near f32::MAX) that the
             // distance to it overflows f32 is no hit the pass can state:
             // the host traces it (found by the `ssr` fuzz target).
+            // The kernel's `t` is at most `t_max - t_start`, which rounds:
+            // the sum may pass `t_max` by an ulp (as the layered pass's did,
+            // F32); the hit lies at the end.
             let t = seg.t_start + h.t;
+            let t = if t > self.options.t_max {
+                self.options.t_max
+            } else {
+                t
+            };
             if !t.is_finite() {
                 break MirrorStatus::NoProjection;
             }

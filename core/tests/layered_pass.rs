@@ -297,7 +297,8 @@ fn by_hand_segment(
     );
     t.layer = h.layer;
     t.payload = h.payload;
-    t.t = t_start + h.t;
+    let sum = t_start + h.t;
+    t.t = if sum > o.t_max { o.t_max } else { sum };
     t.position = h.position;
     t.confidence = if h.mismatch <= e {
         1.0
@@ -1200,4 +1201,47 @@ fn refusals_leave_every_output_untouched() {
         LayeredPass::try_new(g, &broken, d, &bounds),
         Err(Error::InvalidArgument)
     ));
+}
+
+/// Fuzz finding F32: a hit's `t` is the ray's start plus the kernel's `t`,
+/// which is at most `t_max - t_start`; that difference rounds, and the sum
+/// passed `t_max` by an ulp. With `t_max` set to each hit's own distance
+/// (and the float below it), every hit stays within `[t_min, t_max]`.
+#[test]
+fn hits_never_pass_t_max() {
+    let m = maps();
+    let views = m.views();
+    let f = frame(default_camera(), CONVENTIONS[0]);
+    let d = LayeredPassOptions::default();
+    let all = {
+        let bounds = prepared(&f, &views, &d);
+        let pass = LayeredPass::try_new(f.gbuffer(false), &views[..], d, &bounds).unwrap();
+        run(&pass, false).0
+    };
+    let ts: Vec<f32> = all
+        .iter()
+        .filter(|t| t.status == LayeredPassStatus::Hit)
+        .map(|t| t.t)
+        .collect();
+    assert!(ts.len() > 100, "{} hits", ts.len());
+    let mut checked = 0;
+    for &t_hit in ts.iter().step_by(ts.len() / 24) {
+        for t_max in [t_hit, f32::from_bits(t_hit.to_bits() - 1)] {
+            let o = LayeredPassOptions { t_max, ..d };
+            let bounds = prepared(&f, &views, &o);
+            let pass = LayeredPass::try_new(f.gbuffer(false), &views[..], o, &bounds).unwrap();
+            for t in run(&pass, false).0 {
+                if t.status == LayeredPassStatus::Hit {
+                    checked += 1;
+                    assert!(
+                        t.t >= o.t_min && t.t <= t_max,
+                        "hit t {} outside [{}, {t_max}]",
+                        t.t,
+                        o.t_min
+                    );
+                }
+            }
+        }
+    }
+    assert!(checked > 1000, "{checked} hits checked");
 }

@@ -157,7 +157,8 @@ fn by_hand(
             break MirrorStatus::BackFace;
         }
         out.pixel = hit.pixel;
-        out.t = t0 + hit.t;
+        let t = t0 + hit.t;
+        out.t = if t > opts.t_max { opts.t_max } else { t };
         let band = opts.border_fade * (w.min(h) as f32);
         let d = hit
             .pixel
@@ -991,5 +992,48 @@ fn far_surfaces_beyond_the_f32_square_still_reflect() {
                 );
             }
         }
+    }
+}
+
+/// As the layered pass's F32: a hit's `t` (start plus the kernel's `t`,
+/// itself at most the rounded `t_max - t_start`) never passes `t_max`,
+/// with `t_max` set to each hit's own distance and the float below it.
+#[test]
+fn hits_never_pass_t_max() {
+    let f = render(default_camera(), CONVENTIONS[0]);
+    let pyr = f.pyramid();
+    let hiz = HiZ::try_new(&pyr, f.camera, CONVENTIONS[0]).unwrap();
+    for method in [MirrorMethod::Step, MirrorMethod::HiZ] {
+        let d = MirrorOptions {
+            method,
+            ..MirrorOptions::default()
+        };
+        let pass = MirrorPass::try_new(f.gbuffer(false), d, Some(hiz)).unwrap();
+        let ts: Vec<f32> = run(&pass)
+            .0
+            .iter()
+            .filter(|t| t.status == MirrorStatus::Hit)
+            .map(|t| t.t)
+            .collect();
+        assert!(ts.len() > 100, "{} hits", ts.len());
+        let mut checked = 0;
+        for &t_hit in ts.iter().step_by(ts.len() / 16) {
+            for t_max in [t_hit, f32::from_bits(t_hit.to_bits() - 1)] {
+                let o = MirrorOptions { t_max, ..d };
+                let pass = MirrorPass::try_new(f.gbuffer(false), o, Some(hiz)).unwrap();
+                for t in run(&pass).0 {
+                    if t.status == MirrorStatus::Hit {
+                        checked += 1;
+                        assert!(
+                            t.t >= o.t_min && t.t <= t_max,
+                            "{method:?}: hit t {} outside [{}, {t_max}]",
+                            t.t,
+                            o.t_min
+                        );
+                    }
+                }
+            }
+        }
+        assert!(checked > 1000, "{checked} hits checked");
     }
 }
