@@ -2040,34 +2040,11 @@ fn vanishing_point_hit_reports_the_depth_it_crossed() {
 /// disagrees with the depth the texel test found.
 #[test]
 fn near_vanishing_point_finite_segment_reports_the_depth_it_crossed() {
-    let view = glam::Mat4::from_cols_array(&[
-        -0.7737348,
-        0.11041793,
-        -0.62381274,
-        0.0,
-        0.0,
-        0.98469335,
-        0.17429559,
-        0.0,
-        0.63350964,
-        0.13485856,
-        -0.76189154,
-        0.0,
-        -0.34753847,
-        0.40155032,
-        -3.470898,
-        1.0,
-    ]);
-    let (w, h) = (41, 44);
-    let cam = Camera::try_new(view, 1.5270588, 0.7933138, f32::INFINITY, w, h).unwrap();
-    let ray = Ray {
-        origin: Vec3::new(-1.8234673, 0.54053485, -2.299697),
-        dir: Vec3::new(0.86716413, -0.43820888, 0.2366419),
-    };
-    let th = 0.38117036f32;
+    let (cam, ray, th) = common::f31_case();
+    let (w, h) = (cam.width(), cam.height());
     let mut hits = 0;
     for conv in DepthConvention::ALL {
-        let data = vec![cam.encode_depth(6654798.5, conv); (w * h) as usize];
+        let data = vec![cam.encode_depth(common::F31_SURFACE, conv); (w * h) as usize];
         let d =
             DepthImage::try_new(ImageView::try_new(&data, w, h, w).unwrap(), cam, conv).unwrap();
         for stride in [1, 3] {

@@ -40,3 +40,40 @@ pub fn proptest_config(cases: u32) -> Config {
     }
     c
 }
+
+/// Fuzz finding F31's case (the step target): a camera of 41x44 pixels with
+/// an infinite far plane, a ray from view depth about 3 toward a surface at
+/// linear depth 6,654,798.5 everywhere, and the thickness; traced with
+/// `t_max = 1e30`, the segment nearly reaches its vanishing point.
+#[allow(dead_code)]
+pub fn f31_case() -> (refl_core::Camera, refl_core::Ray, f32) {
+    let view = glam::Mat4::from_cols_array(&[
+        -0.7737348,
+        0.11041793,
+        -0.62381274,
+        0.0,
+        0.0,
+        0.98469335,
+        0.17429559,
+        0.0,
+        0.63350964,
+        0.13485856,
+        -0.76189154,
+        0.0,
+        -0.34753847,
+        0.40155032,
+        -3.470898,
+        1.0,
+    ]);
+    let cam =
+        refl_core::Camera::try_new(view, 1.5270588, 0.7933138, f32::INFINITY, 41, 44).unwrap();
+    let ray = refl_core::Ray {
+        origin: glam::Vec3::new(-1.8234673, 0.54053485, -2.299697),
+        dir: glam::Vec3::new(0.86716413, -0.43820888, 0.2366419),
+    };
+    (cam, ray, 0.38117036)
+}
+
+/// F31's surface depth ([`f31_case`]).
+#[allow(dead_code)]
+pub const F31_SURFACE: f32 = 6654798.5;
