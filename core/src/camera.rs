@@ -365,7 +365,7 @@ impl Camera {
     /// The (not normalized) view-space direction through `pixel` with
     /// `z = -1`: `(ndc_x tan_x, ndc_y tan_y, -1)`.
     #[inline]
-    fn view_dir_through(&self, pixel: Vec2) -> Vec3 {
+    pub(crate) fn view_dir_through(&self, pixel: Vec2) -> Vec3 {
         let ndc_x = 2.0 * pixel.x / self.width as f32 - 1.0;
         let ndc_y = 1.0 - 2.0 * pixel.y / self.height as f32;
         Vec3::new(ndc_x * self.tan_half_x, ndc_y * self.tan_half_y, -1.0)

@@ -31,8 +31,11 @@
 //! The shared modules come with the families that use them: `gbuffer`,
 //! `trace`, `summary` (the frame summary a planner reads) and `plan` (the
 //! passes a frame needs) with `mirror`, `hiz` or `depth-image`; `ssr` (the screen-space
-//! mirror pass), `backface` and `temporal` (the history buffer and temporal
-//! filter of seed 004 Sec. 4.6.4-4.6.5) with `hiz` or `depth-image`. Each module's
+//! mirror pass), `backface`, `temporal` (the history buffer and temporal
+//! filter of seed 004 Sec. 4.6.4-4.6.5) and `upsample` (fewer rays:
+//! half-resolution and interleaved tracing, cross-bilateral upsampling,
+//! temporal super-sampling; seed 004 Sec. 4.7.3-4.7.4) with `hiz` or
+//! `depth-image`. Each module's
 //! documentation has a runnable example (`# Example`) of its main pass or
 //! kernel.
 //!
@@ -119,6 +122,10 @@
 //! | 004 (Hi-Z cone tracing) | Sec. 4.6.6 travel behind surfaces, 4.6.7 marching toward the camera | `hiz::try_trace_hiz` |
 //! | 004 (Hi-Z cone tracing) | Sec. 4.6.8 anisotropic reflections | `cone::ConeOptions::max_stretch` |
 //! | 004 (Hi-Z cone tracing) | Sec. 4.7.1 combining linear and Hi-Z traversal | `hiz::HiZOptions::prologue_steps`, `hiz::HiZOptions::stop_level` |
+//! | 004 (Hi-Z cone tracing) | Sec. 4.7.3 interleaved spatial coherence: one ray per 2x2 block | `upsample::Subsample`, `upsample::Pattern`, `upsample::HalfPass` |
+//! | 004 (Hi-Z cone tracing) | Sec. 4.7.3 signal reconstruction, 4.7.4 cross-bilateral upsampling (Kopf et al. 2007 Eq. 2) | `upsample::UpsamplePass`, `upsample::UpsampleOptions` |
+//! | 004 (Hi-Z cone tracing) | Sec. 4.7.4 re-trace of the pixels at depth discontinuities | `upsample::UpsampleStatus::Retrace`, `upsample::UpsampleOptions::retrace` |
+//! | 004 (Hi-Z cone tracing) | Sec. 4.7.4 temporal super-sampling over four frames | `upsample::FRAME_CYCLE`, `upsample::frame_sub_pixel`, `upsample::UpsampleStatus::answers` |
 //! | 004 (Hi-Z cone tracing) | Sec. 4.4-4.6 as one pass | `glossy::GlossyPass` |
 #![no_std]
 #![cfg_attr(docsrs, feature(doc_cfg))]
@@ -165,6 +172,8 @@ pub mod tcrr;
 pub mod temporal;
 #[cfg(any(feature = "depth-image", feature = "hiz", feature = "mirror"))]
 pub mod trace;
+#[cfg(any(feature = "depth-image", feature = "hiz"))]
+pub mod upsample;
 
 pub use camera::{Camera, DepthConvention, Ray};
 pub use error::Error;

@@ -993,34 +993,56 @@ impl<'a> MirrorPass<'a> {
 
     fn run_rows(&self, rows: RowRange, sink: &mut impl MirrorSink) -> MirrorStats {
         let mut stats = MirrorStats::default();
-        let lit = self.gbuffer.color();
         for y in rows.rows() {
             for x in 0..self.gbuffer.width() {
-                let (t, hr) = self.pixel(x, y);
-                if !matches!(t.status, MirrorStatus::Skipped | MirrorStatus::NoSurface) {
-                    stats.traced += 1;
-                }
-                match t.status {
-                    MirrorStatus::Hit => stats.hits += 1,
-                    MirrorStatus::Sky => stats.sky += 1,
-                    _ => {}
-                }
-                if let Some(hr) = hr {
-                    if sink.host(stats.host_rays_written, &hr) {
-                        stats.host_rays_written += 1;
-                    }
-                    stats.host_rays += 1;
-                }
-                let rgb = match (t.status, lit) {
-                    (MirrorStatus::Hit, Some(l)) => l
-                        .get(t.pixel.x as u32, t.pixel.y as u32)
-                        .unwrap_or([0.0; 3]),
-                    _ => [0.0; 3],
-                };
+                let (t, rgb) = self.run_pixel(x, y, &mut stats, sink);
                 sink.texel(x, y, &t, rgb);
             }
         }
         stats
+    }
+
+    /// One pixel of a run: traces `(x, y)` ([`MirrorPass::pixel`]), counts
+    /// it into `stats`, hands its host ray (if any) to `sink` and returns
+    /// its texel and color ([`MirrorPass::shade`]). The loop body of
+    /// [`MirrorPass::try_run_rows`] and of the half-resolution pass
+    /// (`crate::upsample::HalfPass`), which writes the texel elsewhere.
+    pub(crate) fn run_pixel(
+        &self,
+        x: u32,
+        y: u32,
+        stats: &mut MirrorStats,
+        sink: &mut impl MirrorSink,
+    ) -> (MirrorTexel, [f32; 3]) {
+        let (t, hr) = self.pixel(x, y);
+        if !matches!(t.status, MirrorStatus::Skipped | MirrorStatus::NoSurface) {
+            stats.traced += 1;
+        }
+        match t.status {
+            MirrorStatus::Hit => stats.hits += 1,
+            MirrorStatus::Sky => stats.sky += 1,
+            _ => {}
+        }
+        if let Some(hr) = hr {
+            if sink.host(stats.host_rays_written, &hr) {
+                stats.host_rays_written += 1;
+            }
+            stats.host_rays += 1;
+        }
+        (t, self.shade(&t))
+    }
+
+    /// The reflection color of a pixel's texel as [`MirrorPass::try_run`]
+    /// writes it: the G-buffer's lit color at the hit texel for a
+    /// [`MirrorStatus::Hit`], black for every other status or without a
+    /// lit color.
+    pub fn shade(&self, t: &MirrorTexel) -> [f32; 3] {
+        match (t.status, self.gbuffer.color()) {
+            (MirrorStatus::Hit, Some(l)) => l
+                .get(t.pixel.x as u32, t.pixel.y as u32)
+                .unwrap_or([0.0; 3]),
+            _ => [0.0; 3],
+        }
     }
 }
 
