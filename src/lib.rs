@@ -25,3 +25,4 @@ pub mod shade;
 pub mod tcrr;
 pub mod temporal;
 pub mod tracer;
+pub mod upsample;

@@ -588,7 +588,7 @@ pub struct PassRun {
 
 /// The pass of `method` over `depth` and `images` (one frame), with the
 /// Hi-Z pyramid (method [`ScreenMethod::HiZ`]) from `pyramid`'s storage.
-fn with_pass<R>(
+pub(crate) fn with_pass<R>(
     method: ScreenMethod,
     refine: bool,
     depth: &DepthImage<'_>,
@@ -615,7 +615,7 @@ fn with_pass<R>(
 
 /// Storage of the pyramid of `method` for a `width x height` frame (empty
 /// for stepping).
-fn pyramid_storage(
+pub(crate) fn pyramid_storage(
     method: ScreenMethod,
     width: u32,
     height: u32,
@@ -679,7 +679,8 @@ pub fn run(
     })
 }
 
-fn add_stats(a: MirrorStats, b: &MirrorStats) -> MirrorStats {
+/// The sum of two runs' counts.
+pub(crate) fn add_stats(a: MirrorStats, b: &MirrorStats) -> MirrorStats {
     MirrorStats {
         traced: a.traced + b.traced,
         hits: a.hits + b.hits,

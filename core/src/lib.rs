@@ -33,7 +33,7 @@
 //! passes a frame needs) with `mirror`, `hiz` or `depth-image`; `ssr` (the screen-space
 //! mirror pass), `backface`, `temporal` (the history buffer and temporal
 //! filter of seed 004 Sec. 4.6.4-4.6.5) and `upsample` (fewer rays:
-//! half-resolution and interleaved tracing, cross-bilateral upsampling,
+//! half-resolution and staggered tracing, cross-bilateral upsampling,
 //! temporal super-sampling; seed 004 Sec. 4.7.3-4.7.4) with `hiz` or
 //! `depth-image`. Each module's
 //! documentation has a runnable example (`# Example`) of its main pass or

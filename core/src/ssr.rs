@@ -604,7 +604,7 @@ impl<'a> MirrorPass<'a> {
         self.gbuffer.camera()
     }
 
-    fn reflective(&self, x: u32, y: u32) -> bool {
+    pub(crate) fn reflective(&self, x: u32, y: u32) -> bool {
         if let Some(m) = self.gbuffer.mask() {
             if m.get(x, y) == Some(0) {
                 return false;

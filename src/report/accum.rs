@@ -16,6 +16,43 @@ pub enum Extra {
     Screen(ScreenAccum),
     /// The cluster method's per-frame figures.
     Cluster(ClusterAccum),
+    /// A screen-space method that traces fewer rays than pixels (the
+    /// `hiz` rows with `half=`, [`super::half`]): the screen columns and
+    /// the shares of traced and re-traced pixels.
+    Half(ScreenAccum, HalfAccum),
+}
+
+/// Sums over frames of a method that traces fewer rays than pixels.
+#[derive(Clone, Copy, Debug, Default)]
+pub struct HalfAccum {
+    /// Reflective pixels with a surface.
+    pub pixels: usize,
+    /// Of those, the ones the mirror pass traced (samples and re-traces).
+    pub traced: usize,
+    /// Of those, the ones no sample reached (re-traced or left out).
+    pub retrace: usize,
+}
+
+impl HalfAccum {
+    fn add(&mut self, o: &HalfAccum) {
+        self.pixels += o.pixels;
+        self.traced += o.traced;
+        self.retrace += o.retrace;
+    }
+
+    fn columns(&self) -> Vec<(String, String)> {
+        let p = self.pixels.max(1) as f64;
+        vec![
+            (
+                "traced_share".into(),
+                format!("{:.4}", self.traced as f64 / p),
+            ),
+            (
+                "retrace_share".into(),
+                format!("{:.4}", self.retrace as f64 / p),
+            ),
+        ]
+    }
 }
 
 /// Sums over the frames of one scene x method x setting; a row is made
@@ -38,6 +75,8 @@ pub struct Accum {
     screen: Option<ScreenAccum>,
     /// The cluster method's per-frame figures.
     cluster: Option<ClusterAccum>,
+    /// Traced and re-traced shares of a method tracing fewer rays.
+    half: Option<HalfAccum>,
 }
 
 /// Sums over frames of the cluster method (seed 003).
@@ -256,6 +295,10 @@ impl Accum {
                 .cluster
                 .get_or_insert_with(ClusterAccum::default)
                 .add(c),
+            Extra::Half(s, h) => {
+                self.screen.get_or_insert_with(ScreenAccum::default).add(s);
+                self.half.get_or_insert_with(HalfAccum::default).add(h);
+            }
         }
         let channels = 3.0 * err.pixels as f64;
         self.frames += 1;
@@ -314,6 +357,9 @@ impl Accum {
                 }
                 if let Some(c) = &self.cluster {
                     e.extend(c.columns());
+                }
+                if let Some(h) = &self.half {
+                    e.extend(h.columns());
                 }
                 e
             },

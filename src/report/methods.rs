@@ -96,7 +96,7 @@ impl<'a> Frame<'a> {
     }
 
     /// The frame's reflection rays and reference timings, made on first use.
-    fn screen(&mut self) -> &mut ScreenFrame {
+    pub(super) fn screen(&mut self) -> &mut ScreenFrame {
         let (scene, tracer, shader, g, direct) =
             (self.scene, self.tracer, self.shader, self.g, self.direct);
         let (pool, pool_1t, runs) = (self.pool, self.pool_1t, self.sizes.runs);
@@ -419,7 +419,9 @@ impl Method for Step {
 }
 
 /// Hi-Z traversal (seed 004) at several start, stop, prologue and
-/// iteration settings; `--long` also traces linear and `[0, 1]` depth.
+/// iteration settings, and at the default setting one ray per 2x2 block
+/// with the reconstructions of [`super::half`]; `--long` also traces
+/// linear and `[0, 1]` depth.
 struct HiZ;
 
 impl Method for HiZ {
@@ -480,6 +482,8 @@ impl Method for HiZ {
                 ));
             }
         }
+        // Fewer rays (seed 004 Sec. 4.7.3-4.7.4): one ray per 2x2 block.
+        out.extend(super::half::settings(sizes, ScreenMethod::HiZ(base)));
         Ok(out)
     }
 }

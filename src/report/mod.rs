@@ -16,6 +16,7 @@ pub mod accum;
 pub mod content;
 pub mod epipolar;
 pub mod glossy;
+pub mod half;
 pub mod methods;
 pub mod plan;
 pub mod studies;

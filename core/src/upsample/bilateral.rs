@@ -4,7 +4,6 @@
 //! list of Sec. 4.7.4.
 
 use super::{try_half_size, Subsample};
-use crate::ssr::Reflection;
 use crate::{Error, ImageView, ImageViewMut, MirrorPass, MirrorStatus, MirrorTexel, RowRange};
 use glam::{Vec2, Vec3};
 
@@ -81,6 +80,13 @@ pub struct UpsampleOptions {
     /// plane at the sample's pixel rather than with the pixel's own depth
     /// ("Weights" above). Default `true`.
     pub plane_depth: bool,
+    /// A reconstructed hit takes the G-buffer's lit color at its
+    /// interpolated hit position, as the mirror pass shades a hit
+    /// ([`MirrorPass::shade`]), rather than the weighted mean of its
+    /// samples' colors: where the hit position varies smoothly (a planar
+    /// mirror) this keeps the reflected image at full resolution. Used
+    /// only with a color input and a G-buffer color. Default `true`.
+    pub shade_hits: bool,
     /// Pixels no sample reaches are traced at full resolution by the
     /// mirror pass ([`UpsampleStatus::Retraced`]) instead of listed
     /// ([`UpsampleStatus::Retrace`]). Default `false`.
@@ -98,6 +104,7 @@ impl Default for UpsampleOptions {
             depth_sigma: 0.05,
             normal_power: 8.0,
             plane_depth: true,
+            shade_hits: true,
             retrace: false,
             retrace_mixed: false,
         }
@@ -208,16 +215,19 @@ pub struct UpsamplePass<'a> {
     texels: ImageView<'a, MirrorTexel>,
     color: Option<ImageView<'a, [f32; 3]>>,
     options: UpsampleOptions,
+    /// The G-buffer's size.
+    size: (u32, u32),
+    /// [`UpsampleOptions::normal_power`] when it is a whole number up to
+    /// 64 (raised by squaring).
+    whole_power: Option<u32>,
+    /// How a view-space pixel ray `a` changes per pixel in `x` and `y`.
+    ray_step: Vec2,
 }
 
 /// The answer classes of the samples (ties resolved in this order).
 const HIT: usize = 0;
 const SKY: usize = 1;
 const HOST: usize = 2;
-
-/// The most samples a pixel takes (its own and the eight surrounding
-/// blocks).
-const MAX_SAMPLES: usize = 9;
 
 /// One contributing sample.
 #[derive(Clone, Copy, Debug, Default)]
@@ -228,14 +238,61 @@ struct Sample {
     color: Vec3,
 }
 
-/// What a pixel's samples are compared with: its linear depth, unit world
-/// normal and, with [`UpsampleOptions::plane_depth`], its view-space
-/// normal `n` and `z_p (n . a_p)` (the tangent plane's depth on a pixel
-/// ray `a` is that over `n . a`).
+/// The weighted sums of one answer class's samples.
+#[derive(Clone, Copy, Debug, Default)]
+struct Class {
+    weight: f32,
+    color: Vec3,
+    pixel: Vec2,
+    t: f32,
+    confidence: f32,
+    /// The heaviest sample's weight, status and color (the first of equal
+    /// weights).
+    heaviest: f32,
+    heaviest_status: MirrorStatus,
+    heaviest_color: Vec3,
+}
+
+impl Class {
+    fn add(&mut self, s: &Sample) {
+        let w = s.weight;
+        self.weight += w;
+        self.color += s.color * w;
+        self.pixel += s.texel.pixel * w;
+        self.t += s.texel.t * w;
+        self.confidence += s.texel.confidence * w;
+        if w > self.heaviest {
+            self.heaviest = w;
+            self.heaviest_status = s.texel.status;
+            self.heaviest_color = s.color;
+        }
+    }
+}
+
+/// What a pixel's samples are compared with: its pixel, linear depth,
+/// unit world normal and, with [`UpsampleOptions::plane_depth`], its
+/// view-space normal `n`, `n . a_p` and `z_p (n . a_p)` (the tangent
+/// plane's depth on a pixel ray `a` is the last over `n . a`).
 struct Guide {
+    x: u32,
+    y: u32,
     depth: f32,
     normal: Vec3,
-    plane: Option<(Vec3, f32)>,
+    plane: Option<(Vec3, f32, f32)>,
+}
+
+/// `c^e` by squaring.
+#[inline]
+fn powi(c: f32, e: u32) -> f32 {
+    let (mut base, mut e, mut out) = (c, e, 1.0f32);
+    while e > 0 {
+        if e & 1 == 1 {
+            out *= base;
+        }
+        base *= base;
+        e >>= 1;
+    }
+    out
 }
 
 /// The bilinear (tent) weight of a sample `d` full-resolution pixels away
@@ -277,12 +334,20 @@ impl<'a> UpsamplePass<'a> {
         {
             return Err(Error::InvalidArgument);
         }
+        let p = options.normal_power;
+        let whole_power = (p <= 64.0 && p == libm::truncf(p)).then_some(p as u32);
+        let cam = g.camera();
+        let a = cam.view_dir_through(Vec2::new(0.5, 0.5));
+        let b = cam.view_dir_through(Vec2::new(1.5, 1.5));
         Ok(Self {
             pass,
             subsample,
             texels,
             color,
             options,
+            size: (g.width(), g.height()),
+            whole_power,
+            ray_step: Vec2::new(b.x - a.x, b.y - a.y),
         })
     }
 
@@ -305,19 +370,29 @@ impl<'a> UpsamplePass<'a> {
     /// [`UpsamplePass::try_run`] writes them (re-tracing included);
     /// `(default, black, Skipped)` outside the image.
     pub fn pixel(&self, x: u32, y: u32) -> (MirrorTexel, [f32; 3], UpsampleStatus) {
-        let g = self.pass.gbuffer();
-        if x >= g.width() || y >= g.height() {
+        if x >= self.size.0 || y >= self.size.1 {
             return (MirrorTexel::default(), [0.0; 3], UpsampleStatus::Skipped);
         }
         self.resolve(x, y)
     }
 
-    /// Sample `(bx, by)` with its weight for pixel `(x, y)` with the guide
-    /// `guide` ([`UpsampleOptions`], "Weights"), if it contributes.
-    fn sample(&self, bx: u32, by: u32, x: u32, y: u32, guide: &Guide) -> Option<Sample> {
+    /// The full-resolution pixel block `(bx, by)` (inside the half
+    /// image) traced: [`Subsample::traced_pixel`].
+    #[inline]
+    fn traced(&self, bx: u32, by: u32) -> (u32, u32) {
+        let s = self.subsample.sub_pixel(bx, by);
+        (
+            (2 * bx + s.x).min(self.size.0 - 1),
+            (2 * by + s.y).min(self.size.1 - 1),
+        )
+    }
+
+    /// Sample `(bx, by)` with its weight for the pixel of `guide`
+    /// ([`UpsampleOptions`], "Weights"), if it contributes.
+    fn sample(&self, bx: u32, by: u32, guide: &Guide) -> Option<Sample> {
         let g = self.pass.gbuffer();
-        let (sx, sy) = self.subsample.traced_pixel(bx, by, g.width(), g.height())?;
-        let spatial = tent(sx.abs_diff(x)) * tent(sy.abs_diff(y));
+        let (sx, sy) = self.traced(bx, by);
+        let spatial = tent(sx.abs_diff(guide.x)) * tent(sy.abs_diff(guide.y));
         if !(spatial > 0.0) {
             return None;
         }
@@ -350,10 +425,13 @@ impl<'a> UpsamplePass<'a> {
         // Depth: the hard edge, then the Gaussian range weight.
         let z = guide.depth;
         let compared = match guide.plane {
-            // z' = z_p (n . a_p) / (n . a_k).
-            Some((nv, k)) => {
-                let a = cam.view_dir_through(Vec2::new(sx as f32 + 0.5, sy as f32 + 0.5));
-                let zp = k / nv.dot(a);
+            // z' = z_p (n . a_p) / (n . a_k), with a_k = a_p + the ray's
+            // change over the pixels between them.
+            Some((nv, na, k)) => {
+                let dx = sx as f32 - guide.x as f32;
+                let dy = sy as f32 - guide.y as f32;
+                let nak = na + dx * self.ray_step.x * nv.x + dy * self.ray_step.y * nv.y;
+                let zp = k / nak;
                 if !(zp > 0.0 && zp.is_finite()) {
                     return None;
                 }
@@ -376,7 +454,11 @@ impl<'a> UpsamplePass<'a> {
         let normal = if p > 0.0 {
             let c = nk.dot(guide.normal);
             if c > 0.0 {
-                libm::powf(c.min(1.0), p)
+                let c = c.min(1.0);
+                match self.whole_power {
+                    Some(e) => powi(c, e),
+                    None => libm::powf(c, p),
+                }
             } else {
                 0.0
             }
@@ -407,10 +489,45 @@ impl<'a> UpsamplePass<'a> {
         }
     }
 
-    fn resolve(&self, x: u32, y: u32) -> (MirrorTexel, [f32; 3], UpsampleStatus) {
+    /// The pixel's surface as the mirror pass sees it: its linear depth
+    /// and stored unit world normal, or the status the pass gives a pixel
+    /// it does not trace ([`MirrorStatus::Skipped`]: not reflective;
+    /// [`MirrorStatus::NoSurface`]: no [`crate::GBuffer::surface`], or a
+    /// surface point at the eye, where the pass has no reflection ray).
+    fn surface(&self, x: u32, y: u32) -> Result<(f32, Vec3), MirrorStatus> {
+        if !self.pass.reflective(x, y) {
+            return Err(MirrorStatus::Skipped);
+        }
         let g = self.pass.gbuffer();
-        let refl: Reflection = match self.pass.reflection(x, y) {
-            Ok(r) => r,
+        let s = g.surface(x, y).ok_or(MirrorStatus::NoSurface)?;
+        // The pass's ray generation fails exactly where the view vector
+        // `P - eye` is zero or not finite (it scales finite non-zero
+        // vectors before normalizing them, and the mirror of a unit vector
+        // about a unit normal has unit length).
+        let v = s.position - g.camera().eye();
+        if v == Vec3::ZERO || !v.is_finite() {
+            return Err(MirrorStatus::NoSurface);
+        }
+        Ok((s.depth, s.normal))
+    }
+
+    fn resolve(&self, x: u32, y: u32) -> (MirrorTexel, [f32; 3], UpsampleStatus) {
+        let (bx, by) = (x / 2, y / 2);
+        // A traced pixel: its own result, whatever it is.
+        if self.traced(bx, by) == (x, y) {
+            let t = self.texels.get(bx, by).unwrap_or_default();
+            if matches!(t.status, MirrorStatus::Skipped | MirrorStatus::NoSurface) {
+                return (t, [0.0; 3], UpsampleStatus::Skipped);
+            }
+            let c = self
+                .color
+                .as_ref()
+                .and_then(|c| c.get(bx, by))
+                .unwrap_or([0.0; 3]);
+            return (t, c, UpsampleStatus::Copied);
+        }
+        let (z, n) = match self.surface(x, y) {
+            Ok(s) => s,
             Err(status) => {
                 let t = MirrorTexel {
                     status,
@@ -419,96 +536,77 @@ impl<'a> UpsamplePass<'a> {
                 return (t, [0.0; 3], UpsampleStatus::Skipped);
             }
         };
-        let (bx, by) = (x / 2, y / 2);
-        if self.subsample.traced_pixel(bx, by, g.width(), g.height()) == Some((x, y)) {
-            let t = self.texels.get(bx, by).unwrap_or_default();
-            let c = self
-                .color
-                .as_ref()
-                .and_then(|c| c.get(bx, by))
-                .unwrap_or([0.0; 3]);
-            return (t, c, UpsampleStatus::Copied);
-        }
-        // `reflection` found a surface: the stored (unflipped) normal.
-        let Some(n) = g.world_normal(x, y) else {
-            return self.unreached(x, y);
-        };
+        let g = self.pass.gbuffer();
         let cam = g.camera();
-        let z = refl.depth;
         let plane = self.options.plane_depth.then(|| {
             let nv = cam.view().transform_vector3(n);
             let a = cam.view_dir_through(Vec2::new(x as f32 + 0.5, y as f32 + 0.5));
-            (nv, z * nv.dot(a))
+            let na = nv.dot(a);
+            (nv, na, z * na)
         });
         let guide = Guide {
+            x,
+            y,
             depth: z,
             normal: n,
             plane,
         };
-        let mut samples = [Sample::default(); MAX_SAMPLES];
-        let mut count = 0;
-        let mut class_weight = [0.0f32; 3];
-        for j in -1i64..=1 {
-            for i in -1i64..=1 {
-                let (cx, cy) = (i64::from(bx) + i, i64::from(by) + j);
-                if cx < 0 || cy < 0 {
-                    continue;
-                }
-                if let Some(s) = self.sample(cx as u32, cy as u32, x, y, &guide) {
-                    class_weight[s.class] += s.weight;
-                    samples[count] = s;
-                    count += 1;
+        let mut acc = [Class::default(); 3];
+        // A block's sample lies in its own two columns and rows, so only
+        // the blocks of the two columns and rows nearest the pixel can be
+        // within the tent's reach (one pixel): those left and right of an
+        // odd column's pixel, the pixel's own and the one before it for
+        // an even column; rows alike.
+        let (hw, hh) = (self.texels.width(), self.texels.height());
+        let x0 = bx + (x & 1);
+        let y0 = by + (y & 1);
+        for cy in y0.saturating_sub(1)..(y0 + 1).min(hh) {
+            for cx in x0.saturating_sub(1)..(x0 + 1).min(hw) {
+                if let Some(s) = self.sample(cx, cy, &guide) {
+                    acc[s.class].add(&s);
                 }
             }
         }
-        let classes = class_weight.iter().filter(|&&w| w > 0.0).count();
+        let classes = acc.iter().filter(|a| a.weight > 0.0).count();
         if classes == 0 || (classes > 1 && self.options.retrace_mixed) {
             return self.unreached(x, y);
         }
         // The heaviest class (ties: hit, sky, host).
         let mut class = HIT;
         for c in [SKY, HOST] {
-            if class_weight[c] > class_weight[class] {
+            if acc[c].weight > acc[class].weight {
                 class = c;
             }
         }
-        let total = class_weight[class];
-        let mut color = Vec3::ZERO;
-        let (mut pixel, mut t, mut confidence) = (Vec2::ZERO, 0.0f32, 0.0f32);
-        let mut heaviest: Option<Sample> = None;
-        for s in samples[..count].iter().filter(|s| s.class == class) {
-            // Normalized weights: a convex combination of finite values.
-            let w = s.weight / total;
-            color += s.color * w;
-            if class == HIT {
-                pixel += s.texel.pixel * w;
-                t += s.texel.t * w;
-                confidence += s.texel.confidence * w;
-            }
-            if heaviest.is_none_or(|h| s.weight > h.weight) {
-                heaviest = Some(*s);
-            }
-        }
-        let Some(heaviest) = heaviest else {
-            return self.unreached(x, y);
-        };
-        // Rounding may carry a mean of colors near f32::MAX past it.
+        let a = &acc[class];
+        let inv = 1.0 / a.weight;
+        let mut color = a.color * inv;
+        // A sum of colors near f32::MAX may overflow: the heaviest's.
         if !color.is_finite() {
-            color = heaviest.color;
+            color = a.heaviest_color;
         }
         let texel = match class {
-            HIT => MirrorTexel {
-                status: MirrorStatus::Hit,
-                pixel,
-                t,
-                confidence: confidence.clamp(0.0, 1.0),
-            },
+            HIT => {
+                let t = MirrorTexel {
+                    status: MirrorStatus::Hit,
+                    pixel: a.pixel * inv,
+                    t: a.t * inv,
+                    confidence: (a.confidence * inv).clamp(0.0, 1.0),
+                };
+                if !(t.pixel.is_finite() && t.t.is_finite()) {
+                    return self.unreached(x, y);
+                }
+                if self.options.shade_hits && self.color.is_some() && g.color().is_some() {
+                    color = Vec3::from_array(self.pass.shade(&t));
+                }
+                t
+            }
             SKY => MirrorTexel {
                 status: MirrorStatus::Sky,
                 ..MirrorTexel::default()
             },
             _ => MirrorTexel {
-                status: heaviest.texel.status,
+                status: a.heaviest_status,
                 ..MirrorTexel::default()
             },
         };
@@ -597,7 +695,7 @@ impl<'a> UpsamplePass<'a> {
     fn run_rows(&self, rows: RowRange, sink: &mut impl UpsampleSink) -> UpsampleStats {
         let mut stats = UpsampleStats::default();
         for y in rows.rows() {
-            for x in 0..self.pass.gbuffer().width() {
+            for x in 0..self.size.0 {
                 let (t, c, s) = self.resolve(x, y);
                 match s {
                     UpsampleStatus::Skipped => {}

@@ -15,12 +15,15 @@
 //!    [`Pattern::Uniform`] every block traces the same sub-pixel, the
 //!    frame's ([`frame_sub_pixel`]): the traced pixels form a regular
 //!    half-resolution grid, what a half-resolution trace is (Sec. 4.7.4,
-//!    "we run the ray tracing at half-resolution"). With
-//!    [`Pattern::Interleaved`] neighboring blocks trace different
-//!    sub-pixels, so that every 4x4 tile holds one traced pixel in each of
-//!    its rows and columns (interleaved sampling, Sec. 4.7.3: "shoot rays
-//!    every other pixel ... twice horizontally, twice vertically"; the
-//!    N-rooks arrangement samples edges of every orientation). A block at
+//!    "we run the ray tracing at half-resolution"; Sec. 4.7.3, "shoot
+//!    rays every other pixel ... twice horizontally, twice vertically").
+//!    With [`Pattern::Staggered`] every other block row traces the
+//!    horizontally mirrored sub-pixel, so that the rows of traced pixels
+//!    interleave: a staggered lattice (spanned by `(2, 0)` and `(1, 2)`)
+//!    that samples every pixel column in two block rows, where the grid
+//!    samples every other one. Both are lattices whose tent weights
+//!    ([`UpsampleOptions`]) center on every pixel they reach, so the
+//!    reconstruction reproduces a linear signal on either. A block at
 //!    an odd right or bottom border that lacks the sub-pixel's column or
 //!    row traces its last one ([`Subsample::traced_pixel`]).
 //! 2. **Tracing** ([`HalfPass`]): the mirror pass ([`crate::MirrorPass`])
@@ -166,11 +169,11 @@ pub enum Pattern {
     /// half-resolution grid (Sec. 4.7.4).
     #[default]
     Uniform,
-    /// Block `(bx, by)` traces [`FRAME_CYCLE`]`[(frame + (bx & 1) + 2
-    /// (by & 1)) % 4]`: the four blocks of every 4x4 tile trace the four
-    /// sub-pixels, one traced pixel in each row and column of the tile
-    /// (interleaved sampling, Sec. 4.7.3).
-    Interleaved,
+    /// Block `(bx, by)` traces the frame's sub-pixel `s`
+    /// ([`frame_sub_pixel`]) on even block rows and `(1 - s.x, s.y)` on
+    /// odd ones: the rows of traced pixels interleave (a staggered
+    /// lattice; interleaved sampling, Sec. 4.7.3).
+    Staggered,
 }
 
 /// Which pixel of each 2x2 block a frame traces: the pattern and the
@@ -193,22 +196,25 @@ impl Subsample {
         }
     }
 
-    /// [`Pattern::Interleaved`] at frame `frame`.
-    pub const fn interleaved(frame: u32) -> Self {
+    /// [`Pattern::Staggered`] at frame `frame`.
+    pub const fn staggered(frame: u32) -> Self {
         Self {
-            pattern: Pattern::Interleaved,
+            pattern: Pattern::Staggered,
             frame,
         }
     }
 
     /// The sub-pixel block `(bx, by)` traces.
     pub const fn sub_pixel(&self, bx: u32, by: u32) -> SubPixel {
-        let k = match self.pattern {
-            Pattern::Uniform => 0,
-            Pattern::Interleaved => (bx & 1) + 2 * (by & 1),
-        };
-        // 2^32 is a multiple of 4: the wrap keeps the cycle.
-        frame_sub_pixel(self.frame.wrapping_add(k))
+        let _ = bx;
+        let s = frame_sub_pixel(self.frame);
+        match self.pattern {
+            Pattern::Uniform => s,
+            Pattern::Staggered => SubPixel {
+                x: s.x ^ (by & 1),
+                y: s.y,
+            },
+        }
     }
 
     /// The full-resolution pixel block `(bx, by)` of a `width x height`
