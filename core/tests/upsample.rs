@@ -862,6 +862,8 @@ fn hits_shade_at_their_interpolated_position_and_re_traces_are_the_full_pass() {
 struct Floor {
     cam: Camera,
     conv: DepthConvention,
+    /// Linear depth per pixel (f64 truth).
+    z: Vec<f64>,
     depth: Vec<f32>,
     normals: Vec<[f32; 3]>,
     mask: Vec<u8>,
@@ -895,6 +897,7 @@ impl Floor {
         let mut f = Floor {
             cam,
             conv,
+            z: vec![0.0; n],
             depth: vec![0.0; n],
             normals: vec![[0.0; 3]; n],
             mask: vec![0; n],
@@ -915,6 +918,7 @@ impl Floor {
                 } else {
                     (t_wall, DVec3::Z, false)
                 };
+                f.z[i] = t;
                 f.depth[i] = cam.encode_depth(t as f32, conv);
                 f.normals[i] = n.as_vec3().to_array();
                 f.mask[i] = u8::from(floor);
@@ -1009,12 +1013,23 @@ fn half_run(
 fn on_a_mirror_floor_the_upsampled_hits_match_the_full_pass_within_the_interpolation_error() {
     let (w, h) = (96u32, 72u32);
     let mut worst = (0.0f64, 0.0f64, 0.0f64);
-    let (mut interp_errors, mut staggered_errors) = (Vec::new(), Vec::new());
+    // Interpolation errors: uniform, uniform along the plane, staggered,
+    // staggered along the plane.
+    let mut errors: [Vec<f64>; 4] = Default::default();
     for conv in DepthConvention::ALL {
         let f = Floor::new(w, h, conv);
         let pass = step_pass(f.gbuffer());
         let (full, full_color) = full_run(&pass);
-        for sub in [Subsample::uniform(0), Subsample::staggered(1)] {
+        for (sub, plane) in [
+            (Subsample::uniform(0), false),
+            (Subsample::staggered(1), false),
+            (Subsample::uniform(0), true),
+            (Subsample::staggered(1), true),
+        ] {
+            let o = UpsampleOptions {
+                plane_depth: plane,
+                ..UpsampleOptions::default()
+            };
             let (half, half_color, stats) = half_run(&pass, sub);
             let (hw, hh) = try_half_size(w, h).unwrap();
             // The half pass is the full pass on the traced pixels.
@@ -1040,11 +1055,11 @@ fn on_a_mirror_floor_the_upsampled_hits_match_the_full_pass_within_the_interpola
                 sub,
                 ImageView::try_new(&half, hw, hh, hw).unwrap(),
                 Some(ImageView::try_new(&half_color, hw, hh, hw).unwrap()),
-                UpsampleOptions::default(),
+                o,
             )
             .unwrap();
             let out = upsample_all(&up, w, h, true);
-            let (mut checked, mut within_tenth) = (0, 0);
+            let (mut checked, mut within_tenth, mut cut) = (0, 0, 0);
             for y in 1..h - 1 {
                 for x in 1..w - 1 {
                     let i = (y * w + x) as usize;
@@ -1058,22 +1073,42 @@ fn on_a_mirror_floor_the_upsampled_hits_match_the_full_pass_within_the_interpola
                         continue;
                     }
                     let t = out.texels[i];
-                    assert_eq!(out.status[i], UpsampleStatus::Interpolated as u8);
-                    assert_eq!(t.status, MirrorStatus::Hit, "({x}, {y})");
-                    // The samples in reach, weighted as on one plane (the
-                    // depth weight is 1 up to f32: the tangent plane is
-                    // the floor; the normals are equal).
+                    // The samples in reach with their documented weights:
+                    // the normals are equal, and along the tangent plane
+                    // (the floor) the depth weight is 1 (up to f32); by
+                    // the pixel's own depth, the Gaussian of the floor's
+                    // depth change, cut at the threshold.
                     let mut samples = Vec::new();
                     for cy in (y / 2).saturating_sub(1)..(y / 2 + 2).min(hh) {
                         for cx in (x / 2).saturating_sub(1)..(x / 2 + 2).min(hw) {
                             let (sx, sy) = sub.traced_pixel(cx, cy, w, h).unwrap();
-                            let s = tent64(f64::from(sx) - f64::from(x))
+                            let mut s = tent64(f64::from(sx) - f64::from(x))
                                 * tent64(f64::from(sy) - f64::from(y));
+                            if !plane {
+                                let (zp, zk) = (f.z[i], f.z[(sy * w + sx) as usize]);
+                                let r = (zk - zp).abs() / zp;
+                                let sigma = f64::from(o.depth_sigma);
+                                s *= if r <= f64::from(o.depth_threshold) {
+                                    (-0.5 * (r / sigma).powi(2)).exp()
+                                } else {
+                                    0.0
+                                };
+                            }
                             if s > 0.0 {
                                 samples.push((s, sx, sy));
                             }
                         }
                     }
+                    if samples.is_empty() {
+                        // Every sample beyond the depth edge (the floor's
+                        // far rows, by the pixel's own depth).
+                        assert_eq!(out.status[i], UpsampleStatus::Retrace as u8, "({x}, {y})");
+                        cut += 1;
+                        continue;
+                    }
+                    assert_eq!(out.status[i], UpsampleStatus::Interpolated as u8);
+                    assert_eq!(t.status, MirrorStatus::Hit, "({x}, {y})");
+                    let samples: Vec<(f64, u32, u32)> = samples;
                     let ws: f64 = samples.iter().map(|s| s.0).sum();
                     let (mut interp, mut interp_t) = (DVec2::ZERO, 0.0);
                     let (mut sample_err, mut sample_err_t) = (0.0f64, 0.0f64);
@@ -1115,11 +1150,8 @@ fn on_a_mirror_floor_the_upsampled_hits_match_the_full_pass_within_the_interpola
                         vs_full <= e_interp + sample_err + e_full + 1e-3,
                         "({x}, {y}): {vs_full} px from the full pass; interp {e_interp} samples {sample_err} full {e_full}"
                     );
-                    if sub.pattern == Pattern::Uniform {
-                        interp_errors.push(e_interp);
-                    } else {
-                        staggered_errors.push(e_interp);
-                    }
+                    errors[2 * usize::from(sub.pattern == Pattern::Staggered) + usize::from(plane)]
+                        .push(e_interp);
                     worst.0 = worst.0.max(e_interp);
                     worst.1 = worst.1.max(e_full.max(sample_err));
                     worst.2 = worst.2.max(vs_full);
@@ -1129,31 +1161,42 @@ fn on_a_mirror_floor_the_upsampled_hits_match_the_full_pass_within_the_interpola
                 }
             }
             assert!(checked > 500, "{checked}");
-            // The tent weights reproduce linear maps on both lattices:
-            // the upsampled hit is within a tenth of a pixel of the full
-            // pass's nearly everywhere (not on the few rows next to the
-            // floor's far edge, where the map bends and the full pass
-            // errs itself).
-            assert!(
-                within_tenth * 100 >= checked * 97,
-                "{within_tenth} of {checked}"
-            );
+            eprintln!("{conv:?} {:?} plane {plane}: {checked} checked, {cut} cut, {within_tenth} within 0.1 px", sub.pattern);
+            // Along the plane the tent weights reproduce linear maps on
+            // both lattices: the upsampled hit is within a tenth of a
+            // pixel of the full pass's nearly everywhere (not on the few
+            // rows next to the floor's far edge, where the map bends and
+            // the full pass errs itself). By the pixel's own depth the
+            // floor's depth gradient tilts the weights (below).
+            if plane {
+                assert!(
+                    within_tenth * 100 >= checked * 97,
+                    "{within_tenth} of {checked}"
+                );
+            } else {
+                assert!(
+                    within_tenth * 100 >= checked * 80,
+                    "{within_tenth} of {checked}"
+                );
+            }
         }
     }
-    // The interpolation error of the exact map on the uniform grid and on
-    // the staggered lattice: both reproduce linear maps, so what is left
-    // is the map's curvature.
-    let quantiles = |v: &mut Vec<f64>| {
+    // The interpolation error of the exact map: along the plane the tent
+    // weights reproduce linear maps on both lattices, so what is left is
+    // the map's curvature; by the pixel's own depth the Gaussian weighs
+    // the nearer and the farther sample differently where the floor's
+    // depth changes fast, which moves the mean toward one of them.
+    let q = errors.each_mut().map(|v| {
         v.sort_by(f64::total_cmp);
         [0.5, 0.9, 0.99, 1.0].map(|p| v[((v.len() - 1) as f64 * p) as usize])
-    };
-    let (u, st) = (
-        quantiles(&mut interp_errors),
-        quantiles(&mut staggered_errors),
+    });
+    eprintln!(
+        "interpolation error quantiles 50/90/99/100%: uniform {:.4?}, along the plane {:.4?}; staggered {:.4?}, along the plane {:.4?}",
+        q[0], q[1], q[2], q[3]
     );
-    eprintln!("interpolation error quantiles 50/90/99/100%, uniform {u:.4?}, staggered {st:.4?}");
-    assert!(u[1] <= 0.01 && u[2] <= 0.05, "{u:?}");
-    assert!(st[1] <= 0.01 && st[2] <= 0.05, "{st:?}");
+    for k in [1, 3] {
+        assert!(q[k][1] <= 0.01 && q[k][2] <= 0.05, "{:?}", q[k]);
+    }
     // What the bound is made of (printed for the record).
     eprintln!(
         "mirror floor: interpolation error <= {:.4} px, full pass vs exact <= {:.4} px, upsampled vs full <= {:.4} px",

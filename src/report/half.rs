@@ -22,13 +22,15 @@ struct HalfSetting {
     label: String,
 }
 
-/// The fewer-rays settings of `kernel` at `sizes`: the uniform half grid
-/// with cross-bilateral upsampling, the staggered pattern, the uniform
-/// grid with the pixels no sample reaches re-traced at full resolution,
-/// and plain bilinear reconstruction (the guide off: what the depth and
-/// normals buy); the default and long runs also re-trace reflected
-/// silhouettes (mixed answers) and compare the sample depths with the
-/// pixel's own depth instead of its tangent plane's.
+/// The fewer-rays settings of `kernel` at `sizes` (the reconstruction at
+/// its defaults unless the label says otherwise): the uniform half grid,
+/// the staggered lattice, the uniform grid with the pixels no sample
+/// reaches re-traced at full resolution, and plain bilinear
+/// reconstruction (the guide off: what the depth and normals buy); the
+/// default and long runs also re-trace reflected silhouettes and edges
+/// (`retrace=edges+mixed`), compare depths along the tangent plane
+/// (`depth=plane`) and take the samples' mean color instead of shading
+/// the interpolated hit (`color=mean`).
 pub fn settings(sizes: &Sizes, kernel: ScreenMethod) -> Vec<Box<dyn Setting>> {
     let base = UpsampleOptions::default();
     let bilinear = UpsampleOptions {
@@ -41,45 +43,46 @@ pub fn settings(sizes: &Sizes, kernel: ScreenMethod) -> Vec<Box<dyn Setting>> {
         retrace: true,
         ..base
     };
+    let uniform = Subsample::uniform(0);
     let mut v = vec![
-        (
-            Subsample::uniform(0),
-            base,
-            "half=uniform;upsample=bilateral",
-        ),
+        (uniform, base, "half=uniform;upsample=bilateral"),
         (
             Subsample::staggered(0),
             base,
             "half=staggered;upsample=bilateral",
         ),
         (
-            Subsample::uniform(0),
+            uniform,
             retrace,
             "half=uniform;upsample=bilateral;retrace=edges",
         ),
-        (
-            Subsample::uniform(0),
-            bilinear,
-            "half=uniform;upsample=bilinear",
-        ),
+        (uniform, bilinear, "half=uniform;upsample=bilinear"),
     ];
     if !sizes.quick() {
-        v.push((
-            Subsample::uniform(0),
-            UpsampleOptions {
-                retrace_mixed: true,
-                ..retrace
-            },
-            "half=uniform;upsample=bilateral;retrace=edges+mixed",
-        ));
-        v.push((
-            Subsample::uniform(0),
-            UpsampleOptions {
-                plane_depth: false,
-                ..base
-            },
-            "half=uniform;upsample=bilateral;depth=own",
-        ));
+        let variants = [
+            (
+                UpsampleOptions {
+                    retrace_mixed: true,
+                    ..retrace
+                },
+                "half=uniform;upsample=bilateral;retrace=edges+mixed",
+            ),
+            (
+                UpsampleOptions {
+                    plane_depth: true,
+                    ..base
+                },
+                "half=uniform;upsample=bilateral;depth=plane",
+            ),
+            (
+                UpsampleOptions {
+                    shade_hits: false,
+                    ..base
+                },
+                "half=uniform;upsample=bilateral;color=mean",
+            ),
+        ];
+        v.extend(variants.map(|(o, label)| (uniform, o, label)));
     }
     v.into_iter()
         .map(|(pattern, options, label)| {

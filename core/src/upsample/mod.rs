@@ -103,23 +103,30 @@
 //! assert_eq!(half[6 * 8 + 4], pass.pixel(8, 12).0);
 //!
 //! // Upsampled to 16 x 16: the traced pixels keep their result, the others are reconstructed
-//! // from the samples on their own surface; the floor row 12 next to the wall's bottom row
-//! // 11 never takes a wall sample (a depth edge).
-//! let up = UpsamplePass::try_new(pass, sub, ImageView::try_new(&half, hw, hh, hw)?, None, UpsampleOptions::default())?;
-//! let mut full = vec![MirrorTexel::default(); 256];
-//! let mut status = vec![0u8; 256];
-//! let mut retrace = [[0u32; 2]; 256];
-//! let s = up.try_run(
-//!     &mut ImageViewMut::try_new(&mut full, 16, 16, 16)?,
-//!     None,
-//!     Some(&mut ImageViewMut::try_new(&mut status, 16, 16, 16)?),
-//!     &mut retrace,
-//! )?;
-//! assert_eq!(s.copied, 64);
-//! assert_eq!(s.copied + s.interpolated + s.retrace, 256);
-//! assert_eq!(status[12 * 16 + 8], UpsampleStatus::Copied as u8);
-//! assert_eq!(full[12 * 16 + 8], half[6 * 8 + 4]);
-//! assert_eq!(full[13 * 16 + 9].status, MirrorStatus::Hit); // the floor reflects the wall
+//! // from the samples on their own surface (never across the wall's bottom edge, a depth step).
+//! let run = |options: UpsampleOptions| {
+//!     let up = UpsamplePass::try_new(pass, sub, ImageView::try_new(&half, hw, hh, hw)?, None, options)?;
+//!     let (mut full, mut status, mut retrace) = (vec![MirrorTexel::default(); 256], vec![0u8; 256], [[0u32; 2]; 256]);
+//!     let s = up.try_run(
+//!         &mut ImageViewMut::try_new(&mut full, 16, 16, 16)?,
+//!         None,
+//!         Some(&mut ImageViewMut::try_new(&mut status, 16, 16, 16)?),
+//!         &mut retrace,
+//!     )?;
+//!     assert_eq!(s.copied, 64);
+//!     assert_eq!(s.copied + s.interpolated + s.retrace, 256);
+//!     assert_eq!(status[12 * 16 + 8], UpsampleStatus::Copied as u8);
+//!     assert_eq!(full[12 * 16 + 8], half[6 * 8 + 4]);
+//!     Ok::<_, refl_core::Error>((full, status, retrace[..s.retrace_written as usize].to_vec()))
+//! };
+//! // At this tiny size the floor's depth changes by 22% from row 13 to row 12: more than the
+//! // default depth edge (10%), so floor pixel (9, 13) is listed for a full-resolution trace...
+//! let (_, status, list) = run(UpsampleOptions::default())?;
+//! assert_eq!(status[13 * 16 + 9], UpsampleStatus::Retrace as u8);
+//! assert!(list.contains(&[9, 13]));
+//! // ... unless depths are compared along the floor's tangent plane: the floor reflects the wall.
+//! let (full, _, _) = run(UpsampleOptions { plane_depth: true, ..UpsampleOptions::default() })?;
+//! assert_eq!(full[13 * 16 + 9].status, MirrorStatus::Hit);
 //! # }
 //! # Ok::<(), refl_core::Error>(())
 //! ```
