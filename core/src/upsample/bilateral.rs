@@ -12,7 +12,9 @@ use glam::{Vec2, Vec3};
 /// # Weights
 /// A full-resolution pixel `p` that is not itself traced, with linear
 /// depth `z_p` and unit world normal `n_p` (the G-buffer's), takes the
-/// samples of its own and the eight surrounding blocks. Sample `k`, traced
+/// samples of the blocks around it (those of the two block columns and
+/// rows nearest to it: no other lies within the spatial kernel's reach of
+/// one pixel). Sample `k`, traced
 /// at full-resolution pixel `s_k` with the G-buffer's `z_k`, `n_k` there,
 /// weighs
 ///
@@ -68,7 +70,9 @@ use glam::{Vec2, Vec3};
 /// w_k c_k / sum w_k` of that class's samples only (a reflection color is
 /// never mixed with a miss's black or the host's fallback). A hit's
 /// position, distance `t` and confidence are the same weighted means of
-/// its hits; a host class takes the status of its heaviest sample.
+/// its hits, and with [`UpsampleOptions::shade_hits`] its color is the lit
+/// color at that position; a host class takes the status of its heaviest
+/// sample (the first of equal weights in row-major block order).
 ///
 /// A sample contributes only with a usable surface at its pixel (the
 /// G-buffer's [`crate::GBuffer::surface`] depth range and normal), a
@@ -78,8 +82,9 @@ use glam::{Vec2, Vec3};
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct UpsampleOptions {
     /// The depth edge: samples whose linear depth differs from the
-    /// pixel's by more than this fraction of the pixel's get weight `0`
-    /// (`> 0`, not NaN; `+inf` turns the edge off). Default 0.1.
+    /// compared depth `z'` (the pixel's own, or its tangent plane's) by
+    /// more than this fraction of the pixel's depth get weight `0` (`> 0`,
+    /// not NaN; `+inf` turns the edge off). Default 0.1.
     pub depth_threshold: f32,
     /// Width of the Gaussian depth weight, as a fraction of the pixel's
     /// depth (`> 0`, not NaN; `+inf`: every sample within the threshold
