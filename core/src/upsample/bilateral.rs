@@ -60,9 +60,11 @@ use glam::{Vec2, Vec3};
 ///   the mirror floor of `core/tests/upsample.rs` the reconstructed hit
 ///   is off the exact one by 0.02 px (median) to 0.26 px (99th
 ///   percentile) for the pixel's own depth, 0.005 px along the plane.
-/// * normal `N(c) = max(0, c)^normal_power` (`1` for a power of `0`), the
-///   normal similarity of production upsamplers: a crease at equal depth
-///   is an edge the depth cannot see.
+/// * normal `N(c) = max(0, c)^normal_power` (`1` for a power of `0`): a
+///   second range term on the G-buffer's normals, beyond the seed and
+///   Kopf et al. (whose guide is one image), as production upsamplers
+///   weigh normals: a crease at equal depth is an edge the depth cannot
+///   see, and a mirror's reflection turns with its normal.
 ///
 /// The samples are split by answer (a hit; the sky; a ray for the host);
 /// the class with the largest weight sum (ties: hit, sky, host) gives the
