@@ -715,8 +715,15 @@ impl<'a, M: LayeredMapSet + ?Sized> LayeredPass<'a, M> {
     }
 
     /// The texel of a traced segment that started `t_start` from its
-    /// origin, and its color.
-    fn texel_of(&self, mt: &MapsTrace, t_start: f32, dir: Vec3) -> (LayeredPassTexel, [f32; 3]) {
+    /// origin and ends at `t_end` (the pass's `t_max` for its pixels, a
+    /// listed ray's own), and its color.
+    fn texel_of(
+        &self,
+        mt: &MapsTrace,
+        t_start: f32,
+        t_end: f32,
+        dir: Vec3,
+    ) -> (LayeredPassTexel, [f32; 3]) {
         let mut t = LayeredPassTexel {
             dir,
             fetches: mt.fetches,
@@ -753,11 +760,7 @@ impl<'a, M: LayeredMapSet + ?Sized> LayeredPass<'a, M> {
         // The kernel's `t` is at most `t_max - t_start`, which rounds: the
         // sum may pass `t_max` by an ulp (F32); the hit lies at the end.
         let sum = t_start + h.t;
-        t.t = if sum > self.options.t_max {
-            self.options.t_max
-        } else {
-            sum
-        };
+        t.t = if sum > t_end { t_end } else { sum };
         t.position = h.position;
         t.confidence = if h.mismatch <= e {
             1.0
@@ -808,7 +811,7 @@ impl<'a, M: LayeredMapSet + ?Sized> LayeredPass<'a, M> {
             &r.kernel_ray(),
             self.options.t_max - r.t_start,
         );
-        let (texel, color) = self.texel_of(&mt, r.t_start, r.dir);
+        let (texel, color) = self.texel_of(&mt, r.t_start, self.options.t_max, r.dir);
         let host = texel
             .status
             .needs_host()
@@ -1014,7 +1017,7 @@ impl<'a, M: LayeredMapSet + ?Sized> LayeredPass<'a, M> {
                 continue;
             };
             let mt = self.trace_maps(self.own_id(r.x, r.y), &seg, t_seg);
-            let (texel, c) = self.texel_of(&mt, r.t_min, r.dir);
+            let (texel, c) = self.texel_of(&mt, r.t_min, r.t_max, r.dir);
             let host_ray = texel.status.needs_host().then_some(LayeredHostRay {
                 x: r.x,
                 y: r.y,

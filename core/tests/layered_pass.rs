@@ -230,6 +230,7 @@ fn by_hand_segment(
     ray: &Ray,
     t_seg: f32,
     t_start: f32,
+    t_end: f32,
     o: &LayeredPassOptions,
 ) -> (LayeredPassTexel, [f32; 3], u32, u32) {
     let mut best: Option<(usize, refl_core::LayeredHit)> = None;
@@ -298,7 +299,7 @@ fn by_hand_segment(
     t.layer = h.layer;
     t.payload = h.payload;
     let sum = t_start + h.t;
-    t.t = if sum > o.t_max { o.t_max } else { sum };
+    t.t = if sum > t_end { t_end } else { sum };
     t.position = h.position;
     t.confidence = if h.mismatch <= e {
         1.0
@@ -359,6 +360,7 @@ fn by_hand(f: &Frame, maps: &[LayeredMap<'_>], ids: bool, o: &LayeredPassOptions
                         &r.kernel_ray(),
                         o.t_max - r.t_start,
                         r.t_start,
+                        o.t_max,
                         o,
                     );
                     out.calls += u64::from(calls);
@@ -697,6 +699,7 @@ fn ray_lists_equal_the_kernels_and_the_sphere_test_changes_nothing() {
                     &seg,
                     r.t_max - r.t_min,
                     r.t_min,
+                    r.t_max,
                     &o,
                 );
                 calls += u64::from(cl);
@@ -772,6 +775,7 @@ fn mirror_pass_host_rays_chain_into_the_maps() {
             &seg,
             r.t_max - r.t_min,
             r.t_min,
+            r.t_max,
             &o,
         );
         assert_eq!(bits(&out[k]), bits(&t));
