@@ -115,14 +115,16 @@ pub struct Variant {
 
 /// The settings swept for error against run time: the default (m_cnt = 5,
 /// N = 9, 3x3 splat, occlusion check, depth guard), then one change at a
-/// time.
-pub fn variants() -> Vec<Variant> {
+/// time; with `ablations` also the three that only show a failure mode
+/// (no guard margin, no guard window, the shifted origin), which the long
+/// run and the tests sweep.
+pub fn variants(ablations: bool) -> Vec<Variant> {
     let d = EpipolarOptions::default();
     let v = |setting: &str, params: EpipolarOptions| Variant {
         setting: setting.to_string(),
         params,
     };
-    vec![
+    let mut all = vec![
         v("default", d),
         v("m_cnt=3", EpipolarOptions { m_cnt: 3, ..d }),
         v("m_cnt=7", EpipolarOptions { m_cnt: 7, ..d }),
@@ -179,6 +181,11 @@ pub fn variants() -> Vec<Variant> {
                 ..d
             },
         ),
+    ];
+    if !ablations {
+        return all;
+    }
+    all.extend([
         v(
             "guard_margin=0",
             EpipolarOptions {
@@ -200,7 +207,8 @@ pub fn variants() -> Vec<Variant> {
                 ..d
             },
         ),
-    ]
+    ]);
+    all
 }
 
 /// Sizes of a walkthrough run.
@@ -218,6 +226,8 @@ pub struct PathSizes {
     pub start: f32,
     /// Where the camera looks.
     pub gaze: Gaze,
+    /// Whether the ablations run too (see [`variants`]).
+    pub ablations: bool,
 }
 
 /// Where the walkthrough camera looks.
@@ -245,6 +255,7 @@ impl PathSizes {
         step: 0.05,
         start: 0.3,
         gaze: Gaze::AlongPath,
+        ablations: false,
     };
 
     /// The default report: 8 frames at 384x288.
@@ -252,6 +263,7 @@ impl PathSizes {
         width: 384,
         height: 288,
         frames: 8,
+        ablations: false,
         ..PathSizes::LONG
     };
 
@@ -263,6 +275,7 @@ impl PathSizes {
         step: 0.05,
         start: 0.3,
         gaze: Gaze::AlongPath,
+        ablations: true,
     };
 
     /// [`PathSizes::QUICK`] or [`PathSizes::LONG`].
@@ -717,7 +730,7 @@ pub fn measure(
     let truth = truth_frames(scene, tracer, &objects, &cams, sizes.width, runs, pool);
     let n = sizes.width as usize * sizes.height as usize;
     let mut totals = Vec::new();
-    for v in variants() {
+    for v in variants(sizes.ablations) {
         // Each repetition replays the whole path (the method has state).
         let mut tot = Totals::default();
         let mut frame_times = vec![Vec::new(); cams.len()];

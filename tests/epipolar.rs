@@ -21,6 +21,7 @@ fn walkthrough_has_no_visibility_errors() {
         step: 0.05,
         start: 0.3,
         gaze: Gaze::AlongPath,
+        ablations: true,
     };
     let report = measure(&scene, &tracer, &sizes, 1, &pool, None).unwrap();
     let (_, default) = &report.totals[0];

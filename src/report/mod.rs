@@ -121,8 +121,8 @@ pub struct Sizes {
     /// Timed repetitions; the median is reported.
     pub runs: usize,
     /// Timed repetitions of the one-thread runs of the screen-space and
-    /// layered methods (their `*_1t` columns): one in the default run,
-    /// where they took 40% of the per-frame time, `runs` with `--long`.
+    /// layered methods (their `*_1t` columns): one in the default and
+    /// quick runs, `runs` with `--long`.
     pub runs_1t: usize,
     /// Camera-path poses rendered per scene (spread over the path).
     pub frames: usize,
@@ -141,7 +141,9 @@ pub enum Level {
     /// `--quick`: the tests' sizes, fewest settings.
     Quick,
     /// The default run: every method and scene, studies trimmed (one glossy
-    /// variant, a 16-frame TCRR path), screen-space rows in reversed-Z only.
+    /// variant at 128 samples per pixel, a 16-frame TCRR path, no epipolar
+    /// ablations, the temporal filter at one history length),
+    /// screen-space rows in reversed-Z only.
     Default,
     /// `--long`: converged references, every study setting, the
     /// screen-space rows in every depth convention.
@@ -175,7 +177,7 @@ impl Sizes {
         runs: 3,
         runs_1t: 1,
         frames: 2,
-        glossy_truth_samples: 256,
+        glossy_truth_samples: 128,
         path: crate::epipolar::PathSizes::DEFAULT,
         level: Level::Default,
     };

@@ -12,8 +12,8 @@ use std::fmt::Write as _;
 /// recovery alone (`max_frames` 1), the filter at the default options
 /// re-projecting through the reflection's
 /// virtual point and, as the seed does, through the surface point; at the
-/// default and long levels also a shorter and a longer history and
-/// depth-only rejection (the seed's demo); long only, blending without
+/// default and long levels also depth-only rejection (the seed's demo);
+/// long only, a shorter and a longer history and blending without
 /// recovery.
 pub fn report_settings(level: Level) -> Vec<Setting> {
     let base = TemporalOptions::default();
@@ -38,10 +38,12 @@ pub fn report_settings(level: Level) -> Vec<Setting> {
         on(base, true),
         on(base, false),
     ];
-    if level != Level::Quick {
+    if level == Level::Long {
         for max_frames in [4.0, 16.0] {
             v.push(on(TemporalOptions { max_frames, ..base }, true));
         }
+    }
+    if level != Level::Quick {
         v.push(on(
             TemporalOptions {
                 normal_cos: -1.0,
