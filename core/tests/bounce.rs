@@ -1,0 +1,449 @@
+//! Multiple bounces (`refl_core::bounce`, seed 004 Sec. 4.6.4, Listing 4.9)
+//! on an analytic scene ray-cast in f64 by the test: two parallel planar
+//! mirrors facing each other (x = -2 and x = +2), a floor, a back wall and
+//! a lit box between them. Oracles: the seed's bounce model evaluated in
+//! f64 along ray-traced paths (what a mirror shows after `k` frames), the
+//! previous eye's visibility of each point (f64 ray casts), the previous
+//! camera's f64 projection, and the results that bands, depth conventions
+//! and scales must not change.
+#![cfg(any(feature = "depth-image", feature = "hiz"))]
+#![allow(clippy::needless_range_loop)] // pixel indices address several images at once
+
+use core::f32::consts::FRAC_PI_2;
+use refl_core::bounce::{BounceOptions, BouncePass, BounceStats, BounceStatus, PreviousFrame};
+use refl_core::glam::{DVec3, Vec3};
+use refl_core::{
+    Camera, DepthConvention, DepthImage, Error, GBuffer, ImageView, ImageViewMut, MirrorOptions,
+    MirrorPass, MirrorStatus, MirrorTexel, NormalSpace, RowRange,
+};
+
+const W: u32 = 96;
+const H: u32 = 64;
+const N: usize = (W * H) as usize;
+
+const CONVENTIONS: [DepthConvention; 3] = [
+    DepthConvention::Linear,
+    DepthConvention::ZeroToOne,
+    DepthConvention::ReversedZ,
+];
+
+/// Object ids.
+const SKY: u32 = 0;
+const MIRROR_A: u32 = 1; // x = -2 s, facing +x
+const MIRROR_B: u32 = 2; // x = +2 s, facing -x
+const FLOOR: u32 = 3; // y = -1.5 s
+const WALL: u32 = 4; // z = -12 s
+const BOX: u32 = 5; // [-0.5, 0.5] x [-1.5, -0.5] x [-7, -6] (times s)
+
+/// The specular weight of the mirrors in the host's composition
+/// `final = lit + SPECULAR (reflection - lit)`.
+const SPECULAR: f64 = 0.8;
+
+fn is_mirror(id: u32) -> bool {
+    id == MIRROR_A || id == MIRROR_B
+}
+
+/// The scene, scaled by `s`.
+#[derive(Clone, Copy)]
+struct Scene {
+    s: f64,
+}
+
+impl Scene {
+    fn box_hit(&self, o: DVec3, d: DVec3) -> Option<(f64, DVec3)> {
+        let lo = DVec3::new(-0.5, -1.5, -7.0) * self.s;
+        let hi = DVec3::new(0.5, -0.5, -6.0) * self.s;
+        let (mut t0, mut t1, mut n) = (0.0f64, f64::INFINITY, DVec3::ZERO);
+        for a in 0..3 {
+            let (o_a, d_a) = (o[a], d[a]);
+            if d_a.abs() < 1e-300 {
+                if o_a < lo[a] || o_a > hi[a] {
+                    return None;
+                }
+                continue;
+            }
+            let (mut ta, mut tb) = ((lo[a] - o_a) / d_a, (hi[a] - o_a) / d_a);
+            let mut na = DVec3::ZERO;
+            na[a] = -d_a.signum();
+            if ta > tb {
+                core::mem::swap(&mut ta, &mut tb);
+            }
+            if ta > t0 {
+                t0 = ta;
+                n = na;
+            }
+            t1 = t1.min(tb);
+        }
+        (t0 <= t1 && t0 > 0.0).then_some((t0, n))
+    }
+
+    /// First hit along `o + t d` (t > 0), not on object `skip`: id, t,
+    /// normal (facing the ray's origin side for the mirrors).
+    fn cast(&self, o: DVec3, d: DVec3, skip: u32) -> (u32, f64, DVec3) {
+        let s = self.s;
+        let mut best = (SKY, f64::INFINITY, DVec3::ZERO);
+        let mut take = |id: u32, t: f64, n: DVec3| {
+            if id != skip && t > 0.0 && t < best.1 {
+                best = (id, t, n);
+            }
+        };
+        if let Some((t, n)) = self.box_hit(o, d) {
+            take(BOX, t, n);
+        }
+        let inside = |p: DVec3, x: bool, y: bool, z: bool| {
+            (!x || p.x.abs() <= 2.0 * s)
+                && (!y || p.y.abs() <= 1.5 * s)
+                && (!z || (p.z >= -12.0 * s && p.z <= 1.0 * s))
+        };
+        for (id, x, n) in [(MIRROR_A, -2.0, DVec3::X), (MIRROR_B, 2.0, DVec3::NEG_X)] {
+            if d.x.abs() > 1e-300 {
+                let t = (x * s - o.x) / d.x;
+                if inside(o + d * t, false, true, true) {
+                    take(id, t, n);
+                }
+            }
+        }
+        if d.y.abs() > 1e-300 {
+            let t = (-1.5 * s - o.y) / d.y;
+            if inside(o + d * t, true, false, true) {
+                take(FLOOR, t, DVec3::Y);
+            }
+        }
+        if d.z.abs() > 1e-300 {
+            let t = (-12.0 * s - o.z) / d.z;
+            if inside(o + d * t, true, true, false) {
+                take(WALL, t, DVec3::Z);
+            }
+        }
+        best
+    }
+}
+
+/// The lit color (no reflections) of object `id` at point `p`: smooth,
+/// gentle functions of the point (a few /255 over a pixel), so that a
+/// texel's color stands for the points around it.
+fn lit(id: u32, p: DVec3, s: f64) -> DVec3 {
+    let p = p / s;
+    match id {
+        MIRROR_A | MIRROR_B => DVec3::new(0.05, 0.06, 0.08 + 0.01 * (0.2 * p.z).sin()),
+        FLOOR => DVec3::new(
+            0.35 + 0.1 * (0.25 * p.x + 0.15 * p.z).sin(),
+            0.45,
+            0.2 + 0.1 * (0.2 * p.z).cos(),
+        ),
+        WALL => DVec3::new(0.15, 0.3 + 0.1 * (0.3 * p.x + 0.2 * p.y).sin(), 0.65),
+        BOX => DVec3::new(0.9, 0.3 + 0.08 * (0.4 * p.y + 0.2 * p.x).sin(), 0.1),
+        _ => DVec3::ZERO,
+    }
+}
+
+/// One frame's G-buffer: stored depth (in `conv`), world normals, ids,
+/// world points, lit colors and the mirrors' mask.
+struct Frame {
+    scene: Scene,
+    cam: Camera,
+    conv: DepthConvention,
+    depth: Vec<f32>,
+    normals: Vec<[f32; 3]>,
+    id: Vec<u32>,
+    point: Vec<DVec3>,
+    lit: Vec<[f32; 3]>,
+    mask: Vec<u8>,
+}
+
+fn eye_ray(cam: &Camera, x: f64, y: f64) -> DVec3 {
+    let inv = cam.inverse_view().as_dmat4();
+    let (w, h) = (cam.width() as f64, cam.height() as f64);
+    let ty = (cam.fov_y() as f64 / 2.0).tan();
+    let tx = ty * w / h;
+    let ndc = (x / w * 2.0 - 1.0, 1.0 - y / h * 2.0);
+    inv.transform_vector3(DVec3::new(ndc.0 * tx, ndc.1 * ty, -1.0))
+        .normalize()
+}
+
+/// The f64 projection of `p` by `cam`: pixel x, pixel y, linear depth.
+fn project(cam: &Camera, p: DVec3) -> DVec3 {
+    let v = cam.view().as_dmat4().transform_point3(p);
+    let z = -v.z;
+    let ty = (cam.fov_y() as f64 / 2.0).tan();
+    let tx = ty * cam.width() as f64 / cam.height() as f64;
+    DVec3::new(
+        (v.x / (z * tx) + 1.0) * 0.5 * cam.width() as f64,
+        (1.0 - v.y / (z * ty)) * 0.5 * cam.height() as f64,
+        z,
+    )
+}
+
+impl Frame {
+    fn new(scene: Scene, eye: Vec3, target: Vec3, conv: DepthConvention) -> Self {
+        let s = scene.s as f32;
+        let cam = Camera::try_look_at(eye, target, Vec3::Y, FRAC_PI_2, 0.05 * s, 100.0 * s, W, H)
+            .unwrap();
+        let e = cam.eye().as_dvec3();
+        let fwd = cam.inverse_view().as_dmat4().transform_vector3(DVec3::NEG_Z);
+        let mut f = Frame {
+            scene,
+            cam,
+            conv,
+            depth: vec![0.0; N],
+            normals: vec![[0.0; 3]; N],
+            id: vec![SKY; N],
+            point: vec![DVec3::ZERO; N],
+            lit: vec![[0.0; 3]; N],
+            mask: vec![0; N],
+        };
+        for y in 0..H {
+            for x in 0..W {
+                let d = eye_ray(&cam, x as f64 + 0.5, y as f64 + 0.5);
+                let (id, t, n) = scene.cast(e, d, SKY);
+                let i = (y * W + x) as usize;
+                f.id[i] = id;
+                if id == SKY {
+                    f.depth[i] = cam.encode_depth(cam.far(), conv);
+                    continue;
+                }
+                let p = e + d * t;
+                f.depth[i] = cam.encode_depth((p - e).dot(fwd) as f32, conv);
+                f.normals[i] = n.as_vec3().to_array();
+                f.point[i] = p;
+                f.lit[i] = lit(id, p, scene.s).as_vec3().to_array();
+                f.mask[i] = u8::from(is_mirror(id));
+            }
+        }
+        f
+    }
+
+    fn depth_image(&self) -> DepthImage<'_> {
+        DepthImage::try_new(
+            ImageView::try_new(&self.depth, W, H, W).unwrap(),
+            self.cam,
+            self.conv,
+        )
+        .unwrap()
+    }
+
+    /// The G-buffer with `color` as its color.
+    fn gbuffer<'a>(&'a self, color: &'a [[f32; 3]]) -> GBuffer<'a> {
+        GBuffer::try_new(
+            self.depth_image(),
+            ImageView::try_new(&self.normals, W, H, W).unwrap(),
+            NormalSpace::World,
+        )
+        .unwrap()
+        .try_with_color(ImageView::try_new(color, W, H, W).unwrap())
+        .unwrap()
+    }
+}
+
+/// The static view between the mirrors.
+fn view(s: f64, conv: DepthConvention) -> Frame {
+    let s32 = s as f32;
+    Frame::new(
+        Scene { s },
+        Vec3::new(0.4, 0.3, 2.5) * s32,
+        Vec3::new(0.0, -0.2, -6.0) * s32,
+        conv,
+    )
+}
+
+/// The bounce pass of `f` (lit color from `f`) reading `previous`'s final
+/// image `last`: the source image, statuses and stats.
+fn bounce(
+    f: &Frame,
+    previous: &Frame,
+    last: &[[f32; 3]],
+    options: BounceOptions,
+) -> (Vec<[f32; 3]>, Vec<u8>, BounceStats) {
+    let prev = PreviousFrame::try_new(
+        previous.depth_image(),
+        ImageView::try_new(last, W, H, W).unwrap(),
+    )
+    .unwrap();
+    let pass = BouncePass::try_new(f.gbuffer(&f.lit), prev, options).unwrap();
+    let mut out = vec![[-1.0f32; 3]; N];
+    let mut status = vec![0xA5u8; N];
+    let stats = pass
+        .try_run(
+            &mut ImageViewMut::try_new(&mut out, W, H, W).unwrap(),
+            Some(&mut ImageViewMut::try_new(&mut status, W, H, W).unwrap()),
+        )
+        .unwrap();
+    (out, status, stats)
+}
+
+fn mirror_options() -> MirrorOptions {
+    MirrorOptions {
+        border_fade: 0.0,
+        ..MirrorOptions::default()
+    }
+}
+
+/// `frames` frames of the static view `f` with attenuation `a`: source_k
+/// from final_{k-1} (final_0 = lit), the mirror pass on a G-buffer whose
+/// color is source_k, `final_k = lit + SPECULAR (reflection - lit)` at
+/// hits, `lit` elsewhere. Returns every final image and the mirror texels
+/// (the same every frame: static scene).
+fn run_frames(f: &Frame, frames: usize, a: f32) -> (Vec<Vec<[f32; 3]>>, Vec<MirrorTexel>) {
+    let options = BounceOptions {
+        attenuation: a,
+        ..BounceOptions::default()
+    };
+    let mut finals = vec![f.lit.clone()];
+    let mut texels = vec![MirrorTexel::default(); N];
+    for _ in 0..frames {
+        let (source, _, _) = bounce(f, f, finals.last().unwrap(), options);
+        let g = f
+            .gbuffer(&source)
+            .try_with_mask(ImageView::try_new(&f.mask, W, H, W).unwrap())
+            .unwrap();
+        let pass = MirrorPass::try_new(g, mirror_options(), None).unwrap();
+        let mut color = vec![[0.0f32; 3]; N];
+        pass.try_run(
+            &mut ImageViewMut::try_new(&mut texels, W, H, W).unwrap(),
+            Some(&mut ImageViewMut::try_new(&mut color, W, H, W).unwrap()),
+            &mut [],
+        )
+        .unwrap();
+        let mut fin = f.lit.clone();
+        for i in 0..N {
+            if texels[i].status == MirrorStatus::Hit {
+                for c in 0..3 {
+                    let l = f.lit[i][c];
+                    fin[i][c] = l + SPECULAR as f32 * (color[i][c] - l);
+                }
+            }
+        }
+        finals.push(fin);
+    }
+    (finals, texels)
+}
+
+/// The seed's bounce model in f64 after `k` frames at the visible point
+/// `p` of object `id` (Sec. 4.6.4: a mirror shows what its reflection ray
+/// hits, colored by the previous frame's final image there): `lit` for
+/// `k = 0` and non-mirrors; otherwise `lit + SPECULAR (source - lit)`
+/// with `source = lit_q + a (model(k - 1, q) - lit_q)` at the point `q`
+/// the mirror ray from `p` (reflected view direction from the eye) hits.
+/// Also returns the ids along the path. `None` where the ray hits the sky.
+fn model(scene: Scene, eye: DVec3, k: usize, id: u32, p: DVec3, a: f64) -> Option<(DVec3, Vec<u32>)> {
+    let l = lit(id, p, scene.s);
+    if k == 0 || !is_mirror(id) {
+        return Some((l, vec![id]));
+    }
+    let n = if id == MIRROR_A { DVec3::X } else { DVec3::NEG_X };
+    let v = (p - eye).normalize();
+    let r = v - 2.0 * v.dot(n) * n;
+    let (id2, t, _) = scene.cast(p, r, id);
+    if id2 == SKY {
+        return None;
+    }
+    let q = p + r * t;
+    let (fq, mut ids) = model(scene, eye, k - 1, id2, q, a)?;
+    let lq = lit(id2, q, scene.s);
+    let source = lq + a * (fq - lq);
+    ids.insert(0, id);
+    Some((l + SPECULAR * (source - l), ids))
+}
+
+/// The screen's path from pixel `i` over `k` frames: the ids of the hit
+/// texels the mirror pass read (`None` where a mirror texel on the path
+/// was not a hit).
+fn screen_path(f: &Frame, texels: &[MirrorTexel], i: usize, k: usize) -> Option<Vec<u32>> {
+    let mut ids = vec![f.id[i]];
+    let mut j = i;
+    for _ in 0..k {
+        if !is_mirror(f.id[j]) {
+            break;
+        }
+        let t = texels[j];
+        if t.status != MirrorStatus::Hit {
+            return None;
+        }
+        j = (t.pixel.y as u32 * W + t.pixel.x as u32) as usize;
+        ids.push(f.id[j]);
+    }
+    Some(ids)
+}
+
+/// Largest difference (in /255) of the final image after `frames` frames
+/// to the f64 model, over the pixels whose screen path shows the same
+/// objects as the ray-traced one, split by two-bounce paths (mirror,
+/// mirror, non-mirror) and all; with the counts.
+struct Compare {
+    two_bounce: (usize, f64),
+    all: (usize, f64),
+}
+
+fn compare(f: &Frame, fin: &[[f32; 3]], texels: &[MirrorTexel], frames: usize, a: f64) -> Compare {
+    let eye = f.cam.eye().as_dvec3();
+    let mut c = Compare {
+        two_bounce: (0, 0.0),
+        all: (0, 0.0),
+    };
+    for i in 0..N {
+        if !is_mirror(f.id[i]) {
+            continue;
+        }
+        let Some((want, ids)) = model(f.scene, eye, frames, f.id[i], f.point[i], a) else {
+            continue;
+        };
+        if screen_path(f, texels, i, frames).as_ref() != Some(&ids) {
+            continue;
+        }
+        let got = Vec3::from_array(fin[i]).as_dvec3();
+        let d = (got - want).abs().max_element() * 255.0;
+        c.all = (c.all.0 + 1, c.all.1.max(d));
+        if ids.len() == 3 && is_mirror(ids[1]) && !is_mirror(ids[2]) {
+            c.two_bounce = (c.two_bounce.0 + 1, c.two_bounce.1.max(d));
+        }
+    }
+    c
+}
+
+/// Two facing mirrors, static camera: after two frames the pixels whose
+/// reflection path has two mirror bounces equal the f64 two-bounce model
+/// within 2/255 (every convention); with attenuation 0 the second frame
+/// equals the first (one bounce) bit for bit.
+#[test]
+fn two_facing_mirrors_accumulate_bounces() {
+    let a = 0.9;
+    for conv in CONVENTIONS {
+        let f = view(1.0, conv);
+        let (finals, texels) = run_frames(&f, 2, a as f32);
+        let c2 = compare(&f, &finals[2], &texels, 2, a);
+        let c1 = compare(&f, &finals[1], &texels, 1, a);
+        eprintln!(
+            "{conv:?}: frame 2: two-bounce {} px max {:.3}/255, all {} px max {:.3}/255; frame 1: {} px max {:.3}/255",
+            c2.two_bounce.0, c2.two_bounce.1, c2.all.0, c2.all.1, c1.all.0, c1.all.1
+        );
+        assert!(c2.two_bounce.0 >= 200, "{conv:?}: {} two-bounce pixels", c2.two_bounce.0);
+        assert!(c2.two_bounce.1 <= 2.0, "{conv:?}: {}/255", c2.two_bounce.1);
+        assert!(c2.all.1 <= 2.0, "{conv:?}: {}/255", c2.all.1);
+        assert!(c1.all.1 <= 2.0, "{conv:?}: {}/255", c1.all.1);
+        // The second bounce shows: frame 2 differs from frame 1 there.
+        let eye = f.cam.eye().as_dvec3();
+        let mut changed = 0;
+        for i in 0..N {
+            let d = (0..3)
+                .map(|c| (finals[2][i][c] - finals[1][i][c]).abs())
+                .fold(0.0f32, f32::max);
+            if d > 5.0 / 255.0 {
+                changed += 1;
+                // Only pixels whose path meets a second mirror change.
+                let path = model(f.scene, eye, 2, f.id[i], f.point[i], a).map(|m| m.1);
+                assert!(
+                    path.is_none_or(|p| p.len() == 3 && is_mirror(p[1])),
+                    "{conv:?}: pixel {i}"
+                );
+            }
+        }
+        assert!(changed >= 200, "{conv:?}: {changed} pixels changed");
+
+        // Attenuation 0: the one-bounce source, every frame.
+        let (finals0, _) = run_frames(&f, 2, 0.0);
+        assert_eq!(finals0[2], finals0[1], "{conv:?}");
+        assert_eq!(finals0[1], finals[1], "{conv:?}");
+        let c0 = compare(&f, &finals0[2], &texels, 1, 0.0);
+        assert!(c0.all.1 <= 2.0, "{conv:?}: {}/255", c0.all.1);
+    }
+}
