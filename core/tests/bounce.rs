@@ -324,11 +324,19 @@ fn run_frames(f: &Frame, frames: usize, a: f32) -> (Vec<Vec<[f32; 3]>>, Vec<Mirr
 /// `k = 0` and non-mirrors; otherwise `lit + SPECULAR (source - lit)`
 /// with `source = lit_q + a (model(k - 1, q) - lit_q)` at the point `q`
 /// the mirror ray from `p` (reflected view direction from the eye) hits.
-/// Also returns the ids along the path. `None` where the ray hits the sky.
-fn model(scene: Scene, eye: DVec3, k: usize, id: u32, p: DVec3, a: f64) -> Option<(DVec3, Vec<u32>)> {
+/// Also returns the path: the objects and points met (`p` first). `None`
+/// where the ray hits the sky.
+fn model(
+    scene: Scene,
+    eye: DVec3,
+    k: usize,
+    id: u32,
+    p: DVec3,
+    a: f64,
+) -> Option<(DVec3, Vec<(u32, DVec3)>)> {
     let l = lit(id, p, scene.s);
     if k == 0 || !is_mirror(id) {
-        return Some((l, vec![id]));
+        return Some((l, vec![(id, p)]));
     }
     let n = if id == MIRROR_A { DVec3::X } else { DVec3::NEG_X };
     let v = (p - eye).normalize();
@@ -338,18 +346,18 @@ fn model(scene: Scene, eye: DVec3, k: usize, id: u32, p: DVec3, a: f64) -> Optio
         return None;
     }
     let q = p + r * t;
-    let (fq, mut ids) = model(scene, eye, k - 1, id2, q, a)?;
+    let (fq, mut path) = model(scene, eye, k - 1, id2, q, a)?;
     let lq = lit(id2, q, scene.s);
     let source = lq + a * (fq - lq);
-    ids.insert(0, id);
-    Some((l + SPECULAR * (source - l), ids))
+    path.insert(0, (id, p));
+    Some((l + SPECULAR * (source - l), path))
 }
 
-/// The screen's path from pixel `i` over `k` frames: the ids of the hit
-/// texels the mirror pass read (`None` where a mirror texel on the path
-/// was not a hit).
-fn screen_path(f: &Frame, texels: &[MirrorTexel], i: usize, k: usize) -> Option<Vec<u32>> {
-    let mut ids = vec![f.id[i]];
+/// The texels the screen reads from pixel `i` over `k` frames: `i`, then
+/// the hit texel of each mirror on the way (`None` where a mirror texel on
+/// the path was not a hit).
+fn screen_path(f: &Frame, texels: &[MirrorTexel], i: usize, k: usize) -> Option<Vec<usize>> {
+    let mut path = vec![i];
     let mut j = i;
     for _ in 0..k {
         if !is_mirror(f.id[j]) {
@@ -360,18 +368,74 @@ fn screen_path(f: &Frame, texels: &[MirrorTexel], i: usize, k: usize) -> Option<
             return None;
         }
         j = (t.pixel.y as u32 * W + t.pixel.x as u32) as usize;
-        ids.push(f.id[j]);
+        path.push(j);
     }
-    Some(ids)
+    Some(path)
+}
+
+/// Whether `eye` sees the point `q` of object `id` (f64 ray cast: the
+/// first hit from `eye` toward `q` is `q`, within 1e-9 relative).
+fn visible(scene: Scene, eye: DVec3, id: u32, q: DVec3) -> bool {
+    let d = q - eye;
+    let len = d.length();
+    let (hit, t, _) = scene.cast(eye, d / len, SKY);
+    hit == id && (t - len).abs() <= 1e-9 * len
+}
+
+/// Whether the screen's texel path is the ray-traced one: the same
+/// objects, and every point `q` the rays meet is visible from the eye
+/// ([`visible`]) and lies in the texel the mirror pass read or a neighbor of it (the
+/// pass's hit is refined to sub-pixel precision; a hit two texels away
+/// is another point: a ray that passed behind the box and was taken on
+/// the wall beyond it, `MirrorPass` step 7).
+fn same_path(f: &Frame, path: &[(u32, DVec3)], screen: &[usize]) -> bool {
+    if path.len() != screen.len() {
+        return false;
+    }
+    path.iter().zip(screen).all(|(&(id, q), &j)| {
+        let pq = project(&f.cam, q);
+        let (qx, qy) = (pq.x.floor(), pq.y.floor());
+        if !(qx >= 0.0 && qy >= 0.0 && qx < W as f64 && qy < H as f64) {
+            return false;
+        }
+        let seen = visible(f.scene, f.cam.eye().as_dvec3(), id, q);
+        let (jx, jy) = ((j as u32 % W) as f64, (j as u32 / W) as f64);
+        f.id[j] == id && seen && (jx - qx).abs() <= 1.0 && (jy - qy).abs() <= 1.0
+    })
+}
+
+/// The pipeline of [`run_frames`] in f64 along the screen's own texel
+/// path (the same texels, the same composition; the bounce pass's source
+/// is `lit + a (final - lit)` at the texel itself for a static camera):
+/// the oracle of the bounce pass without the discretisation of the
+/// screen-space read.
+fn discrete(f: &Frame, texels: &[MirrorTexel], i: usize, k: usize, a: f64) -> DVec3 {
+    let l = Vec3::from_array(f.lit[i]).as_dvec3();
+    if k == 0 || !is_mirror(f.id[i]) || texels[i].status != MirrorStatus::Hit {
+        return l;
+    }
+    let t = texels[i];
+    let j = (t.pixel.y as u32 * W + t.pixel.x as u32) as usize;
+    let lj = Vec3::from_array(f.lit[j]).as_dvec3();
+    let source = lj + a * (discrete(f, texels, j, k - 1, a) - lj);
+    l + SPECULAR * (source - l)
 }
 
 /// Largest difference (in /255) of the final image after `frames` frames
-/// to the f64 model, over the pixels whose screen path shows the same
-/// objects as the ray-traced one, split by two-bounce paths (mirror,
-/// mirror, non-mirror) and all; with the counts.
+/// to the f64 model and to the f64 discrete pipeline, over the pixels
+/// whose screen path is the ray-traced one ([`same_path`]), split by
+/// two-bounce paths (mirror, mirror, non-mirror) and all; with the counts,
+/// the pixels whose path the screen does not follow, the largest
+/// discretisation spread of a path (below) and the largest excess of a
+/// pixel's model error over its own spread.
+#[derive(Debug)]
 struct Compare {
     two_bounce: (usize, f64),
     all: (usize, f64),
+    discrete: f64,
+    other_path: usize,
+    spread: f64,
+    excess: f64,
 }
 
 fn compare(f: &Frame, fin: &[[f32; 3]], texels: &[MirrorTexel], frames: usize, a: f64) -> Compare {
@@ -379,71 +443,129 @@ fn compare(f: &Frame, fin: &[[f32; 3]], texels: &[MirrorTexel], frames: usize, a
     let mut c = Compare {
         two_bounce: (0, 0.0),
         all: (0, 0.0),
+        discrete: 0.0,
+        other_path: 0,
+        spread: 0.0,
+        excess: f64::NEG_INFINITY,
     };
     for i in 0..N {
         if !is_mirror(f.id[i]) {
             continue;
         }
-        let Some((want, ids)) = model(f.scene, eye, frames, f.id[i], f.point[i], a) else {
+        let got = Vec3::from_array(fin[i]).as_dvec3();
+        let d = (got - discrete(f, texels, i, frames, a)).abs().max_element() * 255.0;
+        c.discrete = c.discrete.max(d);
+        let Some((want, path)) = model(f.scene, eye, frames, f.id[i], f.point[i], a) else {
             continue;
         };
-        if screen_path(f, texels, i, frames).as_ref() != Some(&ids) {
+        let Some(screen) = screen_path(f, texels, i, frames) else {
+            continue;
+        };
+        if !same_path(f, &path, &screen) {
+            c.other_path += 1;
             continue;
         }
-        let got = Vec3::from_array(fin[i]).as_dvec3();
         let d = (got - want).abs().max_element() * 255.0;
+        // The model is a convex combination of the lit colors at the
+        // path's points (weights 1 - SPECULAR, SPECULAR (1 - a), ...); the
+        // screen evaluates the same combination at the points its texels'
+        // centers see. So the two differ by at most the largest change of
+        // a lit color between a path point and its texel center's point.
+        let spread = path
+            .iter()
+            .zip(&screen)
+            .map(|(&(id, q), &j)| (lit(id, f.point[j], f.scene.s) - lit(id, q, f.scene.s)).abs().max_element() * 255.0)
+            .fold(0.0f64, f64::max);
+        c.spread = c.spread.max(spread);
+        c.excess = c.excess.max(d - spread);
         c.all = (c.all.0 + 1, c.all.1.max(d));
-        if ids.len() == 3 && is_mirror(ids[1]) && !is_mirror(ids[2]) {
+        if path.len() == 3 && is_mirror(path[1].0) && !is_mirror(path[2].0) {
             c.two_bounce = (c.two_bounce.0 + 1, c.two_bounce.1.max(d));
         }
     }
     c
 }
 
-/// Two facing mirrors, static camera: after two frames the pixels whose
-/// reflection path has two mirror bounces equal the f64 two-bounce model
-/// within 2/255 (every convention); with attenuation 0 the second frame
-/// equals the first (one bounce) bit for bit.
+/// Two facing mirrors, static camera: every surface pixel re-projects;
+/// after one and two frames the final image equals the f64 pipeline along
+/// the screen's texels within 0.05/255 (f32 rounding of a few blends of
+/// colors in [0, 1]), and every pixel whose reflection path the screen
+/// follows equals the f64 bounce model within its path's discretisation
+/// spread (`compare`) plus 0.05/255 (every convention);
+/// with attenuation 0 the second frame equals the first (one bounce) bit
+/// for bit.
 #[test]
 fn two_facing_mirrors_accumulate_bounces() {
     let a = 0.9;
     for conv in CONVENTIONS {
         let f = view(1.0, conv);
+        let surfaces = f.id.iter().filter(|&&id| id != SKY).count() as u32;
+        let (_, status, stats) = bounce(&f, &f, &f.lit, BounceOptions::default());
+        assert_eq!(stats.reprojected, surfaces, "{conv:?}: {stats:?}");
+        assert_eq!(stats.no_surface, N as u32 - surfaces, "{conv:?}");
+        for i in 0..N {
+            let want = if f.id[i] == SKY { BounceStatus::NoSurface } else { BounceStatus::Reprojected };
+            assert_eq!(status[i], want as u8, "{conv:?}: pixel {i}");
+        }
         let (finals, texels) = run_frames(&f, 2, a as f32);
         let c2 = compare(&f, &finals[2], &texels, 2, a);
         let c1 = compare(&f, &finals[1], &texels, 1, a);
-        eprintln!(
-            "{conv:?}: frame 2: two-bounce {} px max {:.3}/255, all {} px max {:.3}/255; frame 1: {} px max {:.3}/255",
-            c2.two_bounce.0, c2.two_bounce.1, c2.all.0, c2.all.1, c1.all.0, c1.all.1
-        );
+        eprintln!("{conv:?}: frame 2: {c2:?}; frame 1: {c1:?}");
         assert!(c2.two_bounce.0 >= 200, "{conv:?}: {} two-bounce pixels", c2.two_bounce.0);
-        assert!(c2.two_bounce.1 <= 2.0, "{conv:?}: {}/255", c2.two_bounce.1);
-        assert!(c2.all.1 <= 2.0, "{conv:?}: {}/255", c2.all.1);
-        assert!(c1.all.1 <= 2.0, "{conv:?}: {}/255", c1.all.1);
+        assert!(c2.discrete <= 0.05 && c1.discrete <= 0.05, "{conv:?}: {c2:?} {c1:?}");
+        // Each pixel within its own path's discretisation spread plus f32
+        // rounding (the spread is the scene's, not the pass's: up to
+        // 3.7/255 here, where a mirror sees the floor at a grazing angle
+        // through the other mirror; the model error itself stays <= 2.2).
+        for c in [&c1, &c2] {
+            assert!(c.excess <= 0.05, "{conv:?}: {c:?}");
+            assert!(c.other_path * 10 <= c.all.0, "{conv:?}: {c:?}");
+        }
         // The second bounce shows: frame 2 differs from frame 1 there.
         let eye = f.cam.eye().as_dvec3();
-        let mut changed = 0;
+        let (mut changed, mut traced) = (0, 0);
         for i in 0..N {
             let d = (0..3)
                 .map(|c| (finals[2][i][c] - finals[1][i][c]).abs())
                 .fold(0.0f32, f32::max);
             if d > 5.0 / 255.0 {
                 changed += 1;
-                // Only pixels whose path meets a second mirror change.
-                let path = model(f.scene, eye, 2, f.id[i], f.point[i], a).map(|m| m.1);
+                // Only pixels whose screen path reads a second mirror's
+                // texel change (the ray-traced path may differ: a hit the
+                // mirror pass took behind the box, `same_path`).
+                let path = screen_path(&f, &texels, i, 2);
                 assert!(
-                    path.is_none_or(|p| p.len() == 3 && is_mirror(p[1])),
+                    path.is_some_and(|p| p.len() == 3 && is_mirror(f.id[p[1]])),
                     "{conv:?}: pixel {i}"
                 );
+                if model(f.scene, eye, 2, f.id[i], f.point[i], a)
+                    .is_some_and(|m| m.1.len() == 3 && is_mirror(m.1[1].0))
+                {
+                    traced += 1;
+                }
             }
         }
         assert!(changed >= 200, "{conv:?}: {changed} pixels changed");
+        assert!(traced * 10 >= changed * 9, "{conv:?}: {traced} of {changed}");
 
         // Attenuation 0: the one-bounce source, every frame.
         let (finals0, _) = run_frames(&f, 2, 0.0);
-        assert_eq!(finals0[2], finals0[1], "{conv:?}");
-        assert_eq!(finals0[1], finals[1], "{conv:?}");
+        let diff = |x: &[[f32; 3]], y: &[[f32; 3]]| {
+            (0..N).filter(|&i| x[i] != y[i]).map(|i| (i, x[i], y[i], f.id[i])).collect::<Vec<_>>()
+        };
+        let d = diff(&finals0[2], &finals0[1]);
+        assert!(d.is_empty(), "{conv:?}: {} {:?}", d.len(), &d[..d.len().min(5)]);
+        // Frame 1 reads final_0 = lit whatever the attenuation: the same up
+        // to the f32 round trip of the re-projection (the pixel center
+        // comes back off by ~1e-5 px, so a neighbor texel gets a bilinear
+        // weight of that order).
+        let (f0, f1) = (&finals0[1], &finals[1]);
+        let d = (0..N)
+            .flat_map(|i| (0..3).map(move |c| (f0[i][c] - f1[i][c]).abs()))
+            .fold(0.0f32, f32::max);
+        eprintln!("{conv:?}: frame 1, attenuation 0 vs {a}: max {}/255", d * 255.0);
+        assert!(d * 255.0 <= 0.01, "{conv:?}: {}/255", d * 255.0);
         let c0 = compare(&f, &finals0[2], &texels, 1, 0.0);
-        assert!(c0.all.1 <= 2.0, "{conv:?}: {}/255", c0.all.1);
+        assert!(c0.excess <= 0.05 && c0.discrete <= 0.05, "{conv:?}: {c0:?}");
     }
 }
