@@ -97,7 +97,8 @@
 //! # Ok::<(), refl_core::Error>(())
 //! ```
 
-use crate::{DepthConvention, DepthImage, Error, GBuffer, ImageView, ImageViewMut, RowRange};
+use crate::temporal::on_tangent_plane;
+use crate::{DepthImage, Error, GBuffer, ImageView, ImageViewMut, RowRange};
 use glam::{Vec2, Vec3};
 
 /// The previous frame's final image (reflections composed in) with the
@@ -197,7 +198,7 @@ pub enum BounceStatus {
     Rejected = 3,
 }
 
-/// Counts of one run over a band.
+/// Counts of one run over a band (saturating at `u32::MAX`).
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 pub struct BounceStats {
     /// Pixels that read the previous final image ([`BounceStatus::Reprojected`]).
@@ -253,7 +254,15 @@ impl<'a> BouncePass<'a> {
     }
 
     /// The previous frame's final color fetched for the world point `p`
-    /// with unit normal `n` (module docs, steps 2 and 3).
+    /// with unit normal `n` (module docs, steps 2 and 3): `q = project_prev(p)`
+    /// (seed 004 Sec. 4.6.4, Listing 4.9: `M' = VP_curr^-1 VP_prev`, here its
+    /// second factor, `p` being the first's result), then the listing's
+    /// `linearSampler` read of the previous color at `q` (bilinear, texel
+    /// centers at `i + 0.5`) over the texels that pass Sec. 4.6.4's depth
+    /// test ("compare them by an epsilon", [`crate::temporal`]'s
+    /// tangent-plane form, tolerance `depth_tolerance * z_prev`),
+    /// renormalized: `sum(w_i c_i) / sum(w_i)` with `sum(w_i) >=`
+    /// [`MIN_PREVIOUS_WEIGHT`].
     fn fetch(&self, p: Vec3, n: Vec3) -> Result<Vec3, BounceStatus> {
         let prev = &self.previous;
         let cam = prev.depth.camera();
@@ -291,9 +300,7 @@ impl<'a> BouncePass<'a> {
             if !(c.is_finite() && z >= cam.near() && z < cam.far()) {
                 continue;
             }
-            let center = Vec2::new(x as f32 + 0.5, y as f32 + 0.5);
-            let at = cam.unproject(center, z, DepthConvention::Linear);
-            if (at - p).dot(n).abs() <= tol {
+            if on_tangent_plane(cam, x, y, z, p, n, tol).1 {
                 sum += c * wt;
                 wsum += wt;
             }
@@ -313,7 +320,10 @@ impl<'a> BouncePass<'a> {
 
     /// Pixel `(x, y)`'s source color and where it came from (what
     /// [`BouncePass::try_run`] writes); `([0; 3], NoSurface)` outside the
-    /// image.
+    /// image. The source is `lit + attenuation (previous - lit)` (module
+    /// docs, step 4): seed 004 Sec. 4.6.4 reads the previous final image
+    /// as it is (attenuation 1); the attenuation, which weakens each
+    /// further bounce as Fig. 4.24-4.25 describe, is this crate's.
     pub fn pixel(&self, x: u32, y: u32) -> ([f32; 3], BounceStatus) {
         let Some(lit) = self.lit.get(x, y) else {
             return ([0.0; 3], BounceStatus::NoSurface);
@@ -405,12 +415,13 @@ impl<'a> BouncePass<'a> {
         for y in rows.rows() {
             for x in 0..self.gbuffer.width() {
                 let (c, s) = self.pixel(x, y);
-                match s {
-                    BounceStatus::NoSurface => stats.no_surface += 1,
-                    BounceStatus::Reprojected => stats.reprojected += 1,
-                    BounceStatus::OffScreen => stats.off_screen += 1,
-                    BounceStatus::Rejected => stats.rejected += 1,
-                }
+                let n = match s {
+                    BounceStatus::NoSurface => &mut stats.no_surface,
+                    BounceStatus::Reprojected => &mut stats.reprojected,
+                    BounceStatus::OffScreen => &mut stats.off_screen,
+                    BounceStatus::Rejected => &mut stats.rejected,
+                };
+                *n = n.saturating_add(1);
                 sink(x, y, c, s);
             }
         }

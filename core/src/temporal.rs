@@ -304,6 +304,28 @@ struct Found {
     reflected: Reflected,
 }
 
+/// The seed's depth test of a previous texel (seed 004 Sec. 4.6.4: "store
+/// the previous frame's depth buffer ... compare them by an epsilon"),
+/// taken along the current surface's normal: texel `(x, y)` of `camera`
+/// at linear depth `z` unprojects (its center) to `at`, kept when `|(at -
+/// p) . n| <= tol` for the current surface point `p` with unit normal `n`
+/// (for a surface facing the camera the depth difference; on a floor seen
+/// at a grazing angle it still keeps the texels of the same floor).
+/// Shared by the temporal filter and `crate::bounce`. Returns `at` too.
+pub(crate) fn on_tangent_plane(
+    camera: &Camera,
+    x: u32,
+    y: u32,
+    z: f32,
+    p: Vec3,
+    n: Vec3,
+    tol: f32,
+) -> (Vec3, bool) {
+    let center = Vec2::new(x as f32 + 0.5, y as f32 + 0.5);
+    let at = camera.unproject(center, z, DepthConvention::Linear);
+    (at, (at - p).dot(n).abs() <= tol)
+}
+
 /// The virtual point of a reflection at distance `t` from the surface
 /// point `p` seen from `eye`: `eye + (p - eye) (|p - eye| + t) / |p -
 /// eye|`, at [`SKY_DISTANCE`] `|p - eye|` past `p` for the sky (module
@@ -497,12 +519,15 @@ impl<'a> TemporalPass<'a> {
         if !(t.frames > 0.0 && t.frames.is_finite() && Vec3::from_array(t.color).is_finite()) {
             return None;
         }
-        // The texel's own surface point, from its center and stored depth.
-        let center = Vec2::new(x as f32 + 0.5, y as f32 + 0.5);
-        let at = hist
-            .camera
-            .unproject(center, t.depth, DepthConvention::Linear);
-        let plane_ok = (at - p).dot(n).abs() <= self.options.depth_tolerance * z;
+        let (at, plane_ok) = on_tangent_plane(
+            &hist.camera,
+            x as u32,
+            y as u32,
+            t.depth,
+            p,
+            n,
+            self.options.depth_tolerance * z,
+        );
         let normal_ok = self.options.normal_cos <= -1.0
             || Vec3::from_array(t.normal).dot(n) >= self.options.normal_cos;
         let eye = hist.camera.eye();
