@@ -97,9 +97,9 @@
 //! # Ok::<(), refl_core::Error>(())
 //! ```
 
-use crate::temporal::on_tangent_plane;
+use crate::temporal::{bilinear_footprint, on_tangent_plane};
 use crate::{DepthImage, Error, GBuffer, ImageView, ImageViewMut, RowRange};
-use glam::{Vec2, Vec3};
+use glam::Vec3;
 
 /// The previous frame's final image (reflections composed in) with the
 /// depth image (and so the camera and convention) it was rendered with.
@@ -272,21 +272,11 @@ impl<'a> BouncePass<'a> {
             return Err(BounceStatus::OffScreen);
         }
         let tol = self.options.depth_tolerance * q.z;
-        let f = Vec2::new(q.x - 0.5, q.y - 0.5);
-        let (fx, fy) = (libm::floorf(f.x), libm::floorf(f.y));
-        let (ax, ay) = (f.x - fx, f.y - fy);
-        let (x0, y0) = (fx as i64, fy as i64);
         let (mut sum, mut wsum) = (Vec3::ZERO, 0.0f32);
-        for (dx, dy, wt) in [
-            (0, 0, (1.0 - ax) * (1.0 - ay)),
-            (1, 0, ax * (1.0 - ay)),
-            (0, 1, (1.0 - ax) * ay),
-            (1, 1, ax * ay),
-        ] {
+        for (x, y, wt) in bilinear_footprint(q.x, q.y) {
             if !(wt > 0.0) {
                 continue;
             }
-            let (x, y) = (x0 + dx, y0 + dy);
             if x < 0 || y < 0 || x > u32::MAX as i64 || y > u32::MAX as i64 {
                 continue;
             }

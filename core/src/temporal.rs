@@ -304,6 +304,23 @@ struct Found {
     reflected: Reflected,
 }
 
+/// The 2x2 texels around the sub-pixel position `(qx, qy)` (texel centers
+/// at `i + 0.5`) with their bilinear weights (seed 004 Listing 4.9's
+/// `linearSampler`): `(x0 + dx, y0 + dy, w)` with `(x0, y0) = floor(q -
+/// 0.5)`, `a = q - 0.5 - (x0, y0)` and `w = (1 - a_x or a_x)(1 - a_y or
+/// a_y)`. Shared by the temporal filter and `crate::bounce`.
+pub(crate) fn bilinear_footprint(qx: f32, qy: f32) -> [(i64, i64, f32); 4] {
+    let (fx, fy) = (libm::floorf(qx - 0.5), libm::floorf(qy - 0.5));
+    let (ax, ay) = (qx - 0.5 - fx, qy - 0.5 - fy);
+    let (x0, y0) = (fx as i64, fy as i64);
+    [
+        (x0, y0, (1.0 - ax) * (1.0 - ay)),
+        (x0 + 1, y0, ax * (1.0 - ay)),
+        (x0, y0 + 1, (1.0 - ax) * ay),
+        (x0 + 1, y0 + 1, ax * ay),
+    ]
+}
+
 /// The seed's depth test of a previous texel (seed 004 Sec. 4.6.4: "store
 /// the previous frame's depth buffer ... compare them by an epsilon"),
 /// taken along the current surface's normal: texel `(x, y)` of `camera`
@@ -575,23 +592,14 @@ impl<'a> TemporalPass<'a> {
         if !(q.x >= 0.0 && q.x <= w && q.y >= 0.0 && q.y <= h) {
             return Err(NoHistory::OffScreen);
         }
-        let f = Vec2::new(q.x - 0.5, q.y - 0.5);
-        let (fx, fy) = (libm::floorf(f.x), libm::floorf(f.y));
-        let (ax, ay) = (f.x - fx, f.y - fy);
-        let (x0, y0) = (fx as i64, fy as i64);
         let mut sum = Vec3::ZERO;
         let (mut wsum, mut frames) = (0.0f32, f32::INFINITY);
         let mut reflections = Reflections::default();
-        for (dx, dy, wt) in [
-            (0, 0, (1.0 - ax) * (1.0 - ay)),
-            (1, 0, ax * (1.0 - ay)),
-            (0, 1, (1.0 - ax) * ay),
-            (1, 1, ax * ay),
-        ] {
+        for (x, y, wt) in bilinear_footprint(q.x, q.y) {
             if !(wt > 0.0) {
                 continue;
             }
-            if let Some((t, r)) = self.kept(hist, x0 + dx, y0 + dy, p, n, z, expect) {
+            if let Some((t, r)) = self.kept(hist, x, y, p, n, z, expect) {
                 sum += Vec3::from_array(t.color) * wt;
                 frames = frames.min(t.frames);
                 reflections.add(r, wt);
