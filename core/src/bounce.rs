@@ -60,7 +60,9 @@
 //!    takes `lit`.
 //!
 //! Static scenes and a static camera reproduce the previous image texel
-//! for texel; under motion the re-projection is that of the reflector's
+//! for texel (up to the f32 round trip of the re-projection: a neighbor
+//! texel may get a bilinear weight of ~1e-5, under 0.001/255 in
+//! `core/tests/bounce.rs`); under motion the re-projection is that of the reflector's
 //! surface point, exact for what the mirror pass reads (a surface's own
 //! color), so the source of a moving mirror's reflection lags by the
 //! reflection's parallax, as in the seed.
