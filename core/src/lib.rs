@@ -32,7 +32,8 @@
 //! `trace`, `summary` (the frame summary a planner reads) and `plan` (the
 //! passes a frame needs) with `mirror`, `hiz` or `depth-image`; `ssr` (the screen-space
 //! mirror pass), `backface`, `temporal` (the history buffer and temporal
-//! filter of seed 004 Sec. 4.6.4-4.6.5) and `upsample` (fewer rays:
+//! filter of seed 004 Sec. 4.6.4-4.6.5), `bounce` (multiple bounces from
+//! the previous final image, Sec. 4.6.4) and `upsample` (fewer rays:
 //! half-resolution and staggered tracing, cross-bilateral upsampling,
 //! temporal super-sampling; seed 004 Sec. 4.7.3-4.7.4) with `hiz` or
 //! `depth-image`. Each module's
@@ -119,6 +120,7 @@
 //! | 004 (Hi-Z cone tracing) | Sec. 4.6.1, Listing 4.8 fading artifacts | `cone::Fades`, `cone::FadeRange`, `cone::blend_fade` |
 //! | 004 (Hi-Z cone tracing) | Sec. 4.6.4 reprojection matrix | `camera::try_reprojection_matrix` |
 //! | 004 (Hi-Z cone tracing) | Sec. 4.6.4 Listing 4.9 re-projection into the previous frame, 4.6.5 temporal filtering | `temporal::TemporalPass`, `temporal::History`, `temporal::HistoryTexel` |
+//! | 004 (Hi-Z cone tracing) | Sec. 4.6.4 approximate multiple ray bounces: the previous final image, re-projected (Listing 4.9), as the reflection pass's source | `bounce::BouncePass`, `bounce::PreviousFrame`, `bounce::BounceOptions` |
 //! | 004 (Hi-Z cone tracing) | Sec. 4.6.6 travel behind surfaces, 4.6.7 marching toward the camera | `hiz::try_trace_hiz` |
 //! | 004 (Hi-Z cone tracing) | Sec. 4.6.8 anisotropic reflections | `cone::ConeOptions::max_stretch` |
 //! | 004 (Hi-Z cone tracing) | Sec. 4.7.1 combining linear and Hi-Z traversal | `hiz::HiZOptions::prologue_steps`, `hiz::HiZOptions::stop_level` |
@@ -134,6 +136,8 @@
 
 #[cfg(any(feature = "depth-image", feature = "hiz"))]
 pub mod backface;
+#[cfg(any(feature = "depth-image", feature = "hiz"))]
+pub mod bounce;
 pub mod camera;
 #[cfg(feature = "cluster")]
 pub mod cluster;

@@ -304,6 +304,45 @@ struct Found {
     reflected: Reflected,
 }
 
+/// The 2x2 texels around the sub-pixel position `(qx, qy)` (texel centers
+/// at `i + 0.5`) with their bilinear weights (seed 004 Listing 4.9's
+/// `linearSampler`): `(x0 + dx, y0 + dy, w)` with `(x0, y0) = floor(q -
+/// 0.5)`, `a = q - 0.5 - (x0, y0)` and `w = (1 - a_x or a_x)(1 - a_y or
+/// a_y)`. Shared by the temporal filter and `crate::bounce`.
+pub(crate) fn bilinear_footprint(qx: f32, qy: f32) -> [(i64, i64, f32); 4] {
+    let (fx, fy) = (libm::floorf(qx - 0.5), libm::floorf(qy - 0.5));
+    let (ax, ay) = (qx - 0.5 - fx, qy - 0.5 - fy);
+    let (x0, y0) = (fx as i64, fy as i64);
+    [
+        (x0, y0, (1.0 - ax) * (1.0 - ay)),
+        (x0 + 1, y0, ax * (1.0 - ay)),
+        (x0, y0 + 1, (1.0 - ax) * ay),
+        (x0 + 1, y0 + 1, ax * ay),
+    ]
+}
+
+/// The seed's depth test of a previous texel (seed 004 Sec. 4.6.4: "store
+/// the previous frame's depth buffer ... compare them by an epsilon"),
+/// taken along the current surface's normal: texel `(x, y)` of `camera`
+/// at linear depth `z` unprojects (its center) to `at`, kept when `|(at -
+/// p) . n| <= tol` for the current surface point `p` with unit normal `n`
+/// (for a surface facing the camera the depth difference; on a floor seen
+/// at a grazing angle it still keeps the texels of the same floor).
+/// Shared by the temporal filter and `crate::bounce`. Returns `at` too.
+pub(crate) fn on_tangent_plane(
+    camera: &Camera,
+    x: u32,
+    y: u32,
+    z: f32,
+    p: Vec3,
+    n: Vec3,
+    tol: f32,
+) -> (Vec3, bool) {
+    let center = Vec2::new(x as f32 + 0.5, y as f32 + 0.5);
+    let at = camera.unproject(center, z, DepthConvention::Linear);
+    (at, (at - p).dot(n).abs() <= tol)
+}
+
 /// The virtual point of a reflection at distance `t` from the surface
 /// point `p` seen from `eye`: `eye + (p - eye) (|p - eye| + t) / |p -
 /// eye|`, at [`SKY_DISTANCE`] `|p - eye|` past `p` for the sky (module
@@ -497,12 +536,15 @@ impl<'a> TemporalPass<'a> {
         if !(t.frames > 0.0 && t.frames.is_finite() && Vec3::from_array(t.color).is_finite()) {
             return None;
         }
-        // The texel's own surface point, from its center and stored depth.
-        let center = Vec2::new(x as f32 + 0.5, y as f32 + 0.5);
-        let at = hist
-            .camera
-            .unproject(center, t.depth, DepthConvention::Linear);
-        let plane_ok = (at - p).dot(n).abs() <= self.options.depth_tolerance * z;
+        let (at, plane_ok) = on_tangent_plane(
+            &hist.camera,
+            x as u32,
+            y as u32,
+            t.depth,
+            p,
+            n,
+            self.options.depth_tolerance * z,
+        );
         let normal_ok = self.options.normal_cos <= -1.0
             || Vec3::from_array(t.normal).dot(n) >= self.options.normal_cos;
         let eye = hist.camera.eye();
@@ -550,23 +592,14 @@ impl<'a> TemporalPass<'a> {
         if !(q.x >= 0.0 && q.x <= w && q.y >= 0.0 && q.y <= h) {
             return Err(NoHistory::OffScreen);
         }
-        let f = Vec2::new(q.x - 0.5, q.y - 0.5);
-        let (fx, fy) = (libm::floorf(f.x), libm::floorf(f.y));
-        let (ax, ay) = (f.x - fx, f.y - fy);
-        let (x0, y0) = (fx as i64, fy as i64);
         let mut sum = Vec3::ZERO;
         let (mut wsum, mut frames) = (0.0f32, f32::INFINITY);
         let mut reflections = Reflections::default();
-        for (dx, dy, wt) in [
-            (0, 0, (1.0 - ax) * (1.0 - ay)),
-            (1, 0, ax * (1.0 - ay)),
-            (0, 1, (1.0 - ax) * ay),
-            (1, 1, ax * ay),
-        ] {
+        for (x, y, wt) in bilinear_footprint(q.x, q.y) {
             if !(wt > 0.0) {
                 continue;
             }
-            if let Some((t, r)) = self.kept(hist, x0 + dx, y0 + dy, p, n, z, expect) {
+            if let Some((t, r)) = self.kept(hist, x, y, p, n, z, expect) {
                 sum += Vec3::from_array(t.color) * wt;
                 frames = frames.min(t.frames);
                 reflections.add(r, wt);
