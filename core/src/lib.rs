@@ -33,7 +33,8 @@
 //! passes a frame needs) with `mirror`, `hiz` or `depth-image`; `ssr` (the screen-space
 //! mirror pass), `backface`, `temporal` (the history buffer and temporal
 //! filter of seed 004 Sec. 4.6.4-4.6.5), `bounce` (multiple bounces from
-//! the previous final image, Sec. 4.6.4) and `upsample` (fewer rays:
+//! the previous final image, Sec. 4.6.4), `extrapolate` (the bilateral
+//! dilation of Sec. 4.6.2) and `upsample` (fewer rays:
 //! half-resolution and staggered tracing, cross-bilateral upsampling,
 //! temporal super-sampling; seed 004 Sec. 4.7.3-4.7.4) with `hiz` or
 //! `depth-image`. Each module's
@@ -118,6 +119,7 @@
 //! | 004 (Hi-Z cone tracing) | Sec. 4.4.5, Eq. 4.2 isosceles triangle | `cone::isosceles_opposite`, `cone::isosceles_inradius` |
 //! | 004 (Hi-Z cone tracing) | Sec. 4.4.5 / 4.5.5, Listing 4.7 cone tracing | `cone::try_cone_trace`, `cone::ConeCircles`, `cone::cone_mip_level` |
 //! | 004 (Hi-Z cone tracing) | Sec. 4.6.1, Listing 4.8 fading artifacts | `cone::Fades`, `cone::FadeRange`, `cone::blend_fade` |
+//! | 004 (Hi-Z cone tracing) | Sec. 4.6.2 extrapolation of surfaces: bilateral dilation of the holes | `extrapolate::ExtrapolatePass`, `extrapolate::ExtrapolateOptions` |
 //! | 004 (Hi-Z cone tracing) | Sec. 4.6.4 reprojection matrix | `camera::try_reprojection_matrix` |
 //! | 004 (Hi-Z cone tracing) | Sec. 4.6.4 Listing 4.9 re-projection into the previous frame, 4.6.5 temporal filtering | `temporal::TemporalPass`, `temporal::History`, `temporal::HistoryTexel` |
 //! | 004 (Hi-Z cone tracing) | Sec. 4.6.4 approximate multiple ray bounces: the previous final image, re-projected (Listing 4.9), as the reflection pass's source | `bounce::BouncePass`, `bounce::PreviousFrame`, `bounce::BounceOptions` |
@@ -146,6 +148,8 @@ pub mod cone;
 #[cfg(feature = "epipolar")]
 pub mod epipolar;
 pub mod error;
+#[cfg(any(feature = "depth-image", feature = "hiz"))]
+pub mod extrapolate;
 #[cfg(any(feature = "depth-image", feature = "hiz", feature = "mirror"))]
 pub mod gbuffer;
 #[cfg(feature = "cone")]

@@ -330,6 +330,50 @@ fn powi(c: f32, e: u32) -> f32 {
     out
 }
 
+/// Kopf et al. 2007 Eq. 2's range weight `g` on the relative depth
+/// difference `r` ([`UpsampleOptions`], "Weights"):
+/// `exp(-r^2 / (2 sigma^2))` (`1` for an infinite `sigma`), `None` past
+/// the depth edge `threshold` or for a NaN `r`.
+#[inline]
+pub(crate) fn depth_weight(r: f32, threshold: f32, sigma: f32) -> Option<f32> {
+    if !(r <= threshold) {
+        return None;
+    }
+    Some(if sigma.is_finite() {
+        let q = r / sigma;
+        libm::expf(-0.5 * q * q)
+    } else {
+        1.0
+    })
+}
+
+/// The normal range weight `max(0, c)^power` of a normal cosine `c`
+/// (`1` for a power of `0`; [`UpsampleOptions`], "Weights"), raised by
+/// squaring when `whole` holds the power as a whole number
+/// ([`whole_power`]).
+#[inline]
+pub(crate) fn normal_weight(c: f32, power: f32, whole: Option<u32>) -> f32 {
+    if power > 0.0 {
+        if c > 0.0 {
+            let c = c.min(1.0);
+            match whole {
+                Some(e) => powi(c, e),
+                None => libm::powf(c, power),
+            }
+        } else {
+            0.0
+        }
+    } else {
+        1.0
+    }
+}
+
+/// `power` as a whole number up to 64, when it is one (for
+/// [`normal_weight`]).
+pub(crate) fn whole_power(power: f32) -> Option<u32> {
+    (power <= 64.0 && power == libm::truncf(power)).then_some(power as u32)
+}
+
 /// The bilinear (tent) weight of a sample `d` full-resolution pixels away
 /// along one axis (Kopf et al. 2007 Eq. 2's spatial `f`, [`UpsampleOptions`]).
 #[inline]
@@ -369,8 +413,7 @@ impl<'a> UpsamplePass<'a> {
         {
             return Err(Error::InvalidArgument);
         }
-        let p = options.normal_power;
-        let whole_power = (p <= 64.0 && p == libm::truncf(p)).then_some(p as u32);
+        let whole_power = whole_power(options.normal_power);
         let cam = g.camera();
         let a = cam.view_dir_through(Vec2::new(0.5, 0.5));
         let b = cam.view_dir_through(Vec2::new(1.5, 1.5));
@@ -475,31 +518,9 @@ impl<'a> UpsamplePass<'a> {
             None => z,
         };
         let r = (zk - compared).abs() / z;
-        if !(r <= self.options.depth_threshold) {
-            return None;
-        }
-        let s = self.options.depth_sigma;
-        let depth = if s.is_finite() {
-            let q = r / s;
-            libm::expf(-0.5 * q * q)
-        } else {
-            1.0
-        };
-        let p = self.options.normal_power;
-        let normal = if p > 0.0 {
-            let c = nk.dot(guide.normal);
-            if c > 0.0 {
-                let c = c.min(1.0);
-                match self.whole_power {
-                    Some(e) => powi(c, e),
-                    None => libm::powf(c, p),
-                }
-            } else {
-                0.0
-            }
-        } else {
-            1.0
-        };
+        let o = &self.options;
+        let depth = depth_weight(r, o.depth_threshold, o.depth_sigma)?;
+        let normal = normal_weight(nk.dot(guide.normal), o.normal_power, self.whole_power);
         let weight = spatial * depth * normal;
         (weight > 0.0).then_some(Sample {
             weight,

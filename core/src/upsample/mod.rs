@@ -134,6 +134,7 @@
 mod bilateral;
 mod half;
 
+pub(crate) use bilateral::{depth_weight, normal_weight, whole_power};
 pub use bilateral::{UpsampleOptions, UpsamplePass, UpsampleSink, UpsampleStats, UpsampleStatus};
 pub use half::HalfPass;
 
