@@ -10,6 +10,7 @@ pub mod cluster;
 pub mod cone;
 pub mod epipolar;
 pub mod export;
+pub mod extrapolate;
 pub mod gbuffer;
 pub mod growth;
 pub mod layered;

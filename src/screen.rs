@@ -647,25 +647,9 @@ pub fn run(
     let mut texels = vec![MirrorTexel::default(); n];
     let mut color = vec![[0.0f32; 3]; n];
     let mut pyramid = pyramid_storage(method, w, h)?;
-    let band = PYRAMID_BAND as usize * w as usize;
     let t = crate::render::timed(|| {
         with_pass(method, refine, depth, images, &mut pyramid, pool, |pass| {
-            let lit = images.lit.is_some();
-            pool.install(|| {
-                texels
-                    .par_chunks_mut(band)
-                    .zip(color.par_chunks_mut(band))
-                    .enumerate()
-                    .map(|(k, (t, c))| {
-                        let y0 = k as u32 * PYRAMID_BAND;
-                        let rows = RowRange::try_new(y0, (y0 + PYRAMID_BAND).min(h), h)?;
-                        let mut out = ImageViewMut::try_band(t, w, h, w, rows)?;
-                        let mut col = ImageViewMut::try_band(c, w, h, w, rows)?;
-                        pass.try_run(&mut out, lit.then_some(&mut col), &mut [])
-                    })
-                    .try_fold(MirrorStats::default, |a, b| Ok(add_stats(a, &b?)))
-                    .try_reduce(MirrorStats::default, |a, b| Ok(add_stats(a, &b)))
-            })
+            run_bands(pass, images.lit.is_some(), &mut texels, &mut color, pool)
         })
     });
     let stats = t.value??;
@@ -676,6 +660,37 @@ pub fn run(
             stats,
         },
         ms: t.ms,
+    })
+}
+
+/// Runs `pass` over the whole image in bands of [`PYRAMID_BAND`] rows on
+/// `pool`, into `texels` and (with `lit`) `color`; the counts summed.
+///
+/// # Errors
+/// A refl-core error (buffers that do not match the pass's camera).
+pub(crate) fn run_bands(
+    pass: &MirrorPass<'_>,
+    lit: bool,
+    texels: &mut [MirrorTexel],
+    color: &mut [[f32; 3]],
+    pool: &rayon::ThreadPool,
+) -> Result<MirrorStats, refl_core::Error> {
+    let (w, h) = (pass.gbuffer().width(), pass.gbuffer().height());
+    let band = PYRAMID_BAND as usize * w as usize;
+    pool.install(|| {
+        texels
+            .par_chunks_mut(band)
+            .zip(color.par_chunks_mut(band))
+            .enumerate()
+            .map(|(k, (t, c))| {
+                let y0 = k as u32 * PYRAMID_BAND;
+                let rows = RowRange::try_new(y0, (y0 + PYRAMID_BAND).min(h), h)?;
+                let mut out = ImageViewMut::try_band(t, w, h, w, rows)?;
+                let mut col = ImageViewMut::try_band(c, w, h, w, rows)?;
+                pass.try_run(&mut out, lit.then_some(&mut col), &mut [])
+            })
+            .try_fold(MirrorStats::default, |a, b| Ok(add_stats(a, &b?)))
+            .try_reduce(MirrorStats::default, |a, b| Ok(add_stats(a, &b)))
     })
 }
 

@@ -145,6 +145,15 @@ fn quick_report_writes_summary_plot_and_images() {
     );
     assert_ne!(num(probe, "mean_abs_255"), num(unfiltered, "mean_abs_255"));
 
+    // Extrapolation of surfaces (seed 004 Sec. 4.6.2): the dilation
+    // answers pixels the pass left to the host, so it covers more than the
+    // pass alone, and on mirrors its fills cost error.
+    let pass = find("room", "hiz", "start=2;stop=0;prologue=4;max_iter=1024");
+    let dilated = find("room", "hiz", "extrapolate=radius4");
+    assert!(num(dilated, "coverage") > num(pass, "coverage") + 0.01);
+    assert!(num(dilated, "mean_abs_255") > num(pass, "mean_abs_255"));
+    assert!(num(dilated, "mean_abs_255") < 40.0);
+
     // Concave: no planar mirror and no glossy surface, so planar-mirror is
     // skipped and the reference needs no sample-count sweep.
     assert!(rows

@@ -484,6 +484,8 @@ impl Method for HiZ {
         }
         // Fewer rays (seed 004 Sec. 4.7.3-4.7.4): one ray per 2x2 block.
         out.extend(super::half::settings(sizes, ScreenMethod::HiZ(base)));
+        // Extrapolation of surfaces (seed 004 Sec. 4.6.2).
+        out.extend(super::extrapolate::settings(sizes, ScreenMethod::HiZ(base)));
         Ok(out)
     }
 }

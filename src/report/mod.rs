@@ -15,6 +15,7 @@
 pub mod accum;
 pub mod content;
 pub mod epipolar;
+pub mod extrapolate;
 pub mod glossy;
 pub mod half;
 pub mod methods;
