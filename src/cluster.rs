@@ -70,6 +70,33 @@ pub struct ClusterSettings {
     pub resolution_scale: f32,
     /// Rays per glossy pixel (seed: 8..49); mirror pixels trace one.
     pub glossy_rays: u32,
+    /// With `Some(sr)`, the rays per glossy pixel follow the glossiness
+    /// (seed 003 Sec. 3.5 item 3) instead of `glossy_rays`: one ray per
+    /// `sr` steradians of the lobe's cone ([`rays_for_lobe`]), 8 to 49.
+    pub steradians_per_ray: Option<f32>,
+}
+
+/// The fewest and most rays per glossy pixel of seed 003 Sec. 3.5 item 3
+/// ("the number of rays per glossy pixel ranges from 8 to 49").
+pub const GLOSSY_RAYS_RANGE: (u32, u32) = (8, 49);
+
+/// Rays for a glossy pixel whose lobe's cone has half-angle `max_angle`
+/// (radians; the lobe's [`LOBE_ENERGY`] angle) at one ray per
+/// `steradians_per_ray`: `ceil(Omega / steradians_per_ray)` for the cone's
+/// solid angle `Omega = 2 pi (1 - cos max_angle)`, clamped to
+/// [`GLOSSY_RAYS_RANGE`] (seed 003 Sec. 3.5 item 3: "For surfaces close to
+/// specular, the angle is small, and therefore the number of rays is
+/// small. For a more matte surface the angle is larger requiring
+/// additional rays"). The density is the setting the report sweeps: the
+/// seed gives only the range.
+pub fn rays_for_lobe(max_angle: f32, steradians_per_ray: f32) -> u32 {
+    let omega = 2.0 * std::f64::consts::PI * (1.0 - f64::from(max_angle).cos());
+    let n = (omega / f64::from(steradians_per_ray)).ceil();
+    let (lo, hi) = GLOSSY_RAYS_RANGE;
+    if n.is_nan() {
+        return lo;
+    }
+    n.clamp(f64::from(lo), f64::from(hi)) as u32
 }
 
 impl Default for ClusterSettings {
@@ -79,6 +106,7 @@ impl Default for ClusterSettings {
             gain: 64.0,
             resolution_scale: 1.0,
             glossy_rays: 8,
+            steradians_per_ray: None,
         }
     }
 }
@@ -86,10 +114,16 @@ impl Default for ClusterSettings {
 impl ClusterSettings {
     /// The report's setting label.
     pub fn label(&self) -> String {
-        format!(
-            "gain={};res={};glossy_rays={}",
-            self.gain, self.resolution_scale, self.glossy_rays
-        )
+        match self.steradians_per_ray {
+            None => format!(
+                "gain={};res={};glossy_rays={}",
+                self.gain, self.resolution_scale, self.glossy_rays
+            ),
+            Some(sr) => format!(
+                "gain={};res={};glossy_rays=auto;sr_per_ray={sr}",
+                self.gain, self.resolution_scale
+            ),
+        }
     }
 }
 
@@ -229,10 +263,14 @@ impl ClusterFrame {
 fn lobe_of(m: &crate::scene::Material, settings: &ClusterSettings) -> Result<Lobe, Error> {
     if m.specular > 0.0 && m.roughness > 0.0 && settings.glossy_rays > 1 {
         let exponent = phong_exponent(m.roughness);
+        let max_angle = cluster::try_lobe_angle(exponent, LOBE_ENERGY)?;
         Ok(Lobe {
-            rays: settings.glossy_rays,
+            rays: match settings.steradians_per_ray {
+                Some(sr) => rays_for_lobe(max_angle, sr),
+                None => settings.glossy_rays,
+            },
             exponent,
-            max_angle: cluster::try_lobe_angle(exponent, LOBE_ENERGY)?,
+            max_angle,
         })
     } else {
         Ok(Lobe::MIRROR)

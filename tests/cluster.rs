@@ -182,3 +182,38 @@ fn chunk_culling_changes_no_pixel() {
     }
     assert!(compared >= 2, "{compared}");
 }
+
+/// Seed 003 Sec. 3.5 item 3: rays per glossy pixel from the lobe's cone
+/// at one ray per `sr` steradians, 8 to 49 (closed form: a cone of
+/// half-angle 60 degrees spans pi steradians).
+#[test]
+fn glossy_rays_follow_the_lobe_angle() {
+    use refl_app::cluster::{rays_for_lobe, GLOSSY_RAYS_RANGE};
+    let sixty = std::f32::consts::FRAC_PI_3;
+    assert_eq!(rays_for_lobe(sixty, std::f32::consts::PI / 19.5), 20); // ceil(19.5)
+    assert_eq!(rays_for_lobe(sixty, 0.1), 32); // ceil(31.4)
+    assert_eq!(rays_for_lobe(sixty, 0.01), GLOSSY_RAYS_RANGE.1);
+    assert_eq!(rays_for_lobe(0.01, 0.05), GLOSSY_RAYS_RANGE.0);
+    assert_eq!(rays_for_lobe(f32::NAN, 0.05), GLOSSY_RAYS_RANGE.0);
+    // Wider lobes never get fewer rays.
+    let mut last = 0;
+    for k in 1..=90 {
+        let n = rays_for_lobe((k as f32).to_radians(), 0.02);
+        assert!(n >= last, "{k} degrees");
+        last = n;
+    }
+    // The room's glossy pixels render with rays that follow the lobe.
+    let pool = pool();
+    let scene = Scene::room(20_000);
+    let tracer = Tracer::new(&scene);
+    let shader = Shader::new(&scene, &tracer);
+    let cam = scene.camera(0, 160, 120).unwrap();
+    let g = GBuffer::render(&scene, &tracer, &cam, &pool);
+    let s = ClusterSettings {
+        steradians_per_ray: Some(0.02),
+        ..ClusterSettings::default()
+    };
+    assert_eq!(s.label(), "gain=64;res=1;glossy_rays=auto;sr_per_ray=0.02");
+    let f = run(&shader, &g, &s, &pool, false).unwrap();
+    assert_eq!(f.image.handled, g.reflective_mask());
+}

@@ -621,7 +621,9 @@ impl Method for Cluster {
     }
 
     /// The cluster-count knob (bin gain, the error-vs-time points of seed
-    /// 003 Table 3); `--long` adds the depth-image resolution (Table 5) and
+    /// 003 Table 3); on scenes with glossy pixels the default and long runs
+    /// add rays that follow the glossiness (Sec. 3.5 item 3) at two
+    /// densities; `--long` adds the depth-image resolution (Table 5) and
     /// 49 glossy rays (Sec. 3.5's upper end).
     fn settings(&self, sizes: &Sizes, content: &Content) -> Result<Vec<Box<dyn Setting>>, String> {
         use crate::cluster::ClusterSettings;
@@ -634,6 +636,14 @@ impl Method for Cluster {
                 .into_iter()
                 .map(|gain| ClusterSettings { gain, ..base })
                 .collect();
+            if content.glossy_pixels > 0 {
+                for sr in [0.004, 0.001] {
+                    v.push(ClusterSettings {
+                        steradians_per_ray: Some(sr),
+                        ..base
+                    });
+                }
+            }
             if sizes.level != Level::Long {
                 return Ok(boxed_cluster(v));
             }
