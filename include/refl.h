@@ -1369,6 +1369,13 @@ typedef struct refl_cluster_camera_options {
      * Upper bound of f (Eq. 1), >= 1; also f when d_F <= d_n.
      */
     float max_f;
+    /**
+     * The cluster pass brings a glossy cluster's far plane to
+     * min(D, r / tan(lobe max_angle)): where the lobe's cone has spread
+     * over a disc of radius r (world units, Sec. 3.5 item 2); > 0,
+     * +infinity (the default) keeps D.
+     */
+    float glossy_blur_radius;
 } refl_cluster_camera_options;
 #endif
 
@@ -3978,8 +3985,9 @@ typedef struct refl_cluster_pass_options {
      */
     bool refine;
     /**
-     * Glossy fade: a hit's weight falls from 1 on the image plane to 0 at
-     * the far plane. Default false.
+     * Glossy fade (seed 003 Sec. 3.5 item 2): in clusters whose lobe
+     * samples several rays, a hit's weight falls from 1 on the image plane
+     * to 0 at the far plane; mirror clusters never fade. Default false.
      */
     bool fade;
     /**

@@ -74,6 +74,12 @@ pub struct ClusterSettings {
     /// (seed 003 Sec. 3.5 item 3) instead of `glossy_rays`: one ray per
     /// `sr` steradians of the lobe's cone ([`rays_for_lobe`]), 8 to 49.
     pub steradians_per_ray: Option<f32>,
+    /// With `Some(k)`, glossy clusters bring their far plane in (seed 003
+    /// Sec. 3.5 item 2): to where the lobe's cone spreads over a disc of
+    /// radius `k` times the scene diameter
+    /// ([`ClusterCameraOptions::glossy_blur_radius`]), and their hits fade
+    /// to the surface's own color at that far plane (the pass's `fade`).
+    pub glossy_far: Option<f32>,
 }
 
 /// The fewest and most rays per glossy pixel of seed 003 Sec. 3.5 item 3
@@ -107,6 +113,7 @@ impl Default for ClusterSettings {
             resolution_scale: 1.0,
             glossy_rays: 8,
             steradians_per_ray: None,
+            glossy_far: None,
         }
     }
 }
@@ -114,7 +121,11 @@ impl Default for ClusterSettings {
 impl ClusterSettings {
     /// The report's setting label.
     pub fn label(&self) -> String {
-        match self.steradians_per_ray {
+        let far = match self.glossy_far {
+            Some(k) => format!(";glossy_far={k};fade"),
+            None => String::new(),
+        };
+        let rays = match self.steradians_per_ray {
             None => format!(
                 "gain={};res={};glossy_rays={}",
                 self.gain, self.resolution_scale, self.glossy_rays
@@ -123,7 +134,8 @@ impl ClusterSettings {
                 "gain={};res={};glossy_rays=auto;sr_per_ray={sr}",
                 self.gain, self.resolution_scale
             ),
-        }
+        };
+        rays + &far
     }
 }
 
@@ -178,6 +190,14 @@ impl StageMs {
 pub struct ClusterFrame {
     /// The reflection of every reflective pixel.
     pub image: ReflectionImage,
+    /// Per pixel, the weight of the reflection left to the surface's own
+    /// (lit) color: with the glossy fade (seed 003 Sec. 3.5 item 2, "the
+    /// glossy reflection is blended with the diffuse color of the surface
+    /// with a weight that decreases to 0 as the distance to the reflected
+    /// surface becomes the distance to the far plane"), `1 - hit_weight -
+    /// env_weight`; 0 without fade. [`ClusterFrame::blend_remainder`]
+    /// adds it.
+    pub remainder: Vec<f32>,
     /// Cluster id per pixel ([`NO_CLUSTER`] for non-reflective pixels).
     pub cluster_of: Vec<u32>,
     /// Pixels that used the environment (a missed ray, or a cluster
@@ -207,6 +227,16 @@ pub struct ClusterFrame {
 }
 
 impl ClusterFrame {
+    /// Adds to each reflection its [`ClusterFrame::remainder`] of the
+    /// surface's lit color `lit` (one per pixel).
+    pub fn blend_remainder(&mut self, lit: &[Vec3]) {
+        for (i, &r) in self.remainder.iter().enumerate() {
+            if r > 0.0 && self.image.handled[i] {
+                self.image.rgb[i] += lit[i] * r;
+            }
+        }
+    }
+
     /// Reflective pixels.
     pub fn reflective(&self) -> usize {
         self.image.handled_count()
@@ -288,8 +318,10 @@ pub fn pass_options(settings: &ClusterSettings, diameter: f32) -> ClusterPassOpt
         camera: ClusterCameraOptions {
             far_distance: diameter,
             resolution_scale: settings.resolution_scale,
+            glossy_blur_radius: settings.glossy_far.map_or(f32::INFINITY, |k| k * diameter),
             ..ClusterCameraOptions::default()
         },
+        fade: settings.glossy_far.is_some(),
         thickness: crate::screen::THICKNESS_OF_DIAMETER,
         ..ClusterPassOptions::default()
     }
@@ -377,6 +409,7 @@ pub fn run(
     // 3 + 4, one cluster at a time, buffers reused.
     let mut image = ReflectionImage::empty(w, h);
     let mut fallback = vec![false; n];
+    let mut remainder = vec![0.0f32; n];
     let mut disoccluded = diagnose.then(|| vec![false; n]);
     let mut reference_hit = diagnose.then(|| vec![false; n]);
     let mut vis = VisBuffer {
@@ -396,7 +429,14 @@ pub fn run(
     stages.depth_images += tb.elapsed().as_secs_f64() * 1e3;
     // The finalized texels: reflection color, environment for the missed
     // share (module docs, step 4).
-    let put = |texels: Vec<Texels>, image: &mut ReflectionImage, fallback: &mut [bool]| {
+    let fade = options.fade;
+    // With fade, the share neither hit nor missed is the surface's own
+    // color's (`ClusterShade`: `1 - hit_weight - env_weight`), added by
+    // the caller, which has the lit image ([`ClusterFrame::remainder`]).
+    let put = |texels: Vec<Texels>,
+               image: &mut ReflectionImage,
+               fallback: &mut [bool],
+               remainder: &mut [f32]| {
         for (x, y, t) in texels.into_iter().flat_map(|t| t.0) {
             let i = (y * w + x) as usize;
             let s = &t.shade;
@@ -407,6 +447,9 @@ pub fn run(
             }
             image.rgb[i] = rgb;
             image.handled[i] = true;
+            if fade {
+                remainder[i] = (1.0 - s.hit_weight - s.env_weight).max(0.0);
+            }
         }
     };
     let bands_of = |rows: RowRange| -> Vec<RowRange> {
@@ -422,7 +465,7 @@ pub fn run(
             // No camera: the environment in the mirror direction.
             let mut sink = Texels::default();
             pass.try_finalize_rows(e, &order, None, e.rows, &mut sink)?;
-            put(vec![sink], &mut image, &mut fallback);
+            put(vec![sink], &mut image, &mut fallback, &mut remainder);
             stages.intersection += t2.elapsed().as_secs_f64() * 1e3;
             if let Some(r) = reference_hit.as_mut() {
                 for &p in px {
@@ -489,7 +532,7 @@ pub fn run(
                 })
                 .collect::<Result<Vec<_>, _>>()
         })?;
-        put(done, &mut image, &mut fallback);
+        put(done, &mut image, &mut fallback, &mut remainder);
         stages.intersection += t3.elapsed().as_secs_f64() * 1e3;
 
         if let (Some(dis), Some(r)) = (disoccluded.as_mut(), reference_hit.as_mut()) {
@@ -508,6 +551,7 @@ pub fn run(
     }
     Ok(ClusterFrame {
         image,
+        remainder,
         cluster_of: ids,
         fallback,
         clusters: plan.clusters as usize,

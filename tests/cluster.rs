@@ -217,3 +217,52 @@ fn glossy_rays_follow_the_lobe_angle() {
     let f = run(&shader, &g, &s, &pool, false).unwrap();
     assert_eq!(f.image.handled, g.reflective_mask());
 }
+
+/// Seed 003 Sec. 3.5 item 2 in the renderer: with a glossy far plane and
+/// its fade, only glossy pixels leave a share (in `[0, 1]`) to the
+/// surface's own color, some of them a positive one; mirror pixels and
+/// runs without it leave none, and the mirror pixels' reflections do not
+/// change.
+#[test]
+fn glossy_far_plane_fades_only_glossy_pixels() {
+    let pool = pool();
+    let scene = Scene::room(20_000);
+    let tracer = Tracer::new(&scene);
+    let shader = Shader::new(&scene, &tracer);
+    let cam = scene.camera(0, 160, 120).unwrap();
+    let g = GBuffer::render(&scene, &tracer, &cam, &pool);
+    let plain = run(&shader, &g, &ClusterSettings::default(), &pool, false).unwrap();
+    assert!(plain.remainder.iter().all(|&r| r == 0.0));
+    let s = ClusterSettings {
+        glossy_far: Some(0.003),
+        ..ClusterSettings::default()
+    };
+    assert_eq!(
+        s.label(),
+        "gain=64;res=1;glossy_rays=8;glossy_far=0.003;fade"
+    );
+    let f = run(&shader, &g, &s, &pool, false).unwrap();
+    let glossy = |i: usize| g.roughness[i] > 0.0;
+    let mut faded = 0;
+    for i in 0..g.len() {
+        let r = f.remainder[i];
+        assert!((0.0..=1.0).contains(&r), "{i}: {r}");
+        if glossy(i) {
+            faded += usize::from(r > 0.0);
+        } else {
+            assert_eq!(r, 0.0, "{i}");
+            assert_eq!(f.image.rgb[i], plain.image.rgb[i], "{i}");
+        }
+    }
+    assert!(faded > 10, "{faded}");
+    // The blend adds the remainder of the lit color.
+    let lit = vec![glam::Vec3::ONE; g.len()];
+    let mut b = f.clone();
+    b.blend_remainder(&lit);
+    for i in 0..g.len() {
+        if f.image.handled[i] {
+            let want = f.image.rgb[i] + lit[i] * f.remainder[i];
+            assert!((b.image.rgb[i] - want).length() < 1e-6);
+        }
+    }
+}

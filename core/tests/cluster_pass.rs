@@ -363,6 +363,68 @@ fn plan_equals_the_kernels_bit_for_bit() {
     }
 }
 
+/// Seed 003 Sec. 3.5 item 2: with a glossy blur radius `r`, each glossy
+/// cluster's camera has its far plane at `min(D, r / tan(max_angle))`
+/// (f64 closed form) and is otherwise the kernel's camera for those
+/// options, bit for bit; mirror clusters keep `D`; `r = +inf` (the
+/// default) changes nothing; `r <= 0` or NaN is refused.
+#[test]
+fn glossy_clusters_bring_their_far_plane_in() {
+    let f = frame(DepthConvention::ReversedZ, true);
+    let g = f.gbuffer();
+    let lobes = vec![Lobe::MIRROR, glossy()];
+    let objects = f.objects(&lobes);
+    let (_, _, before) = plan(&ClusterPass::try_new(g, options()).unwrap(), &objects);
+    let d = derive(&g, &f.ids, lobes.len());
+    let input = d.input();
+    let eye = g.camera().eye();
+    for r in [0.5f32, 3.0, 1e6, f32::INFINITY] {
+        let mut o = options();
+        o.camera.glossy_blur_radius = r;
+        let pass = ClusterPass::try_new(g, o).unwrap();
+        let (p, _, entries) = plan(&pass, &objects);
+        let (mut glossy_cams, mut nearer) = (0, 0);
+        for (e, b) in entries.iter().zip(&before) {
+            let px = &p.order[e.first as usize..(e.first + e.len) as usize];
+            let mut co = o.camera;
+            let want = if e.lobe.rays > 1 {
+                co.cone_half_angle = co.cone_half_angle.max(e.lobe.max_angle);
+                (f64::from(r) / f64::from(e.lobe.max_angle).tan()).min(20.0)
+            } else {
+                20.0
+            };
+            let Some(cc) = e.camera() else {
+                continue;
+            };
+            let rel = (f64::from(cc.far_distance) - want).abs() / want;
+            assert!(rel < 1e-6, "r {r}: far {} vs {want}", cc.far_distance);
+            co.far_distance = cc.far_distance;
+            assert_eq!(e.view, try_cluster_camera(&input, px, eye, &co).unwrap());
+            if e.lobe.rays > 1 {
+                glossy_cams += 1;
+                nearer += usize::from(cc.far_distance < 20.0);
+            }
+            if r >= 1e6 {
+                assert_eq!(e, b, "r {r}: the plan changed");
+            }
+        }
+        assert!(glossy_cams > 0, "r {r}");
+        assert_eq!(
+            nearer > 0,
+            r < 10.0,
+            "r {r}: {nearer} of {glossy_cams} nearer"
+        );
+    }
+    for bad in [0.0, -1.0, f32::NAN] {
+        let mut o = options();
+        o.camera.glossy_blur_radius = bad;
+        assert!(
+            matches!(ClusterPass::try_new(g, o), Err(Error::InvalidArgument)),
+            "{bad}"
+        );
+    }
+}
+
 /// The host's render of an entry: the scene through its camera, only what
 /// lies strictly in front of its clip plane, a planar cluster without its
 /// own object.
@@ -526,12 +588,13 @@ fn finalize_equals_the_kernel_bit_for_bit_over_any_bands() {
                 thickness: if back {
                     Thickness::BackFaces(bv)
                 } else {
-                    Thickness::Constant(o.thickness * cc.far_distance)
+                    Thickness::Constant(o.thickness * o.camera.far_distance)
                 },
                 step: o.step,
                 refine: o.refine,
                 lobe: e.lobe,
-                fade: o.fade,
+                // Glossy clusters only (seed 003 Sec. 3.5 item 2).
+                fade: o.fade && e.lobe.rays > 1,
                 seed: o.seed,
             };
             let mut want = vec![ClusterShade::default(); px.len()];

@@ -51,8 +51,9 @@ pub struct refl_cluster_pass_options {
     pub step: refl_step_options,
     /// Refine hits to sub-texel accuracy. Default true.
     pub refine: bool,
-    /// Glossy fade: a hit's weight falls from 1 on the image plane to 0 at
-    /// the far plane. Default false.
+    /// Glossy fade (seed 003 Sec. 3.5 item 2): in clusters whose lobe
+    /// samples several rays, a hit's weight falls from 1 on the image plane
+    /// to 0 at the far plane; mirror clusters never fade. Default false.
     pub fade: bool,
     /// Rotates each pixel's lobe samples. Default 0.
     pub seed: u32,

@@ -423,6 +423,11 @@ pub struct refl_cluster_camera_options {
     pub min_pixels: u32,
     /// Upper bound of f (Eq. 1), >= 1; also f when d_F <= d_n.
     pub max_f: f32,
+    /// The cluster pass brings a glossy cluster's far plane to
+    /// min(D, r / tan(lobe max_angle)): where the lobe's cone has spread
+    /// over a disc of radius r (world units, Sec. 3.5 item 2); > 0,
+    /// +infinity (the default) keeps D.
+    pub glossy_blur_radius: f32,
 }
 
 #[cfg(feature = "cluster")]
@@ -435,6 +440,7 @@ impl From<refl_core::cluster::ClusterCameraOptions> for refl_cluster_camera_opti
             max_resolution: p.max_resolution,
             min_pixels: p.min_pixels,
             max_f: p.max_f,
+            glossy_blur_radius: p.glossy_blur_radius,
         }
     }
 }
@@ -449,6 +455,7 @@ impl From<refl_cluster_camera_options> for refl_core::cluster::ClusterCameraOpti
             max_resolution: p.max_resolution,
             min_pixels: p.min_pixels,
             max_f: p.max_f,
+            glossy_blur_radius: p.glossy_blur_radius,
         }
     }
 }

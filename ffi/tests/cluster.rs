@@ -320,6 +320,47 @@ fn cluster_cameras_equal_core() {
     assert!(cameras >= 3, "{cameras}");
 }
 
+/// The glossy far plane's radius (seed 003 Sec. 3.5 item 2) crosses the
+/// ABI: +inf by default (D kept), and a radius that is not > 0 is refused
+/// with the camera record untouched.
+#[test]
+fn glossy_blur_radius_defaults_to_infinity_and_is_checked() {
+    let d = refl_cluster_camera_options_default();
+    assert_eq!(d.glossy_blur_radius, f32::INFINITY);
+    assert_eq!(
+        ClusterCameraOptions::from(d),
+        ClusterCameraOptions::default()
+    );
+    let f = frame();
+    let p = pipeline(&f);
+    let c = (0..p.total as usize)
+        .find(|&c| p.offsets[c] < p.offsets[c + 1])
+        .unwrap();
+    let px = &p.order[p.offsets[c] as usize..p.offsets[c + 1] as usize];
+    for bad in [0.0, -2.0, f32::NAN] {
+        let k = refl_cluster_camera_options {
+            glossy_blur_radius: bad,
+            ..cam_params()
+        };
+        let mut out =
+            core::mem::MaybeUninit::<refl_cluster_camera>::new(unsafe { core::mem::zeroed() });
+        let st = unsafe {
+            refl_cluster_build_camera(
+                out.as_mut_ptr(),
+                vec3_img(&f.pos, W, H),
+                vec3_img(&f.nor, W, H),
+                px.as_ptr(),
+                px.len(),
+                f.eye.into(),
+                &k,
+            )
+        };
+        assert_eq!(st, refl_status::InvalidArgument, "{bad}");
+        let zero: refl_cluster_camera = unsafe { core::mem::zeroed() };
+        assert_eq!(unsafe { out.assume_init() }, zero);
+    }
+}
+
 /// [`for_each_cluster_camera`] on the clusters refl-core gives a camera.
 fn for_each_cluster_with_a_camera(
     f: &Frame,

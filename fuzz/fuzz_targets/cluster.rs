@@ -261,12 +261,13 @@ fuzz_target!(|data: &[u8]| {
     let mut cp = refl_cluster_camera_options_default();
     cp.max_resolution = 32;
     if b.chance(48) {
-        match b.u8() % 6 {
+        match b.u8() % 7 {
             0 => cp.far_distance = b.f32_any(),
             1 => cp.cone_half_angle = b.f32_in(-0.1, 1.6),
             2 => cp.resolution_scale = b.f32_any(),
             3 => cp.max_resolution = b.pick(&[0, 1, 8]),
             4 => cp.min_pixels = b.pick(&[0, 1, 2, 50]),
+            5 => cp.glossy_blur_radius = b.f32_any(),
             _ => cp.max_f = b.f32_in(0.0, 30.0),
         }
     }

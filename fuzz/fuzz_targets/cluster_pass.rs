@@ -107,7 +107,8 @@ fn options(b: &mut Bytes) -> refl_cluster_pass_options {
         }
     }
     if rare(b, 48) {
-        match b.u8() % 7 {
+        match b.u8() % 8 {
+            6 => o.camera.glossy_blur_radius = if b.bool() { b.f32_special() } else { b.f32_in(-1.0, 20.0) },
             0 => o.camera.cone_half_angle = b.f32_in(-0.1, 1.6),
             1 => o.camera.resolution_scale = b.f32_in(0.05, 4.0),
             2 => o.camera.max_resolution = b.pick(&[0, 1, 2, 2048, u32::MAX]),
@@ -161,6 +162,7 @@ fn options_in_range(o: &refl_cluster_pass_options) -> bool {
         && c.min_pixels >= 2
         && c.max_f.is_finite()
         && c.max_f >= 1.0
+        && c.glossy_blur_radius > 0.0
         && o.thickness >= 0.0
         && o.step.stride >= 1
         && o.t_min.is_finite()

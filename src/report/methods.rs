@@ -623,7 +623,8 @@ impl Method for Cluster {
     /// The cluster-count knob (bin gain, the error-vs-time points of seed
     /// 003 Table 3); on scenes with glossy pixels the default and long runs
     /// add rays that follow the glossiness (Sec. 3.5 item 3) at two
-    /// densities; `--long` adds the depth-image resolution (Table 5) and
+    /// densities and the glossy far plane with its fade (item 2) at two
+    /// blur radii; `--long` adds the depth-image resolution (Table 5) and
     /// 49 glossy rays (Sec. 3.5's upper end).
     fn settings(&self, sizes: &Sizes, content: &Content) -> Result<Vec<Box<dyn Setting>>, String> {
         use crate::cluster::ClusterSettings;
@@ -640,6 +641,12 @@ impl Method for Cluster {
                 for sr in [0.004, 0.001] {
                     v.push(ClusterSettings {
                         steradians_per_ray: Some(sr),
+                        ..base
+                    });
+                }
+                for k in [0.01, 0.003] {
+                    v.push(ClusterSettings {
+                        glossy_far: Some(k),
                         ..base
                     });
                 }
@@ -694,7 +701,10 @@ impl Setting for ClusterSetting {
             stage_runs.push(c.stages);
             first.get_or_insert(c);
         }
-        let c = first.ok_or("cluster: no run")?;
+        let mut c = first.ok_or("cluster: no run")?;
+        // The glossy fade's share of the surface's own color (the host's
+        // lit image, outside the method's time).
+        c.blend_remainder(f.direct);
         let stages = crate::cluster::StageMs::median_of(&stage_runs);
         let ms = median(stage_runs.iter().map(|s| s.total()).collect());
         if f.index == 0 {

@@ -16,6 +16,14 @@ pub struct ClusterCameraOptions {
     /// Half-angle (radians, `[0, pi/2)`) of the glossy cone: the image
     /// frame grows to hold it (Sec. 3.5 item 1). 0 for mirrors.
     pub cone_half_angle: f32,
+    /// The far plane of a glossy cluster comes nearer by glossiness (Sec.
+    /// 3.5 item 2: "For surfaces that are more matte, the far plane can be
+    /// closer to the near plane"): the cluster pass gives a cluster whose
+    /// lobe samples several rays `D_g = min(D, r / tan(max_angle))`, the
+    /// distance at which the lobe's cone has spread over a disc of this
+    /// radius `r` (world units; the seed gives no formula: the report
+    /// sweeps `r`). `> 0`; `+inf` (the default) keeps `D`.
+    pub glossy_blur_radius: f32,
     /// Multiplier of the resolution from the cluster's pixel spacing
     /// (Sec. 3.3 step 5; Table 5 sweeps 1/2, 1, 2).
     pub resolution_scale: f32,
@@ -32,12 +40,13 @@ pub struct ClusterCameraOptions {
 }
 
 impl Default for ClusterCameraOptions {
-    /// `D = 100`, mirror, resolution 1x, at most 2048 texels a side,
-    /// clusters of at least 4 pixels, `f <= 16`.
+    /// `D = 100`, mirror, no nearer glossy far plane, resolution 1x, at
+    /// most 2048 texels a side, clusters of at least 4 pixels, `f <= 16`.
     fn default() -> Self {
         Self {
             far_distance: 100.0,
             cone_half_angle: 0.0,
+            glossy_blur_radius: f32::INFINITY,
             resolution_scale: 1.0,
             max_resolution: 2048,
             min_pixels: 4,
@@ -50,6 +59,7 @@ impl ClusterCameraOptions {
     pub(super) fn validate(&self) -> Result<(), Error> {
         let ok = self.far_distance > 0.0
             && self.far_distance.is_finite()
+            && self.glossy_blur_radius > 0.0
             && self.cone_half_angle >= 0.0
             && self.cone_half_angle < 1.5
             && self.resolution_scale > 0.0

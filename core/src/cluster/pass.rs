@@ -121,11 +121,15 @@
 //! * Camera options: [`ClusterPassOptions::camera`], the cone half-angle
 //!   the larger of its own and, for a glossy lobe (`rays > 1`), the lobe's
 //!   [`Lobe::max_angle`] (the frame holds every lobe direction; seed 003
-//!   Sec. 3.5 item 1).
+//!   Sec. 3.5 item 1), and for a glossy lobe the far distance
+//!   `min(D, r / tan(max_angle))` with `r` the
+//!   [`ClusterCameraOptions::glossy_blur_radius`] (Sec. 3.5 item 2).
+//!   With [`ClusterPassOptions::fade`] a glossy hit then fades to 0 at that
+//!   nearer far plane, as the seed blends it.
 //! * A cluster whose camera is not representable gets
 //!   [`ClusterFallback::Degenerate`] instead of failing the frame.
 //! * Finalize input: thickness [`ClusterPassOptions::thickness`] times the
-//!   far distance `D`, or the render's back-face image; the pass's step,
+//!   pass's far distance `D` (not a glossy cluster's nearer one), or the render's back-face image; the pass's step,
 //!   refine, fade and seed options; the object's lobe.
 //!
 //! # Status of a finalized pixel
@@ -176,7 +180,9 @@ pub struct ClusterPassOptions {
     pub step: StepOptions,
     /// Refine hits to sub-texel accuracy.
     pub refine: bool,
-    /// Glossy fade (Sec. 3.5 item 2, [`FinalizeInput::fade`]).
+    /// Glossy fade (Sec. 3.5 item 2, [`FinalizeInput::fade`]) of the
+    /// clusters whose lobe samples several rays; mirror clusters never
+    /// fade.
     pub fade: bool,
     /// Rotates each pixel's lobe samples.
     pub seed: u32,
@@ -559,11 +565,21 @@ impl<'a> ClusterPass<'a> {
         }
     }
 
-    /// The camera options of a cluster of `lobe` (module docs).
+    /// The camera options of a cluster of `lobe` (module docs): a glossy
+    /// lobe widens the frame by its angle (seed 003 Sec. 3.5 item 1) and
+    /// brings the far plane to `min(D, r / tan(max_angle))`
+    /// ([`ClusterCameraOptions::glossy_blur_radius`], Sec. 3.5 item 2).
     fn camera_options(&self, lobe: &Lobe) -> ClusterCameraOptions {
         let mut c = self.options.camera;
         if lobe.rays > 1 {
             c.cone_half_angle = c.cone_half_angle.max(lobe.max_angle);
+            let tan = libm::tanf(lobe.max_angle);
+            let near = c.glossy_blur_radius / tan;
+            // `tan > 0` for a lobe angle in (0, pi/2); `near` is positive
+            // (or +inf); NaN never replaces `D`.
+            if tan > 0.0 && near < c.far_distance {
+                c.far_distance = near;
+            }
         }
         c
     }
@@ -719,24 +735,22 @@ impl<'a> ClusterPass<'a> {
         Ok(band)
     }
 
-    /// The kernel input of a cluster with camera `cc` and lobe `lobe`
-    /// rendered as `render` (module docs, "Per cluster").
-    fn finalize_input<'r>(
-        &self,
-        cc: &ClusterCamera,
-        lobe: Lobe,
-        render: &ClusterRender<'r>,
-    ) -> FinalizeInput<'r> {
+    /// The kernel input of a cluster of lobe `lobe` rendered as `render`
+    /// (module docs, "Per cluster").
+    fn finalize_input<'r>(&self, lobe: Lobe, render: &ClusterRender<'r>) -> FinalizeInput<'r> {
         let o = &self.options;
         FinalizeInput {
             thickness: match render.back_depth {
                 Some(b) => Thickness::BackFaces(b),
-                None => Thickness::Constant(o.thickness * cc.far_distance),
+                // A fraction of the pass's `D`, whatever the cluster's
+                // own far plane (a nearer glossy one included).
+                None => Thickness::Constant(o.thickness * o.camera.far_distance),
             },
             step: o.step,
             refine: o.refine,
             lobe,
-            fade: o.fade,
+            // The seed fades glossy reflections only (Sec. 3.5 item 2).
+            fade: o.fade && lobe.rays > 1,
             seed: o.seed,
         }
     }
@@ -779,7 +793,7 @@ impl<'a> ClusterPass<'a> {
                 if r.depth.camera() != &cc.camera {
                     return Err(Error::InvalidArgument);
                 }
-                let fin = self.finalize_input(cc, cluster.lobe, r);
+                let fin = self.finalize_input(cluster.lobe, r);
                 check_finalize(&surfaces, band, eye, cc, &r.depth, &r.color, &fin)?;
                 Some((cc, r, fin))
             }
