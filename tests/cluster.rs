@@ -259,9 +259,9 @@ fn glossy_far_plane_fades_only_glossy_pixels() {
     let lit = vec![glam::Vec3::ONE; g.len()];
     let mut b = f.clone();
     b.blend_remainder(&lit);
-    for i in 0..g.len() {
+    for (i, l) in lit.iter().enumerate() {
         if f.image.handled[i] {
-            let want = f.image.rgb[i] + lit[i] * f.remainder[i];
+            let want = f.image.rgb[i] + *l * f.remainder[i];
             assert!((b.image.rgb[i] - want).length() < 1e-6);
         }
     }
