@@ -21,15 +21,14 @@ struct ExtrapolateSetting {
     label: String,
 }
 
-/// The dilation settings at `sizes`: radius 4 (the default); the default
-/// and long runs also radius 2; long also radius 8 and every host ray
-/// filled (`holes=all`), not only the rays that left the image.
+/// The dilation settings at `sizes`: radius 4 (the default); long also
+/// radius 2 and 8 and every host ray filled (`holes=all`), not only the
+/// rays that left the image.
 pub fn settings(sizes: &Sizes, kernel: ScreenMethod) -> Vec<Box<dyn Setting>> {
     let base = ExtrapolateOptions::default();
     let mut v = vec![(base, "extrapolate=radius4".to_owned())];
     let radii: &[u32] = match sizes.level {
-        Level::Quick => &[],
-        Level::Default => &[2],
+        Level::Quick | Level::Default => &[],
         Level::Long => &[2, 8],
     };
     for &radius in radii {

@@ -622,9 +622,9 @@ impl Method for Cluster {
 
     /// The cluster-count knob (bin gain, the error-vs-time points of seed
     /// 003 Table 3); on scenes with glossy pixels the default and long runs
-    /// add rays that follow the glossiness (Sec. 3.5 item 3) at two
-    /// densities and the glossy far plane with its fade (item 2) at two
-    /// blur radii; `--long` adds the depth-image resolution (Table 5) and
+    /// add rays that follow the glossiness (Sec. 3.5 item 3) and the
+    /// glossy far plane with its fade (item 2), one setting each (`--long`:
+    /// two each); `--long` adds the depth-image resolution (Table 5) and
     /// 49 glossy rays (Sec. 3.5's upper end).
     fn settings(&self, sizes: &Sizes, content: &Content) -> Result<Vec<Box<dyn Setting>>, String> {
         use crate::cluster::ClusterSettings;
@@ -638,13 +638,19 @@ impl Method for Cluster {
                 .map(|gain| ClusterSettings { gain, ..base })
                 .collect();
             if content.glossy_pixels > 0 {
-                for sr in [0.004, 0.001] {
+                // The default run one point each, `--long` two.
+                let (sr, far): (&[f32], &[f32]) = if sizes.level == Level::Long {
+                    (&[0.004, 0.001], &[0.01, 0.003])
+                } else {
+                    (&[0.001], &[0.01])
+                };
+                for &sr in sr {
                     v.push(ClusterSettings {
                         steradians_per_ray: Some(sr),
                         ..base
                     });
                 }
-                for k in [0.01, 0.003] {
+                for &k in far {
                     v.push(ClusterSettings {
                         glossy_far: Some(k),
                         ..base
