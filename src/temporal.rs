@@ -37,6 +37,7 @@ use refl_core::hiz::HiZOptions;
 use refl_core::temporal::{
     History, HistoryTexel, TemporalOptions, TemporalPass, TemporalStats, TemporalStatus,
 };
+use refl_core::upsample::{Subsample, UpsampleOptions, UpsampleStatus};
 use refl_core::{Camera, DepthConvention, ImageView, ImageViewMut, MirrorStatus, RowRange};
 use std::path::Path;
 
@@ -54,6 +55,13 @@ pub struct Setting {
     /// distances, [`TemporalPass::try_with_distance`]) rather than the
     /// reflector's surface point (the seed's).
     pub distances: bool,
+    /// Temporal super-sampling (seed 004 Sec. 4.7.4, `refl_core::upsample`
+    /// module docs): each frame traces one pixel of every 2x2 block, the
+    /// sub-pixel stepping through the four-frame cycle with the frame
+    /// number, upsampled; only the traced pixels count as answered, so the
+    /// filter recovers the other three from the history and the upsampled
+    /// color stands in where the history is not valid. Needs `filter`.
+    pub tss: bool,
 }
 
 impl Setting {
@@ -72,6 +80,9 @@ impl Setting {
                 }
                 if !o.recover {
                     s.push_str(";recover=off");
+                }
+                if self.tss {
+                    s.push_str(";half=tss");
                 }
                 s
             }
@@ -282,13 +293,72 @@ impl PathFrame {
         })
     }
 
+    /// The inputs of temporal super-sampling at frame `frame`
+    /// ([`Setting::tss`]): the upsampled colors (the environment where the
+    /// pixel has no hit), the pixels traced this frame that answered, their
+    /// distances, the half pass's time and its rays.
+    #[allow(clippy::type_complexity)]
+    fn subsampled(
+        &self,
+        frame: u32,
+        pool: &rayon::ThreadPool,
+    ) -> Result<(Vec<[f32; 3]>, Vec<u8>, Vec<f32>, f64, u64), refl_core::Error> {
+        let setting = crate::upsample::FewerRays {
+            subsample: Subsample::uniform(frame),
+            options: UpsampleOptions::default(),
+        };
+        let method = ScreenMethod::HiZ(HiZOptions::default());
+        let run = crate::upsample::run(
+            method,
+            true,
+            &setting,
+            &self.depth.image()?,
+            &self.images,
+            pool,
+        )?;
+        let out = &run.value;
+        let n = self.g.len();
+        let g = &self.g;
+        let (mut current, mut answered, mut distance) =
+            (vec![[0.0f32; 3]; n], vec![0u8; n], vec![0.0f32; n]);
+        for i in (0..n).filter(|&i| g.is_reflective(i)) {
+            let t = &out.pass.texels[i];
+            // Traced this frame and answered (`UpsampleStatus::answers`;
+            // the default options re-trace nothing).
+            let traced = out.status[i] == UpsampleStatus::Copied as u8
+                && matches!(t.status, MirrorStatus::Hit | MirrorStatus::Sky);
+            current[i] = if t.status == MirrorStatus::Hit {
+                out.pass.color[i]
+            } else {
+                let view = -g.primary_ray(i).dir;
+                env_map(reflection_dir(view, g.normal[i], g.geo_normal[i])).to_array()
+            };
+            if traced {
+                answered[i] = 1;
+                distance[i] = if t.status == MirrorStatus::Hit {
+                    t.t
+                } else {
+                    f32::INFINITY
+                };
+            }
+        }
+        Ok((
+            current,
+            answered,
+            distance,
+            run.ms,
+            u64::from(out.pass.stats.traced),
+        ))
+    }
+
     /// The reflection colors of `setting` this frame, the mirror pixels it
-    /// answered or recovered, and its time; the setting's history moves on.
+    /// answered or recovered, its time and its rays; the setting's history
+    /// moves on.
     fn filtered(
         &self,
         st: &mut State,
         pool: &rayon::ThreadPool,
-    ) -> Result<(Vec<[f32; 3]>, usize, f64), refl_core::Error> {
+    ) -> Result<(Vec<[f32; 3]>, usize, f64, u64), refl_core::Error> {
         let Some(opts) = st.setting.filter else {
             let n = self
                 .handled
@@ -296,22 +366,37 @@ impl PathFrame {
                 .zip(&self.answered)
                 .filter(|(h, a)| **h && **a != 0)
                 .count();
-            return Ok((self.current.clone(), n, self.pass_ms));
+            return Ok((self.current.clone(), n, self.pass_ms, self.rays));
         };
         let (w, h) = (self.g.width(), self.g.height());
+        let sub = if st.setting.tss {
+            Some(self.subsampled(st.per_frame.len() as u32, pool)?)
+        } else {
+            None
+        };
+        let (current, answered, distance, pass_ms, rays) = match &sub {
+            Some((c, a, d, ms, rays)) => (c, a, d, *ms, *rays),
+            None => (
+                &self.current,
+                &self.answered,
+                &self.distance,
+                self.pass_ms,
+                self.rays,
+            ),
+        };
         let hist = match &st.history {
             Some((c, t)) => Some(History::try_new(*c, ImageView::try_new(t, w, h, w)?)?),
             None => None,
         };
         let mut pass = TemporalPass::try_new(
             self.images.gbuffer(self.depth.image()?)?,
-            ImageView::try_new(&self.current, w, h, w)?,
-            ImageView::try_new(&self.answered, w, h, w)?,
+            ImageView::try_new(current, w, h, w)?,
+            ImageView::try_new(answered, w, h, w)?,
             hist,
             opts,
         )?;
         if st.setting.distances {
-            pass = pass.try_with_distance(ImageView::try_new(&self.distance, w, h, w)?)?;
+            pass = pass.try_with_distance(ImageView::try_new(distance, w, h, w)?)?;
         }
         let filtered = timed(|| filter_frame(&pass, w, h, pool));
         let ((next, status), stats) = filtered.value?;
@@ -335,7 +420,7 @@ impl PathFrame {
         s.rejected += stats.rejected;
         let rgb = next.iter().map(|t| t.color).collect();
         st.history = Some((self.depth.camera, next));
-        Ok((rgb, n, self.pass_ms + filtered.ms))
+        Ok((rgb, n, pass_ms + filtered.ms, rays))
     }
 
     /// Runs `st`'s setting on this frame and adds the frame to its totals;
@@ -345,7 +430,7 @@ impl PathFrame {
         st: &mut State,
         pool: &rayon::ThreadPool,
     ) -> Result<Vec<Vec3>, refl_core::Error> {
-        let (rgb, answered, time) = self.filtered(st, pool)?;
+        let (rgb, answered, time, rays) = self.filtered(st, pool)?;
         let img = crate::render::ReflectionImage {
             width: self.g.width(),
             height: self.g.height(),
@@ -367,7 +452,7 @@ impl PathFrame {
         t.frames += 1;
         t.handled += self.n_handled;
         t.answered += answered;
-        t.rays += self.rays;
+        t.rays += rays;
         t.worst_frame = t.worst_frame.max(e.mean_abs);
         st.per_frame.push(e.mean_abs);
         Ok(fin)

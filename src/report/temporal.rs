@@ -20,11 +20,13 @@ pub fn report_settings(level: Level) -> Vec<Setting> {
     let on = |filter: TemporalOptions, distances: bool| Setting {
         filter: Some(filter),
         distances,
+        tss: false,
     };
     let mut v = vec![
         Setting {
             filter: None,
             distances: false,
+            tss: false,
         },
         // Recovery only: a mirror pass's answers are exact and the same
         // every frame, so blending them only blurs (bilinear history).
@@ -43,6 +45,18 @@ pub fn report_settings(level: Level) -> Vec<Setting> {
             v.push(on(TemporalOptions { max_frames, ..base }, true));
         }
     }
+    // Temporal super-sampling (Sec. 4.7.4): a quarter of the rays per
+    // frame, the history recovering the rest; the most recent trace kept.
+    v.push(Setting {
+        tss: true,
+        ..on(
+            TemporalOptions {
+                max_frames: 1.0,
+                ..base
+            },
+            true,
+        )
+    });
     if level != Level::Quick {
         v.push(on(
             TemporalOptions {
