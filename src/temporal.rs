@@ -212,6 +212,14 @@ fn filter_frame(
     Ok(((next, status), stats))
 }
 
+/// The filter's inputs of one frame: colors, answered flags, distances,
+/// the pass's time (ms) and its rays.
+type FrameInputs = (Vec<[f32; 3]>, Vec<u8>, Vec<f32>, f64, u64);
+
+/// A setting's frame: reflection colors, mirror pixels answered or
+/// recovered, time (ms) and rays.
+type Filtered = (Vec<[f32; 3]>, usize, f64, u64);
+
 /// One frame of the path: its G-buffer, the reference and the mirror
 /// pass's output as the filter takes it.
 struct PathFrame {
@@ -297,12 +305,11 @@ impl PathFrame {
     /// ([`Setting::tss`]): the upsampled colors (the environment where the
     /// pixel has no hit), the pixels traced this frame that answered, their
     /// distances, the half pass's time and its rays.
-    #[allow(clippy::type_complexity)]
     fn subsampled(
         &self,
         frame: u32,
         pool: &rayon::ThreadPool,
-    ) -> Result<(Vec<[f32; 3]>, Vec<u8>, Vec<f32>, f64, u64), refl_core::Error> {
+    ) -> Result<FrameInputs, refl_core::Error> {
         let setting = crate::upsample::FewerRays {
             subsample: Subsample::uniform(frame),
             options: UpsampleOptions::default(),
@@ -358,7 +365,7 @@ impl PathFrame {
         &self,
         st: &mut State,
         pool: &rayon::ThreadPool,
-    ) -> Result<(Vec<[f32; 3]>, usize, f64, u64), refl_core::Error> {
+    ) -> Result<Filtered, refl_core::Error> {
         let Some(opts) = st.setting.filter else {
             let n = self
                 .handled
