@@ -266,3 +266,59 @@ fn glossy_far_plane_fades_only_glossy_pixels() {
         }
     }
 }
+
+/// Seed 003 Table 4's counterpart (`--long`): the cluster method at half,
+/// the same and twice the output resolution: one row per size, every
+/// reflective pixel handled, more depth texels at larger sizes.
+#[test]
+fn output_resolution_study_rows() {
+    use refl_app::report::studies::SceneRun;
+    use refl_app::report::{Level, Sizes};
+    let pool = pool();
+    let scene = Scene::room(20_000);
+    let tracer = Tracer::new(&scene);
+    let shader = Shader::new(&scene, &tracer);
+    let sizes = Sizes {
+        width: 96,
+        height: 72,
+        truth_samples: 16,
+        runs: 1,
+        level: Level::Long,
+        ..Sizes::QUICK
+    };
+    let dir = std::env::temp_dir();
+    let s = SceneRun {
+        label: "room",
+        scene: &scene,
+        tracer: &tracer,
+        shader: &shader,
+        sizes: &sizes,
+        threads: 2,
+        pool: &pool,
+        images: &dir,
+    };
+    let (rows, notes) = refl_app::report::cluster_res::report_rows(&s).unwrap();
+    let settings: Vec<&str> = rows.iter().map(|r| r.setting.as_str()).collect();
+    assert_eq!(settings, ["output=48x36", "output=96x72", "output=192x144"]);
+    assert!(notes.contains("Table 4"), "{notes}");
+    let texels: Vec<f64> = rows
+        .iter()
+        .map(|r| {
+            let (_, v) = r
+                .extra
+                .iter()
+                .find(|(k, _)| k == "depth_texels_per_frame")
+                .unwrap();
+            v.parse().unwrap()
+        })
+        .collect();
+    assert!(texels[0] < texels[1] && texels[1] < texels[2], "{texels:?}");
+    for r in &rows {
+        assert_eq!(r.coverage, 1.0, "{}", r.setting);
+        assert!(
+            r.mean_abs_255.is_finite() && r.mean_abs_255 < 20.0,
+            "{}",
+            r.setting
+        );
+    }
+}

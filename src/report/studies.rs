@@ -83,7 +83,37 @@ pub fn all() -> Vec<Box<dyn Study>> {
         Box::new(TemporalPath),
         Box::new(GlossyStudy),
         Box::new(EpipolarPath),
+        Box::new(ClusterResolution),
     ]
+}
+
+/// Seed 003's Table 4: the cluster method at several output resolutions
+/// ([`super::cluster_res::report_rows`]), `--long` only.
+struct ClusterResolution;
+
+impl Study for ClusterResolution {
+    fn name(&self) -> &'static str {
+        "cluster output resolution"
+    }
+
+    fn methods(&self) -> &'static [&'static str] {
+        &["cluster"]
+    }
+
+    fn applies(&self, content: &Content) -> Result<(), String> {
+        if content.reflective_pixels == 0 {
+            Err("no reflective pixels in view".into())
+        } else {
+            Ok(())
+        }
+    }
+
+    fn run(&self, s: &SceneRun<'_>, _selected: &[&str]) -> Result<StudyOut, String> {
+        if s.sizes.level != super::Level::Long {
+            return Ok(StudyOut::default());
+        }
+        super::cluster_res::report_rows(s).map(StudyOut::of_rows)
+    }
 }
 
 /// Seed 004's temporal filtering of the Hi-Z mirror pass along a dense
