@@ -358,24 +358,11 @@ impl<'a> BouncePass<'a> {
         mut status: Option<&mut ImageViewMut<'_, u8>>,
     ) -> Result<BounceStats, Error> {
         let (w, h) = (self.gbuffer.width(), self.gbuffer.height());
-        if out.width() != w || out.height() != h {
-            return Err(Error::InvalidArgument);
-        }
-        if let Some(s) = status.as_deref() {
-            if s.width() != w || s.height() != h || s.owned_rows() != out.owned_rows() {
-                return Err(Error::InvalidArgument);
-            }
-        }
-        let Some(rows) = out.owned_rows() else {
+        let Some(rows) = crate::image::try_output_rows(out, status.as_deref(), w, h)? else {
             return Ok(BounceStats::default());
         };
         Ok(self.run_rows(rows, &mut |x, y, c, st| {
-            if let Some(p) = out.get_mut(x, y) {
-                *p = c;
-            }
-            if let Some(p) = status.as_deref_mut().and_then(|s| s.get_mut(x, y)) {
-                *p = st as u8;
-            }
+            crate::image::put_pixel(out, status.as_deref_mut(), x, y, c, st as u8);
         }))
     }
 

@@ -363,28 +363,12 @@ impl<'a> ExtrapolatePass<'a> {
         host: &mut [[u32; 2]],
     ) -> Result<ExtrapolateStats, Error> {
         let (w, h) = (self.gbuffer.width(), self.gbuffer.height());
-        let rows = color.owned_rows();
-        if color.width() != w
-            || color.height() != h
-            || status
-                .as_deref()
-                .is_some_and(|s| s.width() != w || s.height() != h || s.owned_rows() != rows)
-        {
-            return Err(Error::InvalidArgument);
-        }
-        let Some(rows) = rows else {
+        let Some(rows) = crate::image::try_output_rows(color, status.as_deref(), w, h)? else {
             return Ok(ExtrapolateStats::default());
         };
         Ok(self.run_rows(
             rows,
-            |x, y, c, s| {
-                if let Some(p) = color.get_mut(x, y) {
-                    *p = c;
-                }
-                if let Some(p) = status.as_deref_mut().and_then(|v| v.get_mut(x, y)) {
-                    *p = s as u8;
-                }
-            },
+            |x, y, c, s| crate::image::put_pixel(color, status.as_deref_mut(), x, y, c, s as u8),
             host,
         ))
     }

@@ -247,6 +247,51 @@ pub struct ImageViewMut<'a, T> {
     rows: Range<u32>,
 }
 
+/// The rows a pass's `try_run` writes: those `out` owns, after checking
+/// that `out` and the optional per-pixel `status` image are `width` x
+/// `height` and own the same band (`None` for an empty band).
+///
+/// # Errors
+/// [`Error::InvalidArgument`] otherwise.
+#[cfg(any(feature = "depth-image", feature = "hiz"))]
+pub(crate) fn try_output_rows<T: Copy>(
+    out: &ImageViewMut<'_, T>,
+    status: Option<&ImageViewMut<'_, u8>>,
+    width: u32,
+    height: u32,
+) -> Result<Option<RowRange>, Error> {
+    let rows = out.owned_rows();
+    let bad = out.width() != width
+        || out.height() != height
+        || status
+            .is_some_and(|s| s.width() != width || s.height() != height || s.owned_rows() != rows);
+    if bad {
+        Err(Error::InvalidArgument)
+    } else {
+        Ok(rows)
+    }
+}
+
+/// Writes pixel `(x, y)`'s `value` into `out` and its status byte into
+/// `status` when given (outside their rows: nothing).
+#[cfg(any(feature = "depth-image", feature = "hiz"))]
+#[inline]
+pub(crate) fn put_pixel<T: Copy>(
+    out: &mut ImageViewMut<'_, T>,
+    status: Option<&mut ImageViewMut<'_, u8>>,
+    x: u32,
+    y: u32,
+    value: T,
+    code: u8,
+) {
+    if let Some(p) = out.get_mut(x, y) {
+        *p = value;
+    }
+    if let Some(p) = status.and_then(|s| s.get_mut(x, y)) {
+        *p = code;
+    }
+}
+
 impl<'a, T: Copy> ImageViewMut<'a, T> {
     /// A mutable view of `width x height` texels with row stride `stride`.
     ///

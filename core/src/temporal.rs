@@ -772,24 +772,11 @@ impl<'a> TemporalPass<'a> {
         mut status: Option<&mut ImageViewMut<'_, u8>>,
     ) -> Result<TemporalStats, Error> {
         let (w, h) = (self.gbuffer.width(), self.gbuffer.height());
-        if next.width() != w || next.height() != h {
-            return Err(Error::InvalidArgument);
-        }
-        if let Some(s) = status.as_deref() {
-            if s.width() != w || s.height() != h || s.owned_rows() != next.owned_rows() {
-                return Err(Error::InvalidArgument);
-            }
-        }
-        let Some(rows) = next.owned_rows() else {
+        let Some(rows) = crate::image::try_output_rows(next, status.as_deref(), w, h)? else {
             return Ok(TemporalStats::default());
         };
         Ok(self.run_rows(rows, &mut |x, y, t, st| {
-            if let Some(p) = next.get_mut(x, y) {
-                *p = *t;
-            }
-            if let Some(p) = status.as_deref_mut().and_then(|s| s.get_mut(x, y)) {
-                *p = st as u8;
-            }
+            crate::image::put_pixel(next, status.as_deref_mut(), x, y, *t, st as u8);
         }))
     }
 
