@@ -233,6 +233,36 @@ impl<'a> Shader<'a> {
         }
     }
 
+    /// Radiance along the ray `origin + t dir`, `t >= tmin`, following
+    /// perfect mirrors for up to `bounces` reflections (at least 1): a hit
+    /// on a reflective surface of roughness 0, with bounces left, shows its
+    /// direct term and its own mirror reflection composited as every
+    /// renderer here composites (`direct (1 - specular) + reflection
+    /// specular`, [`crate::render::composite`]); any other hit its direct
+    /// term; a miss the environment. `bounces = 1` is
+    /// [`Shader::trace_reflection`] exactly: the reference of two facing
+    /// mirrors (seed 004 Sec. 4.6.4's multiple bounces) needs 2 or more.
+    pub fn trace_reflection_bounces(
+        &self,
+        origin: Vec3,
+        dir: Vec3,
+        tmin: f32,
+        bounces: u32,
+    ) -> Vec3 {
+        let Some(hit) = self.tracer.trace(origin, dir, tmin, f32::INFINITY) else {
+            return env_map(dir);
+        };
+        let s = Surface::at_hit(self.scene, origin, dir, &hit);
+        let direct = self.direct(&s);
+        let m = &self.scene.materials[s.material as usize];
+        if bounces <= 1 || !(m.specular > 0.0) || m.roughness != 0.0 {
+            return direct;
+        }
+        let next = reflection_dir(-dir, s.shading_normal, s.geo_normal);
+        let reflected = self.trace_reflection_bounces(s.position, next, tmin, bounces - 1);
+        direct * (1.0 - m.specular) + reflected * m.specular
+    }
+
     /// The ray-traced reference reflection at surface `s` seen along the
     /// unit direction `view` (surface toward the eye), for `roughness`:
     /// one mirror ray for roughness 0, otherwise the glossy estimate of the
