@@ -6,6 +6,7 @@
 //! artifacts do not collide with refl-ffi's `librefl`.
 #![doc = include_str!("../README.md")]
 
+pub mod bounce;
 pub mod cluster;
 pub mod cone;
 pub mod epipolar;

@@ -74,7 +74,7 @@ impl ReflectionImage {
 
     /// Fills the pixels selected by `select` (in parallel over rows on
     /// `pool`) with `f(i)` and marks them handled.
-    fn fill(
+    pub(crate) fn fill(
         &mut self,
         pool: &rayon::ThreadPool,
         select: impl Fn(usize) -> bool + Sync,
