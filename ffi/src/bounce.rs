@@ -254,6 +254,13 @@ pub unsafe extern "C" fn refl_bounce_source_rows(
             pcam.width(),
             pcam.height(),
         )?;
+        let c = prev.depth.convention;
+        crate::types::convention(c).map_err(|e| {
+            fail(
+                e,
+                format_args!("`previous.depth.convention` is {c}, not a refl_depth_convention"),
+            )
+        })?;
         // SAFETY: caller contract.
         let pdepth = unsafe { depth_image(&prev.depth) }.map_err(|e| {
             let d = &prev.depth.depth;
