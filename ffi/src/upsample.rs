@@ -384,6 +384,27 @@ fn options(o: &refl_upsample_options) -> Result<UpsampleOptions, Error> {
     Ok(u)
 }
 
+/// `InvalidArgument` naming `name` unless `(width, height)` is `half`, the
+/// half size of the G-buffer's `full`.
+fn half_size(
+    name: &str,
+    width: u32,
+    height: u32,
+    half: (u32, u32),
+    full: (u32, u32),
+) -> Result<(), Error> {
+    if (width, height) == half {
+        return Ok(());
+    }
+    Err(fail(
+        Error::InvalidArgument,
+        format_args!(
+            "`{name}` is {width}x{height}, not the half size {}x{} of the {}x{} G-buffer",
+            half.0, half.1, full.0, full.1
+        ),
+    ))
+}
+
 /// The outputs of `refl_upsample_resolve_rows`: texels and colors through
 /// the mirror pass's band, statuses and the re-trace list.
 struct Sink<'a, 'b> {
@@ -518,8 +539,7 @@ pub unsafe extern "C" fn refl_upsample_resolve_rows(
             let t = &half;
             image_error(e, "half", t.len, t.width, t.height, t.stride)
         })?;
-        same_size("half", texels.width(), texels.height(), hw, hh)
-            .map_err(|e| fail(e, format_args!("`half` is not the half size {hw}x{hh}")))?;
+        half_size("half", texels.width(), texels.height(), (hw, hh), (w, h))?;
         let colors = if half_color.data.is_null() {
             None
         } else {
@@ -528,7 +548,7 @@ pub unsafe extern "C" fn refl_upsample_resolve_rows(
                 let c = &half_color;
                 image_error(e, "half_color", c.len, c.width, c.height, c.stride)
             })?;
-            same_size("half_color", c.width(), c.height(), hw, hh)?;
+            half_size("half_color", c.width(), c.height(), (hw, hh), (w, h))?;
             Some(c)
         };
         if !color.data.is_null() && colors.is_none() {
