@@ -264,7 +264,14 @@ pub unsafe extern "C" fn refl_bounce_source_rows(
         // SAFETY: caller contract.
         let pdepth = unsafe { depth_image(&prev.depth) }.map_err(|e| {
             let d = &prev.depth.depth;
-            image_error(e, "previous.depth.depth", d.len, d.width, d.height, d.stride)
+            image_error(
+                e,
+                "previous.depth.depth",
+                d.len,
+                d.width,
+                d.height,
+                d.stride,
+            )
         })?;
         // SAFETY: caller contract.
         let pcolor = unsafe { prev.color.view() }.map_err(|e| {

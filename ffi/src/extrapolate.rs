@@ -167,7 +167,11 @@ fn options(o: &refl_extrapolate_options) -> Result<ExtrapolateOptions, Error> {
         )
     };
     if !(1..=MAX_EXTRAPOLATE_RADIUS).contains(&o.radius) {
-        return Err(bad("radius", &o.radius, "in [1, REFL_EXTRAPOLATE_MAX_RADIUS]"));
+        return Err(bad(
+            "radius",
+            &o.radius,
+            "in [1, REFL_EXTRAPOLATE_MAX_RADIUS]",
+        ));
     }
     for (field, v) in [
         ("spatial_sigma", o.spatial_sigma),

@@ -546,14 +546,16 @@ pub(crate) unsafe fn mirror_pass<'a>(
             // (contract), size fits isize (check_buffer).
             let data =
                 unsafe { core::slice::from_raw_parts(scratch.cast::<HiZTexel>(), scratch_len) };
-            Some(HiZ::try_new(data, *gb.camera(), gb.convention()).map_err(|e| {
-                fail(
-                    e,
-                    format_args!(
-                        "`scratch` is not the pyramid refl_ssr_prepare built for this G-buffer"
-                    ),
-                )
-            })?)
+            Some(
+                HiZ::try_new(data, *gb.camera(), gb.convention()).map_err(|e| {
+                    fail(
+                        e,
+                        format_args!(
+                            "`scratch` is not the pyramid refl_ssr_prepare built for this G-buffer"
+                        ),
+                    )
+                })?,
+            )
         }
     };
     MirrorPass::try_new(gb, opts, hiz)

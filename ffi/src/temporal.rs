@@ -274,7 +274,14 @@ fn options(o: &refl_temporal_options) -> Result<TemporalOptions, Error> {
 
 /// The last-error detail of an image descriptor `name` that its view
 /// refused (`e`; its NULL `data` is checked before, with the name).
-pub(crate) fn image_error(e: Error, name: &str, len: usize, width: u32, height: u32, stride: u32) -> Error {
+pub(crate) fn image_error(
+    e: Error,
+    name: &str,
+    len: usize,
+    width: u32,
+    height: u32,
+    stride: u32,
+) -> Error {
     match (e, try_required_len(width, height, stride)) {
         (Error::InsufficientSize, Ok(need)) => fail(
             e,

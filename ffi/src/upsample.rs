@@ -609,7 +609,10 @@ pub unsafe extern "C" fn refl_upsample_resolve_rows(
                 (w, h),
                 rows,
                 (scratch as usize, scratch_len.saturating_mul(8)),
-                (out_stats as usize, core::mem::size_of::<refl_upsample_stats>()),
+                (
+                    out_stats as usize,
+                    core::mem::size_of::<refl_upsample_stats>(),
+                ),
             )
         }?;
         named_disjoint(&other_outs, &extra)?;

@@ -125,8 +125,12 @@ fn all_rows() -> refl_row_range {
 
 fn rust_run(fr: &Frames, o: BounceOptions) -> (Vec<[f32; 3]>, Vec<u8>, BounceStats) {
     let p = &fr.prev;
-    let depth = DepthImage::try_new(ImageView::try_new(&p.depth, W, H, W).unwrap(), p.cam, p.conv)
-        .unwrap();
+    let depth = DepthImage::try_new(
+        ImageView::try_new(&p.depth, W, H, W).unwrap(),
+        p.cam,
+        p.conv,
+    )
+    .unwrap();
     let previous =
         PreviousFrame::try_new(depth, ImageView::try_new(&fr.last, W, H, W).unwrap()).unwrap();
     let pass = BouncePass::try_new(fr.cur.gbuffer(false), previous, o).unwrap();
@@ -207,8 +211,8 @@ fn c_pass_equals_the_rust_pass_bit_for_bit_without_allocating() {
             // nearly everything).
             let st = stats_of(&want.2);
             assert!(
-                o.depth_tolerance == 0.0 ||
-                    (st.reprojected > 4000
+                o.depth_tolerance == 0.0
+                    || (st.reprojected > 4000
                         && st.off_screen > 0
                         && st.no_surface > 0
                         && st.rejected > 0),
@@ -238,7 +242,10 @@ fn bands_equal_one_call_and_leave_other_rows_untouched() {
         },
     );
     let mut whole = fresh();
-    assert_eq!(c_call(&mut whole, &g, &p, &o, true, all_rows()).0, refl_status::Ok);
+    assert_eq!(
+        c_call(&mut whole, &g, &p, &o, true, all_rows()).0,
+        refl_status::Ok
+    );
     for k in [1, 17, H / 2, H - 1] {
         let mut r = fresh();
         let mut sum = refl_bounce_stats::default();
@@ -298,39 +305,79 @@ fn refusals_name_the_argument_and_write_nothing() {
     let bad = refl_status::InvalidArgument;
     // Options.
     for (o, says) in [
-        (refl_bounce_options { attenuation: f32::NAN, ..o0 }, "`options.attenuation`"),
-        (refl_bounce_options { attenuation: 1.5, ..o0 }, "`options.attenuation`"),
-        (refl_bounce_options { depth_tolerance: -1.0, ..o0 }, "`options.depth_tolerance`"),
         (
-            refl_bounce_options { depth_tolerance: f32::INFINITY, ..o0 },
+            refl_bounce_options {
+                attenuation: f32::NAN,
+                ..o0
+            },
+            "`options.attenuation`",
+        ),
+        (
+            refl_bounce_options {
+                attenuation: 1.5,
+                ..o0
+            },
+            "`options.attenuation`",
+        ),
+        (
+            refl_bounce_options {
+                depth_tolerance: -1.0,
+                ..o0
+            },
+            "`options.depth_tolerance`",
+        ),
+        (
+            refl_bounce_options {
+                depth_tolerance: f32::INFINITY,
+                ..o0
+            },
             "`options.depth_tolerance`",
         ),
     ] {
-        refused(name, bad, says, &before, || run(g0, p0, o, all_rows(), &none));
+        refused(name, bad, says, &before, || {
+            run(g0, p0, o, all_rows(), &none)
+        });
     }
     // Rows.
     for rows in [
         refl_row_range { begin: 3, end: 2 },
-        refl_row_range { begin: 0, end: H + 1 },
+        refl_row_range {
+            begin: 0,
+            end: H + 1,
+        },
     ] {
-        refused(name, bad, "`rows`", &before, || run(g0, p0, o0, rows, &none));
+        refused(name, bad, "`rows`", &before, || {
+            run(g0, p0, o0, rows, &none)
+        });
     }
     // The G-buffer without its lit color, NULL images.
     let mut g = g0;
     g.color.data = core::ptr::null();
-    refused(name, refl_status::NullPointer, "`gbuffer.color.data`", &before, || {
-        run(g, p0, o0, all_rows(), &none)
-    });
+    refused(
+        name,
+        refl_status::NullPointer,
+        "`gbuffer.color.data`",
+        &before,
+        || run(g, p0, o0, all_rows(), &none),
+    );
     let mut p = p0;
     p.color.data = core::ptr::null();
-    refused(name, refl_status::NullPointer, "`previous.color.data`", &before, || {
-        run(g0, p, o0, all_rows(), &none)
-    });
+    refused(
+        name,
+        refl_status::NullPointer,
+        "`previous.color.data`",
+        &before,
+        || run(g0, p, o0, all_rows(), &none),
+    );
     let mut p = p0;
     p.depth.depth.data = core::ptr::null();
-    refused(name, refl_status::NullPointer, "`previous.depth.depth.data`", &before, || {
-        run(g0, p, o0, all_rows(), &none)
-    });
+    refused(
+        name,
+        refl_status::NullPointer,
+        "`previous.depth.depth.data`",
+        &before,
+        || run(g0, p, o0, all_rows(), &none),
+    );
     // The previous color not of its camera's size, short, a bad camera.
     let mut p = p0;
     p.color.width = W - 1;
@@ -339,9 +386,13 @@ fn refusals_name_the_argument_and_write_nothing() {
     });
     let mut p = p0;
     p.color.len -= 1;
-    refused(name, refl_status::InsufficientSize, "`previous.color.len`", &before, || {
-        run(g0, p, o0, all_rows(), &none)
-    });
+    refused(
+        name,
+        refl_status::InsufficientSize,
+        "`previous.color.len`",
+        &before,
+        || run(g0, p, o0, all_rows(), &none),
+    );
     let mut p = p0;
     p.depth.camera.fov_y = f32::NAN;
     refused(name, bad, "`previous.depth.camera", &before, || {
@@ -349,7 +400,9 @@ fn refusals_name_the_argument_and_write_nothing() {
     });
     let mut p = p0;
     p.depth.convention = 7;
-    refused(name, bad, "convention", &before, || run(g0, p, o0, all_rows(), &none));
+    refused(name, bad, "convention", &before, || {
+        run(g0, p, o0, all_rows(), &none)
+    });
     // Outputs of another size, NULL, short, aliasing an input.
     refused(name, bad, "`out` is 95x64", &before, || {
         run(g0, p0, o0, all_rows(), &|o, _| o.width = W - 1)
@@ -357,12 +410,24 @@ fn refusals_name_the_argument_and_write_nothing() {
     refused(name, bad, "`status` is 96x63", &before, || {
         run(g0, p0, o0, all_rows(), &|_, s| s.height = H - 1)
     });
-    refused(name, refl_status::InsufficientSize, "`out.len`", &before, || {
-        run(g0, p0, o0, all_rows(), &|o, _| o.len -= 1)
-    });
-    refused(name, refl_status::NullPointer, "`out.data`", &before, || {
-        run(g0, p0, o0, all_rows(), &|o, _| o.data = core::ptr::null_mut())
-    });
+    refused(
+        name,
+        refl_status::InsufficientSize,
+        "`out.len`",
+        &before,
+        || run(g0, p0, o0, all_rows(), &|o, _| o.len -= 1),
+    );
+    refused(
+        name,
+        refl_status::NullPointer,
+        "`out.data`",
+        &before,
+        || {
+            run(g0, p0, o0, all_rows(), &|o, _| {
+                o.data = core::ptr::null_mut()
+            })
+        },
+    );
     let lit = fr.cur.color.as_ptr();
     // `out` over the G-buffer's lit color: refused before anything is
     // written (the lit color is then compared unchanged too).
@@ -372,9 +437,13 @@ fn refusals_name_the_argument_and_write_nothing() {
     });
     assert_eq!(bytes(&fr.cur.color), lit_before);
     let last = fr.last.as_ptr();
-    refused(name, bad, "`out` overlaps `previous.color`", &before, || {
-        run(g0, p0, o0, all_rows(), &|o, _| o.data = last as *mut _)
-    });
+    refused(
+        name,
+        bad,
+        "`out` overlaps `previous.color`",
+        &before,
+        || run(g0, p0, o0, all_rows(), &|o, _| o.data = last as *mut _),
+    );
     // NULL arguments.
     let mut r = fresh();
     // SAFETY: NULL pointers are refused.
@@ -393,4 +462,3 @@ fn refusals_name_the_argument_and_write_nothing() {
     assert!(message().contains("`previous` is NULL"), "{}", message());
     assert_eq!(r.stats, sentinel_stats());
 }
-

@@ -12,9 +12,27 @@ use std::collections::{BTreeMap, BTreeSet};
 /// with the pass modules of issue 13 and the temporal filter, bounces,
 /// extrapolation and upsampling of issue 18.
 const MODULES: [&str; 21] = [
-    "camera", "plane", "mirror", "image", "trace", "step", "hiz", "ssr", "cone", "layered",
-    "cluster", "tcrr", "epipolar", "glossy", "planar", "summary", "plan", "temporal", "bounce",
-    "extrapolate", "upsample",
+    "camera",
+    "plane",
+    "mirror",
+    "image",
+    "trace",
+    "step",
+    "hiz",
+    "ssr",
+    "cone",
+    "layered",
+    "cluster",
+    "tcrr",
+    "epipolar",
+    "glossy",
+    "planar",
+    "summary",
+    "plan",
+    "temporal",
+    "bounce",
+    "extrapolate",
+    "upsample",
 ];
 
 /// Library-level functions without a module.

@@ -168,8 +168,14 @@ fn the_defaults_and_statuses_are_refl_cores() {
     for (s, c) in [
         (ExtrapolateStatus::Kept, refl_extrapolate_status::Kept),
         (ExtrapolateStatus::Filled, refl_extrapolate_status::Filled),
-        (ExtrapolateStatus::Unfilled, refl_extrapolate_status::Unfilled),
-        (ExtrapolateStatus::TooSmooth, refl_extrapolate_status::TooSmooth),
+        (
+            ExtrapolateStatus::Unfilled,
+            refl_extrapolate_status::Unfilled,
+        ),
+        (
+            ExtrapolateStatus::TooSmooth,
+            refl_extrapolate_status::TooSmooth,
+        ),
     ] {
         assert_eq!(refl_extrapolate_status::from(s), c);
         assert_eq!(s as u32, c as u32);
@@ -260,7 +266,10 @@ fn bands_equal_one_call_and_leave_other_rows_untouched() {
         ..refl_extrapolate_options_default()
     };
     let mut whole = fresh(N);
-    assert_eq!(c_call(&mut whole, &inp, &o, true, all_rows()).0, refl_status::Ok);
+    assert_eq!(
+        c_call(&mut whole, &inp, &o, true, all_rows()).0,
+        refl_status::Ok
+    );
     let wn = whole.stats.host_written as usize;
     for k in [1, 17, H / 2, H - 1] {
         let mut c = fresh(N);
@@ -272,13 +281,10 @@ fn bands_equal_one_call_and_leave_other_rows_untouched() {
         ] {
             assert_eq!(c_call(&mut c, &inp, &o, true, band).0, refl_status::Ok);
             let s = c.stats;
-            for (a, v) in sum.iter_mut().zip([
-                s.holes,
-                s.filled,
-                s.unfilled,
-                s.too_smooth,
-                s.host_written,
-            ]) {
+            for (a, v) in
+                sum.iter_mut()
+                    .zip([s.holes, s.filled, s.unfilled, s.too_smooth, s.host_written])
+            {
                 *a += v;
             }
             list.extend_from_slice(&c.host[..s.host_written as usize]);
@@ -336,26 +342,47 @@ fn refusals_name_the_argument_and_write_nothing() {
     };
     let none: Edit<'_> = &|_, _, _, _, _| {};
     for (o, says) in [
-        (refl_extrapolate_options { radius: 0, ..o0 }, "`options.radius`"),
-        (refl_extrapolate_options { radius: 17, ..o0 }, "`options.radius`"),
         (
-            refl_extrapolate_options { spatial_sigma: 0.0, ..o0 },
+            refl_extrapolate_options { radius: 0, ..o0 },
+            "`options.radius`",
+        ),
+        (
+            refl_extrapolate_options { radius: 17, ..o0 },
+            "`options.radius`",
+        ),
+        (
+            refl_extrapolate_options {
+                spatial_sigma: 0.0,
+                ..o0
+            },
             "`options.spatial_sigma`",
         ),
         (
-            refl_extrapolate_options { depth_threshold: f32::NAN, ..o0 },
+            refl_extrapolate_options {
+                depth_threshold: f32::NAN,
+                ..o0
+            },
             "`options.depth_threshold`",
         ),
         (
-            refl_extrapolate_options { depth_sigma: -1.0, ..o0 },
+            refl_extrapolate_options {
+                depth_sigma: -1.0,
+                ..o0
+            },
             "`options.depth_sigma`",
         ),
         (
-            refl_extrapolate_options { normal_power: f32::INFINITY, ..o0 },
+            refl_extrapolate_options {
+                normal_power: f32::INFINITY,
+                ..o0
+            },
             "`options.normal_power`",
         ),
         (
-            refl_extrapolate_options { min_roughness: f32::NAN, ..o0 },
+            refl_extrapolate_options {
+                min_roughness: f32::NAN,
+                ..o0
+            },
             "`options.min_roughness`",
         ),
     ] {
@@ -363,7 +390,10 @@ fn refusals_name_the_argument_and_write_nothing() {
     }
     for rows in [
         refl_row_range { begin: 5, end: 4 },
-        refl_row_range { begin: 0, end: H + 1 },
+        refl_row_range {
+            begin: 0,
+            end: H + 1,
+        },
     ] {
         refused(name, bad, "`rows`", &before, || run(o0, rows, none));
     }
@@ -371,32 +401,52 @@ fn refusals_name_the_argument_and_write_nothing() {
     let mut texels = inp.texels.clone();
     texels[N - 1].status = 10;
     let tp = texels.as_ptr();
-    refused(name, bad, "`texels` texel 6143 has status 10", &before, || {
-        run(o0, all_rows(), &|_, _, t, _, _| t.data = tp)
-    });
+    refused(
+        name,
+        bad,
+        "`texels` texel 6143 has status 10",
+        &before,
+        || run(o0, all_rows(), &|_, _, t, _, _| t.data = tp),
+    );
     let cases: [(refl_status, &str, Edit<'_>); 12] = [
         (bad, "`texels` is 95x64", &|_, _, t, _, _| t.width = W - 1),
-        (refl_status::InsufficientSize, "`texels.len`", &|_, _, t, _, _| t.len -= 1),
-        (refl_status::NullPointer, "`texels.data`", &|_, _, t, _, _| {
-            t.data = core::ptr::null()
-        }),
+        (
+            refl_status::InsufficientSize,
+            "`texels.len`",
+            &|_, _, t, _, _| t.len -= 1,
+        ),
+        (
+            refl_status::NullPointer,
+            "`texels.data`",
+            &|_, _, t, _, _| t.data = core::ptr::null(),
+        ),
         (bad, "`color` is 96x63", &|_, _, _, c, _| c.height = H - 1),
-        (refl_status::NullPointer, "`color.data`", &|_, _, _, c, _| {
-            c.data = core::ptr::null()
-        }),
+        (
+            refl_status::NullPointer,
+            "`color.data`",
+            &|_, _, _, c, _| c.data = core::ptr::null(),
+        ),
         (bad, "`out` is 95x64", &|o, _, _, _, _| o.width = W - 1),
         (bad, "`status` is 96x63", &|_, s, _, _, _| s.height = H - 1),
-        (refl_status::InsufficientSize, "`out.len`", &|o, _, _, _, _| o.len -= 1),
+        (
+            refl_status::InsufficientSize,
+            "`out.len`",
+            &|o, _, _, _, _| o.len -= 1,
+        ),
         (refl_status::NullPointer, "`out.data`", &|o, _, _, _, _| {
             o.data = core::ptr::null_mut()
         }),
         (bad, "`out` overlaps `color`", &|o, _, _, c, _| {
             o.data = c.data.cast_mut()
         }),
-        (bad, "camera", &|_, _, _, _, g| g.depth.camera.fov_y = f32::NAN),
-        (refl_status::NullPointer, "`gbuffer.normals.data`", &|_, _, _, _, g| {
-            g.normals.data = core::ptr::null()
+        (bad, "camera", &|_, _, _, _, g| {
+            g.depth.camera.fov_y = f32::NAN
         }),
+        (
+            refl_status::NullPointer,
+            "`gbuffer.normals.data`",
+            &|_, _, _, _, g| g.normals.data = core::ptr::null(),
+        ),
     ];
     for (want, says, edit) in cases {
         refused(name, want, says, &before, || run(o0, all_rows(), edit));

@@ -203,7 +203,10 @@ fn the_defaults_sizes_and_statuses_are_refl_cores() {
     for (s, c) in [
         (UpsampleStatus::Skipped, refl_upsample_status::Skipped),
         (UpsampleStatus::Copied, refl_upsample_status::Copied),
-        (UpsampleStatus::Interpolated, refl_upsample_status::Interpolated),
+        (
+            UpsampleStatus::Interpolated,
+            refl_upsample_status::Interpolated,
+        ),
         (UpsampleStatus::Retrace, refl_upsample_status::Retrace),
         (UpsampleStatus::Retraced, refl_upsample_status::Retraced),
     ] {
@@ -246,7 +249,13 @@ fn c_half_trace_equals_the_rust_half_pass_bit_for_bit_without_allocating() {
                     h.stats.host_rays,
                     h.stats.host_rays_written
                 ],
-                [st.traced, st.hits, st.sky, st.host_rays, st.host_rays_written]
+                [
+                    st.traced,
+                    st.hits,
+                    st.sky,
+                    st.host_rays,
+                    st.host_rays_written
+                ]
             );
             assert!(st.traced > 1000 && st.host_rays > 0, "{st:?}");
             for i in 0..HN {
@@ -479,7 +488,11 @@ fn c_resolve_equals_the_rust_upsample_pass_bit_for_bit_without_allocating() {
     ] {
         let f = render(conv);
         let g = f.gbuffer_c(false);
-        for sub in [Subsample::uniform(0), Subsample::staggered(1), Subsample::uniform(3)] {
+        for sub in [
+            Subsample::uniform(0),
+            Subsample::staggered(1),
+            Subsample::uniform(3),
+        ] {
             let h = traced(&g, sub);
             let (ct, cc) = core_trace(&f, sub);
             for o in opts {
@@ -700,10 +713,7 @@ fn refusals_name_the_argument_and_write_nothing() {
             bad,
             "`options.method`",
             Args {
-                so: refl_ssr_options {
-                    method: 5,
-                    ..a0.so
-                },
+                so: refl_ssr_options { method: 5, ..a0.so },
                 ..a0
             },
         ),
@@ -790,11 +800,15 @@ fn refusals_name_the_argument_and_write_nothing() {
     }
     let mut g = g0;
     g.depth.camera.fov_y = f32::NAN;
-    refused(name, bad, "camera", &before, || run(Args { g, ..a0 }, &none));
+    refused(name, bad, "camera", &before, || {
+        run(Args { g, ..a0 }, &none)
+    });
     refused(name, bad, "`status` is 96x63", &before, || {
         run(a0, &|_, s| s.height = H - 1)
     });
-    refused(name, bad, "`color`", &before, || run(a0, &|c, _| c.width = W - 1));
+    refused(name, bad, "`color`", &before, || {
+        run(a0, &|c, _| c.width = W - 1)
+    });
     let hp = h.color.as_ptr();
     refused(name, bad, "overlaps", &before, || {
         run(a0, &|c, _| c.data = hp as *mut _)
@@ -822,16 +836,31 @@ fn refusals_name_the_argument_and_write_nothing() {
     };
     let s0 = sub_c(sub);
     refused(tname, bad, "`subsample.pattern`", &hbefore, || {
-        trace(&g0, refl_upsample_subsample { pattern: 9, ..s0 }, half_rows())
+        trace(
+            &g0,
+            refl_upsample_subsample { pattern: 9, ..s0 },
+            half_rows(),
+        )
     });
     refused(tname, bad, "`rows`", &hbefore, || {
-        trace(&g0, s0, refl_row_range { begin: 0, end: HH + 1 })
+        trace(
+            &g0,
+            s0,
+            refl_row_range {
+                begin: 0,
+                end: HH + 1,
+            },
+        )
     });
     let mut g = g0;
     g.color.data = core::ptr::null();
-    refused(tname, bad, "`color` needs a G-buffer color", &hbefore, || {
-        trace(&g, s0, half_rows())
-    });
+    refused(
+        tname,
+        bad,
+        "`color` needs a G-buffer color",
+        &hbefore,
+        || trace(&g, s0, half_rows()),
+    );
     let mut h = fresh_half();
     // SAFETY: `subsample` NULL is refused.
     let s = unsafe {
