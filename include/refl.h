@@ -4867,8 +4867,8 @@ typedef struct refl_extrapolate_options {
      */
     float depth_threshold;
     /**
-     * Width of the Gaussian depth weight, a fraction of the hole's depth;
-     * > 0, not NaN. Default 0.05.
+     * Width of the Gaussian depth weight, a fraction of the hole's depth,
+     * greater than 0, not NaN. Default 0.05.
      */
     float depth_sigma;
     /**
@@ -4980,9 +4980,9 @@ typedef struct refl_upsample_options {
      */
     float depth_threshold;
     /**
-     * Width of the Gaussian depth weight, a fraction of the pixel's depth;
-     * > 0, not NaN (+infinity: every sample within the edge weighs the
-     * same). Default 0.05.
+     * Width of the Gaussian depth weight, a fraction of the pixel's depth,
+     * greater than 0, not NaN (+infinity: every sample within the edge
+     * weighs the same). Default 0.05.
      */
     float depth_sigma;
     /**

@@ -41,8 +41,8 @@ pub struct refl_extrapolate_options {
     /// further in depth weigh 0; > 0 (+infinity turns the edge off; not
     /// NaN). Default 0.1.
     pub depth_threshold: f32,
-    /// Width of the Gaussian depth weight, a fraction of the hole's depth;
-    /// > 0, not NaN. Default 0.05.
+    /// Width of the Gaussian depth weight, a fraction of the hole's depth,
+    /// greater than 0, not NaN. Default 0.05.
     pub depth_sigma: f32,
     /// Exponent of the normal weight; finite, >= 0 (0 turns it off).
     /// Default 8.

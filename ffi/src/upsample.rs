@@ -84,9 +84,9 @@ pub struct refl_upsample_options {
     /// depth by more than this fraction of the pixel's depth weigh 0; > 0
     /// (+infinity turns the edge off; not NaN). Default 0.1.
     pub depth_threshold: f32,
-    /// Width of the Gaussian depth weight, a fraction of the pixel's depth;
-    /// > 0, not NaN (+infinity: every sample within the edge weighs the
-    /// same). Default 0.05.
+    /// Width of the Gaussian depth weight, a fraction of the pixel's depth,
+    /// greater than 0, not NaN (+infinity: every sample within the edge
+    /// weighs the same). Default 0.05.
     pub depth_sigma: f32,
     /// Exponent of the normal weight; finite, >= 0 (0 turns it off).
     /// Default 8.

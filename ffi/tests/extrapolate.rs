@@ -114,13 +114,11 @@ fn all_rows() -> refl_row_range {
     refl_row_range { begin: 0, end: H }
 }
 
+/// What refl-core's dilation writes: colors, statuses, host list, counts.
+type RustRun = (Vec<[f32; 3]>, Vec<u8>, Vec<[u32; 2]>, ExtrapolateStats);
+
 /// refl-core's mirror pass and dilation over the whole frame.
-fn rust_run(
-    f: &Frame,
-    rough: Option<&[f32]>,
-    o: ExtrapolateOptions,
-    host_len: usize,
-) -> (Vec<[f32; 3]>, Vec<u8>, Vec<[u32; 2]>, ExtrapolateStats) {
+fn rust_run(f: &Frame, rough: Option<&[f32]>, o: ExtrapolateOptions, host_len: usize) -> RustRun {
     let mut g = f.gbuffer(false);
     if let Some(r) = rough {
         g = g

@@ -525,7 +525,7 @@ fn bounce_extrapolate_and_upsample_refusals_name_the_argument() {
     let rows = refl_row_range { begin: 0, end: 4 };
 
     // Bounces: a previous color of another size, an attenuation above 1.
-    let prev_color = vec![[0.25f32; 3]; 12];
+    let prev_color = [[0.25f32; 3]; 12];
     let prev = refl_bounce_previous {
         depth: depth_image_c(&w.cam, &w.depth, DepthConvention::Linear),
         color: refl_image_vec3 {
