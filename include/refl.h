@@ -272,7 +272,7 @@
 /**
  * The largest `refl_extrapolate_options.radius`.
  */
-#define REFL_EXTRAPOLATE_MAX_RADIUS MAX_EXTRAPOLATE_RADIUS
+#define REFL_EXTRAPOLATE_MAX_RADIUS 16
 #endif
 
 /**

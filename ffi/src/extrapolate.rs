@@ -24,7 +24,10 @@ use refl_core::extrapolate::{
 use refl_core::Error;
 
 /// The largest `refl_extrapolate_options.radius`.
-pub const REFL_EXTRAPOLATE_MAX_RADIUS: u32 = MAX_EXTRAPOLATE_RADIUS;
+pub const REFL_EXTRAPOLATE_MAX_RADIUS: u32 = 16;
+// A literal above (cbindgen copies the expression into the header), the
+// core's value here.
+const _: () = assert!(REFL_EXTRAPOLATE_MAX_RADIUS == MAX_EXTRAPOLATE_RADIUS);
 
 /// Settings of the dilation; `refl_extrapolate_options_default` gives the
 /// defaults.
