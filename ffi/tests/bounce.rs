@@ -11,27 +11,11 @@ mod common;
 #[path = "common/passes.rs"]
 mod passes;
 
-use common::{color_mut, counted, img_vec3, render, render_with, Frame, H, W};
+use common::{color_mut, counted, img_vec3, moved_camera, render, render_with, Frame, H, W};
 use passes::*;
 use refl::*;
 use refl_core::bounce::{BounceOptions, BouncePass, BounceStats, BounceStatus, PreviousFrame};
-use refl_core::glam::Vec3;
-use refl_core::{Camera, DepthConvention, DepthImage, ImageView, ImageViewMut};
-
-/// This frame's camera: the previous one moved a little right and down.
-fn moved_camera() -> Camera {
-    Camera::try_look_at(
-        Vec3::new(0.6, 1.85, 5.3),
-        Vec3::new(0.05, 0.6, 0.0),
-        Vec3::Y,
-        1.0,
-        0.1,
-        50.0,
-        W,
-        H,
-    )
-    .unwrap()
-}
+use refl_core::{DepthConvention, DepthImage, ImageView, ImageViewMut};
 
 /// The previous frame's final image: its lit color with a reflection-like
 /// tint, a NaN texel now and then.
@@ -80,13 +64,7 @@ struct CRun {
 }
 
 fn sentinel_stats() -> refl_bounce_stats {
-    let v = sentinel_u32();
-    refl_bounce_stats {
-        reprojected: v,
-        rejected: v,
-        off_screen: v,
-        no_surface: v,
-    }
+    sentinel()
 }
 
 fn fresh() -> CRun {

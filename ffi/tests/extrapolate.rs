@@ -34,14 +34,7 @@ struct CRun {
 }
 
 fn sentinel_stats() -> refl_extrapolate_stats {
-    let v = sentinel_u32();
-    refl_extrapolate_stats {
-        holes: v,
-        filled: v,
-        unfilled: v,
-        too_smooth: v,
-        host_written: v,
-    }
+    sentinel()
 }
 
 fn fresh(host_len: usize) -> CRun {

@@ -336,15 +336,7 @@ struct Full {
 }
 
 fn sentinel_stats() -> refl_upsample_stats {
-    let v = sentinel_u32();
-    refl_upsample_stats {
-        copied: v,
-        interpolated: v,
-        retrace: v,
-        retrace_written: v,
-        retraced: v,
-        hits: v,
-    }
+    sentinel()
 }
 
 fn fresh_full(retrace_len: usize) -> Full {

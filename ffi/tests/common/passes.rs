@@ -16,6 +16,14 @@ pub const N: usize = (W * H) as usize;
 /// The byte every output is filled with before a call that must fail.
 pub const SENTINEL: u8 = 0xA5;
 
+/// A value of sentinel bytes: plain-old-data `T` only (floats, integers
+/// and `#[repr(C)]` structs of them, every bit pattern valid).
+pub fn sentinel<T: Copy>() -> T {
+    // SAFETY: `T` is plain old data (callers' contract), so the bytes are
+    // a valid value; read unaligned from a byte buffer.
+    unsafe { core::ptr::read_unaligned(vec![SENTINEL; core::mem::size_of::<T>()].as_ptr().cast()) }
+}
+
 /// A float of sentinel bytes.
 pub fn sentinel_f32() -> f32 {
     f32::from_bits(u32::from_ne_bytes([SENTINEL; 4]))
@@ -105,13 +113,7 @@ pub fn color_bits(c: &[f32; 3]) -> [u32; 3] {
 
 /// A texel of sentinel bytes.
 pub fn sentinel_texel() -> refl_ssr_texel {
-    let v = sentinel_f32();
-    refl_ssr_texel {
-        status: sentinel_u32(),
-        pixel: refl_vec2 { x: v, y: v },
-        t: v,
-        confidence: v,
-    }
+    sentinel()
 }
 
 /// The mirror pass (stepping, the defaults) through C over the whole
