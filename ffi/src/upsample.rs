@@ -253,20 +253,35 @@ pub unsafe extern "C" fn refl_upsample_half_size(
 }
 
 /// The mirror pass described as for `refl_ssr_trace_rows` (`gbuffer`,
-/// `ssr_options`, `scratch`), its pointers checked.
+/// `ssr_options`, `scratch`), in two steps so that every required pointer
+/// is checked before any value: [`pass_pointers`] (the G-buffer's required
+/// images, the method and, for Hi-Z, `scratch`), then [`pass`].
+fn pass_pointers(
+    g: &refl_gbuffer,
+    o: &refl_ssr_options,
+    scratch: *const refl_vec2,
+) -> Result<refl_core::MirrorOptions, Error> {
+    no_nulls(&[
+        (g.depth.depth.data.is_null(), "gbuffer.depth.depth.data"),
+        (g.normals.data.is_null(), "gbuffer.normals.data"),
+    ])?;
+    let opts = crate::ssr::options(o)?;
+    if opts.method == refl_core::MirrorMethod::HiZ {
+        check_pointer(scratch, "scratch")?;
+    }
+    Ok(opts)
+}
+
+/// The pass of [`pass_pointers`]'s options.
 ///
 /// # Safety
 /// As `refl_ssr_trace_rows`.
 unsafe fn pass<'a>(
     g: &refl_gbuffer,
-    o: &refl_ssr_options,
+    opts: refl_core::MirrorOptions,
     scratch: *const refl_vec2,
     scratch_len: usize,
 ) -> Result<MirrorPass<'a>, Error> {
-    let opts = crate::ssr::options(o)?;
-    if opts.method == refl_core::MirrorMethod::HiZ {
-        check_pointer(scratch, "scratch")?;
-    }
     // SAFETY: caller contract.
     let gb = unsafe { gbuffer(g) }?;
     // SAFETY: caller contract.
@@ -335,9 +350,10 @@ pub unsafe extern "C" fn refl_upsample_trace_rows(
             )
         };
         required_outputs(out, host, host_len)?;
+        let opts = pass_pointers(&g, &o, scratch)?;
         let sub = self::subsample(&s)?;
         // SAFETY: caller contract.
-        let pass = unsafe { self::pass(&g, &o, scratch, scratch_len) }?;
+        let pass = unsafe { self::pass(&g, opts, scratch, scratch_len) }?;
         let half = HalfPass::new(pass, sub);
         // SAFETY: caller contract.
         let mut band = unsafe {
@@ -525,10 +541,11 @@ pub unsafe extern "C" fn refl_upsample_resolve_rows(
                 read(options, "options")?,
             )
         };
+        let mopts = pass_pointers(&g, &so, scratch)?;
         let sub = self::subsample(&s)?;
         let opts = self::options(&o)?;
         // SAFETY: caller contract.
-        let pass = unsafe { self::pass(&g, &so, scratch, scratch_len) }?;
+        let pass = unsafe { self::pass(&g, mopts, scratch, scratch_len) }?;
         let gb = pass.gbuffer();
         let (w, h) = (gb.width(), gb.height());
         let (hw, hh) = try_half_size(w, h)?;

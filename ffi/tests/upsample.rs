@@ -791,6 +791,29 @@ fn refusals_name_the_argument_and_write_nothing() {
     for (want, says, a) in cases {
         refused(name, want, says, &before, || run(a, &none));
     }
+    // A NULL required image is reported before an unknown pattern (fuzz
+    // finding F33).
+    let mut g = g0;
+    g.normals.data = core::ptr::null();
+    refused(
+        name,
+        refl_status::NullPointer,
+        "`gbuffer.normals.data`",
+        &before,
+        || {
+            run(
+                Args {
+                    g,
+                    sub: refl_upsample_subsample {
+                        pattern: 9,
+                        frame: 0,
+                    },
+                    ..a0
+                },
+                &none,
+            )
+        },
+    );
     let mut g = g0;
     g.depth.camera.fov_y = f32::NAN;
     refused(name, bad, "camera", &before, || {
@@ -835,6 +858,21 @@ fn refusals_name_the_argument_and_write_nothing() {
             half_rows(),
         )
     });
+    let mut g = g0;
+    g.depth.depth.data = core::ptr::null();
+    refused(
+        tname,
+        refl_status::NullPointer,
+        "`gbuffer.depth.depth.data`",
+        &hbefore,
+        || {
+            trace(
+                &g,
+                refl_upsample_subsample { pattern: 9, ..s0 },
+                half_rows(),
+            )
+        },
+    );
     refused(tname, bad, "`rows`", &hbefore, || {
         trace(
             &g0,

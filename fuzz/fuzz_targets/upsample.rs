@@ -143,7 +143,9 @@ fuzz_target!(|data: &[u8]| {
 
     // The half-resolution trace.
     let trows = b.rows(hh);
-    let out_len = if b.chance(16) { b.len_for(hn) } else { hn };
+    // Buffers of at most 2^16 texels (a huge G-buffer needs more: short).
+    let hn_cap = hn.min(1 << 16);
+    let out_len = if b.chance(16) { b.len_for(hn_cap) } else { hn_cap };
     let mut half = Buf::<refl_ssr_texel>::sentinel(out_len, if b.chance(16) { b.ptr_kind() } else { PtrKind::Valid });
     let mut hcolor = if fg.has_color() && b.chance(160) { Img::<refl_vec3>::output(&mut b, hw, hh) } else { Img::absent(&mut b) };
     let with_hcolor = !hcolor.buf.is_null();
@@ -261,7 +263,7 @@ fuzz_target!(|data: &[u8]| {
     let o = options(&mut b);
 
     let rows = b.rows(h);
-    let out_len = if b.chance(16) { b.len_for(n.min(1 << 16)) } else { n };
+    let out_len = if b.chance(16) { b.len_for(n.min(1 << 16)) } else { n.min(1 << 16) };
     let mut out = Buf::<refl_ssr_texel>::sentinel(out_len, if b.chance(16) { b.ptr_kind() } else { PtrKind::Valid });
     let mut color = if b.chance(128) { Img::<refl_vec3>::output(&mut b, w, h) } else { Img::absent(&mut b) };
     let with_color = !color.buf.is_null();
