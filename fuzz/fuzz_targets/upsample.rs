@@ -174,7 +174,7 @@ fuzz_target!(|data: &[u8]| {
     );
     fg.assert_unchanged(what);
     fg.img.buf.assert_unchanged(&snap, what);
-    let trows_ok = trows.begin <= trows.end && trows.end <= hh;
+    let trows_ok = trows.begin < trows.end && trows.end <= hh;
     let hcolor_ok = !with_hcolor || hcolor.valid(hw, hh);
     let targs_ok = so_ok && sub_ok && trows_ok && out_len >= hn && half.kind() == PtrKind::Valid && hcolor_ok && tst.kind() == PtrKind::Valid && subp.kind() == PtrKind::Valid;
     if s == refl_status::Ok {
@@ -314,7 +314,7 @@ fuzz_target!(|data: &[u8]| {
     samples_color.buf.assert_unchanged(&csnap, "half_color");
 
     let statuses_ok = required_len(samples.w, samples.h, samples.stride).is_some_and(|k| (0..k.min(samples.buf.len())).all(|i| samples.buf.get(i).status <= 9));
-    let rows_ok = rows.begin <= rows.end && rows.end <= h;
+    let rows_ok = rows.begin < rows.end && rows.end <= h;
     let color_ok = !with_color || (color.valid(w, h) && with_scolor && fg.has_color());
     let status_ok = !with_status || status.valid(w, h);
     let args_ok = so_ok && sub_ok && options_ok(&o) && rows_ok && samples.valid(hw, hh) && statuses_ok && (!with_scolor || samples_color.valid(hw, hh)) && out_len >= n && out.kind() == PtrKind::Valid && color_ok && status_ok && [ust.kind(), op.kind(), subp.kind()].iter().all(|k| *k == PtrKind::Valid);
