@@ -4218,6 +4218,416 @@ void temporal_functions() {
 }
 
 
+// Bounces, extrapolation and upsampling (issue 18): NULL pointers, options
+// out of range, rows, sizes, short and misaligned buffers, texel statuses
+// that are not a refl_ssr_status, unknown patterns, outputs aliasing inputs
+// or each other. Every output must be left untouched; a band leaves the
+// other rows alone.
+void bounce_extrapolate_upsample_functions() {
+    const refl_camera g = good_camera();
+    const uint32_t w = g.width, h = g.height;
+    const size_t n = size_t(w) * h;
+    std::vector<float> depth(n, 0.5f);
+    std::vector<refl_vec3> normals(n, v3(0, 1, 0)), lit(n, v3(0.5f, 0.25f, 0.125f)), last(n, v3(1, 0, 0));
+    const refl_image_f32 none{nullptr, 0, 0, 0, 0};
+    refl_gbuffer gb{};
+    gb.depth = {{depth.data(), n, w, h, w}, g, REFL_DEPTH_CONVENTION_ZERO_TO_ONE};
+    gb.normals = {normals.data(), n, w, h, w};
+    gb.normal_space = REFL_NORMAL_SPACE_WORLD;
+    gb.mask = {nullptr, 0, 0, 0, 0};
+    gb.roughness = none;
+    gb.color = {lit.data(), n, w, h, w};
+    gb.back_depth = none;
+    const refl_row_range all{0, h};
+
+    // Compares a buffer with its fill byte.
+    auto filled = [](const void* p, size_t bytes, unsigned char v) {
+        const unsigned char* b = static_cast<const unsigned char*>(p);
+        for (size_t i = 0; i < bytes; ++i)
+            if (b[i] != v) return false;
+        return true;
+    };
+
+    // --- Bounces.
+    const refl_bounce_options bdef = refl_bounce_options_default();
+    CHECK(bdef.attenuation == 1.0f && bdef.depth_tolerance == 0.02f);
+    const refl_bounce_previous prev{gb.depth, {last.data(), n, w, h, w}};
+    {
+        // A band: a static camera re-projects every pixel; the other rows
+        // stay as they were.
+        std::vector<refl_vec3> out(n);
+        std::memset(static_cast<void*>(out.data()), 0x5A, n * sizeof(refl_vec3));
+        std::vector<uint8_t> stat(n, 0x6B);
+        const refl_bounce_stats st = expect_ok<refl_bounce_stats>("bounce band", [&](refl_bounce_stats* s) {
+            return refl_bounce_source_rows(s, {out.data(), n, w, h, w}, {stat.data(), n, w, h, w}, &gb, &prev, &bdef,
+                                           {2, 5});
+        });
+        CHECK_EQ(st.reprojected + st.rejected + st.off_screen + st.no_surface, 3 * w);
+        CHECK(st.reprojected > 0);
+        bool outside = true;
+        for (size_t i = 0; i < n; ++i) {
+            const size_t row = i / w;
+            if (row < 2 || row >= 5) outside = outside && stat[i] == 0x6B && filled(&out[i], sizeof(refl_vec3), 0x5A);
+        }
+        CHECK(outside);
+    }
+    struct BArgs {
+        refl_image_vec3_mut out;
+        refl_image_u8_mut status;
+        const refl_gbuffer* gbuffer;
+        const refl_bounce_previous* previous;
+        const refl_bounce_options* options;
+        refl_row_range rows;
+    };
+    auto bcheck = [&](const char* what, refl_status want, auto edit, bool pointers = false) {
+        std::vector<refl_vec3> out(n + 1);
+        std::memset(static_cast<void*>(out.data()), 0x5A, out.size() * sizeof(refl_vec3));
+        std::vector<uint8_t> stat(n + 1, 0x6B);
+        BArgs a{{out.data(), n, w, h, w}, {stat.data(), n, w, h, w}, &gb, &prev, &bdef, all};
+        edit(a);
+        expect<refl_bounce_stats>(what, want, [&](refl_bounce_stats* st) {
+            return refl_bounce_source_rows(st, a.out, a.status, a.gbuffer, a.previous, a.options, a.rows);
+        }, pointers);
+        if (!filled(out.data(), out.size() * sizeof(refl_vec3), 0x5A) || !filled(stat.data(), stat.size(), 0x6B))
+            check::fail(__FILE__, __LINE__, std::string(what) + ": an output was written");
+        CHECK(lit[0].x == 0.5f && lit[n - 1].x == 0.5f && last[0].x == 1.0f && last[n - 1].x == 1.0f);
+    };
+    bcheck("bounce rows reversed (and NULL / misaligned stats)", REFL_STATUS_INVALID_ARGUMENT,
+           [](BArgs& a) { a.rows = {3, 2}; }, true);
+    bcheck("bounce NULL out", REFL_STATUS_NULL_POINTER, [](BArgs& a) { a.out.data = nullptr; });
+    bcheck("bounce NULL gbuffer", REFL_STATUS_NULL_POINTER, [](BArgs& a) { a.gbuffer = nullptr; });
+    bcheck("bounce NULL previous", REFL_STATUS_NULL_POINTER, [](BArgs& a) { a.previous = nullptr; });
+    bcheck("bounce NULL options", REFL_STATUS_NULL_POINTER, [](BArgs& a) { a.options = nullptr; });
+    refl_gbuffer unlit = gb;
+    unlit.color = {nullptr, 0, 0, 0, 0};
+    bcheck("bounce G-buffer without a lit color", REFL_STATUS_NULL_POINTER, [&](BArgs& a) { a.gbuffer = &unlit; });
+    refl_bounce_previous no_color = prev;
+    no_color.color.data = nullptr;
+    bcheck("bounce NULL previous color", REFL_STATUS_NULL_POINTER, [&](BArgs& a) { a.previous = &no_color; });
+    std::vector<refl_bounce_options> bad_b;
+    for (float v : {kNaN, -0.01f, 1.01f, kInf}) bad_b.push_back({v, 0.02f});
+    for (float v : {kNaN, -0.01f, kInf}) bad_b.push_back({1.0f, v});
+    for (const refl_bounce_options& o : bad_b)
+        bcheck("bounce bad options", REFL_STATUS_INVALID_ARGUMENT, [&](BArgs& a) { a.options = &o; });
+    bcheck("bounce rows past the end", REFL_STATUS_INVALID_ARGUMENT, [&](BArgs& a) { a.rows = {0, h + 1}; });
+    bcheck("bounce short out", REFL_STATUS_INSUFFICIENT_SIZE, [&](BArgs& a) { a.out.len = n - 1; });
+    bcheck("bounce out of another size", REFL_STATUS_INVALID_ARGUMENT, [&](BArgs& a) { a.out.height = h - 1; });
+    bcheck("bounce status of another size", REFL_STATUS_INVALID_ARGUMENT, [&](BArgs& a) { a.status.width = w + 1; });
+    bcheck("bounce misaligned out", REFL_STATUS_INVALID_ARGUMENT, [](BArgs& a) {
+        a.out.data = reinterpret_cast<refl_vec3*>(reinterpret_cast<char*>(a.out.data) + 1);
+    });
+    refl_bounce_previous prev_small = prev;
+    prev_small.color.height = h - 1;
+    bcheck("bounce previous color of another size", REFL_STATUS_INVALID_ARGUMENT,
+           [&](BArgs& a) { a.previous = &prev_small; });
+    refl_bounce_previous prev_short = prev;
+    prev_short.color.len = n - 1;
+    bcheck("bounce short previous color", REFL_STATUS_INSUFFICIENT_SIZE, [&](BArgs& a) { a.previous = &prev_short; });
+    std::vector<refl_bounce_previous> bad_prev;
+    for (uint32_t c : kBadConventions) {
+        refl_bounce_previous p = prev;
+        p.depth.convention = c;
+        bad_prev.push_back(p);
+    }
+    for (const BadCamera& bc : bad_cameras()) {
+        refl_bounce_previous p = prev;
+        p.depth.camera = bc.cam;
+        bad_prev.push_back(p);
+    }
+    for (const refl_bounce_previous& p : bad_prev) {
+        std::vector<refl_vec3> out(n);
+        std::memset(static_cast<void*>(out.data()), 0x5A, n * sizeof(refl_vec3));
+        refl_bounce_stats st;
+        std::memset(static_cast<void*>(&st), 0x5A, sizeof st);
+        const uint32_t got = refl_bounce_source_rows(&st, {out.data(), n, w, h, w}, {nullptr, 0, 0, 0, 0}, &gb, &p,
+                                                     &bdef, all);
+        CHECK(got != REFL_STATUS_OK);
+        CHECK(filled(out.data(), n * sizeof(refl_vec3), 0x5A) && filled(&st, sizeof st, 0x5A));
+    }
+    bcheck("bounce out over the lit color", REFL_STATUS_INVALID_ARGUMENT, [&](BArgs& a) { a.out.data = lit.data(); });
+    bcheck("bounce out over the previous color", REFL_STATUS_INVALID_ARGUMENT,
+           [&](BArgs& a) { a.out.data = last.data(); });
+    bcheck("bounce status over out", REFL_STATUS_INVALID_ARGUMENT,
+           [](BArgs& a) { a.status.data = reinterpret_cast<uint8_t*>(a.out.data) + 12; });
+
+    // --- Extrapolation: texels of the mirror pass (left the image where
+    // x is odd, hits elsewhere).
+    std::vector<refl_ssr_texel> texels(n);
+    for (size_t i = 0; i < n; ++i)
+        texels[i] = {(i % 2) ? uint32_t(REFL_SSR_STATUS_LEFT_IMAGE) : uint32_t(REFL_SSR_STATUS_HIT), v2(1.5f, 1.5f),
+                     1.0f, 1.0f};
+    const refl_extrapolate_options edef = refl_extrapolate_options_default();
+    CHECK(edef.radius == 4 && edef.spatial_sigma == 2.0f && !edef.all_host_rays);
+    CHECK(REFL_EXTRAPOLATE_MAX_RADIUS == 16);
+    {
+        std::vector<refl_vec3> out(n);
+        std::memset(static_cast<void*>(out.data()), 0x5A, n * sizeof(refl_vec3));
+        std::vector<uint8_t> stat(n, 0x6B);
+        const refl_extrapolate_stats st = expect_ok<refl_extrapolate_stats>("extrapolate band", [&](refl_extrapolate_stats* s) {
+            return refl_extrapolate_fill_rows(s, {out.data(), n, w, h, w}, {stat.data(), n, w, h, w}, nullptr, 0, &gb,
+                                              {texels.data(), n, w, h, w}, {lit.data(), n, w, h, w}, &edef, {1, 4});
+        });
+        CHECK_EQ(st.holes, 3 * (w / 2));
+        CHECK_EQ(st.filled, st.holes);
+        bool outside = true;
+        for (size_t i = 0; i < n; ++i) {
+            const size_t row = i / w;
+            if (row < 1 || row >= 4) outside = outside && stat[i] == 0x6B && filled(&out[i], sizeof(refl_vec3), 0x5A);
+        }
+        CHECK(outside);
+    }
+    struct EArgs {
+        refl_image_vec3_mut out;
+        refl_image_u8_mut status;
+        refl_image_pixel* host;
+        size_t host_len;
+        const refl_gbuffer* gbuffer;
+        refl_image_ssr_texel texels;
+        refl_image_vec3 color;
+        const refl_extrapolate_options* options;
+        refl_row_range rows;
+    };
+    auto echeck = [&](const char* what, refl_status want, auto edit, bool pointers = false) {
+        std::vector<refl_vec3> out(n + 1);
+        std::memset(static_cast<void*>(out.data()), 0x5A, out.size() * sizeof(refl_vec3));
+        std::vector<uint8_t> stat(n + 1, 0x6B);
+        std::vector<refl_image_pixel> host(8);
+        std::memset(static_cast<void*>(host.data()), 0x4C, host.size() * sizeof(refl_image_pixel));
+        EArgs a{{out.data(), n, w, h, w}, {stat.data(), n, w, h, w}, host.data(), host.size(), &gb,
+                {texels.data(), n, w, h, w}, {lit.data(), n, w, h, w}, &edef, all};
+        edit(a);
+        expect<refl_extrapolate_stats>(what, want, [&](refl_extrapolate_stats* st) {
+            return refl_extrapolate_fill_rows(st, a.out, a.status, a.host, a.host_len, a.gbuffer, a.texels, a.color,
+                                              a.options, a.rows);
+        }, pointers);
+        if (!filled(out.data(), out.size() * sizeof(refl_vec3), 0x5A) || !filled(stat.data(), stat.size(), 0x6B) ||
+            !filled(host.data(), host.size() * sizeof(refl_image_pixel), 0x4C))
+            check::fail(__FILE__, __LINE__, std::string(what) + ": an output was written");
+        CHECK(texels[1].status == REFL_SSR_STATUS_LEFT_IMAGE && lit[0].x == 0.5f);
+    };
+    echeck("extrapolate rows reversed (and NULL / misaligned stats)", REFL_STATUS_INVALID_ARGUMENT,
+           [](EArgs& a) { a.rows = {3, 2}; }, true);
+    echeck("extrapolate NULL out", REFL_STATUS_NULL_POINTER, [](EArgs& a) { a.out.data = nullptr; });
+    echeck("extrapolate NULL host with a length", REFL_STATUS_NULL_POINTER, [](EArgs& a) { a.host = nullptr; });
+    echeck("extrapolate NULL gbuffer", REFL_STATUS_NULL_POINTER, [](EArgs& a) { a.gbuffer = nullptr; });
+    echeck("extrapolate NULL texels", REFL_STATUS_NULL_POINTER, [](EArgs& a) { a.texels.data = nullptr; });
+    echeck("extrapolate NULL color", REFL_STATUS_NULL_POINTER, [](EArgs& a) { a.color.data = nullptr; });
+    echeck("extrapolate NULL options", REFL_STATUS_NULL_POINTER, [](EArgs& a) { a.options = nullptr; });
+    std::vector<refl_extrapolate_options> bad_e;
+    for (uint32_t r : {0u, 17u, kMax}) {
+        refl_extrapolate_options o = edef;
+        o.radius = r;
+        bad_e.push_back(o);
+    }
+    for (float v : {kNaN, 0.0f, -1.0f}) {
+        refl_extrapolate_options o = edef;
+        o.spatial_sigma = v;
+        bad_e.push_back(o);
+        o = edef;
+        o.depth_threshold = v;
+        bad_e.push_back(o);
+        o = edef;
+        o.depth_sigma = v;
+        bad_e.push_back(o);
+    }
+    for (float v : {kNaN, kInf, -1.0f}) {
+        refl_extrapolate_options o = edef;
+        o.normal_power = v;
+        bad_e.push_back(o);
+        o = edef;
+        o.min_roughness = v;
+        bad_e.push_back(o);
+    }
+    for (const refl_extrapolate_options& o : bad_e)
+        echeck("extrapolate bad options", REFL_STATUS_INVALID_ARGUMENT, [&](EArgs& a) { a.options = &o; });
+    echeck("extrapolate short texels", REFL_STATUS_INSUFFICIENT_SIZE, [&](EArgs& a) { a.texels.len = n - 1; });
+    echeck("extrapolate texels of another size", REFL_STATUS_INVALID_ARGUMENT, [&](EArgs& a) { a.texels.width = w - 1; });
+    echeck("extrapolate misaligned texels", REFL_STATUS_INVALID_ARGUMENT, [](EArgs& a) {
+        a.texels.data = reinterpret_cast<const refl_ssr_texel*>(reinterpret_cast<const char*>(a.texels.data) + 2);
+        a.texels.len -= 1;
+    });
+    std::vector<refl_ssr_texel> bad_texels = texels;
+    bad_texels[n - 1].status = 10;
+    echeck("extrapolate texel status 10", REFL_STATUS_INVALID_ARGUMENT,
+           [&](EArgs& a) { a.texels.data = bad_texels.data(); });
+    bad_texels[n - 1].status = kMax;
+    echeck("extrapolate texel status kMax", REFL_STATUS_INVALID_ARGUMENT,
+           [&](EArgs& a) { a.texels.data = bad_texels.data(); });
+    echeck("extrapolate color of another size", REFL_STATUS_INVALID_ARGUMENT, [&](EArgs& a) { a.color.height = h - 1; });
+    echeck("extrapolate out of another size", REFL_STATUS_INVALID_ARGUMENT, [&](EArgs& a) { a.out.width = w + 1; });
+    echeck("extrapolate short out", REFL_STATUS_INSUFFICIENT_SIZE, [&](EArgs& a) { a.out.len = n - 1; });
+    echeck("extrapolate misaligned host", REFL_STATUS_INVALID_ARGUMENT, [](EArgs& a) {
+        a.host = reinterpret_cast<refl_image_pixel*>(reinterpret_cast<char*>(a.host) + 1);
+        a.host_len = 4;
+    });
+    echeck("extrapolate out over the color", REFL_STATUS_INVALID_ARGUMENT, [&](EArgs& a) { a.out.data = lit.data(); });
+    echeck("extrapolate host over out", REFL_STATUS_INVALID_ARGUMENT,
+           [](EArgs& a) { a.host = reinterpret_cast<refl_image_pixel*>(a.out.data + 4); });
+    echeck("extrapolate status over the texels", REFL_STATUS_INVALID_ARGUMENT,
+           [&](EArgs& a) { a.status.data = reinterpret_cast<uint8_t*>(texels.data()); });
+
+    // --- Upsampling.
+    uint32_t hw = 0, hh = 0;
+    CHECK_STATUS(refl_upsample_half_size(&hw, &hh, w, h), REFL_STATUS_OK);
+    CHECK(hw == (w + 1) / 2 && hh == (h + 1) / 2);
+    expect<uint32_t>("upsample half size of a zero width", REFL_STATUS_INVALID_ARGUMENT,
+                     [&](uint32_t* o) { return refl_upsample_half_size(o, &hh, 0, h); });
+    {
+        uint32_t a = 7;
+        CHECK_STATUS(refl_upsample_half_size(&a, nullptr, w, h), REFL_STATUS_NULL_POINTER);
+        CHECK(a == 7);
+    }
+    const size_t hn = size_t(hw) * hh;
+    const refl_ssr_options so = refl_ssr_options_default();
+    const refl_upsample_subsample sub{REFL_UPSAMPLE_PATTERN_STAGGERED, 1};
+    std::vector<refl_ssr_texel> half(hn);
+    std::vector<refl_vec3> half_color(hn);
+    expect_ok<refl_ssr_stats>("upsample trace", [&](refl_ssr_stats* s) {
+        return refl_upsample_trace_rows(s, half.data(), hn, {half_color.data(), hn, hw, hh, hw}, nullptr, 0, &gb, &so,
+                                        nullptr, 0, &sub, {0, hh});
+    });
+    struct TArgs {
+        refl_ssr_texel* out;
+        size_t out_len;
+        refl_image_vec3_mut color;
+        const refl_ssr_options* ssr;
+        const refl_upsample_subsample* sub;
+        refl_row_range rows;
+    };
+    auto tcheck = [&](const char* what, refl_status want, auto edit, bool pointers = false) {
+        std::vector<refl_ssr_texel> out(hn + 1);
+        std::memset(static_cast<void*>(out.data()), 0x5A, out.size() * sizeof(refl_ssr_texel));
+        std::vector<refl_vec3> col(hn + 1);
+        std::memset(static_cast<void*>(col.data()), 0x5A, col.size() * sizeof(refl_vec3));
+        TArgs a{out.data(), hn, {col.data(), hn, hw, hh, hw}, &so, &sub, {0, hh}};
+        edit(a);
+        expect<refl_ssr_stats>(what, want, [&](refl_ssr_stats* st) {
+            return refl_upsample_trace_rows(st, a.out, a.out_len, a.color, nullptr, 0, &gb, a.ssr, nullptr, 0, a.sub,
+                                            a.rows);
+        }, pointers);
+        if (!filled(out.data(), out.size() * sizeof(refl_ssr_texel), 0x5A) ||
+            !filled(col.data(), col.size() * sizeof(refl_vec3), 0x5A))
+            check::fail(__FILE__, __LINE__, std::string(what) + ": an output was written");
+    };
+    tcheck("upsample trace rows past the half height (and NULL / misaligned stats)", REFL_STATUS_INVALID_ARGUMENT,
+           [&](TArgs& a) { a.rows = {0, hh + 1}; }, true);
+    tcheck("upsample trace NULL out", REFL_STATUS_NULL_POINTER, [](TArgs& a) { a.out = nullptr; });
+    tcheck("upsample trace NULL subsample", REFL_STATUS_NULL_POINTER, [](TArgs& a) { a.sub = nullptr; });
+    tcheck("upsample trace short out", REFL_STATUS_INSUFFICIENT_SIZE, [&](TArgs& a) { a.out_len = hn - 1; });
+    tcheck("upsample trace color of the full size", REFL_STATUS_INVALID_ARGUMENT, [&](TArgs& a) {
+        a.color.width = w;
+        a.color.height = h;
+    });
+    const refl_upsample_subsample bad_sub{2, 0};
+    tcheck("upsample trace unknown pattern", REFL_STATUS_INVALID_ARGUMENT, [&](TArgs& a) { a.sub = &bad_sub; });
+    refl_ssr_options hiz = so;
+    hiz.method = REFL_SSR_METHOD_HIZ;
+    tcheck("upsample trace Hi-Z without a pyramid", REFL_STATUS_NULL_POINTER, [&](TArgs& a) { a.ssr = &hiz; });
+
+    const refl_upsample_options udef = refl_upsample_options_default();
+    CHECK(udef.shade_hits && !udef.retrace && udef.depth_threshold == 0.1f);
+    {
+        std::vector<refl_ssr_texel> out(n);
+        std::memset(static_cast<void*>(out.data()), 0x5A, n * sizeof(refl_ssr_texel));
+        std::vector<uint8_t> stat(n, 0x6B);
+        const refl_upsample_stats st = expect_ok<refl_upsample_stats>("upsample band", [&](refl_upsample_stats* s) {
+            return refl_upsample_resolve_rows(s, out.data(), n, {nullptr, 0, 0, 0, 0}, {stat.data(), n, w, h, w},
+                                              nullptr, 0, &gb, &so, nullptr, 0, &sub, {half.data(), hn, hw, hh, hw},
+                                              {half_color.data(), hn, hw, hh, hw}, &udef, {2, 6});
+        });
+        CHECK(st.copied > 0);
+        bool outside = true;
+        for (size_t i = 0; i < n; ++i) {
+            const size_t row = i / w;
+            if (row < 2 || row >= 6)
+                outside = outside && stat[i] == 0x6B && filled(&out[i], sizeof(refl_ssr_texel), 0x5A);
+        }
+        CHECK(outside);
+    }
+    struct UArgs {
+        refl_ssr_texel* out;
+        size_t out_len;
+        refl_image_vec3_mut color;
+        refl_image_u8_mut status;
+        refl_image_pixel* list;
+        size_t list_len;
+        const refl_upsample_subsample* sub;
+        refl_image_ssr_texel half;
+        refl_image_vec3 half_color;
+        const refl_upsample_options* options;
+        refl_row_range rows;
+    };
+    auto ucheck = [&](const char* what, refl_status want, auto edit, bool pointers = false) {
+        std::vector<refl_ssr_texel> out(n + 1);
+        std::memset(static_cast<void*>(out.data()), 0x5A, out.size() * sizeof(refl_ssr_texel));
+        std::vector<refl_vec3> col(n + 1);
+        std::memset(static_cast<void*>(col.data()), 0x5A, col.size() * sizeof(refl_vec3));
+        std::vector<uint8_t> stat(n + 1, 0x6B);
+        std::vector<refl_image_pixel> list(8);
+        std::memset(static_cast<void*>(list.data()), 0x4C, list.size() * sizeof(refl_image_pixel));
+        UArgs a{out.data(), n, {col.data(), n, w, h, w}, {stat.data(), n, w, h, w}, list.data(), list.size(), &sub,
+                {half.data(), hn, hw, hh, hw}, {half_color.data(), hn, hw, hh, hw}, &udef, all};
+        edit(a);
+        expect<refl_upsample_stats>(what, want, [&](refl_upsample_stats* st) {
+            return refl_upsample_resolve_rows(st, a.out, a.out_len, a.color, a.status, a.list, a.list_len, &gb, &so,
+                                              nullptr, 0, a.sub, a.half, a.half_color, a.options, a.rows);
+        }, pointers);
+        if (!filled(out.data(), out.size() * sizeof(refl_ssr_texel), 0x5A) ||
+            !filled(col.data(), col.size() * sizeof(refl_vec3), 0x5A) || !filled(stat.data(), stat.size(), 0x6B) ||
+            !filled(list.data(), list.size() * sizeof(refl_image_pixel), 0x4C))
+            check::fail(__FILE__, __LINE__, std::string(what) + ": an output was written");
+    };
+    ucheck("upsample rows reversed (and NULL / misaligned stats)", REFL_STATUS_INVALID_ARGUMENT,
+           [](UArgs& a) { a.rows = {3, 2}; }, true);
+    ucheck("upsample NULL out", REFL_STATUS_NULL_POINTER, [](UArgs& a) { a.out = nullptr; });
+    ucheck("upsample NULL list with a length", REFL_STATUS_NULL_POINTER, [](UArgs& a) { a.list = nullptr; });
+    ucheck("upsample NULL subsample", REFL_STATUS_NULL_POINTER, [](UArgs& a) { a.sub = nullptr; });
+    ucheck("upsample NULL half", REFL_STATUS_NULL_POINTER, [](UArgs& a) { a.half.data = nullptr; });
+    ucheck("upsample NULL options", REFL_STATUS_NULL_POINTER, [](UArgs& a) { a.options = nullptr; });
+    std::vector<refl_upsample_options> bad_u;
+    for (float v : {kNaN, 0.0f, -1.0f}) {
+        refl_upsample_options o = udef;
+        o.depth_threshold = v;
+        bad_u.push_back(o);
+        o = udef;
+        o.depth_sigma = v;
+        bad_u.push_back(o);
+    }
+    for (float v : {kNaN, kInf, -1.0f}) {
+        refl_upsample_options o = udef;
+        o.normal_power = v;
+        bad_u.push_back(o);
+    }
+    for (const refl_upsample_options& o : bad_u)
+        ucheck("upsample bad options", REFL_STATUS_INVALID_ARGUMENT, [&](UArgs& a) { a.options = &o; });
+    ucheck("upsample unknown pattern", REFL_STATUS_INVALID_ARGUMENT, [&](UArgs& a) { a.sub = &bad_sub; });
+    ucheck("upsample rows past the end", REFL_STATUS_INVALID_ARGUMENT, [&](UArgs& a) { a.rows = {0, h + 1}; });
+    ucheck("upsample short out", REFL_STATUS_INSUFFICIENT_SIZE, [&](UArgs& a) { a.out_len = n - 1; });
+    ucheck("upsample half of the full size", REFL_STATUS_INVALID_ARGUMENT, [&](UArgs& a) {
+        a.half = {texels.data(), n, w, h, w};
+    });
+    ucheck("upsample short half", REFL_STATUS_INSUFFICIENT_SIZE, [&](UArgs& a) { a.half.len = hn - 1; });
+    std::vector<refl_ssr_texel> bad_half = half;
+    bad_half[0].status = 0x100;
+    ucheck("upsample half texel status 256", REFL_STATUS_INVALID_ARGUMENT, [&](UArgs& a) { a.half.data = bad_half.data(); });
+    ucheck("upsample half color of another size", REFL_STATUS_INVALID_ARGUMENT,
+           [&](UArgs& a) { a.half_color.height = hh - 1; });
+    ucheck("upsample color without half color", REFL_STATUS_INVALID_ARGUMENT,
+           [](UArgs& a) { a.half_color = {nullptr, 0, 0, 0, 0}; });
+    ucheck("upsample status of another size", REFL_STATUS_INVALID_ARGUMENT, [&](UArgs& a) { a.status.width = w - 1; });
+    ucheck("upsample status over half", REFL_STATUS_INVALID_ARGUMENT,
+           [&](UArgs& a) { a.status.data = reinterpret_cast<uint8_t*>(half.data()); });
+    ucheck("upsample status over out", REFL_STATUS_INVALID_ARGUMENT,
+           [](UArgs& a) { a.status.data = reinterpret_cast<uint8_t*>(a.out) + 4; });
+    ucheck("upsample out over half", REFL_STATUS_INVALID_ARGUMENT, [&](UArgs& a) {
+        a.out = half.data();
+        a.out_len = n;
+    });
+    ucheck("upsample list over out", REFL_STATUS_INVALID_ARGUMENT,
+           [](UArgs& a) { a.list = reinterpret_cast<refl_image_pixel*>(a.out + 2); });
+}
+
+
 // The frame summary and the pass plan (issue 15): every export, its
 // refusals with outputs untouched.
 void summary_functions() {
@@ -4328,5 +4738,6 @@ int main() {
     layered_pass_functions();
     summary_functions();
     temporal_functions();
+    bounce_extrapolate_upsample_functions();
     return check::finish("hostile_input");
 }

@@ -268,6 +268,13 @@
 #define REFL_LAYERED_EXIT_ENTRY_TEXELS 2.0
 #endif
 
+#if (defined(REFL_FEATURE_DEPTH_IMAGE) || defined(REFL_FEATURE_HIZ))
+/**
+ * The largest `refl_extrapolate_options.radius`.
+ */
+#define REFL_EXTRAPOLATE_MAX_RADIUS 16
+#endif
+
 /**
  * The result of every fallible refl function. `REFL_STATUS_OK` is zero;
  * every other value names why the call refused its input. A function that
@@ -1183,6 +1190,183 @@ enum refl_temporal_status
 typedef enum refl_temporal_status refl_temporal_status;
 #else
 typedef uint32_t refl_temporal_status;
+#endif // __STDC_VERSION__ >= 202311L
+#endif // __cplusplus
+#endif
+
+#if (defined(REFL_FEATURE_DEPTH_IMAGE) || defined(REFL_FEATURE_HIZ))
+/**
+ * Where a pixel's source color came from (the bytes of
+ * `refl_bounce_source_rows`'s `status`).
+ */
+enum refl_bounce_status
+#if defined(__cplusplus) || __STDC_VERSION__ >= 202311L
+  : uint32_t
+#endif // defined(__cplusplus) || __STDC_VERSION__ >= 202311L
+ {
+#if (defined(REFL_FEATURE_DEPTH_IMAGE) || defined(REFL_FEATURE_HIZ))
+    /**
+     * No usable surface (sky, NaN depth, unusable normal): `lit`.
+     */
+    REFL_BOUNCE_STATUS_NO_SURFACE = 0,
+#endif
+#if (defined(REFL_FEATURE_DEPTH_IMAGE) || defined(REFL_FEATURE_HIZ))
+    /**
+     * Re-projected into the previous frame and validated: `lit +
+     * attenuation (previous - lit)` (`lit` itself where `lit` is not
+     * finite or the blend overflows).
+     */
+    REFL_BOUNCE_STATUS_REPROJECTED = 1,
+#endif
+#if (defined(REFL_FEATURE_DEPTH_IMAGE) || defined(REFL_FEATURE_HIZ))
+    /**
+     * Behind the previous camera or outside its image: `lit`.
+     */
+    REFL_BOUNCE_STATUS_OFF_SCREEN = 2,
+#endif
+#if (defined(REFL_FEATURE_DEPTH_IMAGE) || defined(REFL_FEATURE_HIZ))
+    /**
+     * Every previous texel around the re-projection was rejected
+     * (disoccluded, no surface, non-finite color): `lit`.
+     */
+    REFL_BOUNCE_STATUS_REJECTED = 3,
+#endif
+};
+#ifndef __cplusplus
+#if __STDC_VERSION__ >= 202311L
+typedef enum refl_bounce_status refl_bounce_status;
+#else
+typedef uint32_t refl_bounce_status;
+#endif // __STDC_VERSION__ >= 202311L
+#endif // __cplusplus
+#endif
+
+#if (defined(REFL_FEATURE_DEPTH_IMAGE) || defined(REFL_FEATURE_HIZ))
+/**
+ * What the dilation did with a pixel (the bytes of
+ * `refl_extrapolate_fill_rows`'s `status`).
+ */
+enum refl_extrapolate_status
+#if defined(__cplusplus) || __STDC_VERSION__ >= 202311L
+  : uint32_t
+#endif // defined(__cplusplus) || __STDC_VERSION__ >= 202311L
+ {
+#if (defined(REFL_FEATURE_DEPTH_IMAGE) || defined(REFL_FEATURE_HIZ))
+    /**
+     * Not a hole: the input color, unchanged.
+     */
+    REFL_EXTRAPOLATE_STATUS_KEPT = 0,
+#endif
+#if (defined(REFL_FEATURE_DEPTH_IMAGE) || defined(REFL_FEATURE_HIZ))
+    /**
+     * A hole filled by the dilation.
+     */
+    REFL_EXTRAPOLATE_STATUS_FILLED = 1,
+#endif
+#if (defined(REFL_FEATURE_DEPTH_IMAGE) || defined(REFL_FEATURE_HIZ))
+    /**
+     * A hole no answered pixel reaches: for the host (listed).
+     */
+    REFL_EXTRAPOLATE_STATUS_UNFILLED = 2,
+#endif
+#if (defined(REFL_FEATURE_DEPTH_IMAGE) || defined(REFL_FEATURE_HIZ))
+    /**
+     * A hole smoother than `min_roughness`: for the host (listed).
+     */
+    REFL_EXTRAPOLATE_STATUS_TOO_SMOOTH = 3,
+#endif
+};
+#ifndef __cplusplus
+#if __STDC_VERSION__ >= 202311L
+typedef enum refl_extrapolate_status refl_extrapolate_status;
+#else
+typedef uint32_t refl_extrapolate_status;
+#endif // __STDC_VERSION__ >= 202311L
+#endif // __cplusplus
+#endif
+
+#if (defined(REFL_FEATURE_DEPTH_IMAGE) || defined(REFL_FEATURE_HIZ))
+/**
+ * How a full-resolution pixel was made (the bytes of
+ * `refl_upsample_resolve_rows`'s `status`).
+ */
+enum refl_upsample_status
+#if defined(__cplusplus) || __STDC_VERSION__ >= 202311L
+  : uint32_t
+#endif // defined(__cplusplus) || __STDC_VERSION__ >= 202311L
+ {
+#if (defined(REFL_FEATURE_DEPTH_IMAGE) || defined(REFL_FEATURE_HIZ))
+    /**
+     * No reflection: not reflective or no surface (its texel says which).
+     */
+    REFL_UPSAMPLE_STATUS_SKIPPED = 0,
+#endif
+#if (defined(REFL_FEATURE_DEPTH_IMAGE) || defined(REFL_FEATURE_HIZ))
+    /**
+     * The block's traced pixel: the sample itself, exactly.
+     */
+    REFL_UPSAMPLE_STATUS_COPIED = 1,
+#endif
+#if (defined(REFL_FEATURE_DEPTH_IMAGE) || defined(REFL_FEATURE_HIZ))
+    /**
+     * Reconstructed from the samples around it.
+     */
+    REFL_UPSAMPLE_STATUS_INTERPOLATED = 2,
+#endif
+#if (defined(REFL_FEATURE_DEPTH_IMAGE) || defined(REFL_FEATURE_HIZ))
+    /**
+     * No sample reaches it: listed for a full-resolution trace; its texel
+     * is `REFL_SSR_STATUS_SKIPPED` with zeros and its color black.
+     */
+    REFL_UPSAMPLE_STATUS_RETRACE = 3,
+#endif
+#if (defined(REFL_FEATURE_DEPTH_IMAGE) || defined(REFL_FEATURE_HIZ))
+    /**
+     * As `RETRACE`, traced at full resolution by the pass (`retrace`):
+     * what `refl_ssr_trace_rows` gives there.
+     */
+    REFL_UPSAMPLE_STATUS_RETRACED = 4,
+#endif
+};
+#ifndef __cplusplus
+#if __STDC_VERSION__ >= 202311L
+typedef enum refl_upsample_status refl_upsample_status;
+#else
+typedef uint32_t refl_upsample_status;
+#endif // __STDC_VERSION__ >= 202311L
+#endif // __cplusplus
+#endif
+
+#if (defined(REFL_FEATURE_DEPTH_IMAGE) || defined(REFL_FEATURE_HIZ))
+/**
+ * How the traced pixels are arranged over the 2x2 blocks
+ * (`refl_upsample_subsample.pattern`).
+ */
+enum refl_upsample_pattern
+#if defined(__cplusplus) || __STDC_VERSION__ >= 202311L
+  : uint32_t
+#endif // defined(__cplusplus) || __STDC_VERSION__ >= 202311L
+ {
+#if (defined(REFL_FEATURE_DEPTH_IMAGE) || defined(REFL_FEATURE_HIZ))
+    /**
+     * Every block traces the frame's sub-pixel: a regular half-resolution
+     * grid.
+     */
+    REFL_UPSAMPLE_PATTERN_UNIFORM = 0,
+#endif
+#if (defined(REFL_FEATURE_DEPTH_IMAGE) || defined(REFL_FEATURE_HIZ))
+    /**
+     * Every other block row traces the horizontally mirrored sub-pixel:
+     * the rows of traced pixels interleave (a staggered lattice).
+     */
+    REFL_UPSAMPLE_PATTERN_STAGGERED = 1,
+#endif
+};
+#ifndef __cplusplus
+#if __STDC_VERSION__ >= 202311L
+typedef enum refl_upsample_pattern refl_upsample_pattern;
+#else
+typedef uint32_t refl_upsample_pattern;
 #endif // __STDC_VERSION__ >= 202311L
 #endif // __cplusplus
 #endif
@@ -4601,6 +4785,295 @@ typedef struct refl_temporal_history {
 } refl_temporal_history;
 #endif
 
+#if (defined(REFL_FEATURE_DEPTH_IMAGE) || defined(REFL_FEATURE_HIZ))
+/**
+ * Settings of the bounce pass; `refl_bounce_options_default` gives the
+ * defaults.
+ */
+typedef struct refl_bounce_options {
+    /**
+     * Weight of the previous final image in the source, in [0, 1]:
+     * `source = lit + attenuation (previous - lit)`. 1 is the seed's demo,
+     * 0 one bounce (`source = lit`). Default 1.
+     */
+    float attenuation;
+    /**
+     * Relative tolerance of the validation, finite, >= 0: a previous texel
+     * is kept when its surface point lies within `depth_tolerance` times
+     * its depth in the previous camera of the current surface's tangent
+     * plane. Default 0.02.
+     */
+    float depth_tolerance;
+} refl_bounce_options;
+#endif
+
+#if (defined(REFL_FEATURE_DEPTH_IMAGE) || defined(REFL_FEATURE_HIZ))
+/**
+ * Counts of one `refl_bounce_source_rows` call over its band.
+ */
+typedef struct refl_bounce_stats {
+    /**
+     * Pixels that read the previous final image (`REPROJECTED`).
+     */
+    uint32_t reprojected;
+    /**
+     * Pixels whose previous texels were all rejected (`REJECTED`).
+     */
+    uint32_t rejected;
+    /**
+     * Pixels re-projected behind the previous camera or outside its image
+     * (`OFF_SCREEN`).
+     */
+    uint32_t off_screen;
+    /**
+     * Pixels without a usable surface (`NO_SURFACE`).
+     */
+    uint32_t no_surface;
+} refl_bounce_stats;
+#endif
+
+#if (defined(REFL_FEATURE_DEPTH_IMAGE) || defined(REFL_FEATURE_HIZ))
+/**
+ * The previous frame's final image (reflections composed in) with the
+ * depth image it was rendered with.
+ */
+typedef struct refl_bounce_previous {
+    /**
+     * The previous frame's depth, camera and convention. The camera may
+     * differ from this frame's in pose, field of view, planes and size
+     * (that is the re-projection).
+     */
+    struct refl_depth_image depth;
+    /**
+     * The previous frame's final color (linear RGB), of the previous
+     * camera's size.
+     */
+    struct refl_image_vec3 color;
+} refl_bounce_previous;
+#endif
+
+#if (defined(REFL_FEATURE_DEPTH_IMAGE) || defined(REFL_FEATURE_HIZ))
+/**
+ * Settings of the dilation; `refl_extrapolate_options_default` gives the
+ * defaults.
+ */
+typedef struct refl_extrapolate_options {
+    /**
+     * Half-size of the square window searched around a hole, in pixels,
+     * in [1, `REFL_EXTRAPOLATE_MAX_RADIUS`]. Default 4.
+     */
+    uint32_t radius;
+    /**
+     * Width of the Gaussian spatial weight in pixels, > 0 (+infinity:
+     * every pixel of the window weighs the same; not NaN). Default 2.
+     */
+    float spatial_sigma;
+    /**
+     * The depth edge, a fraction of the hole's linear depth: pixels
+     * further in depth weigh 0; > 0 (+infinity turns the edge off; not
+     * NaN). Default 0.1.
+     */
+    float depth_threshold;
+    /**
+     * Width of the Gaussian depth weight, a fraction of the hole's depth,
+     * greater than 0, not NaN. Default 0.05.
+     */
+    float depth_sigma;
+    /**
+     * Exponent of the normal weight; finite, >= 0 (0 turns it off).
+     * Default 8.
+     */
+    float normal_power;
+    /**
+     * Holes smoother than this (the G-buffer's roughness; 0 without a
+     * roughness image, NaN counts as smooth) are left to the host; finite,
+     * >= 0 (0 fills every hole). Default 0.
+     */
+    float min_roughness;
+    /**
+     * Fill every status the host would trace, not only rays that left the
+     * image (`REFL_SSR_STATUS_LEFT_IMAGE`). Default false.
+     */
+    bool all_host_rays;
+} refl_extrapolate_options;
+#endif
+
+#if (defined(REFL_FEATURE_DEPTH_IMAGE) || defined(REFL_FEATURE_HIZ))
+/**
+ * Counts of one `refl_extrapolate_fill_rows` call over its band.
+ */
+typedef struct refl_extrapolate_stats {
+    /**
+     * Holes: pixels with a surface whose ray left the image (or, with
+     * `all_host_rays`, needs the host).
+     */
+    uint32_t holes;
+    /**
+     * Holes filled (`FILLED`).
+     */
+    uint32_t filled;
+    /**
+     * Holes no answered pixel reaches (`UNFILLED`).
+     */
+    uint32_t unfilled;
+    /**
+     * Holes too smooth to fill (`TOO_SMOOTH`).
+     */
+    uint32_t too_smooth;
+    /**
+     * Of the unfilled and too smooth holes, those written to `host` (the
+     * first ones in row-major order; the rest did not fit).
+     */
+    uint32_t host_written;
+} refl_extrapolate_stats;
+#endif
+
+/**
+ * A pixel of an image: column `x`, row `y` (an entry of the lists of
+ * pixels a pass leaves to the host, `refl_extrapolate_fill_rows`'s `host`
+ * and `refl_upsample_resolve_rows`'s `retrace`).
+ */
+typedef struct refl_image_pixel {
+    /**
+     * Pixel column.
+     */
+    uint32_t x;
+    /**
+     * Pixel row.
+     */
+    uint32_t y;
+} refl_image_pixel;
+
+#if (defined(REFL_FEATURE_DEPTH_IMAGE) || defined(REFL_FEATURE_HIZ))
+/**
+ * A read-only image of `refl_ssr_texel` texels (the mirror pass's output
+ * read back by a later pass). Every texel of the view (`(height - 1) *
+ * stride + width` texels from `data`, stride padding included) must hold
+ * a `refl_ssr_status`.
+ */
+typedef struct refl_image_ssr_texel {
+    /**
+     * Texel (0, 0); texel (x, y) is `data[y * stride + x]`.
+     */
+    const struct refl_ssr_texel *data;
+    /**
+     * Number of texels readable from `data` on (the buffer length).
+     */
+    size_t len;
+    /**
+     * Width in texels, > 0.
+     */
+    uint32_t width;
+    /**
+     * Height in texels, > 0.
+     */
+    uint32_t height;
+    /**
+     * Row stride in texels, >= `width`.
+     */
+    uint32_t stride;
+} refl_image_ssr_texel;
+#endif
+
+#if (defined(REFL_FEATURE_DEPTH_IMAGE) || defined(REFL_FEATURE_HIZ))
+/**
+ * Settings of the reconstruction; `refl_upsample_options_default` gives
+ * the defaults.
+ */
+typedef struct refl_upsample_options {
+    /**
+     * The depth edge: samples whose linear depth differs from the compared
+     * depth by more than this fraction of the pixel's depth weigh 0; > 0
+     * (+infinity turns the edge off; not NaN). Default 0.1.
+     */
+    float depth_threshold;
+    /**
+     * Width of the Gaussian depth weight, a fraction of the pixel's depth,
+     * greater than 0, not NaN (+infinity: every sample within the edge
+     * weighs the same). Default 0.05.
+     */
+    float depth_sigma;
+    /**
+     * Exponent of the normal weight; finite, >= 0 (0 turns it off).
+     * Default 8.
+     */
+    float normal_power;
+    /**
+     * Compare a sample's depth with the pixel's tangent plane at the
+     * sample's pixel rather than with the pixel's own depth (floors seen at
+     * grazing angles). Default false.
+     */
+    bool plane_depth;
+    /**
+     * A reconstructed hit takes the G-buffer's lit color at its
+     * interpolated hit position rather than the mean of its samples'
+     * colors (with a `half_color` input and a G-buffer color). Default
+     * true.
+     */
+    bool shade_hits;
+    /**
+     * Pixels no sample reaches are traced at full resolution by the mirror
+     * pass (`RETRACED`) instead of listed (`RETRACE`). Default false.
+     */
+    bool retrace;
+    /**
+     * Pixels whose samples answer differently (a hit and a miss, a hit and
+     * the sky) count as reached by no sample. Default false.
+     */
+    bool retrace_mixed;
+} refl_upsample_options;
+#endif
+
+#if (defined(REFL_FEATURE_DEPTH_IMAGE) || defined(REFL_FEATURE_HIZ))
+/**
+ * Which pixel of each 2x2 block a frame traces.
+ */
+typedef struct refl_upsample_subsample {
+    /**
+     * The arrangement over the blocks, a `refl_upsample_pattern`.
+     */
+    uint32_t pattern;
+    /**
+     * The frame number: frame `f` traces sub-pixel top-left, bottom-right,
+     * top-right, bottom-left for `f % 4` = 0, 1, 2, 3 (any value).
+     */
+    uint32_t frame;
+} refl_upsample_subsample;
+#endif
+
+#if (defined(REFL_FEATURE_DEPTH_IMAGE) || defined(REFL_FEATURE_HIZ))
+/**
+ * Counts of one `refl_upsample_resolve_rows` call over its band.
+ */
+typedef struct refl_upsample_stats {
+    /**
+     * Traced pixels copied (`COPIED`).
+     */
+    uint32_t copied;
+    /**
+     * Reconstructed pixels (`INTERPOLATED`).
+     */
+    uint32_t interpolated;
+    /**
+     * Pixels no sample reached (`RETRACE` and `RETRACED`).
+     */
+    uint32_t retrace;
+    /**
+     * Of the listed ones, those written to `retrace` (the first ones in
+     * row-major order; the rest did not fit).
+     */
+    uint32_t retrace_written;
+    /**
+     * Of those, the ones traced at full resolution (`RETRACED`).
+     */
+    uint32_t retraced;
+    /**
+     * Pixels whose texel is a `REFL_SSR_STATUS_HIT`.
+     */
+    uint32_t hits;
+} refl_upsample_stats;
+#endif
+
 /**
  * An 8-bit RGBA texel.
  */
@@ -7537,6 +8010,279 @@ refl_status refl_temporal_resolve_rows(struct refl_temporal_stats *out_stats,
                                        struct refl_image_f32 distance,
                                        const struct refl_temporal_history *history,
                                        const struct refl_temporal_options *options,
+                                       struct refl_row_range rows);
+#endif
+
+#if (defined(REFL_FEATURE_DEPTH_IMAGE) || defined(REFL_FEATURE_HIZ))
+/**
+ * The pass's defaults: the previous final image as it is (attenuation 1,
+ * the seed's demo), previous texels kept within 2% of their depth of the
+ * current surface's tangent plane.
+ */
+struct refl_bounce_options refl_bounce_options_default(void);
+#endif
+
+#if (defined(REFL_FEATURE_DEPTH_IMAGE) || defined(REFL_FEATURE_HIZ))
+/**
+ * Runs the bounce pass over the rows `rows` of the G-buffer: for each
+ * pixel of those rows writes its source color to `out` and, if
+ * `status.data` is not NULL, its `refl_bounce_status` as a byte to
+ * `status`; only the band's rows of `out` and `status` are written. The
+ * counts go to `*out_stats`. Per pixel (refl-core's `bounce` documents
+ * each step): the pixel's world point is projected into the previous
+ * camera; the 2x2 previous texels around it are kept if their depth is a
+ * surface, their color finite and their point on the current surface's
+ * tangent plane (`depth_tolerance`); if they carry enough of the bilinear
+ * weight the source is `lit + attenuation (previous - lit)`, else `lit`.
+ *
+ * `gbuffer` is this frame's, with its `color` the lit color without
+ * reflections (required). `previous` is the image the host composed last
+ * frame, reflections included, with that frame's depth and camera; its
+ * size may differ from this frame's. `out` and `status` have the
+ * G-buffer's size. `out` is this frame's source, not the previous color
+ * or the lit color: keep two final images and swap them. Bands are
+ * independent: split the rows (`refl_image_row_band`) across threads.
+ *
+ * Returns `REFL_STATUS_NULL_POINTER` if `out_stats`, `out.data`,
+ * `gbuffer`, `previous`, `options`, a required G-buffer image, the
+ * G-buffer's `color.data`, or the previous depth or color data is NULL;
+ * `REFL_STATUS_INSUFFICIENT_SIZE` if an image's `len` is too small;
+ * `REFL_STATUS_INVALID_ARGUMENT` for an option out of range (NaN
+ * included), rows reversed or beyond the height, `out` or `status` not of
+ * the G-buffer's size, the previous color not of the previous camera's
+ * size, a zero size or a stride below the width, a misaligned pointer,
+ * outputs overlapping each other or an input, an unknown convention or
+ * normal space; the camera's status if the G-buffer's or the previous
+ * camera is invalid. The last-error message names the argument. Nothing
+ * is written on error.
+ *
+ * # Safety
+ * `out_stats` NULL or writable; `out.data` NULL or writable for `out.len`
+ * texels and `status.data` for `status.len` bytes; `gbuffer`, `previous`
+ * and `options` NULL or readable; every other image readable for its
+ * `len` texels and not written during the call. No other thread accesses
+ * the rows of `out` and `status` this call writes.
+ */
+refl_status refl_bounce_source_rows(struct refl_bounce_stats *out_stats,
+                                    struct refl_image_vec3_mut out,
+                                    struct refl_image_u8_mut status,
+                                    const struct refl_gbuffer *gbuffer,
+                                    const struct refl_bounce_previous *previous,
+                                    const struct refl_bounce_options *options,
+                                    struct refl_row_range rows);
+#endif
+
+#if (defined(REFL_FEATURE_DEPTH_IMAGE) || defined(REFL_FEATURE_HIZ))
+/**
+ * The dilation's defaults: radius 4, spatial sigma 2 pixels, depth edge
+ * 0.1 and sigma 0.05 of the hole's depth, normal power 8, every hole
+ * filled whatever its roughness, only rays that left the image.
+ */
+struct refl_extrapolate_options refl_extrapolate_options_default(void);
+#endif
+
+#if (defined(REFL_FEATURE_DEPTH_IMAGE) || defined(REFL_FEATURE_HIZ))
+/**
+ * Runs the dilation over the rows `rows` of the G-buffer: for each pixel
+ * of those rows writes its color to `out` (the input `color` where it is
+ * kept or left to the host, the weighted mean of the answered pixels
+ * around it where a hole is filled) and, if `status.data` is not NULL, its
+ * `refl_extrapolate_status` as a byte to `status`; only the band's rows of
+ * `out` and `status` are written. The holes still for the host (unfilled
+ * or too smooth) go to `host` in row-major order as far as `host_len`
+ * holds them (`host` may be NULL with `host_len` 0); their texel's status
+ * says why the mirror pass did not answer them. The counts go to
+ * `*out_stats`. Per pixel (refl-core's `extrapolate` documents each
+ * step): a hole is a pixel with a surface whose texel status is
+ * `REFL_SSR_STATUS_LEFT_IMAGE` (or any host status with `all_host_rays`);
+ * a hole rougher than `min_roughness` takes the mean of the texels within
+ * `radius` pixels that answered (`HIT` or `SKY`, finite color, a surface),
+ * weighted by a spatial Gaussian and the depth and normal range weights.
+ *
+ * Inputs, each the G-buffer's size: `texels`, the mirror pass's texels
+ * (`refl_ssr_trace_rows`'s `out` as an image; every texel of the view
+ * must hold a `refl_ssr_status`); `color`, the reflection colors (the
+ * pass's `color`, with the host's answers where it has them). Bands are
+ * independent: every band reads the whole input; split the rows
+ * (`refl_image_row_band`) across threads, each with its own `host` list.
+ * `out` must not be `color`: keep the input.
+ *
+ * Returns `REFL_STATUS_NULL_POINTER` if `out_stats`, `out.data`, `gbuffer`,
+ * `texels.data`, `color.data`, `options`, a required G-buffer image, or
+ * `host` with a non-zero `host_len` is NULL;
+ * `REFL_STATUS_INSUFFICIENT_SIZE` if an image's `len` is too small;
+ * `REFL_STATUS_INVALID_ARGUMENT` for an option out of range (NaN
+ * included), rows reversed or beyond the height, an image (`out`,
+ * `status`, `texels`, `color`) not of the G-buffer's size, a zero size or
+ * a stride below the width, a texel whose status is not a
+ * `refl_ssr_status`, a misaligned pointer, outputs overlapping each other
+ * or an input, an unknown convention or normal space; the camera's status
+ * if the G-buffer's camera is invalid. The last-error message names the
+ * argument. Nothing is written on error.
+ *
+ * # Safety
+ * `out_stats` NULL or writable; `out.data` NULL or writable for `out.len`
+ * texels, `status.data` for `status.len` bytes and `host` for `host_len`
+ * entries; `gbuffer` and `options` NULL or readable; every other image
+ * readable for its `len` texels and not written during the call. No other
+ * thread accesses the rows of `out` and `status` this call writes.
+ */
+refl_status refl_extrapolate_fill_rows(struct refl_extrapolate_stats *out_stats,
+                                       struct refl_image_vec3_mut out,
+                                       struct refl_image_u8_mut status,
+                                       struct refl_image_pixel *host,
+                                       size_t host_len,
+                                       const struct refl_gbuffer *gbuffer,
+                                       struct refl_image_ssr_texel texels,
+                                       struct refl_image_vec3 color,
+                                       const struct refl_extrapolate_options *options,
+                                       struct refl_row_range rows);
+#endif
+
+#if (defined(REFL_FEATURE_DEPTH_IMAGE) || defined(REFL_FEATURE_HIZ))
+/**
+ * The reconstruction's defaults: depth edge 0.1 and sigma 0.05 of the
+ * pixel's depth (its own depth compared), normal power 8, reconstructed
+ * hits shaded at their interpolated position, unreached pixels listed.
+ */
+struct refl_upsample_options refl_upsample_options_default(void);
+#endif
+
+#if (defined(REFL_FEATURE_DEPTH_IMAGE) || defined(REFL_FEATURE_HIZ))
+/**
+ * The size of the half-resolution images of a `width x height` frame,
+ * `(ceil(width / 2), ceil(height / 2))`, into `*out_width` and
+ * `*out_height`.
+ *
+ * Returns `REFL_STATUS_NULL_POINTER` if an output is NULL;
+ * `REFL_STATUS_INVALID_ARGUMENT` if `width` or `height` is 0 or an output
+ * is misaligned. Nothing is written on error.
+ *
+ * # Safety
+ * `out_width` and `out_height` NULL or writable.
+ */
+refl_status refl_upsample_half_size(uint32_t *out_width,
+                                    uint32_t *out_height,
+                                    uint32_t width,
+                                    uint32_t height);
+#endif
+
+#if (defined(REFL_FEATURE_DEPTH_IMAGE) || defined(REFL_FEATURE_HIZ))
+/**
+ * Traces one pixel of every 2x2 block (`subsample`) of the rows `rows` of
+ * the half-resolution images (`refl_upsample_half_size` of the G-buffer):
+ * block `(bx, by)`'s `refl_ssr_texel` goes to `out[by * half_width + bx]`
+ * (`out` holds the whole half-resolution image, row stride `half_width`;
+ * only the band's rows are written), exactly what `refl_ssr_trace_rows`
+ * writes at the block's traced pixel (hit positions in full-resolution
+ * pixels); its color to `color` (a half-resolution image) if `color.data`
+ * is not NULL (then the G-buffer must have a color); the traced pixels
+ * that need the host's tracer to `host` (full-resolution pixels, up to
+ * `host_len`, block row-major order; `host` may be NULL with `host_len`
+ * 0). The counts go to `*out_stats`. The traced pixel of block `(bx, by)`
+ * is `(min(2 bx + s.x, width - 1), min(2 by + s.y, height - 1))` for the
+ * block's sub-pixel `s` (`refl_upsample_subsample`).
+ *
+ * The mirror pass is described as for `refl_ssr_trace_rows`: `gbuffer`,
+ * `ssr_options`, and the pyramid `refl_ssr_prepare` built in `scratch`
+ * (Hi-Z; NULL for stepping). Bands are independent.
+ *
+ * Returns `REFL_STATUS_NULL_POINTER` if `out_stats`, `out`, `gbuffer`,
+ * `ssr_options`, `subsample`, a required image, (Hi-Z) `scratch`, or
+ * `host` with a non-zero `host_len` is NULL;
+ * `REFL_STATUS_INSUFFICIENT_SIZE` if `out_len` is less than the
+ * half-resolution texel count, `scratch_len` or an image's `len` is too
+ * small; `REFL_STATUS_INVALID_ARGUMENT` for rows reversed or beyond the
+ * half height, `color` not of the half size or given without a G-buffer
+ * color, an unknown pattern, outputs overlapping each other or the inputs,
+ * and the cases of `refl_ssr_trace_rows`. The last-error message names the
+ * argument. Nothing is written on error.
+ *
+ * # Safety
+ * `out_stats` NULL or writable; `out` NULL or writable for `out_len`
+ * texels; `color.data` NULL or writable for `color.len` texels; `host`
+ * NULL or writable for `host_len` entries; `subsample` NULL or readable;
+ * the rest as `refl_ssr_trace_rows`. No other thread writes the rows of
+ * `out` and `color` this call writes.
+ */
+refl_status refl_upsample_trace_rows(struct refl_ssr_stats *out_stats,
+                                     struct refl_ssr_texel *out,
+                                     size_t out_len,
+                                     struct refl_image_vec3_mut color,
+                                     struct refl_host_ray *host,
+                                     size_t host_len,
+                                     const struct refl_gbuffer *gbuffer,
+                                     const struct refl_ssr_options *ssr_options,
+                                     const struct refl_vec2 *scratch,
+                                     size_t scratch_len,
+                                     const struct refl_upsample_subsample *subsample,
+                                     struct refl_row_range rows);
+#endif
+
+#if (defined(REFL_FEATURE_DEPTH_IMAGE) || defined(REFL_FEATURE_HIZ))
+/**
+ * Reconstructs the rows `rows` of the full-resolution image from the
+ * half-resolution samples `refl_upsample_trace_rows` traced with the same
+ * pass and `subsample`: for each pixel of those rows writes its
+ * `refl_ssr_texel` to `out[y * width + x]` (`out` holds the whole image,
+ * row stride `width`; only the band's rows are written), its color to
+ * `color` if `color.data` is not NULL (then `half_color` is required), its
+ * `refl_upsample_status` as a byte to `status` if `status.data` is not
+ * NULL, and the pixels no sample reaches (`RETRACE`) to `retrace` as far
+ * as `retrace_len` holds them (`retrace` may be NULL with `retrace_len`
+ * 0; with `options->retrace` they are traced instead, `RETRACED`, and not
+ * listed). The counts go to `*out_stats`. A traced pixel copies its sample;
+ * another one takes the samples of the blocks around it weighted by
+ * bilinear distance, depth and normal similarity with a hard depth edge
+ * (refl-core's `upsample` documents the weights); a reconstructed hit's
+ * position, `t` and confidence are interpolated, its status is that of
+ * the heaviest sample's class.
+ *
+ * Inputs: the mirror pass as for `refl_ssr_trace_rows` (`gbuffer`,
+ * `ssr_options`, `scratch`; the G-buffer is the full-resolution guide);
+ * `subsample`; `half`, the half-resolution texels (every texel of the
+ * view must hold a `refl_ssr_status`); `half_color`, optional (`data`
+ * NULL), their colors (the host's answers may be in them). Bands are
+ * independent; each band has its own `retrace` list.
+ *
+ * Returns `REFL_STATUS_NULL_POINTER` if `out_stats`, `out`, `gbuffer`,
+ * `ssr_options`, `subsample`, `half.data`, `options`, a required
+ * G-buffer image, (Hi-Z) `scratch`, or `retrace` with a non-zero
+ * `retrace_len` is NULL; `REFL_STATUS_INSUFFICIENT_SIZE` if `out_len <
+ * width * height`, `scratch_len` or an image's `len` is too small;
+ * `REFL_STATUS_INVALID_ARGUMENT` for an option out of range (NaN
+ * included), rows reversed or beyond the height, `half` or `half_color`
+ * not of the half size, a `half` texel whose status is not a
+ * `refl_ssr_status`, `color` or `status` not of the G-buffer's size,
+ * `color` without `half_color` or without a G-buffer color, an unknown
+ * pattern, outputs overlapping each other or an input, and the cases of
+ * `refl_ssr_trace_rows`. The last-error message names the argument.
+ * Nothing is written on error.
+ *
+ * # Safety
+ * `out_stats` NULL or writable; `out` NULL or writable for `out_len`
+ * texels; `color.data` NULL or writable for `color.len` texels,
+ * `status.data` for `status.len` bytes, `retrace` for `retrace_len`
+ * entries; `subsample` and `options` NULL or readable; `half` and
+ * `half_color` readable for their `len` texels; the rest as
+ * `refl_ssr_trace_rows`. No other thread writes the rows of `out`, `color`
+ * and `status` this call writes.
+ */
+refl_status refl_upsample_resolve_rows(struct refl_upsample_stats *out_stats,
+                                       struct refl_ssr_texel *out,
+                                       size_t out_len,
+                                       struct refl_image_vec3_mut color,
+                                       struct refl_image_u8_mut status,
+                                       struct refl_image_pixel *retrace,
+                                       size_t retrace_len,
+                                       const struct refl_gbuffer *gbuffer,
+                                       const struct refl_ssr_options *ssr_options,
+                                       const struct refl_vec2 *scratch,
+                                       size_t scratch_len,
+                                       const struct refl_upsample_subsample *subsample,
+                                       struct refl_image_ssr_texel half,
+                                       struct refl_image_vec3 half_color,
+                                       const struct refl_upsample_options *options,
                                        struct refl_row_range rows);
 #endif
 

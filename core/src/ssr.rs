@@ -321,7 +321,13 @@ impl MirrorStatus {
 }
 
 /// One pixel of the pass's output.
+///
+/// `#[repr(C)]` (a status byte, three bytes of padding, then the floats:
+/// 20 bytes), so that the C ABI can read an array of its own texels
+/// (`refl_ssr_texel`, whose `uint32_t` status starts with the same byte on
+/// little-endian targets) in place once it has checked every status.
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
+#[repr(C)]
 pub struct MirrorTexel {
     /// What happened.
     pub status: MirrorStatus,

@@ -311,6 +311,134 @@ pub struct refl_image_temporal_texel_mut {
     pub stride: u32,
 }
 
+/// A pixel of an image: column `x`, row `y` (an entry of the lists of
+/// pixels a pass leaves to the host, `refl_extrapolate_fill_rows`'s `host`
+/// and `refl_upsample_resolve_rows`'s `retrace`).
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct refl_image_pixel {
+    /// Pixel column.
+    pub x: u32,
+    /// Pixel row.
+    pub y: u32,
+}
+
+const _: () = {
+    use core::mem::{align_of, size_of};
+    assert!(size_of::<refl_image_pixel>() == size_of::<[u32; 2]>());
+    assert!(align_of::<refl_image_pixel>() == align_of::<[u32; 2]>());
+};
+
+/// The `[x, y]` pairs of `len` pixels at `p` (NULL with `len` 0: none),
+/// checked as `check_buffer` does; the last-error message names `name`.
+///
+/// # Safety
+/// `p` NULL or writable for `len` entries, not accessed otherwise during
+/// `'a`.
+pub(crate) unsafe fn pixel_list<'a>(
+    p: *mut refl_image_pixel,
+    len: usize,
+    name: &str,
+) -> Result<&'a mut [[u32; 2]], Error> {
+    if len == 0 {
+        return Ok(&mut []);
+    }
+    crate::ptr::check_buffer(p.cast_const(), len, name)?;
+    // SAFETY: non-null, aligned, `len` entries writable (caller contract),
+    // size fits isize (check_buffer); refl_image_pixel is [u32; 2].
+    Ok(unsafe { core::slice::from_raw_parts_mut(p.cast::<[u32; 2]>(), len) })
+}
+
+/// A read-only image of `refl_ssr_texel` texels (the mirror pass's output
+/// read back by a later pass). Every texel of the view (`(height - 1) *
+/// stride + width` texels from `data`, stride padding included) must hold
+/// a `refl_ssr_status`.
+#[repr(C)]
+#[derive(Clone, Copy, Debug)]
+#[cfg(any(feature = "depth-image", feature = "hiz"))]
+pub struct refl_image_ssr_texel {
+    /// Texel (0, 0); texel (x, y) is `data[y * stride + x]`.
+    pub data: *const crate::ssr::refl_ssr_texel,
+    /// Number of texels readable from `data` on (the buffer length).
+    pub len: usize,
+    /// Width in texels, > 0.
+    pub width: u32,
+    /// Height in texels, > 0.
+    pub height: u32,
+    /// Row stride in texels, >= `width`.
+    pub stride: u32,
+}
+
+#[cfg(any(feature = "depth-image", feature = "hiz"))]
+const _: () = {
+    use crate::ssr::refl_ssr_texel;
+    use core::mem::{align_of, offset_of, size_of};
+    use refl_core::MirrorTexel;
+    assert!(size_of::<refl_ssr_texel>() == size_of::<MirrorTexel>());
+    assert!(align_of::<refl_ssr_texel>() == align_of::<MirrorTexel>());
+    assert!(offset_of!(refl_ssr_texel, status) == offset_of!(MirrorTexel, status));
+    assert!(offset_of!(refl_ssr_texel, pixel) == offset_of!(MirrorTexel, pixel));
+    assert!(offset_of!(refl_ssr_texel, t) == offset_of!(MirrorTexel, t));
+    assert!(offset_of!(refl_ssr_texel, confidence) == offset_of!(MirrorTexel, confidence));
+    use crate::ssr::refl_ssr_status as C;
+    use refl_core::MirrorStatus as R;
+    assert!(C::Skipped as u32 == R::Skipped as u32);
+    assert!(C::NoSurface as u32 == R::NoSurface as u32);
+    assert!(C::Hit as u32 == R::Hit as u32);
+    assert!(C::Sky as u32 == R::Sky as u32);
+    assert!(C::LeftImage as u32 == R::LeftImage as u32);
+    assert!(C::BehindGeometry as u32 == R::BehindGeometry as u32);
+    assert!(C::OutOfSteps as u32 == R::OutOfSteps as u32);
+    assert!(C::NoProjection as u32 == R::NoProjection as u32);
+    assert!(C::BackFace as u32 == R::BackFace as u32);
+    assert!(C::Hidden as u32 == R::Hidden as u32);
+};
+
+// The in-place read of `refl_image_ssr_texel::view` takes the status
+// byte at offset 0: the low byte of the `uint32_t` only on little-endian
+// targets.
+#[cfg(all(any(feature = "depth-image", feature = "hiz"), target_endian = "big"))]
+compile_error!("refl_image_ssr_texel is read in place: little-endian targets only");
+
+#[cfg(any(feature = "depth-image", feature = "hiz"))]
+impl refl_image_ssr_texel {
+    /// A refl-core view of this image: validated as the other images, then
+    /// every texel's status checked (`InvalidArgument` naming `name` and
+    /// the first texel that is not a `refl_ssr_status`) before the memory
+    /// is read as refl-core's texels.
+    ///
+    /// # Safety
+    /// `data` must be valid for reads of `len` texels for `'a`, and not be
+    /// written through another pointer meanwhile.
+    pub(crate) unsafe fn view<'a>(
+        &self,
+        name: &str,
+    ) -> Result<ImageView<'a, refl_core::MirrorTexel>, Error> {
+        let need = checked_len(self.data, self.len, self.width, self.height, self.stride)?;
+        // SAFETY: non-null, aligned, `need <= len` texels readable by the
+        // caller's contract, size fits isize (checked_len).
+        let c = unsafe { core::slice::from_raw_parts(self.data, need) };
+        if let Some(i) = c.iter().position(|t| t.status > 9) {
+            return Err(crate::status::fail(
+                Error::InvalidArgument,
+                format_args!(
+                    "`{name}` texel {i} has status {}, not a refl_ssr_status",
+                    c[i].status
+                ),
+            ));
+        }
+        // SAFETY: the same memory; the layouts are identical (asserted
+        // above) and every status is a `refl_ssr_status` (0..=9), whose
+        // low byte, at offset 0 on the little-endian targets this builds
+        // for, is the `MirrorStatus` of the same number (ssr.rs maps them
+        // one to one); the rest is floats.
+        let s = unsafe {
+            core::slice::from_raw_parts(self.data.cast::<refl_core::MirrorTexel>(), need)
+        };
+        ImageView::try_new(s, self.width, self.height, self.stride)
+    }
+}
+
 /// Validates an image descriptor and returns the number of texels the view
 /// covers (`try_required_len`), which is also its slice length.
 ///

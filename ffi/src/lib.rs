@@ -90,9 +90,19 @@ mod layered_pass;
 // The temporal filter (issue 18, seed 004 Sec. 4.6.4-4.6.5).
 #[cfg(any(feature = "depth-image", feature = "hiz"))]
 mod temporal;
+// Multiple bounces, extrapolation and fewer rays (issue 18, seed 004 Sec.
+// 4.6.2, 4.6.4, 4.7.3-4.7.4).
+#[cfg(any(feature = "depth-image", feature = "hiz"))]
+mod bounce;
+#[cfg(any(feature = "depth-image", feature = "hiz"))]
+mod extrapolate;
+#[cfg(any(feature = "depth-image", feature = "hiz"))]
+mod upsample;
 
 #[cfg(any(feature = "depth-image", feature = "hiz"))]
 pub use backface::*;
+#[cfg(any(feature = "depth-image", feature = "hiz"))]
+pub use bounce::*;
 pub use camera::*;
 #[cfg(feature = "cluster")]
 pub use cluster::*;
@@ -102,6 +112,8 @@ pub use cluster_pass::*;
 pub use cone::*;
 #[cfg(feature = "epipolar")]
 pub use epipolar::*;
+#[cfg(any(feature = "depth-image", feature = "hiz"))]
+pub use extrapolate::*;
 #[cfg(any(feature = "depth-image", feature = "hiz", feature = "mirror"))]
 pub use gbuffer::*;
 #[cfg(feature = "cone")]
@@ -129,3 +141,5 @@ pub use temporal::*;
 #[cfg(any(feature = "depth-image", feature = "hiz", feature = "mirror"))]
 pub use trace::*;
 pub use types::*;
+#[cfg(any(feature = "depth-image", feature = "hiz"))]
+pub use upsample::*;

@@ -202,7 +202,7 @@ impl From<MirrorOptions> for refl_ssr_options {
     }
 }
 
-fn options(o: &refl_ssr_options) -> Result<MirrorOptions, Error> {
+pub(crate) fn options(o: &refl_ssr_options) -> Result<MirrorOptions, Error> {
     let method = match o.method {
         0 => MirrorMethod::Step,
         1 => MirrorMethod::HiZ,
@@ -388,13 +388,49 @@ impl<'a, T> Band<'a, T> {
         scratch: (usize, usize),
         stats: (usize, usize),
     ) -> Result<Self, Error> {
+        // SAFETY: caller contract.
+        unsafe {
+            Self::try_sized(
+                out,
+                out_len,
+                color,
+                host,
+                host_len,
+                g,
+                (gb.width(), gb.height()),
+                rows,
+                scratch,
+                stats,
+            )
+        }
+    }
+
+    /// [`Band::try_new`] for outputs of `size` texels (the G-buffer's, or
+    /// the half-resolution images of `refl_upsample_trace_rows`); `color`
+    /// must then be of that size too.
+    ///
+    /// # Safety
+    /// As [`Band::try_new`].
+    #[allow(clippy::too_many_arguments)]
+    pub(crate) unsafe fn try_sized(
+        out: *mut T,
+        out_len: usize,
+        color: refl_image_vec3_mut,
+        host: *mut refl_host_ray,
+        host_len: usize,
+        g: &refl_gbuffer,
+        size: (u32, u32),
+        rows: refl_row_range,
+        scratch: (usize, usize),
+        stats: (usize, usize),
+    ) -> Result<Self, Error> {
         let out_bytes = check_buffer(out.cast_const(), out_len, "out")?;
         let host_bytes = if host_len == 0 && host.is_null() {
             0
         } else {
             check_buffer(host.cast_const(), host_len, "host")?
         };
-        let (w, h) = (gb.width(), gb.height());
+        let (w, h) = size;
         let rows = RowRange::try_new(rows.begin, rows.end, h).map_err(|e| {
             fail(
                 e,
@@ -419,7 +455,7 @@ impl<'a, T> Band<'a, T> {
             if g.color.data.is_null() || color.width != w || color.height != h {
                 return Err(fail(
                     Error::InvalidArgument,
-                    format_args!("`color` needs a G-buffer color and the camera's size"),
+                    format_args!("`color` needs a G-buffer color and the output's size ({w}x{h})"),
                 ));
             }
             // SAFETY: caller contract (the band's rows writable, not
@@ -487,6 +523,42 @@ impl MirrorSink for Band<'_, refl_ssr_texel> {
     fn host(&mut self, index: u32, r: &HostRay) -> bool {
         self.put_host(index, r)
     }
+}
+
+/// The mirror pass over `gb` with `opts` and, for Hi-Z, the pyramid
+/// `refl_ssr_prepare` built into `scratch` (checked against the G-buffer's
+/// camera).
+///
+/// # Safety
+/// `scratch` NULL or readable for `scratch_len` texels for `'a`, not
+/// written meanwhile.
+pub(crate) unsafe fn mirror_pass<'a>(
+    gb: GBuffer<'a>,
+    opts: MirrorOptions,
+    scratch: *const refl_vec2,
+    scratch_len: usize,
+) -> Result<MirrorPass<'a>, Error> {
+    let hiz = match opts.method {
+        MirrorMethod::Step => None,
+        MirrorMethod::HiZ => {
+            check_buffer(scratch, scratch_len, "scratch")?;
+            // SAFETY: non-null, aligned, readable for scratch_len texels
+            // (contract), size fits isize (check_buffer).
+            let data =
+                unsafe { core::slice::from_raw_parts(scratch.cast::<HiZTexel>(), scratch_len) };
+            Some(
+                HiZ::try_new(data, *gb.camera(), gb.convention()).map_err(|e| {
+                    fail(
+                        e,
+                        format_args!(
+                            "`scratch` is not the pyramid refl_ssr_prepare built for this G-buffer"
+                        ),
+                    )
+                })?,
+            )
+        }
+    };
+    MirrorPass::try_new(gb, opts, hiz)
 }
 
 /// Runs the pass over the rows `rows` of the G-buffer: for each pixel of
@@ -561,20 +633,8 @@ pub unsafe extern "C" fn refl_ssr_trace_rows(
                 (out_stats as usize, core::mem::size_of::<refl_ssr_stats>()),
             )
         }?;
-        let hiz = match opts.method {
-            MirrorMethod::Step => None,
-            MirrorMethod::HiZ => {
-                check_buffer(scratch, scratch_len, "scratch")?;
-                // SAFETY: non-null, aligned, readable for scratch_len
-                // texels (contract), size fits isize (check_buffer).
-                let data =
-                    unsafe { core::slice::from_raw_parts(scratch.cast::<HiZTexel>(), scratch_len) };
-                Some(HiZ::try_new(data, *gb.camera(), gb.convention()).map_err(|e| {
-                    fail(e, format_args!("`scratch` is not the pyramid refl_ssr_prepare built for this G-buffer"))
-                })?)
-            }
-        };
-        let pass = MirrorPass::try_new(gb, opts, hiz)?;
+        // SAFETY: caller contract.
+        let pass = unsafe { mirror_pass(gb, opts, scratch, scratch_len) }?;
         let stats = pass.try_run_rows(band.rows, &mut band)?;
         // SAFETY: caller contract.
         unsafe { stats_out.write(stats.into()) };

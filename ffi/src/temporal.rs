@@ -274,7 +274,14 @@ fn options(o: &refl_temporal_options) -> Result<TemporalOptions, Error> {
 
 /// The last-error detail of an image descriptor `name` that its view
 /// refused (`e`; its NULL `data` is checked before, with the name).
-fn image_error(e: Error, name: &str, len: usize, width: u32, height: u32, stride: u32) -> Error {
+pub(crate) fn image_error(
+    e: Error,
+    name: &str,
+    len: usize,
+    width: u32,
+    height: u32,
+    stride: u32,
+) -> Error {
     match (e, try_required_len(width, height, stride)) {
         (Error::InsufficientSize, Ok(need)) => fail(
             e,
@@ -295,7 +302,7 @@ fn image_error(e: Error, name: &str, len: usize, width: u32, height: u32, stride
 
 /// `InvalidArgument` naming `name` unless `(width, height)` is the
 /// G-buffer's `(w, h)`.
-fn same_size(name: &str, width: u32, height: u32, w: u32, h: u32) -> Result<(), Error> {
+pub(crate) fn same_size(name: &str, width: u32, height: u32, w: u32, h: u32) -> Result<(), Error> {
     if width == w && height == h {
         return Ok(());
     }
@@ -306,7 +313,7 @@ fn same_size(name: &str, width: u32, height: u32, w: u32, h: u32) -> Result<(), 
 }
 
 /// The byte range of an optional image (`(0, 0)` when its `data` is NULL).
-fn image_range<T>(data: *const T, len: usize) -> (usize, usize) {
+pub(crate) fn image_range<T>(data: *const T, len: usize) -> (usize, usize) {
     if data.is_null() {
         (0, 0)
     } else {
@@ -316,7 +323,7 @@ fn image_range<T>(data: *const T, len: usize) -> (usize, usize) {
 
 /// `InvalidArgument` naming the first output that overlaps a later output
 /// or an input (`(name, (address, bytes))`).
-fn named_disjoint(
+pub(crate) fn named_disjoint(
     outs: &[(&str, (usize, usize))],
     ins: &[(&str, (usize, usize))],
 ) -> Result<(), Error> {

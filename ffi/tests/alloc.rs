@@ -304,6 +304,7 @@ fn no_export_allocates() {
     epipolar(&mut cov);
     summary(&mut cov);
     temporal(&mut cov);
+    bounce_extrapolate_upsample(&mut cov);
     check_coverage(&cov, &header_functions(&header()));
 }
 
@@ -1077,6 +1078,266 @@ fn temporal(cov: &mut Coverage) {
             u8_img(&answered),
             no_f32(),
             &hist,
+            &bad,
+            rows(0, H)
+        )
+    );
+}
+
+/// The G-buffer of the scene, with its lit color.
+fn lit_gbuffer(s: &Scene) -> refl_gbuffer {
+    refl_gbuffer {
+        depth: s.depth_image(),
+        normals: vec3_img(&s.normals),
+        normal_space: refl_normal_space::World as u32,
+        mask: refl_image_u8 {
+            data: core::ptr::null(),
+            len: 0,
+            width: 0,
+            height: 0,
+            stride: 0,
+        },
+        roughness: no_f32(),
+        color: vec3_img(&s.color),
+        back_depth: no_f32(),
+    }
+}
+
+fn bounce_extrapolate_upsample(cov: &mut Coverage) {
+    let s = scene();
+    let g = lit_gbuffer(&s);
+    let none_u8 = refl_image_u8_mut {
+        data: core::ptr::null_mut(),
+        len: 0,
+        width: 0,
+        height: 0,
+        stride: 0,
+    };
+    let mut out = vec![[0.0f32; 3]; N];
+    let mut status = vec![0u8; N];
+
+    // Bounces: the scene's own frame as the previous one.
+    let bo = value!(cov, refl_bounce_options_default());
+    let prev = refl_bounce_previous {
+        depth: s.depth_image(),
+        color: vec3_img(&s.color),
+    };
+    let mut bs = uninit::<refl_bounce_stats>();
+    ok!(
+        cov,
+        refl_bounce_source_rows(
+            bs.as_mut_ptr(),
+            vec3_mut(&mut out),
+            u8_mut(&mut status),
+            &g,
+            &prev,
+            &bo,
+            rows(0, H)
+        )
+    );
+    assert!(unsafe { bs.assume_init() }.reprojected > 0);
+    let bad = refl_bounce_options {
+        attenuation: 2.0,
+        ..bo
+    };
+    err!(
+        cov,
+        refl_bounce_source_rows(
+            bs.as_mut_ptr(),
+            vec3_mut(&mut out),
+            none_u8,
+            &g,
+            &prev,
+            &bad,
+            rows(0, H)
+        )
+    );
+
+    // The mirror pass's texels, then the dilation of its holes.
+    let so = refl_ssr_options_default();
+    let mut texels = vec![refl_ssr_texel::default(); N];
+    let mut color = vec![[0.0f32; 3]; N];
+    let mut ss = uninit::<refl_ssr_stats>();
+    ok!(
+        cov,
+        refl_ssr_trace_rows(
+            ss.as_mut_ptr(),
+            texels.as_mut_ptr(),
+            N,
+            vec3_mut(&mut color),
+            core::ptr::null_mut(),
+            0,
+            &g,
+            &so,
+            core::ptr::null(),
+            0,
+            rows(0, H)
+        )
+    );
+    let tex = refl_image_ssr_texel {
+        data: texels.as_ptr(),
+        len: N,
+        width: W,
+        height: H,
+        stride: W,
+    };
+    let eo = refl_extrapolate_options {
+        all_host_rays: true,
+        ..value!(cov, refl_extrapolate_options_default())
+    };
+    let mut host = vec![refl_image_pixel::default(); 4];
+    let mut es = uninit::<refl_extrapolate_stats>();
+    ok!(
+        cov,
+        refl_extrapolate_fill_rows(
+            es.as_mut_ptr(),
+            vec3_mut(&mut out),
+            u8_mut(&mut status),
+            host.as_mut_ptr(),
+            host.len(),
+            &g,
+            tex,
+            vec3_img(&color),
+            &eo,
+            rows(0, H)
+        )
+    );
+    assert!(unsafe { es.assume_init() }.holes > 0);
+    let mut broken = texels.clone();
+    broken[3].status = 1000;
+    err!(
+        cov,
+        refl_extrapolate_fill_rows(
+            es.as_mut_ptr(),
+            vec3_mut(&mut out),
+            none_u8,
+            host.as_mut_ptr(),
+            host.len(),
+            &g,
+            refl_image_ssr_texel {
+                data: broken.as_ptr(),
+                ..tex
+            },
+            vec3_img(&color),
+            &eo,
+            rows(0, H)
+        )
+    );
+
+    // One ray per 2x2 block, then the reconstruction.
+    let (mut hw, mut hh) = (0u32, 0u32);
+    ok!(cov, refl_upsample_half_size(&mut hw, &mut hh, W, H));
+    err!(cov, refl_upsample_half_size(&mut hw, &mut hh, 0, H));
+    let hn = (hw * hh) as usize;
+    let sub = refl_upsample_subsample {
+        pattern: refl_upsample_pattern::Staggered as u32,
+        frame: 1,
+    };
+    let mut half = vec![refl_ssr_texel::default(); hn];
+    let mut half_color = vec![[0.0f32; 3]; hn];
+    let half_color_mut = refl_image_vec3_mut {
+        data: half_color.as_mut_ptr().cast(),
+        len: hn,
+        width: hw,
+        height: hh,
+        stride: hw,
+    };
+    let mut rays = vec![refl_host_ray::default(); hn];
+    ok!(
+        cov,
+        refl_upsample_trace_rows(
+            ss.as_mut_ptr(),
+            half.as_mut_ptr(),
+            hn,
+            half_color_mut,
+            rays.as_mut_ptr(),
+            hn,
+            &g,
+            &so,
+            core::ptr::null(),
+            0,
+            &sub,
+            rows(0, hh)
+        )
+    );
+    err!(
+        cov,
+        refl_upsample_trace_rows(
+            ss.as_mut_ptr(),
+            half.as_mut_ptr(),
+            hn - 1,
+            half_color_mut,
+            rays.as_mut_ptr(),
+            hn,
+            &g,
+            &so,
+            core::ptr::null(),
+            0,
+            &sub,
+            rows(0, hh)
+        )
+    );
+    let uo = value!(cov, refl_upsample_options_default());
+    let half_img = refl_image_ssr_texel {
+        data: half.as_ptr(),
+        len: hn,
+        width: hw,
+        height: hh,
+        stride: hw,
+    };
+    let half_color_img = refl_image_vec3 {
+        data: half_color.as_ptr().cast(),
+        len: hn,
+        width: hw,
+        height: hh,
+        stride: hw,
+    };
+    let mut full = vec![refl_ssr_texel::default(); N];
+    let mut list = vec![refl_image_pixel::default(); N];
+    let mut us = uninit::<refl_upsample_stats>();
+    ok!(
+        cov,
+        refl_upsample_resolve_rows(
+            us.as_mut_ptr(),
+            full.as_mut_ptr(),
+            N,
+            vec3_mut(&mut out),
+            u8_mut(&mut status),
+            list.as_mut_ptr(),
+            N,
+            &g,
+            &so,
+            core::ptr::null(),
+            0,
+            &sub,
+            half_img,
+            half_color_img,
+            &uo,
+            rows(0, H)
+        )
+    );
+    assert!(unsafe { us.assume_init() }.copied > 0);
+    let bad = refl_upsample_options {
+        depth_sigma: 0.0,
+        ..uo
+    };
+    err!(
+        cov,
+        refl_upsample_resolve_rows(
+            us.as_mut_ptr(),
+            full.as_mut_ptr(),
+            N,
+            vec3_mut(&mut out),
+            u8_mut(&mut status),
+            list.as_mut_ptr(),
+            N,
+            &g,
+            &so,
+            core::ptr::null(),
+            0,
+            &sub,
+            half_img,
+            half_color_img,
             &bad,
             rows(0, H)
         )

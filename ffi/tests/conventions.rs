@@ -9,10 +9,30 @@
 use std::collections::{BTreeMap, BTreeSet};
 
 /// The function and type modules of the C ABI (docs/api.md, "Modules"),
-/// with the pass modules of issue 13 and the temporal filter of issue 18.
-const MODULES: [&str; 18] = [
-    "camera", "plane", "mirror", "image", "trace", "step", "hiz", "ssr", "cone", "layered",
-    "cluster", "tcrr", "epipolar", "glossy", "planar", "summary", "plan", "temporal",
+/// with the pass modules of issue 13 and the temporal filter, bounces,
+/// extrapolation and upsampling of issue 18.
+const MODULES: [&str; 21] = [
+    "camera",
+    "plane",
+    "mirror",
+    "image",
+    "trace",
+    "step",
+    "hiz",
+    "ssr",
+    "cone",
+    "layered",
+    "cluster",
+    "tcrr",
+    "epipolar",
+    "glossy",
+    "planar",
+    "summary",
+    "plan",
+    "temporal",
+    "bounce",
+    "extrapolate",
+    "upsample",
 ];
 
 /// Library-level functions without a module.
@@ -653,5 +673,18 @@ fn options_defaults_equal_the_core_defaults() {
     assert_eq!(
         refl_core::temporal::TemporalOptions::from(refl_temporal_options_default()),
         refl_core::temporal::TemporalOptions::default()
+    );
+    // Bounces, extrapolation, upsampling.
+    assert_eq!(
+        refl_core::bounce::BounceOptions::from(refl_bounce_options_default()),
+        refl_core::bounce::BounceOptions::default()
+    );
+    assert_eq!(
+        refl_core::extrapolate::ExtrapolateOptions::from(refl_extrapolate_options_default()),
+        refl_core::extrapolate::ExtrapolateOptions::default()
+    );
+    assert_eq!(
+        refl_core::upsample::UpsampleOptions::from(refl_upsample_options_default()),
+        refl_core::upsample::UpsampleOptions::default()
     );
 }

@@ -454,3 +454,255 @@ fn every_family_names_a_null_argument() {
         &["`out_len` is NULL"],
     );
 }
+
+/// A 4x4 wall G-buffer (linear depth 4, normals toward the camera, a lit
+/// color) for the passes of issue 18.
+struct Wall4 {
+    cam: Camera,
+    depth: Vec<f32>,
+    normals: Vec<[f32; 3]>,
+    color: Vec<[f32; 3]>,
+}
+
+impl Wall4 {
+    fn new() -> Self {
+        Self {
+            cam: look(4, 4, 0.0),
+            depth: vec![4.0; 16],
+            normals: vec![[0.0, 0.0, 1.0]; 16],
+            color: vec![[0.5; 3]; 16],
+        }
+    }
+
+    fn vec3(d: &[[f32; 3]]) -> refl_image_vec3 {
+        refl_image_vec3 {
+            data: d.as_ptr().cast(),
+            len: d.len(),
+            width: 4,
+            height: 4,
+            stride: 4,
+        }
+    }
+
+    fn gbuffer(&self) -> refl_gbuffer {
+        refl_gbuffer {
+            depth: depth_image_c(&self.cam, &self.depth, DepthConvention::Linear),
+            normals: Self::vec3(&self.normals),
+            normal_space: refl_normal_space::World as u32,
+            mask: refl_image_u8 {
+                data: null(),
+                len: 0,
+                width: 0,
+                height: 0,
+                stride: 0,
+            },
+            roughness: no_image(),
+            color: Self::vec3(&self.color),
+            back_depth: no_image(),
+        }
+    }
+}
+
+#[test]
+fn bounce_extrapolate_and_upsample_refusals_name_the_argument() {
+    let w = Wall4::new();
+    let g = w.gbuffer();
+    let mut out = vec![[0.0f32; 3]; 16];
+    let out_c = refl_image_vec3_mut {
+        data: out.as_mut_ptr().cast(),
+        len: 16,
+        width: 4,
+        height: 4,
+        stride: 4,
+    };
+    let no_u8 = refl_image_u8_mut {
+        data: null_mut(),
+        len: 0,
+        width: 0,
+        height: 0,
+        stride: 0,
+    };
+    let rows = refl_row_range { begin: 0, end: 4 };
+
+    // Bounces: a previous color of another size, an attenuation above 1.
+    let prev_color = [[0.25f32; 3]; 12];
+    let prev = refl_bounce_previous {
+        depth: depth_image_c(&w.cam, &w.depth, DepthConvention::Linear),
+        color: refl_image_vec3 {
+            data: prev_color.as_ptr().cast(),
+            len: 12,
+            width: 4,
+            height: 3,
+            stride: 4,
+        },
+    };
+    let bo = refl_bounce_options_default();
+    let mut bs = refl_bounce_stats::default();
+    // SAFETY: valid buffers of the stated lengths.
+    let s = unsafe { refl_bounce_source_rows(&mut bs, out_c, no_u8, &g, &prev, &bo, rows) };
+    refused(
+        s,
+        refl_status::InvalidArgument,
+        "refl_bounce_source_rows",
+        &["`previous.color` is 4x3", "4x4"],
+    );
+    let bad = refl_bounce_options {
+        attenuation: 1.5,
+        ..bo
+    };
+    // SAFETY: as above.
+    let s = unsafe { refl_bounce_source_rows(&mut bs, out_c, no_u8, &g, &prev, &bad, rows) };
+    refused(
+        s,
+        refl_status::InvalidArgument,
+        "refl_bounce_source_rows",
+        &["`options.attenuation` is 1.5, not in [0, 1]"],
+    );
+    // SAFETY: `previous` NULL is reported.
+    let s = unsafe { refl_bounce_source_rows(&mut bs, out_c, no_u8, &g, null(), &bo, rows) };
+    refused(
+        s,
+        refl_status::NullPointer,
+        "refl_bounce_source_rows",
+        &["`previous` is NULL"],
+    );
+
+    // Extrapolation: a radius past the largest, a texel status out of range.
+    let mut texels = vec![refl_ssr_texel::default(); 16];
+    let tex = refl_image_ssr_texel {
+        data: texels.as_ptr(),
+        len: 16,
+        width: 4,
+        height: 4,
+        stride: 4,
+    };
+    let eo = refl_extrapolate_options_default();
+    let mut es = refl_extrapolate_stats::default();
+    let big = refl_extrapolate_options {
+        radius: REFL_EXTRAPOLATE_MAX_RADIUS + 1,
+        ..eo
+    };
+    let color = Wall4::vec3(&w.color);
+    // SAFETY: valid buffers of the stated lengths.
+    let s = unsafe {
+        refl_extrapolate_fill_rows(
+            &mut es,
+            out_c,
+            no_u8,
+            null_mut(),
+            0,
+            &g,
+            tex,
+            color,
+            &big,
+            rows,
+        )
+    };
+    refused(
+        s,
+        refl_status::InvalidArgument,
+        "refl_extrapolate_fill_rows",
+        &["`options.radius` is 17"],
+    );
+    texels[5].status = 10;
+    let tex = refl_image_ssr_texel {
+        data: texels.as_ptr(),
+        ..tex
+    };
+    // SAFETY: as above.
+    let s = unsafe {
+        refl_extrapolate_fill_rows(
+            &mut es,
+            out_c,
+            no_u8,
+            null_mut(),
+            0,
+            &g,
+            tex,
+            color,
+            &eo,
+            rows,
+        )
+    };
+    refused(
+        s,
+        refl_status::InvalidArgument,
+        "refl_extrapolate_fill_rows",
+        &["`texels` texel 5 has status 10, not a refl_ssr_status"],
+    );
+
+    // Upsampling: a zero size, half texels of the full size, an unknown
+    // pattern.
+    let (mut hw, mut hh) = (0u32, 0u32);
+    // SAFETY: valid outputs.
+    let s = unsafe { refl_upsample_half_size(&mut hw, &mut hh, 0, 3) };
+    refused(
+        s,
+        refl_status::InvalidArgument,
+        "refl_upsample_half_size",
+        &["0x3"],
+    );
+    let so = refl_ssr_options_default();
+    let sub = refl_upsample_subsample::default();
+    let texels = vec![refl_ssr_texel::default(); 16];
+    let mut full = vec![refl_ssr_texel::default(); 16];
+    let mut us = refl_upsample_stats::default();
+    let uo = refl_upsample_options_default();
+    let call = |sub: &refl_upsample_subsample, full: &mut [refl_ssr_texel], us| {
+        // SAFETY: valid buffers of the stated lengths.
+        unsafe {
+            refl_upsample_resolve_rows(
+                us,
+                full.as_mut_ptr(),
+                16,
+                refl_image_vec3_mut {
+                    data: null_mut(),
+                    len: 0,
+                    width: 0,
+                    height: 0,
+                    stride: 0,
+                },
+                no_u8,
+                null_mut(),
+                0,
+                &g,
+                &so,
+                null(),
+                0,
+                sub,
+                refl_image_ssr_texel {
+                    data: texels.as_ptr(),
+                    len: 16,
+                    width: 4,
+                    height: 4,
+                    stride: 4,
+                },
+                refl_image_vec3 {
+                    data: null(),
+                    len: 0,
+                    width: 0,
+                    height: 0,
+                    stride: 0,
+                },
+                &uo,
+                rows,
+            )
+        }
+    };
+    refused(
+        call(&sub, &mut full, &mut us),
+        refl_status::InvalidArgument,
+        "refl_upsample_resolve_rows",
+        &["`half` is 4x4, not the half size 2x2 of the 4x4 G-buffer"],
+    );
+    let bad_sub = refl_upsample_subsample {
+        pattern: 2,
+        frame: 0,
+    };
+    refused(
+        call(&bad_sub, &mut full, &mut us),
+        refl_status::InvalidArgument,
+        "refl_upsample_resolve_rows",
+        &["`subsample.pattern` is 2, not a refl_upsample_pattern"],
+    );
+}

@@ -11,7 +11,7 @@
 #[path = "common/gbuffer.rs"]
 mod common;
 
-use common::{counted, render, render_with, Frame, Shared, H, W};
+use common::{counted, moved_camera, render, render_with, Frame, Shared, H, W};
 use refl::*;
 use refl_core::glam::Vec3;
 use refl_core::temporal::{
@@ -23,22 +23,6 @@ const N: usize = (W * H) as usize;
 
 /// The byte every output is filled with before a call that must fail.
 const SENTINEL: u8 = 0xA5;
-
-/// The second frame's camera: the first one moved a little to the right
-/// and down, looking at the same point.
-fn moved_camera() -> Camera {
-    Camera::try_look_at(
-        Vec3::new(0.6, 1.85, 5.3),
-        Vec3::new(0.05, 0.6, 0.0),
-        Vec3::Y,
-        1.0,
-        0.1,
-        50.0,
-        W,
-        H,
-    )
-    .unwrap()
-}
 
 /// One frame's inputs to the filter: reflection colors, which pixels were
 /// answered, reflection distances.

@@ -53,69 +53,12 @@ fn options_ok(o: &refl_temporal_options) -> bool {
     o.max_frames >= 1.0 && o.depth_tolerance >= 0.0 && o.depth_tolerance.is_finite() && (-1.0..=1.0).contains(&o.normal_cos)
 }
 
-/// A pseudo-random word of pixel `(x, y)` and `seed`.
-fn hash(x: u32, y: u32, seed: u32) -> u32 {
-    let mut h = x.wrapping_mul(0x9E37_79B1) ^ y.wrapping_mul(0x85EB_CA77) ^ seed.wrapping_mul(0xC2B2_AE3D);
-    h ^= h >> 15;
-    h = h.wrapping_mul(0x2C1B_3C6D);
-    h ^ (h >> 13)
-}
-
-/// An image argument: its buffer and the descriptor's size and stride.
-struct Img<T: Copy> {
-    buf: Buf<T>,
-    w: u32,
-    h: u32,
-    stride: u32,
-}
-
-impl<T: Copy> Img<T> {
-    /// Fuzzed: mostly `w x h` with stride `w`, sometimes another size, a
-    /// larger or smaller stride, a short, NULL or misaligned buffer.
-    fn new(b: &mut Bytes, w: u32, h: u32, f: impl FnMut(u32, u32) -> T, pad: T) -> Self {
-        let (iw, ih) = if b.chance(8) { (b.side(MAX_SIDE), b.side(MAX_SIDE)) } else { (w, h) };
-        let stride = if b.chance(24) { b.stride(iw) } else { iw };
-        let buf = image_buf(b, iw, ih, stride, f, pad);
-        Self { buf, w: iw, h: ih, stride }
-    }
-
-    /// Sentinel bytes (an output), sized as [`Img::new`].
-    fn output(b: &mut Bytes, w: u32, h: u32) -> Self {
-        let (iw, ih) = if b.chance(8) { (b.side(MAX_SIDE), b.side(MAX_SIDE)) } else { (w, h) };
-        let stride = if b.chance(24) { b.stride(iw) } else { iw };
-        let need = required_len(iw, ih, stride).unwrap_or(16).min(1 << 16);
-        let len = b.len_for(need);
-        Self { buf: Buf::sentinel(len, b.ptr_kind()), w: iw, h: ih, stride }
-    }
-
-    /// Whether refl must accept it as an image of `w x h`.
-    fn valid(&self, w: u32, h: u32) -> bool {
-        self.buf.usable() && self.w == w && self.h == h && required_len(self.w, self.h, self.stride).is_some_and(|n| self.buf.len() >= n)
-    }
-
-    fn at(&self, x: u32, y: u32) -> T {
-        self.buf.get(y as usize * self.stride as usize + x as usize)
-    }
-}
-
-fn vec3_img(i: &Img<refl_vec3>) -> refl_image_vec3 {
-    refl_image_vec3 { data: i.buf.cptr(), len: i.buf.len(), width: i.w, height: i.h, stride: i.stride }
-}
-
-fn u8_img(i: &Img<u8>) -> refl_image_u8 {
-    refl_image_u8 { data: i.buf.cptr(), len: i.buf.len(), width: i.w, height: i.h, stride: i.stride }
-}
-
 fn texel_img(i: &Img<refl_temporal_texel>) -> refl_image_temporal_texel {
     refl_image_temporal_texel { data: i.buf.cptr(), len: i.buf.len(), width: i.w, height: i.h, stride: i.stride }
 }
 
 fn texel_mut(i: &mut Img<refl_temporal_texel>) -> refl_image_temporal_texel_mut {
     refl_image_temporal_texel_mut { data: i.buf.ptr(), len: i.buf.len(), width: i.w, height: i.h, stride: i.stride }
-}
-
-fn u8_mut(i: &mut Img<u8>) -> refl_image_u8_mut {
-    refl_image_u8_mut { data: i.buf.ptr(), len: i.buf.len(), width: i.w, height: i.h, stride: i.stride }
 }
 
 fn no_texels() -> refl_image_temporal_texel {
@@ -129,11 +72,6 @@ fn texel_bits(t: &refl_temporal_texel) -> [u32; 9] {
 
 fn stats_of(s: &refl_temporal_stats) -> [u32; 6] {
     [s.blended, s.reset, s.recovered, s.unanswered, s.off_screen, s.rejected]
-}
-
-/// A hostile float for a color channel.
-fn hostile(k: u32) -> f32 {
-    [f32::NAN, f32::INFINITY, f32::NEG_INFINITY, f32::MAX, -f32::MAX, 1e30, -1e-45, 3e38][(k % 8) as usize]
 }
 
 /// One call into fresh, valid outputs of `w x h` (stride `w`) over

@@ -27,6 +27,8 @@ pub use refl::*;
 
 mod gbuffer;
 pub use gbuffer::{bits3, host_bits, same_host, FuzzGBuffer};
+mod img;
+pub use img::{hash, hostile, mirror_run, ssr_bits, ssr_texel_img, u8_img, u8_mut, vec3_img, vec3_mut, Img};
 pub mod layered;
 pub use layered::{grid_ok, identity, sizes, Map};
 

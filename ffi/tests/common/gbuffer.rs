@@ -36,6 +36,23 @@ pub fn camera() -> Camera {
     .unwrap()
 }
 
+/// A second frame's camera: [`camera`] moved a little to the right and
+/// down, looking at the same point (`tests/temporal.rs`,
+/// `tests/bounce.rs`).
+pub fn moved_camera() -> Camera {
+    Camera::try_look_at(
+        Vec3::new(0.6, 1.85, 5.3),
+        Vec3::new(0.05, 0.6, 0.0),
+        Vec3::Y,
+        1.0,
+        0.1,
+        50.0,
+        W,
+        H,
+    )
+    .unwrap()
+}
+
 pub struct Frame {
     pub cam: Camera,
     pub conv: DepthConvention,
