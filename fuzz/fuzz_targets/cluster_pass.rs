@@ -579,7 +579,8 @@ fn finalize(b: &mut Bytes, c: &Ctx, e0: &refl_cluster_plan_entry, gb: &Buf<refl_
             let miss_share = f64::from(sh.rays - sh.hits) / r;
             assert!((f64::from(sh.env_weight) - miss_share).abs() <= 1e-6, "env weight {} for {} of {} rays missed", sh.env_weight, sh.rays - sh.hits, sh.rays);
             let hit_share = f64::from(sh.hits) / r;
-            if o.fade {
+            // Only glossy clusters fade (seed 003 Sec. 3.5 item 2).
+            if o.fade && lobe_rays > 1 {
                 assert!(sh.hit_weight >= 0.0 && f64::from(sh.hit_weight) <= hit_share + 1e-6, "faded hit weight {} ({t:?})", sh.hit_weight);
             } else {
                 assert!((f64::from(sh.hit_weight) - hit_share).abs() <= 1e-6, "hit weight {} ({t:?})", sh.hit_weight);
@@ -747,10 +748,11 @@ fn compare_kernel(c: &Ctx, e: &refl_cluster_plan_entry, r: &Render, band: &[u32]
         nrm[p as usize] = if nv > 0.0 { v3(-nn.x, -nn.y, -nn.z) } else { nn };
     }
     let th = refl_trace_thickness {
-        constant: c.o.thickness * e.camera.far_distance,
+        // A fraction of the pass's D (a glossy cluster's own far plane may be nearer).
+        constant: c.o.thickness * c.o.camera.far_distance,
         back_faces: if r.back.is_null() { refl_image_f32 { data: core::ptr::null(), len: 0, width: 0, height: 0, stride: 0 } } else { r.desc.back_depth },
     };
-    let input = refl_cluster_finalize_input { thickness: th, step: c.o.step, refine: c.o.refine, lobe: e.lobe, fade: c.o.fade, seed: c.o.seed };
+    let input = refl_cluster_finalize_input { thickness: th, step: c.o.step, refine: c.o.refine, lobe: e.lobe, fade: c.o.fade && e.lobe.rays > 1, seed: c.o.seed };
     let mut shades = vec![refl_cluster_shade::default(); band.len()];
     let mut fb = 0u32;
     // SAFETY: every buffer valid for its length.
@@ -1022,7 +1024,16 @@ fuzz_target!(|data: &[u8]| {
         }
         assert!((len3(cc.normal) - 1.0).abs() < 1e-4 && (len3(cc.clip.normal) - 1.0).abs() < 1e-4, "entry {k}: normals {cc:?}");
         assert!(finite3(cc.centroid) && finite3(cc.eye0) && cc.clip.d.is_finite(), "entry {k}: {cc:?}");
-        assert!(cc.far_distance.to_bits() == cmo.far_distance.to_bits(), "entry {k}: D {} vs {}", cc.far_distance, cmo.far_distance);
+        // D, or for a glossy lobe min(D, r / tan(max_angle)) (seed 003 Sec. 3.5 item 2).
+        let near = f64::from(cmo.glossy_blur_radius) / f64::from(e.lobe.max_angle).tan();
+        if e.lobe.rays > 1 && near < f64::from(cmo.far_distance) * (1.0 - 1e-5) {
+            let rel = (f64::from(cc.far_distance) - near).abs() / near;
+            assert!(rel <= 1e-5, "entry {k}: glossy D {} vs min(D, r / tan) {near} (D {})", cc.far_distance, cmo.far_distance);
+        } else if e.lobe.rays > 1 {
+            assert!(cc.far_distance <= cmo.far_distance && f64::from(cc.far_distance) >= near.min(f64::from(cmo.far_distance)) * (1.0 - 1e-5), "entry {k}: glossy D {} (D {}, r / tan {near})", cc.far_distance, cmo.far_distance);
+        } else {
+            assert!(cc.far_distance.to_bits() == cmo.far_distance.to_bits(), "entry {k}: D {} vs {}", cc.far_distance, cmo.far_distance);
+        }
         assert!(cc.pixels_used >= 1 && cc.pixels_used <= e.len, "entry {k}: pixels_used {} of {}", cc.pixels_used, e.len);
         if let Some(ey) = eye {
             let v = [ey.x - cc.centroid.x, ey.y - cc.centroid.y, ey.z - cc.centroid.z].map(f64::from);
