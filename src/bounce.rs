@@ -15,9 +15,11 @@
 //! mirror pass.
 
 use crate::gbuffer::GBuffer;
-use crate::render::{compare, composite, direct_image, timed, ImageError, ReflectionImage};
+use crate::render::{
+    compare, composite, direct_image, mirror_env, timed, ImageError, ReflectionImage,
+};
 use crate::screen::{self, DepthBuffer, PassImages, ScreenMethod};
-use crate::shade::{env_map, reflection_dir, Shader};
+use crate::shade::{reflection_dir, Shader};
 use glam::Vec3;
 use rayon::prelude::*;
 use refl_core::bounce::{BounceOptions, BouncePass, BounceStats, PreviousFrame};
@@ -149,8 +151,7 @@ pub fn run(
             img.rgb[i] = if hit {
                 Vec3::from_array(pass.value.color[i])
             } else {
-                let view = -g.primary_ray(i).dir;
-                env_map(reflection_dir(view, g.normal[i], g.geo_normal[i]))
+                mirror_env(g, i)
             };
             img.handled[i] = true;
         }

@@ -224,18 +224,18 @@ fn reference_where(
     out
 }
 
+/// The environment map in pixel `i`'s mirror direction (the fallback of a
+/// reflection nothing answered).
+pub fn mirror_env(g: &GBuffer, i: usize) -> Vec3 {
+    let view = -g.primary_ray(i).dir;
+    env_map(reflection_dir(view, g.normal[i], g.geo_normal[i]))
+}
+
 /// The environment map in the mirror direction of every reflective pixel:
 /// no visibility at all.
 pub fn envmap(g: &GBuffer, pool: &rayon::ThreadPool) -> ReflectionImage {
     let mut out = ReflectionImage::empty(g.width(), g.height());
-    out.fill(
-        pool,
-        |i| g.is_reflective(i),
-        |i| {
-            let view = -g.primary_ray(i).dir;
-            env_map(reflection_dir(view, g.normal[i], g.geo_normal[i]))
-        },
-    );
+    out.fill(pool, |i| g.is_reflective(i), |i| mirror_env(g, i));
     out
 }
 

@@ -25,11 +25,11 @@
 //! frames, 0..255), next to the reference's own.
 
 use crate::gbuffer::GBuffer;
-use crate::render::{compare, composite, direct_image, save_png, timed};
+use crate::render::{compare, composite, direct_image, mirror_env, save_png, timed};
 use crate::report::accum::{Accum, Extra};
 use crate::report_out::Row;
 use crate::screen::{self, DepthBuffer, PassImages, ScreenMethod};
-use crate::shade::{env_map, reflection_dir, Shader};
+use crate::shade::Shader;
 use crate::tcrr::{handled_mask, trace_all, PathRun};
 use glam::Vec3;
 use rayon::prelude::*;
@@ -272,9 +272,7 @@ impl PathFrame {
             (current[i], answered[i], distance[i]) = match t.status {
                 MirrorStatus::Hit => (run.value.color[i], 1, t.t),
                 st => {
-                    let view = -g.primary_ray(i).dir;
-                    let env =
-                        env_map(reflection_dir(view, g.normal[i], g.geo_normal[i])).to_array();
+                    let env = mirror_env(&g, i).to_array();
                     if st == MirrorStatus::Sky {
                         (env, 1, f32::INFINITY)
                     } else {
@@ -337,8 +335,7 @@ impl PathFrame {
             current[i] = if t.status == MirrorStatus::Hit {
                 out.pass.color[i]
             } else {
-                let view = -g.primary_ray(i).dir;
-                env_map(reflection_dir(view, g.normal[i], g.geo_normal[i])).to_array()
+                mirror_env(g, i).to_array()
             };
             if traced {
                 answered[i] = 1;
