@@ -712,15 +712,7 @@ pub fn try_build_hiz_level_rows(
         if ys.len() == 2 && cw >= 2 {
             let r0 = &finer[ys.start as usize * fw..][..2 * (cw - 1)];
             let r1 = &finer[(ys.start as usize + 1) * fw..][..2 * (cw - 1)];
-            for ((o, a), b) in dst
-                .iter_mut()
-                .zip(r0.chunks_exact(2))
-                .zip(r1.chunks_exact(2))
-            {
-                let lo = a[0][0].min(a[1][0]).min(b[0][0].min(b[1][0]));
-                let hi = a[0][1].max(a[1][1]).max(b[0][1].max(b[1][1]));
-                *o = [lo, hi];
-            }
+            fold_2x2_row(&mut dst[..cw - 1], r0, r1);
             done = cw - 1;
         }
         for (x, o) in dst.iter_mut().enumerate().skip(done) {
@@ -737,6 +729,141 @@ pub fn try_build_hiz_level_rows(
         }
     }
     Ok(())
+}
+
+/// The common 2x2 fold of [`try_build_hiz_level_rows`]: coarse texel `i`
+/// of `dst` is the NaN-ignoring min and max ([`f32::min`], [`f32::max`]:
+/// IEEE `minNum`/`maxNum`) of texels `2i, 2i + 1` of the finer rows `r0`
+/// and `r1` (each at least `2 dst.len()` texels long).
+///
+/// On x86-64 four coarse texels at a time with SSE2 (the x86-64 baseline,
+/// so no run-time dispatch): the same texels, the same values
+/// ([`nan_min4`]), so the same bits as the scalar fold, which does the
+/// tail and every other target. `tests/hiz.rs` checks both against a
+/// brute-force fold.
+#[inline]
+fn fold_2x2_row(dst: &mut [HiZTexel], r0: &[HiZTexel], r1: &[HiZTexel]) {
+    #[cfg(all(target_arch = "x86_64", target_feature = "sse2"))]
+    // SAFETY: `fold_rows` only requires SSE2, which this build enables
+    // (the `cfg` above: `target_feature = "sse2"` at compile time, the
+    // x86-64 baseline); calling a `#[target_feature]` function is `unsafe`
+    // only for that reason. It reads and writes through safe slices.
+    #[allow(unsafe_code)]
+    let done = unsafe { sse2::fold_rows(dst, r0, r1) };
+    #[cfg(not(all(target_arch = "x86_64", target_feature = "sse2")))]
+    let done = 0;
+    for ((o, a), b) in dst[done..]
+        .iter_mut()
+        .zip(r0[2 * done..].chunks_exact(2))
+        .zip(r1[2 * done..].chunks_exact(2))
+    {
+        let lo = a[0][0].min(a[1][0]).min(b[0][0].min(b[1][0]));
+        let hi = a[0][1].max(a[1][1]).max(b[0][1].max(b[1][1]));
+        *o = [lo, hi];
+    }
+}
+
+#[cfg(all(target_arch = "x86_64", target_feature = "sse2"))]
+#[allow(unsafe_code)]
+mod sse2 {
+    //! SSE2 (x86-64 baseline) lanes for the pyramid build: a function with
+    //! `#[target_feature(enable = "sse2")]`, in which the intrinsics are
+    //! safe. The one `unsafe` block is its loads (each with its bounds
+    //! argument); stores go through the output slice.
+    use super::HiZTexel;
+    use core::arch::x86_64::{
+        __m128, _mm_and_ps, _mm_andnot_ps, _mm_cmpunord_ps, _mm_cvtss_f32, _mm_loadu_ps,
+        _mm_max_ps, _mm_min_ps, _mm_or_ps, _mm_shuffle_ps,
+    };
+
+    /// The fold of [`super::fold_2x2_row`] for the first multiple of four
+    /// coarse texels of `dst`; returns how many it wrote. Four coarse
+    /// texels at a time from eight texels of each finer row, in the scalar
+    /// fold's order, `min(min(a0, a1), min(b0, b1))`, and with its values:
+    ///
+    /// * `_mm_min_ps(a, b)` is `a < b ? a : b` lane by lane, which ignores a
+    ///   NaN `a` only; where `b` is NaN the fold takes `a`. That is `minNum`
+    ///   of the lanes (NaN only if both are), the value of [`f32::min`];
+    ///   `max` likewise.
+    /// * A row's eight texels are split into the closest depths of the even
+    ///   and of the odd texels and the farthest depths likewise
+    ///   (`[c0 c2 c4 c6]`, `[c1 c3 c5 c7]`, ...) by shuffles.
+    ///
+    /// Written as one function body (macros, not helper functions): a
+    /// `#[target_feature]` function cannot be `#[inline(always)]`, and
+    /// helpers left out of line return their vectors through memory.
+    #[target_feature(enable = "sse2")]
+    pub(super) fn fold_rows(dst: &mut [HiZTexel], r0: &[HiZTexel], r1: &[HiZTexel]) -> usize {
+        macro_rules! nan_fold {
+            ($op:ident, $a:expr, $b:expr) => {{
+                let (a, b) = ($a, $b);
+                let b_nan = _mm_cmpunord_ps(b, b);
+                _mm_or_ps(_mm_and_ps(b_nan, a), _mm_andnot_ps(b_nan, $op(a, b)))
+            }};
+        }
+        macro_rules! split {
+            ($t:expr) => {{
+                let t: &[HiZTexel] = $t;
+                debug_assert_eq!(t.len(), 8);
+                let p = t.as_ptr().cast::<f32>();
+                // SAFETY: `t` is a chunk of exactly eight texels, 16
+                // contiguous f32 (`[f32; 2]` has no padding), so the four
+                // unaligned 16-byte loads at floats 0, 4, 8 and 12 read
+                // inside it.
+                let (v0, v1, v2, v3) = unsafe {
+                    (
+                        _mm_loadu_ps(p),
+                        _mm_loadu_ps(p.add(4)),
+                        _mm_loadu_ps(p.add(8)),
+                        _mm_loadu_ps(p.add(12)),
+                    )
+                };
+                // [c0 c1 c2 c3], [f0 f1 f2 f3], [c4 .. c7], [f4 .. f7]
+                let c03 = _mm_shuffle_ps::<0b10_00_10_00>(v0, v1);
+                let f03 = _mm_shuffle_ps::<0b11_01_11_01>(v0, v1);
+                let c47 = _mm_shuffle_ps::<0b10_00_10_00>(v2, v3);
+                let f47 = _mm_shuffle_ps::<0b11_01_11_01>(v2, v3);
+                (
+                    _mm_shuffle_ps::<0b10_00_10_00>(c03, c47),
+                    _mm_shuffle_ps::<0b11_01_11_01>(c03, c47),
+                    _mm_shuffle_ps::<0b10_00_10_00>(f03, f47),
+                    _mm_shuffle_ps::<0b11_01_11_01>(f03, f47),
+                )
+            }};
+        }
+        let n = dst.len() / 4 * 4;
+        for ((o, a), b) in dst[..n]
+            .chunks_exact_mut(4)
+            .zip(r0.chunks_exact(8))
+            .zip(r1.chunks_exact(8))
+        {
+            let (ace, aco, afe, afo) = split!(a);
+            let (bce, bco, bfe, bfo) = split!(b);
+            let lo = nan_fold!(
+                _mm_min_ps,
+                nan_fold!(_mm_min_ps, ace, aco),
+                nan_fold!(_mm_min_ps, bce, bco)
+            );
+            let hi = nan_fold!(
+                _mm_max_ps,
+                nan_fold!(_mm_max_ps, afe, afo),
+                nan_fold!(_mm_max_ps, bfe, bfo)
+            );
+            // Lanes out through `cvtss` (a store would need a pointer).
+            let lane = |v: __m128, i: usize| {
+                _mm_cvtss_f32(match i {
+                    1 => _mm_shuffle_ps::<1>(v, v),
+                    2 => _mm_shuffle_ps::<2>(v, v),
+                    _ => _mm_shuffle_ps::<3>(v, v),
+                })
+            };
+            o[0] = [_mm_cvtss_f32(lo), _mm_cvtss_f32(hi)];
+            o[1] = [lane(lo, 1), lane(hi, 1)];
+            o[2] = [lane(lo, 2), lane(hi, 2)];
+            o[3] = [lane(lo, 3), lane(hi, 3)];
+        }
+        n
+    }
 }
 
 /// Texels of the finer level folded into coarse texel `c` along one axis:
