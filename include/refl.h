@@ -4304,7 +4304,8 @@ typedef struct refl_cluster_plan_entry {
      * The camera's frustum, world space: six planes (a, b, c, d) with a
      * unit normal pointing inside (a point is in the frustum when a x + b
      * y + c z + d >= 0 for all six: left, right, bottom, top, near, far);
-     * all zero without a camera.
+     * with an infinite far plane (an infinite `far_distance`) the far
+     * plane is (0, 0, 0, 1), no bound; all zero without a camera.
      */
     struct refl_vec4 frustum[6];
 } refl_cluster_plan_entry;

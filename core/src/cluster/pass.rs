@@ -362,7 +362,9 @@ pub struct ClusterPlanEntry {
     /// frustum's angles and depth range), or why there is none.
     pub view: ClusterView,
     /// The camera's frustum planes, world space
-    /// ([`Camera::frustum_planes`](crate::Camera::frustum_planes); all zero without a camera).
+    /// ([`Camera::frustum_planes`](crate::Camera::frustum_planes): with an
+    /// infinite far plane the last is `(0, 0, 0, 1)`, no bound; all zero
+    /// without a camera).
     pub frustum: [Vec4; 6],
 }
 
