@@ -18,7 +18,7 @@ use crate::gbuffer::pixel_center;
 use crate::render::{median, timed};
 use crate::report_out;
 use crate::scene::Scene;
-use crate::tracer::{Hit, Tracer};
+use crate::tracer::{Hit, TraceCount, Tracer};
 use glam::Vec3;
 use rayon::prelude::*;
 use refl_core::epipolar::{
@@ -77,11 +77,30 @@ impl ObjectTracers {
         tmin: f32,
         tmax: f32,
     ) -> Option<Hit> {
-        let (t, start) = self.tracers.get(object as usize)?;
-        t.trace(origin, dir, tmin, tmax).map(|h| Hit {
-            prim: h.prim + start,
-            ..h
-        })
+        self.trace_counted(object, origin, dir, tmin, tmax, &mut TraceCount::default())
+    }
+
+    /// [`Self::trace`], counting the object BVH's work into `count`
+    /// ([`Tracer::trace_counted`]; an unknown object counts a ray and no
+    /// work).
+    pub fn trace_counted(
+        &self,
+        object: u32,
+        origin: glam::Vec3,
+        dir: glam::Vec3,
+        tmin: f32,
+        tmax: f32,
+        count: &mut TraceCount,
+    ) -> Option<Hit> {
+        let Some((t, start)) = self.tracers.get(object as usize) else {
+            count.rays += 1;
+            return None;
+        };
+        t.trace_counted(origin, dir, tmin, tmax, count)
+            .map(|h| Hit {
+                prim: h.prim + start,
+                ..h
+            })
     }
 }
 
@@ -341,47 +360,66 @@ fn ray_of(camera: &Camera, i: usize) -> refl_core::Ray {
     camera.primary_ray(pixel_center((i % w) as u32, (i / w) as u32))
 }
 
-/// ORSA: full traversal for every pixel.
-fn orsa(tracer: &Tracer, camera: &Camera, pool: &rayon::ThreadPool) -> Vec<Option<Hit>> {
+/// Sums the per-pixel counts of a frame.
+fn frame_count(counts: &[TraceCount]) -> TraceCount {
+    counts.iter().fold(TraceCount::default(), |a, c| a + *c)
+}
+
+/// ORSA: full traversal for every pixel, with its work ([`TraceCount`]).
+fn orsa(
+    tracer: &Tracer,
+    camera: &Camera,
+    pool: &rayon::ThreadPool,
+) -> (Vec<Option<Hit>>, TraceCount) {
     let n = camera.width() as usize * camera.height() as usize;
-    pool.install(|| {
+    let (hits, counts): (Vec<_>, Vec<_>) = pool.install(|| {
         (0..n)
             .into_par_iter()
             .with_min_len(camera.width() as usize)
             .map(|i| {
                 let r = ray_of(camera, i);
-                tracer.trace(r.origin, r.dir, 0.0, f32::INFINITY)
+                let mut c = TraceCount::default();
+                let h = tracer.trace_counted(r.origin, r.dir, 0.0, f32::INFINITY, &mut c);
+                (h, c)
             })
-            .collect()
-    })
+            .unzip()
+    });
+    (hits, frame_count(&counts))
 }
 
-/// IRSA: the object ORSA found, tested alone.
+/// IRSA: the object ORSA found, tested alone (through its own BVH, so
+/// its traversal steps are not the paper's zero), with its work; a pixel
+/// where ORSA saw background costs nothing.
 fn irsa(
     scene: &Scene,
     objects: &ObjectTracers,
     camera: &Camera,
     truth: &[Option<Hit>],
     pool: &rayon::ThreadPool,
-) -> Vec<Option<Hit>> {
-    pool.install(|| {
+) -> (Vec<Option<Hit>>, TraceCount) {
+    let (hits, counts): (Vec<_>, Vec<_>) = pool.install(|| {
         truth
             .par_iter()
             .enumerate()
             .with_min_len(camera.width() as usize)
             .map(|(i, h)| {
-                let h = h.as_ref()?;
-                let r = ray_of(camera, i);
-                objects.trace(
-                    scene.tri_object[h.prim as usize],
-                    r.origin,
-                    r.dir,
-                    0.0,
-                    f32::INFINITY,
-                )
+                let mut c = TraceCount::default();
+                let hit = h.as_ref().and_then(|h| {
+                    let r = ray_of(camera, i);
+                    objects.trace_counted(
+                        scene.tri_object[h.prim as usize],
+                        r.origin,
+                        r.dir,
+                        0.0,
+                        f32::INFINITY,
+                        &mut c,
+                    )
+                });
+                (hit, c)
             })
-            .collect()
-    })
+            .unzip()
+    });
+    (hits, frame_count(&counts))
 }
 
 /// One pixel of the method (Alg. 2 with the host's tracers).
@@ -391,18 +429,23 @@ fn method_pixel(
     objects: &ObjectTracers,
     r: &refl_core::Ray,
     d: &Decision,
+    count: &mut TraceCount,
 ) -> PixelOut {
-    let full = |tmin: f32| scene_tracer.trace(r.origin, r.dir, tmin, f32::INFINITY);
+    let full = |tmin: f32, count: &mut TraceCount| {
+        scene_tracer.trace_counted(r.origin, r.dir, tmin, f32::INFINITY, count)
+    };
     match d.reason {
         Reason::Reprojected if d.object == BACKGROUND_OBJECT => (None, PixelPath::Resolved),
-        Reason::Reprojected => match objects.trace(d.object, r.origin, r.dir, 0.0, d.tmax) {
-            Some(h) => (Some(h), PixelPath::Resolved),
-            None => (full(d.tmin), PixelPath::Failed),
-        },
-        Reason::Failed => (full(d.tmin), PixelPath::Failed),
-        Reason::Abrupt => (full(d.tmin), PixelPath::Abrupt),
-        Reason::Resampled => (full(d.tmin), PixelPath::Resampled),
-        Reason::Unavailable => (full(d.tmin), PixelPath::Unavailable),
+        Reason::Reprojected => {
+            match objects.trace_counted(d.object, r.origin, r.dir, 0.0, d.tmax, count) {
+                Some(h) => (Some(h), PixelPath::Resolved),
+                None => (full(d.tmin, count), PixelPath::Failed),
+            }
+        }
+        Reason::Failed => (full(d.tmin, count), PixelPath::Failed),
+        Reason::Abrupt => (full(d.tmin, count), PixelPath::Abrupt),
+        Reason::Resampled => (full(d.tmin, count), PixelPath::Resampled),
+        Reason::Unavailable => (full(d.tmin, count), PixelPath::Unavailable),
     }
 }
 
@@ -427,7 +470,7 @@ fn method_frame(
     params: &EpipolarOptions,
     state: &mut State,
     pool: &rayon::ThreadPool,
-) -> Result<Vec<PixelOut>, String> {
+) -> Result<(Vec<PixelOut>, TraceCount), String> {
     let w = camera.width() as usize;
     match &state.previous {
         Some(prev) => {
@@ -447,7 +490,7 @@ fn method_frame(
     let aip = &state.aip;
     // Decide, trace and store the POS entry of the next frame in one pass
     // (one primary ray per pixel).
-    let out: Vec<PixelOut> = pool.install(|| {
+    let (out, counts): (Vec<PixelOut>, Vec<TraceCount>) = pool.install(|| {
         state
             .pos
             .par_iter_mut()
@@ -456,19 +499,20 @@ fn method_frame(
             .map(|(i, p)| {
                 let d = decide(&aip[i], (i % w) as u32, (i / w) as u32, frame, params);
                 let r = ray_of(camera, i);
-                let out = method_pixel(tracer, objects, &r, &d);
+                let mut c = TraceCount::default();
+                let out = method_pixel(tracer, objects, &r, &d, &mut c);
                 *p = match out.0 {
                     Some(h) => {
                         PosEntry::hit(r.origin, r.dir, h.t, scene.tri_object[h.prim as usize])
                     }
                     None => PosEntry::background(r.origin, r.dir, radius),
                 };
-                out
+                (out, c)
             })
-            .collect()
+            .unzip()
     });
     state.previous = Some(*camera);
-    Ok(out)
+    Ok((out, frame_count(&counts)))
 }
 
 /// Radius of the camera-centered background sphere (seed 002 Sec. 5.2):
@@ -556,6 +600,13 @@ pub struct Totals {
     pub ties: Vec<Mismatch>,
     /// Method time per frame, ms.
     pub times: Vec<f64>,
+    /// The method's tracing work over frames 1.. (the steady state; frame
+    /// 0 has no reprojection): seed 002's `Ñ_IT` and `Ñ_TS` per pixel are
+    /// `count.tests_per_ray(steady_pixels)` and `count.steps_per_ray(..)`.
+    pub count: TraceCount,
+    /// Pixels of frames 1.. (every pixel casts one primary ray, whatever
+    /// path it takes).
+    pub steady_pixels: u64,
 }
 
 /// Everything a walkthrough run measured: ORSA and IRSA per frame, the
@@ -578,6 +629,11 @@ pub struct PathMeasure {
     pub irsa_errors: Vec<Mismatch>,
     /// IRSA's ties with ORSA (same point, another object).
     pub irsa_ties: usize,
+    /// ORSA's and IRSA's tracing work over frames 1.. (as
+    /// [`Totals::count`], per pixel over [`Totals::steady_pixels`]).
+    pub orsa_count: TraceCount,
+    /// See `orsa_count`.
+    pub irsa_count: TraceCount,
     /// The method's totals per setting (same order as [`variants`]).
     pub totals: Vec<(String, Totals)>,
 }
@@ -586,6 +642,8 @@ pub struct PathMeasure {
 /// and IRSA timings and IRSA's disagreements.
 struct Truth {
     hits: Vec<Vec<Option<Hit>>>,
+    orsa_count: TraceCount,
+    irsa_count: TraceCount,
     orsa_ms: Vec<f64>,
     irsa_ms: Vec<f64>,
     irsa_errors: Vec<Mismatch>,
@@ -610,6 +668,8 @@ fn truth_frames(
 ) -> Truth {
     let mut t = Truth {
         hits: Vec::with_capacity(cams.len()),
+        orsa_count: TraceCount::default(),
+        irsa_count: TraceCount::default(),
         orsa_ms: Vec::new(),
         irsa_ms: Vec::new(),
         irsa_errors: Vec::new(),
@@ -621,7 +681,11 @@ fn truth_frames(
         for _ in 0..runs.max(1) {
             let r = timed(|| orsa(tracer, cam, pool));
             times.push(r.ms);
-            hits.get_or_insert(r.value);
+            let (h, c) = r.value;
+            if hits.is_none() && f > 0 {
+                t.orsa_count = t.orsa_count + c;
+            }
+            hits.get_or_insert(h);
         }
         t.orsa_ms.push(median(times));
         let hits = hits.expect("runs >= 1");
@@ -632,7 +696,11 @@ fn truth_frames(
             if rep > 0 {
                 continue;
             }
-            for (i, (a, b)) in r.value.iter().zip(&hits).enumerate() {
+            let (found, c) = r.value;
+            if f > 0 {
+                t.irsa_count = t.irsa_count + c;
+            }
+            for (i, (a, b)) in found.iter().zip(&hits).enumerate() {
                 match agreement(scene, a, b) {
                     Agreement::Same => {}
                     Agreement::Tie => t.irsa_ties += 1,
@@ -752,9 +820,13 @@ pub fn measure(
                     )
                 });
                 frame_times[f].push(r.ms);
-                let out = r.value?;
+                let (out, count) = r.value?;
                 if rep > 0 {
                     continue;
+                }
+                if f > 0 {
+                    tot.count = tot.count + count;
+                    tot.steady_pixels += out.len() as u64;
                 }
                 add_frame(scene, &mut tot, f, sizes.width, &out, &truth.hits[f]);
                 if let (true, Some(dir)) = (f == cams.len() / 2, images) {
@@ -781,6 +853,8 @@ pub fn measure(
         irsa_ms: truth.irsa_ms,
         irsa_errors: truth.irsa_errors,
         irsa_ties: truth.irsa_ties,
+        orsa_count: truth.orsa_count,
+        irsa_count: truth.irsa_count,
         totals,
     })
 }

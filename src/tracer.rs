@@ -15,7 +15,7 @@
 //! `tests/tracer.rs` checks closest hits against an f64 brute force.
 
 use crate::scene::Scene;
-use glam::{Vec3, Vec3A};
+use glam::{UVec2, Vec3, Vec3A};
 use obvhs::{
     aabb::Aabb,
     bvh2::reinsertion::ReinsertionOptimizer,
@@ -137,6 +137,60 @@ impl Tracer {
         })
     }
 
+    /// [`Self::trace`], also counting the work (seed 002's hardware-
+    /// independent measures, Tables 1-3): one ray/triangle test per
+    /// primitive the traversal hands out (`Ñ_IT`) and one traversal step per
+    /// BVH node whose children are tested (`Ñ_TS`). The seed counts steps of
+    /// a kd-tree; here a step is one 8-wide CWBVH node, so the numbers
+    /// compare across refl's methods, not with the paper's. Same hits as
+    /// [`Self::trace`] (the same traversal: obvhs' `traverse!`, which
+    /// `ray_traverse` runs, with counters added).
+    pub fn trace_counted(
+        &self,
+        origin: Vec3,
+        dir: Vec3,
+        tmin: f32,
+        tmax: f32,
+        count: &mut TraceCount,
+    ) -> Option<Hit> {
+        let ray = BvhRay::new(origin.into(), dir.into(), tmin, tmax);
+        let mut traverse_ray = ray;
+        let (mut best, mut uv) = (None::<(u32, f32)>, (0.0, 0.0));
+        let mut state = self.bvh.new_traversal(ray.direction);
+        let mut node;
+        let tris = &self.tris;
+        let (mut steps, mut tests) = (0u64, 0u64);
+        obvhs::traverse!(
+            self.bvh,
+            node,
+            state,
+            {
+                steps += 1;
+                node.intersect_ray(&traverse_ray, state.oct_inv4)
+            },
+            {
+                tests += 1;
+                let id = state.primitive_id as usize;
+                if let Some((t, u, v)) = intersect(&tris[id], &traverse_ray) {
+                    if t < traverse_ray.tmax {
+                        best = Some((state.primitive_id, t));
+                        uv = (u, v);
+                        traverse_ray.tmax = t;
+                    }
+                }
+            }
+        );
+        count.rays += 1;
+        count.steps += steps;
+        count.tests += tests;
+        best.map(|(id, t)| Hit {
+            prim: tris[id as usize].prim,
+            t,
+            u: uv.0,
+            v: uv.1,
+        })
+    }
+
     /// `true` if anything lies on the ray `origin + t dir` with
     /// `tmin <= t < tmax` (any-hit traversal, stops at the first hit).
     pub fn occluded(&self, origin: Vec3, dir: Vec3, tmin: f32, tmax: f32) -> bool {
@@ -145,6 +199,50 @@ impl Tracer {
         !self.bvh.ray_traverse_miss(ray, |r, id| {
             intersect(&tris[id], r).map_or(f32::INFINITY, |(t, _, _)| t)
         })
+    }
+}
+
+/// Work counted by [`Tracer::trace_counted`], summed over rays.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct TraceCount {
+    /// Rays traced.
+    pub rays: u64,
+    /// Traversal steps: BVH nodes whose children were tested.
+    pub steps: u64,
+    /// Ray/triangle intersection tests.
+    pub tests: u64,
+}
+
+impl std::ops::Add for TraceCount {
+    type Output = TraceCount;
+
+    /// The sum of two counts.
+    fn add(self, o: TraceCount) -> TraceCount {
+        TraceCount {
+            rays: self.rays + o.rays,
+            steps: self.steps + o.steps,
+            tests: self.tests + o.tests,
+        }
+    }
+}
+
+impl TraceCount {
+    /// Tests per ray over `rays` (seed 002's `Ñ_IT`); 0 for none.
+    pub fn tests_per_ray(&self, rays: u64) -> f64 {
+        if rays == 0 {
+            0.0
+        } else {
+            self.tests as f64 / rays as f64
+        }
+    }
+
+    /// Steps per ray over `rays` (seed 002's `Ñ_TS`); 0 for none.
+    pub fn steps_per_ray(&self, rays: u64) -> f64 {
+        if rays == 0 {
+            0.0
+        } else {
+            self.steps as f64 / rays as f64
+        }
     }
 }
 

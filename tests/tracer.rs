@@ -2,7 +2,7 @@
 
 use glam::{DVec3, Vec3};
 use refl_app::scene::Scene;
-use refl_app::tracer::{ray_triangle_plane, Tracer};
+use refl_app::tracer::{ray_triangle_plane, TraceCount, Tracer};
 
 /// xorshift64*: deterministic test randomness.
 struct Rng(u64);
@@ -154,4 +154,63 @@ fn empty_scene_traces_nothing() {
         .trace(Vec3::ZERO, Vec3::X, 0.0, f32::INFINITY)
         .is_none());
     assert!(!tracer.occluded(Vec3::ZERO, Vec3::X, 0.0, f32::INFINITY));
+}
+
+/// `trace_counted` returns `trace`'s hits bit for bit and counts what the
+/// traversal did: at least one node (the root) per ray, at least one
+/// triangle test per hit, never more tests than triangles; a ray that
+/// starts with a shorter interval visits no more nodes and tests no more
+/// triangles (every box and triangle test is at least as strict, in the
+/// same order); one triangle is tested exactly once when hit.
+#[test]
+fn counted_traces_equal_traces_and_count_the_work() {
+    let scene = Scene::room(5_000);
+    let tracer = Tracer::new(&scene);
+    let mut total = TraceCount::default();
+    for (o, d) in rays(&scene, 2_000, 5) {
+        let mut c = TraceCount::default();
+        let got = tracer.trace_counted(o, d, 0.0, f32::INFINITY, &mut c);
+        let want = tracer.trace(o, d, 0.0, f32::INFINITY);
+        assert_eq!(
+            got.map(|h| (h.prim, h.t.to_bits(), h.u.to_bits(), h.v.to_bits())),
+            want.map(|h| (h.prim, h.t.to_bits(), h.u.to_bits(), h.v.to_bits()))
+        );
+        assert_eq!(c.rays, 1);
+        assert!(c.steps >= 1, "the root node is visited");
+        assert!(c.tests <= scene.tris.len() as u64);
+        if let Some(h) = got {
+            assert!(c.tests >= 1);
+            let mut short = TraceCount::default();
+            let tmax = h.t * (1.0 - 1e-4);
+            assert!(tracer.trace_counted(o, d, 0.0, tmax, &mut short).is_none());
+            assert!(
+                short.steps <= c.steps && short.tests <= c.tests,
+                "{short:?} vs {c:?}"
+            );
+        }
+        total = total + c;
+    }
+    assert_eq!(total.rays, 2_000);
+    assert!(total.tests_per_ray(total.rays) > 1.0);
+    assert_eq!(TraceCount::default().tests_per_ray(0), 0.0);
+
+    // One triangle: tested exactly once by a ray through it.
+    let mut one = Scene::room(2_000);
+    one.tris = vec![[
+        Vec3::new(-1.0, -1.0, -5.0),
+        Vec3::new(1.0, -1.0, -5.0),
+        Vec3::new(0.0, 1.0, -5.0),
+    ]];
+    one.normals = vec![one.normals[0]];
+    one.tri_object = vec![0];
+    let t1 = Tracer::new(&one);
+    let mut c = TraceCount::default();
+    let h = t1.trace_counted(Vec3::ZERO, Vec3::NEG_Z, 0.0, f32::INFINITY, &mut c);
+    assert!(h.is_some_and(|h| (h.t - 5.0).abs() < 1e-5));
+    assert_eq!((c.rays, c.tests), (1, 1));
+    let mut c = TraceCount::default();
+    assert!(t1
+        .trace_counted(Vec3::ZERO, Vec3::Z, 0.0, f32::INFINITY, &mut c)
+        .is_none());
+    assert_eq!(c.tests, 0, "a ray away from the only box tests no triangle");
 }

@@ -4,6 +4,7 @@
 use crate::epipolar::{PathMeasure, PathSizes};
 use crate::report_out::Row;
 use crate::scene::Scene;
+use crate::tracer::TraceCount;
 use std::fmt::Write as _;
 use std::path::Path;
 
@@ -37,6 +38,16 @@ pub fn rows(
     let frames = m.frames;
     let n = sizes.width as usize * sizes.height as usize;
     let (o_ms, i_ms) = (steady(&m.orsa_ms), steady(&m.irsa_ms));
+    // Seed 002's hardware-independent work per pixel over frames 1..
+    // (Tables 1-3: `Ñ_IT` ray/object intersection tests, `Ñ_TS` traversal
+    // steps; here CWBVH node visits, see `Tracer::trace_counted`).
+    let steady_pixels = (n * frames.saturating_sub(1)) as u64;
+    let work = |c: &TraceCount, pixels: u64| -> Vec<(String, String)> {
+        vec![
+            ("n_it".into(), format!("{:.3}", c.tests_per_ray(pixels))),
+            ("n_ts".into(), format!("{:.3}", c.steps_per_ray(pixels))),
+        ]
+    };
     let base = |method: &str, setting: &str, ms: f64, extra: Vec<(String, String)>| Row {
         scene: scene.name.clone(),
         method: method.into(),
@@ -59,7 +70,10 @@ pub fn rows(
             vec![
                 ("frames".into(), frames.to_string()),
                 ("irsa_ms".into(), format!("{i_ms:.4}")),
-            ],
+            ]
+            .into_iter()
+            .chain(work(&m.orsa_count, steady_pixels))
+            .collect(),
         ),
         base(
             "irsa",
@@ -70,7 +84,10 @@ pub fn rows(
                 ("visibility_errors".into(), m.irsa_errors.len().to_string()),
                 ("ties".into(), m.irsa_ties.to_string()),
                 ("irsa_ms".into(), format!("{i_ms:.4}")),
-            ],
+            ]
+            .into_iter()
+            .chain(work(&m.irsa_count, steady_pixels))
+            .collect(),
         ),
     ];
     let mut notes = String::new();
@@ -142,7 +159,10 @@ pub fn rows(
                     "vs_irsa".into(),
                     format!("{:.4}", if ms > 0.0 { i_ms / ms } else { 0.0 }),
                 ),
-            ],
+            ]
+            .into_iter()
+            .chain(work(&t.count, t.steady_pixels))
+            .collect(),
         );
         row.mean_abs_255 = 255.0 * err_share;
         row.share_over_8 = err_share;
@@ -156,7 +176,7 @@ pub fn rows(
             notes,
             "  - `epipolar` {setting}: c_R {:.1}%, c_E {:.1}%, c_O {:.1}% (of frames with reprojection; \
              {} of {} frames without), {:.2} ms/frame ({:.2}x ORSA, {:.2}x IRSA time), \
-             {} visibility errors, {} ties",
+             {} visibility errors, {} ties; per pixel Ñ_IT {:.2} and Ñ_TS {:.2} (ORSA {:.2} and {:.2}, IRSA {:.2} and {:.2})",
             100.0 * share(t.resolved),
             100.0 * share(t.failed),
             100.0 * share(t.resampled),
@@ -166,7 +186,13 @@ pub fn rows(
             if ms > 0.0 { o_ms / ms } else { 0.0 },
             if i_ms > 0.0 { ms / i_ms } else { 0.0 },
             t.mismatches.len(),
-            t.ties.len()
+            t.ties.len(),
+            t.count.tests_per_ray(t.steady_pixels),
+            t.count.steps_per_ray(t.steady_pixels),
+            m.orsa_count.tests_per_ray(steady_pixels),
+            m.orsa_count.steps_per_ray(steady_pixels),
+            m.irsa_count.tests_per_ray(steady_pixels),
+            m.irsa_count.steps_per_ray(steady_pixels),
         );
         for e in t.mismatches.iter().take(20) {
             let _ = writeln!(
