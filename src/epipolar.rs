@@ -355,7 +355,7 @@ pub fn path_cameras(scene: &Scene, sizes: &PathSizes) -> Result<Vec<Camera>, Str
         .collect()
 }
 
-fn ray_of(camera: &Camera, i: usize) -> refl_core::Ray {
+pub(crate) fn ray_of(camera: &Camera, i: usize) -> refl_core::Ray {
     let w = camera.width() as usize;
     camera.primary_ray(pixel_center((i % w) as u32, (i / w) as u32))
 }
@@ -629,6 +629,10 @@ pub struct PathMeasure {
     pub irsa_errors: Vec<Mismatch>,
     /// IRSA's ties with ORSA (same point, another object).
     pub irsa_ties: usize,
+    /// Shadow rays toward every light from ORSA's visible points, full
+    /// any-hit traversal against reprojected occluders (seed 002 Sec. 7.4,
+    /// [`crate::epipolar_shadow`]).
+    pub shadows: crate::epipolar_shadow::ShadowMeasure,
     /// ORSA's and IRSA's tracing work over frames 1.. (as
     /// [`Totals::count`], per pixel over [`Totals::steady_pixels`]).
     pub orsa_count: TraceCount,
@@ -796,6 +800,15 @@ pub fn measure(
     let build = timed(|| ObjectTracers::new(scene));
     let objects = build.value;
     let truth = truth_frames(scene, tracer, &objects, &cams, sizes.width, runs, pool);
+    let shadows = crate::epipolar_shadow::measure_shadows(
+        scene,
+        tracer,
+        &objects,
+        &cams,
+        &truth.hits,
+        runs,
+        pool,
+    )?;
     let n = sizes.width as usize * sizes.height as usize;
     let mut totals = Vec::new();
     for v in variants(sizes.ablations) {
@@ -853,6 +866,7 @@ pub fn measure(
         irsa_ms: truth.irsa_ms,
         irsa_errors: truth.irsa_errors,
         irsa_ties: truth.irsa_ties,
+        shadows,
         orsa_count: truth.orsa_count,
         irsa_count: truth.irsa_count,
         totals,

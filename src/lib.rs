@@ -10,6 +10,7 @@ pub mod bounce;
 pub mod cluster;
 pub mod cone;
 pub mod epipolar;
+pub mod epipolar_shadow;
 pub mod export;
 pub mod extrapolate;
 pub mod gbuffer;

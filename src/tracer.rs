@@ -191,6 +191,34 @@ impl Tracer {
         })
     }
 
+    /// The primitive of *some* hit on the ray `origin + t dir` with
+    /// `tmin <= t < tmax` (any-hit traversal, stops at the first hit found,
+    /// as [`Self::occluded`]), or `None`: [`Self::occluded`] that also says
+    /// what occludes.
+    pub fn occluder(&self, origin: Vec3, dir: Vec3, tmin: f32, tmax: f32) -> Option<u32> {
+        let ray = BvhRay::new(origin.into(), dir.into(), tmin, tmax);
+        let mut state = self.bvh.new_traversal(ray.direction);
+        let mut node;
+        let tris = &self.tris;
+        let mut found = None;
+        'outer: {
+            obvhs::traverse!(
+                self.bvh,
+                node,
+                state,
+                node.intersect_ray(&ray, state.oct_inv4),
+                {
+                    let id = state.primitive_id as usize;
+                    if intersect(&tris[id], &ray).is_some_and(|(t, _, _)| t < ray.tmax) {
+                        found = Some(tris[id].prim);
+                        break 'outer;
+                    }
+                }
+            );
+        }
+        found
+    }
+
     /// `true` if anything lies on the ray `origin + t dir` with
     /// `tmin <= t < tmax` (any-hit traversal, stops at the first hit).
     pub fn occluded(&self, origin: Vec3, dir: Vec3, tmin: f32, tmax: f32) -> bool {

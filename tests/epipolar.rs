@@ -81,7 +81,27 @@ fn walkthrough_has_no_visibility_errors() {
         o_ts >= 1.0 && m_ts < o_ts,
         "Ñ_TS method {m_ts}, ORSA {o_ts}"
     );
+    // Shadow rays (Sec. 7.4): reprojected occluders answer part of the
+    // shadowed rays with one object test, and every answer is the full
+    // traversal's.
+    let sh = &report.shadows;
+    assert!(sh.rays > 0 && sh.shadowed > 0, "{sh:?}");
+    assert_eq!(sh.errors, 0, "{sh:?}");
+    assert!(
+        sh.reprojected > 0 && sh.reprojected <= sh.shadowed,
+        "{sh:?}"
+    );
+    assert_eq!(sh.orsa_ms.len(), sizes.frames);
+    eprintln!(
+        "shadows: {} rays, {:.1}% shadowed, {:.1}% reprojected",
+        sh.rays,
+        100.0 * sh.shadowed as f64 / sh.rays as f64,
+        100.0 * sh.reprojected as f64 / sh.rays as f64
+    );
     let (rows, _) = refl_app::report::epipolar::rows(&scene, &sizes, &report, 2, None).unwrap();
+    for setting in ["shadow_rays=any_hit", "shadow_rays=reprojected_occluder"] {
+        assert!(rows.iter().any(|r| r.setting == setting), "{setting}");
+    }
     for m in ["orsa", "irsa", "epipolar"] {
         let row = rows
             .iter()
