@@ -20,9 +20,7 @@
 //! on the same rayon pool (same threads) as the reference, in row bands.
 
 use crate::gbuffer::GBuffer;
-use crate::render::{
-    compare, composite, direct_image, save_png, timed, ImageError, ReflectionImage,
-};
+use crate::render::{compare, direct_image, save_png, timed, ImageError, ReflectionImage};
 use crate::report::accum::{Accum, Extra};
 use crate::report_out::Row;
 use crate::scene::Scene;
@@ -34,6 +32,45 @@ use refl_core::tcrr::{
 };
 use refl_core::{Camera, DepthConvention, Error, ImageView, ImageViewMut};
 use std::path::Path;
+
+/// The final image as seed 000 composes it (Alg. 1 line 7, Sec. 3.3:
+/// "interpolating the diffuse component and reflection component with
+/// weights defined by Fresnel terms computed from camera position, the
+/// geometry normal and the pixels specular level"): refl-core's
+/// [`tcrr::try_compose`] with Schlick's weight of the specular factor
+/// `handled_spec` (zero where the pixel is not handled, which leaves the
+/// direct term alone, as [`crate::render::composite`] does) at `n . v`
+/// of the geometric normal. The reference and every reuse scheme are
+/// composed alike, so their errors compare.
+///
+/// # Errors
+/// A size mismatch (none for buffers of `g`'s size).
+pub fn fresnel_composite(
+    g: &GBuffer,
+    direct: &[Vec3],
+    reflection: &[Vec3],
+    handled_spec: &[f32],
+) -> Result<Vec<Vec3>, Error> {
+    let (w, h) = (g.width(), g.height());
+    let arr = |v: &[Vec3]| v.iter().map(|c| c.to_array()).collect::<Vec<[f32; 3]>>();
+    let (d, r, nrm) = (arr(direct), arr(reflection), arr(&g.geo_normal));
+    let current = CurrentView::try_new(
+        g.camera,
+        DepthConvention::Linear,
+        ImageView::try_new(&g.depth, w, h, w)?,
+        ImageView::try_new(handled_spec, w, h, w)?,
+    )?;
+    let mut out = vec![[0.0f32; 3]; d.len()];
+    tcrr::try_compose(
+        &mut ImageViewMut::try_new(&mut out, w, h, w)?,
+        &ImageView::try_new(&d, w, h, w)?,
+        &ImageView::try_new(&r, w, h, w)?,
+        &ImageView::try_new(&nrm, w, h, w)?,
+        &current,
+        tcrr::Fresnel::Schlick,
+    )?;
+    Ok(out.into_iter().map(Vec3::from_array).collect())
+}
 
 /// Caller-buffer bytes per pixel TCRR needs: reflection buffers (depth 4,
 /// normal 12, specular 4, color 12, distance 4), the prepared surfels 32
@@ -536,7 +573,8 @@ pub fn run_path(
             rgb: truth_color.clone(),
             handled: handled.clone(),
         };
-        let truth_final = composite(&g, &direct, &truth_img);
+        let truth_final =
+            fresnel_composite(&g, &direct, &truth_img.rgb, &handled_spec).map_err(err)?;
         let save_here = images.filter(|(_, k)| *k == f);
         if let Some((dir, _)) = save_here {
             save(
@@ -599,7 +637,8 @@ pub fn run_path(
                             rgb: o.color.iter().map(|c| Vec3::from_array(*c)).collect(),
                             handled: handled.clone(),
                         };
-                        let fin = composite(&g, &direct, &img);
+                        let fin =
+                            fresnel_composite(&g, &direct, &img.rgb, &handled_spec).map_err(err)?;
                         let name = st.setting.scheme.name();
                         save(dir, &format!("{label}_{name}.png"), &g, &fin)?;
                         // Seed 000 Fig. 7: re-traced pixels in red.
@@ -626,7 +665,7 @@ pub fn run_path(
                 rgb,
                 handled: handled.clone(),
             };
-            let fin = composite(&g, &direct, &img);
+            let fin = fresnel_composite(&g, &direct, &img.rgb, &handled_spec).map_err(err)?;
             let e = compare(&truth_final, &fin, &handled);
             st.totals.add(time, full.ms, n_reflective, &e, is_key);
             st.per_frame.push((is_key, retrace_share, e.mean_abs));

@@ -122,3 +122,65 @@ fn tcrr_beats_naive_warping_on_the_room_path() {
     let share = extra(t, "retraced_share");
     assert!(share > 0.0 && share < 1.0, "{share}");
 }
+
+/// The final image TCRR's rows are measured on is seed 000's Fresnel
+/// composition: at a reflective pixel `(1 - w) direct + w reflection` with
+/// Schlick's `w = f + (1 - f) (1 - cos)^5` of the specular factor `f` at
+/// `cos = n . v` (geometric normal, direction to the eye), in f64 here;
+/// the direct term alone where the specular factor is zero.
+#[test]
+fn finals_are_the_fresnel_composition_of_seed_000() {
+    use glam::{DVec3, Vec3};
+    let scene = Scene::room(20_000);
+    let tracer = Tracer::new(&scene);
+    let shader = Shader::new(&scene, &tracer);
+    let cam = scene.camera(3, 96, 72).unwrap();
+    let pool = pool();
+    let g = refl_app::gbuffer::GBuffer::render(&scene, &tracer, &cam, &pool);
+    let direct = refl_app::render::direct_image(&shader, &g, &pool);
+    let reflection: Vec<Vec3> = (0..g.len())
+        .map(|i| Vec3::new(0.9, 0.1 + (i % 7) as f32 * 0.1, 0.5))
+        .collect();
+    let spec: Vec<f32> = (0..g.len())
+        .map(|i| {
+            if g.is_reflective(i) {
+                g.specular[i]
+            } else {
+                0.0
+            }
+        })
+        .collect();
+    let fin = refl_app::tcrr::fresnel_composite(&g, &direct, &reflection, &spec).unwrap();
+    let w = g.width() as usize;
+    let (mut blended, mut grazing) = (0, 0);
+    for i in 0..g.len() {
+        let f = f64::from(spec[i]);
+        let want = if f > 0.0 && g.depth[i].is_finite() {
+            let (x, y) = ((i % w) as f32 + 0.5, (i / w) as f32 + 0.5);
+            let p = cam.primary_ray(glam::Vec2::new(x, y));
+            let point = p.origin.as_dvec3()
+                + p.dir.as_dvec3() * f64::from(g.depth[i])
+                    / f64::from(cam.linear_depth(p.origin + p.dir));
+            let v = (cam.eye().as_dvec3() - point).normalize();
+            let cos = g.geo_normal[i]
+                .as_dvec3()
+                .normalize()
+                .dot(v)
+                .clamp(0.0, 1.0);
+            let wgt = f + (1.0 - f) * (1.0 - cos).powi(5);
+            blended += 1;
+            grazing += usize::from(wgt > f + 0.05);
+            direct[i].as_dvec3() * (1.0 - wgt) + reflection[i].as_dvec3() * wgt
+        } else {
+            direct[i].as_dvec3()
+        };
+        let d: DVec3 = fin[i].as_dvec3() - want;
+        assert!(
+            d.abs().max_element() < 2e-3,
+            "pixel {i}: {} vs {want}",
+            fin[i]
+        );
+    }
+    assert!(blended > 100, "{blended} reflective pixels");
+    assert!(grazing > 0, "no pixel where Fresnel raises the weight");
+}
