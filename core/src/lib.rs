@@ -6,6 +6,9 @@
 //!   view over caller memory ([`ImageView`], [`ImageViewMut`]); size queries
 //!   such as [`image::try_required_len`] say how much to allocate.
 //! * f32 kernels (what a GPU port would run); the tests carry f64 oracles.
+//! * Safe code (`#![deny(unsafe_code)]`) but for one audited block: the
+//!   SSE2 loads of the Hi-Z pyramid's 2x2 fold on x86-64 (`hiz.rs`, module
+//!   `sse2`, each load with its bounds argument).
 //! * One module per algorithm family, each behind a Cargo feature so that an
 //!   engine compiles only what its scenes need. `mirror` is on by default.
 //! * Conventions (shared by every module): right-handed world, view space
