@@ -8,18 +8,27 @@
 //! Reflected objects are the scene's compact, closed, non-reflective
 //! objects ([`reflected_objects`]): seed 001 represents the objects seen in
 //! a curved reflector by layered depth maps and leaves the surroundings
-//! (walls, floors) to an environment map. A pixel is handled when its ray
-//! hits one of the maps; the hit is shaded from the primitive id the map
-//! stores (the pixel's ray, as the pass traced it, intersected with that
-//! triangle's plane), as the planar method shades its visibility buffer.
+//! (walls, floors) to an environment map. A pixel whose ray hits
+//! one of the maps is shaded from the primitive id the map stores (the
+//! pixel's ray, as the pass traced it, intersected with that triangle's
+//! plane), as the planar method shades its visibility buffer. A ray that
+//! leaves every map takes the global environment (seed 001 Sec. 4.1: the
+//! surroundings as an environment map), here [`Surroundings`]: the scene
+//! without its mapped objects, rendered once into a direction table from
+//! the center of the reflectors, so that the method answers every mirror
+//! pixel and its error compares with the other methods'.
 
 use crate::gbuffer::GBuffer;
 use crate::layered::{self, LayeredObject};
+use crate::probe::{PrefilteredEnv, ProbeSizes};
 use crate::render::ReflectionImage;
+use crate::scene::Aabb;
 use crate::scene::Scene;
 use crate::screen::{ReflectionRays, PYRAMID_BAND};
+use crate::shade::env_map;
 use crate::shade::Shader;
-use crate::tracer::ray_triangle_plane;
+use crate::tracer::{ray_triangle_plane, Hit, Tracer};
+use glam::Vec3;
 use rayon::prelude::*;
 use refl_core::layered::{LayeredMap, LayeredOptions};
 use refl_core::{
@@ -27,6 +36,7 @@ use refl_core::{
     GBuffer as CoreGBuffer, ImageView, ImageViewMut, LayeredBound, LayeredPass, LayeredPassOptions,
     LayeredPassStats, LayeredPassStatus, LayeredPassTexel, NormalSpace, RowRange,
 };
+use std::sync::Arc;
 
 /// Largest reflected object, as a share of the scene diameter (larger
 /// objects are surroundings).
@@ -99,12 +109,104 @@ impl LayeredFrame {
     }
 }
 
+/// The global environment of seed 001 Sec. 4.1 for the rays that leave
+/// every map: what the scene without its mapped objects and its
+/// reflectors shows in each
+/// direction from one point, the center of the reflective objects' bounds,
+/// as a latitude-longitude table (256 x 128, bilinear lookup,
+/// [`PrefilteredEnv`] level 0; its one filtered level, for the widest
+/// lobe at one sample a texel, is never read). Each texel is the
+/// reference's shade of the first surface its direction meets (the
+/// procedural sky where none), so the table is exact for surroundings at
+/// infinity and approximate (parallax) for near walls, as an environment
+/// map is.
+pub struct Surroundings {
+    table: PrefilteredEnv,
+    /// The point the table is seen from.
+    pub center: Vec3,
+    /// Build time (one ray per texel, traced and shaded), ms.
+    pub build_ms: f64,
+}
+
+impl Surroundings {
+    /// Renders the table for `shader`'s scene without the objects of
+    /// [`reflected_objects`], on `pool`.
+    pub fn build(shader: &Shader, pool: &rayon::ThreadPool) -> Self {
+        let start = std::time::Instant::now();
+        let scene = shader.scene;
+        let mapped = reflected_objects(scene);
+        let mut bounds = Aabb::EMPTY;
+        for o in &scene.objects {
+            if scene.materials[o.material as usize].is_reflective() {
+                bounds.grow(o.bounds.min);
+                bounds.grow(o.bounds.max);
+            }
+        }
+        let center = if bounds.min.x <= bounds.max.x {
+            (bounds.min + bounds.max) * 0.5
+        } else {
+            Vec3::ZERO
+        };
+        // The scene without its mapped objects and without the reflectors
+        // (an environment map is what surrounds them; the center lies on
+        // or in them), and each kept triangle's id in the scene.
+        let keep: Vec<u32> = (0..scene.tris.len() as u32)
+            .filter(|&t| {
+                let o = scene.tri_object[t as usize];
+                let material = scene.objects[o as usize].material as usize;
+                !mapped.contains(&o) && !scene.materials[material].is_reflective()
+            })
+            .collect();
+        let mut sub = scene.clone();
+        sub.tris = keep.iter().map(|&t| scene.tris[t as usize]).collect();
+        sub.normals = keep.iter().map(|&t| scene.normals[t as usize]).collect();
+        sub.tri_object = keep.iter().map(|&t| scene.tri_object[t as usize]).collect();
+        let tracer = Tracer::new(&sub);
+        let env = |d: Vec3| match tracer.trace(center, d, 0.0, f32::INFINITY) {
+            Some(h) => shader.shade_reflection_hit(
+                center,
+                d,
+                &Hit {
+                    prim: keep[h.prim as usize],
+                    ..h
+                },
+            ),
+            None => env_map(d),
+        };
+        let sizes = ProbeSizes {
+            levels: 2,
+            max_roughness: 1.0,
+            max_width: 256,
+            samples: 1,
+        };
+        let table = pool.install(|| PrefilteredEnv::build(env, sizes));
+        Self {
+            table,
+            center,
+            build_ms: start.elapsed().as_secs_f64() * 1e3,
+        }
+    }
+
+    /// The environment in direction `dir`.
+    pub fn sample(&self, dir: Vec3) -> Vec3 {
+        self.table.sample(dir, 0.0)
+    }
+
+    /// Bytes of the table.
+    pub fn bytes(&self) -> usize {
+        self.table.bytes()
+    }
+}
+
 /// The layered maps of a scene's reflected objects.
 pub struct LayeredScene {
     /// One map per reflected object.
     pub objects: Vec<LayeredObject>,
     /// Build time of all maps, ms.
     pub build_ms: f64,
+    /// The global environment for rays that leave every map (see
+    /// [`Surroundings`]); `None` leaves them unhandled.
+    pub surroundings: Option<Arc<Surroundings>>,
 }
 
 impl LayeredScene {
@@ -127,6 +229,7 @@ impl LayeredScene {
         Ok(Self {
             objects,
             build_ms: start.elapsed().as_secs_f64() * 1e3,
+            surroundings: None,
         })
     }
 
@@ -283,12 +386,28 @@ pub fn evaluate(
 /// The reflection image of the `layered` method: every mirror pixel
 /// (roughness 0) whose ray hit a map, shaded at the exact intersection of
 /// the pixel's ray (the G-buffer's surface point, the direction the pass
-/// traced) with the primitive the map stores.
-pub fn shade(shader: &Shader, g: &GBuffer, traces: &LayeredTraces) -> ReflectionImage {
+/// traced) with the primitive the map stores; with `env`, every other
+/// mirror pixel the pass traced takes the environment in its ray's
+/// direction (seed 001 Sec. 4.1).
+pub fn shade(
+    shader: &Shader,
+    g: &GBuffer,
+    traces: &LayeredTraces,
+    env: Option<&Surroundings>,
+) -> ReflectionImage {
     let scene = shader.scene;
     let mut out = ReflectionImage::empty(g.width(), g.height());
     for (i, t) in traces.texels.iter().enumerate() {
-        if t.status != LayeredPassStatus::Hit || g.roughness[i] > 0.0 {
+        if g.roughness[i] > 0.0 || !g.is_reflective(i) {
+            continue;
+        }
+        if t.status != LayeredPassStatus::Hit {
+            if let Some(env) = env {
+                if t.dir.is_finite() && t.dir != Vec3::ZERO {
+                    out.rgb[i] = env.sample(t.dir);
+                    out.handled[i] = true;
+                }
+            }
             continue;
         }
         let prim = t.payload;

@@ -241,6 +241,58 @@ fn layered_maps_agree_with_reference_hits() {
         s.to_objects
     );
     assert!(s.false_hits * 20 < s.to_objects, "{s:?}");
-    let img = layered_render::shade(&shader, &g, &tr);
+    let img = layered_render::shade(&shader, &g, &tr, None);
     assert!(img.handled_count() > 0);
+    // With the global environment (seed 001 Sec. 4.1) every mirror pixel
+    // the pass traced is answered: map hits as before, the rest from the
+    // surroundings table in the ray's direction.
+    let env = layered_render::Surroundings::build(&shader, &f.pool);
+    let full = layered_render::shade(&shader, &g, &tr, Some(&env));
+    let mut from_env = 0;
+    for (i, t) in tr.texels.iter().enumerate() {
+        let traced = g.is_reflective(i) && g.roughness[i] == 0.0 && t.dir != glam::Vec3::ZERO;
+        if img.handled[i] {
+            assert_eq!(full.rgb[i], img.rgb[i], "a map hit keeps its shade");
+        } else if traced {
+            assert!(full.handled[i], "pixel {i} traced but unanswered");
+            assert_eq!(full.rgb[i], env.sample(t.dir));
+            from_env += 1;
+        }
+    }
+    assert!(from_env > 0 && full.handled_count() > img.handled_count());
+}
+
+/// The surroundings table is the reference's view from its center, of
+/// the scene without its mapped objects and reflectors: where the full
+/// scene's first hit from the center in a texel's direction is a kept
+/// surface, it is also the table's first hit, and the table holds its
+/// reference shade (a lookup at a texel center returns that texel).
+#[test]
+fn surroundings_table_is_the_view_from_its_center() {
+    let f = fixture();
+    let shader = Shader::new(&f.scene, &f.tracer);
+    let env = layered_render::Surroundings::build(&shader, &f.pool);
+    let mapped = layered_render::reflected_objects(&f.scene);
+    let (w, h) = (256, 128);
+    let mut checked = 0;
+    for y in (2..h).step_by(5) {
+        for x in (1..w).step_by(7) {
+            let d = refl_app::probe::texel_direction(x, y, w, h);
+            let Some(hit) = f.tracer.trace(env.center, d, 0.0, f32::INFINITY) else {
+                continue;
+            };
+            let o = f.scene.tri_object[hit.prim as usize];
+            if mapped.contains(&o) || f.scene.material_of(hit.prim).is_reflective() {
+                continue;
+            }
+            let want = shader.shade_reflection_hit(env.center, d, &hit);
+            let got = env.sample(d);
+            assert!(
+                (got - want).abs().max_element() <= 1e-4 * (1.0 + want.abs().max_element()),
+                "texel ({x}, {y}): {got} vs {want}"
+            );
+            checked += 1;
+        }
+    }
+    assert!(checked > 50, "{checked} directions checked");
 }

@@ -556,8 +556,29 @@ impl Setting for LayeredSetting {
             (f.g, f.pool, f.pool_1t, f.sizes.runs, f.sizes.runs_1t);
         let key = (self.face_res, self.layers);
         if !f.layered_maps.iter().any(|(k, _)| *k == key) {
-            let ls = LayeredScene::build(f.scene, self.face_res, self.layers, pool)
+            let mut ls = LayeredScene::build(f.scene, self.face_res, self.layers, pool)
                 .map_err(|e| format!("{}: layered maps: {e}", f.label))?;
+            // The global environment (seed 001 Sec. 4.1) depends on the
+            // scene only: built with the first maps, shared by the others.
+            ls.surroundings = Some(match f.layered_maps.first() {
+                Some((_, other)) if other.surroundings.is_some() => {
+                    other.surroundings.clone().expect("checked")
+                }
+                _ => {
+                    let env = crate::layered_render::Surroundings::build(f.shader, pool);
+                    let _ = writeln!(
+                        f.notes,
+                        "  - layered surroundings (the global environment of rays leaving every map): \
+                         256x128 table from ({:.2}, {:.2}, {:.2}), {:.1} ms build, {:.2} MiB",
+                        env.center.x,
+                        env.center.y,
+                        env.center.z,
+                        env.build_ms,
+                        env.bytes() as f64 / (1024.0 * 1024.0)
+                    );
+                    std::sync::Arc::new(env)
+                }
+            });
             let _ = writeln!(
                 f.notes,
                 "  - layered maps {}x{}x{}: {} objects, {:.1} ms build, {:.1} MiB",
@@ -593,7 +614,7 @@ impl Setting for LayeredSetting {
         let ls_stats = crate::layered_render::evaluate(scene, ls, &sf.rays, &traces);
         let pixels = f64::from(g.width()) * f64::from(g.height());
         Ok(FrameRun {
-            image: crate::layered_render::shade(shader, g, &traces),
+            image: crate::layered_render::shade(shader, g, &traces, ls.surroundings.as_deref()),
             ms,
             extra: Extra::Screen(ScreenAccum {
                 stats: RayStats {
