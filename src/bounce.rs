@@ -108,10 +108,41 @@ pub fn reference(
     attenuation: f32,
     pool: &rayon::ThreadPool,
 ) -> ReflectionImage {
+    reference_where(shader, g, bounces, attenuation, pool, |_| true)
+}
+
+/// [`reference()`] on the perfect-mirror pixels where `mask` is true only
+/// (the report times the reference on the pixels a method handles).
+///
+/// # Panics
+/// If `mask` is shorter than the G-buffer.
+pub fn reference_masked(
+    shader: &Shader,
+    g: &GBuffer,
+    bounces: u32,
+    attenuation: f32,
+    mask: &[bool],
+    pool: &rayon::ThreadPool,
+) -> ReflectionImage {
+    assert!(
+        mask.len() >= g.len(),
+        "reference_masked: mask shorter than the G-buffer"
+    );
+    reference_where(shader, g, bounces, attenuation, pool, |i| mask[i])
+}
+
+fn reference_where(
+    shader: &Shader,
+    g: &GBuffer,
+    bounces: u32,
+    attenuation: f32,
+    pool: &rayon::ThreadPool,
+    select: impl Fn(usize) -> bool + Sync,
+) -> ReflectionImage {
     let mut out = ReflectionImage::empty(g.width(), g.height());
     out.fill(
         pool,
-        |i| g.is_reflective(i) && g.roughness[i] == 0.0,
+        |i| g.is_reflective(i) && g.roughness[i] == 0.0 && select(i),
         |i| {
             let s = g.surface(i).expect("reflective pixels are hits");
             let view = -g.primary_ray(i).dir;
