@@ -293,7 +293,8 @@ impl CameraPose {
 /// A renderable scene. See the module docs for the layout.
 #[derive(Clone, Debug)]
 pub struct Scene {
-    /// Scene name (`room`, `concave`, `walkthrough` or the OBJ file stem).
+    /// Scene name (`room`, `concave`, `walkthrough`, `stage`, `hall` or the
+    /// OBJ file stem).
     pub name: String,
     /// Triangle vertices, world space, one entry per primitive.
     pub tris: Vec<[Vec3; 3]>,
