@@ -18,7 +18,7 @@
 //! every frame), and separately on the **second-bounce pixels** among them
 //! ([`BounceRun::second`]): those whose hit texel is itself a perfect
 //! mirror, the only pixels a bounce changes. Three references: one and two
-//! bounces ray traced ([`reference`], the two-bounce one weakened by the
+//! bounces ray traced ([`reference()`], the two-bounce one weakened by the
 //! run's attenuation as the pass weakens it), and the seed's own model ray
 //! traced ([`seed_model_reference`]: the second mirror shows the
 //! reflection *the eye* sees there, which is what re-using the previous
@@ -169,7 +169,7 @@ fn reference_where(
 /// attenuates it (`direct + attenuation (composite - direct)`,
 /// [`refl_core::bounce`] step 4). This is what frame 1 of [`run`] computes
 /// in screen space wherever the second mirror and its own reflection are on
-/// screen: the difference between it and [`reference`]`(.., 2, ..)` is the
+/// screen: the difference between it and [`reference()`] with two bounces is the
 /// approximation's own error (view dependence), the difference between it
 /// and frame 1 the screen-space implementation's.
 pub fn seed_model_reference(

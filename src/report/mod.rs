@@ -346,9 +346,11 @@ impl SceneInput {
                 // The error names the file.
                 Scene::load_obj(Path::new(path), &flags).map_err(|e| e.to_string())?
             }
-            other => return Err(format!(
+            other => {
+                return Err(format!(
                 "unknown scene '{other}' (room, concave, walkthrough, stage, hall or a .obj path)"
-            )),
+            ))
+            }
         };
         if let Some(path) = &self.camera_path {
             scene.camera_path.clone_from(path);
