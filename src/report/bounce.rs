@@ -27,7 +27,8 @@
 //! against the two-bounce reference on the second-bounce pixels: the
 //! approximation's own error), `vs_seed_model_mean_abs_255` (the row's
 //! first frame against that model on the answered second-bounce pixels:
-//! the screen-space implementation's error), `rays_per_frame`, `frames`.
+//! the screen-space implementation's error), `rays_per_frame`, `frames`
+//! (a column over no pixel is `nan`).
 
 use super::accum::{Accum, Extra};
 use super::methods::median_run;
@@ -35,7 +36,7 @@ use super::studies::SceneRun;
 use super::Level;
 use crate::bounce::{reference_masked, run, BounceFrame, BounceRun};
 use crate::gbuffer::GBuffer;
-use crate::render::{compare, save_png, timed};
+use crate::render::{compare, save_png, timed, ImageError};
 use crate::report_out::Row;
 use refl_core::bounce::BounceOptions;
 use std::fmt::Write as _;
@@ -66,6 +67,16 @@ pub fn setting(attenuation: Option<f32>) -> String {
     }
 }
 
+/// An error's mean on the 0..255 scale, `nan` over no pixel (a scene
+/// without second-bounce pixels, or none whose source was answered).
+fn over(e: &ImageError) -> String {
+    if e.pixels == 0 {
+        "nan".into()
+    } else {
+        format!("{:.4}", e.mean_abs)
+    }
+}
+
 /// The row of `frames` of `r` (pooled; at least one), with the reference
 /// time `reference_ms` and the scene's `reflective` pixel count.
 fn row(
@@ -92,13 +103,13 @@ fn row(
     // The second-bounce columns read the row's first frame: frame 1 (two
     // bounces) for `bounce=on`, frame 0 for `bounce=off`.
     let first = &frames[0];
-    let model = compare(&r.truth, &r.model, &r.second).mean_abs;
+    let model = compare(&r.truth, &r.model, &r.second);
     let mut row = a.row(s.label, METHOD, setting, s.threads);
     row.extra.extend([
         ("worst_frame_mean_abs_255".into(), format!("{worst:.4}")),
         (
             "second_bounce_mean_abs_255".into(),
-            format!("{:.4}", first.error_second.mean_abs),
+            over(&first.error_second),
         ),
         (
             "second_bounce_share".into(),
@@ -108,10 +119,10 @@ fn row(
             "source_answered_share".into(),
             format!("{:.4}", answered as f64 / second.max(1) as f64),
         ),
-        ("seed_model_mean_abs_255".into(), format!("{model:.4}")),
+        ("seed_model_mean_abs_255".into(), over(&model)),
         (
             "vs_seed_model_mean_abs_255".into(),
-            format!("{:.4}", first.error_model.mean_abs),
+            over(&first.error_model),
         ),
         (
             "rays_per_frame".into(),
