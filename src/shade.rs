@@ -263,6 +263,48 @@ impl<'a> Shader<'a> {
         direct * (1.0 - m.specular) + reflected * m.specular
     }
 
+    /// [`Shader::trace_reflection_bounces`] with each further bounce
+    /// weakened by `attenuation` as refl-core's bounce pass weakens it
+    /// (seed 004 Sec. 4.6.4, Fig. 4.25: "the reflections lose intensity the
+    /// further in reflection depth it gets"; the pass's `source = lit +
+    /// attenuation (previous - lit)`, [`refl_core::bounce`], step 4): a
+    /// perfect-mirror hit with bounces left shows `direct + attenuation
+    /// (composite - direct)`, `composite = direct (1 - specular) +
+    /// reflected specular` being what the unattenuated reference shows
+    /// there. Attenuation 1 is [`Shader::trace_reflection_bounces`]
+    /// exactly; 0 is the one-bounce rule.
+    pub fn trace_reflection_bounces_attenuated(
+        &self,
+        origin: Vec3,
+        dir: Vec3,
+        tmin: f32,
+        bounces: u32,
+        attenuation: f32,
+    ) -> Vec3 {
+        if attenuation == 1.0 {
+            return self.trace_reflection_bounces(origin, dir, tmin, bounces);
+        }
+        let Some(hit) = self.tracer.trace(origin, dir, tmin, f32::INFINITY) else {
+            return env_map(dir);
+        };
+        let s = Surface::at_hit(self.scene, origin, dir, &hit);
+        let direct = self.direct(&s);
+        let m = &self.scene.materials[s.material as usize];
+        if bounces <= 1 || !(m.specular > 0.0) || m.roughness != 0.0 {
+            return direct;
+        }
+        let next = reflection_dir(-dir, s.shading_normal, s.geo_normal);
+        let reflected = self.trace_reflection_bounces_attenuated(
+            s.position,
+            next,
+            tmin,
+            bounces - 1,
+            attenuation,
+        );
+        let composite = direct * (1.0 - m.specular) + reflected * m.specular;
+        direct + (composite - direct) * attenuation
+    }
+
     /// The ray-traced reference reflection at surface `s` seen along the
     /// unit direction `view` (surface toward the eye), for `roughness`:
     /// one mirror ray for roughness 0, otherwise the glossy estimate of the

@@ -7,11 +7,12 @@ use std::path::PathBuf;
 
 type Maker = fn(usize) -> Scene;
 
-const SCENES: [(&str, Maker); 4] = [
+const SCENES: [(&str, Maker); 5] = [
     ("room", Scene::room),
     ("concave", Scene::concave),
     ("walkthrough", Scene::walkthrough),
     ("stage", Scene::stage),
+    ("hall", Scene::hall),
 ];
 
 fn assert_count_near(scene: &Scene, target: usize) {
@@ -176,6 +177,29 @@ fn scenes_have_the_documented_reflectors() {
         walk.objects.len() > 50,
         "walkthrough should be many objects"
     );
+
+    // The hall: two parallel planar mirrors facing each other across the
+    // hall, and from every pose both are in view.
+    let hall = Scene::hall(20_000);
+    let plane = |name: &str| {
+        let o = hall.objects.iter().find(|o| o.name == name).unwrap();
+        assert!(material(&hall, name).is_mirror(), "{name}");
+        o.planar.unwrap()
+    };
+    let (left, right) = (plane("mirror_left"), plane("mirror_right"));
+    assert!(left.normal().dot(right.normal()) < -0.999_999);
+    assert!((left.signed_distance(Vec3::new(2.0, 0.0, 0.0)) - 4.0).abs() < 1e-6);
+    for name in ["red_box", "green_sphere", "blue_cylinder", "floor"] {
+        assert!(!material(&hall, name).is_reflective(), "{name}");
+    }
+    for pose in &hall.camera_path {
+        let view = (pose.target - pose.eye).normalize();
+        // Each mirror faces the eye and lies ahead of it.
+        for p in [left, right] {
+            assert!(p.signed_distance(pose.eye) > 0.0);
+        }
+        assert!(view.z < -0.9 && view.x.abs() < 0.3, "{view}");
+    }
 }
 
 #[test]

@@ -13,6 +13,7 @@
 //! tracing those mirrors only).
 
 pub mod accum;
+pub mod bounce;
 pub mod cluster_res;
 pub mod content;
 pub mod epipolar;
@@ -53,13 +54,15 @@ pub struct Options {
     /// (see the README for its run time).
     #[arg(long, conflicts_with = "quick")]
     pub long: bool,
-    /// Scenes: `room`, `concave`, `walkthrough`, `stage`, or a path to an
-    /// `.obj` file (repeatable; default: the four built-in scenes).
+    /// Scenes: `room`, `concave`, `walkthrough`, `stage`, `hall`, or a path
+    /// to an `.obj` file (repeatable; default: the five built-in scenes,
+    /// the hall with the multiple-bounce rows only unless `--long`).
     #[arg(long)]
     pub scene: Vec<String>,
     /// Methods: `reference`, `envmap`, `planar-mirror`, `epipolar`, `orsa`,
     /// `irsa`, `step`, `hiz`, `layered`, `cluster`, `tcrr`, `naive-warp`,
-    /// `cone`, `multiray`, `hiz-temporal` (repeatable; default: all).
+    /// `cone`, `multiray`, `hiz-temporal`, `hiz-bounce` (repeatable;
+    /// default: all).
     #[arg(long)]
     pub method: Vec<String>,
     /// Output folder.
@@ -222,10 +225,34 @@ impl Sizes {
 }
 
 /// The built-in scenes, in report order.
-pub const BUILT_IN_SCENES: [&str; 4] = ["room", "concave", "walkthrough", "stage"];
+pub const BUILT_IN_SCENES: [&str; 5] = ["room", "concave", "walkthrough", "stage", "hall"];
+
+/// Built-in scenes that a run without `--scene` measures with these
+/// methods only, unless `--long`: the hall of mirrors is there for the
+/// multiple-bounce rows (seed 004 Sec. 4.6.4), and every per-frame method
+/// and path study on it would add about a sixth to the default run time
+/// (`--scene hall` or `--long` runs them all).
+pub const DEFAULT_RUN_ONLY: [(&str, &[&str]); 1] = [("hall", &["hiz-bounce"])];
+
+/// The methods `selected` that run on scene `name` in a run of `opts`
+/// ([`DEFAULT_RUN_ONLY`]).
+fn scene_methods(opts: &Options, name: &str, selected: &[&'static str]) -> Vec<&'static str> {
+    let only = DEFAULT_RUN_ONLY
+        .iter()
+        .find(|(n, _)| *n == name)
+        .filter(|_| opts.scene.is_empty() && !opts.long);
+    match only {
+        Some((_, methods)) => selected
+            .iter()
+            .copied()
+            .filter(|m| methods.contains(m))
+            .collect(),
+        None => selected.to_vec(),
+    }
+}
 
 /// Every method name the report knows, in report order.
-pub const METHODS: [&str; 15] = [
+pub const METHODS: [&str; 16] = [
     "reference",
     "envmap",
     "planar-mirror",
@@ -251,6 +278,10 @@ pub const METHODS: [&str; 15] = [
     // along the camera path, a study: see [`studies`] and
     // [`crate::temporal`].
     "hiz-temporal",
+    // Seed 004 Sec. 4.6.4: the Hi-Z mirror pass reading the previous
+    // frame's final image (multiple bounces) on a static camera, a study:
+    // see [`studies`] and [`crate::bounce`].
+    "hiz-bounce",
 ];
 
 /// What the command line says about the scenes' input, checked before
@@ -305,6 +336,7 @@ impl SceneInput {
             "concave" => Scene::concave(sizes.tris),
             "walkthrough" => Scene::walkthrough(sizes.tris),
             "stage" => Scene::stage(sizes.tris),
+            "hall" => Scene::hall(sizes.tris),
             path if path.ends_with(".obj") => {
                 let flags: Vec<(&str, f32, f32)> = self
                     .reflective
@@ -316,8 +348,8 @@ impl SceneInput {
             }
             other => {
                 return Err(format!(
-                    "unknown scene '{other}' (room, concave, walkthrough, stage or a .obj path)"
-                ))
+                "unknown scene '{other}' (room, concave, walkthrough, stage, hall or a .obj path)"
+            ))
             }
         };
         if let Some(path) = &self.camera_path {
@@ -339,7 +371,7 @@ fn frame_poses(path_len: usize, frames: usize) -> Vec<usize> {
 /// Command-line options of `refl plan`.
 #[derive(Clone, Debug, clap::Args)]
 pub struct PlanArgs {
-    /// Scenes, as for `refl report` (default: the four built-in scenes).
+    /// Scenes, as for `refl report` (default: the five built-in scenes).
     #[arg(long)]
     pub scene: Vec<String>,
     /// Image width.
@@ -431,6 +463,8 @@ struct Loaded {
     plans: Vec<(&'static str, Vec<Box<dyn Setting>>)>,
     /// The studies that apply.
     studies: Vec<usize>,
+    /// The methods selected on this scene ([`DEFAULT_RUN_ONLY`]).
+    selected: Vec<&'static str>,
     /// Scene notes of `summary.md` so far.
     notes: String,
 }
@@ -510,12 +544,22 @@ pub fn run(opts: &Options) -> Result<PathBuf, String> {
     // Every scene loaded first, so the bar knows the whole run.
     let mut loaded = Vec::with_capacity(scenes.len());
     for name in &scenes {
-        loaded.push(load(name, &input, &run, &methods, &studies)?);
+        let on_scene = scene_methods(opts, name, &selected);
+        let restricted = on_scene.len() < selected.len();
+        let mut l = load(name, &input, &run, &methods, &studies, on_scene)?;
+        if restricted {
+            let _ = writeln!(
+                l.notes,
+                "  - this run measures it with `{}` only (`--scene {name}` or `--long` runs every method)",
+                l.selected.join("`, `")
+            );
+        }
+        loaded.push(l);
     }
     bar.set_length(loaded.iter().map(work_of).sum());
     let mut gathered = Gathered::default();
     for l in &loaded {
-        run_scene(l, &run, &studies, &selected, &mut gathered)?;
+        run_scene(l, &run, &studies, &l.selected, &mut gathered)?;
     }
     let long_md = long_sections(opts, &selected, &run, &out)?;
     bar.finish_and_clear();
@@ -536,7 +580,7 @@ fn scene_names(opts: &Options) -> Result<Vec<String>, String> {
         .find(|s| !(BUILT_IN_SCENES.contains(&s.as_str()) || s.ends_with(".obj")))
     {
         return Err(format!(
-            "unknown scene '{bad}' (room, concave, walkthrough, stage or a .obj path)"
+            "unknown scene '{bad}' (room, concave, walkthrough, stage, hall or a .obj path)"
         ));
     }
     Ok(scenes)
@@ -563,13 +607,15 @@ fn selected_methods(opts: &Options) -> Result<Vec<&'static str>, String> {
 }
 
 /// Loads scene `name`, builds its BVH, renders its frames' G-buffers and
-/// decides from their content what runs on it.
+/// decides from their content what runs on it (of the methods `selected`
+/// on it).
 fn load(
     name: &str,
     input: &SceneInput,
     run: &Run<'_>,
     methods: &[Box<dyn methods::Method>],
     studies: &[Box<dyn Study>],
+    selected: Vec<&'static str>,
 ) -> Result<Loaded, String> {
     let sizes = &run.sizes;
     run.bar.set_message(format!("{name}: scene + BVH"));
@@ -624,7 +670,7 @@ fn load(
         }
     );
     let mut plans = Vec::new();
-    for m in methods {
+    for m in methods.iter().filter(|m| selected.contains(&m.name())) {
         match m.settings(sizes, &content) {
             Ok(v) if !v.is_empty() => plans.push((m.name(), v)),
             Ok(_) => {}
@@ -635,6 +681,9 @@ fn load(
     }
     let mut applicable = Vec::new();
     for (i, s) in studies.iter().enumerate() {
+        if !s.methods().iter().any(|m| selected.contains(m)) {
+            continue;
+        }
         match s.applies(&content) {
             Ok(()) => applicable.push(i),
             Err(why) => {
@@ -649,6 +698,7 @@ fn load(
         frames,
         plans,
         studies: applicable,
+        selected,
         notes,
     })
 }

@@ -4,7 +4,8 @@
 //!
 //! Whether a study runs on a scene comes from the scene's [`Content`]: the
 //! TCRR path and the temporal-filtering path wherever there is a camera
-//! path and reflective pixels, the
+//! path and reflective pixels, multiple bounces wherever perfect mirrors
+//! are in view, the
 //! glossy study wherever glossy reflectors are in view, the epipolar path
 //! wherever the camera path runs inside walls (an interior walk).
 
@@ -81,6 +82,7 @@ pub fn all() -> Vec<Box<dyn Study>> {
     vec![
         Box::new(TcrrPath),
         Box::new(TemporalPath),
+        Box::new(Bounces),
         Box::new(GlossyStudy),
         Box::new(EpipolarPath),
         Box::new(ClusterResolution),
@@ -135,6 +137,34 @@ impl Study for TemporalPath {
 
     fn run(&self, s: &SceneRun<'_>, _selected: &[&str]) -> Result<StudyOut, String> {
         super::temporal::report_rows(s).map(StudyOut::of_rows)
+    }
+}
+
+/// Seed 004's multiple bounces (Sec. 4.6.4) on a static camera at the
+/// first pose ([`super::bounce::report_rows`]).
+struct Bounces;
+
+impl Study for Bounces {
+    fn name(&self) -> &'static str {
+        "multiple bounces"
+    }
+
+    fn methods(&self) -> &'static [&'static str] {
+        &[super::bounce::METHOD]
+    }
+
+    fn applies(&self, content: &Content) -> Result<(), String> {
+        if content.path_poses == 0 {
+            Err("no camera pose".into())
+        } else if content.reflective_pixels == content.glossy_pixels {
+            Err("no perfect mirror in view".into())
+        } else {
+            Ok(())
+        }
+    }
+
+    fn run(&self, s: &SceneRun<'_>, _selected: &[&str]) -> Result<StudyOut, String> {
+        super::bounce::report_rows(s).map(StudyOut::of_rows)
     }
 }
 

@@ -18,6 +18,7 @@
 //! | [`Scene::concave`] | concave hemispherical bowl, concave cylindrical mirror | cup (U profile) in the bowl, arch (U shape), spheres, checkered ground |
 //! | [`Scene::walkthrough`] | mirror floors in some rooms, mirror spheres, glossy pillars | walls with doorways, pillars, crates |
 //! | [`Scene::stage`] | planar mirror floor (near and grazing views) | a torus standing on the mirror, a wall, a box |
+//! | [`Scene::hall`] | two facing planar mirrors (a hall of mirrors: second bounces on screen) | a box, a sphere and a cylinder on a checkered floor, a checkered end wall |
 //!
 //! [`Scene::load_obj`] loads a Wavefront OBJ file instead; it refuses bad
 //! input with an [`ObjError`] and records what it worked around in
@@ -25,10 +26,11 @@
 //!
 //! Source layout: this file holds the data model; `mesh.rs` the scene
 //! builder and tessellation, `path.rs` the camera paths, `obj.rs` the OBJ
-//! loader, and `room.rs`, `concave.rs`, `walkthrough.rs` and `stage.rs` one
+//! loader, and `room.rs`, `concave.rs`, `walkthrough.rs`, `stage.rs` and `hall.rs` one
 //! built-in scene each.
 
 mod concave;
+mod hall;
 mod mesh;
 mod obj;
 mod path;
@@ -36,6 +38,7 @@ mod room;
 mod stage;
 mod walkthrough;
 
+pub use hall::HALL_HALF;
 pub use obj::ObjError;
 pub use path::load_camera_path;
 
@@ -290,7 +293,8 @@ impl CameraPose {
 /// A renderable scene. See the module docs for the layout.
 #[derive(Clone, Debug)]
 pub struct Scene {
-    /// Scene name (`room`, `concave`, `walkthrough` or the OBJ file stem).
+    /// Scene name (`room`, `concave`, `walkthrough`, `stage`, `hall` or the
+    /// OBJ file stem).
     pub name: String,
     /// Triangle vertices, world space, one entry per primitive.
     pub tris: Vec<[Vec3; 3]>,
