@@ -130,9 +130,16 @@ pub fn column_hits(
     out
 }
 
+/// Most layers [`build`] chooses with `layers = 0` (auto).
+pub const MAX_AUTO_LAYERS: u32 = 8;
+
 /// Builds the layered depth cube map of object `object_id` with
 /// `face_res x face_res` texels per face and `layers` layers, casting the
-/// columns in parallel on `pool`. The box is the object's bounds enlarged
+/// columns in parallel on `pool`. `layers = 0` follows the object's depth
+/// complexity (seed 001 Table 1 gives each object its own layer count):
+/// the most solid intervals any column crosses (entering crossings),
+/// capped at [`MAX_AUTO_LAYERS`], so that no column is approximated below
+/// the cap. The box is the object's bounds enlarged
 /// by 0.1% of its diagonal, so that no surface lies on a box face.
 ///
 /// # Errors
@@ -150,14 +157,8 @@ pub fn build(
     let (tracer, obj) = object_tracer(scene, object_id)?;
     let b: Aabb = obj.bounds;
     let pad = b.diagonal() * 1e-3;
-    let grid = LayeredGrid::try_new(b.min - pad, b.max + pad, face_res, layers)?;
-    let len = grid.len();
-    let (mut depth, mut payload, mut counts, mut bounds) = (
-        vec![0.0f32; len.depth],
-        vec![0u32; len.payload],
-        vec![0u32; len.counts],
-        vec![0.0f32; len.bounds],
-    );
+    // Column rays depend on the box and the resolution, not on the layers.
+    let probe = LayeredGrid::try_new(b.min - pad, b.max + pad, face_res, layers.max(1))?;
     let first = obj.tris.start;
     let tris = &scene.tris[obj.tris.start as usize..obj.tris.end as usize];
     let eps = b.diagonal() * 1e-6;
@@ -170,12 +171,31 @@ pub fn build(
             .map(|k| {
                 let (f, ij) = (k / (res * res), k % (res * res));
                 let (i, j) = ((ij % res) as u32, (ij / res) as u32);
-                grid.try_face_ray(faces[f], i, j)
+                probe
+                    .try_face_ray(faces[f], i, j)
                     .map(|r| column_hits(&tracer, tris, first, &r, eps))
                     .unwrap_or_default()
             })
             .collect()
     });
+    let layers = if layers == 0 {
+        let deepest = columns
+            .iter()
+            .map(|c| c.iter().filter(|h| h.front).count() as u32)
+            .max()
+            .unwrap_or(1);
+        deepest.clamp(1, MAX_AUTO_LAYERS)
+    } else {
+        layers
+    };
+    let grid = LayeredGrid::try_new(b.min - pad, b.max + pad, face_res, layers)?;
+    let len = grid.len();
+    let (mut depth, mut payload, mut counts, mut bounds) = (
+        vec![0.0f32; len.depth],
+        vec![0u32; len.payload],
+        vec![0u32; len.counts],
+        vec![0.0f32; len.bounds],
+    );
     let mut approx = 0;
     let mut crossings = 0u64;
     {

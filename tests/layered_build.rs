@@ -150,3 +150,40 @@ fn unknown_objects_and_zero_sizes_are_rejected() {
     assert!(build(&scene, scene.objects.len() as u32, 8, 1, &pool).is_err());
     assert!(build(&scene, 0, 0, 1, &pool).is_err());
 }
+
+/// `layers = 0` follows the object's depth complexity (seed 001 Table 1):
+/// a convex sphere gets one layer, the arch (two solid intervals along
+/// some columns) more, and no column of either is approximated; the auto
+/// map agrees with obvhs as well as the hand-picked four layers do.
+#[test]
+fn auto_layers_follow_the_depth_complexity() {
+    let pool = pool();
+    let room = Scene::room(20_000);
+    let sphere = room
+        .objects
+        .iter()
+        .position(|o| o.name == "green_sphere")
+        .unwrap() as u32;
+    let s = build(&room, sphere, 64, 0, &pool).unwrap();
+    assert_eq!((s.grid.layers(), s.approx_columns), (1, 0));
+    let concave = Scene::concave(20_000);
+    let arch = concave
+        .objects
+        .iter()
+        .position(|o| o.name == "arch")
+        .unwrap() as u32;
+    let a = build(&concave, arch, 96, 0, &pool).unwrap();
+    assert!(a.grid.layers() >= 2 && a.grid.layers() <= refl_app::layered::MAX_AUTO_LAYERS);
+    assert_eq!(a.approx_columns, 0, "{} layers", a.grid.layers());
+    // One layer fewer would approximate some column.
+    let fewer = build(&concave, arch, 96, a.grid.layers() - 1, &pool).unwrap();
+    assert!(fewer.approx_columns > 0);
+    let auto = compare(&concave, "arch", 96, 0, 4000);
+    let four = compare(&concave, "arch", 96, 4, 4000);
+    assert!(
+        auto.rate() >= four.rate() - 1e-9,
+        "{} vs {}",
+        auto.rate(),
+        four.rate()
+    );
+}

@@ -535,11 +535,18 @@ impl Method for Layered {
             .iter()
             .map(|&r| (r, 4))
             .chain(std::iter::once((top, 1)))
+            // Layers per object by its depth complexity (seed 001 Table 1).
+            .chain(std::iter::once((top, 0)))
             .map(|(face_res, layers)| {
+                let l = if layers == 0 {
+                    "auto".to_string()
+                } else {
+                    layers.to_string()
+                };
                 Box::new(LayeredSetting {
                     face_res,
                     layers,
-                    label: format!("face_res={face_res};layers={layers}"),
+                    label: format!("face_res={face_res};layers={l}"),
                 }) as Box<dyn Setting>
             })
             .collect())
@@ -581,11 +588,13 @@ impl Setting for LayeredSetting {
             });
             let _ = writeln!(
                 f.notes,
-                "  - layered maps {}x{}x{}: {} objects, {:.1} ms build, {:.1} MiB",
-                self.face_res,
-                self.face_res,
-                self.layers,
+                "  - layered maps {}: {} objects (layers {:?}), {:.1} ms build, {:.1} MiB",
+                self.label,
                 ls.objects.len(),
+                ls.objects
+                    .iter()
+                    .map(|o| o.grid.layers())
+                    .collect::<Vec<_>>(),
                 ls.build_ms,
                 ls.bytes() as f64 / (1024.0 * 1024.0)
             );
