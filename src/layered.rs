@@ -8,14 +8,19 @@
 //! triangles alone is re-traced from just past each hit until the column is
 //! exhausted. Columns run in parallel on the caller's rayon pool; each
 //! column fills its face and the opposite face
-//! ([`LayeredMapMut::try_fill_column`]). Payloads are scene primitive ids.
+//! ([`LayeredMapMut::try_fill_column`]). A payload is the index of the
+//! crossing in [`LayeredObject::samples`]: the scene primitive, the column
+//! ray and the hit, from which [`LayeredObject::shade_samples`] computes
+//! the color the texel stores (seed 001 Sec. 3.3: the maps hold what the
+//! method shades from, not ids).
 //!
 //! Facing (entering or leaving the solid) comes from the triangle winding:
 //! `(b - a) x (c - a)` points out of the object, as in every built-in scene
 //! (their reflected objects are closed, counter-clockwise meshes).
 
 use crate::scene::{Aabb, Object, Scene};
-use crate::tracer::Tracer;
+use crate::shade::{Shader, Surface};
+use crate::tracer::{Hit, Tracer};
 use glam::Vec3;
 use rayon::prelude::*;
 use refl_core::layered::{
@@ -33,8 +38,17 @@ pub struct LayeredObject {
     pub grid: LayeredGrid,
     /// Normalized depths (refl-core layout).
     pub depth: Vec<f32>,
-    /// Scene primitive ids of the layers.
+    /// Per layer, the index of its crossing in [`Self::samples`]
+    /// (`refl_core::layered::NO_PAYLOAD` where empty).
     pub payload: Vec<u32>,
+    /// Every column crossing the map stores from: a ray (origin, unit
+    /// direction) that meets it from outside the solid and its hit on the
+    /// scene primitive `hit.prim` (the column ray at an entering crossing,
+    /// the reversed one at an exiting crossing).
+    pub samples: Vec<(Vec3, Vec3, Hit)>,
+    /// The color of each sample ([`Self::shade_samples`]; empty until
+    /// then).
+    pub colors: Vec<Vec3>,
     /// Layer counts per texel.
     pub counts: Vec<u32>,
     /// Empty-space bounds ([`LayeredMapMut::build_bounds`]).
@@ -51,6 +65,25 @@ pub struct LayeredObject {
 }
 
 impl LayeredObject {
+    /// Shades every sample as the reference shades a reflection hit
+    /// ([`Shader::direct`] at the crossing, its normals facing the column
+    /// ray's origin): the colors the texels store, computed once per map
+    /// (view-independent, the one-bounce rule), on `pool`.
+    pub fn shade_samples(&mut self, shader: &Shader, pool: &rayon::ThreadPool) {
+        let scene = shader.scene;
+        self.colors = pool.install(|| {
+            self.samples
+                .par_iter()
+                .map(|(o, d, h)| shader.direct(&Surface::at_hit(scene, *o, *d, h)))
+                .collect()
+        });
+    }
+
+    /// The sample a payload names, if any.
+    pub fn sample(&self, payload: u32) -> Option<&(Vec3, Vec3, Hit)> {
+        self.samples.get(payload as usize)
+    }
+
     /// The refl-core view for tracing.
     pub fn map(&self) -> LayeredMap<'_> {
         // The buffers were sized from the grid in `build`.
@@ -111,6 +144,21 @@ pub fn column_hits(
     ray: &ColumnRay,
     eps: f32,
 ) -> Vec<LayerHit> {
+    column_samples(tracer, tris, first, ray, eps)
+        .into_iter()
+        .map(|(l, _)| l)
+        .collect()
+}
+
+/// [`column_hits`] with each crossing's hit (scene primitive id,
+/// barycentrics).
+fn column_samples(
+    tracer: &Tracer,
+    tris: &[[Vec3; 3]],
+    first: u32,
+    ray: &ColumnRay,
+    eps: f32,
+) -> Vec<(LayerHit, Hit)> {
     let mut out = Vec::new();
     let mut tmin = 0.0f32;
     // A column cannot cross more surfaces than there are triangles.
@@ -120,11 +168,17 @@ pub fn column_hits(
         };
         let [a, b, c] = tris[h.prim as usize];
         let n = (b - a).cross(c - a);
-        out.push(LayerHit {
-            t: h.t,
-            id: first + h.prim,
-            front: n.dot(ray.dir) < 0.0,
-        });
+        out.push((
+            LayerHit {
+                t: h.t,
+                id: first + h.prim,
+                front: n.dot(ray.dir) < 0.0,
+            },
+            Hit {
+                prim: first + h.prim,
+                ..h
+            },
+        ));
         tmin = h.t + eps;
     }
     out
@@ -165,7 +219,7 @@ pub fn build(
     let res = face_res as usize;
     let faces = [Face::NegX, Face::NegY, Face::NegZ];
     // Cast every column (3 res^2) in parallel.
-    let columns: Vec<Vec<LayerHit>> = pool.install(|| {
+    let columns: Vec<Vec<(LayerHit, Hit)>> = pool.install(|| {
         (0..3 * res * res)
             .into_par_iter()
             .map(|k| {
@@ -173,7 +227,7 @@ pub fn build(
                 let (i, j) = ((ij % res) as u32, (ij / res) as u32);
                 probe
                     .try_face_ray(faces[f], i, j)
-                    .map(|r| column_hits(&tracer, tris, first, &r, eps))
+                    .map(|r| column_samples(&tracer, tris, first, &r, eps))
                     .unwrap_or_default()
             })
             .collect()
@@ -181,7 +235,7 @@ pub fn build(
     let layers = if layers == 0 {
         let deepest = columns
             .iter()
-            .map(|c| c.iter().filter(|h| h.front).count() as u32)
+            .map(|c| c.iter().filter(|(h, _)| h.front).count() as u32)
             .max()
             .unwrap_or(1);
         deepest.clamp(1, MAX_AUTO_LAYERS)
@@ -198,14 +252,36 @@ pub fn build(
     );
     let mut approx = 0;
     let mut crossings = 0u64;
+    let mut samples = Vec::new();
     {
         let mut m =
             LayeredMapMut::try_new(grid, &mut depth, &mut payload, &mut counts, &mut bounds)?;
         m.clear();
-        for (k, mut hits) in columns.into_iter().enumerate() {
+        for (k, column) in columns.into_iter().enumerate() {
             let (f, ij) = (k / (res * res), k % (res * res));
             let (i, j) = ((ij % res) as u32, (ij / res) as u32);
-            crossings += hits.len() as u64;
+            crossings += column.len() as u64;
+            // Payloads name the crossings in `samples`.
+            let mut hits = Vec::with_capacity(column.len());
+            if let (Ok(r), false) = (grid.try_face_ray(faces[f], i, j), column.is_empty()) {
+                for (l, h) in column {
+                    hits.push(LayerHit {
+                        id: samples.len() as u32,
+                        ..l
+                    });
+                    // A sample is kept as a ray that sees its surface from
+                    // outside the solid: the column ray at an entering
+                    // crossing, the reversed ray from one unit beyond an
+                    // exiting one (its normals then face out, as a
+                    // reflection ray arriving from that side sees them).
+                    if l.front {
+                        samples.push((r.origin, r.dir, h));
+                    } else {
+                        let p = r.origin + r.dir * h.t;
+                        samples.push((p + r.dir, -r.dir, Hit { t: 1.0, ..h }));
+                    }
+                }
+            }
             let fill = m.try_fill_column(faces[f], i, j, &mut hits)?;
             approx += (fill.stored < fill.intervals) as u32;
         }
@@ -216,6 +292,8 @@ pub fn build(
         grid,
         depth,
         payload,
+        samples,
+        colors: Vec::new(),
         counts,
         bounds,
         columns: (3 * res * res) as u32,

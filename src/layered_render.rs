@@ -233,12 +233,25 @@ impl LayeredScene {
         })
     }
 
-    /// Caller-buffer bytes of all maps (depth, payload, counts, bounds).
+    /// Shades every map's samples ([`LayeredObject::shade_samples`]): the
+    /// colors the texels store.
+    pub fn shade_samples(&mut self, shader: &Shader, pool: &rayon::ThreadPool) {
+        for o in &mut self.objects {
+            o.shade_samples(shader, pool);
+        }
+    }
+
+    /// Caller-buffer bytes of all maps (depth, payload, counts, bounds)
+    /// and their stored colors (12 bytes a sample once shaded).
     pub fn bytes(&self) -> usize {
         self.objects
             .iter()
             .map(|o| {
-                o.depth.len() * 4 + o.payload.len() * 4 + o.counts.len() * 4 + o.bounds.len() * 4
+                o.depth.len() * 4
+                    + o.payload.len() * 4
+                    + o.counts.len() * 4
+                    + o.bounds.len() * 4
+                    + o.colors.len() * 12
             })
             .sum()
     }
@@ -383,16 +396,29 @@ pub fn evaluate(
     s
 }
 
+/// How the `layered` method shades a map hit.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum LayeredShading {
+    /// From the texel, as seed 001 does: the color its layer stores
+    /// ([`LayeredObject::shade_samples`]: the crossing of the texel's column
+    /// ray, shaded once), so the map's resolution shows in the image.
+    Texel,
+    /// Diagnostic: the primitive the layer's crossing hit, intersected
+    /// exactly with the pixel's ray and shaded there (what the report did
+    /// before the maps stored color; it hides the texel's sampling).
+    PrimitiveId,
+}
+
 /// The reflection image of the `layered` method: every mirror pixel
-/// (roughness 0) whose ray hit a map, shaded at the exact intersection of
-/// the pixel's ray (the G-buffer's surface point, the direction the pass
-/// traced) with the primitive the map stores; with `env`, every other
-/// mirror pixel the pass traced takes the environment in its ray's
-/// direction (seed 001 Sec. 4.1).
+/// (roughness 0) whose ray hit a map, shaded as `shading` says; with
+/// `env`, every other mirror pixel the pass traced takes the environment
+/// in its ray's direction (seed 001 Sec. 4.1).
 pub fn shade(
     shader: &Shader,
     g: &GBuffer,
+    ls: &LayeredScene,
     traces: &LayeredTraces,
+    shading: LayeredShading,
     env: Option<&Surroundings>,
 ) -> ReflectionImage {
     let scene = shader.scene;
@@ -410,19 +436,27 @@ pub fn shade(
             }
             continue;
         }
-        let prim = t.payload;
-        let Some(tri) = scene.tris.get(prim as usize) else {
+        let Some(obj) = ls.objects.get(t.map as usize) else {
             continue;
         };
-        let origin = g.position[i];
-        let exact = ray_triangle_plane(tri, prim, origin, t.dir).unwrap_or(crate::tracer::Hit {
-            prim,
-            t: t.t,
-            u: 0.0,
-            v: 0.0,
-        });
-        out.rgb[i] = shader.shade_reflection_hit(origin, t.dir, &exact);
-        out.handled[i] = true;
+        let color = match shading {
+            LayeredShading::Texel => obj.colors.get(t.payload as usize).copied(),
+            LayeredShading::PrimitiveId => obj.sample(t.payload).and_then(|(_, _, h)| {
+                let tri = scene.tris.get(h.prim as usize)?;
+                let origin = g.position[i];
+                let exact = ray_triangle_plane(tri, h.prim, origin, t.dir).unwrap_or(Hit {
+                    prim: h.prim,
+                    t: t.t,
+                    u: 0.0,
+                    v: 0.0,
+                });
+                Some(shader.shade_reflection_hit(origin, t.dir, &exact))
+            }),
+        };
+        if let Some(c) = color {
+            out.rgb[i] = c;
+            out.handled[i] = true;
+        }
     }
     out
 }

@@ -241,13 +241,27 @@ fn layered_maps_agree_with_reference_hits() {
         s.to_objects
     );
     assert!(s.false_hits * 20 < s.to_objects, "{s:?}");
-    let img = layered_render::shade(&shader, &g, &tr, None);
+    let img = layered_render::shade(
+        &shader,
+        &g,
+        &ls,
+        &tr,
+        layered_render::LayeredShading::PrimitiveId,
+        None,
+    );
     assert!(img.handled_count() > 0);
     // With the global environment (seed 001 Sec. 4.1) every mirror pixel
     // the pass traced is answered: map hits as before, the rest from the
     // surroundings table in the ray's direction.
     let env = layered_render::Surroundings::build(&shader, &f.pool);
-    let full = layered_render::shade(&shader, &g, &tr, Some(&env));
+    let full = layered_render::shade(
+        &shader,
+        &g,
+        &ls,
+        &tr,
+        layered_render::LayeredShading::PrimitiveId,
+        Some(&env),
+    );
     let mut from_env = 0;
     for (i, t) in tr.texels.iter().enumerate() {
         let traced = g.is_reflective(i) && g.roughness[i] == 0.0 && t.dir != glam::Vec3::ZERO;
@@ -260,6 +274,50 @@ fn layered_maps_agree_with_reference_hits() {
         }
     }
     assert!(from_env > 0 && full.handled_count() > img.handled_count());
+    // Seed 001's shading: a map hit takes the color its texel's layer
+    // stores, the crossing of the texel's column ray shaded once; before
+    // the samples are shaded no hit has a color.
+    let texel = |ls: &LayeredScene| {
+        layered_render::shade(
+            &shader,
+            &g,
+            ls,
+            &tr,
+            layered_render::LayeredShading::Texel,
+            None,
+        )
+    };
+    assert_eq!(texel(&ls).handled_count(), 0);
+    let mut ls = ls;
+    ls.shade_samples(&shader, &f.pool);
+    let by_texel = texel(&ls);
+    assert_eq!(
+        by_texel.handled, img.handled,
+        "the same pixels, shaded otherwise"
+    );
+    let (mut checked, mut differ, mut gap) = (0, 0, 0.0f64);
+    for (i, t) in tr.texels.iter().enumerate() {
+        if !by_texel.handled[i] {
+            continue;
+        }
+        let obj = &ls.objects[t.map as usize];
+        let (o, d, h) = obj.sample(t.payload).expect("a hit names its sample");
+        let want = shader.direct(&refl_app::shade::Surface::at_hit(&f.scene, *o, *d, h));
+        assert_eq!(by_texel.rgb[i], want, "pixel {i}");
+        differ += usize::from(by_texel.rgb[i] != img.rgb[i]);
+        gap += f64::from((by_texel.rgb[i] - img.rgb[i]).abs().max_element());
+        checked += 1;
+    }
+    assert!(
+        checked > 100 && differ > 0,
+        "{checked} checked, {differ} differ from the id shading"
+    );
+    // A texel's color is its sample's, a texel away from the exact hit:
+    // close to the exact shade on average (a sample seen from inside the
+    // solid, unlit, would be far off).
+    let gap = gap / checked as f64;
+    eprintln!("texel vs exact shading: mean max-channel gap {gap:.4} over {checked} pixels");
+    assert!(gap < 0.05, "mean gap {gap}");
 }
 
 /// The surroundings table is the reference's view from its center, of

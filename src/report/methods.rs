@@ -12,7 +12,7 @@ use super::accum::{ClusterAccum, Extra, ScreenAccum};
 use super::content::Content;
 use super::{Level, Sizes};
 use crate::gbuffer::GBuffer;
-use crate::layered_render::{LayeredFrame, LayeredScene};
+use crate::layered_render::{LayeredFrame, LayeredScene, LayeredShading};
 use crate::render::{self, median, timed, ReflectionImage, Timed};
 use crate::scene::Scene;
 use crate::screen::{self, RayStats, ScreenFrame, ScreenMethod};
@@ -512,6 +512,7 @@ struct Layered;
 struct LayeredSetting {
     face_res: u32,
     layers: u32,
+    shading: crate::layered_render::LayeredShading,
     label: String,
 }
 
@@ -537,16 +538,24 @@ impl Method for Layered {
             .chain(std::iter::once((top, 1)))
             // Layers per object by its depth complexity (seed 001 Table 1).
             .chain(std::iter::once((top, 0)))
-            .map(|(face_res, layers)| {
+            .map(|(face_res, layers)| (face_res, layers, LayeredShading::Texel))
+            // Diagnostic: shaded from the primitive the texel names.
+            .chain(std::iter::once((top, 4, LayeredShading::PrimitiveId)))
+            .map(|(face_res, layers, shading)| {
                 let l = if layers == 0 {
                     "auto".to_string()
                 } else {
                     layers.to_string()
                 };
+                let diag = match shading {
+                    LayeredShading::Texel => "",
+                    LayeredShading::PrimitiveId => ";shade=primitive_id",
+                };
                 Box::new(LayeredSetting {
                     face_res,
                     layers,
-                    label: format!("face_res={face_res};layers={l}"),
+                    shading,
+                    label: format!("face_res={face_res};layers={l}{diag}"),
                 }) as Box<dyn Setting>
             })
             .collect())
@@ -565,6 +574,10 @@ impl Setting for LayeredSetting {
         if !f.layered_maps.iter().any(|(k, _)| *k == key) {
             let mut ls = LayeredScene::build(f.scene, self.face_res, self.layers, pool)
                 .map_err(|e| format!("{}: layered maps: {e}", f.label))?;
+            // The colors the texels store (seed 001), part of the build.
+            let shade_start = std::time::Instant::now();
+            ls.shade_samples(f.shader, pool);
+            ls.build_ms += shade_start.elapsed().as_secs_f64() * 1e3;
             // The global environment (seed 001 Sec. 4.1) depends on the
             // scene only: built with the first maps, shared by the others.
             ls.surroundings = Some(match f.layered_maps.first() {
@@ -623,7 +636,14 @@ impl Setting for LayeredSetting {
         let ls_stats = crate::layered_render::evaluate(scene, ls, &sf.rays, &traces);
         let pixels = f64::from(g.width()) * f64::from(g.height());
         Ok(FrameRun {
-            image: crate::layered_render::shade(shader, g, &traces, ls.surroundings.as_deref()),
+            image: crate::layered_render::shade(
+                shader,
+                g,
+                ls,
+                &traces,
+                self.shading,
+                ls.surroundings.as_deref(),
+            ),
             ms,
             extra: Extra::Screen(ScreenAccum {
                 stats: RayStats {
