@@ -249,18 +249,7 @@ impl<'a> Shader<'a> {
         tmin: f32,
         bounces: u32,
     ) -> Vec3 {
-        let Some(hit) = self.tracer.trace(origin, dir, tmin, f32::INFINITY) else {
-            return env_map(dir);
-        };
-        let s = Surface::at_hit(self.scene, origin, dir, &hit);
-        let direct = self.direct(&s);
-        let m = &self.scene.materials[s.material as usize];
-        if bounces <= 1 || !(m.specular > 0.0) || m.roughness != 0.0 {
-            return direct;
-        }
-        let next = reflection_dir(-dir, s.shading_normal, s.geo_normal);
-        let reflected = self.trace_reflection_bounces(s.position, next, tmin, bounces - 1);
-        direct * (1.0 - m.specular) + reflected * m.specular
+        self.bounces(origin, dir, tmin, bounces, None)
     }
 
     /// [`Shader::trace_reflection_bounces`] with each further bounce
@@ -281,9 +270,21 @@ impl<'a> Shader<'a> {
         bounces: u32,
         attenuation: f32,
     ) -> Vec3 {
-        if attenuation == 1.0 {
-            return self.trace_reflection_bounces(origin, dir, tmin, bounces);
-        }
+        let attenuation = (attenuation != 1.0).then_some(attenuation);
+        self.bounces(origin, dir, tmin, bounces, attenuation)
+    }
+
+    /// The recursion of [`Shader::trace_reflection_bounces`] (attenuation
+    /// `None`: the composite itself, bit for bit) and
+    /// [`Shader::trace_reflection_bounces_attenuated`].
+    fn bounces(
+        &self,
+        origin: Vec3,
+        dir: Vec3,
+        tmin: f32,
+        bounces: u32,
+        attenuation: Option<f32>,
+    ) -> Vec3 {
         let Some(hit) = self.tracer.trace(origin, dir, tmin, f32::INFINITY) else {
             return env_map(dir);
         };
@@ -294,15 +295,12 @@ impl<'a> Shader<'a> {
             return direct;
         }
         let next = reflection_dir(-dir, s.shading_normal, s.geo_normal);
-        let reflected = self.trace_reflection_bounces_attenuated(
-            s.position,
-            next,
-            tmin,
-            bounces - 1,
-            attenuation,
-        );
+        let reflected = self.bounces(s.position, next, tmin, bounces - 1, attenuation);
         let composite = direct * (1.0 - m.specular) + reflected * m.specular;
-        direct + (composite - direct) * attenuation
+        match attenuation {
+            None => composite,
+            Some(a) => direct + (composite - direct) * a,
+        }
     }
 
     /// The ray-traced reference reflection at surface `s` seen along the

@@ -54,12 +54,7 @@ pub fn fresnel_composite(
     let (w, h) = (g.width(), g.height());
     let arr = |v: &[Vec3]| v.iter().map(|c| c.to_array()).collect::<Vec<[f32; 3]>>();
     let (d, r, nrm) = (arr(direct), arr(reflection), arr(&g.geo_normal));
-    let current = CurrentView::try_new(
-        g.camera,
-        DepthConvention::Linear,
-        ImageView::try_new(&g.depth, w, h, w)?,
-        ImageView::try_new(handled_spec, w, h, w)?,
-    )?;
+    let current = current_view(g, handled_spec)?;
     let mut out = vec![[0.0f32; 3]; d.len()];
     tcrr::try_compose(
         &mut ImageViewMut::try_new(&mut out, w, h, w)?,
@@ -70,6 +65,18 @@ pub fn fresnel_composite(
         tcrr::Fresnel::Schlick,
     )?;
     Ok(out.into_iter().map(Vec3::from_array).collect())
+}
+
+/// The current frame of `g` as refl-core's TCRR reads it: its camera,
+/// linear depth and the specular factor `handled_spec`.
+fn current_view<'a>(g: &'a GBuffer, handled_spec: &'a [f32]) -> Result<CurrentView<'a>, Error> {
+    let (w, h) = (g.width(), g.height());
+    CurrentView::try_new(
+        g.camera,
+        DepthConvention::Linear,
+        ImageView::try_new(&g.depth, w, h, w)?,
+        ImageView::try_new(handled_spec, w, h, w)?,
+    )
 }
 
 /// Caller-buffer bytes per pixel TCRR needs: reflection buffers (depth 4,
@@ -342,12 +349,7 @@ fn reuse_frame(
             (&key.color, &naive_path, &naive_cov)
         }
     };
-    let current = CurrentView::try_new(
-        g.camera,
-        DepthConvention::Linear,
-        ImageView::try_new(&g.depth, w, h, w)?,
-        ImageView::try_new(handled_spec, w, h, w)?,
-    )?;
+    let current = current_view(g, handled_spec)?;
     let mut color = vec![[0.0f32; 3]; n];
     let mut mask = vec![0u8; n];
     let sv = ImageView::try_new(src, w, h, w)?;
