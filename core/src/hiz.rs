@@ -921,6 +921,20 @@ pub struct HiZ<'a> {
     /// World to homogeneous pixel space, rows x, y and w (`w` = linear
     /// depth) of [`Camera::world_to_pixel`].
     to_pixel: Mat4,
+    /// The level table as the traversal reads it, computed once here rather
+    /// than per visited cell ([`CellLevel`]).
+    cells: [CellLevel; MAX_LEVELS],
+}
+
+/// One pyramid level as the traversal reads it per visited cell: its first
+/// texel and its last cell index along each axis (`width - 1`,
+/// `height - 1`), the values [`Walker`]'s cell arithmetic uses, so that no
+/// visit recomputes them.
+#[derive(Clone, Copy, Debug, Default)]
+struct CellLevel {
+    offset: usize,
+    last_x: u32,
+    last_y: u32,
 }
 
 impl<'a> HiZ<'a> {
@@ -950,12 +964,24 @@ impl<'a> HiZ<'a> {
         }
         // The x, y and w rows do not depend on the depth convention.
         let to_pixel = camera.try_world_to_pixel(DepthConvention::ZeroToOne)?;
+        let mut cells = [CellLevel::default(); MAX_LEVELS];
+        for (c, l) in cells
+            .iter_mut()
+            .zip(&layout.levels[..layout.count as usize])
+        {
+            *c = CellLevel {
+                offset: l.offset,
+                last_x: l.width - 1,
+                last_y: l.height - 1,
+            };
+        }
         Ok(Self {
             data,
             layout,
             camera,
             convention,
             to_pixel,
+            cells,
         })
     }
 
@@ -1409,13 +1435,12 @@ enum Step {
 
 /// One screen axis of the segment, `v(s) = v0 + s d`, specialized on its
 /// direction of motion: `NEG` for `d < 0`. An axis the segment does not move
-/// along (`d == 0`, either sign) has `NEG = false` and `moves = false`: its
-/// exit parameter is `+inf` and its frontier pixel never changes.
+/// along (`d == 0`, either sign) has `NEG = false`: its exit parameter is
+/// `+inf` and its frontier pixel never changes ([`Self::sync`]).
 #[derive(Clone, Copy, Debug)]
 struct Axis<const NEG: bool> {
     v0: f32,
     d: f32,
-    moves: bool,
     /// `v0` and `d` for [`Self::exit`]: the same when the segment moves
     /// along the axis, else `-inf` and `+0`, which make the exit parameter
     /// `(boundary + inf) / +0 = +inf` without a branch.
@@ -1431,7 +1456,6 @@ impl<const NEG: bool> Axis<NEG> {
         Self {
             v0,
             d,
-            moves,
             exit_v0: if moves { v0 } else { f32::NEG_INFINITY },
             exit_d: if moves { d } else { 0.0 },
             size,
@@ -1444,15 +1468,15 @@ impl<const NEG: bool> Axis<NEG> {
         self.v0 + s * self.d
     }
 
-    /// The edge pixel (see [`Cell`]) of cell `c` of level `level`, which has
-    /// `cells` cells along the axis. As `cell_span`: `c << level <= p` for
-    /// the frontier pixel `p` and, below the last cell, `(c + 1) << level <=
-    /// size`, so the shifts do not overflow.
+    /// The edge pixel (see [`Cell`]) of cell `c <= last` of level `level`,
+    /// whose last cell along the axis is `last`. As `cell_span`: `c << level
+    /// <= p` for the frontier pixel `p` and, below the last cell, `(c + 1)
+    /// << level <= size`, so the shifts do not overflow.
     #[inline(always)]
-    fn edge(&self, c: u32, level: u32, cells: u32) -> u32 {
+    fn edge(&self, c: u32, level: u32, last: u32) -> u32 {
         if NEG {
             c << level
-        } else if c + 1 >= cells {
+        } else if c >= last {
             self.size - 1
         } else {
             ((c + 1) << level) - 1
@@ -1502,11 +1526,14 @@ impl<const NEG: bool> Axis<NEG> {
     /// pixels between `p` and `e` (both in `0..u32::MAX`) gives the same
     /// pixel (after the one-pixel exit check, which then also lands below
     /// or above that range).
+    ///
+    /// An axis the segment does not move along needs no test of its own:
+    /// `v = v0` and `p = min(floor(v0), size - 1)` ([`dir_pixel`] with
+    /// `NEG = false`), so `f > p` only for `v0 = size`, where `p = size - 1`
+    /// is the last pixel and so its own cell's edge `e`; the clamp returns
+    /// `p` (and the one-pixel check divides by `d = +-0`, harmlessly).
     #[inline(always)]
     fn sync(&self, s: f32, v: f32, p: u32, e: u32) -> u32 {
-        if !self.moves {
-            return p;
-        }
         if NEG {
             let p = i64::from(p);
             let mut f = ceil_sat(v) - 1;
@@ -1535,6 +1562,10 @@ struct State {
     py: u32,
     /// [`Work`] counters, saturated to `u32` on return.
     steps: u64,
+    /// The fetches outside the hierarchical loop (prologue and unit-step
+    /// visits, back-face texels, the end texel). Each hierarchical
+    /// iteration visits exactly one cell, so [`Work::fetches`] is this plus
+    /// `iterations`, not a counter kept per visit.
     fetches: u64,
     iterations: u32,
     stats: HiZStats,
@@ -1542,9 +1573,10 @@ struct State {
 
 impl State {
     fn work(&self) -> Work {
+        let fetches = self.fetches + u64::from(self.iterations);
         Work {
             steps: u32::try_from(self.steps).unwrap_or(u32::MAX),
-            fetches: u32::try_from(self.fetches).unwrap_or(u32::MAX),
+            fetches: u32::try_from(fetches).unwrap_or(u32::MAX),
             iterations: self.iterations,
         }
     }
@@ -1572,7 +1604,7 @@ struct Walker<
     const STATS: bool,
 > {
     hiz: &'h HiZ<'a>,
-    levels: &'h [HiZLevel; MAX_LEVELS],
+    levels: &'h [CellLevel; MAX_LEVELS],
     data: &'a [HiZTexel],
     seg: Segment,
     ax: Axis<NX>,
@@ -1591,7 +1623,7 @@ impl<const NX: bool, const NY: bool, const NQ: bool, const BACK: bool, const STA
 {
     /// The level table entry of `level` (`< level_count <= MAX_LEVELS`).
     #[inline(always)]
-    fn level(&self, level: u32) -> HiZLevel {
+    fn level(&self, level: u32) -> CellLevel {
         self.levels[level as usize % MAX_LEVELS]
     }
 
@@ -1599,15 +1631,15 @@ impl<const NX: bool, const NY: bool, const NQ: bool, const BACK: bool, const STA
     #[inline(always)]
     fn cell(&self, st: &State, level: u32) -> Cell {
         let l = self.level(level);
-        let x = (st.px >> level).min(l.width - 1);
-        let y = (st.py >> level).min(l.height - 1);
+        let x = (st.px >> level).min(l.last_x);
+        let y = (st.py >> level).min(l.last_y);
         Cell {
             level,
             x,
             y,
-            ex: self.ax.edge(x, level, l.width),
-            ey: self.ay.edge(y, level, l.height),
-            index: l.offset + y as usize * l.width as usize + x as usize,
+            ex: self.ax.edge(x, level, l.last_x),
+            ey: self.ay.edge(y, level, l.last_y),
+            index: l.offset + y as usize * (l.last_x as usize + 1) + x as usize,
         }
     }
 
@@ -1622,10 +1654,10 @@ impl<const NX: bool, const NY: bool, const NQ: bool, const BACK: bool, const STA
         in_x && in_y
     }
 
-    /// The texel at `index` (counted as a fetch).
+    /// The texel at `index`. Not counted here: the callers count their
+    /// fetches ([`State::fetches`]).
     #[inline(always)]
-    fn fetch(&self, st: &mut State, index: usize) -> HiZTexel {
-        st.fetches += 1;
+    fn fetch(&self, index: usize) -> HiZTexel {
         self.data.get(index).copied().unwrap_or([f32::NAN; 2])
     }
 
@@ -1777,7 +1809,7 @@ impl<const NX: bool, const NY: bool, const NQ: bool, const BACK: bool, const STA
     #[inline(always)]
     fn visit(&self, st: &mut State, level: u32) -> Step {
         let c = self.cell(st, level);
-        let [zmin, zmax] = self.fetch(st, c.index);
+        let [zmin, zmax] = self.fetch(c.index);
         let (sx, sy) = (self.ax.exit(c.ex), self.ay.exit(c.ey));
         let es = min_nn(sx, sy);
         match self.slab(st, &c, zmin, zmax, min_nn(es, 1.0)) {
@@ -1803,6 +1835,7 @@ impl<const NX: bool, const NY: bool, const NQ: bool, const BACK: bool, const STA
     /// returned through memory and dispatched by a jump table).
     #[inline(never)]
     fn visit0(&self, st: &mut State) -> Step {
+        st.fetches += 1;
         self.visit(st, 0)
     }
 
@@ -1831,7 +1864,8 @@ impl<const NX: bool, const NY: bool, const NQ: bool, const BACK: bool, const STA
         let x = dir_pixel(sd.x(1.0), sd.dx, self.ax.size);
         let y = dir_pixel(sd.y(1.0), sd.dy, self.ay.size);
         let index = self.levels[0].offset + y as usize * self.ax.size as usize + x as usize;
-        let [zmin, zmax] = self.fetch(&mut st, index);
+        st.fetches += 1;
+        let [zmin, zmax] = self.fetch(index);
         let behind = zmin < self.far && sd.q1 < 1.0 / self.upper(&mut st, 0, x, y, zmin, zmax);
         let reason = if behind {
             Miss::BehindGeometry
@@ -1853,6 +1887,7 @@ impl<const NX: bool, const NY: bool, const NQ: bool, const BACK: bool, const STA
         let mut n = 0;
         while n < o.prologue_steps {
             n += 1;
+            st.fetches += 1;
             match self.visit(st, 0) {
                 Step::Hit { s, surface } => return (self.hit(*st, s, surface), st.stats),
                 Step::End => return self.end(*st),
@@ -1938,7 +1973,7 @@ fn walk<const NX: bool, const NY: bool, const NQ: bool, const BACK: bool, const 
     let py = dir_pixel(seg.y0, seg.dy, h);
     let walker = Walker::<NX, NY, NQ, BACK, STATS> {
         hiz,
-        levels: &hiz.layout.levels,
+        levels: &hiz.cells,
         data: hiz.data,
         seg,
         ax: Axis::new(seg.x0, seg.dx, w),
