@@ -1735,6 +1735,19 @@ impl<const NX: bool, const NY: bool, const NQ: bool, const BACK: bool, const STA
     }
 
     /// Moves the frontier to the ray position at `st.s` inside cell `c`.
+    ///
+    /// At the `s` where the frontier was last set (the start, a crossing, or
+    /// a previous `sync_in`) this leaves it unchanged, so a descent whose
+    /// slab entry is not past `s` skips it. An axis synced at `s` is a fixed
+    /// point (same `floor`, same one-pixel exit check, and the cell holds
+    /// the pixel). An axis crossed at `s`, its exit parameter, sits on the
+    /// first pixel past the boundary, and `v(s)` lies within rounding of
+    /// that boundary: `floor(v(s))` is that pixel, one behind it (kept by
+    /// the clamp), or the next one, whose one-pixel exit check (its exit
+    /// lies past `s`) takes it back. Only from about `2^23` pixels on could
+    /// `v(s)` round two pixels past the boundary; a skipped sync would then
+    /// leave the frontier on the pixel past the boundary, which the ray
+    /// still crosses.
     #[inline(always)]
     fn sync_in(&self, st: &mut State, c: &Cell) {
         let (x, y) = (self.ax.at(st.s), self.ay.at(st.s));
@@ -1927,8 +1940,14 @@ impl<const NX: bool, const NY: bool, const NQ: bool, const BACK: bool, const STA
                     }
                 }
                 Step::Inside { cell, sa, sb } => {
-                    st.s = max_nn(st.s, sa);
-                    self.sync_in(st, &cell);
+                    // The frontier moves only if `s` does (`sa > s`): at
+                    // the `s` it was last moved to it is already where
+                    // `sync_in` would put it (see `Self::sync_in`). With
+                    // statistics the sync runs anyway, to count its ties.
+                    if STATS || sa > st.s {
+                        st.s = sa;
+                        self.sync_in(st, &cell);
+                    }
                     if level > stop {
                         parent[level as usize % MAX_LEVELS] = (cell.ex, cell.ey, sb);
                         level -= 1;
