@@ -1821,7 +1821,32 @@ impl<const NX: bool, const NY: bool, const NQ: bool, const BACK: bool, const STA
     /// the slab interval up to it, then a hit, a descent or a crossing.
     #[inline(always)]
     fn visit(&self, st: &mut State, level: u32) -> Step {
-        let c = self.cell(st, level);
+        self.visit_cell(st, self.cell(st, level))
+    }
+
+    /// [`Self::visit`] of level 0 (prologue and unit steps). The cell is the
+    /// frontier pixel itself, without the level table and clamps of
+    /// [`Self::cell`]: the frontier is always inside the image
+    /// (`px <= size - 1`: [`dir_pixel`], [`Axis::sync`] and [`Axis::next`]
+    /// keep it there), so `min(px, width - 1) = px`, the edge pixel of a
+    /// one-pixel cell is the pixel, and level 0 starts at texel 0.
+    #[inline(always)]
+    fn visit_pixel(&self, st: &mut State) -> Step {
+        let c = Cell {
+            level: 0,
+            x: st.px,
+            y: st.py,
+            ex: st.px,
+            ey: st.py,
+            index: st.py as usize * self.ax.size as usize + st.px as usize,
+        };
+        self.visit_cell(st, c)
+    }
+
+    /// The part of a visit after the cell is known.
+    #[inline(always)]
+    fn visit_cell(&self, st: &mut State, c: Cell) -> Step {
+        let level = c.level;
         let [zmin, zmax] = self.fetch(c.index);
         let (sx, sy) = (self.ax.exit(c.ex), self.ay.exit(c.ey));
         let es = min_nn(sx, sy);
@@ -1841,17 +1866,17 @@ impl<const NX: bool, const NY: bool, const NQ: bool, const BACK: bool, const STA
         }
     }
 
-    /// A level-0 visit for the unit steps (below a `stop_level > 0`), out of
-    /// line: one copy per class rather than one per call site. The prologue
-    /// inlines its visits instead: it runs on nearly every ray, and inlined
-    /// a visit costs about 70 instructions less (no call, no [`Step`]
-    /// returned through memory and dispatched by a jump table).
-    #[inline(never)]
+    /// A level-0 visit for the unit steps (below a `stop_level > 0`),
+    /// counted as a fetch. Inlined like every step of the walk: a call out
+    /// of line makes the walker's constants live in memory, stored once per
+    /// ray whether or not the unit steps run.
+    #[inline(always)]
     fn visit0(&self, st: &mut State) -> Step {
         st.fetches += 1;
-        self.visit(st, 0)
+        self.visit_pixel(st)
     }
 
+    #[inline(always)]
     fn hit(&self, st: State, s: f32, surface: f32) -> Trace {
         let sd = &self.seg;
         let q = sd.q(s);
@@ -1872,6 +1897,7 @@ impl<const NX: bool, const NY: bool, const NQ: bool, const BACK: bool, const STA
     /// The miss at the end of the segment: passed behind geometry (the end
     /// point lies behind the hit slab of the texel there), left the image,
     /// or simply ended.
+    #[inline(always)]
     fn end(&self, mut st: State) -> (Trace, HiZStats) {
         let sd = self.seg;
         let x = dir_pixel(sd.x(1.0), sd.dx, self.ax.size);
@@ -1891,19 +1917,40 @@ impl<const NX: bool, const NY: bool, const NQ: bool, const BACK: bool, const STA
         (Trace::Miss { reason, work }, st.stats)
     }
 
+    /// Walks the segment and builds the result: one call site for the hit
+    /// and one for the miss at the end, both inlined, so that the walker's
+    /// constants stay in registers rather than being stored once per ray
+    /// for an out-of-line builder.
     fn run(&self, mut st: State, o: &HiZOptions) -> (Trace, HiZStats) {
-        let st = &mut st;
+        match self.walk_to_exit(&mut st, o) {
+            Exit::Hit { s, surface } => (self.hit(st, s, surface), st.stats),
+            Exit::End => self.end(st),
+            Exit::OutOfSteps => {
+                let work = st.work();
+                let miss = Trace::Miss {
+                    reason: Miss::OutOfSteps,
+                    work,
+                };
+                (miss, st.stats)
+            }
+        }
+    }
+
+    /// The prologue and the hierarchical walk, up to a hit, the end of the
+    /// segment or the iteration cap.
+    #[inline(always)]
+    fn walk_to_exit(&self, st: &mut State, o: &HiZOptions) -> Exit {
         let top = self.hiz.layout.count - 1;
         let stop = o.stop_level.min(top);
         let start = o.start_level.min(top).max(stop);
-        // Prologue: unit steps (Sec. 4.7.1), inlined (see `visit0`).
+        // Prologue: unit steps (Sec. 4.7.1).
         let mut n = 0;
         while n < o.prologue_steps {
             n += 1;
             st.fetches += 1;
-            match self.visit(st, 0) {
-                Step::Hit { s, surface } => return (self.hit(*st, s, surface), st.stats),
-                Step::End => return self.end(*st),
+            match self.visit_pixel(st) {
+                Step::Hit { s, surface } => return Exit::Hit { s, surface },
+                Step::End => return Exit::End,
                 Step::Next | Step::Inside { .. } => {}
             }
         }
@@ -1919,17 +1966,12 @@ impl<const NX: bool, const NY: bool, const NQ: bool, const BACK: bool, const STA
                 st.stats.max_level = st.stats.max_level.max(level);
             }
             if st.iterations >= o.max_iterations {
-                let work = st.work();
-                let miss = Trace::Miss {
-                    reason: Miss::OutOfSteps,
-                    work,
-                };
-                return (miss, st.stats);
+                return Exit::OutOfSteps;
             }
             st.iterations += 1;
             match self.visit(st, level) {
-                Step::Hit { s, surface } => return (self.hit(*st, s, surface), st.stats),
-                Step::End => return self.end(*st),
+                Step::Hit { s, surface } => return Exit::Hit { s, surface },
+                Step::End => return Exit::End,
                 Step::Next => {
                     if level < top {
                         let up = level + 1;
@@ -1960,15 +2002,13 @@ impl<const NX: bool, const NY: bool, const NQ: bool, const BACK: bool, const STA
                         }
                         if st.s > sb {
                             if !self.leave(st, &cell) {
-                                return self.end(*st);
+                                return Exit::End;
                             }
                             break;
                         }
                         match self.visit0(st) {
-                            Step::Hit { s, surface } => {
-                                return (self.hit(*st, s, surface), st.stats)
-                            }
-                            Step::End => return self.end(*st),
+                            Step::Hit { s, surface } => return Exit::Hit { s, surface },
+                            Step::End => return Exit::End,
                             Step::Next => {}
                             Step::Inside { .. } => break,
                         }
@@ -1978,6 +2018,16 @@ impl<const NX: bool, const NY: bool, const NQ: bool, const BACK: bool, const STA
             }
         }
     }
+}
+
+/// How [`Walker::walk_to_exit`] ended.
+enum Exit {
+    /// Hit at `s` on the surface at linear depth `surface`.
+    Hit { s: f32, surface: f32 },
+    /// The segment ended (or left the image).
+    End,
+    /// [`HiZOptions::max_iterations`] reached.
+    OutOfSteps,
 }
 
 /// Traces a projected segment with the walker of its class ([`Walker`]).
