@@ -131,6 +131,30 @@
 //! returns the same bits; `max`/`min` without NaN fix-ups are used only
 //! where an operand is never NaN (see `max_nn`).
 //!
+//! What the loop leaves out, each without changing a result bit (issue 14
+//! part 1, measured with `examples/depth_kernels_bench --check`):
+//!
+//! * Work it can derive: every hierarchical iteration fetches exactly one
+//!   texel, so [`Work::fetches`] is the iteration count plus the prologue,
+//!   unit-step, back-face and end reads, not a counter kept per visit.
+//! * Table arithmetic: the level table is kept as (first texel, last cell
+//!   index per axis), computed once when the [`HiZ`] is bound; a level-0
+//!   visit (prologue, unit steps) takes the frontier pixel as its cell with
+//!   no table read at all.
+//! * Syncs that cannot move the frontier: a descent whose slab entry is not
+//!   past the current `s` keeps the frontier where the last crossing or
+//!   descent put it at that same `s` (the statistics walk still syncs, to
+//!   count boundary ties); see `Walker::sync_in`.
+//! * Calls: every step is inlined and the hit and end-of-segment builders
+//!   have one call site each, so the per-ray constants stay in registers
+//!   instead of being stored for out-of-line code.
+//!
+//! Hoisting the reciprocals of `dx`, `dy` and `dq` (a multiplication per
+//! exit and slab side instead of a division) was measured and left out: the
+//! same instruction count (a `mulss` for a `divss`) and, on the bench's
+//! 6 million checked traces, 8 other hit texels and 20 hit/miss flips at
+//! ties; its gain would be latency only.
+//!
 //! There is no self-intersection skip: a ray whose origin already lies in a
 //! texel's hit slab hits at `t = 0`. Start reflection rays slightly off the
 //! surface (the seed crosses one cell first for the same reason).
