@@ -1558,6 +1558,11 @@ impl<const NEG: bool> Axis<NEG> {
     /// `p` (and the one-pixel check divides by `d = +-0`, harmlessly).
     #[inline(always)]
     fn sync(&self, s: f32, v: f32, p: u32, e: u32) -> u32 {
+        // The position still in pixel `p` (the common case): `p` without
+        // a conversion (see `Self::sync_stays`).
+        if self.sync_stays(v, p) {
+            return p;
+        }
         if NEG {
             let p = i64::from(p);
             let mut f = ceil_sat(v) - 1;
@@ -1571,6 +1576,24 @@ impl<const NEG: bool> Axis<NEG> {
                 f -= 1;
             }
             f.max(p).min(e)
+        }
+    }
+
+    /// Whether [`Self::sync`] from pixel `p` to position `v` returns `p`
+    /// because `v` has not passed `p`'s far side: `v < p + 1` moving toward
+    /// `+v`, `v > p` moving toward `-v`, compared in f32 (`p + 1` and `p`
+    /// rounded to f32: between a rounded integer and the integer itself
+    /// lies no other f32, so `v < fl(p + 1)` still gives `floor(v) <= p`
+    /// and `v > fl(p)` gives `ceil(v) - 1 >= p`). The full sync then
+    /// computes `f <= p` (`>= p`), skips the exit check and clamps to `p`,
+    /// as `p` lies in the cell. `false` for a NaN `v`, which takes the
+    /// full path.
+    #[inline(always)]
+    fn sync_stays(&self, v: f32, p: u32) -> bool {
+        if NEG {
+            v > p as f32
+        } else {
+            v < (p + 1) as f32
         }
     }
 }
