@@ -1894,7 +1894,12 @@ impl<const NX: bool, const NY: bool, const NQ: bool, const BACK: bool, const STA
     #[inline(always)]
     fn visit_cell(&self, st: &mut State, c: Cell) -> Step {
         let level = c.level;
-        let [zmin, zmax] = self.fetch(c.index);
+        // Cells are always inside the pyramid (`HiZ::try_new` checked its
+        // length against the layout); ending the walk keeps an impossible
+        // index panic-free without materializing a fallback texel.
+        let Some(&[zmin, zmax]) = self.data.get(c.index) else {
+            return Step::End;
+        };
         let (sx, sy) = (self.ax.exit(c.ex), self.ay.exit(c.ey));
         let es = min_nn(sx, sy);
         match self.slab(st, &c, zmin, zmax, min_nn(es, 1.0)) {
