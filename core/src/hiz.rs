@@ -138,7 +138,7 @@
 //!   texel, so [`Work::fetches`] is the iteration count plus the prologue,
 //!   unit-step, back-face and end reads, not a counter kept per visit.
 //! * Table arithmetic: the level table is kept as (first texel, last cell
-//!   index per axis), computed once when the [`HiZ`] is bound; a level-0
+//!   index per axis, row stride), computed once when the [`HiZ`] is bound; a level-0
 //!   visit (prologue, unit steps) takes the frontier pixel as its cell with
 //!   no table read at all.
 //! * Syncs that cannot move the frontier: a descent whose slab entry is not
@@ -951,14 +951,15 @@ pub struct HiZ<'a> {
 }
 
 /// One pyramid level as the traversal reads it per visited cell: its first
-/// texel and its last cell index along each axis (`width - 1`,
-/// `height - 1`), the values [`Walker`]'s cell arithmetic uses, so that no
-/// visit recomputes them.
+/// texel, its last cell index along each axis (`width - 1`, `height - 1`)
+/// and its row stride (`width`), the values [`Walker`]'s cell arithmetic
+/// uses, so that no visit recomputes them.
 #[derive(Clone, Copy, Debug, Default)]
 struct CellLevel {
     offset: usize,
     last_x: u32,
     last_y: u32,
+    width: usize,
 }
 
 impl<'a> HiZ<'a> {
@@ -997,6 +998,7 @@ impl<'a> HiZ<'a> {
                 offset: l.offset,
                 last_x: l.width - 1,
                 last_y: l.height - 1,
+                width: l.width as usize,
             };
         }
         Ok(Self {
@@ -1686,7 +1688,7 @@ impl<const NX: bool, const NY: bool, const NQ: bool, const BACK: bool, const STA
             y,
             ex: self.ax.edge(x, level, l.last_x),
             ey: self.ay.edge(y, level, l.last_y),
-            index: l.offset + y as usize * (l.last_x as usize + 1) + x as usize,
+            index: l.offset + y as usize * l.width + x as usize,
         }
     }
 
@@ -1735,9 +1737,10 @@ impl<const NX: bool, const NY: bool, const NQ: bool, const BACK: bool, const STA
         } else if level == 0 {
             zmin + self.th
         } else {
-            // `zmax.max(zmin)` for a non-NaN `zmin`, as `f32::max` lowers
-            // on x86-64 (`zmax` when equal; `zmin` for a NaN `zmax`).
-            (if zmax >= zmin { zmax } else { zmin }) + self.th
+            // `zmax.max(zmin)` for a non-NaN `zmin` (`zmin` for a NaN
+            // `zmax`), one `maxss`: when the two are equal they are the
+            // same bits (depths are positive or infinite, never `-0`).
+            max_nn(zmin, zmax) + self.th
         }
     }
 
