@@ -1809,52 +1809,59 @@ impl<const NX: bool, const NY: bool, const NQ: bool, const BACK: bool, const STA
     }
 
     /// Crosses from cell `c` into its neighbor through the side(s) of exit
-    /// parameter `es = min(sx, sy)`. `false` when the segment ends inside
+    /// parameter `es = min_nn(sx, sy)`. `false` when the segment ends inside
     /// `c` or the neighbor lies outside the image.
+    ///
+    /// The sides crossed are those with `sx <= es` and `sy <= es`. As `sx`
+    /// and `sy` are never NaN ([`Axis::exit`]) and `es` is one of them,
+    /// that is: `x` alone when `sx < sy`, `y` alone when `sy < sx`, both
+    /// when they are equal (a corner), three branches each with only its
+    /// own work (one pixel step, one sync of the other axis).
     #[inline(always)]
     fn cross(&self, st: &mut State, c: &Cell, sx: f32, sy: f32, es: f32) -> bool {
         if !(es < 1.0) {
             return false;
         }
-        let (cross_x, cross_y) = (sx <= es, sy <= es);
-        let nx = if cross_x {
-            match self.ax.next(c.ex) {
-                Some(n) => n,
-                None => return false,
-            }
-        } else {
-            st.px
-        };
-        let ny = if cross_y {
-            match self.ay.next(c.ey) {
-                Some(n) => n,
-                None => return false,
-            }
-        } else {
-            st.py
-        };
-        st.s = max_nn(st.s, es);
-        st.steps += 1;
-        let s = st.s;
-        if cross_x {
+        if sx < sy {
+            let Some(nx) = self.ax.next(c.ex) else {
+                return false;
+            };
+            st.s = max_nn(st.s, es);
+            st.steps += 1;
+            let s = st.s;
             if STATS {
                 Self::tie(st, self.ax.at(s), nx);
             }
             st.px = nx;
-        } else {
+            let y = self.ay.at(s);
+            st.py = self.ay.sync(s, y, st.py, c.ey);
+            Self::tie(st, y, st.py);
+        } else if sy < sx {
+            let Some(ny) = self.ay.next(c.ey) else {
+                return false;
+            };
+            st.s = max_nn(st.s, es);
+            st.steps += 1;
+            let s = st.s;
             let x = self.ax.at(s);
             st.px = self.ax.sync(s, x, st.px, c.ex);
             Self::tie(st, x, st.px);
-        }
-        if cross_y {
             if STATS {
                 Self::tie(st, self.ay.at(s), ny);
             }
             st.py = ny;
         } else {
-            let y = self.ay.at(s);
-            st.py = self.ay.sync(s, y, st.py, c.ey);
-            Self::tie(st, y, st.py);
+            let (Some(nx), Some(ny)) = (self.ax.next(c.ex), self.ay.next(c.ey)) else {
+                return false;
+            };
+            st.s = max_nn(st.s, es);
+            st.steps += 1;
+            let s = st.s;
+            if STATS {
+                Self::tie(st, self.ax.at(s), nx);
+                Self::tie(st, self.ay.at(s), ny);
+            }
+            (st.px, st.py) = (nx, ny);
         }
         true
     }
