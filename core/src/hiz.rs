@@ -2022,7 +2022,11 @@ impl<const NX: bool, const NY: bool, const NQ: bool, const BACK: bool, const STA
         // and the end of its possible-hit interval: while the walk stays
         // inside that cell before that end, going back up would only fetch
         // it again. `-inf`: none yet.
-        let mut parent = [(0u32, 0u32, f32::NEG_INFINITY); MAX_LEVELS];
+        // Three arrays rather than one of triples: a level indexes each
+        // with a plain scaled address.
+        let mut parent_ex = [0u32; MAX_LEVELS];
+        let mut parent_ey = [0u32; MAX_LEVELS];
+        let mut parent_sb = [f32::NEG_INFINITY; MAX_LEVELS];
         loop {
             if STATS {
                 st.stats.max_level = st.stats.max_level.max(level);
@@ -2037,7 +2041,8 @@ impl<const NX: bool, const NY: bool, const NQ: bool, const BACK: bool, const STA
                 Step::Next => {
                     if level < top {
                         let up = level + 1;
-                        let (ex, ey, sb) = parent[up as usize % MAX_LEVELS];
+                        let u = up as usize % MAX_LEVELS;
+                        let (ex, ey, sb) = (parent_ex[u], parent_ey[u], parent_sb[u]);
                         if !self.holds(st, ex, ey) || st.s > sb {
                             level = up;
                         }
@@ -2053,7 +2058,8 @@ impl<const NX: bool, const NY: bool, const NQ: bool, const BACK: bool, const STA
                         self.sync_in(st, &cell);
                     }
                     if level > stop {
-                        parent[level as usize % MAX_LEVELS] = (cell.ex, cell.ey, sb);
+                        let l = level as usize % MAX_LEVELS;
+                        (parent_ex[l], parent_ey[l], parent_sb[l]) = (cell.ex, cell.ey, sb);
                         level -= 1;
                         continue;
                     }
