@@ -138,13 +138,20 @@
 //!   texel, so [`Work::fetches`] is the iteration count plus the prologue,
 //!   unit-step, back-face and end reads, not a counter kept per visit.
 //! * Table arithmetic: the level table is kept as (first texel, last cell
-//!   index per axis, row stride), computed once when the [`HiZ`] is bound; a level-0
-//!   visit (prologue, unit steps) takes the frontier pixel as its cell with
-//!   no table read at all.
+//!   index per axis, row stride), computed once when the [`HiZ`] is bound;
+//!   a level-0 visit (prologue, unit steps) takes the frontier pixel as its
+//!   cell with no table read at all.
 //! * Syncs that cannot move the frontier: a descent whose slab entry is not
 //!   past the current `s` keeps the frontier where the last crossing or
 //!   descent put it at that same `s` (the statistics walk still syncs, to
-//!   count boundary ties); see `Walker::sync_in`.
+//!   count boundary ties; see `Walker::sync_in`), and a sync whose position
+//!   has not passed the frontier pixel's far side returns the pixel without
+//!   rounding the position (`Axis::sync_stays`).
+//! * Tests it does not need: a crossing branches once on the nearer exit
+//!   (one side, or both at a corner) rather than testing each side against
+//!   their minimum; a coarse texel's far depth is one `max` (equal depths
+//!   are equal bits); a texel index outside the pyramid, impossible for a
+//!   bound [`HiZ`], ends the walk rather than producing a fallback texel.
 //! * Calls: every step is inlined and the hit and end-of-segment builders
 //!   have one call site each, so the per-ray constants stay in registers
 //!   instead of being stored for out-of-line code.
@@ -1582,7 +1589,9 @@ impl<const NEG: bool> Axis<NEG> {
     }
 
     /// Whether [`Self::sync`] from pixel `p` to position `v` returns `p`
-    /// because `v` has not passed `p`'s far side: `v < p + 1` moving toward
+    /// (the frontier's cell lookup, the exact form of seed 004 Listing 4.5's
+    /// `getCell`, see the module docs) because `v` has not passed `p`'s far
+    /// side: `v < p + 1` moving toward
     /// `+v`, `v > p` moving toward `-v`, compared in f32 (`p + 1` and `p`
     /// rounded to f32: between a rounded integer and the integer itself
     /// lies no other f32, so `v < fl(p + 1)` still gives `floor(v) <= p`
@@ -1737,8 +1746,8 @@ impl<const NX: bool, const NY: bool, const NQ: bool, const BACK: bool, const STA
         } else if level == 0 {
             zmin + self.th
         } else {
-            // `zmax.max(zmin)` for a non-NaN `zmin` (`zmin` for a NaN
-            // `zmax`), one `maxss`: when the two are equal they are the
+            // Sec. 4.6.6: farthest + thickness. `zmax.max(zmin)` for a
+            // non-NaN `zmin` (`zmin` for a NaN `zmax`), one `maxss`: when the two are equal they are the
             // same bits (depths are positive or infinite, never `-0`).
             max_nn(zmin, zmax) + self.th
         }
@@ -1809,8 +1818,10 @@ impl<const NX: bool, const NY: bool, const NQ: bool, const BACK: bool, const STA
     }
 
     /// Crosses from cell `c` into its neighbor through the side(s) of exit
-    /// parameter `es = min_nn(sx, sy)`. `false` when the segment ends inside
-    /// `c` or the neighbor lies outside the image.
+    /// parameter `es = min_nn(sx, sy)` (seed 004 Listing 4.5,
+    /// `intersectCellBoundary`, with the frontier's integer step in place of
+    /// `crossOffset`). `false` when the segment ends inside `c` or the
+    /// neighbor lies outside the image.
     ///
     /// The sides crossed are those with `sx <= es` and `sy <= es`. As `sx`
     /// and `sy` are never NaN ([`Axis::exit`]) and `es` is one of them,
