@@ -2038,17 +2038,20 @@ impl<const NX: bool, const NY: bool, const NQ: bool, const BACK: bool, const STA
         let mut parent_ex = [0u32; MAX_LEVELS];
         let mut parent_ey = [0u32; MAX_LEVELS];
         let mut parent_sb = [f32::NEG_INFINITY; MAX_LEVELS];
-        loop {
+        // Iterations left before the cap, counted down (one decrement and
+        // test per iteration); `st.iterations` is set from it on the way out.
+        let mut left = o.max_iterations;
+        let exit = 'walk: loop {
             if STATS {
                 st.stats.max_level = st.stats.max_level.max(level);
             }
-            if st.iterations >= o.max_iterations {
-                return Exit::OutOfSteps;
+            if left == 0 {
+                break 'walk Exit::OutOfSteps;
             }
-            st.iterations += 1;
+            left -= 1;
             match self.visit(st, level) {
-                Step::Hit { s, surface } => return Exit::Hit { s, surface },
-                Step::End => return Exit::End,
+                Step::Hit { s, surface } => break 'walk Exit::Hit { s, surface },
+                Step::End => break 'walk Exit::End,
                 Step::Next => {
                     if level < top {
                         let up = level + 1;
@@ -2081,13 +2084,13 @@ impl<const NX: bool, const NY: bool, const NQ: bool, const BACK: bool, const STA
                         }
                         if st.s > sb {
                             if !self.leave(st, &cell) {
-                                return Exit::End;
+                                break 'walk Exit::End;
                             }
                             break;
                         }
                         match self.visit0(st) {
-                            Step::Hit { s, surface } => return Exit::Hit { s, surface },
-                            Step::End => return Exit::End,
+                            Step::Hit { s, surface } => break 'walk Exit::Hit { s, surface },
+                            Step::End => break 'walk Exit::End,
                             Step::Next => {}
                             Step::Inside { .. } => break,
                         }
@@ -2095,7 +2098,9 @@ impl<const NX: bool, const NY: bool, const NQ: bool, const BACK: bool, const STA
                     level = (level + 1).min(top);
                 }
             }
-        }
+        };
+        st.iterations = o.max_iterations - left;
+        exit
     }
 }
 
