@@ -2169,23 +2169,38 @@ fn trace_valid<const STATS: bool>(
         );
     };
     let back = matches!(thickness, Thickness::BackFaces(_));
-    let f = match (seg.dx < 0.0, seg.dy < 0.0) {
-        (false, false) => by_q::<false, false, STATS>,
-        (false, true) => by_q::<false, true, STATS>,
-        (true, false) => by_q::<true, false, STATS>,
-        (true, true) => by_q::<true, true, STATS>,
-    };
-    f(seg.dq < 0.0, back)(hiz, thickness, seg, options)
+    let class = usize::from(seg.dx < 0.0) << 3
+        | usize::from(seg.dy < 0.0) << 2
+        | usize::from(seg.dq < 0.0) << 1
+        | usize::from(back);
+    Walks::<STATS>::ALL[class](hiz, thickness, seg, options)
 }
 
-/// The [`walk`] of a segment's class, given the signs of `dx` and `dy`.
+/// The [`walk`] of a segment's class.
 type WalkFn = fn(&HiZ<'_>, Thickness<'_>, Segment, &HiZOptions) -> (Trace, HiZStats);
 
-fn by_q<const NX: bool, const NY: bool, const STATS: bool>(neg_q: bool, back: bool) -> WalkFn {
-    match (neg_q, back) {
-        (false, false) => walk::<NX, NY, false, false, STATS>,
-        (false, true) => walk::<NX, NY, false, true, STATS>,
-        (true, false) => walk::<NX, NY, true, false, STATS>,
-        (true, true) => walk::<NX, NY, true, true, STATS>,
-    }
+/// Every class's [`walk`], one table per statistics setting: one indexed
+/// call per ray.
+struct Walks<const STATS: bool>;
+
+impl<const STATS: bool> Walks<STATS> {
+    /// Indexed by `dx < 0`, `dy < 0`, `dq < 0` and back faces, bits 3 to 0.
+    const ALL: [WalkFn; 16] = [
+        walk::<false, false, false, false, STATS>,
+        walk::<false, false, false, true, STATS>,
+        walk::<false, false, true, false, STATS>,
+        walk::<false, false, true, true, STATS>,
+        walk::<false, true, false, false, STATS>,
+        walk::<false, true, false, true, STATS>,
+        walk::<false, true, true, false, STATS>,
+        walk::<false, true, true, true, STATS>,
+        walk::<true, false, false, false, STATS>,
+        walk::<true, false, false, true, STATS>,
+        walk::<true, false, true, false, STATS>,
+        walk::<true, false, true, true, STATS>,
+        walk::<true, true, false, false, STATS>,
+        walk::<true, true, false, true, STATS>,
+        walk::<true, true, true, false, STATS>,
+        walk::<true, true, true, true, STATS>,
+    ];
 }
