@@ -14,6 +14,12 @@
 //!                   run, to subtract from `perf stat` counts)
 //!   --save FILE     write every checked trace to FILE
 //!   --check FILE    compare every checked trace with FILE, bit for bit
+//!   --compare FILE  compare every checked trace with FILE by result: count
+//!                   the traces whose hit texel or miss reason differ (and
+//!                   hit/miss flips), and for the others the bit
+//!                   differences (max |t| and depth difference, relative)
+//!                   and the work-counter changes; exit status 1 if any
+//!                   texel or miss reason differs
 //! ```
 //!
 //! Checked traces: both kernels in every depth convention (reversed-Z with
@@ -49,6 +55,7 @@ struct Args {
     reps: usize,
     save: Option<String>,
     check: Option<String>,
+    compare: Option<String>,
 }
 
 fn parse_args() -> Args {
@@ -60,6 +67,7 @@ fn parse_args() -> Args {
         reps: 20,
         save: None,
         check: None,
+        compare: None,
     };
     let mut it = std::env::args().skip(1);
     while let Some(k) = it.next() {
@@ -76,6 +84,7 @@ fn parse_args() -> Args {
             "--reps" => a.reps = v().parse().expect("--reps"),
             "--save" => a.save = Some(v()),
             "--check" => a.check = Some(v()),
+            "--compare" => a.compare = Some(v()),
             _ => panic!("unknown argument {k}"),
         }
     }
@@ -97,6 +106,97 @@ fn encode(out: &mut Vec<u32>, t: &Trace) {
         Trace::Miss { reason, .. } => out.extend([1, *reason as u32, 0, 0, 0, 0]),
     }
     out.extend([w.steps, w.fetches, w.iterations]);
+}
+
+/// Words of one [`encode`]d trace (without the Hi-Z stats).
+const RECORD: usize = 9;
+
+/// Differences between two runs' traces ([`encode`]d records, stats words
+/// included), by result rather than by bit.
+#[derive(Default)]
+struct Diff {
+    traces: usize,
+    identical: usize,
+    /// Hit in one run, miss in the other.
+    flip: usize,
+    /// Both hits, different texel (`floor` of the pixel).
+    texel: usize,
+    /// Both misses, different reason.
+    reason: usize,
+    /// Same texel or reason, other bits differ (position, t, depth, work).
+    bits: usize,
+    /// Same texel, different `t` / `depth` bits: the largest relative
+    /// differences.
+    max_dt: f64,
+    max_ddepth: f64,
+    /// Same result, different work counters (steps, fetches, iterations)
+    /// or Hi-Z stats; and the summed change of iterations.
+    work: usize,
+    iterations: i64,
+}
+
+impl Diff {
+    fn add(&mut self, b: &[u32], w: &[u32]) {
+        self.traces += 1;
+        if b == w {
+            self.identical += 1;
+            return;
+        }
+        let f = |x: u32| f64::from(f32::from_bits(x));
+        let rel = |x: u32, y: u32| (f(x) - f(y)).abs() / f(x).abs().max(f(y).abs()).max(1e-30);
+        self.iterations += i64::from(w[8]) - i64::from(b[8]);
+        if b[0] != w[0] {
+            self.flip += 1;
+        } else if b[0] == 0 {
+            let texel = |v: &[u32]| (f(v[1]).floor(), f(v[2]).floor());
+            if texel(b) != texel(w) {
+                self.texel += 1;
+            } else {
+                self.bits += 1;
+                if b[1..6] == w[1..6] {
+                    self.work += 1;
+                }
+                self.max_dt = self.max_dt.max(rel(b[3], w[3]));
+                self.max_ddepth = self.max_ddepth.max(rel(b[4], w[4]));
+            }
+        } else if b[1] != w[1] {
+            self.reason += 1;
+        } else {
+            self.bits += 1;
+            self.work += 1;
+        }
+    }
+
+    fn merge(&mut self, o: &Self) {
+        self.traces += o.traces;
+        self.identical += o.identical;
+        self.flip += o.flip;
+        self.texel += o.texel;
+        self.reason += o.reason;
+        self.bits += o.bits;
+        self.max_dt = self.max_dt.max(o.max_dt);
+        self.max_ddepth = self.max_ddepth.max(o.max_ddepth);
+        self.work += o.work;
+        self.iterations += o.iterations;
+    }
+
+    fn line(&self) -> String {
+        format!(
+            "{} traces, {} identical; texel differs {}, miss reason differs {}, \
+             hit/miss flips {}; same result with other bits {} (work counters only {}), \
+             max relative |dt| {:.3e}, |d depth| {:.3e}; iterations {:+}",
+            self.traces,
+            self.identical,
+            self.texel,
+            self.reason,
+            self.flip,
+            self.bits,
+            self.work,
+            self.max_dt,
+            self.max_ddepth,
+            self.iterations
+        )
+    }
 }
 
 /// FNV-1a over the words.
@@ -141,9 +241,12 @@ fn main() {
     );
 
     let mut out = vec![miss(); n];
-    if a.save.is_some() || a.check.is_some() {
+    if a.save.is_some() || a.check.is_some() || a.compare.is_some() {
         let mut words: Vec<u32> = Vec::new();
         let mut labels: Vec<(String, usize)> = Vec::new();
+        // Per label: the record length of each of its traces, in order
+        // (`encode`'s 9 words, 11 with the Hi-Z stats).
+        let mut records: Vec<Vec<usize>> = Vec::new();
         for c in DepthConvention::ALL {
             let far = if c == DepthConvention::ReversedZ {
                 f32::INFINITY
@@ -215,6 +318,7 @@ fn main() {
                         encode(&mut words, t);
                     }
                     labels.push((format!("{c:?} hiz {tn} opts{k}"), start));
+                    records.push([vec![RECORD + 2; n], vec![RECORD; n]].concat());
                 }
                 for (k, o) in step_opts.iter().enumerate() {
                     let start = words.len();
@@ -224,6 +328,7 @@ fn main() {
                         encode(&mut words, t);
                     }
                     labels.push((format!("{c:?} step {tn} opts{k}"), start));
+                    records.push(vec![RECORD; n]);
                 }
             }
         }
@@ -237,12 +342,43 @@ fn main() {
             std::fs::write(p, bytes).expect("save");
             println!("saved to {p}");
         }
-        if let Some(p) = &a.check {
+        let read_base = |p: &str| -> Vec<u32> {
             let bytes = std::fs::read(p).expect("read baseline");
-            let base: Vec<u32> = bytes
+            bytes
                 .chunks_exact(4)
                 .map(|b| u32::from_le_bytes([b[0], b[1], b[2], b[3]]))
-                .collect();
+                .collect()
+        };
+        if let Some(p) = &a.compare {
+            let base = read_base(p);
+            if base.len() != words.len() {
+                println!(
+                    "compare: {p} holds {} words, this run {}: not the same traces",
+                    base.len(),
+                    words.len()
+                );
+                std::process::exit(1);
+            }
+            let mut total = Diff::default();
+            for ((label, start), recs) in labels.iter().zip(&records) {
+                let mut d = Diff::default();
+                let mut at = *start;
+                for &len in recs {
+                    d.add(&base[at..at + len], &words[at..at + len]);
+                    at += len;
+                }
+                if d.traces != d.identical {
+                    println!("compare {label}: {}", d.line());
+                }
+                total.merge(&d);
+            }
+            println!("compare total: {}", total.line());
+            if total.texel + total.reason + total.flip > 0 {
+                std::process::exit(1);
+            }
+        }
+        if let Some(p) = &a.check {
+            let base = read_base(p);
             if base == words {
                 println!("check: identical to {p}");
             } else {

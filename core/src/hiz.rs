@@ -131,6 +131,37 @@
 //! returns the same bits; `max`/`min` without NaN fix-ups are used only
 //! where an operand is never NaN (see `max_nn`).
 //!
+//! What the loop leaves out, each without changing a result bit (issue 14
+//! part 1, measured with `examples/depth_kernels_bench --check`):
+//!
+//! * Work it can derive: every hierarchical iteration fetches exactly one
+//!   texel, so [`Work::fetches`] is the iteration count plus the prologue,
+//!   unit-step, back-face and end reads, not a counter kept per visit.
+//! * Table arithmetic: the level table is kept as (first texel, last cell
+//!   index per axis, row stride), computed once when the [`HiZ`] is bound;
+//!   a level-0 visit (prologue, unit steps) takes the frontier pixel as its
+//!   cell with no table read at all.
+//! * Syncs that cannot move the frontier: a descent whose slab entry is not
+//!   past the current `s` keeps the frontier where the last crossing or
+//!   descent put it at that same `s` (the statistics walk still syncs, to
+//!   count boundary ties; see `Walker::sync_in`), and a sync whose position
+//!   has not passed the frontier pixel's far side returns the pixel without
+//!   rounding the position (`Axis::sync_stays`).
+//! * Tests it does not need: a crossing branches once on the nearer exit
+//!   (one side, or both at a corner) rather than testing each side against
+//!   their minimum; a coarse texel's far depth is one `max` (equal depths
+//!   are equal bits); a texel index outside the pyramid, impossible for a
+//!   bound [`HiZ`], ends the walk rather than producing a fallback texel.
+//! * Calls: every step is inlined and the hit and end-of-segment builders
+//!   have one call site each, so the per-ray constants stay in registers
+//!   instead of being stored for out-of-line code.
+//!
+//! Hoisting the reciprocals of `dx`, `dy` and `dq` (a multiplication per
+//! exit and slab side instead of a division) was measured and left out: the
+//! same instruction count (a `mulss` for a `divss`) and, on the bench's
+//! 6 million checked traces, 8 other hit texels and 20 hit/miss flips at
+//! ties; its gain would be latency only.
+//!
 //! There is no self-intersection skip: a ray whose origin already lies in a
 //! texel's hit slab hits at `t = 0`. Start reflection rays slightly off the
 //! surface (the seed crosses one cell first for the same reason).
@@ -921,6 +952,21 @@ pub struct HiZ<'a> {
     /// World to homogeneous pixel space, rows x, y and w (`w` = linear
     /// depth) of [`Camera::world_to_pixel`].
     to_pixel: Mat4,
+    /// The level table as the traversal reads it, computed once here rather
+    /// than per visited cell ([`CellLevel`]).
+    cells: [CellLevel; MAX_LEVELS],
+}
+
+/// One pyramid level as the traversal reads it per visited cell: its first
+/// texel, its last cell index along each axis (`width - 1`, `height - 1`)
+/// and its row stride (`width`), the values [`Walker`]'s cell arithmetic
+/// uses, so that no visit recomputes them.
+#[derive(Clone, Copy, Debug, Default)]
+struct CellLevel {
+    offset: usize,
+    last_x: u32,
+    last_y: u32,
+    width: usize,
 }
 
 impl<'a> HiZ<'a> {
@@ -950,12 +996,25 @@ impl<'a> HiZ<'a> {
         }
         // The x, y and w rows do not depend on the depth convention.
         let to_pixel = camera.try_world_to_pixel(DepthConvention::ZeroToOne)?;
+        let mut cells = [CellLevel::default(); MAX_LEVELS];
+        for (c, l) in cells
+            .iter_mut()
+            .zip(&layout.levels[..layout.count as usize])
+        {
+            *c = CellLevel {
+                offset: l.offset,
+                last_x: l.width - 1,
+                last_y: l.height - 1,
+                width: l.width as usize,
+            };
+        }
         Ok(Self {
             data,
             layout,
             camera,
             convention,
             to_pixel,
+            cells,
         })
     }
 
@@ -1409,13 +1468,12 @@ enum Step {
 
 /// One screen axis of the segment, `v(s) = v0 + s d`, specialized on its
 /// direction of motion: `NEG` for `d < 0`. An axis the segment does not move
-/// along (`d == 0`, either sign) has `NEG = false` and `moves = false`: its
-/// exit parameter is `+inf` and its frontier pixel never changes.
+/// along (`d == 0`, either sign) has `NEG = false`: its exit parameter is
+/// `+inf` and its frontier pixel never changes ([`Self::sync`]).
 #[derive(Clone, Copy, Debug)]
 struct Axis<const NEG: bool> {
     v0: f32,
     d: f32,
-    moves: bool,
     /// `v0` and `d` for [`Self::exit`]: the same when the segment moves
     /// along the axis, else `-inf` and `+0`, which make the exit parameter
     /// `(boundary + inf) / +0 = +inf` without a branch.
@@ -1431,7 +1489,6 @@ impl<const NEG: bool> Axis<NEG> {
         Self {
             v0,
             d,
-            moves,
             exit_v0: if moves { v0 } else { f32::NEG_INFINITY },
             exit_d: if moves { d } else { 0.0 },
             size,
@@ -1444,15 +1501,15 @@ impl<const NEG: bool> Axis<NEG> {
         self.v0 + s * self.d
     }
 
-    /// The edge pixel (see [`Cell`]) of cell `c` of level `level`, which has
-    /// `cells` cells along the axis. As `cell_span`: `c << level <= p` for
-    /// the frontier pixel `p` and, below the last cell, `(c + 1) << level <=
-    /// size`, so the shifts do not overflow.
+    /// The edge pixel (see [`Cell`]) of cell `c <= last` of level `level`,
+    /// whose last cell along the axis is `last`. As `cell_span`: `c << level
+    /// <= p` for the frontier pixel `p` and, below the last cell, `(c + 1)
+    /// << level <= size`, so the shifts do not overflow.
     #[inline(always)]
-    fn edge(&self, c: u32, level: u32, cells: u32) -> u32 {
+    fn edge(&self, c: u32, level: u32, last: u32) -> u32 {
         if NEG {
             c << level
-        } else if c + 1 >= cells {
+        } else if c >= last {
             self.size - 1
         } else {
             ((c + 1) << level) - 1
@@ -1502,9 +1559,17 @@ impl<const NEG: bool> Axis<NEG> {
     /// pixels between `p` and `e` (both in `0..u32::MAX`) gives the same
     /// pixel (after the one-pixel exit check, which then also lands below
     /// or above that range).
+    ///
+    /// An axis the segment does not move along needs no test of its own:
+    /// `v = v0` and `p = min(floor(v0), size - 1)` ([`dir_pixel`] with
+    /// `NEG = false`), so `f > p` only for `v0 = size`, where `p = size - 1`
+    /// is the last pixel and so its own cell's edge `e`; the clamp returns
+    /// `p` (and the one-pixel check divides by `d = +-0`, harmlessly).
     #[inline(always)]
     fn sync(&self, s: f32, v: f32, p: u32, e: u32) -> u32 {
-        if !self.moves {
+        // The position still in pixel `p` (the common case): `p` without
+        // a conversion (see `Self::sync_stays`).
+        if self.sync_stays(v, p) {
             return p;
         }
         if NEG {
@@ -1522,6 +1587,26 @@ impl<const NEG: bool> Axis<NEG> {
             f.max(p).min(e)
         }
     }
+
+    /// Whether [`Self::sync`] from pixel `p` to position `v` returns `p`
+    /// (the frontier's cell lookup, the exact form of seed 004 Listing 4.5's
+    /// `getCell`, see the module docs) because `v` has not passed `p`'s far
+    /// side: `v < p + 1` moving toward
+    /// `+v`, `v > p` moving toward `-v`, compared in f32 (`p + 1` and `p`
+    /// rounded to f32: between a rounded integer and the integer itself
+    /// lies no other f32, so `v < fl(p + 1)` still gives `floor(v) <= p`
+    /// and `v > fl(p)` gives `ceil(v) - 1 >= p`). The full sync then
+    /// computes `f <= p` (`>= p`), skips the exit check and clamps to `p`,
+    /// as `p` lies in the cell. `false` for a NaN `v`, which takes the
+    /// full path.
+    #[inline(always)]
+    fn sync_stays(&self, v: f32, p: u32) -> bool {
+        if NEG {
+            v > p as f32
+        } else {
+            v < (p + 1) as f32
+        }
+    }
 }
 
 /// What changes along one ray's walk: the parameter `s` reached, the
@@ -1535,6 +1620,10 @@ struct State {
     py: u32,
     /// [`Work`] counters, saturated to `u32` on return.
     steps: u64,
+    /// The fetches outside the hierarchical loop (prologue and unit-step
+    /// visits, back-face texels, the end texel). Each hierarchical
+    /// iteration visits exactly one cell, so [`Work::fetches`] is this plus
+    /// `iterations`, not a counter kept per visit.
     fetches: u64,
     iterations: u32,
     stats: HiZStats,
@@ -1542,9 +1631,10 @@ struct State {
 
 impl State {
     fn work(&self) -> Work {
+        let fetches = self.fetches + u64::from(self.iterations);
         Work {
             steps: u32::try_from(self.steps).unwrap_or(u32::MAX),
-            fetches: u32::try_from(self.fetches).unwrap_or(u32::MAX),
+            fetches: u32::try_from(fetches).unwrap_or(u32::MAX),
             iterations: self.iterations,
         }
     }
@@ -1572,7 +1662,7 @@ struct Walker<
     const STATS: bool,
 > {
     hiz: &'h HiZ<'a>,
-    levels: &'h [HiZLevel; MAX_LEVELS],
+    levels: &'h [CellLevel; MAX_LEVELS],
     data: &'a [HiZTexel],
     seg: Segment,
     ax: Axis<NX>,
@@ -1591,7 +1681,7 @@ impl<const NX: bool, const NY: bool, const NQ: bool, const BACK: bool, const STA
 {
     /// The level table entry of `level` (`< level_count <= MAX_LEVELS`).
     #[inline(always)]
-    fn level(&self, level: u32) -> HiZLevel {
+    fn level(&self, level: u32) -> CellLevel {
         self.levels[level as usize % MAX_LEVELS]
     }
 
@@ -1599,15 +1689,15 @@ impl<const NX: bool, const NY: bool, const NQ: bool, const BACK: bool, const STA
     #[inline(always)]
     fn cell(&self, st: &State, level: u32) -> Cell {
         let l = self.level(level);
-        let x = (st.px >> level).min(l.width - 1);
-        let y = (st.py >> level).min(l.height - 1);
+        let x = (st.px >> level).min(l.last_x);
+        let y = (st.py >> level).min(l.last_y);
         Cell {
             level,
             x,
             y,
-            ex: self.ax.edge(x, level, l.width),
-            ey: self.ay.edge(y, level, l.height),
-            index: l.offset + y as usize * l.width as usize + x as usize,
+            ex: self.ax.edge(x, level, l.last_x),
+            ey: self.ay.edge(y, level, l.last_y),
+            index: l.offset + y as usize * l.width + x as usize,
         }
     }
 
@@ -1622,10 +1712,10 @@ impl<const NX: bool, const NY: bool, const NQ: bool, const BACK: bool, const STA
         in_x && in_y
     }
 
-    /// The texel at `index` (counted as a fetch).
+    /// The texel at `index`. Not counted here: the callers count their
+    /// fetches ([`State::fetches`]).
     #[inline(always)]
-    fn fetch(&self, st: &mut State, index: usize) -> HiZTexel {
-        st.fetches += 1;
+    fn fetch(&self, index: usize) -> HiZTexel {
         self.data.get(index).copied().unwrap_or([f32::NAN; 2])
     }
 
@@ -1656,9 +1746,10 @@ impl<const NX: bool, const NY: bool, const NQ: bool, const BACK: bool, const STA
         } else if level == 0 {
             zmin + self.th
         } else {
-            // `zmax.max(zmin)` for a non-NaN `zmin`, as `f32::max` lowers
-            // on x86-64 (`zmax` when equal; `zmin` for a NaN `zmax`).
-            (if zmax >= zmin { zmax } else { zmin }) + self.th
+            // Sec. 4.6.6: farthest + thickness. `zmax.max(zmin)` for a
+            // non-NaN `zmin` (`zmin` for a NaN `zmax`), one `maxss`: when the two are equal they are the
+            // same bits (depths are positive or infinite, never `-0`).
+            max_nn(zmin, zmax) + self.th
         }
     }
 
@@ -1703,6 +1794,19 @@ impl<const NX: bool, const NY: bool, const NQ: bool, const BACK: bool, const STA
     }
 
     /// Moves the frontier to the ray position at `st.s` inside cell `c`.
+    ///
+    /// At the `s` where the frontier was last set (the start, a crossing, or
+    /// a previous `sync_in`) this leaves it unchanged, so a descent whose
+    /// slab entry is not past `s` skips it. An axis synced at `s` is a fixed
+    /// point (same `floor`, same one-pixel exit check, and the cell holds
+    /// the pixel). An axis crossed at `s`, its exit parameter, sits on the
+    /// first pixel past the boundary, and `v(s)` lies within rounding of
+    /// that boundary: `floor(v(s))` is that pixel, one behind it (kept by
+    /// the clamp), or the next one, whose one-pixel exit check (its exit
+    /// lies past `s`) takes it back. Only from about `2^23` pixels on could
+    /// `v(s)` round two pixels past the boundary; a skipped sync would then
+    /// leave the frontier on the pixel past the boundary, which the ray
+    /// still crosses.
     #[inline(always)]
     fn sync_in(&self, st: &mut State, c: &Cell) {
         let (x, y) = (self.ax.at(st.s), self.ay.at(st.s));
@@ -1714,52 +1818,61 @@ impl<const NX: bool, const NY: bool, const NQ: bool, const BACK: bool, const STA
     }
 
     /// Crosses from cell `c` into its neighbor through the side(s) of exit
-    /// parameter `es = min(sx, sy)`. `false` when the segment ends inside
-    /// `c` or the neighbor lies outside the image.
+    /// parameter `es = min_nn(sx, sy)` (seed 004 Listing 4.5,
+    /// `intersectCellBoundary`, with the frontier's integer step in place of
+    /// `crossOffset`). `false` when the segment ends inside `c` or the
+    /// neighbor lies outside the image.
+    ///
+    /// The sides crossed are those with `sx <= es` and `sy <= es`. As `sx`
+    /// and `sy` are never NaN ([`Axis::exit`]) and `es` is one of them,
+    /// that is: `x` alone when `sx < sy`, `y` alone when `sy < sx`, both
+    /// when they are equal (a corner), three branches each with only its
+    /// own work (one pixel step, one sync of the other axis).
     #[inline(always)]
     fn cross(&self, st: &mut State, c: &Cell, sx: f32, sy: f32, es: f32) -> bool {
         if !(es < 1.0) {
             return false;
         }
-        let (cross_x, cross_y) = (sx <= es, sy <= es);
-        let nx = if cross_x {
-            match self.ax.next(c.ex) {
-                Some(n) => n,
-                None => return false,
-            }
-        } else {
-            st.px
-        };
-        let ny = if cross_y {
-            match self.ay.next(c.ey) {
-                Some(n) => n,
-                None => return false,
-            }
-        } else {
-            st.py
-        };
-        st.s = max_nn(st.s, es);
-        st.steps += 1;
-        let s = st.s;
-        if cross_x {
+        if sx < sy {
+            let Some(nx) = self.ax.next(c.ex) else {
+                return false;
+            };
+            st.s = max_nn(st.s, es);
+            st.steps += 1;
+            let s = st.s;
             if STATS {
                 Self::tie(st, self.ax.at(s), nx);
             }
             st.px = nx;
-        } else {
+            let y = self.ay.at(s);
+            st.py = self.ay.sync(s, y, st.py, c.ey);
+            Self::tie(st, y, st.py);
+        } else if sy < sx {
+            let Some(ny) = self.ay.next(c.ey) else {
+                return false;
+            };
+            st.s = max_nn(st.s, es);
+            st.steps += 1;
+            let s = st.s;
             let x = self.ax.at(s);
             st.px = self.ax.sync(s, x, st.px, c.ex);
             Self::tie(st, x, st.px);
-        }
-        if cross_y {
             if STATS {
                 Self::tie(st, self.ay.at(s), ny);
             }
             st.py = ny;
         } else {
-            let y = self.ay.at(s);
-            st.py = self.ay.sync(s, y, st.py, c.ey);
-            Self::tie(st, y, st.py);
+            let (Some(nx), Some(ny)) = (self.ax.next(c.ex), self.ay.next(c.ey)) else {
+                return false;
+            };
+            st.s = max_nn(st.s, es);
+            st.steps += 1;
+            let s = st.s;
+            if STATS {
+                Self::tie(st, self.ax.at(s), nx);
+                Self::tie(st, self.ay.at(s), ny);
+            }
+            (st.px, st.py) = (nx, ny);
         }
         true
     }
@@ -1776,8 +1889,38 @@ impl<const NX: bool, const NY: bool, const NQ: bool, const BACK: bool, const STA
     /// the slab interval up to it, then a hit, a descent or a crossing.
     #[inline(always)]
     fn visit(&self, st: &mut State, level: u32) -> Step {
-        let c = self.cell(st, level);
-        let [zmin, zmax] = self.fetch(st, c.index);
+        self.visit_cell(st, self.cell(st, level))
+    }
+
+    /// [`Self::visit`] of level 0 (prologue and unit steps). The cell is the
+    /// frontier pixel itself, without the level table and clamps of
+    /// [`Self::cell`]: the frontier is always inside the image
+    /// (`px <= size - 1`: [`dir_pixel`], [`Axis::sync`] and [`Axis::next`]
+    /// keep it there), so `min(px, width - 1) = px`, the edge pixel of a
+    /// one-pixel cell is the pixel, and level 0 starts at texel 0.
+    #[inline(always)]
+    fn visit_pixel(&self, st: &mut State) -> Step {
+        let c = Cell {
+            level: 0,
+            x: st.px,
+            y: st.py,
+            ex: st.px,
+            ey: st.py,
+            index: st.py as usize * self.ax.size as usize + st.px as usize,
+        };
+        self.visit_cell(st, c)
+    }
+
+    /// The part of a visit after the cell is known.
+    #[inline(always)]
+    fn visit_cell(&self, st: &mut State, c: Cell) -> Step {
+        let level = c.level;
+        // Cells are always inside the pyramid (`HiZ::try_new` checked its
+        // length against the layout); ending the walk keeps an impossible
+        // index panic-free without materializing a fallback texel.
+        let Some(&[zmin, zmax]) = self.data.get(c.index) else {
+            return Step::End;
+        };
         let (sx, sy) = (self.ax.exit(c.ex), self.ay.exit(c.ey));
         let es = min_nn(sx, sy);
         match self.slab(st, &c, zmin, zmax, min_nn(es, 1.0)) {
@@ -1796,16 +1939,17 @@ impl<const NX: bool, const NY: bool, const NQ: bool, const BACK: bool, const STA
         }
     }
 
-    /// A level-0 visit for the unit steps (below a `stop_level > 0`), out of
-    /// line: one copy per class rather than one per call site. The prologue
-    /// inlines its visits instead: it runs on nearly every ray, and inlined
-    /// a visit costs about 70 instructions less (no call, no [`Step`]
-    /// returned through memory and dispatched by a jump table).
-    #[inline(never)]
+    /// A level-0 visit for the unit steps (below a `stop_level > 0`),
+    /// counted as a fetch. Inlined like every step of the walk: a call out
+    /// of line makes the walker's constants live in memory, stored once per
+    /// ray whether or not the unit steps run.
+    #[inline(always)]
     fn visit0(&self, st: &mut State) -> Step {
-        self.visit(st, 0)
+        st.fetches += 1;
+        self.visit_pixel(st)
     }
 
+    #[inline(always)]
     fn hit(&self, st: State, s: f32, surface: f32) -> Trace {
         let sd = &self.seg;
         let q = sd.q(s);
@@ -1826,12 +1970,14 @@ impl<const NX: bool, const NY: bool, const NQ: bool, const BACK: bool, const STA
     /// The miss at the end of the segment: passed behind geometry (the end
     /// point lies behind the hit slab of the texel there), left the image,
     /// or simply ended.
+    #[inline(always)]
     fn end(&self, mut st: State) -> (Trace, HiZStats) {
         let sd = self.seg;
         let x = dir_pixel(sd.x(1.0), sd.dx, self.ax.size);
         let y = dir_pixel(sd.y(1.0), sd.dy, self.ay.size);
         let index = self.levels[0].offset + y as usize * self.ax.size as usize + x as usize;
-        let [zmin, zmax] = self.fetch(&mut st, index);
+        st.fetches += 1;
+        let [zmin, zmax] = self.fetch(index);
         let behind = zmin < self.far && sd.q1 < 1.0 / self.upper(&mut st, 0, x, y, zmin, zmax);
         let reason = if behind {
             Miss::BehindGeometry
@@ -1844,18 +1990,40 @@ impl<const NX: bool, const NY: bool, const NQ: bool, const BACK: bool, const STA
         (Trace::Miss { reason, work }, st.stats)
     }
 
+    /// Walks the segment and builds the result: one call site for the hit
+    /// and one for the miss at the end, both inlined, so that the walker's
+    /// constants stay in registers rather than being stored once per ray
+    /// for an out-of-line builder.
     fn run(&self, mut st: State, o: &HiZOptions) -> (Trace, HiZStats) {
-        let st = &mut st;
+        match self.walk_to_exit(&mut st, o) {
+            Exit::Hit { s, surface } => (self.hit(st, s, surface), st.stats),
+            Exit::End => self.end(st),
+            Exit::OutOfSteps => {
+                let work = st.work();
+                let miss = Trace::Miss {
+                    reason: Miss::OutOfSteps,
+                    work,
+                };
+                (miss, st.stats)
+            }
+        }
+    }
+
+    /// The prologue and the hierarchical walk, up to a hit, the end of the
+    /// segment or the iteration cap.
+    #[inline(always)]
+    fn walk_to_exit(&self, st: &mut State, o: &HiZOptions) -> Exit {
         let top = self.hiz.layout.count - 1;
         let stop = o.stop_level.min(top);
         let start = o.start_level.min(top).max(stop);
-        // Prologue: unit steps (Sec. 4.7.1), inlined (see `visit0`).
+        // Prologue: unit steps (Sec. 4.7.1).
         let mut n = 0;
         while n < o.prologue_steps {
             n += 1;
-            match self.visit(st, 0) {
-                Step::Hit { s, surface } => return (self.hit(*st, s, surface), st.stats),
-                Step::End => return self.end(*st),
+            st.fetches += 1;
+            match self.visit_pixel(st) {
+                Step::Hit { s, surface } => return Exit::Hit { s, surface },
+                Step::End => return Exit::End,
                 Step::Next | Step::Inside { .. } => {}
             }
         }
@@ -1865,37 +2033,47 @@ impl<const NX: bool, const NY: bool, const NQ: bool, const BACK: bool, const STA
         // and the end of its possible-hit interval: while the walk stays
         // inside that cell before that end, going back up would only fetch
         // it again. `-inf`: none yet.
-        let mut parent = [(0u32, 0u32, f32::NEG_INFINITY); MAX_LEVELS];
-        loop {
+        // Three arrays rather than one of triples: a level indexes each
+        // with a plain scaled address.
+        let mut parent_ex = [0u32; MAX_LEVELS];
+        let mut parent_ey = [0u32; MAX_LEVELS];
+        let mut parent_sb = [f32::NEG_INFINITY; MAX_LEVELS];
+        // Iterations left before the cap, counted down (one decrement and
+        // test per iteration); `st.iterations` is set from it on the way out.
+        let mut left = o.max_iterations;
+        let exit = 'walk: loop {
             if STATS {
                 st.stats.max_level = st.stats.max_level.max(level);
             }
-            if st.iterations >= o.max_iterations {
-                let work = st.work();
-                let miss = Trace::Miss {
-                    reason: Miss::OutOfSteps,
-                    work,
-                };
-                return (miss, st.stats);
+            if left == 0 {
+                break 'walk Exit::OutOfSteps;
             }
-            st.iterations += 1;
+            left -= 1;
             match self.visit(st, level) {
-                Step::Hit { s, surface } => return (self.hit(*st, s, surface), st.stats),
-                Step::End => return self.end(*st),
+                Step::Hit { s, surface } => break 'walk Exit::Hit { s, surface },
+                Step::End => break 'walk Exit::End,
                 Step::Next => {
                     if level < top {
                         let up = level + 1;
-                        let (ex, ey, sb) = parent[up as usize % MAX_LEVELS];
+                        let u = up as usize % MAX_LEVELS;
+                        let (ex, ey, sb) = (parent_ex[u], parent_ey[u], parent_sb[u]);
                         if !self.holds(st, ex, ey) || st.s > sb {
                             level = up;
                         }
                     }
                 }
                 Step::Inside { cell, sa, sb } => {
-                    st.s = max_nn(st.s, sa);
-                    self.sync_in(st, &cell);
+                    // The frontier moves only if `s` does (`sa > s`): at
+                    // the `s` it was last moved to it is already where
+                    // `sync_in` would put it (see `Self::sync_in`). With
+                    // statistics the sync runs anyway, to count its ties.
+                    if STATS || sa > st.s {
+                        st.s = sa;
+                        self.sync_in(st, &cell);
+                    }
                     if level > stop {
-                        parent[level as usize % MAX_LEVELS] = (cell.ex, cell.ey, sb);
+                        let l = level as usize % MAX_LEVELS;
+                        (parent_ex[l], parent_ey[l], parent_sb[l]) = (cell.ex, cell.ey, sb);
                         level -= 1;
                         continue;
                     }
@@ -1906,15 +2084,13 @@ impl<const NX: bool, const NY: bool, const NQ: bool, const BACK: bool, const STA
                         }
                         if st.s > sb {
                             if !self.leave(st, &cell) {
-                                return self.end(*st);
+                                break 'walk Exit::End;
                             }
                             break;
                         }
                         match self.visit0(st) {
-                            Step::Hit { s, surface } => {
-                                return (self.hit(*st, s, surface), st.stats)
-                            }
-                            Step::End => return self.end(*st),
+                            Step::Hit { s, surface } => break 'walk Exit::Hit { s, surface },
+                            Step::End => break 'walk Exit::End,
                             Step::Next => {}
                             Step::Inside { .. } => break,
                         }
@@ -1922,8 +2098,20 @@ impl<const NX: bool, const NY: bool, const NQ: bool, const BACK: bool, const STA
                     level = (level + 1).min(top);
                 }
             }
-        }
+        };
+        st.iterations = o.max_iterations - left;
+        exit
     }
+}
+
+/// How [`Walker::walk_to_exit`] ended.
+enum Exit {
+    /// Hit at `s` on the surface at linear depth `surface`.
+    Hit { s: f32, surface: f32 },
+    /// The segment ended (or left the image).
+    End,
+    /// [`HiZOptions::max_iterations`] reached.
+    OutOfSteps,
 }
 
 /// Traces a projected segment with the walker of its class ([`Walker`]).
@@ -1938,7 +2126,7 @@ fn walk<const NX: bool, const NY: bool, const NQ: bool, const BACK: bool, const 
     let py = dir_pixel(seg.y0, seg.dy, h);
     let walker = Walker::<NX, NY, NQ, BACK, STATS> {
         hiz,
-        levels: &hiz.layout.levels,
+        levels: &hiz.cells,
         data: hiz.data,
         seg,
         ax: Axis::new(seg.x0, seg.dx, w),
@@ -1981,23 +2169,38 @@ fn trace_valid<const STATS: bool>(
         );
     };
     let back = matches!(thickness, Thickness::BackFaces(_));
-    let f = match (seg.dx < 0.0, seg.dy < 0.0) {
-        (false, false) => by_q::<false, false, STATS>,
-        (false, true) => by_q::<false, true, STATS>,
-        (true, false) => by_q::<true, false, STATS>,
-        (true, true) => by_q::<true, true, STATS>,
-    };
-    f(seg.dq < 0.0, back)(hiz, thickness, seg, options)
+    let class = usize::from(seg.dx < 0.0) << 3
+        | usize::from(seg.dy < 0.0) << 2
+        | usize::from(seg.dq < 0.0) << 1
+        | usize::from(back);
+    Walks::<STATS>::ALL[class](hiz, thickness, seg, options)
 }
 
-/// The [`walk`] of a segment's class, given the signs of `dx` and `dy`.
+/// The [`walk`] of a segment's class.
 type WalkFn = fn(&HiZ<'_>, Thickness<'_>, Segment, &HiZOptions) -> (Trace, HiZStats);
 
-fn by_q<const NX: bool, const NY: bool, const STATS: bool>(neg_q: bool, back: bool) -> WalkFn {
-    match (neg_q, back) {
-        (false, false) => walk::<NX, NY, false, false, STATS>,
-        (false, true) => walk::<NX, NY, false, true, STATS>,
-        (true, false) => walk::<NX, NY, true, false, STATS>,
-        (true, true) => walk::<NX, NY, true, true, STATS>,
-    }
+/// Every class's [`walk`], one table per statistics setting: one indexed
+/// call per ray.
+struct Walks<const STATS: bool>;
+
+impl<const STATS: bool> Walks<STATS> {
+    /// Indexed by `dx < 0`, `dy < 0`, `dq < 0` and back faces, bits 3 to 0.
+    const ALL: [WalkFn; 16] = [
+        walk::<false, false, false, false, STATS>,
+        walk::<false, false, false, true, STATS>,
+        walk::<false, false, true, false, STATS>,
+        walk::<false, false, true, true, STATS>,
+        walk::<false, true, false, false, STATS>,
+        walk::<false, true, false, true, STATS>,
+        walk::<false, true, true, false, STATS>,
+        walk::<false, true, true, true, STATS>,
+        walk::<true, false, false, false, STATS>,
+        walk::<true, false, false, true, STATS>,
+        walk::<true, false, true, false, STATS>,
+        walk::<true, false, true, true, STATS>,
+        walk::<true, true, false, false, STATS>,
+        walk::<true, true, false, true, STATS>,
+        walk::<true, true, true, false, STATS>,
+        walk::<true, true, true, true, STATS>,
+    ];
 }
