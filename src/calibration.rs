@@ -22,6 +22,7 @@
 use crate::gbuffer::GBuffer;
 use crate::render::{self, timed, ReflectionImage, Timed};
 use crate::shade::Shader;
+use glam::Vec3;
 use refl_core::plan::{pass_bit, CostEntry, Pass, Surface};
 use refl_core::summary::RoughnessClass;
 use std::fmt::Write as _;
@@ -47,6 +48,13 @@ pub enum Technique {
         /// Resolution divisor (1, 2, 4).
         scale: u32,
     },
+    /// A hybrid: refl-core's screen-space mirror pass with Hi-Z traversal
+    /// (its default options, reversed-Z depth with an infinite far plane,
+    /// the pyramid build inside the time) on the pixels, shading its hits
+    /// with the frame's direct-lit color at the hit texel; every pixel it
+    /// does not answer (a miss, a hidden or back-face hit, a ray off the
+    /// screen) ray traced.
+    HiZRay,
 }
 
 impl Technique {
@@ -56,6 +64,7 @@ impl Technique {
             Technique::Ray { .. } => "ray",
             Technique::EnvMap => "envmap",
             Technique::Planar { .. } => "planar",
+            Technique::HiZRay => "hiz+ray",
         }
     }
 
@@ -65,6 +74,7 @@ impl Technique {
             Technique::Ray { samples } => format!("spp={samples}"),
             Technique::EnvMap => "analytic".into(),
             Technique::Planar { scale } => format!("resolution=1/{scale}"),
+            Technique::HiZRay => "default".into(),
         }
     }
 
@@ -98,8 +108,12 @@ impl Technique {
             "planar" => Ok(Technique::Planar {
                 scale: number("resolution=1/")?,
             }),
+            "hiz+ray" if setting == "default" => Ok(Technique::HiZRay),
+            "hiz+ray" => Err(format!(
+                "method hiz+ray: setting '{setting}' is not 'default'"
+            )),
             other => Err(format!(
-                "unknown method '{other}' (known: ray, envmap, planar)"
+                "unknown method '{other}' (known: ray, envmap, planar, hiz+ray)"
             )),
         }
     }
@@ -112,6 +126,9 @@ impl Technique {
             Technique::Ray { .. } => pass_bit(Pass::HostRays),
             Technique::EnvMap => pass_bit(Pass::Probe),
             Technique::Planar { .. } => pass_bit(Pass::Planar) | pass_bit(Pass::HostRays),
+            Technique::HiZRay => {
+                pass_bit(Pass::HiZ) | pass_bit(Pass::Mirror) | pass_bit(Pass::HostRays)
+            }
         }
     }
 
@@ -119,7 +136,7 @@ impl Technique {
     pub fn candidates(class: RoughnessClass, surface: Surface) -> Vec<Technique> {
         let mut v = Vec::new();
         match class {
-            RoughnessClass::Mirror => v.push(Technique::Ray { samples: 1 }),
+            RoughnessClass::Mirror => v.extend([Technique::Ray { samples: 1 }, Technique::HiZRay]),
             _ => v.extend([1, 4, 16, 64].map(|samples| Technique::Ray { samples })),
         }
         v.push(Technique::EnvMap);
@@ -130,18 +147,39 @@ impl Technique {
     }
 
     /// Renders the reflections of the reflective pixels where `mask` is
-    /// true, timed; every masked reflective pixel is handled (a planar
-    /// render's uncovered pixels are ray traced, inside the time).
+    /// true, timed; every masked reflective pixel is handled (pixels a
+    /// planar render does not cover or the screen-space pass does not
+    /// answer are ray traced, inside the time). `direct` is the frame's
+    /// direct-lit image (the screen-space pass shades its hits with it;
+    /// the host has it before reflections, so it is outside the time, as
+    /// are the pass's G-buffer images and depth buffer).
     ///
     /// # Errors
-    /// The planar pass's errors (never for a rendered G-buffer), as text.
+    /// The planar and mirror passes' errors (never for a rendered
+    /// G-buffer), as text.
     pub fn run(
         &self,
         shader: &Shader,
         g: &GBuffer,
+        direct: &[Vec3],
         mask: &[bool],
         pool: &rayon::ThreadPool,
     ) -> Result<Timed<ReflectionImage>, String> {
+        // The screen-space pass's inputs: the host's G-buffer images and
+        // depth buffer, outside the time.
+        let screen = if *self == Technique::HiZRay {
+            let err = |e: refl_core::Error| format!("mirror pass: {e}");
+            let images = crate::screen::PassImages::with_mask(g, Some(direct), mask);
+            let depth = crate::screen::DepthBuffer::new(
+                g,
+                refl_core::DepthConvention::ReversedZ,
+                f32::INFINITY,
+            )
+            .map_err(err)?;
+            Some((images, depth))
+        } else {
+            None
+        };
         let t = timed(|| -> Result<ReflectionImage, String> {
             Ok(match *self {
                 Technique::Ray { samples } => {
@@ -183,10 +221,52 @@ impl Technique {
                     }
                     img
                 }
+                Technique::HiZRay => {
+                    let (images, depth) = screen.as_ref().ok_or("hiz+ray: no pass inputs")?;
+                    hiz_ray(shader, g, images, depth, mask, pool)?
+                }
             })
         });
         t.value.map(|value| Timed { value, ms: t.ms })
     }
+}
+
+/// [`Technique::HiZRay`]'s pass and the ray-traced rest.
+fn hiz_ray(
+    shader: &Shader,
+    g: &GBuffer,
+    images: &crate::screen::PassImages,
+    depth: &crate::screen::DepthBuffer,
+    mask: &[bool],
+    pool: &rayon::ThreadPool,
+) -> Result<ReflectionImage, String> {
+    let err = |e: refl_core::Error| format!("mirror pass: {e}");
+    let method = crate::screen::ScreenMethod::HiZ(refl_core::hiz::HiZOptions::default());
+    let image = depth.image().map_err(err)?;
+    let out = crate::screen::run(method, true, &image, images, pool)
+        .map_err(err)?
+        .value;
+    let mut img = ReflectionImage::empty(g.width(), g.height());
+    let mut rest = vec![false; g.len()];
+    for i in 0..g.len() {
+        if !(mask[i] && g.is_reflective(i)) {
+            continue;
+        }
+        if out.texels[i].status == refl_core::MirrorStatus::Hit {
+            img.rgb[i] = Vec3::from_array(out.color[i]);
+            img.handled[i] = true;
+        } else {
+            rest[i] = true;
+        }
+    }
+    let traced = render::reference_masked(shader, g, 1, &rest, pool);
+    for (i, &r) in rest.iter().enumerate() {
+        if r {
+            img.rgb[i] = traced.rgb[i];
+            img.handled[i] = traced.handled[i];
+        }
+    }
+    Ok(img)
 }
 
 /// One measured row of the table.
@@ -353,7 +433,8 @@ impl Calibration {
                 time_ratio: number(4)?,
                 error_255: number(5)?,
                 pixels: count(6)?,
-                frames: u32::try_from(count(7)?).map_err(|e| at(e.to_string()))?,
+                frames: u32::try_from(count(7)?)
+                    .map_err(|_| at(format!("frames '{}' is too large", f[7])))?,
             };
             if entries
                 .iter()

@@ -196,7 +196,7 @@ pub fn calibrate(args: &CalibrateArgs) -> Result<Calibration, String> {
                     }
                     for t in Technique::candidates(class, surface) {
                         let (img, ms) =
-                            median_run(sizes.runs, || t.run(&shader, &g, &mask, &pool))?;
+                            median_run(sizes.runs, || t.run(&shader, &g, &direct, &mask, &pool))?;
                         let err = compare(&truth_final, &composite(&g, &direct, &img), &mask);
                         let key = (t, class, surface);
                         let i = match sums.iter().position(|(k, _)| *k == key) {

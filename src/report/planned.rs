@@ -387,7 +387,7 @@ impl Setting for PlannedSetting {
             let i = match cache.runs.iter().position(|(k, _)| *k == key) {
                 Some(i) => i,
                 None => {
-                    let (img, ms) = median_run(runs, || t.run(shader, g, &mask, pool))?;
+                    let (img, ms) = median_run(runs, || t.run(shader, g, f.direct, &mask, pool))?;
                     cache.runs.push((key, (img, ms)));
                     cache.runs.len() - 1
                 }
