@@ -10,7 +10,7 @@
 //! planar objects), mirror-class pixels of the others, and glossy-class
 //! (and rough-class) pixels of any surface; on each kind, every candidate
 //! technique ([`Technique::candidates`]) is run on exactly those pixels,
-//! timed (median) and compared with the ground truth. A row pools frames
+//! timed (median of [`CALIBRATION_RUNS`]) and compared with the ground truth. A row pools frames
 //! and scenes: the sum of the technique's times over the sum of (unit time
 //! per pixel x the kind's pixels) of the same frames, and the
 //! pixel-weighted mean error.
@@ -24,6 +24,9 @@ use crate::tracer::Tracer;
 use refl_core::plan::Surface;
 use refl_core::summary::RoughnessClass;
 use std::path::PathBuf;
+
+/// Timed repetitions of every measurement (the median is kept).
+pub const CALIBRATION_RUNS: usize = 9;
 
 /// Command-line options of `refl calibrate`.
 #[derive(Clone, Debug, clap::Args)]
@@ -143,7 +146,10 @@ pub fn calibrate(args: &CalibrateArgs) -> Result<Calibration, String> {
         tris: args.tris,
         ..Options::default()
     };
-    let sizes = Sizes::of(&opts);
+    let mut sizes = Sizes::of(&opts);
+    // Every time is a median of this many runs (the report's 3 move by
+    // +-15% on this shared machine; a calibration run is short).
+    sizes.runs = sizes.runs.max(CALIBRATION_RUNS);
     let scenes = super::scene_names(&opts)?;
     let input = SceneInput::of(&opts)?;
     let threads = args
