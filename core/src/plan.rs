@@ -4,8 +4,11 @@
 //! is run or skipped, each skip with its reason, and the bytes of the
 //! buffers that are built (none for a skipped pass).
 //!
-//! The rules use counts only, no cost model (choosing between methods by
-//! time and error is the calibrated planner's job, not built yet):
+//! [`try_plan_passes`]' rules use counts only, no cost model; choosing
+//! between methods by time and error is [`try_choose_methods`]' job (a
+//! budget, and a calibrated cost table the caller passes in: see its
+//! docs), and [`try_chosen_passes`] then says which of the passes run. The
+//! rules of [`try_plan_passes`]:
 //!
 //! * An object goes to the **planar pass** when the host can render extra
 //!   views ([`HostCaps::planar_views`]), all its reflective pixels are
@@ -710,16 +713,16 @@ pub fn try_choose_methods(
     let mut listed = [0u64; 3];
     let mut needed = 0usize;
     for o in objects {
-        for c in 0..3 {
-            listed[c] = listed[c].saturating_add(o.classes[c]);
-            needed += usize::from(o.classes[c] > 0);
+        for (l, &n) in listed.iter_mut().zip(&o.classes) {
+            *l = l.saturating_add(n);
+            needed += usize::from(n > 0);
         }
     }
-    for c in 0..3 {
-        if listed[c] > frame.classes[c] {
+    for (&l, &n) in listed.iter().zip(&frame.classes) {
+        if l > n {
             return Err(Error::InvalidArgument);
         }
-        needed += usize::from(frame.classes[c] > listed[c]);
+        needed += usize::from(n > l);
     }
     if choices.len() < needed {
         return Err(Error::InsufficientSize);

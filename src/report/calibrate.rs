@@ -59,7 +59,7 @@ impl CalibrateArgs {
         for s in &self.scene {
             c.push_str(&format!(" --scene {s}"));
         }
-        if self.out != PathBuf::from("calibration/default.csv") {
+        if self.out != std::path::Path::new("calibration/default.csv") {
             c.push_str(&format!(" --out {}", self.out.display()));
         }
         if let Some(t) = self.threads {

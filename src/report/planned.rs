@@ -64,6 +64,9 @@ pub fn budget_label(b: Budget) -> String {
     }
 }
 
+/// A technique's run on one group: (object, class, technique).
+type RunKey = (u32, RoughnessClass, Technique);
+
 /// What a frame's planned settings share: the time unit and the runs of
 /// each (object, class, technique), so that budgets choosing the same
 /// technique for a reflector run it once per frame.
@@ -73,7 +76,7 @@ pub struct Cache {
     /// (median).
     unit_ms: Option<f64>,
     /// (object, class, technique) -> its image and time.
-    runs: Vec<((u32, RoughnessClass, Technique), (ReflectionImage, f64))>,
+    runs: Vec<(RunKey, (ReflectionImage, f64))>,
 }
 
 /// A frame's choice for one budget: the plan, the choices and the passes.
@@ -221,7 +224,7 @@ pub fn describe_budget(p: &Planned) -> String {
     let b = &p.budget;
     format!(
         "predicted {:.3}x the reference tracer's time for one ray per reflective pixel, {:.2}/255 over {} of {} \
-         reflective pixels (budget {}); {run} passes run, {skip} skipped, {:.2} MB of pyramids",
+         reflective pixels (budget {}); passes: {run} run, {skip} skipped; {:.2} MB of pyramids",
         b.time_ratio,
         b.error_255,
         b.covered,
