@@ -184,11 +184,13 @@ pub enum Marker {
     Bowtie,
     /// An arrowhead pointing up (a triangle with a notch in its base).
     Chevron,
+    /// An arrowhead pointing down.
+    ChevronDown,
 }
 
 impl Marker {
     /// Every shape, in the order the unknown-method fallback indexes them.
-    pub const ALL: [Marker; 15] = [
+    pub const ALL: [Marker; 16] = [
         Marker::Circle,
         Marker::Square,
         Marker::Diamond,
@@ -204,6 +206,7 @@ impl Marker {
         Marker::Hourglass,
         Marker::Bowtie,
         Marker::Chevron,
+        Marker::ChevronDown,
     ];
 
     /// The shape's outline as pixel offsets from the point it marks (`y`
@@ -271,6 +274,7 @@ impl Marker {
             Marker::Hourglass => hourglass(r),
             Marker::Bowtie => hourglass(r).into_iter().map(|(x, y)| (y, x)).collect(),
             Marker::Chevron => vec![(0.0, -1.2 * r), (r, r), (0.0, 0.35 * r), (-r, r)],
+            Marker::ChevronDown => vec![(0.0, 1.2 * r), (-r, -r), (0.0, -0.35 * r), (r, -r)],
         };
         pts.into_iter()
             .map(|(x, y)| (x.round() as i32, y.round() as i32))
@@ -298,7 +302,7 @@ const fn style(r: u8, g: u8, b: u8, marker: Marker) -> MethodStyle {
 /// own color and its own shape, so a method reads the same in every panel
 /// and every run. The colors are far apart (CIEDE2000 at least 20 between
 /// any two) and dark enough to read on white.
-pub const KNOWN_METHOD_STYLES: [(&str, MethodStyle); 15] = [
+pub const KNOWN_METHOD_STYLES: [(&str, MethodStyle); 16] = [
     ("reference", style(0x00, 0x00, 0x00, Marker::Circle)),
     ("envmap", style(0x65, 0x45, 0x22, Marker::Square)),
     ("planar-mirror", style(0xE3, 0x77, 0xC2, Marker::Diamond)),
@@ -314,6 +318,9 @@ pub const KNOWN_METHOD_STYLES: [(&str, MethodStyle); 15] = [
     ("cone", style(0x4B, 0x00, 0x82, Marker::Plus)),
     ("multiray", style(0xFA, 0x80, 0x72, Marker::Hourglass)),
     ("hiz-temporal", style(0x4B, 0x00, 0x1E, Marker::Chevron)),
+    // Dark olive: the color farthest (CIEDE2000 23) from the others, the
+    // front's grey and (17.6) the fallback colors.
+    ("planned", style(0x78, 0x78, 0x00, Marker::ChevronDown)),
 ];
 
 /// Styles for methods missing from [`KNOWN_METHOD_STYLES`]. No known
