@@ -672,6 +672,11 @@ fn on_front(table: &[CostEntry], i: usize, ok: &impl Fn(usize) -> bool) -> bool 
 /// exists. The prediction is [`BudgetPlan`]: pixel-weighted sums of the
 /// table's time ratios and errors.
 ///
+/// Cost: with `g` groups and `t` table entries, finding the fronts takes
+/// `O(g t^2)` and each of at most `g t` steps up to `O(g t^2)` (the front
+/// test runs only for a step that would win); meant for tables of tens of
+/// entries, as `refl calibrate` writes.
+///
 /// Returns the plan; the first [`BudgetPlan::groups`] entries of `choices`
 /// hold the groups, in object order, then the unlisted ones. A frame
 /// without reflective pixels gives no group, time 0 and error 0.
@@ -814,7 +819,7 @@ pub fn try_choose_methods(
             let ok = |j: usize| applies(&table[j], &g, &h, caps);
             let c = &table[cur];
             for (j, o) in table.iter().enumerate() {
-                if o.error_255 >= c.error_255 || !on_front(table, j, &ok) {
+                if o.error_255 >= c.error_255 {
                     continue;
                 }
                 let dt = f64::from(o.time_ratio) - f64::from(c.time_ratio);
@@ -825,7 +830,9 @@ pub fn try_choose_methods(
                 }
                 let de = f64::from(c.error_255) - f64::from(o.error_255);
                 let slope = if dt > 0.0 { de / dt } else { f64::INFINITY };
-                if best.is_none_or(|(_, _, s)| slope > s) {
+                // The front test (quadratic in the table) last, only for a
+                // step that would win.
+                if best.is_none_or(|(_, _, s)| slope > s) && on_front(table, j, &ok) {
                     best = Some((k, j, slope));
                 }
             }
