@@ -665,17 +665,18 @@ fn on_front(table: &[CostEntry], i: usize, ok: &impl Fn(usize) -> bool) -> bool 
 /// The choice across groups is a multiple-choice knapsack, solved
 /// greedily along each group's front: every group starts at its fastest
 /// option; for [`Budget::MaxError`], while the predicted mean error is
-/// over the limit, the group whose next step buys the most error per unit
-/// of time takes it, and once the limit holds, every group in turn goes
-/// back to the fastest option that keeps it; for [`Budget::MaxTime`], the
+/// over the limit, the cheapest single step that brings it within the
+/// limit is taken if there is one, else the group whose next step buys the
+/// most error per unit of time takes it; once the limit holds, every group
+/// in turn goes back to the fastest option that keeps it; for [`Budget::MaxTime`], the
 /// best such step that still fits the time limit is taken while one
 /// exists. The prediction is [`BudgetPlan`]: pixel-weighted sums of the
 /// table's time ratios and errors.
 ///
 /// Cost: with `g` groups and `t` table entries, finding the fronts takes
-/// `O(g t^2)` and each of at most `g t` steps up to `O(g t^2)` (the front
-/// test runs only for a step that would win); meant for tables of tens of
-/// entries, as `refl calibrate` writes.
+/// `O(g t^2)` and each of at most `g t` steps up to `O(g t (g + t^2))`
+/// (the front test runs only for a step that would win); meant for tables
+/// of tens of entries, as `refl calibrate` writes.
 ///
 /// Returns the plan; the first [`BudgetPlan::groups`] entries of `choices`
 /// hold the groups, in object order, then the unlisted ones. A frame
@@ -840,10 +841,42 @@ pub fn try_choose_methods(
         best.map(|(k, j, _)| (k, j))
     };
     let limit = |v: f32| f64::from(v);
+    // For an error budget: the step that alone brings the mean within
+    // `max` at the least added time, if one does.
+    let closing_step = |choices: &mut [Choice], max: f64| -> Option<(usize, usize)> {
+        let mut best: Option<(usize, usize, f64)> = None;
+        for k in 0..choices.len() {
+            let Some(cur) = choices[k].entry else {
+                continue;
+            };
+            let (g, h) = (choices[k].group, hint_of(&choices[k].group));
+            let ok = |j: usize| applies(&table[j], &g, &h, caps);
+            for j in 0..table.len() {
+                if table[j].error_255 >= table[cur].error_255 {
+                    continue;
+                }
+                let added = (f64::from(table[j].time_ratio) - f64::from(table[cur].time_ratio))
+                    * g.pixels as f64;
+                if best.is_some_and(|(_, _, a)| added >= a) || !on_front(table, j, &ok) {
+                    continue;
+                }
+                choices[k].entry = Some(j);
+                if totals(choices).1 <= max {
+                    best = Some((k, j, added));
+                }
+                choices[k].entry = Some(cur);
+            }
+        }
+        best.map(|(k, j, _)| (k, j))
+    };
     let mut unreachable = None;
     match budget {
         Budget::MaxError(max) => {
             while totals(choices).1 > limit(max) {
+                if let Some((k, j)) = closing_step(choices, limit(max)) {
+                    choices[k].entry = Some(j);
+                    break;
+                }
                 match best_step(choices, None) {
                     Some((k, j)) => choices[k].entry = Some(j),
                     None => {
