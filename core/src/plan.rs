@@ -665,9 +665,9 @@ fn on_front(table: &[CostEntry], i: usize, ok: &impl Fn(usize) -> bool) -> bool 
 /// The choice across groups is a multiple-choice knapsack, solved
 /// greedily along each group's front: every group starts at its fastest
 /// option; for [`Budget::MaxError`], while the predicted mean error is
-/// over the limit, the cheapest single step that brings it within the
-/// limit is taken if there is one, else the group whose next step buys the
-/// most error per unit of time takes it; once the limit holds, every group
+/// over the limit, the group whose next step buys the most error per unit
+/// of time takes it, unless a single step that brings the mean within the
+/// limit adds no more time (then the cheapest such step ends the search); once the limit holds, every group
 /// in turn goes back to the fastest option that keeps it; for [`Budget::MaxTime`], the
 /// best such step that still fits the time limit is taken while one
 /// exists. The prediction is [`BudgetPlan`]: pixel-weighted sums of the
@@ -873,17 +873,25 @@ pub fn try_choose_methods(
     match budget {
         Budget::MaxError(max) => {
             while totals(choices).1 > limit(max) {
-                if let Some((k, j)) = closing_step(choices, limit(max)) {
-                    choices[k].entry = Some(j);
+                let Some((k, j)) = best_step(choices, None) else {
+                    unreachable = Some(ChoiceReason::ErrorBudgetUnreachable);
                     break;
-                }
-                match best_step(choices, None) {
-                    Some((k, j)) => choices[k].entry = Some(j),
-                    None => {
-                        unreachable = Some(ChoiceReason::ErrorBudgetUnreachable);
+                };
+                // A single step that closes the gap for no more time than
+                // the best error-per-time step adds ends the search.
+                let added = |k: usize, j: usize, choices: &[Choice]| {
+                    let cur = choices[k].entry.map_or(0.0, |c| table[c].time_ratio);
+                    (f64::from(table[j].time_ratio) - f64::from(cur))
+                        * choices[k].group.pixels as f64
+                };
+                let slope_added = added(k, j, choices);
+                if let Some((kc, jc)) = closing_step(choices, limit(max)) {
+                    if added(kc, jc, choices) <= slope_added {
+                        choices[kc].entry = Some(jc);
                         break;
                     }
                 }
+                choices[k].entry = Some(j);
             }
             if unreachable.is_none() {
                 // Give back what the last steps overshot: each group in

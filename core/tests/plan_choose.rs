@@ -148,6 +148,15 @@ fn error_budget_exactly_met_and_just_missed() {
     assert!(p.met);
     assert_eq!(ids(&c), [Some(2), Some(0), Some(5)]);
     assert!((p.error_255 - 1.0).abs() < 1e-9);
+    // At 0.9 from 4.4: 16 glossy samples alone would close the gap (mean
+    // 0.6) but add 7975 pixel units of time against the best step's 1975
+    // (4 samples, mean 1.0), so the search goes on: then the planar full
+    // res step (300) closes it. 1.44x against 3.72x for the 16 samples.
+    let (p, c) = choose(Budget::MaxError(0.9), &HOST);
+    assert!(p.met);
+    assert_eq!(ids(&c), [Some(1), Some(0), Some(5)]);
+    assert!((p.error_255 - 0.6).abs() < 1e-9);
+    assert!((p.time_ratio - (600.0 + 1000.0 + 2000.0) / 2500.0).abs() < 1e-6);
 }
 
 #[test]
