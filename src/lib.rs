@@ -7,6 +7,7 @@
 #![doc = include_str!("../README.md")]
 
 pub mod bounce;
+pub mod calibration;
 pub mod cluster;
 pub mod cone;
 pub mod epipolar;

@@ -273,6 +273,22 @@ pub fn planar_mirror(
     scale: u32,
     pool: &rayon::ThreadPool,
 ) -> Result<ReflectionImage, Error> {
+    planar_mirror_of(shader, g, scale, &|_| true, pool)
+}
+
+/// [`planar_mirror`] for the planar mirrors whose object id `objects`
+/// accepts (the planner's choice per reflector); the others are not
+/// rendered and their pixels not handled.
+///
+/// # Errors
+/// As [`planar_mirror`].
+pub fn planar_mirror_of(
+    shader: &Shader,
+    g: &GBuffer,
+    scale: u32,
+    objects: &dyn Fn(u32) -> bool,
+    pool: &rayon::ThreadPool,
+) -> Result<ReflectionImage, Error> {
     if scale == 0 {
         return Err(Error::InvalidArgument);
     }
@@ -316,7 +332,7 @@ pub fn planar_mirror(
         let Some(plane) = object.planar else {
             continue;
         };
-        if !scene.materials[object.material as usize].is_mirror() {
+        if !scene.materials[object.material as usize].is_mirror() || !objects(id) {
             continue;
         }
         // Rows holding the object's pixels (the pass covers no other).

@@ -186,11 +186,13 @@ pub enum Marker {
     Chevron,
     /// An arrowhead pointing down.
     ChevronDown,
+    /// A kite: a rhombus stretched downward.
+    Kite,
 }
 
 impl Marker {
     /// Every shape, in the order the unknown-method fallback indexes them.
-    pub const ALL: [Marker; 16] = [
+    pub const ALL: [Marker; 17] = [
         Marker::Circle,
         Marker::Square,
         Marker::Diamond,
@@ -207,6 +209,7 @@ impl Marker {
         Marker::Bowtie,
         Marker::Chevron,
         Marker::ChevronDown,
+        Marker::Kite,
     ];
 
     /// The shape's outline as pixel offsets from the point it marks (`y`
@@ -275,6 +278,7 @@ impl Marker {
             Marker::Bowtie => hourglass(r).into_iter().map(|(x, y)| (y, x)).collect(),
             Marker::Chevron => vec![(0.0, -1.2 * r), (r, r), (0.0, 0.35 * r), (-r, r)],
             Marker::ChevronDown => vec![(0.0, 1.2 * r), (-r, -r), (0.0, -0.35 * r), (r, -r)],
+            Marker::Kite => vec![(0.0, -r), (0.75 * r, -0.25 * r), (0.0, 1.3 * r), (-0.75 * r, -0.25 * r)],
         };
         pts.into_iter()
             .map(|(x, y)| (x.round() as i32, y.round() as i32))
@@ -302,7 +306,7 @@ const fn style(r: u8, g: u8, b: u8, marker: Marker) -> MethodStyle {
 /// own color and its own shape, so a method reads the same in every panel
 /// and every run. The colors are far apart (CIEDE2000 at least 20 between
 /// any two) and dark enough to read on white.
-pub const KNOWN_METHOD_STYLES: [(&str, MethodStyle); 16] = [
+pub const KNOWN_METHOD_STYLES: [(&str, MethodStyle); 17] = [
     ("reference", style(0x00, 0x00, 0x00, Marker::Circle)),
     ("envmap", style(0x65, 0x45, 0x22, Marker::Square)),
     ("planar-mirror", style(0xE3, 0x77, 0xC2, Marker::Diamond)),
@@ -318,7 +322,12 @@ pub const KNOWN_METHOD_STYLES: [(&str, MethodStyle); 16] = [
     ("cone", style(0x4B, 0x00, 0x82, Marker::Plus)),
     ("multiray", style(0xFA, 0x80, 0x72, Marker::Hourglass)),
     ("hiz-temporal", style(0x4B, 0x00, 0x1E, Marker::Chevron)),
-    ("hiz-bounce", style(0x78, 0x78, 0x00, Marker::ChevronDown)),
+    // Teal: the color farthest (CIEDE2000 24.7) from the others once
+    // dark olive went to `planned`, 34.5 from the fallback colors.
+    ("hiz-bounce", style(0x00, 0xD0, 0xC0, Marker::Kite)),
+    // Dark olive: the color farthest (CIEDE2000 23) from the others, the
+    // front's grey and (17.6) the fallback colors.
+    ("planned", style(0x78, 0x78, 0x00, Marker::ChevronDown)),
 ];
 
 /// Styles for methods missing from [`KNOWN_METHOD_STYLES`]. No known

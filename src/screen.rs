@@ -107,6 +107,24 @@ impl PassImages {
         }
     }
 
+    /// [`PassImages::new`] with the mask narrowed to the reflective pixels
+    /// where `mask` is true (the pass traces only those: a planner's
+    /// group).
+    ///
+    /// # Panics
+    /// If `mask` is shorter than the G-buffer.
+    pub fn with_mask(g: &GBuffer, lit: Option<&[Vec3]>, mask: &[bool]) -> Self {
+        assert!(
+            mask.len() >= g.len(),
+            "PassImages::with_mask: mask shorter than the G-buffer"
+        );
+        let mut images = Self::new(g, lit);
+        for (m, &keep) in images.mask.iter_mut().zip(mask) {
+            *m &= u8::from(keep);
+        }
+        images
+    }
+
     /// The refl-core G-buffer over `depth` (this frame's depth in any
     /// convention).
     ///

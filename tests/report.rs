@@ -170,6 +170,45 @@ fn quick_report_writes_summary_plot_and_images() {
         "{md}"
     );
 
+    // The planner's rows (issue 15): one per budget on both scenes, every
+    // reflective pixel covered, the passes run and skipped (nine in all)
+    // and the pyramid bytes as columns, and the model's prediction next
+    // to the measured time and error.
+    for s in ["room", "concave"] {
+        for set in ["max_error=0.5", "max_error=4", "max_time=0.5"] {
+            let r = find(s, "planned", set);
+            assert_eq!(num(r, "coverage"), 1.0, "{s} {set}");
+            let (run, skipped) = (num(r, "passes_run"), num(r, "passes_skipped"));
+            assert!(run >= 1.0, "{s} {set}: a plan runs something");
+            assert_eq!(run + skipped, 9.0, "{s} {set}");
+            assert!(num(r, "pyramid_bytes") >= 0.0);
+            for c in [
+                "predicted_time_x",
+                "time_x",
+                "predicted_mean_abs_255",
+                "ray_ms",
+            ] {
+                let v = num(r, c);
+                assert!(v.is_finite() && v >= 0.0, "{s} {set} {c}: {v}");
+            }
+            // The budget column counts frames whose prediction met it.
+            let met = &r[col("budget_met")];
+            assert!(met.ends_with("/2"), "{s} {set}: {met}");
+            if set == "max_error=0.5" && met == "2/2" {
+                assert!(num(r, "predicted_mean_abs_255") <= 0.5, "{s}");
+            }
+        }
+    }
+    assert!(
+        md.contains("## Planned rows against the other rows"),
+        "{md}"
+    );
+    assert!(md.contains("`planned max_error=0.5`"), "{md}");
+    assert!(
+        md.contains("frame 0, `planned` max_time=0.5: predicted"),
+        "{md}"
+    );
+
     for f in [
         "error_vs_time.png",
         "images/room_reference.png",

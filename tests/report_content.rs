@@ -245,21 +245,51 @@ fn refl_plan_skips_what_a_frame_cannot_use_and_says_why() {
         reflective: Vec::new(),
         camera_path: None,
         bare_host,
+        max_error: vec![0.5],
+        max_time: Vec::new(),
+        calibration: None,
     };
     let text = refl_app::report::plans(&args(false)).unwrap();
     let (room, concave) = text.split_at(text.find("concave:").unwrap());
     // The room's mirror floor goes to the planar pass; its glossy torus
     // needs the color pyramid.
     assert_eq!(room.matches("  pose ").count(), 12, "{room}");
+    let poses = |t: &str| -> Vec<String> {
+        t.lines()
+            .filter(|l| l.starts_with("  pose "))
+            .map(String::from)
+            .collect()
+    };
     assert!(
-        room.lines()
-            .skip(1)
+        poses(room)
+            .iter()
             .all(|l| l.contains("planar pass for mirror_floor") && l.contains("color pyramid (")),
         "{room}"
     );
+    // The method choice per budget: one budget line per pose, and the
+    // room's mirror floor exact on the planar pass (the checked-in table:
+    // it is as accurate as rays and faster) with its reason.
+    assert!(
+        text.starts_with("calibration: cargo run --release -- calibrate"),
+        "{text}"
+    );
+    assert_eq!(
+        room.matches("    max_error=0.5: predicted").count(),
+        12,
+        "{room}"
+    );
+    assert!(room
+        .lines()
+        .filter(|l| l.starts_with("      - mirror_floor "))
+        .all(|l| l.contains(": planar resolution=1/1 (") && l.contains("the most accurate")));
+    // Concave: every mirror ray traced (the environment is far over the
+    // budget).
+    for l in concave.lines().filter(|l| l.starts_with("      - ")) {
+        assert!(l.contains("mirror): ray spp=1 ("), "{l}");
+    }
     // Concave: mirrors only, none planar: no color or visibility pyramid,
     // no planar pass, no glossy pass.
-    for l in concave.lines().skip(1) {
+    for l in poses(concave) {
         for skipped in [
             "color pyramid (nothing reads it)",
             "visibility pyramid (nothing reads it)",
@@ -275,4 +305,15 @@ fn refl_plan_skips_what_a_frame_cannot_use_and_says_why() {
     assert!(!bare.contains("planar pass for"), "{bare}");
     assert!(bare.contains("planar pass (the host cannot)"), "{bare}");
     assert!(bare.contains("host rays (the host cannot)"), "{bare}");
+    // ... and has nothing the table measured but the screen-space hybrid,
+    // which needs the tracer too: no option.
+    assert!(
+        bare.contains("no calibrated option applies: its pixels are left out"),
+        "{bare}"
+    );
+    // A budget that is not a number is refused with its flag.
+    let mut nan = args(false);
+    nan.max_time = vec![f32::NAN];
+    let err = refl_app::report::plans(&nan).unwrap_err();
+    assert!(err.contains("--max-time NaN"), "{err}");
 }

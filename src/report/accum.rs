@@ -20,6 +20,8 @@ pub enum Extra {
     /// `hiz` rows with `half=`, [`super::half`]): the screen columns and
     /// the shares of traced and re-traced pixels.
     Half(ScreenAccum, HalfAccum),
+    /// The planner's row: its prediction, time unit, passes and bytes.
+    Planned(super::planned::PlannedAccum),
 }
 
 /// Sums over frames of a method that traces fewer rays than pixels.
@@ -77,6 +79,8 @@ pub struct Accum {
     cluster: Option<ClusterAccum>,
     /// Traced and re-traced shares of a method tracing fewer rays.
     half: Option<HalfAccum>,
+    /// The planner's prediction and passes.
+    planned: Option<super::planned::PlannedAccum>,
 }
 
 /// Sums over frames of the cluster method (seed 003).
@@ -299,6 +303,7 @@ impl Accum {
                 self.screen.get_or_insert_with(ScreenAccum::default).add(s);
                 self.half.get_or_insert_with(HalfAccum::default).add(h);
             }
+            Extra::Planned(p) => self.planned.get_or_insert_with(Default::default).add(p),
         }
         let channels = 3.0 * err.pixels as f64;
         self.frames += 1;
@@ -360,6 +365,9 @@ impl Accum {
                 }
                 if let Some(h) = &self.half {
                     e.extend(h.columns());
+                }
+                if let Some(p) = &self.planned {
+                    e.extend(p.columns());
                 }
                 e
             },

@@ -58,6 +58,8 @@ pub struct Frame<'a> {
     /// Reflection rays, reference hits and obvhs timings of this frame,
     /// made when the first screen-space setting runs.
     screen: Option<ScreenFrame>,
+    /// What the `planned` settings of this frame share.
+    pub(super) planned: super::planned::Cache,
 }
 
 impl<'a> Frame<'a> {
@@ -92,6 +94,7 @@ impl<'a> Frame<'a> {
             notes,
             layered_maps,
             screen: None,
+            planned: super::planned::Cache::default(),
         }
     }
 
@@ -158,6 +161,7 @@ pub fn all() -> Vec<Box<dyn Method>> {
         Box::new(HiZ),
         Box::new(Layered),
         Box::new(Cluster),
+        Box::new(super::planned::PlannedMethod),
     ]
 }
 

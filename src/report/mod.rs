@@ -14,6 +14,7 @@
 
 pub mod accum;
 pub mod bounce;
+pub mod calibrate;
 pub mod cluster_res;
 pub mod content;
 pub mod epipolar;
@@ -22,6 +23,7 @@ pub mod glossy;
 pub mod half;
 pub mod methods;
 pub mod plan;
+pub mod planned;
 pub mod studies;
 pub mod tcrr;
 pub mod temporal;
@@ -61,8 +63,8 @@ pub struct Options {
     pub scene: Vec<String>,
     /// Methods: `reference`, `envmap`, `planar-mirror`, `epipolar`, `orsa`,
     /// `irsa`, `step`, `hiz`, `layered`, `cluster`, `tcrr`, `naive-warp`,
-    /// `cone`, `multiray`, `hiz-temporal`, `hiz-bounce` (repeatable;
-    /// default: all).
+    /// `cone`, `multiray`, `hiz-temporal`, `hiz-bounce`, `planned`
+    /// (repeatable; default: all).
     #[arg(long)]
     pub method: Vec<String>,
     /// Output folder.
@@ -252,7 +254,7 @@ fn scene_methods(opts: &Options, name: &str, selected: &[&'static str]) -> Vec<&
 }
 
 /// Every method name the report knows, in report order.
-pub const METHODS: [&str; 16] = [
+pub const METHODS: [&str; 17] = [
     "reference",
     "envmap",
     "planar-mirror",
@@ -282,6 +284,9 @@ pub const METHODS: [&str; 16] = [
     // frame's final image (multiple bounces) on a static camera, a study:
     // see [`studies`] and [`crate::bounce`].
     "hiz-bounce",
+    // Issue 15: refl-core's planner choosing per reflector from the
+    // calibration table, one row per budget: see [`planned`].
+    "planned",
 ];
 
 /// What the command line says about the scenes' input, checked before
@@ -393,14 +398,32 @@ pub struct PlanArgs {
     /// for the screen-space passes alone).
     #[arg(long)]
     pub bare_host: bool,
+    /// Error budgets: the planner chooses a method per reflector and
+    /// roughness class so that the frame's mean error (0..255) is at most
+    /// this (repeatable; with neither `--max-error` nor `--max-time`, the
+    /// report's `planned` budgets).
+    #[arg(long)]
+    pub max_error: Vec<f32>,
+    /// Time budgets: at most this multiple of the reference tracer's time
+    /// for one ray per reflective pixel (repeatable).
+    #[arg(long)]
+    pub max_time: Vec<f32>,
+    /// The calibration table the planner reads (default: the checked-in
+    /// `calibration/default.csv`, written by `refl calibrate`).
+    #[arg(long)]
+    pub calibration: Option<PathBuf>,
 }
 
 /// `refl plan`: per scene and camera pose, refl-core's frame summary and
 /// plan (passes run and skipped with the reason, pyramid bytes, planar
-/// objects), as text.
+/// objects), and per budget the method chosen for each reflector and
+/// roughness class with the reason, the prediction and the passes, as
+/// text.
 ///
 /// # Errors
-/// As [`run`] for bad scene input; refl-core's errors as text.
+/// As [`run`] for bad scene input; a budget that is NaN, infinite or
+/// negative; an unreadable or malformed calibration table; refl-core's
+/// errors as text.
 pub fn plans(args: &PlanArgs) -> Result<String, String> {
     let opts = Options {
         scene: args.scene.clone(),
@@ -421,10 +444,35 @@ pub fn plans(args: &PlanArgs) -> Result<String, String> {
     } else {
         plan::REPORT_HOST
     };
+    let mut budgets = planned::budgets_of(&args.max_error, &args.max_time)?;
+    if budgets.is_empty() {
+        budgets = planned::BUDGETS.to_vec();
+    }
+    let cal = match &args.calibration {
+        Some(path) => {
+            let text =
+                std::fs::read_to_string(path).map_err(|e| format!("{}: {e}", path.display()))?;
+            crate::calibration::Calibration::parse(&text)
+                .map_err(|e| format!("{}: {e}", path.display()))?
+        }
+        None => crate::calibration::Calibration::builtin()?,
+    };
+    let table = cal.cost_table();
     let pool = rayon::ThreadPoolBuilder::new()
         .build()
         .map_err(|e| e.to_string())?;
     let mut out = String::new();
+    let _ = writeln!(
+        out,
+        "calibration: {} (commit {}); budgets: {}",
+        cal.command,
+        cal.commit,
+        budgets
+            .iter()
+            .map(|&b| planned::budget_label(b))
+            .collect::<Vec<_>>()
+            .join(", ")
+    );
     for name in &scenes {
         let scene = input.load(name, &sizes)?;
         let tracer = Tracer::new(&scene);
@@ -446,6 +494,16 @@ pub fn plans(args: &PlanArgs) -> Result<String, String> {
                 f.border,
                 plan::describe(&p)
             );
+            for &budget in &budgets {
+                let c = planned::choose(&scene, &g, &caps, &table, budget)?;
+                let _ = write!(
+                    out,
+                    "    {}: {}\n{}",
+                    planned::budget_label(budget),
+                    planned::describe_budget(&c),
+                    planned::describe_choices(&scene, &cal, &c, "      - ")
+                );
+            }
         }
     }
     Ok(out)
@@ -960,7 +1018,7 @@ fn write(
          on 0..255 of 8-bit sRGB composites, PSNR, share of pixels over 8/255. Images: the first frame. What runs \
          on a scene follows from its content (reflective, glossy and planar-mirror pixels, objects to map, a \
          camera path inside walls); what does not is listed with the reason.\n\n\
-         ## Scenes\n\n{}\n## Summary\n\n{}\n![error vs time](error_vs_time.png)\n{}{long_md}",
+         ## Scenes\n\n{}\n## Summary\n\n{}\n![error vs time](error_vs_time.png)\n{}{}{long_md}",
         if opts.quick {
             "Quick"
         } else if opts.long {
@@ -974,6 +1032,7 @@ fn write(
         sizes.truth_samples,
         g.notes,
         report_out::markdown_table(&g.rows),
+        planned::dominance_section(&g.rows),
         g.sections,
     );
     let md_path = out.join("summary.md");

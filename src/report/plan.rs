@@ -32,6 +32,15 @@ pub struct FramePlan {
     pub plan: PassPlan,
     /// Names of the objects sent to the planar pass.
     pub planar: Vec<String>,
+    /// Per object (at least one entry), its summary.
+    pub objects: Vec<ObjectSummary>,
+    /// Per object, whether it goes to the planar pass (the planner's
+    /// planar groups).
+    pub planar_flags: Vec<bool>,
+    /// Per object, what the report's host states about it.
+    pub hints: Vec<ObjectHints>,
+    /// The summary's options (its classes).
+    pub options: SummaryOptions,
 }
 
 /// Summarizes `g` (a frame of `scene`) and plans its passes for a host
@@ -86,7 +95,7 @@ pub fn plan_frame(scene: &Scene, g: &GBuffer, caps: &HostCaps) -> Result<FramePl
         (w, h),
     )
     .map_err(err)?;
-    let planar = planar
+    let names = planar
         .iter()
         .enumerate()
         .filter(|(_, &p)| p)
@@ -100,7 +109,11 @@ pub fn plan_frame(scene: &Scene, g: &GBuffer, caps: &HostCaps) -> Result<FramePl
     Ok(FramePlan {
         frame,
         plan,
-        planar,
+        planar: names,
+        objects,
+        planar_flags: planar,
+        hints,
+        options,
     })
 }
 
