@@ -278,7 +278,12 @@ impl Marker {
             Marker::Bowtie => hourglass(r).into_iter().map(|(x, y)| (y, x)).collect(),
             Marker::Chevron => vec![(0.0, -1.2 * r), (r, r), (0.0, 0.35 * r), (-r, r)],
             Marker::ChevronDown => vec![(0.0, 1.2 * r), (-r, -r), (0.0, -0.35 * r), (r, -r)],
-            Marker::Kite => vec![(0.0, -r), (0.75 * r, -0.25 * r), (0.0, 1.3 * r), (-0.75 * r, -0.25 * r)],
+            Marker::Kite => vec![
+                (0.0, -r),
+                (0.75 * r, -0.25 * r),
+                (0.0, 1.3 * r),
+                (-0.75 * r, -0.25 * r),
+            ],
         };
         pts.into_iter()
             .map(|(x, y)| (x.round() as i32, y.round() as i32))
