@@ -1218,7 +1218,12 @@ mod tests {
             let t = 1.0 + i as f64;
             let primary = PanelKind::of(m) == PanelKind::PrimaryVisibility;
             let scene = if i % 2 == 0 && !primary { "a" } else { "b" };
-            rows.push(row(scene, m, t, 0.5 * (15 - i) as f64));
+            rows.push(row(
+                scene,
+                m,
+                t,
+                0.5 * (KNOWN_METHOD_STYLES.len() - i) as f64,
+            ));
             rows.push(row(scene, m, 1.5 * t, 0.0));
         }
         rows.push(row("a", "unknown", 0.0, 1.0));
