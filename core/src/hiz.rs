@@ -1817,6 +1817,15 @@ impl<const NX: bool, const NY: bool, const NQ: bool, const BACK: bool, const STA
         (st.px, st.py) = (nx, ny);
     }
 
+    /// Moves `s` to the crossing parameter `es` (never backward) and counts
+    /// the step; returns the new `s`.
+    #[inline(always)]
+    fn advance(st: &mut State, es: f32) -> f32 {
+        st.s = max_nn(st.s, es);
+        st.steps += 1;
+        st.s
+    }
+
     /// Crosses from cell `c` into its neighbor through the side(s) of exit
     /// parameter `es = min_nn(sx, sy)` (seed 004 Listing 4.5,
     /// `intersectCellBoundary`, with the frontier's integer step in place of
@@ -1837,9 +1846,7 @@ impl<const NX: bool, const NY: bool, const NQ: bool, const BACK: bool, const STA
             let Some(nx) = self.ax.next(c.ex) else {
                 return false;
             };
-            st.s = max_nn(st.s, es);
-            st.steps += 1;
-            let s = st.s;
+            let s = Self::advance(st, es);
             if STATS {
                 Self::tie(st, self.ax.at(s), nx);
             }
@@ -1851,9 +1858,7 @@ impl<const NX: bool, const NY: bool, const NQ: bool, const BACK: bool, const STA
             let Some(ny) = self.ay.next(c.ey) else {
                 return false;
             };
-            st.s = max_nn(st.s, es);
-            st.steps += 1;
-            let s = st.s;
+            let s = Self::advance(st, es);
             let x = self.ax.at(s);
             st.px = self.ax.sync(s, x, st.px, c.ex);
             Self::tie(st, x, st.px);
@@ -1865,9 +1870,7 @@ impl<const NX: bool, const NY: bool, const NQ: bool, const BACK: bool, const STA
             let (Some(nx), Some(ny)) = (self.ax.next(c.ex), self.ay.next(c.ey)) else {
                 return false;
             };
-            st.s = max_nn(st.s, es);
-            st.steps += 1;
-            let s = st.s;
+            let s = Self::advance(st, es);
             if STATS {
                 Self::tie(st, self.ax.at(s), nx);
                 Self::tie(st, self.ay.at(s), ny);
