@@ -22,7 +22,11 @@
 //! worst frame), the share of pixels answered this frame or recovered, and
 //! the flicker: the mean absolute change of a pixel's composited color
 //! from one frame to the next (pixels that are mirror pixels in both
-//! frames, 0..255), next to the reference's own.
+//! frames, 0..255), next to the reference's own. The flicker is split:
+//! over the pixels the setting answered or recovered in both frames
+//! (`flicker_kept_255`, next to the reference's over the same pixels,
+//! `reference_flicker_kept_255`), and the rest, where the pixel showed the
+//! environment fallback in one frame or both (churn of the answered set).
 
 use crate::gbuffer::GBuffer;
 use crate::render::{compare, composite, direct_image, mirror_env, save_png, timed};
@@ -101,6 +105,13 @@ struct Totals {
     worst_frame: f64,
     flicker_sum: f64,
     flicker_frames: usize,
+    /// Sums over the pixels kept (answered or recovered) in both frames:
+    /// the method's change, the reference's, and their count; the pixels
+    /// compared overall.
+    kept_flicker_sum: f64,
+    kept_reference_sum: f64,
+    kept_pixels: usize,
+    flicker_pixels: usize,
     rays: u64,
     stats: TemporalStats,
 }
@@ -130,6 +141,27 @@ impl Totals {
             ),
             ("reference_flicker_255".into(), format!("{ref_flicker:.4}")),
             (
+                "flicker_kept_255".into(),
+                format!(
+                    "{:.4}",
+                    self.kept_flicker_sum / self.kept_pixels.max(1) as f64
+                ),
+            ),
+            (
+                "reference_flicker_kept_255".into(),
+                format!(
+                    "{:.4}",
+                    self.kept_reference_sum / self.kept_pixels.max(1) as f64
+                ),
+            ),
+            (
+                "kept_both_share".into(),
+                format!(
+                    "{:.4}",
+                    self.kept_pixels as f64 / self.flicker_pixels.max(1) as f64
+                ),
+            ),
+            (
                 "rays_per_frame".into(),
                 format!("{:.0}", self.rays as f64 / frames),
             ),
@@ -146,11 +178,17 @@ impl Totals {
     }
 }
 
+/// A setting's last frame (composite, mirror pixels, kept pixels,
+/// reference composite), for the flicker.
+type LastFrame = (Vec<Vec3>, Vec<bool>, Vec<bool>, Vec<Vec3>);
+
 /// Per-setting state along the path.
 struct State {
     setting: Setting,
     history: Option<(Camera, Vec<HistoryTexel>)>,
-    last_final: Option<(Vec<Vec3>, Vec<bool>)>,
+    /// The last frame: the composite, its mirror pixels, the pixels
+    /// answered or recovered, the reference's composite.
+    last_final: Option<LastFrame>,
     totals: Totals,
     per_frame: Vec<f64>,
 }
@@ -216,9 +254,9 @@ fn filter_frame(
 /// the pass's time (ms) and its rays.
 type FrameInputs = (Vec<[f32; 3]>, Vec<u8>, Vec<f32>, f64, u64);
 
-/// A setting's frame: reflection colors, mirror pixels answered or
-/// recovered, time (ms) and rays.
-type Filtered = (Vec<[f32; 3]>, usize, f64, u64);
+/// A setting's frame: reflection colors, the mirror pixels answered or
+/// recovered (mask), time (ms) and rays.
+type Filtered = (Vec<[f32; 3]>, Vec<bool>, f64, u64);
 
 /// One frame of the path: its G-buffer, the reference and the mirror
 /// pass's output as the filter takes it.
@@ -364,13 +402,13 @@ impl PathFrame {
         pool: &rayon::ThreadPool,
     ) -> Result<Filtered, refl_core::Error> {
         let Some(opts) = st.setting.filter else {
-            let n = self
+            let kept = self
                 .handled
                 .iter()
                 .zip(&self.answered)
-                .filter(|(h, a)| **h && **a != 0)
-                .count();
-            return Ok((self.current.clone(), n, self.pass_ms, self.rays));
+                .map(|(h, a)| *h && *a != 0)
+                .collect();
+            return Ok((self.current.clone(), kept, self.pass_ms, self.rays));
         };
         let (w, h) = (self.g.width(), self.g.height());
         let sub = if st.setting.tss {
@@ -409,12 +447,12 @@ impl PathFrame {
             TemporalStatus::Reset as u8,
             TemporalStatus::Recovered as u8,
         ];
-        let n = self
+        let kept_mask = self
             .handled
             .iter()
             .zip(&status)
-            .filter(|(h, s)| **h && kept.contains(s))
-            .count();
+            .map(|(h, s)| *h && kept.contains(s))
+            .collect();
         let s = &mut st.totals.stats;
         s.blended += stats.blended;
         s.reset += stats.reset;
@@ -424,7 +462,7 @@ impl PathFrame {
         s.rejected += stats.rejected;
         let rgb = next.iter().map(|t| t.color).collect();
         st.history = Some((self.depth.camera, next));
-        Ok((rgb, n, pass_ms + filtered.ms, rays))
+        Ok((rgb, kept_mask, pass_ms + filtered.ms, rays))
     }
 
     /// Runs `st`'s setting on this frame and adds the frame to its totals;
@@ -434,7 +472,7 @@ impl PathFrame {
         st: &mut State,
         pool: &rayon::ThreadPool,
     ) -> Result<Vec<Vec3>, refl_core::Error> {
-        let (rgb, answered, time, rays) = self.filtered(st, pool)?;
+        let (rgb, kept, time, rays) = self.filtered(st, pool)?;
         let img = crate::render::ReflectionImage {
             width: self.g.width(),
             height: self.g.height(),
@@ -444,13 +482,28 @@ impl PathFrame {
         let fin = composite(&self.g, &self.direct, &img);
         let e = compare(&self.truth_final, &fin, &self.handled);
         let t = &mut st.totals;
-        if let Some((last, lm)) = &st.last_final {
+        if let Some((last, lm, lk, lt)) = &st.last_final {
             if let Some(d) = flicker(last, lm, &fin, &self.handled) {
                 t.flicker_sum += d;
                 t.flicker_frames += 1;
             }
+            let both: Vec<bool> = (0..kept.len()).map(|i| lk[i] && kept[i]).collect();
+            let e = compare(last, &fin, &both);
+            let r = compare(lt, &self.truth_final, &both);
+            t.kept_flicker_sum += e.mean_abs * e.pixels as f64;
+            t.kept_reference_sum += r.mean_abs * r.pixels as f64;
+            t.kept_pixels += e.pixels;
+            t.flicker_pixels += (0..kept.len())
+                .filter(|&i| lm[i] && self.handled[i])
+                .count();
         }
-        st.last_final = Some((fin.clone(), self.handled.clone()));
+        let answered = kept.iter().filter(|&&k| k).count();
+        st.last_final = Some((
+            fin.clone(),
+            self.handled.clone(),
+            kept,
+            self.truth_final.clone(),
+        ));
         t.base
             .add(time, self.reference_ms, self.n_reflective, &e, &Extra::None);
         t.frames += 1;
