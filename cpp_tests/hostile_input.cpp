@@ -3977,7 +3977,7 @@ void temporal_functions() {
     gb.color = {nullptr, 0, 0, 0, 0};
     gb.back_depth = none;
     const refl_temporal_options def = refl_temporal_options_default();
-    CHECK(def.max_frames == 8.0f && def.depth_tolerance == 0.02f && def.normal_cos == 0.9f && def.recover);
+    CHECK(def.max_frames == 8.0f && def.depth_tolerance == 0.02f && def.normal_cos == 0.9f && def.recover && def.clamp_history);
     const refl_row_range all{0, h};
 
     // A first frame without history (its camera ignored, here invalid),
@@ -4109,7 +4109,7 @@ void temporal_functions() {
         check("temporal bad options", REFL_STATUS_INVALID_ARGUMENT, [&](Args& a) { a.options = &o; });
     {
         // The ends of the ranges are accepted.
-        const refl_temporal_options ends{kInf, 0.0f, -1.0f, false};
+        const refl_temporal_options ends{kInf, 0.0f, -1.0f, false, false};
         std::vector<refl_temporal_texel> out(n);
         expect_ok<refl_temporal_stats>("temporal range ends", [&](refl_temporal_stats* s) {
             return refl_temporal_resolve_rows(s, {out.data(), n, w, h, w}, {nullptr, 0, 0, 0, 0}, &gb,

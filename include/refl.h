@@ -4630,6 +4630,13 @@ typedef struct refl_temporal_options {
      * valid. Default true.
      */
     bool recover;
+    /**
+     * Clamps an answered pixel's history color to the range of this
+     * frame's answered colors in its 3x3 neighborhood before the blend
+     * (the neighborhood clamp of temporal anti-aliasing; lowers ghosting
+     * where the history shows another reflection). Default true.
+     */
+    bool clamp_history;
 } refl_temporal_options;
 #endif
 

@@ -85,6 +85,9 @@ impl Setting {
                 if !o.recover {
                     s.push_str(";recover=off");
                 }
+                if !o.clamp_history {
+                    s.push_str(";clamp=off");
+                }
                 if self.tss {
                     s.push_str(";half=tss");
                 }

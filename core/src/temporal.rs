@@ -45,7 +45,9 @@
 //!    [`TemporalStats::rejected`]).
 //! 4. **Blend.** Answered this frame with history (its color the kept
 //!    texels' renormalized bilinear mean, its `frames` the fewest among
-//!    them): with `n = min(frames + 1,`
+//!    them; with [`TemporalOptions::clamp_history`], that color first
+//!    clamped per channel to the range of this frame's answered colors in
+//!    the 3x3 pixels around the pixel, see below): with `n = min(frames + 1,`
 //!    [`TemporalOptions::max_frames`]`)`, `color = history + (current -
 //!    history) / n` ([`TemporalStatus::Blended`]): the running mean of the
 //!    frames seen, which becomes an exponential average of weight `1 /
@@ -63,6 +65,25 @@
 //!    takes it for history ([`TemporalStatus::Unanswered`]).
 //! 6. The texel written stores the current surface's linear depth, unit
 //!    world normal and reflection distance for the next frame's tests.
+//!
+//! **History clamping** ([`TemporalOptions::clamp_history`], a production
+//! extension beyond the seed: the neighborhood clamp of temporal
+//! anti-aliasing, Karis, "High Quality Temporal Supersampling", SIGGRAPH
+//! 2014 course *Advances in Real-Time Rendering*): history that survived
+//! the surface tests may still show another reflection (the reflected
+//! object moved against its reflector, or the re-projection of a curved
+//! reflector's reflection is approximate); this frame's answered
+//! neighbors bound what the reflection can be here, so history outside
+//! their per-channel range `[lo, hi]` is moved to its nearest point
+//! before the blend: `color = c + (current - c) / n` with `c =
+//! clamp(history, lo, hi)`. The range always holds the current color, so
+//! a history inside it is unchanged, and the blend never leaves it.
+//! Measured on the report's camera paths (`refl report --method
+//! hiz-temporal`, `max_frames=8`): error 11.10 to 10.88 (room), 21.67 to
+//! 21.31 (concave), 15.84 to 15.63 (walkthrough), 4.49 to 4.23 (stage)
+//! through the virtual point, and the seed's surface re-projection's
+//! ghosting on the stage's mirror floor 17.01 to 6.60; flicker rises by
+//! 2 to 4 percent (the history follows the current frame more closely).
 //!
 //! What normals add: the depth test alone accepts history from a surface
 //! at the same depth with another orientation (a crease, an edge seen
@@ -226,6 +247,10 @@ pub struct TemporalOptions {
     /// Pixels whose ray failed this frame take the history where it is
     /// valid. Default `true`.
     pub recover: bool,
+    /// Clamps the history color of an answered pixel to the range of this
+    /// frame's answered colors in its 3x3 neighborhood before the blend
+    /// (module docs, "History clamping"). Default `true`.
+    pub clamp_history: bool,
 }
 
 impl Default for TemporalOptions {
@@ -235,6 +260,7 @@ impl Default for TemporalOptions {
             depth_tolerance: 0.02,
             normal_cos: 0.9,
             recover: true,
+            clamp_history: true,
         }
     }
 }
@@ -676,6 +702,27 @@ impl<'a> TemporalPass<'a> {
         }
     }
 
+    /// The per-channel range of `cur` (pixel `(x, y)`'s finite current
+    /// color) and this frame's finite answered colors in the 3x3 pixels
+    /// around `(x, y)` (module docs, "History clamping").
+    fn neighborhood_range(&self, x: u32, y: u32, cur: Vec3) -> (Vec3, Vec3) {
+        let (mut lo, mut hi) = (cur, cur);
+        let (w, h) = (self.gbuffer.width(), self.gbuffer.height());
+        for ny in y.saturating_sub(1)..=(y + 1).min(h - 1) {
+            for nx in x.saturating_sub(1)..=(x + 1).min(w - 1) {
+                if self.answered.get(nx, ny).unwrap_or(0) == 0 {
+                    continue;
+                }
+                let c = Vec3::from_array(self.current.get(nx, ny).unwrap_or([f32::NAN; 3]));
+                if c.is_finite() {
+                    lo = lo.min(c);
+                    hi = hi.max(c);
+                }
+            }
+        }
+        (lo, hi)
+    }
+
     /// Pixel `(x, y)`'s next history texel and status (module docs), and
     /// why it found no history, if it did not.
     fn resolve(&self, x: u32, y: u32) -> (HistoryTexel, TemporalStatus, Option<NoHistory>) {
@@ -718,7 +765,13 @@ impl<'a> TemporalPass<'a> {
         match (answered, found) {
             (true, Ok(hist)) => {
                 let n = (hist.frames + 1.0).min(self.options.max_frames);
-                let color = hist.color + (cur_v - hist.color) / n;
+                let h = if self.options.clamp_history {
+                    let (lo, hi) = self.neighborhood_range(x, y, cur_v);
+                    hist.color.clamp(lo, hi)
+                } else {
+                    hist.color
+                };
+                let color = h + (cur_v - h) / n;
                 // current and history finite: so is a convex combination,
                 // except where `cur - hist` overflows; fall back to the
                 // current color there.

@@ -375,8 +375,11 @@ fn a_static_camera_converges_to_the_mean_of_its_frames() {
     let f = front(DepthConvention::ReversedZ);
     let all = vec![1u8; N];
     for max_frames in [f32::INFINITY, 4.0] {
+        // The oracle is the plain running mean: no clamping (the clamped
+        // blend has its own test below).
         let opts = TemporalOptions {
             max_frames,
+            clamp_history: false,
             ..TemporalOptions::default()
         };
         let mut hist: Option<Vec<HistoryTexel>> = None;
@@ -413,6 +416,128 @@ fn a_static_camera_converges_to_the_mean_of_its_frames() {
             let i = (20 * W + 30) as usize;
             let mean: f64 = (0..12).map(|k| f64::from(noisy(k, i)[0])).sum::<f64>() / 12.0;
             assert!((f64::from(hist.as_ref().unwrap()[i].color[0]) - mean).abs() < 1e-4);
+        }
+    }
+}
+
+/// The f64 oracle of one clamped blend at pixel `i` (module docs, step 4
+/// and "History clamping"): the history clamped per channel to the range
+/// of the answered, finite current colors in the 3x3 pixels around `i`
+/// (the pixel's own included), then `c + (current - c) / n`.
+fn clamped_blend(
+    color: &[[f32; 3]],
+    answered: &[u8],
+    hist: [f64; 3],
+    i: usize,
+    n: f64,
+) -> [f64; 3] {
+    let (x, y) = ((i as u32 % W) as i64, (i as u32 / W) as i64);
+    let mut out = [0.0f64; 3];
+    for c in 0..3 {
+        let (mut lo, mut hi) = (f64::INFINITY, f64::NEG_INFINITY);
+        for ny in y - 1..=y + 1 {
+            for nx in x - 1..=x + 1 {
+                if nx < 0 || ny < 0 || nx >= i64::from(W) || ny >= i64::from(H) {
+                    continue;
+                }
+                let j = (ny * i64::from(W) + nx) as usize;
+                if answered[j] != 0 && color[j].iter().all(|v| v.is_finite()) {
+                    lo = lo.min(f64::from(color[j][c]));
+                    hi = hi.max(f64::from(color[j][c]));
+                }
+            }
+        }
+        let h = hist[c].clamp(lo, hi);
+        out[c] = h + (f64::from(color[i][c]) - h) / n;
+    }
+    out
+}
+
+#[test]
+fn the_clamped_blend_matches_its_f64_oracle_and_removes_a_ghost() {
+    let f = front(DepthConvention::ReversedZ);
+    let all = vec![1u8; N];
+    let opts = TemporalOptions::default();
+    assert!(opts.clamp_history, "clamping is the default");
+    let mut hist: Option<Vec<HistoryTexel>> = None;
+    let mut oracle = vec![[0.0f64; 3]; N];
+    let mut clamped = 0usize;
+    for k in 0..8u32 {
+        let color: Vec<[f32; 3]> = (0..N).map(|i| noisy(k, i)).collect();
+        let (next, st, _) = run(
+            &f,
+            &color,
+            &all,
+            hist.as_ref().map(|h| (&f.cam, h.as_slice())),
+            opts,
+        );
+        for i in (0..N).filter(|&i| f.kind[i] != Kind::Sky) {
+            let n = (f64::from(k) + 1.0).min(f64::from(opts.max_frames));
+            let want = if k == 0 {
+                color[i].map(f64::from)
+            } else {
+                let unclamped: Vec<f64> = (0..3)
+                    .map(|c| oracle[i][c] + (f64::from(color[i][c]) - oracle[i][c]) / n)
+                    .collect();
+                let w = clamped_blend(&color, &all, oracle[i], i, n);
+                clamped += usize::from((0..3).any(|c| (w[c] - unclamped[c]).abs() > 1e-3));
+                w
+            };
+            for c in 0..3 {
+                assert!(
+                    (f64::from(next[i].color[c]) - want[c]).abs() < 1e-5,
+                    "frame {k} pixel {i} channel {c}: {} against {}",
+                    next[i].color[c],
+                    want[c]
+                );
+            }
+            assert_eq!(st[i], if k == 0 { RESET } else { BLENDED });
+            oracle[i] = want;
+        }
+        hist = Some(next);
+    }
+    // The noise varies per pixel, so the clamp acts on many blends; a test
+    // where it never acted would not test it.
+    // (2,519 of the 7 x 2,940 blends here.)
+    assert!(clamped > N / 2, "the clamp changed only {clamped} blends");
+
+    // A ghost: eight frames of red history where this frame is green on a
+    // whole region. Clamped, the green region is green at once; without
+    // the clamp it keeps 7/8 of the red.
+    let red = [1.0f32, 0.0, 0.0];
+    let green = [0.0f32, 1.0, 0.0];
+    let (h0, _, _) = run(
+        &f,
+        &vec![red; N],
+        &all,
+        None,
+        TemporalOptions {
+            max_frames: 1.0,
+            ..opts
+        },
+    );
+    let ghost: Vec<HistoryTexel> = h0
+        .iter()
+        .map(|t| HistoryTexel {
+            frames: if t.frames > 0.0 { 8.0 } else { 0.0 },
+            ..*t
+        })
+        .collect();
+    let i = (24 * W + 32) as usize;
+    assert_eq!(f.kind[i], Kind::Box);
+    for (clamp, want) in [(true, green), (false, [1.0 - 1.0 / 8.0, 1.0 / 8.0, 0.0])] {
+        let o = TemporalOptions {
+            clamp_history: clamp,
+            ..opts
+        };
+        let (next, st, _) = run(&f, &vec![green; N], &all, Some((&f.cam, &ghost)), o);
+        assert_eq!(st[i], BLENDED);
+        for c in 0..3 {
+            assert!(
+                (next[i].color[c] - want[c]).abs() < 1e-6,
+                "clamp {clamp}: {:?}",
+                next[i].color
+            );
         }
     }
 }

@@ -141,6 +141,11 @@ pub struct refl_temporal_options {
     /// Pixels whose ray failed this frame take the history where it is
     /// valid. Default true.
     pub recover: bool,
+    /// Clamps an answered pixel's history color to the range of this
+    /// frame's answered colors in its 3x3 neighborhood before the blend
+    /// (the neighborhood clamp of temporal anti-aliasing; lowers ghosting
+    /// where the history shows another reflection). Default true.
+    pub clamp_history: bool,
 }
 
 impl From<TemporalOptions> for refl_temporal_options {
@@ -150,6 +155,7 @@ impl From<TemporalOptions> for refl_temporal_options {
             depth_tolerance: o.depth_tolerance,
             normal_cos: o.normal_cos,
             recover: o.recover,
+            clamp_history: o.clamp_history,
         }
     }
 }
@@ -161,6 +167,7 @@ impl From<refl_temporal_options> for TemporalOptions {
             depth_tolerance: o.depth_tolerance,
             normal_cos: o.normal_cos,
             recover: o.recover,
+            clamp_history: o.clamp_history,
         }
     }
 }

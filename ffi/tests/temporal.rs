@@ -877,12 +877,14 @@ fn options_out_of_range_are_refused_naming_the_field_untouched() {
             depth_tolerance: 0.0,
             normal_cos: -1.0,
             recover: false,
+            clamp_history: false,
         },
         refl_temporal_options {
             max_frames: f32::INFINITY,
             depth_tolerance: f32::MAX,
             normal_cos: 1.0,
             recover: true,
+            clamp_history: true,
         },
     ] {
         let a = r.args();

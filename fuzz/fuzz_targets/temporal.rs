@@ -46,6 +46,9 @@ fn options(b: &mut Bytes) -> refl_temporal_options {
     if b.chance(48) {
         o.recover = b.bool();
     }
+    if b.chance(48) {
+        o.clamp_history = b.bool();
+    }
     o
 }
 

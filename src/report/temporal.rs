@@ -12,7 +12,8 @@ use std::fmt::Write as _;
 /// recovery alone (`max_frames` 1), the filter at the default options
 /// re-projecting through the reflection's
 /// virtual point and, as the seed does, through the surface point; at the
-/// default and long levels also depth-only rejection (the seed's demo);
+/// default and long levels also depth-only rejection (the seed's demo)
+/// and both re-projections without the history clamp;
 /// long only, a shorter and a longer history and blending without
 /// recovery.
 pub fn report_settings(level: Level) -> Vec<Setting> {
@@ -65,6 +66,14 @@ pub fn report_settings(level: Level) -> Vec<Setting> {
             },
             true,
         ));
+        // Without the neighborhood clamp (the seed's blend as it is), both
+        // re-projections: what the clamp removes.
+        let unclamped = TemporalOptions {
+            clamp_history: false,
+            ..base
+        };
+        v.push(on(unclamped, true));
+        v.push(on(unclamped, false));
     }
     if level == Level::Long {
         v.push(on(
