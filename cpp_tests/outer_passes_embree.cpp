@@ -60,26 +60,14 @@ struct HitN {
 };
 
 HitN intersect(RTCScene s, V3 o, V3 d, float tnear) {
-    RTCIntersectContext ctx;
-    rtcInitIntersectContext(&ctx);
-    RTCRayHit rh{};
-    rh.ray.org_x = float(o.x);
-    rh.ray.org_y = float(o.y);
-    rh.ray.org_z = float(o.z);
-    rh.ray.dir_x = float(d.x);
-    rh.ray.dir_y = float(d.y);
-    rh.ray.dir_z = float(d.z);
-    rh.ray.tnear = tnear;
-    rh.ray.tfar = 1e30f;
-    rh.ray.mask = 0xFFFFFFFFu;
-    rh.hit.geomID = RTC_INVALID_GEOMETRY_ID;
-    rh.hit.primID = RTC_INVALID_GEOMETRY_ID;
-    rtcIntersect1(s, &ctx, &rh);
+    const float of[3] = {float(o.x), float(o.y), float(o.z)};
+    const float df[3] = {float(d.x), float(d.y), float(d.z)};
+    const scene::Hit e = scene::trace(s, of, df, tnear, 1e30f);
     HitN h;
-    if (rh.hit.geomID == RTC_INVALID_GEOMETRY_ID) return h;
-    h.geom = rh.hit.geomID;
-    h.t = rh.ray.tfar;
-    h.ng = normalize({rh.hit.Ng_x, rh.hit.Ng_y, rh.hit.Ng_z});
+    if (!e.hit()) return h;
+    h.geom = e.geom;
+    h.t = e.t;
+    h.ng = normalize({e.ng[0], e.ng[1], e.ng[2]});
     if (scene::dot(h.ng, d) > 0) h.ng = -1.0 * h.ng;
     return h;
 }
@@ -304,6 +292,27 @@ void expect_refused(const char* fn, uint32_t got, uint32_t want, const char* arg
 template <class T>
 void fill_pattern(std::vector<T>& v) {
     std::memset(static_cast<void*>(v.data()), 0xA5, v.size() * sizeof(T));
+}
+
+// Fills one output of a call with the pattern and adds it to `snap`: a
+// vector's elements, or a plain struct (stats).
+template <class T>
+void poison_one(Snapshot& snap, std::vector<T>& v) {
+    fill_pattern(v);
+    snap.add(v.data(), v.size() * sizeof(T));
+}
+template <class T>
+void poison_one(Snapshot& snap, T& o) {
+    std::memset(static_cast<void*>(&o), 0xA5, sizeof o);
+    snap.add(&o, sizeof o);
+}
+
+// Every output of a call filled with the pattern, and their snapshot.
+template <class... V>
+Snapshot poisoned(V&... outs) {
+    Snapshot snap;
+    (poison_one(snap, outs), ...);
+    return snap;
 }
 
 // ---------------------------------------------------------------------------
@@ -864,15 +873,7 @@ void extrapolate(const Frame& f, const Ssr& full) {
     std::vector<uint8_t> status(n);
     std::vector<refl_image_pixel> host(n);
     refl_extrapolate_stats es{};
-    fill_pattern(out);
-    fill_pattern(status);
-    fill_pattern(host);
-    std::memset(static_cast<void*>(&es), 0xA5, sizeof es);
-    Snapshot snap;
-    snap.add(out.data(), n * sizeof(refl_vec3));
-    snap.add(status.data(), n);
-    snap.add(host.data(), n * sizeof(refl_image_pixel));
-    snap.add(&es, sizeof es);
+    Snapshot snap = poisoned(out, status, host, es);
     uint32_t got = refl_extrapolate_fill_rows(
         &es, {out.data(), n, kWidth, kHeight, kWidth}, {status.data(), n, kWidth, kHeight, kWidth}, host.data(), n,
         &gb, {full.tex.data(), n, kWidth, kHeight, kWidth}, {color.data(), n, kWidth, kHeight, kWidth}, &o,
@@ -901,13 +902,7 @@ void bad_inputs(const Frame& f0, const Frame& f1) {
         std::vector<uint8_t> ans(n, 1), status(n);
         std::vector<refl_temporal_texel> hist(n), next(n);
         refl_temporal_stats ts{};
-        fill_pattern(next);
-        fill_pattern(status);
-        std::memset(static_cast<void*>(&ts), 0xA5, sizeof ts);
-        Snapshot snap;
-        snap.add(next.data(), n * sizeof(refl_temporal_texel));
-        snap.add(status.data(), n);
-        snap.add(&ts, sizeof ts);
+        Snapshot snap = poisoned(next, status, ts);
         refl_temporal_options o = refl_temporal_options_default();
         o.max_frames = std::numeric_limits<float>::quiet_NaN();
         const refl_temporal_history last{f0.view.cam, {hist.data(), n, kWidth, kHeight, kWidth}};
@@ -922,13 +917,7 @@ void bad_inputs(const Frame& f0, const Frame& f1) {
         std::vector<refl_vec3> out(n);
         std::vector<uint8_t> status(n);
         refl_bounce_stats bs{};
-        fill_pattern(out);
-        fill_pattern(status);
-        std::memset(static_cast<void*>(&bs), 0xA5, sizeof bs);
-        Snapshot snap;
-        snap.add(out.data(), n * sizeof(refl_vec3));
-        snap.add(status.data(), n);
-        snap.add(&bs, sizeof bs);
+        Snapshot snap = poisoned(out, status, bs);
         refl_bounce_options o = refl_bounce_options_default();
         o.attenuation = std::numeric_limits<float>::quiet_NaN();
         const refl_bounce_previous prev{f0.depth_image(), {f0.lit.data(), n, kWidth, kHeight, kWidth}};
@@ -963,15 +952,7 @@ void bad_inputs(const Frame& f0, const Frame& f1) {
     {
         std::vector<refl_host_ray> host(hn);
         refl_ssr_stats ss{};
-        fill_pattern(half);
-        fill_pattern(half_color);
-        fill_pattern(host);
-        std::memset(static_cast<void*>(&ss), 0xA5, sizeof ss);
-        Snapshot snap;
-        snap.add(half.data(), hn * sizeof(refl_ssr_texel));
-        snap.add(half_color.data(), hn * sizeof(refl_vec3));
-        snap.add(host.data(), hn * sizeof(refl_host_ray));
-        snap.add(&ss, sizeof ss);
+        Snapshot snap = poisoned(half, half_color, host, ss);
         const uint32_t got = refl_upsample_trace_rows(&ss, half.data(), hn, {half_color.data(), hn, hw, hh, hw},
                                                       host.data(), hn, &gb, &p.options, p.scratch.data(),
                                                       p.scratch.size(), nullptr, {0, hh});
@@ -987,17 +968,7 @@ void bad_inputs(const Frame& f0, const Frame& f1) {
         std::vector<uint8_t> status(n);
         std::vector<refl_image_pixel> retrace(n);
         refl_upsample_stats us{};
-        fill_pattern(tex);
-        fill_pattern(color);
-        fill_pattern(status);
-        fill_pattern(retrace);
-        std::memset(static_cast<void*>(&us), 0xA5, sizeof us);
-        Snapshot snap;
-        snap.add(tex.data(), n * sizeof(refl_ssr_texel));
-        snap.add(color.data(), n * sizeof(refl_vec3));
-        snap.add(status.data(), n);
-        snap.add(retrace.data(), n * sizeof(refl_image_pixel));
-        snap.add(&us, sizeof us);
+        Snapshot snap = poisoned(tex, color, status, retrace, us);
         refl_upsample_options o = refl_upsample_options_default();
         auto call = [&](size_t half_len) {
             return refl_upsample_resolve_rows(&us, tex.data(), n, {color.data(), n, kWidth, kHeight, kWidth},

@@ -176,6 +176,7 @@ struct Hit {
     unsigned geom = RTC_INVALID_GEOMETRY_ID;  // RTC_INVALID_GEOMETRY_ID: miss
     unsigned prim = RTC_INVALID_GEOMETRY_ID;
     float t = std::numeric_limits<float>::infinity();
+    float ng[3] = {0, 0, 0};  // Embree's geometric normal, not unit (`trace` only)
     bool hit() const { return geom != RTC_INVALID_GEOMETRY_ID; }
 };
 
@@ -203,6 +204,9 @@ inline Hit trace(RTCScene s, const float o[3], const float d[3], float tnear,
         h.geom = rh.hit.geomID;
         h.prim = rh.hit.primID;
         h.t = rh.ray.tfar;
+        h.ng[0] = rh.hit.Ng_x;
+        h.ng[1] = rh.hit.Ng_y;
+        h.ng[2] = rh.hit.Ng_z;
     }
     return h;
 }

@@ -370,10 +370,35 @@ fn noisy(frame: u32, i: usize) -> [f32; 3] {
     [r.x, r.y, (r.x + r.y) * 0.5]
 }
 
+/// Runs `frames` frames of [`noisy`] colors, every pixel answered, on the
+/// static frame `f` with `opts`; `check` sees each frame's number, colors,
+/// next history and statuses. Returns the last history.
+fn run_noisy_frames(
+    f: &Frame,
+    opts: TemporalOptions,
+    frames: u32,
+    mut check: impl FnMut(u32, &[[f32; 3]], &[HistoryTexel], &[u8]),
+) -> Vec<HistoryTexel> {
+    let all = vec![1u8; N];
+    let mut hist: Option<Vec<HistoryTexel>> = None;
+    for k in 0..frames {
+        let color: Vec<[f32; 3]> = (0..N).map(|i| noisy(k, i)).collect();
+        let (next, st, _) = run(
+            f,
+            &color,
+            &all,
+            hist.as_ref().map(|h| (&f.cam, h.as_slice())),
+            opts,
+        );
+        check(k, &color, &next, &st);
+        hist = Some(next);
+    }
+    hist.unwrap_or_default()
+}
+
 #[test]
 fn a_static_camera_converges_to_the_mean_of_its_frames() {
     let f = front(DepthConvention::ReversedZ);
-    let all = vec![1u8; N];
     for max_frames in [f32::INFINITY, 4.0] {
         // The oracle is the plain running mean: no clamping (the clamped
         // blend has its own test below).
@@ -382,17 +407,8 @@ fn a_static_camera_converges_to_the_mean_of_its_frames() {
             clamp_history: false,
             ..TemporalOptions::default()
         };
-        let mut hist: Option<Vec<HistoryTexel>> = None;
         let mut oracle = vec![[0.0f64; 3]; N];
-        for k in 0..12u32 {
-            let color: Vec<[f32; 3]> = (0..N).map(|i| noisy(k, i)).collect();
-            let (next, st, _) = run(
-                &f,
-                &color,
-                &all,
-                hist.as_ref().map(|h| (&f.cam, h.as_slice())),
-                opts,
-            );
+        let hist = run_noisy_frames(&f, opts, 12, |k, color, next, st| {
             for i in 0..N {
                 if f.kind[i] == Kind::Sky {
                     assert_eq!(st[i], SKIPPED);
@@ -409,13 +425,12 @@ fn a_static_camera_converges_to_the_mean_of_its_frames() {
                 assert_eq!(f64::from(next[i].frames), n);
                 assert_eq!(st[i], if k == 0 { RESET } else { BLENDED });
             }
-            hist = Some(next);
-        }
+        });
         // With no cap the result is the plain mean of the 12 frames.
         if max_frames == f32::INFINITY {
             let i = (20 * W + 30) as usize;
             let mean: f64 = (0..12).map(|k| f64::from(noisy(k, i)[0])).sum::<f64>() / 12.0;
-            assert!((f64::from(hist.as_ref().unwrap()[i].color[0]) - mean).abs() < 1e-4);
+            assert!((f64::from(hist[i].color[0]) - mean).abs() < 1e-4);
         }
     }
 }
@@ -459,18 +474,9 @@ fn the_clamped_blend_matches_its_f64_oracle_and_removes_a_ghost() {
     let all = vec![1u8; N];
     let opts = TemporalOptions::default();
     assert!(opts.clamp_history, "clamping is the default");
-    let mut hist: Option<Vec<HistoryTexel>> = None;
     let mut oracle = vec![[0.0f64; 3]; N];
     let mut clamped = 0usize;
-    for k in 0..8u32 {
-        let color: Vec<[f32; 3]> = (0..N).map(|i| noisy(k, i)).collect();
-        let (next, st, _) = run(
-            &f,
-            &color,
-            &all,
-            hist.as_ref().map(|h| (&f.cam, h.as_slice())),
-            opts,
-        );
+    run_noisy_frames(&f, opts, 8, |k, color, next, st| {
         for i in (0..N).filter(|&i| f.kind[i] != Kind::Sky) {
             let n = (f64::from(k) + 1.0).min(f64::from(opts.max_frames));
             let want = if k == 0 {
@@ -479,7 +485,7 @@ fn the_clamped_blend_matches_its_f64_oracle_and_removes_a_ghost() {
                 let unclamped: Vec<f64> = (0..3)
                     .map(|c| oracle[i][c] + (f64::from(color[i][c]) - oracle[i][c]) / n)
                     .collect();
-                let w = clamped_blend(&color, &all, oracle[i], i, n);
+                let w = clamped_blend(color, &all, oracle[i], i, n);
                 clamped += usize::from((0..3).any(|c| (w[c] - unclamped[c]).abs() > 1e-3));
                 w
             };
@@ -494,8 +500,7 @@ fn the_clamped_blend_matches_its_f64_oracle_and_removes_a_ghost() {
             assert_eq!(st[i], if k == 0 { RESET } else { BLENDED });
             oracle[i] = want;
         }
-        hist = Some(next);
-    }
+    });
     // The noise varies per pixel, so the clamp acts on many blends; a test
     // where it never acted would not test it.
     // (2,519 of the 7 x 2,940 blends here.)
