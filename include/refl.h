@@ -1147,6 +1147,145 @@ typedef uint32_t refl_plan_reason;
 #endif // __cplusplus
 #endif
 
+#if (defined(REFL_FEATURE_DEPTH_IMAGE) || defined(REFL_FEATURE_HIZ) || defined(REFL_FEATURE_MIRROR))
+/**
+ * The reflectors a calibrated option applies to
+ * (`refl_plan_cost_entry.surface`, `refl_core::plan::Surface`).
+ */
+enum refl_plan_surface
+#if defined(__cplusplus) || __STDC_VERSION__ >= 202311L
+  : uint32_t
+#endif // defined(__cplusplus) || __STDC_VERSION__ >= 202311L
+ {
+#if (defined(REFL_FEATURE_DEPTH_IMAGE) || defined(REFL_FEATURE_HIZ) || defined(REFL_FEATURE_MIRROR))
+    /**
+     * Any reflector.
+     */
+    REFL_PLAN_SURFACE_ANY = 0,
+#endif
+#if (defined(REFL_FEATURE_DEPTH_IMAGE) || defined(REFL_FEATURE_HIZ) || defined(REFL_FEATURE_MIRROR))
+    /**
+     * Planar reflectors only (the planar pass; errors measured there).
+     */
+    REFL_PLAN_SURFACE_PLANAR = 1,
+#endif
+#if (defined(REFL_FEATURE_DEPTH_IMAGE) || defined(REFL_FEATURE_HIZ) || defined(REFL_FEATURE_MIRROR))
+    /**
+     * Curved (non-planar) reflectors only.
+     */
+    REFL_PLAN_SURFACE_CURVED = 2,
+#endif
+};
+#ifndef __cplusplus
+#if __STDC_VERSION__ >= 202311L
+typedef enum refl_plan_surface refl_plan_surface;
+#else
+typedef uint32_t refl_plan_surface;
+#endif // __STDC_VERSION__ >= 202311L
+#endif // __cplusplus
+#endif
+
+#if (defined(REFL_FEATURE_DEPTH_IMAGE) || defined(REFL_FEATURE_HIZ) || defined(REFL_FEATURE_MIRROR))
+/**
+ * What a budget limits (`refl_plan_budget.kind`,
+ * `refl_core::plan::Budget`).
+ */
+enum refl_plan_budget_kind
+#if defined(__cplusplus) || __STDC_VERSION__ >= 202311L
+  : uint32_t
+#endif // defined(__cplusplus) || __STDC_VERSION__ >= 202311L
+ {
+#if (defined(REFL_FEATURE_DEPTH_IMAGE) || defined(REFL_FEATURE_HIZ) || defined(REFL_FEATURE_MIRROR))
+    /**
+     * The frame's mean error over its reflective pixels, 0..255, at most
+     * `value`.
+     */
+    REFL_PLAN_BUDGET_KIND_MAX_ERROR = 0,
+#endif
+#if (defined(REFL_FEATURE_DEPTH_IMAGE) || defined(REFL_FEATURE_HIZ) || defined(REFL_FEATURE_MIRROR))
+    /**
+     * The frame's time at most `value` times the reference tracer's time
+     * for one ray per reflective pixel.
+     */
+    REFL_PLAN_BUDGET_KIND_MAX_TIME = 1,
+#endif
+};
+#ifndef __cplusplus
+#if __STDC_VERSION__ >= 202311L
+typedef enum refl_plan_budget_kind refl_plan_budget_kind;
+#else
+typedef uint32_t refl_plan_budget_kind;
+#endif // __STDC_VERSION__ >= 202311L
+#endif // __cplusplus
+#endif
+
+#if (defined(REFL_FEATURE_DEPTH_IMAGE) || defined(REFL_FEATURE_HIZ) || defined(REFL_FEATURE_MIRROR))
+/**
+ * Why a group got its option (`refl_plan_choice.reason`,
+ * `refl_core::plan::ChoiceReason`).
+ */
+enum refl_plan_choice_reason
+#if defined(__cplusplus) || __STDC_VERSION__ >= 202311L
+  : uint32_t
+#endif // defined(__cplusplus) || __STDC_VERSION__ >= 202311L
+ {
+#if (defined(REFL_FEATURE_DEPTH_IMAGE) || defined(REFL_FEATURE_HIZ) || defined(REFL_FEATURE_MIRROR))
+    /**
+     * The group's fastest option on the front, and the budget holds with
+     * it.
+     */
+    REFL_PLAN_CHOICE_REASON_FASTEST = 0,
+#endif
+#if (defined(REFL_FEATURE_DEPTH_IMAGE) || defined(REFL_FEATURE_HIZ) || defined(REFL_FEATURE_MIRROR))
+    /**
+     * The budget bought the group a more accurate option than its
+     * fastest, but not its most accurate.
+     */
+    REFL_PLAN_CHOICE_REASON_TRADE_OFF = 1,
+#endif
+#if (defined(REFL_FEATURE_DEPTH_IMAGE) || defined(REFL_FEATURE_HIZ) || defined(REFL_FEATURE_MIRROR))
+    /**
+     * The group's most accurate option on the front, within the budget.
+     */
+    REFL_PLAN_CHOICE_REASON_MOST_ACCURATE = 2,
+#endif
+#if (defined(REFL_FEATURE_DEPTH_IMAGE) || defined(REFL_FEATURE_HIZ) || defined(REFL_FEATURE_MIRROR))
+    /**
+     * The error budget cannot be met: every group takes its most accurate
+     * option.
+     */
+    REFL_PLAN_CHOICE_REASON_ERROR_BUDGET_UNREACHABLE = 3,
+#endif
+#if (defined(REFL_FEATURE_DEPTH_IMAGE) || defined(REFL_FEATURE_HIZ) || defined(REFL_FEATURE_MIRROR))
+    /**
+     * The time budget cannot be met: every group takes its fastest
+     * option.
+     */
+    REFL_PLAN_CHOICE_REASON_TIME_BUDGET_UNREACHABLE = 4,
+#endif
+#if (defined(REFL_FEATURE_DEPTH_IMAGE) || defined(REFL_FEATURE_HIZ) || defined(REFL_FEATURE_MIRROR))
+    /**
+     * One option is on the group's front (any other is dominated).
+     */
+    REFL_PLAN_CHOICE_REASON_ONLY_OPTION = 5,
+#endif
+#if (defined(REFL_FEATURE_DEPTH_IMAGE) || defined(REFL_FEATURE_HIZ) || defined(REFL_FEATURE_MIRROR))
+    /**
+     * No calibrated option applies (class, surface, or what the host
+     * offers): the group's pixels are left out of the plan.
+     */
+    REFL_PLAN_CHOICE_REASON_NO_OPTION = 6,
+#endif
+};
+#ifndef __cplusplus
+#if __STDC_VERSION__ >= 202311L
+typedef enum refl_plan_choice_reason refl_plan_choice_reason;
+#else
+typedef uint32_t refl_plan_choice_reason;
+#endif // __STDC_VERSION__ >= 202311L
+#endif // __cplusplus
+#endif
+
 #if (defined(REFL_FEATURE_DEPTH_IMAGE) || defined(REFL_FEATURE_HIZ))
 /**
  * What the filter did at a pixel (the bytes of
@@ -7288,11 +7427,19 @@ refl_status refl_plan_passes(struct refl_plan *out,
 
 #if (defined(REFL_FEATURE_DEPTH_IMAGE) || defined(REFL_FEATURE_HIZ) || defined(REFL_FEATURE_MIRROR))
 /**
- * The most groups `refl_plan_choose_methods` writes for a summary of
- * `objects_len` objects (one per object and class, one per class for
- * unlisted objects): the length of `choices` that always suffices.
+ * Writes into `*out_len` the most groups `refl_plan_choose_methods`
+ * writes for a summary of `objects` objects (one per object and class,
+ * one per class for unlisted objects): the `choices_len` that always
+ * suffices.
+ *
+ * Returns `REFL_STATUS_NULL_POINTER` if `out_len` is NULL,
+ * `REFL_STATUS_INVALID_ARGUMENT` if it is misaligned. Nothing is written
+ * on error.
+ *
+ * # Safety
+ * `out_len` NULL or writable.
  */
-size_t refl_plan_choices_len(size_t objects_len);
+refl_status refl_plan_choices_len(size_t *out_len, uint32_t objects);
 #endif
 
 #if (defined(REFL_FEATURE_DEPTH_IMAGE) || defined(REFL_FEATURE_HIZ) || defined(REFL_FEATURE_MIRROR))
@@ -7311,7 +7458,7 @@ size_t refl_plan_choices_len(size_t objects_len);
  * offers every pass it runs; of those, only the Pareto front counts, and
  * the choice across groups is a greedy multiple-choice knapsack along the
  * fronts (see the core's docs). `choices_len` of
- * `refl_plan_choices_len(objects_len)` always suffices.
+ * what `refl_plan_choices_len` gives for `objects_len` always suffices.
  *
  * Returns `REFL_STATUS_NULL_POINTER` if `out`, `frame`, `caps`, `budget`,
  * or `choices` / `objects` / `planar` / `hints` / `table` with a non-zero

@@ -1028,12 +1028,25 @@ pub(crate) fn choice_to_c(c: &Choice, table: &[CostEntry], plan: &BudgetPlan) ->
     }
 }
 
-/// The most groups `refl_plan_choose_methods` writes for a summary of
-/// `objects_len` objects (one per object and class, one per class for
-/// unlisted objects): the length of `choices` that always suffices.
+/// Writes into `*out_len` the most groups `refl_plan_choose_methods`
+/// writes for a summary of `objects` objects (one per object and class,
+/// one per class for unlisted objects): the `choices_len` that always
+/// suffices.
+///
+/// Returns `REFL_STATUS_NULL_POINTER` if `out_len` is NULL,
+/// `REFL_STATUS_INVALID_ARGUMENT` if it is misaligned. Nothing is written
+/// on error.
+///
+/// # Safety
+/// `out_len` NULL or writable.
 #[no_mangle]
-pub extern "C" fn refl_plan_choices_len(objects_len: usize) -> usize {
-    choices_len(objects_len)
+pub unsafe extern "C" fn refl_plan_choices_len(out_len: *mut usize, objects: u32) -> refl_status {
+    guard("refl_plan_choices_len", || {
+        let out = Out::new(out_len, "out_len")?;
+        // SAFETY: checked; caller contract.
+        unsafe { out.write(choices_len(objects as usize)) };
+        Ok(())
+    })
 }
 
 /// Chooses, for every object and roughness class of a frame's reflective
@@ -1050,7 +1063,7 @@ pub extern "C" fn refl_plan_choices_len(objects_len: usize) -> usize {
 /// offers every pass it runs; of those, only the Pareto front counts, and
 /// the choice across groups is a greedy multiple-choice knapsack along the
 /// fronts (see the core's docs). `choices_len` of
-/// `refl_plan_choices_len(objects_len)` always suffices.
+/// what `refl_plan_choices_len` gives for `objects_len` always suffices.
 ///
 /// Returns `REFL_STATUS_NULL_POINTER` if `out`, `frame`, `caps`, `budget`,
 /// or `choices` / `objects` / `planar` / `hints` / `table` with a non-zero

@@ -84,8 +84,7 @@ macro_rules! value {
 /// Functions that return a value, not a `refl_status`, and have no error
 /// path (`refl_last_error_message` takes any buffer, NULL included), besides
 /// the `refl_<module>_options_default` functions.
-const INFALLIBLE: [&str; 5] = [
-    "refl_plan_choices_len",
+const INFALLIBLE: [&str; 4] = [
     "refl_version",
     "refl_version_number",
     "refl_status_string",
@@ -1458,8 +1457,10 @@ fn summary(cov: &mut Coverage) {
             H
         )
     );
-    let n_choices = value!(cov, refl_plan_choices_len(2));
+    let mut n_choices = 0usize;
+    ok!(cov, refl_plan_choices_len(&mut n_choices, 2));
     assert_eq!(n_choices, 9);
+    err!(cov, refl_plan_choices_len(core::ptr::null_mut(), 2));
     let mut choices = [refl_plan_choice {
         object: 0,
         roughness_class: 0,

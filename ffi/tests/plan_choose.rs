@@ -277,11 +277,21 @@ fn blank_choice() -> refl_plan_choice {
     }
 }
 
+fn c_choices_len(objects: usize) -> usize {
+    let mut n = usize::MAX;
+    let st = unsafe { refl_plan_choices_len(&mut n, u32::try_from(objects).unwrap()) };
+    assert_eq!(st, refl_status::Ok);
+    n
+}
+
 #[test]
 fn choices_len_is_the_cores() {
-    for n in [0usize, 1, 2, 17, usize::MAX] {
-        assert_eq!(refl_plan_choices_len(n), choices_len(n));
+    for n in [0u32, 1, 2, 17, u32::MAX] {
+        assert_eq!(c_choices_len(n as usize), choices_len(n as usize));
     }
+    let st = unsafe { refl_plan_choices_len(core::ptr::null_mut(), 2) };
+    assert_eq!(st, refl_status::NullPointer);
+    assert!(last_error().contains("`out_len`"), "{}", last_error());
 }
 
 #[test]
@@ -301,7 +311,7 @@ fn c_call_equals_the_core_on_frames_hosts_and_budgets() {
                     &mut core, &s.frame, &s.objects, &s.planar, &s.hints, caps, &t, b,
                 )
                 .unwrap();
-                let mut choices = vec![blank_choice(); refl_plan_choices_len(s.objects.len())];
+                let mut choices = vec![blank_choice(); c_choices_len(s.objects.len())];
                 let mut out = refl_plan_budget_plan::default();
                 let bc = budget_c(b);
                 let (st, allocs) = counted(|| unsafe {
