@@ -4716,6 +4716,65 @@ void summary_functions() {
     plan_call("plan hints of another count", REFL_STATUS_INVALID_ARGUMENT, 2, one_hint, 1, w);
     plan_call("plan hints NULL", REFL_STATUS_NULL_POINTER, 2, nullptr, 2, w);
     plan_call("plan zero width", REFL_STATUS_INVALID_ARGUMENT, 2, nullptr, 0, 0);
+
+    // Method choice by budget: a mirror option by rays, one by the probe.
+    size_t nchoices = 0;
+    CHECK_STATUS(refl_plan_choices_len(&nchoices, 2), REFL_STATUS_OK);
+    CHECK_EQ(nchoices, size_t(9));
+    CHECK_STATUS(refl_plan_choices_len(nullptr, 2), REFL_STATUS_NULL_POINTER);
+    const refl_plan_cost_entry table[3] = {
+        {1, 0, REFL_PLAN_SURFACE_ANY, 1u << REFL_PLAN_PASS_HOST_RAYS, 1.0f, 0.0f},
+        {2, 0, REFL_PLAN_SURFACE_ANY, 1u << REFL_PLAN_PASS_PROBE, 0.05f, 30.0f},
+        {3, 1, REFL_PLAN_SURFACE_ANY, 1u << REFL_PLAN_PASS_PROBE, 0.05f, 20.0f},
+    };
+    const refl_plan_budget budget{REFL_PLAN_BUDGET_KIND_MAX_ERROR, 5.0f};
+    const bool flat[2] = {false, false};
+    std::vector<refl_plan_choice> choices(nchoices);
+    const refl_plan_budget_plan bp = expect_ok<refl_plan_budget_plan>("choose", [&](refl_plan_budget_plan* p) {
+        return refl_plan_choose_methods(p, choices.data(), choices.size(), &frame, objs, 2, flat, 2, nullptr, 0,
+                                        &caps, table, 3, &budget);
+    });
+    CHECK(bp.groups <= choices.size() && bp.covered <= bp.reflective);
+    for (size_t k = 0; k < bp.groups; ++k)
+        CHECK(choices[k].entry == REFL_PLAN_NO_ENTRY || choices[k].entry < 3);
+    refl_plan_cost_entry bad_table[3] = {table[0], table[1], table[2]};
+    bad_table[1].time_ratio = kNaN;
+    refl_plan_cost_entry bad_class[3] = {table[0], table[1], table[2]};
+    bad_class[2].roughness_class = 9;
+    const refl_plan_budget nan_budget{REFL_PLAN_BUDGET_KIND_MAX_TIME, kNaN};
+    const refl_plan_budget bad_kind{7, 1.0f};
+    auto choose_call = [&](const char* what, refl_status want, size_t choices_len, const bool* pl, size_t planar_len,
+                           const refl_plan_object_hints* hints, size_t hints_len, const refl_plan_cost_entry* t,
+                           size_t table_len, const refl_plan_budget* b) {
+        std::vector<refl_plan_choice> cs(nchoices);
+        std::memset(cs.data(), 0x5A, cs.size() * sizeof(refl_plan_choice));
+        std::vector<unsigned char> before(cs.size() * sizeof(refl_plan_choice), 0x5A);
+        expect<refl_plan_budget_plan>(what, want, [&](refl_plan_budget_plan* p) {
+            return refl_plan_choose_methods(p, cs.data(), choices_len, &frame, objs, 2, pl, planar_len, hints,
+                                            hints_len, &caps, t, table_len, b);
+        });
+        CHECK(std::memcmp(cs.data(), before.data(), before.size()) == 0);
+    };
+    const size_t nc = choices.size();
+    choose_call("choose NULL budget", REFL_STATUS_NULL_POINTER, nc, flat, 2, nullptr, 0, table, 3, nullptr);
+    choose_call("choose NULL table", REFL_STATUS_NULL_POINTER, nc, flat, 2, nullptr, 0, nullptr, 3, &budget);
+    choose_call("choose NULL planar", REFL_STATUS_NULL_POINTER, nc, nullptr, 2, nullptr, 0, table, 3, &budget);
+    choose_call("choose NULL hints", REFL_STATUS_NULL_POINTER, nc, flat, 2, nullptr, 2, table, 3, &budget);
+    choose_call("choose NaN budget", REFL_STATUS_INVALID_ARGUMENT, nc, flat, 2, nullptr, 0, table, 3, &nan_budget);
+    choose_call("choose unknown budget kind", REFL_STATUS_INVALID_ARGUMENT, nc, flat, 2, nullptr, 0, table, 3,
+                &bad_kind);
+    choose_call("choose NaN table time", REFL_STATUS_INVALID_ARGUMENT, nc, flat, 2, nullptr, 0, bad_table, 3,
+                &budget);
+    choose_call("choose unknown class", REFL_STATUS_INVALID_ARGUMENT, nc, flat, 2, nullptr, 0, bad_class, 3,
+                &budget);
+    choose_call("choose hints of another count", REFL_STATUS_INVALID_ARGUMENT, nc, flat, 2, one_hint, 1, table, 3,
+                &budget);
+    choose_call("choose planar too short", REFL_STATUS_INVALID_ARGUMENT, nc, flat, 1, nullptr, 0, table, 3, &budget);
+    if (bp.groups > 0)
+        choose_call("choose choices too short", REFL_STATUS_INSUFFICIENT_SIZE, bp.groups - 1, flat, 2, nullptr, 0,
+                    table, 3, &budget);
+    choose_call("choose huge table_len", REFL_STATUS_INVALID_ARGUMENT, nc, flat, 2, nullptr, 0, table, SIZE_MAX,
+                &budget);
 }
 
 int main() {

@@ -186,6 +186,14 @@
 #define REFL_PLAN_PASS_COUNT 9
 #endif
 
+#if (defined(REFL_FEATURE_DEPTH_IMAGE) || defined(REFL_FEATURE_HIZ) || defined(REFL_FEATURE_MIRROR))
+/**
+ * A table index that is no entry (`refl_plan_choice.entry`, `faster`,
+ * `more_accurate`).
+ */
+#define REFL_PLAN_NO_ENTRY 4294967295
+#endif
+
 #if defined(REFL_FEATURE_TCRR)
 /**
  * `refl_tcrr_surfel::flags` bit: the surface fields are valid.
@@ -1135,6 +1143,145 @@ enum refl_plan_reason
 typedef enum refl_plan_reason refl_plan_reason;
 #else
 typedef uint32_t refl_plan_reason;
+#endif // __STDC_VERSION__ >= 202311L
+#endif // __cplusplus
+#endif
+
+#if (defined(REFL_FEATURE_DEPTH_IMAGE) || defined(REFL_FEATURE_HIZ) || defined(REFL_FEATURE_MIRROR))
+/**
+ * The reflectors a calibrated option applies to
+ * (`refl_plan_cost_entry.surface`, `refl_core::plan::Surface`).
+ */
+enum refl_plan_surface
+#if defined(__cplusplus) || __STDC_VERSION__ >= 202311L
+  : uint32_t
+#endif // defined(__cplusplus) || __STDC_VERSION__ >= 202311L
+ {
+#if (defined(REFL_FEATURE_DEPTH_IMAGE) || defined(REFL_FEATURE_HIZ) || defined(REFL_FEATURE_MIRROR))
+    /**
+     * Any reflector.
+     */
+    REFL_PLAN_SURFACE_ANY = 0,
+#endif
+#if (defined(REFL_FEATURE_DEPTH_IMAGE) || defined(REFL_FEATURE_HIZ) || defined(REFL_FEATURE_MIRROR))
+    /**
+     * Planar reflectors only (the planar pass; errors measured there).
+     */
+    REFL_PLAN_SURFACE_PLANAR = 1,
+#endif
+#if (defined(REFL_FEATURE_DEPTH_IMAGE) || defined(REFL_FEATURE_HIZ) || defined(REFL_FEATURE_MIRROR))
+    /**
+     * Curved (non-planar) reflectors only.
+     */
+    REFL_PLAN_SURFACE_CURVED = 2,
+#endif
+};
+#ifndef __cplusplus
+#if __STDC_VERSION__ >= 202311L
+typedef enum refl_plan_surface refl_plan_surface;
+#else
+typedef uint32_t refl_plan_surface;
+#endif // __STDC_VERSION__ >= 202311L
+#endif // __cplusplus
+#endif
+
+#if (defined(REFL_FEATURE_DEPTH_IMAGE) || defined(REFL_FEATURE_HIZ) || defined(REFL_FEATURE_MIRROR))
+/**
+ * What a budget limits (`refl_plan_budget.kind`,
+ * `refl_core::plan::Budget`).
+ */
+enum refl_plan_budget_kind
+#if defined(__cplusplus) || __STDC_VERSION__ >= 202311L
+  : uint32_t
+#endif // defined(__cplusplus) || __STDC_VERSION__ >= 202311L
+ {
+#if (defined(REFL_FEATURE_DEPTH_IMAGE) || defined(REFL_FEATURE_HIZ) || defined(REFL_FEATURE_MIRROR))
+    /**
+     * The frame's mean error over its reflective pixels, 0..255, at most
+     * `value`.
+     */
+    REFL_PLAN_BUDGET_KIND_MAX_ERROR = 0,
+#endif
+#if (defined(REFL_FEATURE_DEPTH_IMAGE) || defined(REFL_FEATURE_HIZ) || defined(REFL_FEATURE_MIRROR))
+    /**
+     * The frame's time at most `value` times the reference tracer's time
+     * for one ray per reflective pixel.
+     */
+    REFL_PLAN_BUDGET_KIND_MAX_TIME = 1,
+#endif
+};
+#ifndef __cplusplus
+#if __STDC_VERSION__ >= 202311L
+typedef enum refl_plan_budget_kind refl_plan_budget_kind;
+#else
+typedef uint32_t refl_plan_budget_kind;
+#endif // __STDC_VERSION__ >= 202311L
+#endif // __cplusplus
+#endif
+
+#if (defined(REFL_FEATURE_DEPTH_IMAGE) || defined(REFL_FEATURE_HIZ) || defined(REFL_FEATURE_MIRROR))
+/**
+ * Why a group got its option (`refl_plan_choice.reason`,
+ * `refl_core::plan::ChoiceReason`).
+ */
+enum refl_plan_choice_reason
+#if defined(__cplusplus) || __STDC_VERSION__ >= 202311L
+  : uint32_t
+#endif // defined(__cplusplus) || __STDC_VERSION__ >= 202311L
+ {
+#if (defined(REFL_FEATURE_DEPTH_IMAGE) || defined(REFL_FEATURE_HIZ) || defined(REFL_FEATURE_MIRROR))
+    /**
+     * The group's fastest option on the front, and the budget holds with
+     * it.
+     */
+    REFL_PLAN_CHOICE_REASON_FASTEST = 0,
+#endif
+#if (defined(REFL_FEATURE_DEPTH_IMAGE) || defined(REFL_FEATURE_HIZ) || defined(REFL_FEATURE_MIRROR))
+    /**
+     * The budget bought the group a more accurate option than its
+     * fastest, but not its most accurate.
+     */
+    REFL_PLAN_CHOICE_REASON_TRADE_OFF = 1,
+#endif
+#if (defined(REFL_FEATURE_DEPTH_IMAGE) || defined(REFL_FEATURE_HIZ) || defined(REFL_FEATURE_MIRROR))
+    /**
+     * The group's most accurate option on the front, within the budget.
+     */
+    REFL_PLAN_CHOICE_REASON_MOST_ACCURATE = 2,
+#endif
+#if (defined(REFL_FEATURE_DEPTH_IMAGE) || defined(REFL_FEATURE_HIZ) || defined(REFL_FEATURE_MIRROR))
+    /**
+     * The error budget cannot be met: every group takes its most accurate
+     * option.
+     */
+    REFL_PLAN_CHOICE_REASON_ERROR_BUDGET_UNREACHABLE = 3,
+#endif
+#if (defined(REFL_FEATURE_DEPTH_IMAGE) || defined(REFL_FEATURE_HIZ) || defined(REFL_FEATURE_MIRROR))
+    /**
+     * The time budget cannot be met: every group takes its fastest
+     * option.
+     */
+    REFL_PLAN_CHOICE_REASON_TIME_BUDGET_UNREACHABLE = 4,
+#endif
+#if (defined(REFL_FEATURE_DEPTH_IMAGE) || defined(REFL_FEATURE_HIZ) || defined(REFL_FEATURE_MIRROR))
+    /**
+     * One option is on the group's front (any other is dominated).
+     */
+    REFL_PLAN_CHOICE_REASON_ONLY_OPTION = 5,
+#endif
+#if (defined(REFL_FEATURE_DEPTH_IMAGE) || defined(REFL_FEATURE_HIZ) || defined(REFL_FEATURE_MIRROR))
+    /**
+     * No calibrated option applies (class, surface, or what the host
+     * offers): the group's pixels are left out of the plan.
+     */
+    REFL_PLAN_CHOICE_REASON_NO_OPTION = 6,
+#endif
+};
+#ifndef __cplusplus
+#if __STDC_VERSION__ >= 202311L
+typedef enum refl_plan_choice_reason refl_plan_choice_reason;
+#else
+typedef uint32_t refl_plan_choice_reason;
 #endif // __STDC_VERSION__ >= 202311L
 #endif // __cplusplus
 #endif
@@ -3533,6 +3680,173 @@ typedef struct refl_plan_host_caps {
      */
     bool probe;
 } refl_plan_host_caps;
+#endif
+
+#if (defined(REFL_FEATURE_DEPTH_IMAGE) || defined(REFL_FEATURE_HIZ) || defined(REFL_FEATURE_MIRROR))
+/**
+ * What `refl_plan_choose_methods` predicts for the frame
+ * (`refl_core::plan::BudgetPlan`).
+ */
+typedef struct refl_plan_budget_plan {
+    /**
+     * Groups written to `choices`.
+     */
+    size_t groups;
+    /**
+     * Reflective pixels of the frame.
+     */
+    uint64_t reflective;
+    /**
+     * Of them, the ones some option handles.
+     */
+    uint64_t covered;
+    /**
+     * Predicted time: the sum over groups of pixels times the entry's
+     * `time_ratio`, over the reflective pixels.
+     */
+    double time_ratio;
+    /**
+     * Predicted mean error (0..255) over the covered pixels.
+     */
+    double error_255;
+    /**
+     * Whether the prediction meets the budget.
+     */
+    bool met;
+} refl_plan_budget_plan;
+#endif
+
+#if (defined(REFL_FEATURE_DEPTH_IMAGE) || defined(REFL_FEATURE_HIZ) || defined(REFL_FEATURE_MIRROR))
+/**
+ * The option chosen for one group of pixels (one object's reflective
+ * pixels of one roughness class, or those of unlisted objects), and why
+ * (`refl_core::plan::Choice`).
+ */
+typedef struct refl_plan_choice {
+    /**
+     * The object (its index in `objects`), or `REFL_SUMMARY_NO_OBJECT`
+     * for the pixels of unlisted objects.
+     */
+    uint32_t object;
+    /**
+     * Their roughness class: 0 mirror, 1 glossy, 2 rough.
+     */
+    uint32_t roughness_class;
+    /**
+     * Reflective pixels of the group.
+     */
+    uint64_t pixels;
+    /**
+     * The chosen entry's index in the table (`REFL_PLAN_NO_ENTRY`: no
+     * option applies, `REFL_PLAN_CHOICE_REASON_NO_OPTION`).
+     */
+    uint32_t entry;
+    /**
+     * Why (`refl_plan_choice_reason`).
+     */
+    uint32_t reason;
+    /**
+     * Options of the table that apply to the group.
+     */
+    uint32_t applicable;
+    /**
+     * Of them, the ones on the group's Pareto front.
+     */
+    uint32_t front;
+    /**
+     * The next faster option on the front, not taken
+     * (`REFL_PLAN_NO_ENTRY`: the choice is the fastest).
+     */
+    uint32_t faster;
+    /**
+     * The next more accurate option on the front, not taken
+     * (`REFL_PLAN_NO_ENTRY`: the choice is the most accurate).
+     */
+    uint32_t more_accurate;
+    /**
+     * The chosen entry's `id` (0 without an entry).
+     */
+    uint32_t id;
+    /**
+     * The chosen entry's `passes` (0 without an entry).
+     */
+    uint32_t passes;
+    /**
+     * The chosen entry's `time_ratio` (0 without an entry).
+     */
+    float time_ratio;
+    /**
+     * The chosen entry's `error_255` (0 without an entry).
+     */
+    float error_255;
+    /**
+     * The group's part of the plan's `time_ratio` (its pixels times the
+     * entry's time ratio over the frame's reflective pixels).
+     */
+    double time_share;
+    /**
+     * The group's part of the plan's `error_255` (its pixels times the
+     * entry's error over the covered pixels).
+     */
+    double error_share;
+    /**
+     * The object is a plane (as `planar` said; unlisted pixels are not).
+     */
+    bool planar;
+} refl_plan_choice;
+#endif
+
+#if (defined(REFL_FEATURE_DEPTH_IMAGE) || defined(REFL_FEATURE_HIZ) || defined(REFL_FEATURE_MIRROR))
+/**
+ * One calibrated option (`refl_core::plan::CostEntry`, the same struct):
+ * a method at one setting on the reflective pixels of one roughness class
+ * and surface, with its measured cost and error.
+ */
+typedef struct refl_plan_cost_entry {
+    /**
+     * The caller's name for the method and setting (opaque here).
+     */
+    uint32_t id;
+    /**
+     * The roughness class it applies to: 0 mirror, 1 glossy, 2 rough.
+     */
+    uint8_t roughness_class;
+    /**
+     * The reflectors it applies to (`refl_plan_surface`).
+     */
+    uint32_t surface;
+    /**
+     * The passes it runs, one bit `1 << refl_plan_pass` each (at least
+     * one, none past `REFL_PLAN_PASS_COUNT`).
+     */
+    uint32_t passes;
+    /**
+     * Time per reflective pixel over the reference tracer's time per ray.
+     * Finite, >= 0.
+     */
+    float time_ratio;
+    /**
+     * Mean absolute error on 0..255 over the pixels it handles. Finite,
+     * >= 0.
+     */
+    float error_255;
+} refl_plan_cost_entry;
+#endif
+
+#if (defined(REFL_FEATURE_DEPTH_IMAGE) || defined(REFL_FEATURE_HIZ) || defined(REFL_FEATURE_MIRROR))
+/**
+ * What a frame may spend (`refl_core::plan::Budget`).
+ */
+typedef struct refl_plan_budget {
+    /**
+     * What it limits (`refl_plan_budget_kind`).
+     */
+    uint32_t kind;
+    /**
+     * The limit. Finite, >= 0.
+     */
+    float value;
+} refl_plan_budget;
 #endif
 
 #if defined(REFL_FEATURE_TCRR)
@@ -7109,6 +7423,73 @@ refl_status refl_plan_passes(struct refl_plan *out,
                              const struct refl_plan_options *options,
                              uint32_t width,
                              uint32_t height);
+#endif
+
+#if (defined(REFL_FEATURE_DEPTH_IMAGE) || defined(REFL_FEATURE_HIZ) || defined(REFL_FEATURE_MIRROR))
+/**
+ * Writes into `*out_len` the most groups `refl_plan_choose_methods`
+ * writes for a summary of `objects` objects (one per object and class,
+ * one per class for unlisted objects): the `choices_len` that always
+ * suffices.
+ *
+ * Returns `REFL_STATUS_NULL_POINTER` if `out_len` is NULL,
+ * `REFL_STATUS_INVALID_ARGUMENT` if it is misaligned. Nothing is written
+ * on error.
+ *
+ * # Safety
+ * `out_len` NULL or writable.
+ */
+refl_status refl_plan_choices_len(size_t *out_len, uint32_t objects);
+#endif
+
+#if (defined(REFL_FEATURE_DEPTH_IMAGE) || defined(REFL_FEATURE_HIZ) || defined(REFL_FEATURE_MIRROR))
+/**
+ * Chooses, for every object and roughness class of a frame's reflective
+ * pixels, the calibrated option of `table[0 .. table_len]` that
+ * `*budget` asks for (`refl_core::plan::try_choose_methods`), writes the
+ * groups into `choices` (in object order, then the unlisted pixels per
+ * class) and the prediction into `*out` (`out->groups` records written).
+ * The summary is `*frame`, `objects[0 .. objects_len]`
+ * (`refl_summary_rows` over the whole image); `planar[k]` says whether
+ * object `k` is a plane (`planar_len >= objects_len`; `refl_plan_passes`
+ * writes it); `hints` (`hints_len` equal to `objects_len`, or 0 with
+ * `hints` NULL: nothing stated) and `*caps` say what the host offers. An
+ * option applies to a group when its class and surface match and the host
+ * offers every pass it runs; of those, only the Pareto front counts, and
+ * the choice across groups is a greedy multiple-choice knapsack along the
+ * fronts (see the core's docs). `choices_len` of
+ * what `refl_plan_choices_len` gives for `objects_len` always suffices.
+ *
+ * Returns `REFL_STATUS_NULL_POINTER` if `out`, `frame`, `caps`, `budget`,
+ * or `choices` / `objects` / `planar` / `hints` / `table` with a non-zero
+ * length is NULL; `REFL_STATUS_INSUFFICIENT_SIZE` if `choices_len` is
+ * less than the groups of the frame; `REFL_STATUS_INVALID_ARGUMENT` for a
+ * budget of an unknown kind or a NaN, infinite or negative value, a table
+ * entry with an unknown class or surface, a NaN, infinite or negative
+ * time or error, or an empty or unknown pass mask, `table_len` of
+ * `REFL_PLAN_NO_ENTRY` or more, `hints_len` neither 0 nor `objects_len`,
+ * `planar_len < objects_len`, an object with more reflective pixels in a
+ * class than the frame, a misaligned pointer, or `choices` overlapping an
+ * input. Nothing is written on error.
+ *
+ * # Safety
+ * `out` NULL or writable; `choices` NULL or writable for `choices_len`
+ * records; the inputs NULL or readable for their lengths.
+ */
+refl_status refl_plan_choose_methods(struct refl_plan_budget_plan *out,
+                                     struct refl_plan_choice *choices,
+                                     size_t choices_len,
+                                     const struct refl_summary_frame *frame,
+                                     const struct refl_summary_object *objects,
+                                     size_t objects_len,
+                                     const bool *planar,
+                                     size_t planar_len,
+                                     const struct refl_plan_object_hints *hints,
+                                     size_t hints_len,
+                                     const struct refl_plan_host_caps *caps,
+                                     const struct refl_plan_cost_entry *table,
+                                     size_t table_len,
+                                     const struct refl_plan_budget *budget);
 #endif
 
 #if defined(REFL_FEATURE_TCRR)

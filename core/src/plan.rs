@@ -418,8 +418,10 @@ impl Surface {
 /// One calibrated option: a method at one setting on the reflective pixels
 /// of one [`RoughnessClass`] and [`Surface`], with its measured cost and
 /// error. The table of these is the caller's (the root package measures it
-/// with `refl calibrate` and passes it in as a slice).
+/// with `refl calibrate` and passes it in as a slice). `repr(C)`: the C
+/// ABI's `refl_plan_cost_entry` is this struct.
 #[derive(Clone, Copy, Debug, PartialEq)]
+#[repr(C)]
 pub struct CostEntry {
     /// The caller's name for the method and setting (opaque here).
     pub id: u32,

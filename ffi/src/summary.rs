@@ -11,7 +11,8 @@ use crate::ptr::{
 };
 use crate::status::{fail, guard, refl_status};
 use refl_core::plan::{
-    try_plan_passes, HostCaps, ObjectHints, Pass, PassPlan, PlanOptions, SkipReason, PASS_COUNT,
+    choices_len, try_choose_methods, try_plan_passes, Budget, BudgetPlan, Choice, ChoiceReason,
+    CostEntry, HostCaps, ObjectHints, Pass, PassPlan, PlanOptions, SkipReason, Surface, PASS_COUNT,
 };
 use refl_core::summary::{
     try_summarize_rows, FrameSummary, ObjectSummary, SummaryOptions, NO_OBJECT, TILE,
@@ -738,4 +739,540 @@ fn plan_with_hints(
         options,
         size,
     )
+}
+
+// ------------------------------------------------- method choice by budget
+
+/// The reflectors a calibrated option applies to
+/// (`refl_plan_cost_entry.surface`, `refl_core::plan::Surface`).
+#[repr(u32)]
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum refl_plan_surface {
+    /// Any reflector.
+    Any = 0,
+    /// Planar reflectors only (the planar pass; errors measured there).
+    Planar = 1,
+    /// Curved (non-planar) reflectors only.
+    Curved = 2,
+}
+
+/// What a budget limits (`refl_plan_budget.kind`,
+/// `refl_core::plan::Budget`).
+#[repr(u32)]
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum refl_plan_budget_kind {
+    /// The frame's mean error over its reflective pixels, 0..255, at most
+    /// `value`.
+    MaxError = 0,
+    /// The frame's time at most `value` times the reference tracer's time
+    /// for one ray per reflective pixel.
+    MaxTime = 1,
+}
+
+/// Why a group got its option (`refl_plan_choice.reason`,
+/// `refl_core::plan::ChoiceReason`).
+#[repr(u32)]
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum refl_plan_choice_reason {
+    /// The group's fastest option on the front, and the budget holds with
+    /// it.
+    Fastest = 0,
+    /// The budget bought the group a more accurate option than its
+    /// fastest, but not its most accurate.
+    TradeOff = 1,
+    /// The group's most accurate option on the front, within the budget.
+    MostAccurate = 2,
+    /// The error budget cannot be met: every group takes its most accurate
+    /// option.
+    ErrorBudgetUnreachable = 3,
+    /// The time budget cannot be met: every group takes its fastest
+    /// option.
+    TimeBudgetUnreachable = 4,
+    /// One option is on the group's front (any other is dominated).
+    OnlyOption = 5,
+    /// No calibrated option applies (class, surface, or what the host
+    /// offers): the group's pixels are left out of the plan.
+    NoOption = 6,
+}
+
+/// A table index that is no entry (`refl_plan_choice.entry`, `faster`,
+/// `more_accurate`).
+pub const REFL_PLAN_NO_ENTRY: u32 = 0xFFFF_FFFF;
+
+/// One calibrated option (`refl_core::plan::CostEntry`, the same struct):
+/// a method at one setting on the reflective pixels of one roughness class
+/// and surface, with its measured cost and error.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct refl_plan_cost_entry {
+    /// The caller's name for the method and setting (opaque here).
+    pub id: u32,
+    /// The roughness class it applies to: 0 mirror, 1 glossy, 2 rough.
+    pub roughness_class: u8,
+    /// The reflectors it applies to (`refl_plan_surface`).
+    pub surface: u32,
+    /// The passes it runs, one bit `1 << refl_plan_pass` each (at least
+    /// one, none past `REFL_PLAN_PASS_COUNT`).
+    pub passes: u32,
+    /// Time per reflective pixel over the reference tracer's time per ray.
+    /// Finite, >= 0.
+    pub time_ratio: f32,
+    /// Mean absolute error on 0..255 over the pixels it handles. Finite,
+    /// >= 0.
+    pub error_255: f32,
+}
+
+/// What a frame may spend (`refl_core::plan::Budget`).
+#[repr(C)]
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct refl_plan_budget {
+    /// What it limits (`refl_plan_budget_kind`).
+    pub kind: u32,
+    /// The limit. Finite, >= 0.
+    pub value: f32,
+}
+
+/// The option chosen for one group of pixels (one object's reflective
+/// pixels of one roughness class, or those of unlisted objects), and why
+/// (`refl_core::plan::Choice`).
+#[repr(C)]
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct refl_plan_choice {
+    /// The object (its index in `objects`), or `REFL_SUMMARY_NO_OBJECT`
+    /// for the pixels of unlisted objects.
+    pub object: u32,
+    /// Their roughness class: 0 mirror, 1 glossy, 2 rough.
+    pub roughness_class: u32,
+    /// Reflective pixels of the group.
+    pub pixels: u64,
+    /// The chosen entry's index in the table (`REFL_PLAN_NO_ENTRY`: no
+    /// option applies, `REFL_PLAN_CHOICE_REASON_NO_OPTION`).
+    pub entry: u32,
+    /// Why (`refl_plan_choice_reason`).
+    pub reason: u32,
+    /// Options of the table that apply to the group.
+    pub applicable: u32,
+    /// Of them, the ones on the group's Pareto front.
+    pub front: u32,
+    /// The next faster option on the front, not taken
+    /// (`REFL_PLAN_NO_ENTRY`: the choice is the fastest).
+    pub faster: u32,
+    /// The next more accurate option on the front, not taken
+    /// (`REFL_PLAN_NO_ENTRY`: the choice is the most accurate).
+    pub more_accurate: u32,
+    /// The chosen entry's `id` (0 without an entry).
+    pub id: u32,
+    /// The chosen entry's `passes` (0 without an entry).
+    pub passes: u32,
+    /// The chosen entry's `time_ratio` (0 without an entry).
+    pub time_ratio: f32,
+    /// The chosen entry's `error_255` (0 without an entry).
+    pub error_255: f32,
+    /// The group's part of the plan's `time_ratio` (its pixels times the
+    /// entry's time ratio over the frame's reflective pixels).
+    pub time_share: f64,
+    /// The group's part of the plan's `error_255` (its pixels times the
+    /// entry's error over the covered pixels).
+    pub error_share: f64,
+    /// The object is a plane (as `planar` said; unlisted pixels are not).
+    pub planar: bool,
+}
+
+/// What `refl_plan_choose_methods` predicts for the frame
+/// (`refl_core::plan::BudgetPlan`).
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct refl_plan_budget_plan {
+    /// Groups written to `choices`.
+    pub groups: usize,
+    /// Reflective pixels of the frame.
+    pub reflective: u64,
+    /// Of them, the ones some option handles.
+    pub covered: u64,
+    /// Predicted time: the sum over groups of pixels times the entry's
+    /// `time_ratio`, over the reflective pixels.
+    pub time_ratio: f64,
+    /// Predicted mean error (0..255) over the covered pixels.
+    pub error_255: f64,
+    /// Whether the prediction meets the budget.
+    pub met: bool,
+}
+
+// The table is read in place as the core's entries, and the core's
+// choices are worked out in the caller's `choices` (each C record at least
+// as large, converted last to first).
+const _: () = {
+    use core::mem::{align_of, offset_of, size_of};
+    assert!(size_of::<refl_plan_cost_entry>() == size_of::<CostEntry>());
+    assert!(align_of::<refl_plan_cost_entry>() == align_of::<CostEntry>());
+    assert!(offset_of!(refl_plan_cost_entry, id) == offset_of!(CostEntry, id));
+    assert!(offset_of!(refl_plan_cost_entry, roughness_class) == offset_of!(CostEntry, class));
+    assert!(offset_of!(refl_plan_cost_entry, surface) == offset_of!(CostEntry, surface));
+    assert!(offset_of!(refl_plan_cost_entry, passes) == offset_of!(CostEntry, passes));
+    assert!(offset_of!(refl_plan_cost_entry, time_ratio) == offset_of!(CostEntry, time_ratio));
+    assert!(offset_of!(refl_plan_cost_entry, error_255) == offset_of!(CostEntry, error_255));
+    assert!(size_of::<refl_plan_choice>() >= size_of::<Choice>());
+    assert!(align_of::<refl_plan_choice>() >= align_of::<Choice>());
+};
+
+impl From<ChoiceReason> for refl_plan_choice_reason {
+    fn from(r: ChoiceReason) -> Self {
+        match r {
+            ChoiceReason::Fastest => Self::Fastest,
+            ChoiceReason::TradeOff => Self::TradeOff,
+            ChoiceReason::MostAccurate => Self::MostAccurate,
+            ChoiceReason::ErrorBudgetUnreachable => Self::ErrorBudgetUnreachable,
+            ChoiceReason::TimeBudgetUnreachable => Self::TimeBudgetUnreachable,
+            ChoiceReason::OnlyOption => Self::OnlyOption,
+            ChoiceReason::NoOption => Self::NoOption,
+        }
+    }
+}
+
+impl From<Surface> for refl_plan_surface {
+    fn from(s: Surface) -> Self {
+        match s {
+            Surface::Any => Self::Any,
+            Surface::Planar => Self::Planar,
+            Surface::Curved => Self::Curved,
+        }
+    }
+}
+
+impl From<CostEntry> for refl_plan_cost_entry {
+    fn from(e: CostEntry) -> Self {
+        Self {
+            id: e.id,
+            roughness_class: e.class as u8,
+            surface: refl_plan_surface::from(e.surface) as u32,
+            passes: e.passes,
+            time_ratio: e.time_ratio,
+            error_255: e.error_255,
+        }
+    }
+}
+
+impl From<Budget> for refl_plan_budget {
+    fn from(b: Budget) -> Self {
+        match b {
+            Budget::MaxError(v) => Self {
+                kind: refl_plan_budget_kind::MaxError as u32,
+                value: v,
+            },
+            Budget::MaxTime(v) => Self {
+                kind: refl_plan_budget_kind::MaxTime as u32,
+                value: v,
+            },
+        }
+    }
+}
+
+impl TryFrom<refl_plan_budget> for Budget {
+    type Error = Error;
+    fn try_from(b: refl_plan_budget) -> Result<Self, Error> {
+        match b.kind {
+            0 => Ok(Budget::MaxError(b.value)),
+            1 => Ok(Budget::MaxTime(b.value)),
+            _ => Err(Error::InvalidArgument),
+        }
+    }
+}
+
+impl From<BudgetPlan> for refl_plan_budget_plan {
+    fn from(p: BudgetPlan) -> Self {
+        Self {
+            groups: p.groups,
+            reflective: p.reflective,
+            covered: p.covered,
+            time_ratio: p.time_ratio,
+            error_255: p.error_255,
+            met: p.met,
+        }
+    }
+}
+
+/// The C record of the core's `choice`, with the chosen entry's fields
+/// from `table` and its shares of `plan`.
+pub(crate) fn choice_to_c(c: &Choice, table: &[CostEntry], plan: &BudgetPlan) -> refl_plan_choice {
+    let idx = |i: Option<usize>| i.map_or(REFL_PLAN_NO_ENTRY, |i| i as u32);
+    let e = c.entry.and_then(|i| table.get(i));
+    let p = c.group.pixels as f64;
+    let (time_share, error_share) = match e {
+        Some(e) => (
+            p * f64::from(e.time_ratio) / plan.reflective.max(1) as f64,
+            if plan.covered > 0 {
+                p * f64::from(e.error_255) / plan.covered as f64
+            } else {
+                0.0
+            },
+        ),
+        None => (0.0, 0.0),
+    };
+    refl_plan_choice {
+        object: c.group.object,
+        roughness_class: c.group.class as u32,
+        pixels: c.group.pixels,
+        entry: idx(c.entry),
+        reason: refl_plan_choice_reason::from(c.reason) as u32,
+        applicable: c.applicable,
+        front: c.front,
+        faster: idx(c.faster),
+        more_accurate: idx(c.more_accurate),
+        id: e.map_or(0, |e| e.id),
+        passes: e.map_or(0, |e| e.passes),
+        time_ratio: e.map_or(0.0, |e| e.time_ratio),
+        error_255: e.map_or(0.0, |e| e.error_255),
+        time_share,
+        error_share,
+        planar: c.group.planar,
+    }
+}
+
+/// Writes into `*out_len` the most groups `refl_plan_choose_methods`
+/// writes for a summary of `objects` objects (one per object and class,
+/// one per class for unlisted objects): the `choices_len` that always
+/// suffices.
+///
+/// Returns `REFL_STATUS_NULL_POINTER` if `out_len` is NULL,
+/// `REFL_STATUS_INVALID_ARGUMENT` if it is misaligned. Nothing is written
+/// on error.
+///
+/// # Safety
+/// `out_len` NULL or writable.
+#[no_mangle]
+pub unsafe extern "C" fn refl_plan_choices_len(out_len: *mut usize, objects: u32) -> refl_status {
+    guard("refl_plan_choices_len", || {
+        let out = Out::new(out_len, "out_len")?;
+        // SAFETY: checked; caller contract.
+        unsafe { out.write(choices_len(objects as usize)) };
+        Ok(())
+    })
+}
+
+/// Chooses, for every object and roughness class of a frame's reflective
+/// pixels, the calibrated option of `table[0 .. table_len]` that
+/// `*budget` asks for (`refl_core::plan::try_choose_methods`), writes the
+/// groups into `choices` (in object order, then the unlisted pixels per
+/// class) and the prediction into `*out` (`out->groups` records written).
+/// The summary is `*frame`, `objects[0 .. objects_len]`
+/// (`refl_summary_rows` over the whole image); `planar[k]` says whether
+/// object `k` is a plane (`planar_len >= objects_len`; `refl_plan_passes`
+/// writes it); `hints` (`hints_len` equal to `objects_len`, or 0 with
+/// `hints` NULL: nothing stated) and `*caps` say what the host offers. An
+/// option applies to a group when its class and surface match and the host
+/// offers every pass it runs; of those, only the Pareto front counts, and
+/// the choice across groups is a greedy multiple-choice knapsack along the
+/// fronts (see the core's docs). `choices_len` of
+/// what `refl_plan_choices_len` gives for `objects_len` always suffices.
+///
+/// Returns `REFL_STATUS_NULL_POINTER` if `out`, `frame`, `caps`, `budget`,
+/// or `choices` / `objects` / `planar` / `hints` / `table` with a non-zero
+/// length is NULL; `REFL_STATUS_INSUFFICIENT_SIZE` if `choices_len` is
+/// less than the groups of the frame; `REFL_STATUS_INVALID_ARGUMENT` for a
+/// budget of an unknown kind or a NaN, infinite or negative value, a table
+/// entry with an unknown class or surface, a NaN, infinite or negative
+/// time or error, or an empty or unknown pass mask, `table_len` of
+/// `REFL_PLAN_NO_ENTRY` or more, `hints_len` neither 0 nor `objects_len`,
+/// `planar_len < objects_len`, an object with more reflective pixels in a
+/// class than the frame, a misaligned pointer, or `choices` overlapping an
+/// input. Nothing is written on error.
+///
+/// # Safety
+/// `out` NULL or writable; `choices` NULL or writable for `choices_len`
+/// records; the inputs NULL or readable for their lengths.
+#[no_mangle]
+#[allow(clippy::too_many_arguments)]
+pub unsafe extern "C" fn refl_plan_choose_methods(
+    out: *mut refl_plan_budget_plan,
+    choices: *mut refl_plan_choice,
+    choices_len: usize,
+    frame: *const refl_summary_frame,
+    objects: *const refl_summary_object,
+    objects_len: usize,
+    planar: *const bool,
+    planar_len: usize,
+    hints: *const refl_plan_object_hints,
+    hints_len: usize,
+    caps: *const refl_plan_host_caps,
+    table: *const refl_plan_cost_entry,
+    table_len: usize,
+    budget: *const refl_plan_budget,
+) -> refl_status {
+    guard("refl_plan_choose_methods", || {
+        let out_w = Out::new(out, "out")?;
+        for (p, len, name) in [
+            (choices.cast_const().cast::<u8>(), choices_len, "choices"),
+            (objects.cast(), objects_len, "objects"),
+            (planar.cast(), planar_len, "planar"),
+            (hints.cast(), hints_len, "hints"),
+            (table.cast(), table_len, "table"),
+        ] {
+            if len > 0 && p.is_null() {
+                return Err(fail(Error::NullPointer, format_args!("`{name}` is NULL")));
+            }
+        }
+        if choices_len > 0 {
+            check_pointer(choices.cast_const(), "choices")?;
+        }
+        if objects_len > 0 {
+            check_pointer(objects, "objects")?;
+        }
+        if hints_len > 0 {
+            check_pointer(hints, "hints")?;
+        }
+        if table_len > 0 {
+            check_pointer(table, "table")?;
+        }
+        // SAFETY: caller contract.
+        let (f, c, b) = unsafe {
+            (
+                read(frame, "frame")?,
+                read(caps, "caps")?,
+                read(budget, "budget")?,
+            )
+        };
+        let bud = Budget::try_from(b)
+            .and_then(|b| b.try_validate().map(|()| b))
+            .map_err(|e| {
+                fail(
+                    e,
+                    format_args!(
+                        "`budget` must have a known kind and a finite value >= 0 (kind {}, value {})",
+                        b.kind, b.value
+                    ),
+                )
+            })?;
+        if table_len >= REFL_PLAN_NO_ENTRY as usize {
+            return Err(fail(
+                Error::InvalidArgument,
+                format_args!("`table_len` must be less than `REFL_PLAN_NO_ENTRY`"),
+            ));
+        }
+        let choices_bytes = byte_len::<refl_plan_choice>(choices as usize, choices_len)?;
+        let objects_bytes = byte_len::<refl_summary_object>(objects as usize, objects_len)?;
+        let planar_bytes = byte_len::<bool>(planar as usize, planar_len)?;
+        let hints_bytes = byte_len::<refl_plan_object_hints>(hints as usize, hints_len)?;
+        let table_bytes = byte_len::<refl_plan_cost_entry>(table as usize, table_len)?;
+        disjoint(
+            &[(choices as usize, choices_bytes)],
+            &[
+                (objects as usize, objects_bytes),
+                (planar as usize, planar_bytes),
+                (hints as usize, hints_bytes),
+                (table as usize, table_bytes),
+                range(frame, 1),
+                range(caps, 1),
+                range(budget, 1),
+                range(out.cast_const(), 1),
+            ],
+        )?;
+        // SAFETY: checked pointer, readable for table_len (contract).
+        let raw_table = unsafe { slice_or_empty(table, table_len, "table") }?;
+        for (i, e) in raw_table.iter().enumerate() {
+            if e.roughness_class > 2 || e.surface > 2 {
+                return Err(fail(
+                    Error::InvalidArgument,
+                    format_args!(
+                        "`table[{i}]` has an unknown class {} or surface {}",
+                        e.roughness_class, e.surface
+                    ),
+                ));
+            }
+        }
+        // SAFETY: refl_plan_cost_entry is CostEntry field for field
+        // (asserted above), and every class and surface was just checked
+        // to be a variant of the core's enums.
+        let table: &[CostEntry] =
+            unsafe { core::slice::from_raw_parts(raw_table.as_ptr().cast(), raw_table.len()) };
+        for (i, e) in table.iter().enumerate() {
+            e.try_validate().map_err(|err| {
+                fail(
+                    err,
+                    format_args!(
+                        "`table[{i}]` needs a finite time and error >= 0 and a pass mask of known passes, not empty"
+                    ),
+                )
+            })?;
+        }
+        if !(hints_len == 0 || hints_len == objects_len) {
+            return Err(fail(
+                Error::InvalidArgument,
+                format_args!(
+                    "`hints_len` must be 0 or `objects_len` ({objects_len}), not {hints_len}"
+                ),
+            ));
+        }
+        if planar_len < objects_len {
+            return Err(fail(
+                Error::InvalidArgument,
+                format_args!(
+                    "`planar_len` ({planar_len}) is less than `objects_len` ({objects_len})"
+                ),
+            ));
+        }
+        // SAFETY: checked pointers, readable for their lengths (contract);
+        // refl_summary_object is ObjectSummary field for field (asserted).
+        let objs =
+            unsafe { slice_or_empty(objects.cast::<ObjectSummary>(), objects_len, "objects") }?;
+        // SAFETY: as above.
+        let pl = unsafe { slice_or_empty(planar, planar_len, "planar") }?;
+        // SAFETY: as above; refl_plan_object_hints is ObjectHints (asserted).
+        let hs = unsafe { slice_or_empty(hints.cast::<ObjectHints>(), hints_len, "hints") }?;
+        // The groups, counted as the core counts them.
+        let mut listed = [0u64; 3];
+        let mut needed = 0usize;
+        for o in objs {
+            for (l, &n) in listed.iter_mut().zip(&o.classes) {
+                *l = l.saturating_add(n);
+                needed += usize::from(n > 0);
+            }
+        }
+        for (&l, &n) in listed.iter().zip(&f.classes) {
+            if l > n {
+                return Err(fail(
+                    Error::InvalidArgument,
+                    format_args!("`objects` have more reflective pixels in a class than `frame`"),
+                ));
+            }
+            needed += usize::from(n > l);
+        }
+        if choices_len < needed {
+            return Err(fail(
+                Error::InsufficientSize,
+                format_args!(
+                    "`choices_len` ({choices_len}) is less than the frame's {needed} groups"
+                ),
+            ));
+        }
+        let caps = HostCaps {
+            planar_views: c.planar_views,
+            ray_tracer: c.ray_tracer,
+            probe: c.probe,
+        };
+        // Every check is done: the core's choices are worked out in the
+        // first `needed` records of `choices` (each record at least as large
+        // and as aligned as a `Choice`, asserted), initialized first.
+        let scratch = choices.cast::<Choice>();
+        for k in 0..needed {
+            // SAFETY: within the first `needed` records of `choices`
+            // (writable, disjoint from the inputs: checked), aligned.
+            unsafe { scratch.add(k).write(Choice::default()) };
+        }
+        // SAFETY: initialized above; no other reference to `choices`.
+        let chs = unsafe { core::slice::from_raw_parts_mut(scratch, needed) };
+        let plan = try_choose_methods(chs, &f.into(), objs, pl, hs, &caps, table, bud)
+            .map_err(|e| fail(e, format_args!("the core refused the checked inputs")))?;
+        // Convert last to first: record `k` covers only core choices `k`
+        // and later, already read.
+        for k in (0..plan.groups).rev() {
+            // SAFETY: an initialized core choice (k < needed), read before
+            // its record is written.
+            let ch = unsafe { scratch.add(k).read() };
+            // SAFETY: within `choices` (k < needed <= choices_len), aligned.
+            unsafe { choices.add(k).write(choice_to_c(&ch, table, &plan)) };
+        }
+        // SAFETY: checked; caller contract.
+        unsafe { out_w.write(plan.into()) };
+        Ok(())
+    })
 }

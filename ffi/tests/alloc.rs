@@ -1457,6 +1457,79 @@ fn summary(cov: &mut Coverage) {
             H
         )
     );
+    let mut n_choices = 0usize;
+    ok!(cov, refl_plan_choices_len(&mut n_choices, 2));
+    assert_eq!(n_choices, 9);
+    err!(cov, refl_plan_choices_len(core::ptr::null_mut(), 2));
+    let mut choices = [refl_plan_choice {
+        object: 0,
+        roughness_class: 0,
+        pixels: 0,
+        entry: 0,
+        reason: 0,
+        applicable: 0,
+        front: 0,
+        faster: 0,
+        more_accurate: 0,
+        id: 0,
+        passes: 0,
+        time_ratio: 0.0,
+        error_255: 0.0,
+        time_share: 0.0,
+        error_share: 0.0,
+        planar: false,
+    }; 9];
+    let table = [refl_plan_cost_entry {
+        id: 1,
+        roughness_class: 0,
+        surface: refl_plan_surface::Any as u32,
+        passes: 1 << refl_plan_pass::HostRays as u32,
+        time_ratio: 1.0,
+        error_255: 0.0,
+    }];
+    let budget = refl_plan_budget {
+        kind: refl_plan_budget_kind::MaxError as u32,
+        value: 1.0,
+    };
+    let mut bplan = uninit::<refl_plan_budget_plan>();
+    ok!(
+        cov,
+        refl_plan_choose_methods(
+            bplan.as_mut_ptr(),
+            choices.as_mut_ptr(),
+            9,
+            &frame,
+            objects.as_ptr(),
+            2,
+            planar.as_ptr(),
+            2,
+            core::ptr::null(),
+            0,
+            &caps,
+            table.as_ptr(),
+            1,
+            &budget
+        )
+    );
+    err!(
+        cov,
+        refl_plan_choose_methods(
+            bplan.as_mut_ptr(),
+            choices.as_mut_ptr(),
+            9,
+            &frame,
+            objects.as_ptr(),
+            2,
+            planar.as_ptr(),
+            1,
+            core::ptr::null(),
+            0,
+            &caps,
+            table.as_ptr(),
+            1,
+            &budget
+        )
+    );
 }
 
 fn glossy(cov: &mut Coverage) {
