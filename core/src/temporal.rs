@@ -146,10 +146,17 @@
 //! let mut next = vec![HistoryTexel::default(); 64];
 //! let stats = pass.try_run(&mut ImageViewMut::try_new(&mut next, 8, 8, 8)?, None)?;
 //! assert_eq!((stats.blended, stats.recovered), (63, 1));
-//! // Two frames averaged where answered; the failed pixel keeps the history.
-//! assert_eq!(next[0].color, [0.5, 0.5, 0.0]);
+//! // The green history lies outside this frame's answered colors around
+//! // the pixel (all red): the history clamp (default) moves it to red
+//! // before the blend. The failed pixel keeps the history.
+//! assert_eq!(next[0].color, [1.0, 0.0, 0.0]);
 //! assert_eq!(next[3 * 8 + 3].color, [0.0, 1.0, 0.0]);
 //! assert_eq!(pass.pixel(3, 3).1, TemporalStatus::Recovered);
+//!
+//! // Without the clamp, the seed's blend: two frames averaged.
+//! let options = TemporalOptions { clamp_history: false, ..TemporalOptions::default() };
+//! let pass = TemporalPass::try_new(gbuffer, ImageView::try_new(&color, 8, 8, 8)?, ImageView::try_new(&answered, 8, 8, 8)?, Some(history), options)?;
+//! assert_eq!(pass.pixel(0, 0).0.color, [0.5, 0.5, 0.0]);
 //! # Ok::<(), refl_core::Error>(())
 //! ```
 
