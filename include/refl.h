@@ -1197,8 +1197,9 @@ enum refl_plan_budget_kind
  {
 #if (defined(REFL_FEATURE_DEPTH_IMAGE) || defined(REFL_FEATURE_HIZ) || defined(REFL_FEATURE_MIRROR))
     /**
-     * The frame's mean error over its reflective pixels, 0..255, at most
-     * `value`.
+     * The frame's mean error, 0..255, over the pixels the plan covers
+     * (`refl_plan_budget_plan.covered`: the groups with an option), at
+     * most `value`.
      */
     REFL_PLAN_BUDGET_KIND_MAX_ERROR = 0,
 #endif
@@ -7455,7 +7456,8 @@ refl_status refl_plan_choices_len(size_t *out_len, uint32_t objects);
  * writes it); `hints` (`hints_len` equal to `objects_len`, or 0 with
  * `hints` NULL: nothing stated) and `*caps` say what the host offers. An
  * option applies to a group when its class and surface match and the host
- * offers every pass it runs; of those, only the Pareto front counts, and
+ * offers every pass it runs (the planar pass only for a planar object);
+ * of those, only the Pareto front counts, and
  * the choice across groups is a greedy multiple-choice knapsack along the
  * fronts (see the core's docs). `choices_len` of
  * what `refl_plan_choices_len` gives for `objects_len` always suffices.
@@ -7468,9 +7470,12 @@ refl_status refl_plan_choices_len(size_t *out_len, uint32_t objects);
  * entry with an unknown class or surface, a NaN, infinite or negative
  * time or error, or an empty or unknown pass mask, `table_len` of
  * `REFL_PLAN_NO_ENTRY` or more, `hints_len` neither 0 nor `objects_len`,
- * `planar_len < objects_len`, an object with more reflective pixels in a
- * class than the frame, a misaligned pointer, or `choices` overlapping an
- * input. Nothing is written on error.
+ * `planar_len < objects_len`, objects whose reflective pixels of a class
+ * add up to more than the frame's, class counts (the frame's three, or the
+ * objects' of one class) that add up past `UINT64_MAX`, a misaligned
+ * pointer (with a non-zero length), or `choices` overlapping an input.
+ * Nothing is written on error. A frame without reflective pixels gives no
+ * group: `choices` may then be NULL with `choices_len` 0.
  *
  * # Safety
  * `out` NULL or writable; `choices` NULL or writable for `choices_len`

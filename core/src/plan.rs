@@ -484,8 +484,10 @@ impl CostEntry {
 /// What a frame may spend.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub enum Budget {
-    /// The frame's mean error over its reflective pixels, 0..255, at most
-    /// this. Finite, at least 0.
+    /// The frame's mean error, 0..255, at most this: the mean over the
+    /// pixels the plan covers ([`BudgetPlan::covered`], the groups with an
+    /// option), as [`BudgetPlan::error_255`] predicts it. Finite, at least
+    /// 0.
     MaxError(f32),
     /// The frame's time at most this multiple of the reference tracer's
     /// time for one ray per reflective pixel. Finite, at least 0.
@@ -658,7 +660,8 @@ fn on_front(table: &[CostEntry], i: usize, ok: &impl Fn(usize) -> bool) -> bool 
 /// says: [`try_plan_passes`]' output, or the caller's own test) and, per
 /// class, the pixels of unlisted objects. An option applies to a group
 /// when its class and [`Surface`] match and the host offers every pass it
-/// runs (`caps`, and the object's layered maps in `hints`). Of those, only
+/// runs (`caps`, the object's layered maps in `hints`, and the planar
+/// pass only for a planar group). Of those, only
 /// the Pareto front counts (no other option at most as slow and at most
 /// as wrong); where plain ray tracing is as fast and as accurate as a
 /// screen-space option, that option is off the front and ray tracing is
@@ -688,8 +691,11 @@ fn on_front(table: &[CostEntry], i: usize, ok: &impl Fn(usize) -> bool) -> bool 
 /// * [`Error::InvalidArgument`]: an entry of `table` that fails
 ///   [`CostEntry::try_validate`], a `budget` that fails
 ///   [`Budget::try_validate`], `hints` neither empty nor as long as
-///   `objects`, `planar` shorter than `objects`, an object whose reflective
-///   pixels exceed the frame's in some class.
+///   `objects`, `planar` shorter than `objects`, objects whose reflective
+///   pixels of some class add up to more than the frame's (each object may
+///   hold at most what the frame holds, and together too), or class counts
+///   (the frame's three, or the objects' of one class) that add up past
+///   `u64::MAX`.
 /// * [`Error::InsufficientSize`]: `choices` shorter than the groups of the
 ///   frame (at most [`choices_len`]`(objects.len())`).
 ///
@@ -718,14 +724,21 @@ pub fn try_choose_methods(
         RoughnessClass::Rough,
     ];
     // Groups: count first (nothing written on error).
+    // Counts that add up past `u64::MAX` are refused, so every sum below
+    // (the groups' pixels, `covered`, `reflective`) fits.
     let mut listed = [0u64; 3];
     let mut needed = 0usize;
     for o in objects {
         for (l, &n) in listed.iter_mut().zip(&o.classes) {
-            *l = l.saturating_add(n);
+            *l = l.checked_add(n).ok_or(Error::InvalidArgument)?;
             needed += usize::from(n > 0);
         }
     }
+    let class_total = frame
+        .classes
+        .iter()
+        .try_fold(0u64, |s, &n| s.checked_add(n))
+        .ok_or(Error::InvalidArgument)?;
     for (&l, &n) in listed.iter().zip(&frame.classes) {
         if l > n {
             return Err(Error::InvalidArgument);
@@ -792,7 +805,7 @@ pub fn try_choose_methods(
         }
         ch.entry = best;
     }
-    let reflective = frame.reflective.max(frame.classes.iter().sum());
+    let reflective = frame.reflective.max(class_total);
     let totals = |choices: &[Choice]| -> (f64, f64, u64) {
         let (mut t, mut e, mut covered) = (0.0f64, 0.0f64, 0u64);
         for ch in choices {

@@ -379,7 +379,60 @@ fn bad_inputs_are_refused_and_nothing_is_written() {
         ),
         Err(Error::InvalidArgument)
     );
-    assert!(out.iter().chain(&o).all(|c| *c == sentinel));
+    // Counts that add up past u64::MAX (the fuzz target `plan`'s
+    // `class-counts-sum-past-u64-max-overflow`: the sum panicked with
+    // overflow checks and wrapped without): the frame's three classes,
+    // and two objects' mirror pixels under a frame of u64::MAX.
+    let mut f3 = f;
+    f3.classes = [1 << 63; 3];
+    f3.reflective = u64::MAX;
+    assert_eq!(
+        try_choose_methods(
+            &mut o,
+            &f3,
+            &[],
+            &[],
+            &[],
+            &HOST,
+            &table(),
+            Budget::MaxTime(1.0)
+        ),
+        Err(Error::InvalidArgument)
+    );
+    let mut f4 = f;
+    f4.classes = [u64::MAX, 0, 0];
+    let halves = [object(1 << 63, 0), object(1 << 63, 0)];
+    assert_eq!(
+        try_choose_methods(
+            &mut o,
+            &f4,
+            &halves,
+            &[true, false],
+            &[],
+            &HOST,
+            &table(),
+            Budget::MaxError(1.0)
+        ),
+        Err(Error::InvalidArgument)
+    );
+    // Just below: the frame's classes add up to exactly u64::MAX and the
+    // two objects' to u64::MAX - 1 of them; accepted, and the sums fit.
+    f4.reflective = u64::MAX;
+    let halves = [object((1 << 63) - 1, 0), object(1 << 63, 0)];
+    let p = try_choose_methods(
+        &mut o,
+        &f4,
+        &halves,
+        &[true, false],
+        &[],
+        &HOST,
+        &table(),
+        Budget::MaxTime(1.0),
+    )
+    .unwrap();
+    assert_eq!(p.groups, 2);
+    assert_eq!(o[0].group.pixels + o[1].group.pixels, u64::MAX);
+    assert!(out.iter().all(|c| *c == sentinel));
     assert_eq!(Budget::MaxTime(0.0).try_validate(), Ok(()));
 }
 

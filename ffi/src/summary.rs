@@ -761,8 +761,9 @@ pub enum refl_plan_surface {
 #[repr(u32)]
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum refl_plan_budget_kind {
-    /// The frame's mean error over its reflective pixels, 0..255, at most
-    /// `value`.
+    /// The frame's mean error, 0..255, over the pixels the plan covers
+    /// (`refl_plan_budget_plan.covered`: the groups with an option), at
+    /// most `value`.
     MaxError = 0,
     /// The frame's time at most `value` times the reference tracer's time
     /// for one ray per reflective pixel.
@@ -1060,7 +1061,8 @@ pub unsafe extern "C" fn refl_plan_choices_len(out_len: *mut usize, objects: u32
 /// writes it); `hints` (`hints_len` equal to `objects_len`, or 0 with
 /// `hints` NULL: nothing stated) and `*caps` say what the host offers. An
 /// option applies to a group when its class and surface match and the host
-/// offers every pass it runs; of those, only the Pareto front counts, and
+/// offers every pass it runs (the planar pass only for a planar object);
+/// of those, only the Pareto front counts, and
 /// the choice across groups is a greedy multiple-choice knapsack along the
 /// fronts (see the core's docs). `choices_len` of
 /// what `refl_plan_choices_len` gives for `objects_len` always suffices.
@@ -1073,9 +1075,12 @@ pub unsafe extern "C" fn refl_plan_choices_len(out_len: *mut usize, objects: u32
 /// entry with an unknown class or surface, a NaN, infinite or negative
 /// time or error, or an empty or unknown pass mask, `table_len` of
 /// `REFL_PLAN_NO_ENTRY` or more, `hints_len` neither 0 nor `objects_len`,
-/// `planar_len < objects_len`, an object with more reflective pixels in a
-/// class than the frame, a misaligned pointer, or `choices` overlapping an
-/// input. Nothing is written on error.
+/// `planar_len < objects_len`, objects whose reflective pixels of a class
+/// add up to more than the frame's, class counts (the frame's three, or the
+/// objects' of one class) that add up past `UINT64_MAX`, a misaligned
+/// pointer (with a non-zero length), or `choices` overlapping an input.
+/// Nothing is written on error. A frame without reflective pixels gives no
+/// group: `choices` may then be NULL with `choices_len` 0.
 ///
 /// # Safety
 /// `out` NULL or writable; `choices` NULL or writable for `choices_len`
@@ -1219,19 +1224,31 @@ pub unsafe extern "C" fn refl_plan_choose_methods(
         // SAFETY: as above; refl_plan_object_hints is ObjectHints (asserted).
         let hs = unsafe { slice_or_empty(hints.cast::<ObjectHints>(), hints_len, "hints") }?;
         // The groups, counted as the core counts them.
+        let too_many = || {
+            fail(
+                Error::InvalidArgument,
+                format_args!("class counts of `objects` or `frame` add up past UINT64_MAX"),
+            )
+        };
         let mut listed = [0u64; 3];
         let mut needed = 0usize;
         for o in objs {
             for (l, &n) in listed.iter_mut().zip(&o.classes) {
-                *l = l.saturating_add(n);
+                *l = l.checked_add(n).ok_or_else(too_many)?;
                 needed += usize::from(n > 0);
             }
         }
+        f.classes
+            .iter()
+            .try_fold(0u64, |s, &n| s.checked_add(n))
+            .ok_or_else(too_many)?;
         for (&l, &n) in listed.iter().zip(&f.classes) {
             if l > n {
                 return Err(fail(
                     Error::InvalidArgument,
-                    format_args!("`objects` have more reflective pixels in a class than `frame`"),
+                    format_args!(
+                        "`objects` have more reflective pixels in a class than `frame` (together)"
+                    ),
                 ));
             }
             needed += usize::from(n > l);
@@ -1258,8 +1275,15 @@ pub unsafe extern "C" fn refl_plan_choose_methods(
             // (writable, disjoint from the inputs: checked), aligned.
             unsafe { scratch.add(k).write(Choice::default()) };
         }
-        // SAFETY: initialized above; no other reference to `choices`.
-        let chs = unsafe { core::slice::from_raw_parts_mut(scratch, needed) };
+        // A frame without groups forms no slice over `choices`, which may
+        // then be NULL (or anything) with `choices_len` 0.
+        let chs: &mut [Choice] = if needed == 0 {
+            &mut []
+        } else {
+            // SAFETY: initialized above; no other reference to `choices`;
+            // non-NULL and aligned (checked, `choices_len >= needed > 0`).
+            unsafe { core::slice::from_raw_parts_mut(scratch, needed) }
+        };
         let plan = try_choose_methods(chs, &f.into(), objs, pl, hs, &caps, table, bud)
             .map_err(|e| fail(e, format_args!("the core refused the checked inputs")))?;
         // Convert last to first: record `k` covers only core choices `k`

@@ -424,6 +424,13 @@ fn refusals_name_the_argument_and_leave_outputs_untouched() {
     let mut neg_error = tc.clone();
     neg_error[0].error_255 = -1.0;
     let big_objects = objects_c(&[object(5000, 0, 0), object(0, 0, 0)]);
+    // Class counts that add up past UINT64_MAX (the fuzz target `plan`'s
+    // `class-counts-sum-past-u64-max-overflow`).
+    let mut huge_frame = fc;
+    huge_frame.classes = [1 << 63; 3];
+    let mut max_frame = fc;
+    max_frame.classes = [u64::MAX, 0, 0];
+    let half_objects = objects_c(&[object(1 << 63, 0, 0), object(1 << 63, 0, 0)]);
     // Scene 1: 3 + 1 object groups, 3 unlisted classes.
     let groups = 7;
     let good = || Args {
@@ -575,6 +582,21 @@ fn refusals_name_the_argument_and_leave_outputs_untouched() {
             Box::new(|a| a.objects = big_objects.as_ptr()),
         ),
         (
+            "frame classes past UINT64_MAX",
+            inv,
+            "`frame`",
+            Box::new(|a| a.frame = &huge_frame),
+        ),
+        (
+            "objects' classes past UINT64_MAX",
+            inv,
+            "`objects`",
+            Box::new(|a| {
+                a.frame = &max_frame;
+                a.objects = half_objects.as_ptr();
+            }),
+        ),
+        (
             "choices too short",
             refl_status::InsufficientSize,
             "`choices_len`",
@@ -670,4 +692,47 @@ fn overlapping_choices_are_refused() {
     assert_eq!(st, refl_status::InvalidArgument);
     assert_eq!(buf, before);
     assert_eq!(out, refl_plan_budget_plan::default());
+}
+
+/// A frame without reflective pixels has no group, so `choices` may be
+/// NULL with `choices_len` 0 (the fuzz target `plan`'s
+/// `null-choices-without-groups-slice-from-null`: the export formed a
+/// slice from the NULL pointer, undefined behaviour that a build with
+/// debug assertions aborts on).
+#[test]
+fn empty_frame_takes_null_choices() {
+    let fc = refl_summary_frame::from(FrameSummary::default());
+    let cc = caps_c(&HOSTS[0]);
+    let tc = table_c(&table());
+    let b = budget_c(Budget::MaxError(1.0));
+    for choices in [
+        core::ptr::null_mut(),
+        core::ptr::NonNull::<refl_plan_choice>::dangling().as_ptr(),
+    ] {
+        let mut out = refl_plan_budget_plan {
+            groups: 77,
+            ..Default::default()
+        };
+        let st = unsafe {
+            refl_plan_choose_methods(
+                &mut out,
+                choices,
+                0,
+                &fc,
+                core::ptr::null(),
+                0,
+                core::ptr::null(),
+                0,
+                core::ptr::null(),
+                0,
+                &cc,
+                tc.as_ptr(),
+                tc.len(),
+                &b,
+            )
+        };
+        assert_eq!(st, refl_status::Ok, "{}", last_error());
+        assert_eq!(out.groups, 0);
+        assert_eq!(out.covered, 0);
+    }
 }
