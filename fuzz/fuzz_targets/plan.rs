@@ -30,12 +30,12 @@
 //! same input alike field for field, and `refl_plan_choices_len`'s length
 //! always enough (the same groups).
 //!
-//! Two known findings are tolerated unless `REFL_FUZZ_STRICT` names them
-//! (or is `1`): `plan-empty-choices` (a NULL or misaligned `choices` of
-//! length 0 for a frame without groups is undefined behavior in refl) and
-//! `plan-count-overflow` (class counts whose sum passes `u64::MAX`
-//! overflow in the core); see the comments where they are tolerated and
-//! `fuzz/artifacts-found/plan/`.
+//! Its first runs found two refl bugs, both fixed (`fuzz/README.md`, F37
+//! and F38; reproducers in `fuzz/artifacts-found/plan/`, also in the
+//! corpus): a NULL `choices` of length 0 for a frame without groups was
+//! undefined behaviour (F37), and class counts whose sum passes
+//! `u64::MAX` overflowed in the core (F38); the target checks both
+//! strictly: the first call succeeds, the second is refused.
 #![no_main]
 
 use libfuzzer_sys::fuzz_target;
@@ -888,25 +888,14 @@ fuzz_target!(|data: &[u8]| {
         0..=15 => 0,
         k => usize::from(k % 13),
     };
-    let mut objs: Vec<refl_summary_object> = (0..n).map(|_| object(&mut b)).collect();
-    let mut f = frame(&mut b, &objs);
-    // Known finding (tolerated unless REFL_FUZZ_STRICT=1 or
-    // =plan-count-overflow): the core adds the frame's class counts (and
-    // the groups' pixels) in u64 without a check, so counts whose sum
-    // passes u64::MAX overflow (a panic under overflow checks, a wrapped
-    // `reflective` / `covered` otherwise); the header lists no refusal for
-    // them. Tolerated by scaling every count down by 16 there.
+    let objs: Vec<refl_summary_object> = (0..n).map(|_| object(&mut b)).collect();
+    let f = frame(&mut b, &objs);
+    // F38: counts whose sum passes u64::MAX (the frame's classes, or the
+    // objects' of one class) are refused (INVALID_ARGUMENT).
     let wide =
         |xs: &mut dyn Iterator<Item = u64>| xs.map(u128::from).sum::<u128>() > u128::from(u64::MAX);
-    let overflow = wide(&mut f.classes.iter().copied())
-        || (0..3).any(|c| wide(&mut objs.iter().map(|o| o.classes[c])));
-    if overflow && !strict_for("plan-count-overflow") {
-        for o in &mut objs {
-            o.classes = o.classes.map(|v| v >> 4);
-        }
-        f.classes = f.classes.map(|v| v >> 4);
-        f.reflective >>= 4;
-    }
+    let frame_overflow = wide(&mut f.classes.iter().copied());
+    let objects_overflow = (0..3).any(|c| wide(&mut objs.iter().map(|o| o.classes[c])));
     let mut planar_v: Vec<bool> = {
         let len = match b.u8() {
             0..=9 => n.saturating_sub(1 + usize::from(b.u8() % 3)),
@@ -1010,14 +999,6 @@ fuzz_target!(|data: &[u8]| {
     } else {
         ckind
     };
-    // Known finding (tolerated unless REFL_FUZZ_STRICT=1 or
-    // =plan-empty-choices): without a group, refl makes a slice of
-    // `choices` whatever the pointer, so a NULL (or misaligned) `choices`
-    // with `choices_len` 0, which the header allows, is undefined
-    // behavior (`slice::from_raw_parts_mut`, an abort where UB checks are
-    // built in). Tolerated by passing an aligned pointer there.
-    let empty_ub = clen == 0 && needed == 0 && !strict_for("plan-empty-choices");
-    let ckind = if empty_ub { PtrKind::Valid } else { ckind };
     let mut choices = Buf::<refl_plan_choice>::sentinel(cbuf, ckind);
     let mut out = out1::<refl_plan_budget_plan>(okind);
     // Sometimes `choices` over an input (refused when both are not empty).
@@ -1032,7 +1013,6 @@ fuzz_target!(|data: &[u8]| {
         7 if inp.budget.usable() => Some(("budget", inp.budget.cptr() as *mut refl_plan_choice)),
         _ => None,
     };
-    let alias = alias.filter(|_| !empty_ub);
     let cptr = alias.map_or_else(|| choices.ptr(), |a| a.1);
     let before = inp.snapshot();
 
@@ -1071,7 +1051,8 @@ fuzz_target!(|data: &[u8]| {
         || inp.table_len >= NO_ENTRY as usize
         || !(inp.hints_len == 0 || inp.hints_len == inp.objects_len)
         || inp.planar_len < inp.objects_len
-        || (objects_read && over_frame)
+        || (objects_read && (over_frame || objects_overflow))
+        || frame_overflow
         || mis_required
         || alias.is_some_and(|_| clen > 0);
     let insufficient = objects_read && clen < needed;
