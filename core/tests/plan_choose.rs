@@ -401,35 +401,24 @@ fn bad_inputs_are_refused_and_nothing_is_written() {
     );
     let mut f4 = f;
     f4.classes = [u64::MAX, 0, 0];
-    let halves = [object(1 << 63, 0), object(1 << 63, 0)];
-    assert_eq!(
+    f4.reflective = u64::MAX;
+    let two = |o: &mut [Choice], mirror: [u64; 2]| {
+        let objects = mirror.map(|m| object(m, 0));
         try_choose_methods(
-            &mut o,
+            o,
             &f4,
-            &halves,
+            &objects,
             &[true, false],
             &[],
             &HOST,
             &table(),
-            Budget::MaxError(1.0)
-        ),
-        Err(Error::InvalidArgument)
-    );
-    // Just below: the frame's classes add up to exactly u64::MAX and the
-    // two objects' to u64::MAX - 1 of them; accepted, and the sums fit.
-    f4.reflective = u64::MAX;
-    let halves = [object((1 << 63) - 1, 0), object(1 << 63, 0)];
-    let p = try_choose_methods(
-        &mut o,
-        &f4,
-        &halves,
-        &[true, false],
-        &[],
-        &HOST,
-        &table(),
-        Budget::MaxTime(1.0),
-    )
-    .unwrap();
+            Budget::MaxTime(1.0),
+        )
+    };
+    assert_eq!(two(&mut o, [1 << 63; 2]), Err(Error::InvalidArgument));
+    // Just below: the two objects' mirror pixels add up to exactly
+    // u64::MAX, the frame's; accepted (no unlisted group), the sums fit.
+    let p = two(&mut o, [(1 << 63) - 1, 1 << 63]).unwrap();
     assert_eq!(p.groups, 2);
     assert_eq!(o[0].group.pixels + o[1].group.pixels, u64::MAX);
     assert!(out.iter().all(|c| *c == sentinel));
