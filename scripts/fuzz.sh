@@ -4,7 +4,9 @@
 #
 #   scripts/fuzz.sh smoke              every target 1500 executions from the
 #                                      checked-in corpus, seed 1 (about 60 s
-#                                      in all, the same verdict every run);
+#                                      in all, the same verdict every run),
+#                                      then every reproducer in
+#                                      fuzz/artifacts-found once;
 #                                      fails on any crash, contract
 #                                      violation, leak or timeout
 #   scripts/fuzz.sh run TARGET SECONDS one long run (new inputs go to
@@ -114,6 +116,18 @@ fuzz_one() {
     -artifact_prefix="artifacts/$t/" "$out" "corpus/$t" >"$log" 2>&1
 }
 
+# replay_found TARGET LOG: runs every reproducer of TARGET's findings
+# (fuzz/artifacts-found/TARGET/, fixed or documented) once, appending to
+# LOG. Many are not in the corpus (a minimized corpus keeps the inputs
+# that add coverage, not the ones that once failed), so the smoke run
+# replays them here.
+replay_found() {
+  local t=$1 log=$2
+  local files=(artifacts-found/"$t"/*)
+  [ -e "${files[0]}" ] || return 0
+  "$bin_dir/$t" "${lf_flags[@]}" -runs=1 "${files[@]}" >>"$log" 2>&1
+}
+
 # known_target TARGET: exits 2 unless TARGET is one of `targets`.
 known_target() {
   targets | grep -x "$1" >/dev/null || { echo "unknown target $1 (scripts/fuzz.sh list)" >&2; exit 2; }
@@ -154,13 +168,16 @@ case "$cmd" in
     failed=()
     for t in "${all[@]}"; do
       log="$tmp/$t.log"
-      if fuzz_one "$t" "$per" "$tmp/corpus-$t" "$log"; then
+      found="$tmp/$t.found.log"
+      : >"$found"
+      if fuzz_one "$t" "$per" "$tmp/corpus-$t" "$log" && replay_found "$t" "$found"; then
         summary "$t" "$log" ok
       else
         summary "$t" "$log" FAIL
         failed+=("$t")
-        grep -E -A12 'panicked at|ERROR: (AddressSanitizer|LeakSanitizer|libFuzzer)' "$log" | head -n 40 || true
+        grep -E -A12 'panicked at|ERROR: (AddressSanitizer|LeakSanitizer|libFuzzer)' "$log" "$found" | head -n 40 || true
         ls -1 "artifacts/$t/" 2>/dev/null | sed "s|^|  reproducer: fuzz/artifacts/$t/|" || true
+        sed -n 's|^Running: |  failing found reproducer (the last run): fuzz/|p' "$found" | tail -n 1
       fi
     done
     if [ ${#failed[@]} -gt 0 ]; then

@@ -166,7 +166,9 @@
 //! texel's hit slab hits at `t = 0`. Start reflection rays slightly off the
 //! surface (the seed crosses one cell first for the same reason).
 
-use crate::trace::{try_validate_ray, DepthHit, DepthImage, Miss, Thickness, Trace, Work};
+use crate::trace::{
+    try_validate_ray, DepthHit, DepthImage, Miss, Thickness, Trace, Work, RESOLVED_DEPTH,
+};
 use crate::{Camera, DepthConvention, Error, Ray, RowRange};
 use core::ops::Range;
 use glam::{Mat4, Vec2, Vec4};
@@ -1226,6 +1228,10 @@ struct Segment {
     t1: f32,
     /// `t(s) = t0 + s k / q(s)` (perspective-correct interpolation).
     k: f32,
+    /// Linear depth of the ray's origin and its rate along the ray: the ray
+    /// is at depth `ow + t dw`.
+    ow: f32,
+    dw: f32,
     /// The segment ends on a side of the view frustum or the near plane
     /// (left the image).
     ends_on_side: bool,
@@ -1346,6 +1352,8 @@ fn project_segment(hiz: &HiZ<'_>, ray: &Ray, t_max: f32) -> Option<Segment> {
         t0: lo,
         t1: hi,
         k,
+        ow: o.w,
+        dw: d.w,
         ends_on_side: side,
     };
     let finite = [seg.x0, seg.y0, seg.q0, seg.dx, seg.dy, seg.dq, seg.k]
@@ -1956,7 +1964,35 @@ impl<const NX: bool, const NY: bool, const NQ: bool, const BACK: bool, const STA
     fn hit(&self, st: State, s: f32, surface: f32) -> Trace {
         let sd = &self.seg;
         let q = sd.q(s);
-        let t = (sd.t0 + s * sd.k / q).clamp(sd.t0, sd.t1);
+        let mut t = (sd.t0 + s * sd.k / q).clamp(sd.t0, sd.t1);
+        let mut depth = 1.0 / q;
+        if NQ {
+            // A ray moving away from the camera enters the level-0 slab at
+            // its front, `surface` (`slab`: `s = max(st.s, e)`, `e` the
+            // entry parameter computed here the same way). Toward the
+            // vanishing point the screen parameter cannot resolve depth: a
+            // near plane of 7.5e-27 and an infinite far plane put a
+            // surface at 39.7 at `s = 1 - 2e-28`, which rounds to 1, where
+            // `1 / q` is infinite (fuzz finding F39, F6 of the stepping
+            // kernel in Hi-Z). The hit's depth is then the surface's (or,
+            // for a ray already inside the slab at `st.s`, no nearer than
+            // it), and `t` the ray parameter at that depth.
+            let entered = (1.0 / surface - self.q0) / self.dq >= s;
+            let off = if entered {
+                !((depth - surface).abs() <= RESOLVED_DEPTH * surface)
+            } else {
+                !(depth >= surface * (1.0 - RESOLVED_DEPTH))
+            };
+            if off || !(t.is_finite() && depth.is_finite()) {
+                // The hit lies on the segment: a surface entered within
+                // rounding of the segment's end, past it in exact
+                // arithmetic (F14's ray, `t_max` 12), keeps the end and
+                // the ray's depth there.
+                let tz = (surface - sd.ow) / sd.dw;
+                t = tz.clamp(sd.t0, sd.t1);
+                depth = if t == tz { surface } else { sd.ow + t * sd.dw };
+            }
+        }
         let pixel = Vec2::new(
             sd.x(s).clamp(st.px as f32, below(st.px)),
             sd.y(s).clamp(st.py as f32, below(st.py)),
@@ -1964,7 +2000,7 @@ impl<const NX: bool, const NY: bool, const NQ: bool, const BACK: bool, const STA
         Trace::Hit(DepthHit {
             pixel,
             t,
-            depth: 1.0 / q,
+            depth,
             surface_depth: surface,
             work: st.work(),
         })

@@ -124,7 +124,7 @@
 //! Hosts tracing reflection rays from surfaces of the same image offset the
 //! origin (e.g. along the normal) or start it one texel further.
 
-use crate::trace::try_validate_ray;
+use crate::trace::{try_validate_ray, RESOLVED_DEPTH};
 use crate::{DepthConvention, DepthHit, DepthImage, Error, Miss, Ray, Thickness, Trace, Work};
 use glam::{Vec2, Vec3};
 
@@ -738,13 +738,6 @@ fn test_texel<const C: u8>(seg: &Segment, look: &mut Lookup<'_, '_, C>, span: &S
 fn next_below(v: f32) -> f32 {
     f32::from_bits(v.to_bits() - 1)
 }
-
-/// Largest relative difference between a hit's depth from its screen
-/// parameter, `1/iz(s)`, and the depth the texel test found (the boundary
-/// the ray crossed, or its depth at the texel's entry) that [`make_hit`]
-/// still takes as resolved. Rounding alone stays near `1e-6`; the
-/// difference grows as `z (iz_a - iz_b) 2^-24` toward a vanishing point.
-const RESOLVED_DEPTH: f32 = 1e-3;
 
 fn make_hit(seg: &Segment, span: &Span, s: f32, front: f32, z: f32, work: Work) -> Trace {
     let p = seg.pixel(s);

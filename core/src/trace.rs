@@ -219,6 +219,14 @@ impl Trace {
     }
 }
 
+/// Largest relative difference between a hit's depth from its screen
+/// parameter (`1 / q(s)`, the interpolated inverse depth) and the depth the
+/// texel test found (the boundary the ray crossed, or its depth at the
+/// texel's entry) that the stepping and Hi-Z hits still take as resolved.
+/// Rounding alone stays near `1e-6`; the difference grows as
+/// `z (q_a - q_b) 2^-24` toward a vanishing point.
+pub(crate) const RESOLVED_DEPTH: f32 = 1e-3;
+
 /// Validates a ray and its maximum distance for a depth-image kernel.
 ///
 /// # Errors

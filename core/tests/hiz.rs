@@ -2131,3 +2131,83 @@ fn near_vanishing_point_finite_segment_hit_depth() {
     }
     assert!(hits > 0, "the case hits");
 }
+
+/// Fuzz finding F39 (F6's rounding, in Hi-Z): a near plane of 7.5e-27 and
+/// an infinite far plane clip the ray to `q` from `1 / near = 1.3e26` down
+/// to 0 at its vanishing point. A surface at depth 39.7 is entered at
+/// `s = 1 - 2e-28`, which rounds to 1, where `1 / q` is infinite: the hit
+/// came back with `t = depth = inf`. The hit's depth is the surface's (the
+/// ray enters its front) and `t` the ray parameter at that depth.
+#[test]
+fn tiny_near_plane_infinite_far_hit_has_the_surface_depth_and_a_finite_t() {
+    let view = glam::Mat4::from_cols_array(&[
+        6.735667e-29,
+        6.938375e-29,
+        -1.0,
+        0.0,
+        -0.0,
+        1.0,
+        6.938375e-29,
+        0.0,
+        1.0,
+        -0.0,
+        6.735667e-29,
+        0.0,
+        -2.6993818,
+        -3.9425864,
+        -1.0952567e-18,
+        1.0,
+    ]);
+    let cam = Camera::try_new(view, 2.0447059, 7.483172e-27, f32::INFINITY, 1, 18).unwrap();
+    let ray = Ray {
+        origin: Vec3::new(-1.0952567e-18, 3.9425864, 2.6993818),
+        dir: Vec3::new(0.9905635, -0.1266419, -0.052399803),
+    };
+    let surface = 39.670746f32;
+    let mut hits = 0;
+    for conv in DepthConvention::ALL {
+        let depth = vec![cam.encode_depth(surface, conv); 18];
+        let img =
+            DepthImage::try_new(ImageView::try_new(&depth, 1, 18, 1).unwrap(), cam, conv).unwrap();
+        let z = img.linear_at(0, 9).unwrap();
+        if z.is_infinite() {
+            // ZeroToOne with an infinite far plane: `1 - near / z` rounds
+            // to 1, the encoding of "no surface".
+            assert_eq!(conv, DepthConvention::ZeroToOne);
+            continue;
+        }
+        let mut pyr = vec![[0.0; 2]; try_hiz_len(1, 18).unwrap()];
+        try_build_hiz(&mut pyr, &img).unwrap();
+        let hiz = HiZ::try_new(&pyr, cam, conv).unwrap();
+        for t_max in [f32::INFINITY, 1e30, 100.0] {
+            for th in [
+                Thickness::Constant(f32::INFINITY),
+                Thickness::Constant(1.0),
+                Thickness::Constant(0.0),
+            ] {
+                let tr = try_trace_hiz(&hiz, th, ray, t_max, &HiZOptions::default()).unwrap();
+                let h = tr
+                    .hit()
+                    .unwrap_or_else(|| panic!("{conv:?} {t_max}: {tr:?}"));
+                hits += 1;
+                assert!(
+                    h.depth.is_finite() && h.t.is_finite() && h.t <= t_max,
+                    "{conv:?} {t_max}: {tr:?}"
+                );
+                assert!((h.depth - z).abs() <= 1e-6 * z, "{conv:?} {t_max}: {tr:?}");
+                // Oracle: the ray's depth at `t`, in f64.
+                let zt = -(cam
+                    .view()
+                    .as_dmat4()
+                    .transform_point3(ray.origin.as_dvec3() + ray.dir.as_dvec3() * f64::from(h.t)))
+                .z;
+                assert!(
+                    (zt - f64::from(z)).abs() <= 1e-5 * f64::from(z),
+                    "{conv:?} {t_max}: t {} has ray depth {zt}, surface {z}",
+                    h.t
+                );
+            }
+        }
+    }
+    assert_eq!(hits, 2 * 3 * 3);
+}
