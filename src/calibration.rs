@@ -48,12 +48,13 @@ pub enum Technique {
         /// Resolution divisor (1, 2, 4).
         scale: u32,
     },
-    /// A hybrid: refl-core's screen-space mirror pass with Hi-Z traversal
-    /// (its default options, reversed-Z depth with an infinite far plane,
-    /// the pyramid build inside the time) on the pixels, shading its hits
-    /// with the frame's direct-lit color at the hit texel; every pixel it
-    /// does not answer (a miss, a hidden or back-face hit, a ray off the
-    /// screen) ray traced.
+    /// A hybrid (issue 15, part 3): refl-core's screen-space mirror pass
+    /// with Hi-Z traversal (its default options, reversed-Z depth with an
+    /// infinite far plane, the pyramid build inside the time) on the
+    /// pixels, shading its hits with the frame's direct-lit color at the
+    /// hit texel and its sky answers with the environment; the pass's list
+    /// of rays it cannot answer (a ray off the screen, behind geometry, a
+    /// hidden or back-face hit) traced by the host's tracer (obvhs).
     HiZRay,
 }
 
@@ -231,7 +232,17 @@ impl Technique {
     }
 }
 
-/// [`Technique::HiZRay`]'s pass and the ray-traced rest.
+/// [`Technique::HiZRay`]: refl-core's mirror pass, then the host's tracer
+/// on the pass's own list of rays it could not answer (issue 15, part 3).
+///
+/// A pixel the pass hit shades the frame's direct-lit color at the hit
+/// texel; a pixel whose ray it answered as sky (in front of every surface
+/// to the vanishing point) shades the environment in its mirror direction;
+/// every ray of the pass's host list ([`refl_core::HostRay`]: origin,
+/// direction, `t_min`) is traced by obvhs from `max(t_min, epsilon)` and
+/// shaded as the reference shades a hit. A masked reflective pixel the
+/// pass did not trace at all (no usable surface in its G-buffer) is ray
+/// traced from the G-buffer, as the reference does.
 fn hiz_ray(
     shader: &Shader,
     g: &GBuffer,
@@ -240,30 +251,57 @@ fn hiz_ray(
     mask: &[bool],
     pool: &rayon::ThreadPool,
 ) -> Result<ReflectionImage, String> {
+    use rayon::prelude::*;
+    use refl_core::MirrorStatus;
     let err = |e: refl_core::Error| format!("mirror pass: {e}");
     let method = crate::screen::ScreenMethod::HiZ(refl_core::hiz::HiZOptions::default());
     let image = depth.image().map_err(err)?;
-    let out = crate::screen::run(method, true, &image, images, pool)
+    let (out, host) = crate::screen::run_with_host_rays(method, true, &image, images, pool)
         .map_err(err)?
         .value;
+    let w = g.width() as usize;
     let mut img = ReflectionImage::empty(g.width(), g.height());
     let mut rest = vec![false; g.len()];
     for i in 0..g.len() {
         if !(mask[i] && g.is_reflective(i)) {
             continue;
         }
-        if out.texels[i].status == refl_core::MirrorStatus::Hit {
-            img.rgb[i] = Vec3::from_array(out.color[i]);
-            img.handled[i] = true;
-        } else {
-            rest[i] = true;
+        match out.texels[i].status {
+            MirrorStatus::Hit => {
+                img.rgb[i] = Vec3::from_array(out.color[i]);
+                img.handled[i] = true;
+            }
+            MirrorStatus::Sky => {
+                img.rgb[i] = render::mirror_env(g, i);
+                img.handled[i] = true;
+            }
+            // In the host list, traced below.
+            s if s.needs_host() => {}
+            _ => rest[i] = true,
         }
     }
-    let traced = render::reference_masked(shader, g, 1, &rest, pool);
-    for (i, &r) in rest.iter().enumerate() {
-        if r {
-            img.rgb[i] = traced.rgb[i];
-            img.handled[i] = traced.handled[i];
+    let traced: Vec<(usize, Vec3)> = pool.install(|| {
+        host.par_iter()
+            .filter_map(|r| {
+                let i = r.y as usize * w + r.x as usize;
+                (mask[i] && g.is_reflective(i)).then(|| {
+                    let tmin = r.t_min.max(shader.epsilon);
+                    (i, shader.trace_reflection(r.origin, r.dir, tmin))
+                })
+            })
+            .collect()
+    });
+    for (i, c) in traced {
+        img.rgb[i] = c;
+        img.handled[i] = true;
+    }
+    if rest.iter().any(|&r| r) {
+        let rt = render::reference_masked(shader, g, 1, &rest, pool);
+        for (i, &r) in rest.iter().enumerate() {
+            if r {
+                img.rgb[i] = rt.rgb[i];
+                img.handled[i] = rt.handled[i];
+            }
         }
     }
     Ok(img)

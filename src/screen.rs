@@ -712,6 +712,75 @@ pub(crate) fn run_bands(
     })
 }
 
+/// [`run`] that also collects the pass's list of rays for the host's
+/// tracer (issue 15, part 3: the hybrid): each band's [`MirrorPass::try_run`]
+/// appends the pixels it cannot answer to its own part of one list of
+/// `width * height` entries (a band hands over at most one ray per pixel,
+/// so every ray fits); the rays come back in row-major order. Timed like
+/// [`run`]; the list is allocated outside the time, as the other buffers.
+///
+/// # Errors
+/// As [`run`].
+pub fn run_with_host_rays(
+    method: ScreenMethod,
+    refine: bool,
+    depth: &DepthImage<'_>,
+    images: &PassImages,
+    pool: &rayon::ThreadPool,
+) -> Result<crate::render::Timed<(PassRun, Vec<refl_core::HostRay>)>, refl_core::Error> {
+    let (w, h) = (depth.width(), depth.height());
+    let n = w as usize * h as usize;
+    let mut texels = vec![MirrorTexel::default(); n];
+    let mut color = vec![[0.0f32; 3]; n];
+    let mut host = vec![refl_core::HostRay::default(); n];
+    let mut pyramid = pyramid_storage(method, w, h)?;
+    let lit = images.lit.is_some();
+    let band = PYRAMID_BAND as usize * w as usize;
+    let t = crate::render::timed(|| {
+        with_pass(method, refine, depth, images, &mut pyramid, pool, |pass| {
+            pool.install(|| {
+                texels
+                    .par_chunks_mut(band)
+                    .zip(color.par_chunks_mut(band))
+                    .zip(host.par_chunks_mut(band))
+                    .enumerate()
+                    .map(|(k, ((t, c), list))| {
+                        let y0 = k as u32 * PYRAMID_BAND;
+                        let rows = RowRange::try_new(y0, (y0 + PYRAMID_BAND).min(h), h)?;
+                        let mut out = ImageViewMut::try_band(t, w, h, w, rows)?;
+                        let mut col = ImageViewMut::try_band(c, w, h, w, rows)?;
+                        let stats = pass.try_run(&mut out, lit.then_some(&mut col), list)?;
+                        Ok((k, stats))
+                    })
+                    .collect::<Result<Vec<_>, refl_core::Error>>()
+            })
+        })
+    });
+    let bands = t.value??;
+    let mut stats = MirrorStats::default();
+    let mut rays = Vec::new();
+    for (k, b) in bands {
+        assert_eq!(
+            b.host_rays, b.host_rays_written,
+            "a band's host list holds one ray per pixel"
+        );
+        let start = k * band;
+        rays.extend_from_slice(&host[start..start + b.host_rays_written as usize]);
+        stats = add_stats(stats, &b);
+    }
+    Ok(crate::render::Timed {
+        value: (
+            PassRun {
+                texels,
+                color,
+                stats,
+            },
+            rays,
+        ),
+        ms: t.ms,
+    })
+}
+
 /// The sum of two runs' counts.
 pub(crate) fn add_stats(a: MirrorStats, b: &MirrorStats) -> MirrorStats {
     MirrorStats {
