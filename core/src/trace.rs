@@ -225,6 +225,7 @@ impl Trace {
 /// texel's entry) that the stepping and Hi-Z hits still take as resolved.
 /// Rounding alone stays near `1e-6`; the difference grows as
 /// `z (q_a - q_b) 2^-24` toward a vanishing point.
+#[cfg(any(feature = "depth-image", feature = "hiz"))]
 pub(crate) const RESOLVED_DEPTH: f32 = 1e-3;
 
 /// Validates a ray and its maximum distance for a depth-image kernel.
