@@ -211,15 +211,7 @@ impl Technique {
                     for (h, &m) in img.handled.iter_mut().zip(mask) {
                         *h &= m;
                     }
-                    if rest.iter().any(|&r| r) {
-                        let traced = render::reference_masked(shader, g, 1, &rest, pool);
-                        for (i, &r) in rest.iter().enumerate() {
-                            if r {
-                                img.rgb[i] = traced.rgb[i];
-                                img.handled[i] = traced.handled[i];
-                            }
-                        }
-                    }
+                    trace_rest(shader, g, &rest, &mut img, pool);
                     img
                 }
                 Technique::HiZRay => {
@@ -295,16 +287,29 @@ fn hiz_ray(
         img.rgb[i] = c;
         img.handled[i] = true;
     }
-    if rest.iter().any(|&r| r) {
-        let rt = render::reference_masked(shader, g, 1, &rest, pool);
-        for (i, &r) in rest.iter().enumerate() {
-            if r {
-                img.rgb[i] = rt.rgb[i];
-                img.handled[i] = rt.handled[i];
-            }
+    trace_rest(shader, g, &rest, &mut img, pool);
+    Ok(img)
+}
+
+/// The reference tracer at one ray on the pixels of `rest` (none: no
+/// work), written into `img`.
+fn trace_rest(
+    shader: &Shader,
+    g: &GBuffer,
+    rest: &[bool],
+    img: &mut ReflectionImage,
+    pool: &rayon::ThreadPool,
+) {
+    if !rest.iter().any(|&r| r) {
+        return;
+    }
+    let traced = render::reference_masked(shader, g, 1, rest, pool);
+    for (i, &r) in rest.iter().enumerate() {
+        if r {
+            img.rgb[i] = traced.rgb[i];
+            img.handled[i] = traced.handled[i];
         }
     }
-    Ok(img)
 }
 
 /// One measured row of the table.

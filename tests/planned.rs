@@ -22,14 +22,20 @@ planar,resolution=1/1,mirror,planar,0.8,0.0,1,1\n\
 planar,resolution=1/4,mirror,planar,0.5,2.0,1,1\n\
 envmap,analytic,mirror,any,0.1,40.0,1,1\n";
 
-#[test]
-fn stage_choice_and_runs() {
+/// The stage (8,000 triangles), its tracer and a two-thread pool.
+fn stage() -> (Scene, Tracer, rayon::ThreadPool) {
     let scene = Scene::stage(8_000);
     let tracer = Tracer::new(&scene);
     let pool = rayon::ThreadPoolBuilder::new()
         .num_threads(2)
         .build()
         .unwrap();
+    (scene, tracer, pool)
+}
+
+#[test]
+fn stage_choice_and_runs() {
+    let (scene, tracer, pool) = stage();
     let camera = scene.camera(0, 96, 72).unwrap();
     let g = GBuffer::render(&scene, &tracer, &camera, &pool);
     let shader = Shader::new(&scene, &tracer);
@@ -127,19 +133,13 @@ fn bad_budgets_are_refused_with_the_flag() {
 /// the host's tracer, those pixels match the reference tracer (which
 /// traces from the G-buffer's exact surface point, the list from the point
 /// the pass reconstructs from depth); the pass's own hits shade the lit
-/// frame at the hit
-/// texel and its sky answers the environment, the only approximate
-/// parts.
+/// frame at the hit texel and its sky answers the environment, the only
+/// approximate parts.
 #[test]
 fn hybrid_traces_the_pass_host_list() {
     use refl_app::screen::{run_with_host_rays, DepthBuffer, PassImages, ScreenMethod};
     use refl_core::{DepthConvention, MirrorStatus};
-    let scene = Scene::stage(8_000);
-    let tracer = Tracer::new(&scene);
-    let pool = rayon::ThreadPoolBuilder::new()
-        .num_threads(2)
-        .build()
-        .unwrap();
+    let (scene, tracer, pool) = stage();
     let camera = scene.camera(0, 160, 120).unwrap();
     let g = GBuffer::render(&scene, &tracer, &camera, &pool);
     let shader = Shader::new(&scene, &tracer);
