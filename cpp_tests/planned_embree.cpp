@@ -495,6 +495,10 @@ struct Planned {
     // The answer.
     std::vector<refl_vec3> out;
     std::vector<uint8_t> answered, source;
+    // Seconds per phase of the last run (steady_clock reads between phases).
+    enum { kPhSummaryPlan, kPhPlanarPrepare, kPhRender, kPhResolve, kPhMirrorPass, kPhDispatch, kPhases };
+    double phase[kPhases] = {};
+    uint64_t render_texels = 0, covered = 0;
 
     Planned(unsigned threads, const std::vector<refl_plan_cost_entry>& tab, const std::vector<Option>& opts,
             const Frame& f)
@@ -543,6 +547,14 @@ struct Planned {
     void run(const Frame& f, RTCScene s) {
         const refl_gbuffer g = f.gbuffer(f.mask.data());
         const refl_summary_options so = refl_summary_options_default();
+        double tp0 = now_s();
+        auto lap = [&](int ph) {
+            const double t = now_s();
+            phase[ph] = t - tp0;
+            tp0 = t;
+        };
+        std::fill(phase, phase + kPhases, 0.0);
+        render_texels = covered = 0;
 
         // 1. Summary over row bands, merged.
         parallel(T, [&](unsigned b) {
@@ -584,6 +596,8 @@ struct Planned {
             any_ssr = any_ssr || o.kind == Kind::HizRay;
         }
 
+        lap(kPhSummaryPlan);
+
         // 3. Planar: setup, the mirrored render (Embree through the setup's
         // camera, clipped at the mirror, depth by the setup's projection,
         // the scissor's texels), the resolve in bands.
@@ -595,6 +609,7 @@ struct Planned {
             must(refl_planar_prepare(&setup, &g, &mirror, &po), "refl_planar_prepare");
             planar_ran = setup.covered;
         }
+        lap(kPhPlanarPrepare);
         if (planar_ran) {
             const Cam rc(setup.camera);
             const uint32_t rw = setup.camera.width, rh = setup.camera.height;
@@ -628,6 +643,8 @@ struct Planned {
                         rcolor[k] = lit(h.geom, {h.ng[0], h.ng[1], h.ng[2]});
                     }
             });
+            render_texels = uint64_t(sy1 - sy0) * (setup.scissor.x1 - setup.scissor.x0);
+            lap(kPhRender);
             const refl_planar_render render{{rdepth.data(), rn, rw, rh, rw}, {rcolor.data(), rn, rw, rh, rw}};
             parallel(T, [&](unsigned b) {
                 must(refl_planar_resolve_rows(&pstats[b], ptexels.data(), kPixels,
@@ -635,6 +652,8 @@ struct Planned {
                                               phost[b].size(), &g, &mirror, &po, &render, band(b, T, kHeight)),
                      "refl_planar_resolve_rows");
             });
+            lap(kPhResolve);
+            for (unsigned b = 0; b < T; ++b) covered += pstats[b].covered;
         }
 
         // 4. The mirror pass on the hiz+ray groups' pixels.
@@ -656,6 +675,7 @@ struct Planned {
                                          band(b, T, kHeight)),
                      "refl_ssr_trace_rows");
             });
+            lap(kPhMirrorPass);
         }
 
         // 5. Every reflective pixel by its group's method; the host lists.
@@ -713,6 +733,7 @@ struct Planned {
                            kSrcSsrHostRay);
                 }
         });
+        lap(kPhDispatch);
     }
 };
 
@@ -834,11 +855,14 @@ double run_scenario(const Scenario& sc, unsigned T, const std::vector<scene::Mes
     Planned p(T, table, options, f);
     ErrorStats es;
     double t_ref = 0, t_plan = 0, t_commit_ref = 0, t_commit_plan = 0;
+    double phases[Planned::kPhases] = {};
+    uint64_t texels = 0, covered = 0;
     for (int fr = 0; fr < sc.frames; ++fr) {
         const double dx = sc.moving ? 0.3 * fr : 0.0;
         if (sc.moving) world.place(dx);  // the G-buffer's scene (outside the times)
         f.render(world.scene);
         double best_ref = 1e30, best_plan = 1e30, commit_ref = 0, commit_plan = 0;
+        double best_phase[Planned::kPhases] = {};
         for (int rep = 0; rep < kReps; ++rep) {
             double t0 = now_s(), c = 0;
             if (sc.moving) c = world.place(dx);
@@ -851,8 +875,14 @@ double run_scenario(const Scenario& sc, unsigned T, const std::vector<scene::Mes
             if (sc.moving) c = world.place(dx);
             p.run(f, world.scene);
             t = now_s() - t0;
-            if (t < best_plan) best_plan = t, commit_plan = c;
+            if (t < best_plan) {
+                best_plan = t, commit_plan = c;
+                std::copy(p.phase, p.phase + Planned::kPhases, best_phase);
+            }
         }
+        for (int k = 0; k < Planned::kPhases; ++k) phases[k] += best_phase[k];
+        texels += p.render_texels;
+        covered += p.covered;
         t_ref += best_ref;
         t_plan += best_plan;
         t_commit_ref += commit_ref;
@@ -867,6 +897,20 @@ double run_scenario(const Scenario& sc, unsigned T, const std::vector<scene::Mes
     std::printf("[%s] planned/embree = %.3fx (planned %.2f ms, embree %.2f ms per frame; best of %d per frame, "
                 "%d frames, %zu reflective px per frame)\n",
                 tag, ratio, 1e3 * t_plan / sc.frames, 1e3 * t_ref / sc.frames, kReps, sc.frames, f.reflective);
+    std::printf("[%s] planned per frame: summary + plan %.2f ms, planar prepare %.2f ms, mirrored render "
+                "(Embree, %" PRIu64 " scissor texels) %.2f ms, planar resolve %.2f ms, mirror pass %.2f ms, "
+                "per-pixel methods + host lists %.2f ms\n",
+                tag, 1e3 * phases[0] / sc.frames, 1e3 * phases[1] / sc.frames, texels / uint64_t(sc.frames),
+                1e3 * phases[2] / sc.frames, 1e3 * phases[3] / sc.frames, 1e3 * phases[4] / sc.frames,
+                1e3 * phases[5] / sc.frames);
+    // Per-element costs: what bounds the ratio.
+    if (texels && covered)
+        std::printf("[%s] per element: embree %.1f ns per mirror ray (its time over its rays); planned: summary %.1f ns per image pixel, "
+                    "planar prepare %.1f ns per image pixel, mirrored render %.1f ns per scissor texel, resolve "
+                    "%.1f ns per covered pixel\n",
+                    tag, 1e9 * t_ref / (double(f.reflective) * sc.frames), 1e9 * phases[0] / (double(kPixels) * sc.frames),
+                    1e9 * phases[1] / (double(kPixels) * sc.frames), 1e9 * phases[2] / double(texels),
+                    1e9 * phases[3] / double(covered));
     if (sc.moving)
         std::printf("[%s] both sides pay the torus's vertex update + rtcCommitScene (dynamic scene, low build "
                     "quality) inside their time: %.2f ms (embree side), %.2f ms (planned side) per frame\n",
@@ -985,6 +1029,7 @@ int main() {
         }
         print_plan("forced hiz+ray on curved", p);
         CHECK(p.ssr_ran);
+        CHECK_EQ(p.bp.met, p.bp.error_255 <= 0.5);
         // Unreachable budget: every group takes its most accurate option, and
         // the prediction says it is not met.
         if (!p.bp.met) {
