@@ -298,7 +298,19 @@ fn trace_one(b: &mut Bytes, t: &Trace, opts: &refl_hiz_options) {
     // condition): a moderate camera and ray origin (a camera 1.6e6 from the
     // origin with a 0.3 near plane put the two hits 3.4 px apart).
     let resolved = camera_moderate(&t.img.cam) && max_abs3(ray.origin) < 100.0;
-    if r.miss == 0 && sr.miss == 0 && resolved {
+    // Known finding F40 (not a refl bug, fuzz/README.md): a ray that
+    // starts inside a texel's hit slab hits at t = 0 (self-intersection),
+    // and when its origin projects within rounding of a pixel boundary the
+    // two kernels may start in the two pixels on either side (the origin
+    // 8e-7 px inside row 12, below f32's step there: stepping counts it in
+    // row 12 and hits at t = 0, Hi-Z rounds it onto the boundary and
+    // starts in row 11, the way the ray moves, to hit 3.3 px further on).
+    let start_tie = (r.t == 0.0 || sr.t == 0.0)
+        && project(&t.img.cam, ray.origin).is_some_and(|q| {
+            let tol = pixel_tol(&t.img.cam, q.depth);
+            (q.x - q.x.round()).abs() <= tol || (q.y - q.y.round()).abs() <= tol
+        });
+    if r.miss == 0 && sr.miss == 0 && resolved && !start_tie {
         if std::env::var_os("REFL_FUZZ_DUMP").is_some() {
             let texels: Vec<f32> = (0..t.img.buf.len()).map(|i| t.img.buf.get(i)).collect();
             eprintln!("stride {} texels {texels:?}", t.img.stride);
