@@ -150,7 +150,14 @@ pub fn calibrate(args: &CalibrateArgs) -> Result<Calibration, String> {
     // Every time is a median of this many runs (the report's 3 move by
     // +-15% on this shared machine; a calibration run is short).
     sizes.runs = sizes.runs.max(CALIBRATION_RUNS);
-    let scenes = super::scene_names(&opts)?;
+    // Without `--scene`: the four built-in scenes of the report's default
+    // run, not the hall of mirrors, which a default report measures with
+    // its bounce rows only (`DEFAULT_RUN_ONLY`; since the hall joined the
+    // built-in scenes, an unfiltered default also calibrated on it).
+    let mut scenes = super::scene_names(&opts)?;
+    if args.scene.is_empty() {
+        scenes.retain(|s| !super::DEFAULT_RUN_ONLY.iter().any(|(n, _)| n == s));
+    }
     let input = SceneInput::of(&opts)?;
     let threads = args
         .threads
