@@ -2,8 +2,9 @@
 //! planner ([`refl_core::plan::try_choose_methods`]) chooses from the
 //! checked-in calibration table ([`crate::calibration`]) one technique per
 //! reflector and roughness class of the frame; the row runs exactly those
-//! techniques on exactly those pixels (its time and error are measured,
-//! not predicted) and prints the model's prediction next to them, with the
+//! techniques on exactly those pixels, each technique once on the union of
+//! the groups that chose it (its time and error are measured, not
+//! predicted), and prints the model's prediction next to them, with the
 //! passes the choice runs and skips and the bytes of their buffers.
 
 use super::accum::Extra;
@@ -64,18 +65,19 @@ pub fn budget_label(b: Budget) -> String {
     }
 }
 
-/// A technique's run on one group: (object, class, technique).
-type RunKey = (u32, RoughnessClass, Technique);
+/// A technique's run on the groups that chose it: the technique and the
+/// (object, class) of each group, in choice order.
+type RunKey = (Technique, Vec<(u32, RoughnessClass)>);
 
 /// What a frame's planned settings share: the time unit and the runs of
-/// each (object, class, technique), so that budgets choosing the same
-/// technique for a reflector run it once per frame.
+/// each technique on its groups, so that budgets choosing the same
+/// technique for the same groups run it once per frame.
 #[derive(Default)]
 pub struct Cache {
     /// The reference tracer at one ray on every reflective pixel, ms
     /// (median).
     unit_ms: Option<f64>,
-    /// (object, class, technique) -> its image and time.
+    /// (technique, groups) -> its image and time.
     runs: Vec<(RunKey, (ReflectionImage, f64))>,
 }
 
@@ -378,14 +380,27 @@ impl Setting for PlannedSetting {
                 p.frame.options.class(g.roughness[i]),
             )
         };
-        let mut image = ReflectionImage::empty(g.width(), g.height());
-        let mut ms = 0.0;
+        // Each chosen technique runs once on the union of its groups'
+        // pixels, as a host runs a pass once per frame (the planar pass
+        // renders every chosen planar reflector in one call; one ray
+        // tracing run covers every group that chose rays at that sample
+        // count).
+        let mut chosen: Vec<RunKey> = Vec::new();
         for ch in &p.choices {
             let Some(k) = ch.entry else { continue };
             let t = self.cal.entries[k].technique;
-            let key = (ch.group.object, ch.group.class, t);
+            let group = (ch.group.object, ch.group.class);
+            match chosen.iter_mut().find(|(rt, _)| *rt == t) {
+                Some((_, groups)) => groups.push(group),
+                None => chosen.push((t, vec![group])),
+            }
+        }
+        let mut image = ReflectionImage::empty(g.width(), g.height());
+        let mut ms = 0.0;
+        for key in chosen {
+            let t = key.0;
             let mask: Vec<bool> = (0..g.len())
-                .map(|i| g.is_reflective(i) && group_of(i) == (key.0, key.1))
+                .map(|i| g.is_reflective(i) && key.1.contains(&group_of(i)))
                 .collect();
             let i = match cache.runs.iter().position(|(k, _)| *k == key) {
                 Some(i) => i,
