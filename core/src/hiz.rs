@@ -162,9 +162,20 @@
 //! 6 million checked traces, 8 other hit texels and 20 hit/miss flips at
 //! ties; its gain would be latency only.
 //!
+//! The batch entry point [`try_trace_hiz_rays`] walks eight rays at once
+//! on x86-64 CPUs with AVX2 (detected at run time): the same walk in eight
+//! lanes, each refilled with the batch's next ray as soon as its ray
+//! finishes, returning the scalar walk's results bit for bit (module
+//! `avx2`; [`hiz_stream_lanes`] says which loop runs,
+//! [`try_trace_hiz_rays_scalar`] forces the scalar one).
+//!
 //! There is no self-intersection skip: a ray whose origin already lies in a
 //! texel's hit slab hits at `t = 0`. Start reflection rays slightly off the
 //! surface (the seed crosses one cell first for the same reason).
+
+#[cfg(all(target_arch = "x86_64", target_feature = "sse2"))]
+#[allow(unsafe_code)]
+mod avx2;
 
 use crate::trace::{
     try_validate_ray, DepthHit, DepthImage, Miss, Thickness, Trace, Work, RESOLVED_DEPTH,
@@ -1191,12 +1202,80 @@ pub fn try_trace_hiz_rays<O: From<Trace>, R: Copy + Into<Ray>>(
     for (i, r) in rays.iter().enumerate() {
         try_validate_ray(&(*r).into(), tm(i))?;
     }
+    #[cfg(all(target_arch = "x86_64", target_feature = "sse2"))]
+    if let Thickness::Constant(th) = thickness {
+        if avx2::available() && avx2::takes(hiz, options, rays.len()) {
+            // SAFETY: `available` checked that the CPU runs AVX2.
+            #[allow(unsafe_code)]
+            unsafe {
+                avx2::trace_rays(out, hiz, th, rays, t_max, options);
+            }
+            return Ok(());
+        }
+    }
+    trace_rays_scalar(out, hiz, thickness, rays, t_max, options);
+    Ok(())
+}
+
+/// Lanes [`try_trace_hiz_rays`] walks at once on this CPU: 8 where the
+/// AVX2 ray stream runs (x86-64 with AVX2, detected at run time), else 1
+/// (the scalar walk). Results are the same bits either way; this only
+/// says which loop runs, for benchmarks and logs.
+pub fn hiz_stream_lanes() -> usize {
+    #[cfg(all(target_arch = "x86_64", target_feature = "sse2"))]
+    if avx2::available() {
+        return 8;
+    }
+    1
+}
+
+/// [`try_trace_hiz_rays`] with the scalar walk for every ray, never the
+/// AVX2 stream: the stream's reference, and what `try_trace_hiz_rays` does
+/// on CPUs without AVX2. Same results, bit for bit.
+///
+/// # Errors
+/// As [`try_trace_hiz_rays`].
+///
+/// # Panics
+/// Never.
+pub fn try_trace_hiz_rays_scalar<O: From<Trace>, R: Copy + Into<Ray>>(
+    out: &mut [O],
+    hiz: &HiZ<'_>,
+    thickness: Thickness<'_>,
+    rays: &[R],
+    t_max: &[f32],
+    options: &HiZOptions,
+) -> Result<(), Error> {
+    if t_max.is_empty() {
+        return Err(Error::InvalidArgument);
+    }
+    if out.len() < rays.len() || (t_max.len() != 1 && t_max.len() < rays.len()) {
+        return Err(Error::InsufficientSize);
+    }
+    validate_thickness(hiz, &thickness)?;
+    let tm = |i: usize| if t_max.len() == 1 { t_max[0] } else { t_max[i] };
+    for (i, r) in rays.iter().enumerate() {
+        try_validate_ray(&(*r).into(), tm(i))?;
+    }
+    trace_rays_scalar(out, hiz, thickness, rays, t_max, options);
+    Ok(())
+}
+
+/// The scalar batch walk over validated rays.
+fn trace_rays_scalar<O: From<Trace>, R: Copy + Into<Ray>>(
+    out: &mut [O],
+    hiz: &HiZ<'_>,
+    thickness: Thickness<'_>,
+    rays: &[R],
+    t_max: &[f32],
+    options: &HiZOptions,
+) {
+    let tm = |i: usize| if t_max.len() == 1 { t_max[0] } else { t_max[i] };
     for (i, (o, r)) in out.iter_mut().zip(rays).enumerate() {
         *o = trace_valid::<false>(hiz, thickness, &(*r).into(), tm(i), options)
             .0
             .into();
     }
-    Ok(())
 }
 
 fn validate_thickness(hiz: &HiZ<'_>, thickness: &Thickness<'_>) -> Result<(), Error> {
@@ -2034,7 +2113,14 @@ impl<const NX: bool, const NY: bool, const NQ: bool, const BACK: bool, const STA
     /// constants stay in registers rather than being stored once per ray
     /// for an out-of-line builder.
     fn run(&self, mut st: State, o: &HiZOptions) -> (Trace, HiZStats) {
-        match self.walk_to_exit(&mut st, o) {
+        let exit = self.walk_to_exit(&mut st, o);
+        self.finish(st, exit)
+    }
+
+    /// The result of a walk that ended with `exit` in state `st`.
+    #[inline(always)]
+    fn finish(&self, st: State, exit: Exit) -> (Trace, HiZStats) {
+        match exit {
             Exit::Hit { s, surface } => (self.hit(st, s, surface), st.stats),
             Exit::End => self.end(st),
             Exit::OutOfSteps => {
@@ -2153,6 +2239,39 @@ enum Exit {
     OutOfSteps,
 }
 
+impl<
+        'h,
+        'a,
+        const NX: bool,
+        const NY: bool,
+        const NQ: bool,
+        const BACK: bool,
+        const STATS: bool,
+    > Walker<'h, 'a, NX, NY, NQ, BACK, STATS>
+{
+    /// The walker of `seg` (of this class) over `hiz`.
+    #[inline(always)]
+    fn new(hiz: &'h HiZ<'a>, thickness: Thickness<'a>, seg: Segment) -> Self {
+        let (w, h) = (hiz.layout.width, hiz.layout.height);
+        Self {
+            hiz,
+            levels: &hiz.cells,
+            data: hiz.data,
+            seg,
+            ax: Axis::new(seg.x0, seg.dx, w),
+            ay: Axis::new(seg.y0, seg.dy, h),
+            q0: seg.q0,
+            dq: seg.dq,
+            thickness,
+            th: match thickness {
+                Thickness::Constant(th) => th,
+                Thickness::BackFaces(_) => 0.0,
+            },
+            far: hiz.camera.far(),
+        }
+    }
+}
+
 /// Traces a projected segment with the walker of its class ([`Walker`]).
 fn walk<const NX: bool, const NY: bool, const NQ: bool, const BACK: bool, const STATS: bool>(
     hiz: &HiZ<'_>,
@@ -2161,34 +2280,40 @@ fn walk<const NX: bool, const NY: bool, const NQ: bool, const BACK: bool, const 
     options: &HiZOptions,
 ) -> (Trace, HiZStats) {
     let (w, h) = (hiz.layout.width, hiz.layout.height);
-    let px = dir_pixel(seg.x0, seg.dx, w);
-    let py = dir_pixel(seg.y0, seg.dy, h);
-    let walker = Walker::<NX, NY, NQ, BACK, STATS> {
-        hiz,
-        levels: &hiz.cells,
-        data: hiz.data,
-        seg,
-        ax: Axis::new(seg.x0, seg.dx, w),
-        ay: Axis::new(seg.y0, seg.dy, h),
-        q0: seg.q0,
-        dq: seg.dq,
-        thickness,
-        th: match thickness {
-            Thickness::Constant(th) => th,
-            Thickness::BackFaces(_) => 0.0,
-        },
-        far: hiz.camera.far(),
-    };
+    let walker = Walker::<NX, NY, NQ, BACK, STATS>::new(hiz, thickness, seg);
     let st = State {
         s: 0.0,
-        px,
-        py,
+        px: dir_pixel(seg.x0, seg.dx, w),
+        py: dir_pixel(seg.y0, seg.dy, h),
         steps: 0,
         fetches: 0,
         iterations: 0,
         stats: HiZStats::default(),
     };
     walker.run(st, options)
+}
+
+/// The result of a constant-thickness walk of `seg` that ended with `exit`
+/// in state `st` (`Walker::finish`), for the AVX2 stream, whose lanes walk
+/// and call this per finished ray. The hit and end builders do not depend
+/// on the `x` and `y` direction classes, only on `dq`'s sign.
+#[cfg(all(target_arch = "x86_64", target_feature = "sse2"))]
+fn finish_lane(
+    hiz: &HiZ<'_>,
+    thickness: Thickness<'_>,
+    seg: Segment,
+    st: State,
+    exit: Exit,
+) -> Trace {
+    if seg.dq < 0.0 {
+        Walker::<false, false, true, false, false>::new(hiz, thickness, seg)
+            .finish(st, exit)
+            .0
+    } else {
+        Walker::<false, false, false, false, false>::new(hiz, thickness, seg)
+            .finish(st, exit)
+            .0
+    }
 }
 
 fn trace_valid<const STATS: bool>(

@@ -6,9 +6,12 @@
 //!   view over caller memory ([`ImageView`], [`ImageViewMut`]); size queries
 //!   such as [`image::try_required_len`] say how much to allocate.
 //! * f32 kernels (what a GPU port would run); the tests carry f64 oracles.
-//! * Safe code (`#![deny(unsafe_code)]`) but for one audited block: the
-//!   SSE2 loads of the Hi-Z pyramid's 2x2 fold on x86-64 (`hiz.rs`, module
-//!   `sse2`, each load with its bounds argument).
+//! * Safe code (`#![deny(unsafe_code)]`) but for two audited modules, both
+//!   x86-64 only: the SSE2 loads of the Hi-Z pyramid's 2x2 fold (`hiz.rs`,
+//!   module `sse2`, each load with its bounds argument) and the Hi-Z
+//!   walk's AVX2 ray stream (`hiz/avx2.rs`: its gathers read texel indices
+//!   checked against the pyramid's length; entered only where CPUID says
+//!   AVX2 runs, via the `cpufeatures` crate).
 //! * One module per algorithm family, each behind a Cargo feature so that an
 //!   engine compiles only what its scenes need. `mirror` is on by default.
 //! * Conventions (shared by every module): right-handed world, view space
@@ -233,9 +236,10 @@ pub use glossy::{
 };
 #[cfg(feature = "hiz")]
 pub use hiz::{
-    try_build_hiz, try_build_hiz_level0_rows, try_build_hiz_level_rows, try_hiz_len, try_stamp_hiz,
-    try_trace_hiz, try_trace_hiz_rays, try_trace_hiz_stats, HiZ, HiZLayout, HiZLevel, HiZOptions,
-    HiZStats, HiZTexel, PyramidBand, PyramidStamp, PyramidTexel, HIZ_STAMP_TEXELS,
+    hiz_stream_lanes, try_build_hiz, try_build_hiz_level0_rows, try_build_hiz_level_rows,
+    try_hiz_len, try_stamp_hiz, try_trace_hiz, try_trace_hiz_rays, try_trace_hiz_rays_scalar,
+    try_trace_hiz_stats, HiZ, HiZLayout, HiZLevel, HiZOptions, HiZStats, HiZTexel, PyramidBand,
+    PyramidStamp, PyramidTexel, HIZ_STAMP_TEXELS,
 };
 #[cfg(any(feature = "depth-image", feature = "hiz"))]
 pub use ssr::{
