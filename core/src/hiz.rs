@@ -1208,12 +1208,49 @@ pub fn try_trace_hiz_rays<O: From<Trace>, R: Copy + Into<Ray>>(
             // SAFETY: `available` checked that the CPU runs AVX2.
             #[allow(unsafe_code)]
             unsafe {
-                avx2::trace_rays(out, hiz, th, rays, t_max, options);
+                avx2::trace_rays(out, hiz, &[th], rays, t_max, options);
             }
             return Ok(());
         }
     }
     trace_rays_scalar(out, hiz, thickness, rays, t_max, options);
+    Ok(())
+}
+
+/// [`try_trace_hiz_rays`] with a constant thickness per ray,
+/// `thickness[i]` for `rays[i]`: what a pass whose thickness scales with
+/// each pixel's depth hands the walk (`crate::ssr`). Validates as
+/// [`try_trace_hiz_rays`] (every thickness as a constant one) and writes
+/// nothing on `Err`.
+pub(crate) fn try_trace_hiz_rays_thick(
+    out: &mut [Trace],
+    hiz: &HiZ<'_>,
+    thickness: &[f32],
+    rays: &[Ray],
+    t_max: &[f32],
+    options: &HiZOptions,
+) -> Result<(), Error> {
+    if out.len() < rays.len() || thickness.len() < rays.len() || t_max.len() < rays.len() {
+        return Err(Error::InsufficientSize);
+    }
+    for ((r, &tm), &th) in rays.iter().zip(t_max).zip(thickness) {
+        try_validate_ray(r, tm)?;
+        if !(th >= 0.0) {
+            return Err(Error::InvalidArgument);
+        }
+    }
+    #[cfg(all(target_arch = "x86_64", target_feature = "sse2"))]
+    if avx2::available() && avx2::takes(hiz, options, rays.len()) {
+        // SAFETY: `available` checked that the CPU runs AVX2.
+        #[allow(unsafe_code)]
+        unsafe {
+            avx2::trace_rays(out, hiz, thickness, rays, t_max, options);
+        }
+        return Ok(());
+    }
+    for (((o, r), &tm), &th) in out.iter_mut().zip(rays).zip(t_max).zip(thickness) {
+        *o = trace_valid::<false>(hiz, Thickness::Constant(th), r, tm, options).0;
+    }
     Ok(())
 }
 

@@ -192,7 +192,11 @@ pub const HIDDEN_EPSILON: f32 = 1e-4;
 use glam::{Vec2, Vec3};
 
 #[cfg(feature = "hiz")]
-use crate::hiz::{try_trace_hiz, HiZ, HiZOptions};
+use crate::hiz::{try_trace_hiz, try_trace_hiz_rays_thick, HiZ, HiZOptions};
+
+/// Pixels whose rays [`MirrorPass`] traces as one batch in a Hi-Z run.
+#[cfg(feature = "hiz")]
+const BATCH: usize = 128;
 #[cfg(feature = "depth-image")]
 use crate::step::{try_step, StepOptions};
 
@@ -466,6 +470,7 @@ enum Front {
 /// A pixel's setup, or the status that ends it early (also what the
 /// layered pass, `crate::layered_pass`, builds on: one ray generation and
 /// start rule for every pass).
+#[derive(Clone, Copy, Debug)]
 pub(crate) enum Setup {
     Done(MirrorStatus),
     /// The ray starts at or beyond `t_max`: answered as sky untraced.
@@ -839,6 +844,20 @@ impl<'a> MirrorPass<'a> {
 
     /// [`MirrorPass::pixel`] with the ray it traced.
     pub(crate) fn trace_axis(&self, x: u32, y: u32) -> AxisTrace {
+        self.axis_from_setup(x, y, self.setup(x, y), None)
+    }
+
+    /// [`MirrorPass::trace_axis`] from the pixel's [`Setup`]; `first`, when
+    /// given, is the kernel's trace of a [`Setup::Trace`] ray
+    /// ([`MirrorPass::try_trace_kernel`]'s result, from a batch), which is
+    /// then not traced again.
+    fn axis_from_setup(
+        &self,
+        x: u32,
+        y: u32,
+        setup: Setup,
+        mut first: Option<Trace>,
+    ) -> AxisTrace {
         let mut out = MirrorTexel::default();
         let done = |texel, host, ray| AxisTrace {
             texel,
@@ -846,7 +865,7 @@ impl<'a> MirrorPass<'a> {
             ray,
             traced: false,
         };
-        let r = match self.setup(x, y) {
+        let r = match setup {
             Setup::Done(s) => {
                 out.status = s;
                 return done(out, None, None);
@@ -868,7 +887,10 @@ impl<'a> MirrorPass<'a> {
         let mut resumes = 0;
         let budget = hidden_resumes(self.gbuffer.width(), self.gbuffer.height());
         let status = loop {
-            let trace = self.try_trace_kernel(&seg);
+            let trace = match first.take() {
+                Some(t) => Ok(t),
+                None => self.try_trace_kernel(&seg),
+            };
             let Ok(Trace::Hit(h)) = trace else {
                 break match trace {
                     Ok(Trace::Miss { reason, .. }) => match reason {
@@ -999,6 +1021,17 @@ impl<'a> MirrorPass<'a> {
 
     fn run_rows(&self, rows: RowRange, sink: &mut impl MirrorSink) -> MirrorStats {
         let mut stats = MirrorStats::default();
+        #[cfg(feature = "hiz")]
+        if let (MirrorMethod::HiZ, Some(hiz), None) = (
+            self.options.method,
+            &self.hiz,
+            self.gbuffer.back_depth(),
+        ) {
+            for y in rows.rows() {
+                self.run_row_batched(hiz, y, &mut stats, sink);
+            }
+            return stats;
+        }
         for y in rows.rows() {
             for x in 0..self.gbuffer.width() {
                 let (t, rgb) = self.run_pixel(x, y, &mut stats, sink);
@@ -1006,6 +1039,77 @@ impl<'a> MirrorPass<'a> {
             }
         }
         stats
+    }
+
+    /// Row `y` of a Hi-Z run with constant thickness, the rays of each
+    /// chunk of [`BATCH`] pixels traced as one batch
+    /// (`crate::hiz::try_trace_hiz_rays_thick`: the AVX2 ray stream where
+    /// the CPU has it), then validated, shaded and handed to `sink` pixel
+    /// by pixel in row order. The same texels, colors and host rays as
+    /// [`MirrorPass::run_pixel`] on each pixel: the batch returns the
+    /// single-ray kernel's traces, and a hidden hit's resumption is traced
+    /// per pixel as there. About 16 KB of stack for the chunk.
+    #[cfg(feature = "hiz")]
+    fn run_row_batched(
+        &self,
+        hiz: &HiZ<'_>,
+        y: u32,
+        stats: &mut MirrorStats,
+        sink: &mut impl MirrorSink,
+    ) {
+        let w = self.gbuffer.width();
+        let none = Trace::Miss {
+            reason: Miss::DegenerateProjection,
+            work: crate::trace::Work::default(),
+        };
+        let mut setups = [Setup::Done(MirrorStatus::Skipped); BATCH];
+        let mut rays = [Ray {
+            origin: Vec3::ZERO,
+            dir: Vec3::Z,
+        }; BATCH];
+        let (mut th, mut t_max) = ([0.0f32; BATCH], [0.0f32; BATCH]);
+        let mut traces = [none; BATCH];
+        let mut x0 = 0;
+        while x0 < w {
+            let n = (w - x0).min(BATCH as u32) as usize;
+            let mut k = 0;
+            for (i, s) in setups[..n].iter_mut().enumerate() {
+                *s = self.setup(x0 + i as u32, y);
+                if let Setup::Trace(r) = s {
+                    rays[k] = r.kernel_ray();
+                    t_max[k] = self.options.t_max - r.t_start;
+                    th[k] = r.thickness;
+                    k += 1;
+                }
+            }
+            // Never `Err` for the rays of `setup` (validated options, unit
+            // directions, finite origins); each pixel traces its own ray
+            // if it were.
+            let batched = try_trace_hiz_rays_thick(
+                &mut traces[..k],
+                hiz,
+                &th[..k],
+                &rays[..k],
+                &t_max[..k],
+                &self.options.hiz,
+            )
+            .is_ok();
+            let mut k = 0;
+            for (i, s) in setups[..n].iter().enumerate() {
+                let x = x0 + i as u32;
+                let first = match s {
+                    Setup::Trace(_) => {
+                        k += 1;
+                        batched.then_some(traces[k - 1])
+                    }
+                    _ => None,
+                };
+                let a = self.axis_from_setup(x, y, *s, first);
+                let (t, rgb) = self.count_and_shade(a.texel, a.host, stats, sink);
+                sink.texel(x, y, &t, rgb);
+            }
+            x0 += n as u32;
+        }
     }
 
     /// One pixel of a run: traces `(x, y)` ([`MirrorPass::pixel`]), counts
@@ -1021,6 +1125,18 @@ impl<'a> MirrorPass<'a> {
         sink: &mut impl MirrorSink,
     ) -> (MirrorTexel, [f32; 3]) {
         let (t, hr) = self.pixel(x, y);
+        self.count_and_shade(t, hr, stats, sink)
+    }
+
+    /// The accounting and shading of [`MirrorPass::run_pixel`] for a
+    /// pixel's traced texel `t` and host ray `hr`.
+    fn count_and_shade(
+        &self,
+        t: MirrorTexel,
+        hr: Option<HostRay>,
+        stats: &mut MirrorStats,
+        sink: &mut impl MirrorSink,
+    ) -> (MirrorTexel, [f32; 3]) {
         if !matches!(t.status, MirrorStatus::Skipped | MirrorStatus::NoSurface) {
             stats.traced += 1;
         }

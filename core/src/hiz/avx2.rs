@@ -115,6 +115,8 @@ struct Lanes {
     ex_dy: [f32; LANES],
     q0: [f32; LANES],
     dq: [f32; LANES],
+    /// The ray's constant thickness.
+    th: [f32; LANES],
     /// All ones where the class moves toward `-x`, `-y`, smaller `q`.
     negx: [i32; LANES],
     negy: [i32; LANES],
@@ -154,8 +156,9 @@ struct Out {
 }
 
 /// Traces every ray as `super::trace_valid::<false>` would, into `out`.
-/// The rays and `t_max` are already validated, the thickness is the
-/// constant `th`, and [`takes`] holds.
+/// The rays, `t_max` and the constant thicknesses `th` are already
+/// validated (`th` and `t_max`: one value for every ray, or one per ray),
+/// and [`takes`] holds.
 ///
 /// # Safety
 /// The CPU supports AVX2 ([`available`]).
@@ -163,7 +166,7 @@ struct Out {
 pub(super) unsafe fn trace_rays<O: From<Trace>, R: Copy + Into<Ray>>(
     out: &mut [O],
     hiz: &HiZ<'_>,
-    th: f32,
+    th: &[f32],
     rays: &[R],
     t_max: &[f32],
     options: &HiZOptions,
@@ -192,6 +195,7 @@ pub(super) unsafe fn trace_rays<O: From<Trace>, R: Copy + Into<Ray>>(
         ex_dy: [1.0; LANES],
         q0: [1.0; LANES],
         dq: [1.0; LANES],
+        th: [0.0; LANES],
         negx: [0; LANES],
         negy: [0; LANES],
         negq: [0; LANES],
@@ -221,6 +225,7 @@ pub(super) unsafe fn trace_rays<O: From<Trace>, R: Copy + Into<Ray>>(
         hiz,
         rays,
         t_max,
+        th,
         next: 0,
         segs: [None; LANES],
         ray_of: [0; LANES],
@@ -243,7 +248,6 @@ pub(super) unsafe fn trace_rays<O: From<Trace>, R: Copy + Into<Ray>>(
     let hv = _mm256_set1_epi32(h as i32);
     let w1 = _mm256_set1_epi32(w as i32 - 1);
     let h1 = _mm256_set1_epi32(h as i32 - 1);
-    let thv = _mm256_set1_ps(th);
     let farv = _mm256_set1_ps(far);
     let prov = _mm256_set1_epi32(pro_steps);
     let startv = _mm256_set1_epi32(start);
@@ -369,6 +373,7 @@ pub(super) unsafe fn trace_rays<O: From<Trace>, R: Copy + Into<Ray>>(
         let to = _mm256_min_ps(one_f, es);
 
         // The slab (`Walker::slab`, `Walker::upper`).
+        let thv = ld!(f th);
         let q0 = ld!(f q0);
         let dq = ld!(f dq);
         let l0 = _mm256_cmpeq_epi32(level, zero);
@@ -579,7 +584,7 @@ pub(super) unsafe fn trace_rays<O: From<Trace>, R: Copy + Into<Ray>>(
                     Exit::End
                 };
                 out[feed.ray_of[k]] =
-                    finish_lane(hiz, Thickness::Constant(th), seg, st, exit).into();
+                    finish_lane(hiz, Thickness::Constant(ln.th[k]), seg, st, exit).into();
                 if !feed.refill(&mut ln, &mut par, k, out) {
                     busy -= 1;
                 }
@@ -593,6 +598,7 @@ struct Feed<'h, 'a, 'r, R> {
     hiz: &'h HiZ<'a>,
     rays: &'r [R],
     t_max: &'r [f32],
+    th: &'r [f32],
     /// The next ray to take.
     next: usize,
     /// Each lane's segment (`None`: the lane is empty) and ray index.
@@ -645,6 +651,11 @@ impl<R: Copy + Into<Ray>> Feed<'_, '_, '_, R> {
             ln.ex_y0[k] = ay.exit_v0;
             ln.ex_dy[k] = ay.exit_d;
             ln.q0[k] = seg.q0;
+            ln.th[k] = if self.th.len() == 1 {
+                self.th[0]
+            } else {
+                self.th[i]
+            };
             ln.dq[k] = seg.dq;
             ln.negx[k] = -i32::from(seg.dx < 0.0);
             ln.negy[k] = -i32::from(seg.dy < 0.0);
