@@ -7,9 +7,13 @@
 //! cargo run --release --example depth_kernels_bench -- [options]
 //!   --tris N        room triangles (30000)
 //!   --size WxH      image size (512x384)
-//!   --time KERNEL   hiz | step | both | build | none (both): kernel(s) to
-//!                   time; build: the Hi-Z pyramid against a memcpy of its
-//!                   bytes, every convention (with the pyramid's hash)
+//!   --time KERNEL   hiz | hiz-scalar | step | both | pass | build | none
+//!                   (both): kernel(s) to time; hiz is the batch call (the
+//!                   AVX2 stream where the CPU has it), hiz-scalar the
+//!                   scalar walk; pass: the whole Hi-Z mirror pass
+//!                   (`MirrorPass::try_run`); build: the Hi-Z pyramid against
+//!                   a memcpy of its bytes, every convention (with the
+//!                   pyramid's hash)
 //!   --reps N        timed repetitions per kernel (20; 0 for a setup-only
 //!                   run, to subtract from `perf stat` counts)
 //!   --save FILE     write every checked trace to FILE
@@ -458,6 +462,60 @@ fn main() {
             hiz::try_trace_hiz_rays(&mut out, &hz, th, rays, &[f32::INFINITY], &opts).expect("hiz");
         }
         report("hiz", &out, &mut ns);
+    }
+    if a.time == "hiz-scalar" {
+        // The scalar walk alone (`try_trace_hiz_rays_scalar`), the AVX2
+        // stream's reference.
+        let opts = HiZOptions::default();
+        let mut ns = time_it(&mut || {
+            hiz::try_trace_hiz_rays_scalar(&mut out, &hz, th, rays, &[f32::INFINITY], &opts)
+                .expect("hiz");
+        });
+        if a.reps == 0 {
+            hiz::try_trace_hiz_rays_scalar(&mut out, &hz, th, rays, &[f32::INFINITY], &opts)
+                .expect("hiz");
+        }
+        report("hizs", &out, &mut ns);
+    }
+    if a.time == "pass" {
+        // The whole Hi-Z mirror pass (`MirrorPass::try_run`, default
+        // options, no back faces) over the frame, per pixel with a ray.
+        let images = screen::PassImages::new(&g, None);
+        let pass = refl_core::MirrorPass::try_new(
+            images.gbuffer(image).expect("gbuffer"),
+            refl_core::MirrorOptions {
+                method: refl_core::MirrorMethod::HiZ,
+                ..refl_core::MirrorOptions::default()
+            },
+            Some(hz),
+        )
+        .expect("pass");
+        let (w, h) = (a.width, a.height);
+        let mut texels = vec![refl_core::MirrorTexel::default(); (w * h) as usize];
+        let mut stats = refl_core::MirrorStats::default();
+        let mut run = || {
+            let mut o = refl_core::ImageViewMut::try_new(&mut texels, w, h, w).expect("out");
+            stats = pass.try_run(&mut o, None, &mut []).expect("run");
+        };
+        let mut ns: Vec<f64> = (0..a.reps.max(1))
+            .map(|_| {
+                let t = Instant::now();
+                run();
+                t.elapsed().as_secs_f64() * 1e9
+            })
+            .collect();
+        ns.sort_by(f64::total_cmp);
+        let traced = f64::from(stats.traced.max(1));
+        println!(
+            "pass : {:8.1} ns/traced pixel min, {:8.1} median over {} reps; {} traced, {} hits, \
+             stream lanes {}",
+            ns[0] / traced,
+            ns[ns.len() / 2] / traced,
+            ns.len(),
+            stats.traced,
+            stats.hits,
+            hiz::hiz_stream_lanes()
+        );
     }
     if a.time == "step" || a.time == "both" {
         let opts = StepOptions::default();

@@ -851,13 +851,7 @@ impl<'a> MirrorPass<'a> {
     /// given, is the kernel's trace of a [`Setup::Trace`] ray
     /// ([`MirrorPass::try_trace_kernel`]'s result, from a batch), which is
     /// then not traced again.
-    fn axis_from_setup(
-        &self,
-        x: u32,
-        y: u32,
-        setup: Setup,
-        mut first: Option<Trace>,
-    ) -> AxisTrace {
+    fn axis_from_setup(&self, x: u32, y: u32, setup: Setup, mut first: Option<Trace>) -> AxisTrace {
         let mut out = MirrorTexel::default();
         let done = |texel, host, ray| AxisTrace {
             texel,
@@ -1022,11 +1016,9 @@ impl<'a> MirrorPass<'a> {
     fn run_rows(&self, rows: RowRange, sink: &mut impl MirrorSink) -> MirrorStats {
         let mut stats = MirrorStats::default();
         #[cfg(feature = "hiz")]
-        if let (MirrorMethod::HiZ, Some(hiz), None) = (
-            self.options.method,
-            &self.hiz,
-            self.gbuffer.back_depth(),
-        ) {
+        if let (MirrorMethod::HiZ, Some(hiz), None) =
+            (self.options.method, &self.hiz, self.gbuffer.back_depth())
+        {
             for y in rows.rows() {
                 self.run_row_batched(hiz, y, &mut stats, sink);
             }

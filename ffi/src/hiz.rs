@@ -438,6 +438,15 @@ pub unsafe extern "C" fn refl_hiz_trace_ray(
     })
 }
 
+/// How many rays `refl_hiz_trace_rays` walks at once on this CPU: 8 where
+/// its AVX2 ray stream runs (x86-64 with AVX2, detected at run time), 1
+/// where the scalar walk runs. The results are the same bits either way;
+/// this only says which loop runs (for logs and benchmarks).
+#[no_mangle]
+pub extern "C" fn refl_hiz_stream_lanes() -> u32 {
+    refl_core::hiz_stream_lanes() as u32
+}
+
 /// Traces `rays_len` rays as `refl_hiz_trace_ray` would, writing result
 /// `i` to `out[i]`: the arguments of `refl_hiz_trace_ray` in the same
 /// order, the ray, `t_max` and the result replaced by arrays. `t_max`
