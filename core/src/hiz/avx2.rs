@@ -47,11 +47,12 @@ use core::arch::x86_64::{
     _mm256_castsi256_ps, _mm256_castsi256_si128, _mm256_cmp_ps, _mm256_cmpeq_epi32,
     _mm256_cmpgt_epi32, _mm256_cvtepi32_ps, _mm256_cvttps_epi32, _mm256_div_ps,
     _mm256_extracti128_si256, _mm256_i32gather_epi32, _mm256_i32gather_pd, _mm256_i32gather_ps,
-    _mm256_load_ps, _mm256_load_si256, _mm256_max_epi32, _mm256_max_ps, _mm256_min_epi32,
-    _mm256_min_ps, _mm256_movemask_ps, _mm256_mul_ps, _mm256_mullo_epi32, _mm256_or_si256,
-    _mm256_permute4x64_pd, _mm256_set1_epi32, _mm256_set1_ps, _mm256_setr_epi32,
-    _mm256_setzero_si256, _mm256_shuffle_ps, _mm256_sllv_epi32, _mm256_srlv_epi32, _mm256_store_ps,
-    _mm256_store_si256, _mm256_sub_epi32, _mm256_sub_ps, _CMP_LE_OQ, _CMP_LT_OQ, _CMP_NLT_UQ,
+    _mm256_load_ps, _mm256_load_si256, _mm256_loadu_si256, _mm256_max_epi32, _mm256_max_ps,
+    _mm256_min_epi32, _mm256_min_ps, _mm256_movemask_ps, _mm256_mul_ps, _mm256_mullo_epi32,
+    _mm256_or_si256, _mm256_permute4x64_pd, _mm256_permutevar8x32_epi32, _mm256_set1_epi32,
+    _mm256_set1_ps, _mm256_setr_epi32, _mm256_setzero_si256, _mm256_shuffle_ps, _mm256_sllv_epi32,
+    _mm256_srli_epi32, _mm256_srlv_epi32, _mm256_store_ps, _mm256_store_si256, _mm256_sub_epi32,
+    _mm256_sub_ps, _CMP_LE_OQ, _CMP_LT_OQ, _CMP_NLT_UQ,
 };
 
 cpufeatures::new!(cpuid_avx2, "avx2");
@@ -64,9 +65,11 @@ const LANES: usize = 8;
 pub(super) const MIN_RAYS: usize = 16;
 
 /// Largest image side the stream takes: pixel indices, edge pixels plus
-/// one and texel indices stay far inside `i32`, and every coordinate the
-/// frontier can reach is below `2^24`, where `f32` holds integers exactly.
-const MAX_SIDE: u32 = 1 << 16;
+/// one and texel indices stay far inside `i32`, every coordinate the
+/// frontier can reach is below `2^24`, where `f32` holds integers exactly,
+/// and the pyramid has at most 16 levels (its level offsets fit in two
+/// vectors).
+const MAX_SIDE: u32 = 1 << 15;
 
 /// Whether this CPU runs the AVX2 stream (CPUID and the OS's saved
 /// register state, checked once and cached).
@@ -136,11 +139,11 @@ struct Lanes {
 }
 
 /// Per-lane parent records, `[level * LANES + lane]` (see the scalar walk's
-/// `parent_ex`, `parent_ey`, `parent_sb`).
+/// `parent_ex`, `parent_ey`, `parent_sb`), the edge pixels packed as
+/// `ex | ey << 16`.
 #[repr(C, align(32))]
 struct Parents {
-    ex: [i32; MAX_LEVELS * LANES],
-    ey: [i32; MAX_LEVELS * LANES],
+    exy: [i32; MAX_LEVELS * LANES],
     sb: [f32; MAX_LEVELS * LANES],
 }
 
@@ -209,8 +212,7 @@ pub(super) unsafe fn trace_rays<O: From<Trace>, R: Copy + Into<Ray>>(
         active: [0; LANES],
     };
     let mut par = Parents {
-        ex: [0; MAX_LEVELS * LANES],
-        ey: [0; MAX_LEVELS * LANES],
+        exy: [0; MAX_LEVELS * LANES],
         sb: [f32::NEG_INFINITY; MAX_LEVELS * LANES],
     };
     let mut res = Out {
@@ -255,6 +257,9 @@ pub(super) unsafe fn trace_rays<O: From<Trace>, R: Copy + Into<Ray>>(
     let lenv = _mm256_set1_epi32(data.len() as i32);
     let lane_id = _mm256_setr_epi32(0, 1, 2, 3, 4, 5, 6, 7);
     let lanes_v = _mm256_set1_epi32(LANES as i32);
+    let seven = _mm256_set1_epi32(7);
+    let off_lo = _mm256_loadu_si256(offsets.as_ptr().cast());
+    let off_hi = _mm256_loadu_si256(offsets[8..].as_ptr().cast());
 
     while busy > 0 {
         macro_rules! ld {
@@ -332,7 +337,14 @@ pub(super) unsafe fn trace_rays<O: From<Trace>, R: Copy + Into<Ray>>(
         }
         let ex = edge!(cx, last_x, w1, negx);
         let ey = edge!(cy, last_y, h1, negy);
-        let off = _mm256_i32gather_epi32::<4>(offsets.as_ptr(), level);
+        // The level's first texel from the two eight-entry halves of the
+        // offset table (levels 0-7 and 8-15), two permutes and a blend
+        // rather than a gather.
+        let off = seli!(
+            _mm256_cmpgt_epi32(level, seven),
+            _mm256_permutevar8x32_epi32(off_hi, level),
+            _mm256_permutevar8x32_epi32(off_lo, level),
+        );
         let idx = _mm256_add_epi32(off, _mm256_add_epi32(_mm256_mullo_epi32(cy, wl), cx));
         // In the pyramid (always, for a bound `HiZ`; a lane outside ends
         // as the scalar visit does), and only for visiting lanes.
@@ -499,8 +511,11 @@ pub(super) unsafe fn trace_rays<O: From<Trace>, R: Copy + Into<Ray>>(
         let below_top = _mm256_cmpgt_epi32(topv, level);
         let up = _mm256_min_epi32(_mm256_add_epi32(level, one_i), topv);
         let pidx = _mm256_add_epi32(_mm256_mullo_epi32(up, lanes_v), lane_id);
-        let pex = _mm256_i32gather_epi32::<4>(par.ex.as_ptr(), pidx);
-        let pey = _mm256_i32gather_epi32::<4>(par.ey.as_ptr(), pidx);
+        // Edge pixels packed as `ex | ey << 16` (both below 2^15): one
+        // gather for the two.
+        let pexy = _mm256_i32gather_epi32::<4>(par.exy.as_ptr(), pidx);
+        let pex = _mm256_and_si256(pexy, _mm256_set1_epi32(0xFFFF));
+        let pey = _mm256_srli_epi32::<16>(pexy);
         let psb = _mm256_i32gather_ps::<4>(par.sb.as_ptr(), pidx);
         // `holds` (`Walker::holds`): not past the parent's edge pixels.
         let out_x = seli!(
@@ -550,8 +565,7 @@ pub(super) unsafe fn trace_rays<O: From<Trace>, R: Copy + Into<Ray>>(
             let k = m.trailing_zeros() as usize;
             m &= m - 1;
             let j = res.level[k] as usize % MAX_LEVELS * LANES + k;
-            par.ex[j] = res.ex[k];
-            par.ey[j] = res.ey[k];
+            par.exy[j] = res.ex[k] | res.ey[k] << 16;
             par.sb[j] = res.sb[k];
         }
         if done != 0 {
