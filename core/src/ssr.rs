@@ -194,7 +194,8 @@ use glam::{Vec2, Vec3};
 #[cfg(feature = "hiz")]
 use crate::hiz::{try_trace_hiz, try_trace_hiz_rays_thick, HiZ, HiZOptions};
 
-/// Pixels whose rays [`MirrorPass`] traces as one batch in a Hi-Z run.
+/// Pixels whose rays [`MirrorPass`] traces as one batch in a Hi-Z run
+/// (at most 256: a chunk's pending list holds `u8` indices).
 #[cfg(feature = "hiz")]
 const BATCH: usize = 128;
 #[cfg(feature = "depth-image")]
@@ -885,72 +886,22 @@ impl<'a> MirrorPass<'a> {
                 Some(t) => Ok(t),
                 None => self.try_trace_kernel(&seg),
             };
-            let Ok(Trace::Hit(h)) = trace else {
-                break match trace {
-                    Ok(Trace::Miss { reason, .. }) => match reason {
-                        Miss::EndOfRay => MirrorStatus::Sky,
-                        Miss::LeftImage => MirrorStatus::LeftImage,
-                        Miss::BehindGeometry => MirrorStatus::BehindGeometry,
-                        Miss::OutOfSteps => MirrorStatus::OutOfSteps,
-                        Miss::DegenerateProjection => MirrorStatus::NoProjection,
-                    },
-                    // Not reached for a ray from `setup` (validated options,
-                    // unit direction, finite origin); handed over rather
-                    // than lost.
-                    _ => MirrorStatus::NoProjection,
-                };
-            };
-            let (h, refined) = if self.options.refine {
-                let f = refine_hit(
-                    self.gbuffer.depth(),
-                    &seg.kernel_ray(),
-                    self.options.t_max - seg.t_start,
-                    &h,
-                );
-                let moved = f.t.to_bits() != h.t.to_bits() || f.pixel != h.pixel;
-                (f, moved)
-            } else {
-                (h, false)
-            };
-            let front = if self.options.reject_hidden_hits {
-                self.front(&h, refined, &seg.kernel_ray())
-            } else {
-                Front::Visible
-            };
-            if let Front::Hidden { resume } = front {
-                // Resume where the projection has left the hit's texel.
-                match resume.map(|dt| seg.t_start + h.t + dt) {
-                    Some(t) if resumes < budget && t < self.options.t_max => {
-                        resumes += 1;
-                        seg.t_start = t;
-                        continue;
-                    }
-                    _ => break MirrorStatus::Hidden,
-                }
+            if let Some(s) = self.outcome(&mut seg, &mut resumes, budget, trace, &mut out) {
+                break s;
             }
-            if self.options.reject_back_faces && self.faces_away(h.pixel, seg.dir) {
-                break MirrorStatus::BackFace;
-            }
-            // A surface so far away (a depth near f32::MAX) that the
-            // distance to it overflows f32 is no hit the pass can state:
-            // the host traces it (found by the `ssr` fuzz target).
-            // The kernel's `t` is at most `t_max - t_start`, which rounds:
-            // the sum may pass `t_max` by an ulp (as the layered pass's did,
-            // F32); the hit lies at the end.
-            let t = seg.t_start + h.t;
-            let t = if t > self.options.t_max {
-                self.options.t_max
-            } else {
-                t
-            };
-            if !t.is_finite() {
-                break MirrorStatus::NoProjection;
-            }
-            out.pixel = h.pixel;
-            out.t = t;
-            out.confidence = self.confidence(h.pixel);
-            break MirrorStatus::Hit;
         };
+        self.traced_axis(x, y, r, out, status)
+    }
+
+    /// The traced pixel `(x, y)` with ray `r`, texel `out` and `status`.
+    fn traced_axis(
+        &self,
+        x: u32,
+        y: u32,
+        r: MirrorRay,
+        mut out: MirrorTexel,
+        status: MirrorStatus,
+    ) -> AxisTrace {
         out.status = status;
         let host = status
             .needs_host()
@@ -961,6 +912,85 @@ impl<'a> MirrorPass<'a> {
             ray: Some(r),
             traced: true,
         }
+    }
+
+    /// One kernel trace of a pixel's ray `seg` judged (module docs, steps
+    /// 6 and 7): the pixel's status, with the hit written to `out`, or
+    /// `None` when the hit is hidden and the ray resumes past it (`seg`'s
+    /// start moved, `resumes` counted, at most `budget` times).
+    fn outcome(
+        &self,
+        seg: &mut MirrorRay,
+        resumes: &mut u32,
+        budget: u32,
+        trace: Result<Trace, Error>,
+        out: &mut MirrorTexel,
+    ) -> Option<MirrorStatus> {
+        let Ok(Trace::Hit(h)) = trace else {
+            return Some(match trace {
+                Ok(Trace::Miss { reason, .. }) => match reason {
+                    Miss::EndOfRay => MirrorStatus::Sky,
+                    Miss::LeftImage => MirrorStatus::LeftImage,
+                    Miss::BehindGeometry => MirrorStatus::BehindGeometry,
+                    Miss::OutOfSteps => MirrorStatus::OutOfSteps,
+                    Miss::DegenerateProjection => MirrorStatus::NoProjection,
+                },
+                // Not reached for a ray from `setup` (validated options,
+                // unit direction, finite origin); handed over rather
+                // than lost.
+                _ => MirrorStatus::NoProjection,
+            });
+        };
+        let (h, refined) = if self.options.refine {
+            let f = refine_hit(
+                self.gbuffer.depth(),
+                &seg.kernel_ray(),
+                self.options.t_max - seg.t_start,
+                &h,
+            );
+            let moved = f.t.to_bits() != h.t.to_bits() || f.pixel != h.pixel;
+            (f, moved)
+        } else {
+            (h, false)
+        };
+        let front = if self.options.reject_hidden_hits {
+            self.front(&h, refined, &seg.kernel_ray())
+        } else {
+            Front::Visible
+        };
+        if let Front::Hidden { resume } = front {
+            // Resume where the projection has left the hit's texel.
+            match resume.map(|dt| seg.t_start + h.t + dt) {
+                Some(t) if *resumes < budget && t < self.options.t_max => {
+                    *resumes += 1;
+                    seg.t_start = t;
+                    return None;
+                }
+                _ => return Some(MirrorStatus::Hidden),
+            }
+        }
+        if self.options.reject_back_faces && self.faces_away(h.pixel, seg.dir) {
+            return Some(MirrorStatus::BackFace);
+        }
+        // A surface so far away (a depth near f32::MAX) that the
+        // distance to it overflows f32 is no hit the pass can state:
+        // the host traces it (found by the `ssr` fuzz target).
+        // The kernel's `t` is at most `t_max - t_start`, which rounds:
+        // the sum may pass `t_max` by an ulp (as the layered pass's did,
+        // F32); the hit lies at the end.
+        let t = seg.t_start + h.t;
+        let t = if t > self.options.t_max {
+            self.options.t_max
+        } else {
+            t
+        };
+        if !t.is_finite() {
+            return Some(MirrorStatus::NoProjection);
+        }
+        out.pixel = h.pixel;
+        out.t = t;
+        out.confidence = self.confidence(h.pixel);
+        Some(MirrorStatus::Hit)
     }
 
     /// Runs the pass over the rows `out` owns (a whole image or a band from
@@ -1033,14 +1063,16 @@ impl<'a> MirrorPass<'a> {
         stats
     }
 
-    /// Row `y` of a Hi-Z run with constant thickness, the rays of each
-    /// chunk of [`BATCH`] pixels traced as one batch
+    /// Row `y` of a Hi-Z run with constant thickness, chunk by chunk of
+    /// [`BATCH`] pixels: the rays of a chunk are traced as one batch
     /// (`crate::hiz::try_trace_hiz_rays_thick`: the AVX2 ray stream where
-    /// the CPU has it), then validated, shaded and handed to `sink` pixel
-    /// by pixel in row order. The same texels, colors and host rays as
-    /// [`MirrorPass::run_pixel`] on each pixel: the batch returns the
-    /// single-ray kernel's traces, and a hidden hit's resumption is traced
-    /// per pixel as there. About 16 KB of stack for the chunk.
+    /// the CPU has it) and judged; the rays whose hit was hidden resume in
+    /// the next batch, until every ray has its status; then every pixel is
+    /// shaded and handed to `sink` in row order. The same texels, colors
+    /// and host rays as [`MirrorPass::run_pixel`] pixel by pixel: each
+    /// pixel's ray sees the same traces (the batch returns the single-ray
+    /// kernel's results) and the same judgment ([`MirrorPass::outcome`]).
+    /// About 20 KB of stack for the chunk.
     #[cfg(feature = "hiz")]
     fn run_row_batched(
         &self,
@@ -1050,11 +1082,27 @@ impl<'a> MirrorPass<'a> {
         sink: &mut impl MirrorSink,
     ) {
         let w = self.gbuffer.width();
+        let budget = hidden_resumes(w, self.gbuffer.height());
         let none = Trace::Miss {
             reason: Miss::DegenerateProjection,
             work: crate::trace::Work::default(),
         };
         let mut setups = [Setup::Done(MirrorStatus::Skipped); BATCH];
+        // Per traced pixel of the chunk, in pixel order: its ray as it
+        // resumes, its resumptions, texel and status (`None`: pending).
+        let mut segs = [MirrorRay {
+            origin: Vec3::ZERO,
+            dir: Vec3::Z,
+            normal: Vec3::Z,
+            t_start: 0.0,
+            thickness: 0.0,
+        }; BATCH];
+        let mut resumes = [0u32; BATCH];
+        let mut texels = [MirrorTexel::default(); BATCH];
+        let mut status = [None::<MirrorStatus>; BATCH];
+        // The pending pixels of a round (indices into the above) and their
+        // batch.
+        let mut pending = [0u8; BATCH];
         let mut rays = [Ray {
             origin: Vec3::ZERO,
             dir: Vec3::Z,
@@ -1064,39 +1112,71 @@ impl<'a> MirrorPass<'a> {
         let mut x0 = 0;
         while x0 < w {
             let n = (w - x0).min(BATCH as u32) as usize;
-            let mut k = 0;
+            let mut count = 0;
             for (i, s) in setups[..n].iter_mut().enumerate() {
                 *s = self.setup(x0 + i as u32, y);
                 if let Setup::Trace(r) = s {
-                    rays[k] = r.kernel_ray();
-                    t_max[k] = self.options.t_max - r.t_start;
-                    th[k] = r.thickness;
-                    k += 1;
+                    segs[count] = *r;
+                    resumes[count] = 0;
+                    texels[count] = MirrorTexel::default();
+                    status[count] = None;
+                    pending[count] = count as u8;
+                    count += 1;
                 }
             }
-            // Never `Err` for the rays of `setup` (validated options, unit
-            // directions, finite origins); each pixel traces its own ray
-            // if it were.
-            let batched = try_trace_hiz_rays_thick(
-                &mut traces[..k],
-                hiz,
-                &th[..k],
-                &rays[..k],
-                &t_max[..k],
-                &self.options.hiz,
-            )
-            .is_ok();
+            let mut left = count;
+            while left > 0 {
+                for (j, &k) in pending[..left].iter().enumerate() {
+                    let r = &segs[usize::from(k)];
+                    rays[j] = r.kernel_ray();
+                    t_max[j] = self.options.t_max - r.t_start;
+                    th[j] = r.thickness;
+                }
+                // Never `Err` for the rays of `setup` (validated options,
+                // unit directions, finite origins); each ray is traced on
+                // its own if it were.
+                let batched = try_trace_hiz_rays_thick(
+                    &mut traces[..left],
+                    hiz,
+                    &th[..left],
+                    &rays[..left],
+                    &t_max[..left],
+                    &self.options.hiz,
+                )
+                .is_ok();
+                let mut still = 0;
+                for j in 0..left {
+                    let k = usize::from(pending[j]);
+                    let trace = if batched {
+                        Ok(traces[j])
+                    } else {
+                        self.try_trace_kernel(&segs[k])
+                    };
+                    match self.outcome(&mut segs[k], &mut resumes[k], budget, trace, &mut texels[k])
+                    {
+                        Some(st) => status[k] = Some(st),
+                        None => {
+                            pending[still] = k as u8;
+                            still += 1;
+                        }
+                    }
+                }
+                left = still;
+            }
             let mut k = 0;
             for (i, s) in setups[..n].iter().enumerate() {
                 let x = x0 + i as u32;
-                let first = match s {
-                    Setup::Trace(_) => {
+                let a = match s {
+                    Setup::Trace(r) => {
                         k += 1;
-                        batched.then_some(traces[k - 1])
+                        match status[k - 1] {
+                            Some(st) => self.traced_axis(x, y, *r, texels[k - 1], st),
+                            // Not reached: every ray ends with a status.
+                            None => self.axis_from_setup(x, y, *s, None),
+                        }
                     }
-                    _ => None,
+                    _ => self.axis_from_setup(x, y, *s, None),
                 };
-                let a = self.axis_from_setup(x, y, *s, first);
                 let (t, rgb) = self.count_and_shade(a.texel, a.host, stats, sink);
                 sink.texel(x, y, &t, rgb);
             }

@@ -134,6 +134,9 @@ struct Lanes {
     /// Prologue visits done.
     pro: [i32; LANES],
     steps: [i32; LANES],
+    /// Bit `L` set where the lane's parent record of level `L` is from
+    /// this ray (a new ray has none: `-inf`, as the scalar walk's reset).
+    pset: [i32; LANES],
     /// All ones where the lane walks a ray.
     active: [i32; LANES],
 }
@@ -209,6 +212,7 @@ pub(super) unsafe fn trace_rays<O: From<Trace>, R: Copy + Into<Ray>>(
         left: [0; LANES],
         pro: [0; LANES],
         steps: [0; LANES],
+        pset: [0; LANES],
         active: [0; LANES],
     };
     let mut par = Parents {
@@ -233,11 +237,10 @@ pub(super) unsafe fn trace_rays<O: From<Trace>, R: Copy + Into<Ray>>(
         ray_of: [0; LANES],
         level0: if pro_steps > 0 { 0 } else { start },
         max_iter,
-        top: top as usize,
     };
     let mut busy = 0;
     for k in 0..LANES {
-        busy += usize::from(feed.refill(&mut ln, &mut par, k, out));
+        busy += usize::from(feed.refill(&mut ln, k, out));
     }
 
     let zero = _mm256_setzero_si256();
@@ -529,7 +532,10 @@ pub(super) unsafe fn trace_rays<O: From<Trace>, R: Copy + Into<Ray>>(
             _mm256_cmpgt_epi32(py_new, pey)
         );
         let holds = _mm256_andnot_si256(_mm256_or_si256(out_x, out_y), ones);
-        let after = fm!(_mm256_cmp_ps::<_CMP_LT_OQ>(psb, s_new));
+        // A record not set for this ray is `-inf`: `s > sb` holds.
+        let pset = ld!(i pset);
+        let unset = _mm256_cmpeq_epi32(_mm256_and_si256(_mm256_srlv_epi32(pset, up), one_i), zero);
+        let after = _mm256_or_si256(unset, fm!(_mm256_cmp_ps::<_CMP_LT_OQ>(psb, s_new)));
         let go_up = _mm256_and_si256(
             _mm256_and_si256(hcross, below_top),
             _mm256_or_si256(_mm256_andnot_si256(holds, ones), after),
@@ -567,6 +573,7 @@ pub(super) unsafe fn trace_rays<O: From<Trace>, R: Copy + Into<Ray>>(
             let j = res.level[k] as usize % MAX_LEVELS * LANES + k;
             par.exy[j] = res.ex[k] | res.ey[k] << 16;
             par.sb[j] = res.sb[k];
+            ln.pset[k] |= 1 << (res.level[k] as u32 % MAX_LEVELS as u32);
         }
         if done != 0 {
             let hits = _mm256_movemask_ps(_mm256_castsi256_ps(hit)) as u32;
@@ -599,7 +606,7 @@ pub(super) unsafe fn trace_rays<O: From<Trace>, R: Copy + Into<Ray>>(
                 };
                 out[feed.ray_of[k]] =
                     finish_lane(hiz, Thickness::Constant(ln.th[k]), seg, st, exit).into();
-                if !feed.refill(&mut ln, &mut par, k, out) {
+                if !feed.refill(&mut ln, k, out) {
                     busy -= 1;
                 }
             }
@@ -622,7 +629,6 @@ struct Feed<'h, 'a, 'r, R> {
     /// level.
     level0: i32,
     max_iter: i32,
-    top: usize,
 }
 
 impl<R: Copy + Into<Ray>> Feed<'_, '_, '_, R> {
@@ -632,7 +638,6 @@ impl<R: Copy + Into<Ray>> Feed<'_, '_, '_, R> {
     fn refill<O: From<Trace>>(
         &mut self,
         ln: &mut Lanes,
-        par: &mut Parents,
         k: usize,
         out: &mut [O],
     ) -> bool {
@@ -681,10 +686,8 @@ impl<R: Copy + Into<Ray>> Feed<'_, '_, '_, R> {
             ln.left[k] = self.max_iter;
             ln.pro[k] = 0;
             ln.steps[k] = 0;
+            ln.pset[k] = 0;
             ln.active[k] = -1;
-            for l in 0..=self.top {
-                par.sb[l * LANES + k] = f32::NEG_INFINITY;
-            }
             self.segs[k] = Some(seg);
             self.ray_of[k] = i;
             return true;
