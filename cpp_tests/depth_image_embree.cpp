@@ -1083,10 +1083,12 @@ void run_own(const std::vector<size_t>& growth, size_t main_target) {
         std::printf("  %9zu %7zu | %12.1f %10.1f %10.1f | %10.1f %10.1f %10.2f %12.1f | %8.4f %8.4f\n",
                     triangles(meshes), r.size(), build_ms, e1, e8, s1 * 1e9 / n, h1 * 1e9 / n, ph.ms,
                     (h1 + ph.ms * 1e-3) * 1e9 / n, st_s.hit_rate(), st_h.hit_rate());
+        uint32_t lanes = 0;
+        CHECK_STATUS(refl_hiz_stream_lanes(&lanes), REFL_STATUS_OK);
         kernel_lines.push_back([&] {
             char line[200];
             std::snprintf(line, sizeof line, "  %9zu %7zu | %10.1f %10.1f | %10.1f %10.2f | %5u | %8.4f", triangles(meshes),
-                          rl.size(), e1k, e8k, k1 * 1e9 / n, double(kiter) / n, refl_hiz_stream_lanes(),
+                          rl.size(), e1k, e8k, k1 * 1e9 / n, double(kiter) / n, lanes,
                           kvis ? double(kfound) / double(kvis) : 0.0);
             return std::string(line);
         }());

@@ -1364,6 +1364,14 @@ void hiz_functions() {
     const refl_image_f32 none{nullptr, 0, 0, 0, 0};
     const refl_depth_image img{{depth.data(), n, w, h, w}, g, REFL_DEPTH_CONVENTION_ZERO_TO_ONE};
 
+    // The lane query: NULL refused; otherwise 1 (scalar) or 8 (AVX2).
+    CHECK_STATUS(refl_hiz_stream_lanes(nullptr), REFL_STATUS_NULL_POINTER);
+    {
+        uint32_t lanes = 0;
+        CHECK_STATUS(refl_hiz_stream_lanes(&lanes), REFL_STATUS_OK);
+        CHECK(lanes == 1 || lanes == 8);
+    }
+
     // Size and layout queries.
     size_t len = 0;
     uint32_t levels = 0;

@@ -6614,12 +6614,18 @@ refl_status refl_hiz_trace_ray(struct refl_trace_result *out,
 
 #if defined(REFL_FEATURE_HIZ)
 /**
- * How many rays `refl_hiz_trace_rays` walks at once on this CPU: 8 where
- * its AVX2 ray stream runs (x86-64 with AVX2, detected at run time), 1
- * where the scalar walk runs. The results are the same bits either way;
- * this only says which loop runs (for logs and benchmarks).
+ * Writes to `*out` how many rays `refl_hiz_trace_rays` walks at once on
+ * this CPU: 8 where its AVX2 ray stream runs (x86-64 with AVX2, detected
+ * at run time), 1 where the scalar walk runs. The results are the same
+ * bits either way; this only says which loop runs (for logs and
+ * benchmarks).
+ *
+ * Returns `REFL_STATUS_NULL_POINTER` if `out` is NULL.
+ *
+ * # Safety
+ * `out` must be NULL or point to a writable `uint32_t`.
  */
-uint32_t refl_hiz_stream_lanes(void);
+refl_status refl_hiz_stream_lanes(uint32_t *out);
 #endif
 
 #if defined(REFL_FEATURE_HIZ)

@@ -438,13 +438,24 @@ pub unsafe extern "C" fn refl_hiz_trace_ray(
     })
 }
 
-/// How many rays `refl_hiz_trace_rays` walks at once on this CPU: 8 where
-/// its AVX2 ray stream runs (x86-64 with AVX2, detected at run time), 1
-/// where the scalar walk runs. The results are the same bits either way;
-/// this only says which loop runs (for logs and benchmarks).
+/// Writes to `*out` how many rays `refl_hiz_trace_rays` walks at once on
+/// this CPU: 8 where its AVX2 ray stream runs (x86-64 with AVX2, detected
+/// at run time), 1 where the scalar walk runs. The results are the same
+/// bits either way; this only says which loop runs (for logs and
+/// benchmarks).
+///
+/// Returns `REFL_STATUS_NULL_POINTER` if `out` is NULL.
+///
+/// # Safety
+/// `out` must be NULL or point to a writable `uint32_t`.
 #[no_mangle]
-pub extern "C" fn refl_hiz_stream_lanes() -> u32 {
-    refl_core::hiz_stream_lanes() as u32
+pub unsafe extern "C" fn refl_hiz_stream_lanes(out: *mut u32) -> refl_status {
+    guard("refl_hiz_stream_lanes", || {
+        let o = Out::new(out, "out")?;
+        // SAFETY: caller contract.
+        unsafe { o.write(refl_core::hiz_stream_lanes() as u32) };
+        Ok(())
+    })
 }
 
 /// Traces `rays_len` rays as `refl_hiz_trace_ray` would, writing result

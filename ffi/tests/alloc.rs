@@ -644,6 +644,10 @@ fn depth_tracing(cov: &mut Coverage) {
         camera: s.camera(),
         convention: 0,
     };
+    let mut lanes = 0u32;
+    ok!(cov, refl_hiz_stream_lanes(&mut lanes));
+    assert!(lanes == 1 || lanes == 8);
+    err!(cov, refl_hiz_stream_lanes(std::ptr::null_mut()));
     ok!(
         cov,
         refl_hiz_trace_ray(res.as_mut_ptr(), &hiz, &th, ray, f32::INFINITY, &opts)

@@ -635,12 +635,7 @@ impl<R: Copy + Into<Ray>> Feed<'_, '_, '_, R> {
     /// Fills lane `k` with the next ray that projects to a segment (the
     /// others get their miss at once); returns whether one was left, and
     /// empties the lane if not.
-    fn refill<O: From<Trace>>(
-        &mut self,
-        ln: &mut Lanes,
-        k: usize,
-        out: &mut [O],
-    ) -> bool {
+    fn refill<O: From<Trace>>(&mut self, ln: &mut Lanes, k: usize, out: &mut [O]) -> bool {
         let (w, h) = (self.hiz.layout.width, self.hiz.layout.height);
         while self.next < self.rays.len() {
             let i = self.next;
