@@ -466,28 +466,32 @@ pub(super) unsafe fn trace_rays<O: From<Trace>, R: Copy + Into<Ray>>(
             // position clamps to the same pixel (see the module docs).
             let vc = _mm256_min_ps(_mm256_max_ps(v, zero_f), big_f);
             let c = _mm256_cvttps_epi32(vc);
-            // +v: f = floor(v), one back if `s` is still inside pixel f - 1.
+            // +v: f = floor(v), one back if `s` is still inside pixel
+            // f - 1 (exit parameter at boundary f).
             let fp = c;
-            let back = _mm256_and_si256(
-                _mm256_cmpgt_epi32(fp, p),
-                fm!(_mm256_cmp_ps::<_CMP_LE_OQ>(
-                    s_new,
-                    _mm256_div_ps(_mm256_sub_ps(_mm256_cvtepi32_ps(fp), v0), d),
-                )),
-            );
-            let rp = _mm256_min_epi32(_mm256_max_epi32(_mm256_add_epi32(fp, back), p), e);
-            // -v: f = ceil(v) - 1, one forward if `s` is still inside f + 1.
+            // -v: f = ceil(v) - 1, one forward if `s` is still inside
+            // pixel f + 1 (exit parameter at boundary f + 1).
             let up = fm!(_mm256_cmp_ps::<_CMP_LT_OQ>(_mm256_cvtepi32_ps(c), vc));
             let fnv = _mm256_sub_epi32(_mm256_sub_epi32(c, up), one_i);
             let f1 = _mm256_add_epi32(fnv, one_i);
-            let fwd = _mm256_and_si256(
-                _mm256_cmpgt_epi32(p, fnv),
+            // Where the one-pixel rule can move the pixel: `f > p` toward
+            // +v, `f < p` toward -v.
+            let may = seli!(neg, _mm256_cmpgt_epi32(p, fnv), _mm256_cmpgt_epi32(fp, p));
+            // The rule's exit parameter, one division per lane with the
+            // lane's own boundary (the scalar sync divides only in the
+            // lane's direction), and only when some lane needs it.
+            let inside = if _mm256_movemask_ps(_mm256_castsi256_ps(may)) != 0 {
+                let bnd = seli!(neg, f1, fp);
                 fm!(_mm256_cmp_ps::<_CMP_LE_OQ>(
                     s_new,
-                    _mm256_div_ps(_mm256_sub_ps(_mm256_cvtepi32_ps(f1), v0), d),
-                )),
-            );
-            let rn = _mm256_max_epi32(_mm256_min_epi32(_mm256_sub_epi32(fnv, fwd), p), e);
+                    _mm256_div_ps(_mm256_sub_ps(_mm256_cvtepi32_ps(bnd), v0), d),
+                ))
+            } else {
+                zero
+            };
+            let adj = _mm256_and_si256(may, inside);
+            let rp = _mm256_min_epi32(_mm256_max_epi32(_mm256_add_epi32(fp, adj), p), e);
+            let rn = _mm256_max_epi32(_mm256_min_epi32(_mm256_sub_epi32(fnv, adj), p), e);
             seli!(neg, rn, rp)
             }};
         }
