@@ -1191,17 +1191,7 @@ pub fn try_trace_hiz_rays<O: From<Trace>, R: Copy + Into<Ray>>(
     t_max: &[f32],
     options: &HiZOptions,
 ) -> Result<(), Error> {
-    if t_max.is_empty() {
-        return Err(Error::InvalidArgument);
-    }
-    if out.len() < rays.len() || (t_max.len() != 1 && t_max.len() < rays.len()) {
-        return Err(Error::InsufficientSize);
-    }
-    validate_thickness(hiz, &thickness)?;
-    let tm = |i: usize| if t_max.len() == 1 { t_max[0] } else { t_max[i] };
-    for (i, r) in rays.iter().enumerate() {
-        try_validate_ray(&(*r).into(), tm(i))?;
-    }
+    validate_batch(out.len(), hiz, &thickness, rays, t_max)?;
     #[cfg(all(target_arch = "x86_64", target_feature = "sse2"))]
     if let Thickness::Constant(th) = thickness {
         if avx2::available() && avx2::takes(hiz, options, rays.len()) {
@@ -1283,18 +1273,30 @@ pub fn try_trace_hiz_rays_scalar<O: From<Trace>, R: Copy + Into<Ray>>(
     t_max: &[f32],
     options: &HiZOptions,
 ) -> Result<(), Error> {
+    validate_batch(out.len(), hiz, &thickness, rays, t_max)?;
+    trace_rays_scalar(out, hiz, thickness, rays, t_max, options);
+    Ok(())
+}
+
+/// The checks of [`try_trace_hiz_rays`], before anything is written.
+fn validate_batch<R: Copy + Into<Ray>>(
+    out_len: usize,
+    hiz: &HiZ<'_>,
+    thickness: &Thickness<'_>,
+    rays: &[R],
+    t_max: &[f32],
+) -> Result<(), Error> {
     if t_max.is_empty() {
         return Err(Error::InvalidArgument);
     }
-    if out.len() < rays.len() || (t_max.len() != 1 && t_max.len() < rays.len()) {
+    if out_len < rays.len() || (t_max.len() != 1 && t_max.len() < rays.len()) {
         return Err(Error::InsufficientSize);
     }
-    validate_thickness(hiz, &thickness)?;
+    validate_thickness(hiz, thickness)?;
     let tm = |i: usize| if t_max.len() == 1 { t_max[0] } else { t_max[i] };
     for (i, r) in rays.iter().enumerate() {
         try_validate_ray(&(*r).into(), tm(i))?;
     }
-    trace_rays_scalar(out, hiz, thickness, rays, t_max, options);
     Ok(())
 }
 

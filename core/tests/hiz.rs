@@ -1200,11 +1200,10 @@ fn back_face_image_thickness_matches_oracle_of_constant_equivalent() {
 
 /// Rays whose projection runs exactly along pixel (and cell) boundaries,
 /// axis-aligned in screen space, or starting exactly on cell corners.
-#[test]
-fn cell_edge_rays_never_stall() {
-    // A camera looking straight down -Z: world x/y lines map to image
-    // rows/columns. 128x128: the center row/column are cell boundaries at
-    // every level.
+/// A camera looking straight down -Z (world x/y lines map to image
+/// rows/columns; 128x128: the center row/column are cell boundaries at
+/// every level) at a back wall z = -5 (depth 10) with a box in front of it.
+fn edge_scene(conv: DepthConvention) -> Img {
     let cam = Camera::try_look_at(
         Vec3::new(0.0, 0.0, 5.0),
         Vec3::new(0.0, 0.0, -1.0),
@@ -1216,13 +1215,17 @@ fn cell_edge_rays_never_stall() {
         128,
     )
     .unwrap();
+    let scene = vec![
+        Prim::Plane(DVec3::Z, 5.0),
+        Prim::Box(DVec3::new(2.0, -1.0, -3.0), DVec3::new(3.0, 1.0, -2.0)),
+    ];
+    Img::new(cam, conv, scene)
+}
+
+#[test]
+fn cell_edge_rays_never_stall() {
     for conv in DepthConvention::ALL {
-        // Back wall z = -5 (depth 10), a box in front of it.
-        let scene = vec![
-            Prim::Plane(DVec3::Z, 5.0),
-            Prim::Box(DVec3::new(2.0, -1.0, -3.0), DVec3::new(3.0, 1.0, -2.0)),
-        ];
-        let img = Img::new(cam, conv, scene);
+        let img = edge_scene(conv);
         let pyr = img.pyramid();
         let hiz = HiZ::try_new(&pyr, img.cam, img.conv).unwrap();
         let mut ties = 0;
@@ -2350,25 +2353,10 @@ fn batch_stream_equals_the_scalar_walk_bit_for_bit() {
                 check(&noisy, &rays, &mut rng);
             }
         }
-        // Rays along pixel boundaries and through pixel corners (a camera
-        // looking down -Z, 90 degrees, 128 pixels: at depth 6 a pixel is
-        // 3/32 wide), where the frontier's one-pixel exit rule decides.
-        let cam = Camera::try_look_at(
-            Vec3::new(0.0, 0.0, 5.0),
-            Vec3::new(0.0, 0.0, -1.0),
-            Vec3::Y,
-            90f32.to_radians(),
-            0.1,
-            100.0,
-            128,
-            128,
-        )
-        .unwrap();
-        let scene = vec![
-            Prim::Plane(DVec3::Z, 5.0),
-            Prim::Box(DVec3::new(2.0, -1.0, -3.0), DVec3::new(3.0, 1.0, -2.0)),
-        ];
-        let img = Img::new(cam, conv, scene);
+        // Rays along pixel boundaries and through pixel corners (`edge_scene`:
+        // 90 degrees, 128 pixels, so at depth 6 a pixel is 3/32 wide),
+        // where the frontier's one-pixel exit rule decides.
+        let img = edge_scene(conv);
         let px = 3.0 / 32.0;
         let mut rays = Vec::new();
         for j in -24..24 {
