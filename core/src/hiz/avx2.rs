@@ -14,7 +14,7 @@
 //! scalar ones (no FMA is enabled, so none is formed), `max_nn(a, b)` is
 //! `_mm256_max_ps(b, a)` (`b > a ? b : a`) and `min_nn` likewise, and the
 //! saturating `f32 -> u32` conversions become a clamp into `[0, 2^24]` and
-//! `cvttps` (the clamp changes no pixel: see `sync`). So every result
+//! `cvttps` (the clamp changes no pixel, below). So every result
 //! is the scalar walker's, bit for bit: hit or miss, reason, `t`, depths,
 //! pixel and [`crate::Work`] counters (tested against it in the hiz tests,
 //! and `examples/depth_kernels_bench --compare`).
@@ -28,10 +28,23 @@
 //! possible-hit interval) are per-lane arrays, read with a gather and
 //! written per descending lane (AVX2 has no scatter).
 //!
+//! Why the clamp changes no pixel: a frontier sync (`Axis::sync`) clamps
+//! its rounded position between the frontier pixel `p` and the cell's edge
+//! pixel `e`, both below `2^15` here. Moving toward `+v`, a position below
+//! 0 or NaN rounds to 0 in the scalar walk (`v as u32` saturates) and after
+//! the clamp alike; one at or past `2^24` rounds to at least `2^24 - 1`
+//! after the one-pixel rule either way, which the clamp to `e` makes `e`.
+//! Moving toward `-v`, a position at or below 0 or NaN gives `ceil - 1 =
+//! -1` both ways, and one past `2^24` a pixel past `p`, which `min(f, p)`
+//! makes `p` both ways. Between, `cvttps` of the clamped position is the
+//! scalar truncation.
+//!
 //! Not in the stream (the batch call takes the scalar walk for them):
 //! back-face thickness, `stop_level > 0` (unit steps through a cell), the
-//! statistics walk, images wider or taller than 65,536 pixels, pyramids of
-//! more than `i32::MAX` texels, caps above `i32::MAX` iterations, and
+//! statistics walk, images wider or taller than 32,768 pixels (so that
+//! every pixel index fits the clamp above and the pyramid has at most 16
+//! levels, whose offsets the lanes permute out of two vectors), pyramids
+//! of more than `i32::MAX` texels, caps above `i32::MAX` iterations, and
 //! batches of fewer than [`MIN_RAYS`] rays. When the batch runs out of rays
 //! the remaining lanes finish in the stream with the empty lanes masked.
 
@@ -463,7 +476,7 @@ pub(super) unsafe fn trace_rays<O: From<Trace>, R: Copy + Into<Ray>>(
             let v = _mm256_add_ps(v0, _mm256_mul_ps(s_new, d));
             // Clamped into [0, 2^24] (NaN to 0) before the truncation: the
             // pixels between `p` and `e` lie far inside, and a clamped
-            // position clamps to the same pixel (see the module docs).
+            // position ends in the same pixel (module docs).
             let vc = _mm256_min_ps(_mm256_max_ps(v, zero_f), big_f);
             let c = _mm256_cvttps_epi32(vc);
             // +v: f = floor(v), one back if `s` is still inside pixel
