@@ -53,10 +53,15 @@
 // about 10k, 100k and 1M triangles (Embree BVH build, rtcIntersect1 and
 // rtcIntersect8 over 4x2-pixel packets vs. the pass per ray; the G-buffer
 // rendering is excluded from every refl time; the packets' hits are checked
-// against rtcIntersect1's), then one line per ratio for scripts:
-// `ratio hiz_vs_embree1_1t V` (and `hiz_vs_embree8`, `step_vs_embree1`;
-// the same with `_1t_1m` at 1M triangles), V = refl's rays per second over
-// Embree's on one thread (above 1: refl is faster).
+// against rtcIntersect1's), and the bare Hi-Z kernel (refl_hiz_trace_rays,
+// the AVX2 ray stream where the CPU has it; iterations and fetches per ray,
+// lanes) against Embree on the same rays (the pass's reflection rays
+// lifted off the mirror floor; >= 90% of the visible reflections found
+// within 1.5 px of Embree's hit), then one line per ratio for scripts:
+// `ratio hiz_vs_embree1_1t V` (and `hiz_vs_embree8`, `step_vs_embree1`,
+// `hiz_kernel_vs_embree1`, `hiz_kernel_vs_embree8`; the same with `_1t_1m`
+// at 1M triangles), V = refl's rays per second over Embree's on one thread
+// (above 1: refl is faster).
 #include <embree3/rtcore.h>
 
 #include <algorithm>
@@ -1069,9 +1074,10 @@ void run_own(const std::vector<size_t>& growth, size_t main_target) {
         // The kernel hits where Embree does (within a pixel of the
         // projection of Embree's hit) on the visible reflections.
         size_t kvis = 0, kfound = 0;
-        uint64_t kiter = 0;
+        uint64_t kiter = 0, kfetch = 0;
         for (size_t i = 0; i < rl.size(); ++i) {
             kiter += kout[i].iterations;
+            kfetch += kout[i].fetches;
             if (!r.visible[i]) continue;
             ++kvis;
             kfound += kout[i].miss == REFL_TRACE_MISS_NONE &&
@@ -1087,8 +1093,8 @@ void run_own(const std::vector<size_t>& growth, size_t main_target) {
         CHECK_STATUS(refl_hiz_stream_lanes(&lanes), REFL_STATUS_OK);
         kernel_lines.push_back([&] {
             char line[200];
-            std::snprintf(line, sizeof line, "  %9zu %7zu | %10.1f %10.1f | %10.1f %10.2f | %5u | %8.4f", triangles(meshes),
-                          rl.size(), e1k, e8k, k1 * 1e9 / n, double(kiter) / n, lanes,
+            std::snprintf(line, sizeof line, "  %9zu %7zu | %10.1f %10.1f | %10.1f %10.2f %10.2f | %5u | %8.4f",
+                          triangles(meshes), rl.size(), e1k, e8k, k1 * 1e9 / n, double(kiter) / n, double(kfetch) / n, lanes,
                           kvis ? double(kfound) / double(kvis) : 0.0);
             return std::string(line);
         }());
@@ -1114,9 +1120,9 @@ void run_own(const std::vector<size_t>& growth, size_t main_target) {
     std::printf("\n  the bare Hi-Z kernel (refl_hiz_trace_rays, one batch, default options) on the same rays lifted "
                 "1e-3 diameters off the floor, against Embree on those rays; found: share of the visible "
                 "reflections hit within 1.5 px of Embree's\n");
-    std::printf("  %9s %7s | %10s %10s | %10s %10s | %5s | %8s\n", "triangles", "rays", "embree x1", "embree x8",
-                "hiz rays", "iter/ray", "lanes", "found");
-    std::printf("  %9s %7s | %10s %10s | %10s %10s | %5s | %8s\n", "", "", "ns/ray", "ns/ray", "ns/ray", "", "", "");
+    std::printf("  %9s %7s | %10s %10s | %10s %10s %10s | %5s | %8s\n", "triangles", "rays", "embree x1", "embree x8",
+                "hiz rays", "iter/ray", "fetch/ray", "lanes", "found");
+    std::printf("  %9s %7s | %10s %10s | %10s %10s %10s | %5s | %8s\n", "", "", "ns/ray", "ns/ray", "ns/ray", "", "", "", "");
     for (const std::string& l : kernel_lines) std::printf("%s\n", l.c_str());
     std::printf("\n");
     for (const std::string& l : ratio_lines) std::printf("%s\n", l.c_str());
