@@ -593,11 +593,16 @@ impl<'a> GlossyPass<'a> {
     }
 
     fn pixel_out(&self, x: u32, y: u32) -> PixelOut {
-        let mut out = PixelOut::default();
         let Some(roughness) = self.glossy_roughness(x, y) else {
-            return out;
+            return PixelOut::default();
         };
-        let a: AxisTrace = self.axis.trace_axis(x, y);
+        self.pixel_from_axis(x, y, roughness, self.axis.trace_axis(x, y))
+    }
+
+    /// [`Self::pixel_out`] of a glossy pixel of roughness `roughness`
+    /// whose mirror axis was traced as `a`.
+    fn pixel_from_axis(&self, x: u32, y: u32, roughness: f32, a: AxisTrace) -> PixelOut {
+        let mut out = PixelOut::default();
         out.texel.status = a.texel.status;
         out.host = a.host;
         let Some(ray) = a.ray else {
@@ -762,31 +767,57 @@ impl<'a> GlossyPass<'a> {
 
     fn run_rows(&self, rows: RowRange, sink: &mut impl GlossySink) -> GlossyStats {
         let mut stats = GlossyStats::default();
+        // A Hi-Z axis with constant thickness: the mirror axes of a row's
+        // glossy pixels are traced in batches (`MirrorPass::axes_batched`),
+        // the same traces as pixel by pixel.
+        if let Some(hiz) = self.axis.batch_hiz() {
+            for y in rows.rows() {
+                self.axis.axes_batched(
+                    hiz,
+                    y,
+                    |x| self.glossy_roughness(x, y).is_some(),
+                    |x, a| {
+                        let p = match (a, self.glossy_roughness(x, y)) {
+                            (Some(a), Some(r)) => self.pixel_from_axis(x, y, r, a),
+                            _ => PixelOut::default(),
+                        };
+                        Self::tally(&mut stats, sink, x, y, &p);
+                    },
+                );
+            }
+            return stats;
+        }
         for y in rows.rows() {
             for x in 0..self.gbuffer().width() {
                 let p = self.pixel_out(x, y);
-                let s = p.texel.status;
-                if !matches!(s, MirrorStatus::Skipped | MirrorStatus::NoSurface) {
-                    stats.traced += 1;
-                }
-                match s {
-                    MirrorStatus::Hit => stats.hits += 1,
-                    MirrorStatus::Sky => stats.sky += 1,
-                    _ => {}
-                }
-                if let Some(hr) = p.host {
-                    if sink.host(stats.host_rays_written, &hr) {
-                        stats.host_rays_written += 1;
-                    }
-                    stats.host_rays += 1;
-                }
-                stats.circles += u64::from(p.circles);
-                stats.lobe_rays += u64::from(p.lobe_rays);
-                stats.lobe_hits += u64::from(p.lobe_hits);
-                sink.texel(x, y, &p.texel, p.color);
+                Self::tally(&mut stats, sink, x, y, &p);
             }
         }
         stats
+    }
+
+    /// Counts pixel `(x, y)`'s outcome `p` into `stats` and hands its
+    /// texel, color and host ray to `sink`.
+    fn tally(stats: &mut GlossyStats, sink: &mut impl GlossySink, x: u32, y: u32, p: &PixelOut) {
+        let s = p.texel.status;
+        if !matches!(s, MirrorStatus::Skipped | MirrorStatus::NoSurface) {
+            stats.traced += 1;
+        }
+        match s {
+            MirrorStatus::Hit => stats.hits += 1,
+            MirrorStatus::Sky => stats.sky += 1,
+            _ => {}
+        }
+        if let Some(hr) = p.host {
+            if sink.host(stats.host_rays_written, &hr) {
+                stats.host_rays_written += 1;
+            }
+            stats.host_rays += 1;
+        }
+        stats.circles += u64::from(p.circles);
+        stats.lobe_rays += u64::from(p.lobe_rays);
+        stats.lobe_hits += u64::from(p.lobe_hits);
+        sink.texel(x, y, &p.texel, p.color);
     }
 }
 

@@ -1046,11 +1046,19 @@ impl<'a> MirrorPass<'a> {
     fn run_rows(&self, rows: RowRange, sink: &mut impl MirrorSink) -> MirrorStats {
         let mut stats = MirrorStats::default();
         #[cfg(feature = "hiz")]
-        if let (MirrorMethod::HiZ, Some(hiz), None) =
-            (self.options.method, &self.hiz, self.gbuffer.back_depth())
-        {
+        if let Some(hiz) = self.batch_hiz() {
             for y in rows.rows() {
-                self.run_row_batched(hiz, y, &mut stats, sink);
+                self.axes_batched(
+                    hiz,
+                    y,
+                    |_| true,
+                    |x, a| {
+                        if let Some(a) = a {
+                            let (t, rgb) = self.count_and_shade(a.texel, a.host, &mut stats, sink);
+                            sink.texel(x, y, &t, rgb);
+                        }
+                    },
+                );
             }
             return stats;
         }
@@ -1063,23 +1071,36 @@ impl<'a> MirrorPass<'a> {
         stats
     }
 
-    /// Row `y` of a Hi-Z run with constant thickness, chunk by chunk of
-    /// [`BATCH`] pixels: the rays of a chunk are traced as one batch
+    /// The pyramid a run traces its rays over in batches
+    /// ([`MirrorPass::axes_batched`]): a Hi-Z pass with constant thickness.
+    #[cfg(feature = "hiz")]
+    pub(crate) fn batch_hiz(&self) -> Option<&HiZ<'a>> {
+        match (self.options.method, &self.hiz, self.gbuffer.back_depth()) {
+            (MirrorMethod::HiZ, Some(h), None) => Some(h),
+            _ => None,
+        }
+    }
+
+    /// Row `y` of a Hi-Z run with constant thickness ([`Self::batch_hiz`]),
+    /// chunk by chunk of [`BATCH`] pixels: the rays of a chunk's pixels
+    /// with `want(x)` are traced as one batch
     /// (`crate::hiz::try_trace_hiz_rays_thick`: the AVX2 ray stream where
     /// the CPU has it) and judged; the rays whose hit was hidden resume in
-    /// the next batch, until every ray has its status; then every pixel is
-    /// shaded and handed to `sink` in row order. The same texels, colors
-    /// and host rays as [`MirrorPass::run_pixel`] pixel by pixel: each
-    /// pixel's ray sees the same traces (the batch returns the single-ray
-    /// kernel's results) and the same judgment ([`MirrorPass::outcome`]).
-    /// About 20 KB of stack for the chunk.
+    /// the next batch, until every ray has its status; then `f` gets every
+    /// pixel of the chunk in row order, with its [`AxisTrace`] (`None`
+    /// where not `want(x)`). The same traces as
+    /// [`MirrorPass::trace_axis`] pixel by pixel: each pixel's ray sees the
+    /// same kernel results (the batch returns the single-ray kernel's) and
+    /// the same judgment ([`MirrorPass::outcome`]). About 20 KB of stack
+    /// for the chunk. The loop of the mirror pass's runs and of the glossy
+    /// pass's (`crate::glossy`).
     #[cfg(feature = "hiz")]
-    fn run_row_batched(
+    pub(crate) fn axes_batched(
         &self,
         hiz: &HiZ<'_>,
         y: u32,
-        stats: &mut MirrorStats,
-        sink: &mut impl MirrorSink,
+        want: impl Fn(u32) -> bool,
+        mut f: impl FnMut(u32, Option<AxisTrace>),
     ) {
         let w = self.gbuffer.width();
         let budget = hidden_resumes(w, self.gbuffer.height());
@@ -1088,6 +1109,7 @@ impl<'a> MirrorPass<'a> {
             work: crate::trace::Work::default(),
         };
         let mut setups = [Setup::Done(MirrorStatus::Skipped); BATCH];
+        let mut wanted = [false; BATCH];
         // Per traced pixel of the chunk, in pixel order: its ray as it
         // resumes, its resumptions, texel and status (`None`: pending).
         let mut segs = [MirrorRay {
@@ -1114,6 +1136,10 @@ impl<'a> MirrorPass<'a> {
             let n = (w - x0).min(BATCH as u32) as usize;
             let mut count = 0;
             for (i, s) in setups[..n].iter_mut().enumerate() {
+                wanted[i] = want(x0 + i as u32);
+                if !wanted[i] {
+                    continue;
+                }
                 *s = self.setup(x0 + i as u32, y);
                 if let Setup::Trace(r) = s {
                     segs[count] = *r;
@@ -1166,6 +1192,10 @@ impl<'a> MirrorPass<'a> {
             let mut k = 0;
             for (i, s) in setups[..n].iter().enumerate() {
                 let x = x0 + i as u32;
+                if !wanted[i] {
+                    f(x, None);
+                    continue;
+                }
                 let a = match s {
                     Setup::Trace(r) => {
                         k += 1;
@@ -1177,8 +1207,7 @@ impl<'a> MirrorPass<'a> {
                     }
                     _ => self.axis_from_setup(x, y, *s, None),
                 };
-                let (t, rgb) = self.count_and_shade(a.texel, a.host, stats, sink);
-                sink.texel(x, y, &t, rgb);
+                f(x, Some(a));
             }
             x0 += n as u32;
         }
