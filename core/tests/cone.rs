@@ -1575,3 +1575,111 @@ fn cone_stretched_far_outside_the_image_is_finite() {
         );
     }
 }
+
+/// `try_multiray` traces its rays in batches (the AVX2 ray stream where
+/// the CPU has it); its result is the one of tracing each ray on its own
+/// with `try_trace_hiz` and weighting them in order, bit for bit: ray
+/// counts below, at and across the batch size (32), rays below the surface
+/// skipped, a painted wall so that hits and misses weigh differently.
+#[test]
+fn multiray_equals_its_rays_traced_one_by_one() {
+    let paint = |x: u32, y: u32| [x as f32 / 48.0, y as f32 / 32.0, 0.25];
+    let fallback = |d: Vec3| [d.x.abs(), d.y.abs(), 0.5];
+    let (mut all_hits, mut all_missed, mut all_skipped) = (0u32, 0u32, 0u32);
+    for conv in DepthConvention::ALL {
+        let fr = Frame::new(48, 32, 6.0, conv, paint);
+        let p = fr.pyramids();
+        for (origin, dir, normal) in [
+            (
+                Vec3::new(0.0, -0.9, -3.0),
+                Vec3::new(0.0, 0.3, -1.0),
+                Vec3::Y,
+            ),
+            (
+                Vec3::new(0.5, -0.9, -2.0),
+                Vec3::new(0.4, 0.05, -1.0),
+                Vec3::Y,
+            ),
+            (
+                Vec3::new(-0.5, 0.0, -2.0),
+                Vec3::new(-0.3, 0.2, -1.0),
+                Vec3::Z,
+            ),
+        ] {
+            let ray = Ray {
+                origin,
+                dir: dir.normalize(),
+            };
+            for rays in [1u32, 7, 8, 16, 31, 32, 33, 49, 100] {
+                for (theta, th) in [(0.1f32, 0.3f32), (0.6, f32::INFINITY), (1.2, 0.0)] {
+                    let opts = MultiRayOptions {
+                        rays,
+                        rotation: Vec2::new(0.3, 0.7),
+                        hiz: HiZOptions::default(),
+                    };
+                    let thick = Thickness::Constant(th);
+                    let r =
+                        try_multiray(&p, thick, ray, normal, 40.0, theta, 20.0, &opts, fallback)
+                            .unwrap();
+                    // By hand, one ray at a time.
+                    let axis = ray.dir.normalize();
+                    let (mut sum, mut wsum, mut missed) = ([0.0f64; 3], 0.0f64, 0.0f64);
+                    let (mut traced, mut hits, mut iterations) = (0u32, 0u32, 0u32);
+                    for i in 0..rays {
+                        let xi = refl_core::lobe::hammersley(i, rays) + opts.rotation;
+                        let d = cone_ray_direction(axis, theta, xi - xi.floor());
+                        if d.dot(normal) <= 0.0 {
+                            continue;
+                        }
+                        traced += 1;
+                        let one = Ray { origin, dir: d };
+                        let t =
+                            refl_core::try_trace_hiz(p.hiz(), thick, one, 40.0, &opts.hiz).unwrap();
+                        iterations += t.work().iterations;
+                        let w = f64::from(phong_lobe_weight(d.dot(axis), 20.0));
+                        let c = match t.hit() {
+                            Some(h) => {
+                                hits += 1;
+                                let x = (h.pixel.x.max(0.0) as usize).min(47);
+                                let y = (h.pixel.y.max(0.0) as usize).min(31);
+                                fr.color[y * 48 + x]
+                            }
+                            None => {
+                                missed += w;
+                                fallback(d)
+                            }
+                        };
+                        for k in 0..3 {
+                            sum[k] += w * f64::from(c[k]);
+                        }
+                        wsum += w;
+                    }
+                    let at = format!("{conv:?} {origin} rays {rays} theta {theta} th {th}");
+                    all_hits += hits;
+                    all_missed += traced - hits;
+                    all_skipped += rays - traced;
+                    assert_eq!(
+                        (r.traced, r.hits, r.iterations),
+                        (traced, hits, iterations),
+                        "{at}"
+                    );
+                    if wsum > 0.0 {
+                        let want = [0, 1, 2].map(|k| (sum[k] / wsum) as f32);
+                        assert_eq!(r.color.map(f32::to_bits), want.map(f32::to_bits), "{at}");
+                        assert_eq!(
+                            r.fallback_weight.to_bits(),
+                            ((missed / wsum) as f32).to_bits(),
+                            "{at}"
+                        );
+                    } else {
+                        assert_eq!(r.color, fallback(axis), "{at}");
+                    }
+                }
+            }
+        }
+    }
+    assert!(
+        all_hits > 100 && all_missed > 100 && all_skipped > 10,
+        "hits {all_hits}, misses {all_missed}, skipped {all_skipped}"
+    );
+}

@@ -2290,8 +2290,14 @@ fn batch_stream_equals_the_scalar_walk_bit_for_bit() {
         for o in &options {
             for th in [0.0f32, 0.25, 3.0, f32::INFINITY] {
                 let th = Thickness::Constant(th);
-                // Per-ray t_max, then one t_max for all; a short batch too.
-                for (n, t) in [(rs.len(), &tm[..]), (rs.len(), &tm[..1]), (9, &tm[..9])] {
+                // Per-ray t_max, then one t_max for all; batches below and at the
+                // stream's minimum (8 rays) too.
+                for (n, t) in [
+                    (rs.len(), &tm[..]),
+                    (rs.len(), &tm[..1]),
+                    (5, &tm[..5]),
+                    (9, &tm[..9]),
+                ] {
                     let mut a = vec![
                         Trace::Miss {
                             reason: Miss::LeftImage,

@@ -344,7 +344,7 @@ fn trace_one(b: &mut Bytes, t: &Trace, opts: &refl_hiz_options) {
 
 fn trace_batch(b: &mut Bytes, t: &Trace, opts: &refl_hiz_options) {
     // Up to 4 rays, or (one input in two that asks for 4) 16 to 47: the
-    // batch call walks batches of 16 and more in its AVX2 ray stream where
+    // batch call walks batches of 8 and more in its AVX2 ray stream where
     // the CPU has AVX2, and each of its results must be the single-ray
     // call's, bit for bit.
     let mut n = b.below(5) as usize;

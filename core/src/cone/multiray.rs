@@ -4,8 +4,8 @@
 
 use super::trace::valid_theta;
 use super::{cone_ray_direction, phong_lobe_weight, ColorTexel, ConePyramids};
-use crate::hiz::{try_trace_hiz, HiZOptions};
-use crate::trace::Thickness;
+use crate::hiz::{try_trace_hiz_rays, HiZOptions};
+use crate::trace::{Thickness, Trace};
 use crate::{Error, Ray};
 use glam::{Vec2, Vec3};
 
@@ -58,7 +58,8 @@ pub struct MultiRayResult {
 /// directions sample the cone of half-angle `theta` around `ray.dir`
 /// uniformly ([`cone_ray_direction`] over a rotated Hammersley set), rays
 /// below the surface (`dot(dir, normal) <= 0`) are skipped, each other ray
-/// is traced with [`try_trace_hiz`] from `ray.origin`; a hit reads the
+/// is traced as [`crate::try_trace_hiz`] would from `ray.origin` (in
+/// batches of up to 32, [`try_trace_hiz_rays`]); a hit reads the
 /// level-0 color under the hit pixel, a miss `fallback(dir)`. The result
 /// is the mean weighted by [`phong_lobe_weight`] of each direction
 /// (`power` the Phong power; with no ray traced, the axis's
@@ -66,7 +67,7 @@ pub struct MultiRayResult {
 ///
 /// # Errors
 /// [`Error::InvalidArgument`] for a ray, `t_max` or thickness rejected by
-/// [`try_trace_hiz`], a non-finite normal or rotation, `theta` outside `[0,
+/// [`crate::try_trace_hiz`], a non-finite normal or rotation, `theta` outside `[0,
 /// pi/2)`, a NaN or negative power, or zero rays.
 ///
 /// # Panics
@@ -103,42 +104,64 @@ pub fn try_multiray(
     let mut missed = 0.0f64;
     let (mut traced, mut hits, mut iterations) = (0u32, 0u32, 0u32);
     let n = options.rays;
-    for i in 0..n {
-        let xi = crate::lobe::hammersley(i, n) + options.rotation;
-        let xi = xi - xi.floor();
-        let dir = cone_ray_direction(axis, theta, xi);
-        if dir.dot(normal) <= 0.0 {
-            continue;
-        }
-        traced += 1;
-        let trace = try_trace_hiz(
-            hiz,
-            thickness,
-            Ray {
+    // The rays go to the Hi-Z walk in batches of up to `CHUNK` (the AVX2
+    // ray stream where the CPU has it: the same traces as one
+    // `try_trace_hiz` per ray), then are weighted in ray order.
+    const CHUNK: u32 = 32;
+    let none = Trace::Miss {
+        reason: crate::trace::Miss::DegenerateProjection,
+        work: crate::trace::Work::default(),
+    };
+    let mut first = 0;
+    while first < n {
+        let end = first.saturating_add(CHUNK).min(n);
+        let mut rays = [ray; CHUNK as usize];
+        let mut k = 0;
+        for i in first..end {
+            let xi = crate::lobe::hammersley(i, n) + options.rotation;
+            let xi = xi - xi.floor();
+            let dir = cone_ray_direction(axis, theta, xi);
+            if dir.dot(normal) <= 0.0 {
+                continue;
+            }
+            rays[k] = Ray {
                 origin: ray.origin,
                 dir,
-            },
-            t_max,
+            };
+            k += 1;
+        }
+        let mut traces = [none; CHUNK as usize];
+        try_trace_hiz_rays(
+            &mut traces[..k],
+            hiz,
+            thickness,
+            &rays[..k],
+            &[t_max],
             &options.hiz,
         )?;
-        iterations = iterations.saturating_add(trace.work().iterations);
-        let w = f64::from(phong_lobe_weight(dir.dot(axis), power));
-        let c = match trace.hit() {
-            Some(h) => {
-                hits += 1;
-                let x = (h.pixel.x.max(0.0) as usize).min(l0.width as usize - 1);
-                let y = (h.pixel.y.max(0.0) as usize).min(l0.height as usize - 1);
-                pyramids.color[y * l0.width as usize + x]
+        for (r, trace) in rays[..k].iter().zip(&traces[..k]) {
+            let dir = r.dir;
+            traced += 1;
+            iterations = iterations.saturating_add(trace.work().iterations);
+            let w = f64::from(phong_lobe_weight(dir.dot(axis), power));
+            let c = match trace.hit() {
+                Some(h) => {
+                    hits += 1;
+                    let x = (h.pixel.x.max(0.0) as usize).min(l0.width as usize - 1);
+                    let y = (h.pixel.y.max(0.0) as usize).min(l0.height as usize - 1);
+                    pyramids.color[y * l0.width as usize + x]
+                }
+                None => {
+                    missed += w;
+                    fallback(dir)
+                }
+            };
+            for k in 0..3 {
+                sum[k] += w * f64::from(c[k]);
             }
-            None => {
-                missed += w;
-                fallback(dir)
-            }
-        };
-        for k in 0..3 {
-            sum[k] += w * f64::from(c[k]);
+            wsum += w;
         }
-        wsum += w;
+        first = end;
     }
     let (color, fallback_weight) = if wsum > 0.0 {
         (

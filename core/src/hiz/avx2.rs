@@ -75,7 +75,7 @@ const LANES: usize = 8;
 
 /// Smallest batch the stream takes; smaller ones walk scalar (filling
 /// eight lanes costs more than it saves there).
-pub(super) const MIN_RAYS: usize = 16;
+pub(super) const MIN_RAYS: usize = 8;
 
 /// Largest image side the stream takes: pixel indices, edge pixels plus
 /// one and texel indices stay far inside `i32`, every coordinate the
