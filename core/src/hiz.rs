@@ -1192,18 +1192,10 @@ pub fn try_trace_hiz_rays<O: From<Trace>, R: Copy + Into<Ray>>(
     options: &HiZOptions,
 ) -> Result<(), Error> {
     validate_batch(out.len(), hiz, &thickness, rays, t_max)?;
-    #[cfg(all(target_arch = "x86_64", target_feature = "sse2"))]
-    if let Thickness::Constant(th) = thickness {
-        if avx2::available() && avx2::takes(hiz, options, rays.len()) {
-            // SAFETY: `available` checked that the CPU runs AVX2.
-            #[allow(unsafe_code)]
-            unsafe {
-                avx2::trace_rays(out, hiz, &[th], rays, t_max, options);
-            }
-            return Ok(());
-        }
+    match thickness {
+        Thickness::Constant(th) => trace_constant(out, hiz, &[th], rays, t_max, options),
+        Thickness::BackFaces(_) => trace_rays_scalar(out, hiz, thickness, rays, t_max, options),
     }
-    trace_rays_scalar(out, hiz, thickness, rays, t_max, options);
     Ok(())
 }
 
@@ -1229,19 +1221,47 @@ pub(crate) fn try_trace_hiz_rays_thick(
             return Err(Error::InvalidArgument);
         }
     }
+    trace_constant(out, hiz, thickness, rays, t_max, options);
+    Ok(())
+}
+
+/// `v[i]` of a per-ray argument given once for every ray (`v.len() == 1`)
+/// or once per ray.
+#[inline]
+fn per_ray(v: &[f32], i: usize) -> f32 {
+    if v.len() == 1 {
+        v[0]
+    } else {
+        v[i]
+    }
+}
+
+/// Traces validated rays with constant thicknesses `th` (and `t_max`; each
+/// [`per_ray`]): the AVX2 stream where it runs and takes the batch, else the
+/// scalar walk ray by ray.
+fn trace_constant<O: From<Trace>, R: Copy + Into<Ray>>(
+    out: &mut [O],
+    hiz: &HiZ<'_>,
+    th: &[f32],
+    rays: &[R],
+    t_max: &[f32],
+    options: &HiZOptions,
+) {
     #[cfg(all(target_arch = "x86_64", target_feature = "sse2"))]
     if avx2::available() && avx2::takes(hiz, options, rays.len()) {
         // SAFETY: `available` checked that the CPU runs AVX2.
         #[allow(unsafe_code)]
         unsafe {
-            avx2::trace_rays(out, hiz, thickness, rays, t_max, options);
+            avx2::trace_rays(out, hiz, th, rays, t_max, options);
         }
-        return Ok(());
+        return;
     }
-    for (((o, r), &tm), &th) in out.iter_mut().zip(rays).zip(t_max).zip(thickness) {
-        *o = trace_valid::<false>(hiz, Thickness::Constant(th), r, tm, options).0;
+    for (i, (o, r)) in out.iter_mut().zip(rays).enumerate() {
+        let thickness = Thickness::Constant(per_ray(th, i));
+        *o = trace_valid::<false>(hiz, thickness, &(*r).into(), per_ray(t_max, i), options)
+            .0
+            .into();
     }
-    Ok(())
 }
 
 /// Lanes [`try_trace_hiz_rays`] walks at once on this CPU: 8 where the
@@ -1293,9 +1313,8 @@ fn validate_batch<R: Copy + Into<Ray>>(
         return Err(Error::InsufficientSize);
     }
     validate_thickness(hiz, thickness)?;
-    let tm = |i: usize| if t_max.len() == 1 { t_max[0] } else { t_max[i] };
     for (i, r) in rays.iter().enumerate() {
-        try_validate_ray(&(*r).into(), tm(i))?;
+        try_validate_ray(&(*r).into(), per_ray(t_max, i))?;
     }
     Ok(())
 }
@@ -1309,9 +1328,8 @@ fn trace_rays_scalar<O: From<Trace>, R: Copy + Into<Ray>>(
     t_max: &[f32],
     options: &HiZOptions,
 ) {
-    let tm = |i: usize| if t_max.len() == 1 { t_max[0] } else { t_max[i] };
     for (i, (o, r)) in out.iter_mut().zip(rays).enumerate() {
-        *o = trace_valid::<false>(hiz, thickness, &(*r).into(), tm(i), options)
+        *o = trace_valid::<false>(hiz, thickness, &(*r).into(), per_ray(t_max, i), options)
             .0
             .into();
     }

@@ -845,14 +845,11 @@ impl<'a> MirrorPass<'a> {
 
     /// [`MirrorPass::pixel`] with the ray it traced.
     pub(crate) fn trace_axis(&self, x: u32, y: u32) -> AxisTrace {
-        self.axis_from_setup(x, y, self.setup(x, y), None)
+        self.axis_from_setup(x, y, self.setup(x, y))
     }
 
-    /// [`MirrorPass::trace_axis`] from the pixel's [`Setup`]; `first`, when
-    /// given, is the kernel's trace of a [`Setup::Trace`] ray
-    /// ([`MirrorPass::try_trace_kernel`]'s result, from a batch), which is
-    /// then not traced again.
-    fn axis_from_setup(&self, x: u32, y: u32, setup: Setup, mut first: Option<Trace>) -> AxisTrace {
+    /// [`MirrorPass::trace_axis`] from the pixel's [`Setup`].
+    fn axis_from_setup(&self, x: u32, y: u32, setup: Setup) -> AxisTrace {
         let mut out = MirrorTexel::default();
         let done = |texel, host, ray| AxisTrace {
             texel,
@@ -882,10 +879,7 @@ impl<'a> MirrorPass<'a> {
         let mut resumes = 0;
         let budget = hidden_resumes(self.gbuffer.width(), self.gbuffer.height());
         let status = loop {
-            let trace = match first.take() {
-                Some(t) => Ok(t),
-                None => self.try_trace_kernel(&seg),
-            };
+            let trace = self.try_trace_kernel(&seg);
             if let Some(s) = self.outcome(&mut seg, &mut resumes, budget, trace, &mut out) {
                 break s;
             }
@@ -1108,8 +1102,8 @@ impl<'a> MirrorPass<'a> {
             reason: Miss::DegenerateProjection,
             work: crate::trace::Work::default(),
         };
-        let mut setups = [Setup::Done(MirrorStatus::Skipped); BATCH];
-        let mut wanted = [false; BATCH];
+        // Each pixel's setup (`None`: not wanted).
+        let mut setups = [None::<Setup>; BATCH];
         // Per traced pixel of the chunk, in pixel order: its ray as it
         // resumes, its resumptions, texel and status (`None`: pending).
         let mut segs = [MirrorRay {
@@ -1136,12 +1130,9 @@ impl<'a> MirrorPass<'a> {
             let n = (w - x0).min(BATCH as u32) as usize;
             let mut count = 0;
             for (i, s) in setups[..n].iter_mut().enumerate() {
-                wanted[i] = want(x0 + i as u32);
-                if !wanted[i] {
-                    continue;
-                }
-                *s = self.setup(x0 + i as u32, y);
-                if let Setup::Trace(r) = s {
+                let x = x0 + i as u32;
+                *s = want(x).then(|| self.setup(x, y));
+                if let Some(Setup::Trace(r)) = s {
                     segs[count] = *r;
                     resumes[count] = 0;
                     texels[count] = MirrorTexel::default();
@@ -1192,20 +1183,20 @@ impl<'a> MirrorPass<'a> {
             let mut k = 0;
             for (i, s) in setups[..n].iter().enumerate() {
                 let x = x0 + i as u32;
-                if !wanted[i] {
+                let Some(s) = s else {
                     f(x, None);
                     continue;
-                }
+                };
                 let a = match s {
                     Setup::Trace(r) => {
                         k += 1;
                         match status[k - 1] {
                             Some(st) => self.traced_axis(x, y, *r, texels[k - 1], st),
                             // Not reached: every ray ends with a status.
-                            None => self.axis_from_setup(x, y, *s, None),
+                            None => self.axis_from_setup(x, y, *s),
                         }
                     }
-                    _ => self.axis_from_setup(x, y, *s, None),
+                    _ => self.axis_from_setup(x, y, *s),
                 };
                 f(x, Some(a));
             }

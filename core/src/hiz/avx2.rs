@@ -49,7 +49,7 @@
 //! the remaining lanes finish in the stream with the empty lanes masked.
 
 use super::{
-    dir_pixel, finish_lane, project_segment, Axis, Exit, HiZ, HiZOptions, Segment, State,
+    dir_pixel, finish_lane, per_ray, project_segment, Axis, Exit, HiZ, HiZOptions, Segment, State,
     MAX_LEVELS,
 };
 use crate::trace::{Miss, Thickness, Trace, Work};
@@ -658,12 +658,7 @@ impl<R: Copy + Into<Ray>> Feed<'_, '_, '_, R> {
             let i = self.next;
             self.next += 1;
             let ray: Ray = self.rays[i].into();
-            let t_max = if self.t_max.len() == 1 {
-                self.t_max[0]
-            } else {
-                self.t_max[i]
-            };
-            let Some(seg) = project_segment(self.hiz, &ray, t_max) else {
+            let Some(seg) = project_segment(self.hiz, &ray, per_ray(self.t_max, i)) else {
                 out[i] = Trace::Miss {
                     reason: Miss::DegenerateProjection,
                     work: Work::default(),
@@ -682,11 +677,7 @@ impl<R: Copy + Into<Ray>> Feed<'_, '_, '_, R> {
             ln.ex_y0[k] = ay.exit_v0;
             ln.ex_dy[k] = ay.exit_d;
             ln.q0[k] = seg.q0;
-            ln.th[k] = if self.th.len() == 1 {
-                self.th[0]
-            } else {
-                self.th[i]
-            };
+            ln.th[k] = per_ray(self.th, i);
             ln.dq[k] = seg.dq;
             ln.negx[k] = -i32::from(seg.dx < 0.0);
             ln.negy[k] = -i32::from(seg.dy < 0.0);
