@@ -757,6 +757,52 @@ impl<'a> MirrorPass<'a> {
         }
     }
 
+    /// The first visible surface of the output view that `ray` (from a
+    /// surface point of it) meets within `t_max`, by stepping through the
+    /// G-buffer's depth (whatever [`MirrorOptions::method`]): the pass's
+    /// start rule, thickness (relative to the depth of `ray.origin`, or the
+    /// back faces), step options, refinement and hidden-hit test (a hidden
+    /// hit ends the search). The hit's `t` is from `ray.origin`. For rays
+    /// that are not a pixel's mirror ray: the cluster pass's second
+    /// intersections (seed 003 Sec. 4.4).
+    #[cfg(feature = "cluster")]
+    pub(crate) fn trace_visible(&self, ray: &Ray, t_max: f32) -> Option<DepthHit> {
+        let t0 = self
+            .start
+            .t(ray, self.options.start_pixels)?
+            .max(self.options.t_min);
+        if !(t0 < t_max) {
+            return None;
+        }
+        let from = Ray {
+            origin: ray.at(t0),
+            dir: ray.dir,
+        };
+        let th = match self.gbuffer.back_depth() {
+            Some(b) => Thickness::BackFaces(*b),
+            None => {
+                Thickness::Constant(self.options.thickness * self.camera().linear_depth(ray.origin))
+            }
+        };
+        let depth = self.gbuffer.depth();
+        let Ok(Trace::Hit(h)) = try_step(depth, th, from, t_max - t0, self.options.step) else {
+            return None;
+        };
+        let (h, refined) = if self.options.refine {
+            let f = refine_hit(depth, &from, t_max - t0, &h);
+            let moved = f.t.to_bits() != h.t.to_bits() || f.pixel != h.pixel;
+            (f, moved)
+        } else {
+            (h, false)
+        };
+        if self.options.reject_hidden_hits {
+            if let Front::Hidden { .. } = self.front(&h, refined, &from) {
+                return None;
+            }
+        }
+        Some(DepthHit { t: t0 + h.t, ..h })
+    }
+
     /// Whether a kernel hit of `ray` lies on the visible surface (module
     /// docs, step 7): refined onto the surface's plane, or at most
     /// [`HIDDEN_SLOPES`] texel depth changes plus the ray's depth change

@@ -791,6 +791,7 @@ fn planar_finalization_is_one_lookup_and_matches_the_f64_reflection() {
             lobe: Lobe::MIRROR,
             fade: false,
             seed: 0,
+            single_ray: false,
         };
         let mut out = vec![ClusterShade::default(); pixels.len()];
         let fell = try_finalize_cluster(&mut out, &input(&f), &pixels, eye, &cc, &di, &cv, &params)
@@ -873,6 +874,7 @@ fn glossy_finalization_weights_and_hostile_input() {
             },
             fade,
             seed: 1,
+            single_ray: false,
         };
         let mut out = vec![ClusterShade::default(); pixels.len()];
         try_finalize_cluster(&mut out, &input(&f), &pixels, eye, &cc, &di, &cv, &params).unwrap();
@@ -910,6 +912,7 @@ fn glossy_finalization_weights_and_hostile_input() {
         lobe: Lobe::MIRROR,
         fade: false,
         seed: 0,
+        single_ray: false,
     };
     let e = |out: &mut [ClusterShade], p: &FinalizeInput, eye: Vec3, inp: &ClusterInput| {
         try_finalize_cluster(out, inp, &pixels, eye, &cc, &di, &cv, p)

@@ -596,6 +596,7 @@ fn finalize_equals_the_kernel_bit_for_bit_over_any_bands() {
                 // Glossy clusters only (seed 003 Sec. 3.5 item 2).
                 fade: o.fade && e.lobe.rays > 1,
                 seed: o.seed,
+                single_ray: o.glossy_single_ray,
             };
             let mut want = vec![ClusterShade::default(); px.len()];
             try_finalize_cluster(&mut want, &input, px, eye, cc, &di, &cv, &fin).unwrap();

@@ -50,6 +50,11 @@ pub struct refl_cluster_finalize_input {
     pub fade: bool,
     /// Rotates each pixel's lobe samples.
     pub seed: u32,
+    /// Seed 003 Sec. 4.2.2's cheaper glossy reflection: a lobe of several
+    /// rays traces its mirror ray alone and takes the lobe-weighted mean of
+    /// `color` over the lobe's footprint around the hit (at most 7 x 7
+    /// texels). No effect on a one-ray lobe.
+    pub single_ray: bool,
 }
 
 /// Checks an output array: non-null, aligned, a possible length.
@@ -455,6 +460,7 @@ pub unsafe extern "C" fn refl_cluster_finalize(
             lobe: input_c.lobe.into(),
             fade: input_c.fade,
             seed: input_c.seed,
+            single_ray: input_c.single_ray,
         };
         if out_len < px.len() {
             return Err(Error::InsufficientSize);

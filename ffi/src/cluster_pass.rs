@@ -62,6 +62,17 @@ pub struct refl_cluster_pass_options {
     /// Host rays end at this distance; > t_min, +infinity allowed (the
     /// default).
     pub t_max: f32,
+    /// Concave clusters (seed 003 Sec. 4.4): false (the default) finalizes
+    /// them like convex ones; true traces the rays of a cluster whose
+    /// camera is `concave` against their reflector (the cluster's object)
+    /// in the G-buffer's depth too, and a ray that meets it first takes
+    /// `render.reflector_diffuse` there (`render.reflector_diffuse` and
+    /// `render.reflector_ids` then required for concave clusters).
+    pub second_intersection: bool,
+    /// Seed 003 Sec. 4.2.2: glossy clusters trace the mirror ray alone and
+    /// average the lobe's neighborhood of its hit
+    /// (`refl_cluster_finalize_input.single_ray`). Default false.
+    pub glossy_single_ray: bool,
 }
 
 impl From<ClusterPassOptions> for refl_cluster_pass_options {
@@ -79,6 +90,8 @@ impl From<ClusterPassOptions> for refl_cluster_pass_options {
             seed: o.seed,
             t_min: o.t_min,
             t_max: o.t_max,
+            second_intersection: o.second_intersection,
+            glossy_single_ray: o.glossy_single_ray,
         }
     }
 }
@@ -95,13 +108,16 @@ impl From<refl_cluster_pass_options> for ClusterPassOptions {
             seed: o.seed,
             t_min: o.t_min,
             t_max: o.t_max,
+            second_intersection: o.second_intersection,
+            glossy_single_ray: o.glossy_single_ray,
         }
     }
 }
 
 /// The pass's defaults: the seed's 13 x 8 bins at gain 64, the camera
 /// defaults, thickness 0.005 of the far distance, stepping defaults,
-/// refined hits, no fade, seed 0, host rays over [0, +infinity).
+/// refined hits, no fade, seed 0, host rays over [0, +infinity), concave
+/// clusters as convex ones, glossy lobes traced ray by ray.
 #[no_mangle]
 pub extern "C" fn refl_cluster_pass_options_default() -> refl_cluster_pass_options {
     ClusterPassOptions::default().into()
@@ -240,6 +256,8 @@ pub struct refl_cluster_plan_stats {
     pub cameras: u32,
     /// Of those, the planar ones (one lookup per pixel).
     pub planar_cameras: u32,
+    /// Of those, the concave ones (seed 003 Sec. 4.4).
+    pub concave_cameras: u32,
     /// Reflective pixels (in some cluster).
     pub pixels: u32,
 }
@@ -251,6 +269,7 @@ impl From<ClusterPlanStats> for refl_cluster_plan_stats {
             clusters: s.clusters,
             cameras: s.cameras,
             planar_cameras: s.planar,
+            concave_cameras: s.concave,
             pixels: s.pixels,
         }
     }
@@ -271,6 +290,17 @@ pub struct refl_cluster_render {
     /// the ray between the two instead of the options' thickness. Absent
     /// when `data` is NULL.
     pub back_depth: refl_image_f32,
+    /// Optional diffuse component of every G-buffer pixel (linear RGB, the
+    /// G-buffer's size): the color of a ray that meets its concave
+    /// cluster's object again
+    /// (`refl_cluster_pass_options.second_intersection`; required then for
+    /// a concave cluster, with `reflector_ids`). Absent when `data` is
+    /// NULL.
+    pub reflector_diffuse: refl_image_vec3,
+    /// The object id of every G-buffer pixel (the plan's
+    /// `refl_cluster_objects.ids`), read with `reflector_diffuse`; absent
+    /// when `data` is NULL.
+    pub reflector_ids: refl_image_u32,
 }
 
 /// One finalized pixel.
@@ -306,6 +336,8 @@ pub struct refl_cluster_stats {
     pub rays: u64,
     /// Rays that hit, summed.
     pub ray_hits: u64,
+    /// Of those, rays their concave cluster answered itself, summed.
+    pub self_hits: u64,
 }
 
 impl From<ClusterStats> for refl_cluster_stats {
@@ -318,6 +350,7 @@ impl From<ClusterStats> for refl_cluster_stats {
             host_rays_written: s.host_rays_written,
             rays: s.rays,
             ray_hits: s.ray_hits,
+            self_hits: s.self_hits,
         }
     }
 }
@@ -675,6 +708,11 @@ pub unsafe extern "C" fn refl_cluster_finalize_rows(
                         .try_with_back_depth(unsafe { r.back_depth.view() }?)
                         .map_err(bad)?;
                 }
+                if !r.reflector_diffuse.data.is_null() || !r.reflector_ids.data.is_null() {
+                    // SAFETY: caller contract.
+                    let (d, i) = unsafe { (r.reflector_diffuse.view()?, r.reflector_ids.view()?) };
+                    v = v.with_reflector(d, i);
+                }
                 Some(v)
             }
         };
@@ -685,7 +723,7 @@ pub unsafe extern "C" fn refl_cluster_finalize_rows(
             ));
         }
         // Aliasing: the outputs must not overlap each other or the inputs.
-        let mut ins = [(0usize, 0usize); 10];
+        let mut ins = [(0usize, 0usize); 12];
         ins[..6].copy_from_slice(&gbuffer_ranges(&g));
         ins[6] = (scratch as usize, scratch_bytes);
         if let Some(r) = &r {
@@ -698,6 +736,18 @@ pub unsafe extern "C" fn refl_cluster_finalize_rows(
                 ins[9] = (
                     r.back_depth.data as usize,
                     r.back_depth.len.saturating_mul(4),
+                );
+            }
+            if !r.reflector_diffuse.data.is_null() {
+                ins[10] = (
+                    r.reflector_diffuse.data as usize,
+                    r.reflector_diffuse.len.saturating_mul(12),
+                );
+            }
+            if !r.reflector_ids.data.is_null() {
+                ins[11] = (
+                    r.reflector_ids.data as usize,
+                    r.reflector_ids.len.saturating_mul(4),
                 );
             }
         }

@@ -539,6 +539,10 @@ pub struct refl_cluster_camera {
     /// Every pixel on the image plane with the mean normal: the camera
     /// eye is e_0 exactly.
     pub planar: bool,
+    /// The cluster is concave (seed 003 Sec. 4.4): the center of the
+    /// paraboloid fitted to its points lies behind the image plane by more
+    /// than 1e-4 of its extent. Never for a planar cluster.
+    pub concave: bool,
     /// D, the far plane's distance from the image plane.
     pub far_distance: f32,
     /// Pixels whose reflected ray reaches the far plane.
@@ -564,6 +568,7 @@ impl refl_cluster_camera {
                 f: c.f,
                 diagonals: c.diagonals,
                 planar: c.planar,
+                concave: c.concave,
                 far_distance: c.far_distance,
                 pixels_used: c.pixels_used,
             },
@@ -584,6 +589,7 @@ impl refl_cluster_camera {
                 f: 0.0,
                 diagonals: [0.0; 3],
                 planar: false,
+                concave: false,
                 far_distance: 0.0,
                 pixels_used: 0,
             },
@@ -618,6 +624,7 @@ impl TryFrom<&refl_cluster_camera> for refl_core::cluster::ClusterCamera {
             f: c.f,
             diagonals: c.diagonals,
             planar: c.planar,
+            concave: c.concave,
             far_distance: c.far_distance,
             pixels_used: c.pixels_used,
         })
@@ -700,6 +707,10 @@ pub struct refl_cluster_shade {
     pub fetches: u32,
     /// Steps over all rays.
     pub steps: u32,
+    /// Rays answered by their concave cluster itself (seed 003 Sec. 4.4,
+    /// `refl_cluster_pass_options.second_intersection`), within `hits`;
+    /// always 0 from `refl_cluster_finalize`.
+    pub self_hits: u32,
 }
 
 #[cfg(feature = "cluster")]
@@ -722,6 +733,7 @@ impl From<&refl_core::cluster::ClusterShade> for refl_cluster_shade {
             hits: s.hits,
             fetches: s.fetches,
             steps: s.steps,
+            self_hits: s.self_hits,
         }
     }
 }

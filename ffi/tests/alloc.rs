@@ -143,6 +143,16 @@ fn no_vec3() -> refl_image_vec3 {
     }
 }
 
+fn no_u32() -> refl_image_u32 {
+    refl_image_u32 {
+        data: core::ptr::null(),
+        len: 0,
+        width: 0,
+        height: 0,
+        stride: 0,
+    }
+}
+
 fn no_f32() -> refl_image_f32 {
     refl_image_f32 {
         data: core::ptr::null(),
@@ -1740,6 +1750,8 @@ fn cluster_pass(cov: &mut Coverage) {
             stride: rw,
         },
         back_depth: no_f32(),
+        reflector_diffuse: no_vec3(),
+        reflector_ids: no_u32(),
     };
     let mut texels = vec![refl_cluster_texel::default(); N];
     let mut host = vec![refl_host_ray::default(); N];
@@ -2520,6 +2532,7 @@ fn cluster(cov: &mut Coverage) {
         },
         fade: true,
         seed: 3,
+        single_ray: false,
     };
     let mut shades = vec![refl_cluster_shade::default(); floor.len()];
     let mut fell = uninit::<u32>();

@@ -425,6 +425,7 @@ fn finalize_input() -> refl_cluster_finalize_input {
         },
         fade: false,
         seed: 3,
+        single_ray: false,
     }
 }
 
@@ -435,63 +436,71 @@ fn finalize_of_every_cluster_camera_equals_core() {
         positions: ImageView::try_new(&f.pos, W, H, W).unwrap(),
         normals: ImageView::try_new(&f.nor, W, H, W).unwrap(),
     };
-    for_each_cluster_with_a_camera(&f, |px, out, cc| {
-        let (dw, dh, depth, color, di_c) = flat_render(&cc.camera);
-        let fp = finalize_input();
-        let mut shades = vec![refl_cluster_shade::default(); px.len()];
-        let mut fell = 0u32;
-        let st = unsafe {
-            refl_cluster_finalize(
-                &mut fell,
-                shades.as_mut_ptr(),
-                shades.len(),
-                vec3_img(&f.pos, W, H),
-                vec3_img(&f.nor, W, H),
-                px.as_ptr(),
-                px.len(),
-                f.eye.into(),
-                out,
-                &di_c,
-                vec3_img(&color, dw, dh),
-                &fp,
+    for single_ray in [false, true] {
+        for_each_cluster_with_a_camera(&f, |px, out, cc| {
+            let (dw, dh, depth, color, di_c) = flat_render(&cc.camera);
+            let fp = refl_cluster_finalize_input {
+                single_ray,
+                ..finalize_input()
+            };
+            let mut shades = vec![refl_cluster_shade::default(); px.len()];
+            let mut fell = 0u32;
+            let st = unsafe {
+                refl_cluster_finalize(
+                    &mut fell,
+                    shades.as_mut_ptr(),
+                    shades.len(),
+                    vec3_img(&f.pos, W, H),
+                    vec3_img(&f.nor, W, H),
+                    px.as_ptr(),
+                    px.len(),
+                    f.eye.into(),
+                    out,
+                    &di_c,
+                    vec3_img(&color, dw, dh),
+                    &fp,
+                )
+            };
+            assert_eq!(st, refl_status::Ok);
+            let di = DepthImage::try_new(
+                ImageView::try_new(&depth, dw, dh, dw).unwrap(),
+                cc.camera,
+                DepthConvention::Linear,
             )
-        };
-        assert_eq!(st, refl_status::Ok);
-        let di = DepthImage::try_new(
-            ImageView::try_new(&depth, dw, dh, dw).unwrap(),
-            cc.camera,
-            DepthConvention::Linear,
-        )
-        .unwrap();
-        let cv = ImageView::try_new(&color, dw, dh, dw).unwrap();
-        let mut core_shades = vec![cluster::ClusterShade::default(); px.len()];
-        let core_fell = cluster::try_finalize_cluster(
-            &mut core_shades,
-            &input,
-            px,
-            f.eye,
-            &cc,
-            &di,
-            &cv,
-            &cluster::FinalizeInput {
-                thickness: refl_core::Thickness::Constant(f32::INFINITY),
-                step: refl_core::StepOptions::default(),
-                refine: false,
-                lobe: cluster::Lobe {
-                    rays: 8,
-                    exponent: 30.0,
-                    max_angle: 0.4,
+            .unwrap();
+            let cv = ImageView::try_new(&color, dw, dh, dw).unwrap();
+            let mut core_shades = vec![cluster::ClusterShade::default(); px.len()];
+            let core_fell = cluster::try_finalize_cluster(
+                &mut core_shades,
+                &input,
+                px,
+                f.eye,
+                &cc,
+                &di,
+                &cv,
+                &cluster::FinalizeInput {
+                    thickness: refl_core::Thickness::Constant(f32::INFINITY),
+                    step: refl_core::StepOptions::default(),
+                    refine: false,
+                    lobe: cluster::Lobe {
+                        rays: 8,
+                        exponent: 30.0,
+                        max_angle: 0.4,
+                    },
+                    fade: false,
+                    seed: 3,
+                    single_ray,
                 },
-                fade: false,
-                seed: 3,
-            },
-        )
-        .unwrap();
-        assert_eq!(fell, core_fell);
-        for (a, b) in shades.iter().zip(&core_shades) {
-            assert_eq!(*a, refl_cluster_shade::from(b));
-        }
-    });
+            )
+            .unwrap();
+            assert_eq!(fell, core_fell);
+            for (a, b) in shades.iter().zip(&core_shades) {
+                assert_eq!(*a, refl_cluster_shade::from(b));
+                // One ray per pixel in the single-ray variant (seed 003 Sec. 4.2.2).
+                assert!(!single_ray || a.rays == 1);
+            }
+        });
+    }
 }
 
 /// Hostile finalize input: short output, NaN eye, fallback record; the

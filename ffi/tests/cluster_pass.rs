@@ -13,7 +13,7 @@ use refl_core::glam::{DVec3, Vec2};
 use refl_core::{DepthConvention, GBuffer, MirrorStatus};
 #[path = "common/gbuffer.rs"]
 mod common;
-use common::{conv_c, counted, none_f32, render, Frame, Shared, H, W};
+use common::{conv_c, counted, none_f32, none_u32, none_vec3, render, Frame, Shared, H, W};
 
 const N: usize = (W * H) as usize;
 
@@ -505,6 +505,8 @@ fn finalize_in_threads(
                             },
                             color: vec3_img(c, w, h),
                             back_depth: none_f32(),
+                            reflector_diffuse: none_vec3(),
+                            reflector_ids: none_u32(),
                         }
                     });
                     let rp = rv.as_ref().map_or(core::ptr::null(), |r| r as *const _);
@@ -599,6 +601,7 @@ fn finalize_rows_from_threads_equals_finalize_and_the_mirror_pass_host_rays() {
                     lobe: e.lobe,
                     fade: o.fade,
                     seed: o.seed,
+                    single_ray: o.glossy_single_ray,
                 };
                 let mut fell = 0u32;
                 assert_eq!(
@@ -854,6 +857,8 @@ fn finalize_rows_refuses_hostile_input_writing_nothing() {
         },
         color: vec3_img(&c, w, h),
         back_depth: none_f32(),
+        reflector_diffuse: none_vec3(),
+        reflector_ids: none_u32(),
     };
     let mut other = render;
     other.depth.camera.view.m[12] += 0.5;

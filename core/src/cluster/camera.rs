@@ -118,6 +118,18 @@ pub struct ClusterCamera {
     /// (within 1e-5 relative): the camera is exactly the mirrored camera's
     /// eye and every reflected ray projects to one point.
     pub planar: bool,
+    /// `true` if the cluster is concave (seed 003 Sec. 4.4: "detect that a
+    /// cluster is concave, by testing whether the center of a cluster is
+    /// behind the image plane"): its surface, fitted as a paraboloid of
+    /// revolution about the mean normal through the centroid
+    /// ([`center_height`]), has its center behind the image plane (away
+    /// from the eye) by more than [`CONCAVE_TOLERANCE`] of the cluster's
+    /// extent. Never for a planar cluster. A concave cluster's reflected
+    /// rays may meet the cluster again, which its depth image (clipped
+    /// at the cluster's front) does not hold: the cluster pass's
+    /// [`second_intersection`](super::ClusterPassOptions::second_intersection)
+    /// traces them against the reflector itself.
+    pub concave: bool,
     /// `D`, the far plane's distance from the image plane.
     pub far_distance: f32,
     /// Pixels used (those whose reflected ray leaves the image plane toward
@@ -147,6 +159,58 @@ pub enum ClusterFallback {
     /// ([`ClusterPass::try_plan`](super::ClusterPass::try_plan)) records as this fallback rather than
     /// failing the frame.
     Degenerate,
+}
+
+/// Least depth of a concave cluster's center behind its image plane,
+/// relative to the cluster's extent (the largest distance of a pixel's
+/// point from the centroid): a shallower cup (a radius of curvature above
+/// about 2,500 extents) counts as flat ([`ClusterCamera::concave`]).
+pub const CONCAVE_TOLERANCE: f32 = 1e-4;
+
+/// The height above the image plane (through `centroid` with unit normal
+/// `normal`, positive toward the eye) of the center of the paraboloid of
+/// revolution `s = a + k rho^2` fitted by least squares to the `points`
+/// (`s` a point's height, `rho` its distance from the normal's axis
+/// through the centroid), in f64: `a` of the fit, the seed 003 Sec. 4.4
+/// "center of a cluster" relative to "the image plane of the camera
+/// cluster" (the seed tests one point; the fit uses every pixel, so one
+/// noisy normal or depth does not decide). `None` if the points do not
+/// determine a slope (fewer than two distinct `rho^2`, e.g. a ring).
+/// Negative for a cup opening toward the eye (concave), positive for a
+/// dome (convex), 0 for a plane.
+pub fn center_height(
+    points: impl Iterator<Item = Vec3> + Clone,
+    centroid: Vec3,
+    normal: Vec3,
+) -> Option<f64> {
+    let (c, n) = (centroid.as_dvec3(), normal.as_dvec3());
+    let sample = |p: Vec3| {
+        let d = p.as_dvec3() - c;
+        let s = d.dot(n);
+        (s, (d.length_squared() - s * s).max(0.0))
+    };
+    let (mut count, mut ms, mut mr) = (0.0f64, 0.0f64, 0.0f64);
+    for p in points.clone() {
+        let (s, r2) = sample(p);
+        count += 1.0;
+        ms += s;
+        mr += r2;
+    }
+    if count < 2.0 {
+        return None;
+    }
+    (ms, mr) = (ms / count, mr / count);
+    let (mut cov, mut var) = (0.0f64, 0.0f64);
+    for p in points {
+        let (s, r2) = sample(p);
+        cov += (s - ms) * (r2 - mr);
+        var += (r2 - mr) * (r2 - mr);
+    }
+    if !(var > 1e-10 * mr * mr) {
+        return None;
+    }
+    let k = cov / var;
+    Some(ms - k * mr)
 }
 
 /// Largest tangent of the half field of view of a cluster camera (about
@@ -555,6 +619,13 @@ pub(crate) fn cluster_camera(
         normal: nc,
         point: pc + nc * s_clip,
     };
+    // Sec. 4.4: the cluster's center behind its image plane.
+    let points = pixels
+        .iter()
+        .filter_map(|&p| input.at(p).map(|(pos, _)| pos));
+    let concave = !planar
+        && center_height(points, pc, nc)
+            .is_some_and(|a| a < -f64::from(CONCAVE_TOLERANCE) * f64::from(extent));
     Ok(ClusterView::Camera(ClusterCamera {
         camera,
         clip,
@@ -564,6 +635,7 @@ pub(crate) fn cluster_camera(
         f,
         diagonals: [d_n, d_f, d_big_f],
         planar,
+        concave,
         far_distance: d_far,
         pixels_used: used,
     }))

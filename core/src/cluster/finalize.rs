@@ -7,7 +7,7 @@ use super::camera::reflected;
 use super::{validate_pixels, ClusterCamera, ClusterInput, Surfaces};
 use crate::step::{try_step, StepOptions};
 use crate::trace::{refine_hit, REFINE_CONTINUITY};
-use crate::{DepthImage, Error, ImageView, Miss, Ray, Thickness, Trace};
+use crate::{DepthImage, Error, ImageView, MirrorPass, Miss, Ray, Thickness, Trace};
 use glam::{Vec2, Vec3};
 
 /// Most rays per pixel of a [`Lobe`] (the seed uses 8 to 49).
@@ -93,7 +93,19 @@ pub struct FinalizeInput<'a> {
     pub fade: bool,
     /// Rotates each pixel's lobe samples (hashed with the pixel index).
     pub seed: u32,
+    /// Seed 003 Sec. 4.2.2's cheaper glossy reflection: a pixel whose lobe
+    /// samples several rays traces its mirror ray alone and takes the
+    /// lobe-weighted mean of the color image around the hit
+    /// ([`GLOSSY_NEIGHBORHOOD`]) instead of tracing [`Lobe::rays`] rays.
+    /// No effect on mirror lobes.
+    pub single_ray: bool,
 }
+
+/// Samples per side of the neighborhood grid of the single-ray glossy
+/// reflection ([`FinalizeInput::single_ray`]): at most 7 x 7 = 49 texels
+/// (the seed's largest ray count) spread over the lobe's footprint, one
+/// texel apart where the footprint is smaller.
+pub const GLOSSY_NEIGHBORHOOD: u32 = 7;
 
 /// The reflection of one cluster pixel.
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
@@ -120,6 +132,11 @@ pub struct ClusterShade {
     pub fetches: u32,
     /// Steps, summed over the rays.
     pub steps: u32,
+    /// Rays answered by the reflector itself (seed 003 Sec. 4.4, the
+    /// cluster pass's `second_intersection`): their color, within `rgb`
+    /// and counted in `hits`, is the reflector's diffuse color where the
+    /// ray meets it again.
+    pub self_hits: u32,
 }
 
 /// Direction `k` of `lobe` around the unit `axis` for a pixel with sample
@@ -235,7 +252,7 @@ pub fn try_finalize_cluster<O: From<ClusterShade>>(
     check_finalize(input, pixels, eye, cam, depth, color, finalize)?;
     let mut fallbacks = 0u32;
     for (o, &p) in out.iter_mut().zip(pixels) {
-        let (shade, _) = finalize_pixel(input, p, eye, cam, depth, color, finalize);
+        let (shade, _) = finalize_pixel(input, p, eye, cam, depth, color, finalize, None);
         if shade.env_weight > 0.0 {
             fallbacks += 1;
         }
@@ -293,9 +310,124 @@ pub(crate) enum Unanswered {
     NoProjection,
 }
 
+/// The second intersection of a concave cluster's rays with its reflector
+/// (seed 003 Sec. 4.4: "intersect reflected rays with the cluster itself
+/// to detect a possible second intersection. When such a second
+/// intersection occurs, the ray color is set to the diffuse component of
+/// the cluster sample"). Ours tests the cluster's whole object, as the
+/// issue puts it ("the second intersection with the reflector"): clusters
+/// gather similar normals, so a ray's second intersection is mostly on
+/// another cluster of the same reflector (measured on a mirror bowl in
+/// `tests/cluster_concave.rs`). The reflector is the part of the output
+/// view's depth image its pixels cover, so a ray meets it where stepping
+/// through that depth image ([`try_step`]) hits one of the object's pixels
+/// from its front: the mirror pass's stepping of the output view, limited
+/// to the reflector.
+pub(crate) struct SelfHits<'p, 'a> {
+    /// The mirror pass over the output view (its G-buffer, start rule,
+    /// thickness and hidden-hit test).
+    pub mirror: &'p MirrorPass<'a>,
+    /// The object id of every output pixel.
+    pub ids: &'p ImageView<'a, u32>,
+    /// The reflector's object id.
+    pub object: u32,
+    /// The diffuse component of every output pixel.
+    pub diffuse: &'p ImageView<'a, [f32; 3]>,
+}
+
+impl SelfHits<'_, '_> {
+    /// The reflector's pixel `ray` meets first within `t_max`, visible and
+    /// from its front, with the ray parameter there.
+    fn trace(&self, input: &impl Surfaces, ray: &Ray, t_max: f32) -> Option<(u32, f32)> {
+        let hit = self.mirror.trace_visible(ray, t_max)?;
+        let g = self.mirror.gbuffer();
+        let (x, y) = (hit.pixel.x as u32, hit.pixel.y as u32);
+        let (x, y) = (x.min(g.width() - 1), y.min(g.height() - 1));
+        if self.ids.get(x, y) != Some(self.object) {
+            return None;
+        }
+        // Its front: the surface faces the ray (normals face the eye).
+        let p = y * g.width() + x;
+        let (_, n) = input.at(p)?;
+        (n.dot(ray.dir) < 0.0).then_some((p, hit.t))
+    }
+}
+
+/// Seed 003 Sec. 4.2.2's cheaper glossy reflection ("intersecting a single
+/// ray with the cluster depth image and averaging samples in a
+/// neighborhood centered at the intersection"): the color of the texels
+/// around the mirror ray's hit `hit`, over the lobe's footprint there (a
+/// disc of radius `t tan(max_angle)`), each texel's point `q` weighted by
+/// the lobe in its direction from the surface point `pos`,
+/// `cos^n(angle(q - pos, axis))` if that angle is within the lobe's
+/// `max_angle` and `q` lies above the surface (normal `n`); a grid of at
+/// most [`GLOSSY_NEIGHBORHOOD`] texels a side, at least one texel apart.
+/// The bilinear hit color if no texel has weight.
+fn lobe_neighborhood(
+    depth: &DepthImage<'_>,
+    color: &ImageView<'_, [f32; 3]>,
+    (pos, n, axis): (Vec3, Vec3, Vec3),
+    lobe: &Lobe,
+    hit: &crate::DepthHit,
+) -> Vec3 {
+    let cam = depth.camera();
+    let (w, h) = (depth.width(), depth.height());
+    // Texel size (world units) at the hit's depth, and the footprint's
+    // radius in texels.
+    let texel = hit.depth * 2.0 * libm::tanf(0.5 * cam.fov_y()) / h as f32;
+    let radius = hit.t * libm::tanf(lobe.max_angle) / texel;
+    let half = (GLOSSY_NEIGHBORHOOD / 2) as i32;
+    if !(radius >= 1.0 && radius.is_finite()) {
+        return sample_color(depth, color, hit.pixel);
+    }
+    let spacing = (radius / half as f32).max(1.0);
+    let m = ((radius / spacing) as i32).min(half);
+    let cos_max = libm::cosf(lobe.max_angle);
+    let (mut sum, mut wsum) = (Vec3::ZERO, 0.0f32);
+    for j in -m..=m {
+        for i in -m..=m {
+            let (dx, dy) = (i as f32 * spacing, j as f32 * spacing);
+            if dx * dx + dy * dy > radius * radius {
+                continue;
+            }
+            let px = hit.pixel + Vec2::new(dx, dy);
+            if !(px.x >= 0.0 && px.y >= 0.0 && px.x < w as f32 && px.y < h as f32) {
+                continue;
+            }
+            let (x, y) = (px.x as u32, px.y as u32);
+            let (Some(z), Some(c)) = (depth.linear_at(x, y), color.get(x, y)) else {
+                continue;
+            };
+            if !(z > 0.0 && z.is_finite()) {
+                continue;
+            }
+            let center = Vec2::new(x as f32 + 0.5, y as f32 + 0.5);
+            let q = cam.unproject(center, z, crate::DepthConvention::Linear);
+            let Some(d) = (q - pos).try_normalize() else {
+                continue;
+            };
+            let cos = d.dot(axis);
+            if !(cos >= cos_max) || !(d.dot(n) > 0.0) {
+                continue;
+            }
+            let wt = libm::powf(cos, lobe.exponent);
+            sum += Vec3::from_array(c) * wt;
+            wsum += wt;
+        }
+    }
+    if wsum > 0.0 {
+        sum / wsum
+    } else {
+        sample_color(depth, color, hit.pixel)
+    }
+}
+
 /// One pixel of [`try_finalize_cluster`] (checked by [`check_finalize`]):
 /// its shade and, if one of its rays found nothing the depth image can
-/// answer, the first such ray's reason.
+/// answer, the first such ray's reason. With `self_hits` (a concave
+/// cluster of the pass), each ray is also traced against the cluster
+/// itself up to its depth-image hit.
+#[allow(clippy::too_many_arguments)]
 pub(crate) fn finalize_pixel(
     input: &impl Surfaces,
     p: u32,
@@ -304,6 +436,7 @@ pub(crate) fn finalize_pixel(
     depth: &DepthImage<'_>,
     color: &ImageView<'_, [f32; 3]>,
     finalize: &FinalizeInput<'_>,
+    self_hits: Option<&SelfHits<'_, '_>>,
 ) -> (ClusterShade, Option<Unanswered>) {
     let (pc, nc, d_far) = (cam.centroid, cam.normal, cam.far_distance);
     let (pos, n) = input.at(p).unwrap_or((Vec3::ZERO, Vec3::Y));
@@ -317,6 +450,8 @@ pub(crate) fn finalize_pixel(
     let mut unanswered = None;
     let hash = crate::lobe::pixel_hash;
     let rot = crate::lobe::hash_rotation(hash(p ^ hash(finalize.seed)));
+    let glossy = finalize.lobe.rays > 1;
+    let single = glossy && finalize.single_ray;
     let mut trace = |dir: Vec3, shade: &mut ClusterShade| {
         shade.rays += 1;
         let dn = dir.dot(nc);
@@ -348,9 +483,6 @@ pub(crate) fn finalize_pixel(
             Some(Err(_)) => Some(Unanswered::NoProjection),
             _ => None,
         };
-        if unanswered.is_none() {
-            unanswered = why;
-        }
         let result = result.and_then(Result::ok);
         let hit = match result {
             Some(Trace::Hit(hit)) => Some(if finalize.refine {
@@ -365,24 +497,49 @@ pub(crate) fn finalize_pixel(
             shade.fetches = shade.fetches.saturating_add(w.fetches);
             shade.steps = shade.steps.saturating_add(w.steps);
         }
-        match hit {
-            Some(hit) => {
-                let wgt = if finalize.fade {
-                    (1.0 - (s + dn * hit.t) / d_far).clamp(0.0, 1.0)
+        // Sec. 4.4: the reflector itself, nearer than the depth image's hit.
+        let own = self_hits.and_then(|sh| {
+            let bound = hit.map_or(f32::INFINITY, |h| h.t);
+            let w = sh.mirror.gbuffer().width();
+            sh.trace(input, &ray, bound)
+                .and_then(|(q, t)| Some((sh.diffuse.get(q % w, q / w)?, t)))
+        });
+        if own.is_none() && unanswered.is_none() {
+            unanswered = why;
+        }
+        let weight = |t: f32| {
+            if finalize.fade {
+                (1.0 - (s + dn * t) / d_far).clamp(0.0, 1.0)
+            } else {
+                1.0
+            }
+        };
+        match (own, hit) {
+            (Some((c, t)), _) => {
+                let wgt = weight(t);
+                shade.rgb += Vec3::from_array(c) * wgt;
+                shade.hit_weight += wgt;
+                shade.hits += 1;
+                shade.self_hits += 1;
+            }
+            (None, Some(hit)) => {
+                let wgt = weight(hit.t);
+                let c = if single {
+                    lobe_neighborhood(depth, color, (pos, n, axis), &finalize.lobe, &hit)
                 } else {
-                    1.0
+                    sample_color(depth, color, hit.pixel)
                 };
-                shade.rgb += sample_color(depth, color, hit.pixel) * wgt;
+                shade.rgb += c * wgt;
                 shade.hit_weight += wgt;
                 shade.hits += 1;
             }
-            None => {
+            (None, None) => {
                 env_dir += dir;
                 misses += 1;
             }
         }
     };
-    if finalize.lobe.rays > 1 {
+    if glossy && !single {
         for k in 0..finalize.lobe.rays {
             let dir = lobe_dir(&finalize.lobe, axis, k, rot);
             if dir.dot(n) > 0.0 && dir.is_finite() {

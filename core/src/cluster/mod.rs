@@ -92,11 +92,12 @@ pub use bins::{
     try_count_objects, ClusterOptions, ObjectBins, BINS_LIMIT, MAX_PHI_BINS, MAX_THETA_BINS,
 };
 pub use camera::{
-    try_cluster_camera, ClipPlane, ClusterCamera, ClusterCameraOptions, ClusterFallback,
-    ClusterView, MAX_TAN, MAX_TAN_PLANE,
+    center_height, try_cluster_camera, ClipPlane, ClusterCamera, ClusterCameraOptions,
+    ClusterFallback, ClusterView, CONCAVE_TOLERANCE, MAX_TAN, MAX_TAN_PLANE,
 };
 pub use finalize::{
-    try_finalize_cluster, try_lobe_angle, ClusterShade, FinalizeInput, Lobe, MAX_LOBE_RAYS,
+    try_finalize_cluster, try_lobe_angle, ClusterShade, FinalizeInput, Lobe, GLOSSY_NEIGHBORHOOD,
+    MAX_LOBE_RAYS,
 };
 pub use pass::{
     try_cluster_plan_len, ClusterObjects, ClusterPass, ClusterPassOptions, ClusterPlanEntry,
@@ -106,7 +107,7 @@ pub use pass::{
 
 use bins::{assign_clusters, count_objects};
 use camera::cluster_camera;
-use finalize::{check_finalize, finalize_pixel, Unanswered};
+use finalize::{check_finalize, finalize_pixel, SelfHits, Unanswered};
 
 use crate::{Error, ImageView};
 use glam::Vec3;

@@ -132,6 +132,29 @@
 //!   pass's far distance `D` (not a glossy cluster's nearer one), or the render's back-face image; the pass's step,
 //!   refine, fade and seed options; the object's lobe.
 //!
+//! # Concave clusters
+//! Seed 003 Sec. 4.4 handles concave reflectors "in one of two ways". By
+//! default the pass takes the first: a concave cluster is finalized like a
+//! convex one, and a ray that would meet the reflector again sees what the
+//! depth image holds beyond it (the depth image is clipped at the
+//! cluster's front, so it never holds the cluster). With
+//! [`ClusterPassOptions::second_intersection`] it takes the second: the
+//! plan marks the clusters whose surface's center lies behind their image
+//! plane ([`ClusterCamera::concave`], [`ClusterPlanStats::concave`]), and
+//! each ray of such a cluster is also stepped through the output view's
+//! depth image (the G-buffer's, with the mirror pass's start rule and
+//! thickness, [`ClusterPassOptions::mirror_options`], and this pass's
+//! stepping) up to its depth-image hit; if it hits a pixel of the
+//! cluster's own object (the reflector; the seed says "the cluster itself",
+//! but clusters gather similar normals, so the second intersection mostly
+//! lies on another cluster of the reflector) from that surface's front,
+//! the ray is answered there with the reflector's diffuse color at that
+//! pixel ([`ClusterRender::with_reflector`]) and counted in
+//! [`ClusterShade::self_hits`]. "None of the two methods provide the
+//! accurate second order reflection, but the second method provides a
+//! more stable reflection, at the small additional cost": one screen-space
+//! trace per ray of the concave clusters only.
+//!
 //! # Status of a finalized pixel
 //! * [`MirrorStatus::Hit`]: every traced ray hit the depth image.
 //! * [`MirrorStatus::Sky`]: some ray reached the far plane `D` in front of
@@ -152,7 +175,7 @@ use super::{
     assign_clusters, check_finalize, cluster_camera, count_objects, finalize_pixel, try_bin_layout,
     try_cluster_bins_max, try_cluster_ranges, validate_pixels, ClusterCamera, ClusterCameraOptions,
     ClusterFallback, ClusterOptions, ClusterShade, ClusterView, FinalizeInput, Lobe, ObjectBins,
-    Surfaces, Unanswered, NO_OBJECT,
+    SelfHits, Surfaces, Unanswered, NO_OBJECT,
 };
 use crate::step::StepOptions;
 use crate::{
@@ -191,6 +214,20 @@ pub struct ClusterPassOptions {
     pub t_min: f32,
     /// Host rays end at this distance (`> t_min`, `+inf` allowed).
     pub t_max: f32,
+    /// Concave clusters (seed 003 Sec. 4.4): `false` handles them like
+    /// convex ones (the seed's first way: "ignoring the second
+    /// intersection with the reflector surface sampled by the cluster");
+    /// `true` takes the seed's second way: the rays of a cluster whose
+    /// camera is [`ClusterCamera::concave`] are also traced against their
+    /// reflector itself in the output view, and a ray that meets it before
+    /// anything in the depth image takes the reflector's diffuse color
+    /// there ([`ClusterRender::with_reflector`], then
+    /// required for concave clusters; module docs, "Concave clusters").
+    pub second_intersection: bool,
+    /// Seed 003 Sec. 4.2.2's cheaper glossy reflection: glossy clusters
+    /// trace the mirror ray alone and average the lobe's neighborhood of
+    /// the hit ([`FinalizeInput::single_ray`]).
+    pub glossy_single_ray: bool,
 }
 
 impl Default for ClusterPassOptions {
@@ -198,7 +235,8 @@ impl Default for ClusterPassOptions {
     /// ([`ClusterCameraOptions::default`]), thickness 0.005 `D` (the root
     /// package's `THICKNESS_OF_DIAMETER` with `D` the scene diameter),
     /// stepping defaults, refined hits, no fade, seed 0, host rays over
-    /// `[0, +inf)`.
+    /// `[0, +inf)`, concave clusters as convex ones, glossy lobes traced
+    /// ray by ray.
     fn default() -> Self {
         Self {
             cluster: ClusterOptions {
@@ -213,6 +251,8 @@ impl Default for ClusterPassOptions {
             seed: 0,
             t_min: 0.0,
             t_max: f32::INFINITY,
+            second_intersection: false,
+            glossy_single_ray: false,
         }
     }
 }
@@ -390,6 +430,8 @@ pub struct ClusterPlanStats {
     pub cameras: u32,
     /// Of those, the planar ones.
     pub planar: u32,
+    /// Of those, the concave ones ([`ClusterCamera::concave`]).
+    pub concave: u32,
     /// Reflective pixels (in some cluster).
     pub pixels: u32,
 }
@@ -403,6 +445,7 @@ pub struct ClusterRender<'a> {
     depth: DepthImage<'a>,
     color: ImageView<'a, [f32; 3]>,
     back_depth: Option<ImageView<'a, f32>>,
+    reflector: Option<(ImageView<'a, [f32; 3]>, ImageView<'a, u32>)>,
 }
 
 impl<'a> ClusterRender<'a> {
@@ -418,6 +461,7 @@ impl<'a> ClusterRender<'a> {
             depth,
             color,
             back_depth: None,
+            reflector: None,
         })
     }
 
@@ -431,6 +475,26 @@ impl<'a> ClusterRender<'a> {
         }
         self.back_depth = Some(back_depth);
         Ok(self)
+    }
+
+    /// Adds, for every pixel of the output view (the G-buffer's size,
+    /// checked when finalizing), its diffuse component and its object id
+    /// (the plan's [`ClusterObjects::ids`]): a ray of a concave cluster
+    /// that meets its own object again takes the diffuse color there (seed
+    /// 003 Sec. 4.4: "the ray color is set to the diffuse component of the
+    /// cluster sample"; [`ClusterPassOptions::second_intersection`]).
+    pub const fn with_reflector(
+        mut self,
+        diffuse: ImageView<'a, [f32; 3]>,
+        ids: ImageView<'a, u32>,
+    ) -> Self {
+        self.reflector = Some((diffuse, ids));
+        self
+    }
+
+    /// The reflector's diffuse and id images, if any.
+    pub const fn reflector(&self) -> Option<&(ImageView<'a, [f32; 3]>, ImageView<'a, u32>)> {
+        self.reflector.as_ref()
     }
 
     /// The depth image.
@@ -477,6 +541,9 @@ pub struct ClusterStats {
     pub rays: u64,
     /// Rays that hit, summed.
     pub ray_hits: u64,
+    /// Of those, rays answered by their concave cluster's reflector itself
+    /// ([`ClusterShade::self_hits`]), summed.
+    pub self_hits: u64,
 }
 
 /// Where [`ClusterPass::try_finalize_rows`] puts its results.
@@ -684,6 +751,7 @@ impl<'a> ClusterPass<'a> {
                 ClusterView::Camera(cc) => {
                     st.cameras += 1;
                     st.planar += u32::from(cc.planar);
+                    st.concave += u32::from(cc.concave);
                     cc.camera.frustum_planes()
                 }
                 ClusterView::Fallback(_) => [Vec4::ZERO; 6],
@@ -754,6 +822,7 @@ impl<'a> ClusterPass<'a> {
             // The seed fades glossy reflections only (Sec. 3.5 item 2).
             fade: o.fade && lobe.rays > 1,
             seed: o.seed,
+            single_ray: o.glossy_single_ray,
         }
     }
 
@@ -768,14 +837,17 @@ impl<'a> ClusterPass<'a> {
     /// The shade is bit for bit
     /// [`try_finalize_cluster`](super::try_finalize_cluster)'s over the
     /// band's pixels with the G-buffer's surfaces, the entry's camera and
-    /// the finalize input of the module docs.
+    /// the finalize input of the module docs, except for the rays a
+    /// concave cluster answers itself (module docs, "Concave clusters").
     ///
     /// # Errors
     /// [`Error::InvalidArgument`]: `rows` beyond the G-buffer; an entry
     /// whose pixels are not in `order`, outside the image or without a
     /// surface (not this G-buffer's plan); an invalid lobe or camera record;
     /// no render, or a render of another camera, for an entry with a
-    /// camera. Nothing is handed to `sink` then.
+    /// camera; with [`ClusterPassOptions::second_intersection`], a concave
+    /// entry's render without reflector images of the G-buffer's size
+    /// ([`ClusterRender::with_reflector`]). Nothing is handed to `sink` then.
     pub fn try_finalize_rows(
         &self,
         cluster: &ClusterPlanEntry,
@@ -789,6 +861,7 @@ impl<'a> ClusterPass<'a> {
         let surfaces = self.surfaces();
         let eye = self.gbuffer().camera().eye();
         let w = self.gbuffer().width();
+        let g = self.gbuffer();
         let traced = match &cluster.view {
             ClusterView::Camera(cc) => {
                 let r = render.ok_or(Error::InvalidArgument)?;
@@ -797,7 +870,26 @@ impl<'a> ClusterPass<'a> {
                 }
                 let fin = self.finalize_input(cluster.lobe, r);
                 check_finalize(&surfaces, band, eye, cc, &r.depth, &r.color, &fin)?;
-                Some((cc, r, fin))
+                // Sec. 4.4's second way, for concave clusters.
+                let own = if self.options.second_intersection && cc.concave {
+                    let (diffuse, ids) = r.reflector.as_ref().ok_or(Error::InvalidArgument)?;
+                    if diffuse.width() != g.width()
+                        || diffuse.height() != g.height()
+                        || ids.width() != g.width()
+                        || ids.height() != g.height()
+                    {
+                        return Err(Error::InvalidArgument);
+                    }
+                    Some(SelfHits {
+                        mirror: &self.mirror,
+                        ids,
+                        object: cluster.object,
+                        diffuse,
+                    })
+                } else {
+                    None
+                };
+                Some((cc, r, fin, own))
             }
             ClusterView::Fallback(_) => {
                 validate_pixels(&surfaces, band)?;
@@ -812,9 +904,17 @@ impl<'a> ClusterPass<'a> {
                 continue;
             };
             let texel = match &traced {
-                Some((cc, r, fin)) => {
-                    let (shade, why) =
-                        finalize_pixel(&surfaces, p, eye, cc, &r.depth, &r.color, fin);
+                Some((cc, r, fin, own)) => {
+                    let (shade, why) = finalize_pixel(
+                        &surfaces,
+                        p,
+                        eye,
+                        cc,
+                        &r.depth,
+                        &r.color,
+                        fin,
+                        own.as_ref(),
+                    );
                     let status = match why {
                         Some(Unanswered::LeftImage) => MirrorStatus::LeftImage,
                         Some(Unanswered::BehindGeometry) => MirrorStatus::BehindGeometry,
@@ -838,6 +938,7 @@ impl<'a> ClusterPass<'a> {
             st.pixels += 1;
             st.rays += u64::from(texel.shade.rays);
             st.ray_hits += u64::from(texel.shade.hits);
+            st.self_hits += u64::from(texel.shade.self_hits);
             match texel.status {
                 MirrorStatus::Hit => st.hits += 1,
                 MirrorStatus::Sky => st.sky += 1,

@@ -153,6 +153,28 @@ pub fn none_f32() -> refl_image_f32 {
     }
 }
 
+#[allow(dead_code)] // not every test binary uses it
+pub fn none_vec3() -> refl_image_vec3 {
+    refl_image_vec3 {
+        data: core::ptr::null(),
+        len: 0,
+        width: 0,
+        height: 0,
+        stride: 0,
+    }
+}
+
+#[allow(dead_code)] // not every test binary uses it
+pub fn none_u32() -> refl_image_u32 {
+    refl_image_u32 {
+        data: core::ptr::null(),
+        len: 0,
+        width: 0,
+        height: 0,
+        stride: 0,
+    }
+}
+
 pub fn conv_c(c: DepthConvention) -> u32 {
     match c {
         DepthConvention::Linear => 0,
