@@ -349,6 +349,8 @@ Row run(RTCDevice device, size_t target) {
             const refl_cluster_render render{{{depth.data(), depth.size(), dw, dh, dw}, e.camera.camera,
                                               REFL_DEPTH_CONVENTION_LINEAR},
                                              {color.data(), color.size(), dw, dh, dw},
+                                             {nullptr, 0, 0, 0, 0},
+                                             {nullptr, 0, 0, 0, 0},
                                              {nullptr, 0, 0, 0, 0}};
             t0 = Clock::now();
             CHECK_STATUS(refl_cluster_finalize_rows(&st, texels.data(), N, host.data(), N, &gb, &po, scratch.data(),

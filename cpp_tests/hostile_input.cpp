@@ -2194,7 +2194,7 @@ void cluster_functions() {
     const refl_image_f32 none{nullptr, 0, 0, 0, 0};
     const refl_depth_image di{{depth.data(), dn, dw, dh, dw}, cam.camera, REFL_DEPTH_CONVENTION_LINEAR};
     const refl_image_vec3 cv{color.data(), dn, dw, dh, dw};
-    const refl_cluster_finalize_input fp{{kInf, none}, {1, kMax}, false, {1, 0.0f, 0.0f}, false, 0};
+    const refl_cluster_finalize_input fp{{kInf, none}, {1, kMax}, false, {1, 0.0f, 0.0f}, false, 0, false};
     std::vector<refl_cluster_shade> shades(pc);
     uint32_t fell = 0;
     CHECK_STATUS(refl_cluster_finalize(&fell, shades.data(), pc, pv, nv, px, pc, eye, &cam, &di, cv, &fp),
@@ -3511,7 +3511,9 @@ void cluster_pass_functions() {
     std::vector<refl_vec3> rcolor(rn, v3(0.2f, 0.4f, 0.6f));
     const refl_cluster_render render{{{rdepth.data(), rn, rw, rh, rw}, e.camera.camera, REFL_DEPTH_CONVENTION_LINEAR},
                                      {rcolor.data(), rn, rw, rh, rw},
-                                     none};
+                                     none,
+                                     {nullptr, 0, 0, 0, 0},
+                                     {nullptr, 0, 0, 0, 0}};
     auto finalize = [&](const char* what, refl_status want, const refl_gbuffer* g, const refl_cluster_pass_options* o,
                         const uint32_t* sc, size_t sc_len, const refl_cluster_plan_entry* entry,
                         const refl_cluster_render* r, refl_row_range rows, size_t out_len, bool null_out = false,

@@ -1886,6 +1886,12 @@ typedef struct refl_cluster_camera {
      */
     bool planar;
     /**
+     * The cluster is concave (seed 003 Sec. 4.4): the center of the
+     * paraboloid fitted to its points lies behind the image plane by more
+     * than 1e-4 of its extent. Never for a planar cluster.
+     */
+    bool concave;
+    /**
      * D, the far plane's distance from the image plane.
      */
     float far_distance;
@@ -1940,6 +1946,12 @@ typedef struct refl_cluster_shade {
      * Steps over all rays.
      */
     uint32_t steps;
+    /**
+     * Rays answered by their concave cluster itself (seed 003 Sec. 4.4,
+     * `refl_cluster_pass_options.second_intersection`), within `hits`;
+     * always 0 from `refl_cluster_finalize`.
+     */
+    uint32_t self_hits;
 } refl_cluster_shade;
 #endif
 
@@ -2090,6 +2102,13 @@ typedef struct refl_cluster_finalize_input {
      * Rotates each pixel's lobe samples.
      */
     uint32_t seed;
+    /**
+     * Seed 003 Sec. 4.2.2's cheaper glossy reflection: a lobe of several
+     * rays traces its mirror ray alone and takes the lobe-weighted mean of
+     * `color` over the lobe's footprint around the hit (at most 7 x 7
+     * texels). No effect on a one-ray lobe.
+     */
+    bool single_ray;
 } refl_cluster_finalize_input;
 #endif
 
@@ -4502,6 +4521,21 @@ typedef struct refl_cluster_pass_options {
      * default).
      */
     float t_max;
+    /**
+     * Concave clusters (seed 003 Sec. 4.4): false (the default) finalizes
+     * them like convex ones; true traces the rays of a cluster whose
+     * camera is `concave` against their reflector (the cluster's object)
+     * in the G-buffer's depth too, and a ray that meets it first takes
+     * `render.reflector_diffuse` there (`render.reflector_diffuse` and
+     * `render.reflector_ids` then required for concave clusters).
+     */
+    bool second_intersection;
+    /**
+     * Seed 003 Sec. 4.2.2: glossy clusters trace the mirror ray alone and
+     * average the lobe's neighborhood of its hit
+     * (`refl_cluster_finalize_input.single_ray`). Default false.
+     */
+    bool glossy_single_ray;
 } refl_cluster_pass_options;
 #endif
 
@@ -4570,6 +4604,10 @@ typedef struct refl_cluster_plan_stats {
      * Of those, the planar ones (one lookup per pixel).
      */
     uint32_t planar_cameras;
+    /**
+     * Of those, the concave ones (seed 003 Sec. 4.4).
+     */
+    uint32_t concave_cameras;
     /**
      * Reflective pixels (in some cluster).
      */
@@ -4660,6 +4698,10 @@ typedef struct refl_cluster_stats {
      * Rays that hit, summed.
      */
     uint64_t ray_hits;
+    /**
+     * Of those, rays their concave cluster answered itself, summed.
+     */
+    uint64_t self_hits;
 } refl_cluster_stats;
 #endif
 
@@ -4705,6 +4747,21 @@ typedef struct refl_cluster_render {
      * when `data` is NULL.
      */
     struct refl_image_f32 back_depth;
+    /**
+     * Optional diffuse component of every G-buffer pixel (linear RGB, the
+     * G-buffer's size): the color of a ray that meets its concave
+     * cluster's object again
+     * (`refl_cluster_pass_options.second_intersection`; required then for
+     * a concave cluster, with `reflector_ids`). Absent when `data` is
+     * NULL.
+     */
+    struct refl_image_vec3 reflector_diffuse;
+    /**
+     * The object id of every G-buffer pixel (the plan's
+     * `refl_cluster_objects.ids`), read with `reflector_diffuse`; absent
+     * when `data` is NULL.
+     */
+    struct refl_image_u32 reflector_ids;
 } refl_cluster_render;
 #endif
 
@@ -8075,7 +8132,8 @@ refl_status refl_planar_resolve_rows(struct refl_planar_stats *out_stats,
 /**
  * The pass's defaults: the seed's 13 x 8 bins at gain 64, the camera
  * defaults, thickness 0.005 of the far distance, stepping defaults,
- * refined hits, no fade, seed 0, host rays over [0, +infinity).
+ * refined hits, no fade, seed 0, host rays over [0, +infinity), concave
+ * clusters as convex ones, glossy lobes traced ray by ray.
  */
 struct refl_cluster_pass_options refl_cluster_pass_options_default(void);
 #endif

@@ -80,6 +80,14 @@ pub struct ClusterSettings {
     /// ([`ClusterCameraOptions::glossy_blur_radius`]), and their hits fade
     /// to the surface's own color at that far plane (the pass's `fade`).
     pub glossy_far: Option<f32>,
+    /// Seed 003 Sec. 4.4's second way for concave clusters: their rays
+    /// also meet their own reflector, which then shows its diffuse color
+    /// (the pass's `second_intersection`; the G-buffer's direct image is
+    /// the diffuse component the seed's first pass computes, not timed).
+    pub second_intersection: bool,
+    /// Seed 003 Sec. 4.2.2: glossy pixels trace one ray and average the
+    /// lobe's neighborhood of its hit (the pass's `glossy_single_ray`).
+    pub glossy_single_ray: bool,
 }
 
 /// The fewest and most rays per glossy pixel of seed 003 Sec. 3.5 item 3
@@ -114,6 +122,8 @@ impl Default for ClusterSettings {
             glossy_rays: 8,
             steradians_per_ray: None,
             glossy_far: None,
+            second_intersection: false,
+            glossy_single_ray: false,
         }
     }
 }
@@ -135,7 +145,17 @@ impl ClusterSettings {
                 self.gain, self.resolution_scale
             ),
         };
-        rays + &far
+        let concave = if self.second_intersection {
+            ";concave=second"
+        } else {
+            ""
+        };
+        let single = if self.glossy_single_ray {
+            ";glossy=single_ray"
+        } else {
+            ""
+        };
+        rays + &far + concave + single
     }
 }
 
@@ -322,6 +342,8 @@ pub fn pass_options(settings: &ClusterSettings, diameter: f32) -> ClusterPassOpt
             ..ClusterCameraOptions::default()
         },
         fade: settings.glossy_far.is_some(),
+        second_intersection: settings.second_intersection,
+        glossy_single_ray: settings.glossy_single_ray,
         thickness: crate::screen::THICKNESS_OF_DIAMETER,
         ..ClusterPassOptions::default()
     }
@@ -358,6 +380,19 @@ pub fn run(
     let (w, h) = (g.width(), g.height());
     let n = g.len();
     let mut stages = StageMs::default();
+
+    // The diffuse component of every pixel (the seed's first pass, Sec.
+    // 3.1 step 1; the reference's one-bounce shading of a reflected hit),
+    // for the second intersections of concave clusters. Not timed: the
+    // host has it already.
+    let diffuse: Vec<[f32; 3]> = if settings.second_intersection {
+        direct_image(shader, g, pool)
+            .iter()
+            .map(|c| c.to_array())
+            .collect()
+    } else {
+        Vec::new()
+    };
 
     // 1 + 2. The plan (clustering and cameras in one call of the pass).
     let t0 = Instant::now();
@@ -521,6 +556,14 @@ pub fn run(
             )?,
             ImageView::try_new(&color, dw, dh, dw)?,
         )?;
+        let render = if settings.second_intersection {
+            render.with_reflector(
+                ImageView::try_new(&diffuse, w, h, w)?,
+                ImageView::try_new(&g.object, w, h, w)?,
+            )
+        } else {
+            render
+        };
         let bands = bands_of(e.rows);
         let done = pool.install(|| {
             bands

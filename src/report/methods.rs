@@ -692,13 +692,30 @@ impl Method for Cluster {
     /// `--long` adds rays that follow the glossiness (Sec. 3.5 item 3) and
     /// the glossy far plane with its fade (item 2), two settings each; it
     /// also adds the depth-image resolution (Table 5) and
-    /// 49 glossy rays (Sec. 3.5's upper end).
+    /// 49 glossy rays (Sec. 3.5's upper end). Every run has the concave
+    /// clusters' second intersection (Sec. 4.4) and, with glossy pixels,
+    /// the single-ray glossy variant (Sec. 4.2.2) at the base gain.
     fn settings(&self, sizes: &Sizes, content: &Content) -> Result<Vec<Box<dyn Setting>>, String> {
         use crate::cluster::ClusterSettings;
         need_reflective(content)?;
         let base = ClusterSettings::default();
+        // Seed 003 Sec. 4.4's second way for concave clusters, and Sec.
+        // 4.2.2's single-ray glossy variant where there are glossy pixels:
+        // one row each at the base gain, in every run.
+        let mut variants = vec![ClusterSettings {
+            second_intersection: true,
+            ..base
+        }];
+        if content.glossy_pixels > 0 {
+            variants.push(ClusterSettings {
+                glossy_single_ray: true,
+                ..base
+            });
+        }
         let v: Vec<ClusterSettings> = if sizes.quick() {
-            vec![ClusterSettings { gain: 16.0, ..base }, base]
+            let mut v = vec![ClusterSettings { gain: 16.0, ..base }, base];
+            v.extend(variants);
+            v
         } else {
             let mut v: Vec<ClusterSettings> = [1.0, 16.0, 64.0, 256.0]
                 .into_iter()
@@ -724,6 +741,7 @@ impl Method for Cluster {
                     });
                 }
             }
+            v.extend(variants);
             if sizes.level != Level::Long {
                 return Ok(boxed_cluster(v));
             }
