@@ -318,6 +318,7 @@ fuzz_target!(|data: &[u8]| {
         lobe: refl_cluster_lobe { rays: lobe_rays, exponent: b.f32_in(0.0, 50.0), max_angle: b.f32_in(0.0, 1.6) },
         fade: b.bool(),
         seed: b.u32(),
+        single_ray: b.chance(4),
     };
     let out_len = b.len_for(px.len());
     let mut shades = Buf::<refl_cluster_shade>::sentinel(out_len, PtrKind::Valid);

@@ -137,6 +137,9 @@ fn options(b: &mut Bytes) -> refl_cluster_pass_options {
     if rare(b, 40) {
         o.t_min = b.f32_in(0.0, 2.0);
     }
+    if rare(b, 16) {
+        o.glossy_single_ray = b.bool();
+    }
     if rare(b, 40) {
         o.t_max = t_max(b);
     }
@@ -326,6 +329,9 @@ impl Render {
             depth: refl_depth_image { depth: img_f32(&depth, cw, ch, cw), camera: *cam, convention: conv },
             color: refl_image_vec3 { data: color.cptr(), len: color.len(), width: colw, height: colh, stride: colw },
             back_depth: img_f32(&back, bw, bh, bw),
+            // No reflector images: `second_intersection` stays off here.
+            reflector_diffuse: refl_image_vec3 { data: core::ptr::null(), len: 0, width: 0, height: 0, stride: 0 },
+            reflector_ids: refl_image_u32 { data: core::ptr::null(), len: 0, width: 0, height: 0, stride: 0 },
         };
         let valid = conv <= 2
             && depth.usable()
@@ -677,6 +683,7 @@ fn finalize(b: &mut Bytes, c: &Ctx, e0: &refl_cluster_plan_entry, gb: &Buf<refl_
             host_rays_written: a.host_rays_written + b.host_rays_written,
             rays: a.rays + b.rays,
             ray_hits: a.ray_hits + b.ray_hits,
+            self_hits: a.self_hits + b.self_hits,
         };
         assert!(same_stats(&f1.st, &sum(&f2.st, &f3.st)), "stats of one call {:?} vs bands {:?} + {:?}", f1.st, f2.st, f3.st);
         let joined: Vec<_> = f2.host[..f2.st.host_rays_written as usize].iter().chain(&f3.host[..f3.st.host_rays_written as usize]).collect();
@@ -752,7 +759,7 @@ fn compare_kernel(c: &Ctx, e: &refl_cluster_plan_entry, r: &Render, band: &[u32]
         constant: c.o.thickness * c.o.camera.far_distance,
         back_faces: if r.back.is_null() { refl_image_f32 { data: core::ptr::null(), len: 0, width: 0, height: 0, stride: 0 } } else { r.desc.back_depth },
     };
-    let input = refl_cluster_finalize_input { thickness: th, step: c.o.step, refine: c.o.refine, lobe: e.lobe, fade: c.o.fade && e.lobe.rays > 1, seed: c.o.seed };
+    let input = refl_cluster_finalize_input { thickness: th, step: c.o.step, refine: c.o.refine, lobe: e.lobe, fade: c.o.fade && e.lobe.rays > 1, seed: c.o.seed, single_ray: c.o.glossy_single_ray };
     let mut shades = vec![refl_cluster_shade::default(); band.len()];
     let mut fb = 0u32;
     // SAFETY: every buffer valid for its length.
@@ -794,7 +801,7 @@ fuzz_target!(|data: &[u8]| {
     assert!(d.camera == cd, "camera defaults {:?} vs {cd:?}", d.camera);
     assert!(cd.far_distance == 100.0 && cd.cone_half_angle == 0.0 && cd.resolution_scale == 1.0 && cd.max_resolution == 2048 && cd.min_pixels == 4 && cd.max_f == 16.0, "{cd:?}");
     assert!(d.step.stride == sd.stride && d.step.max_steps == sd.max_steps && sd.stride == 1 && sd.max_steps == u32::MAX, "step defaults");
-    assert!(d.thickness == 0.005 && d.refine && !d.fade && d.seed == 0 && d.t_min.to_bits() == 0 && d.t_max == f32::INFINITY, "{d:?}");
+    assert!(d.thickness == 0.005 && d.refine && !d.fade && d.seed == 0 && d.t_min.to_bits() == 0 && d.t_max == f32::INFINITY && !d.second_intersection && !d.glossy_single_ray, "{d:?}");
 
     let fg = FuzzGBuffer::new(&mut b, [96; 4]);
     let img = &fg.img;
