@@ -390,8 +390,8 @@ fn single_ray_glossy_changes_only_glossy_pixels() {
         .map(|i| g.is_reflective(i) && g.roughness[i] > 0.0)
         .collect();
     let mut changed = 0;
-    for i in 0..g.len() {
-        if glossy[i] {
+    for (i, &gl) in glossy.iter().enumerate() {
+        if gl {
             changed += usize::from(lobe.image.rgb[i] != single.image.rgb[i]);
         } else {
             assert_eq!(lobe.image.rgb[i], single.image.rgb[i], "{i}");

@@ -113,6 +113,8 @@
 //! | 003 (second-order feed-forward) | Sec. 3.5 multi-ray glossy reflections | `cone::try_multiray`, `lobe::phong_lobe_weight`, `lobe::cone_ray_direction` |
 //! | 003 (second-order feed-forward) | Sec. 3.2-3.5 as one pass | `cluster::ClusterPass` |
 //! | 003 (second-order feed-forward) | Sec. 4.1.1 small clusters | `cluster::ClusterFallback` |
+//! | 003 (second-order feed-forward) | Sec. 4.2.2 single-ray glossy reflection with a neighborhood average | `cluster::FinalizeInput::single_ray`, `cluster::ClusterPassOptions::glossy_single_ray` |
+//! | 003 (second-order feed-forward) | Sec. 4.4 concave clusters: detection, second intersection | `cluster::center_height`, `cluster::ClusterCamera::concave`, `cluster::ClusterPassOptions::second_intersection` |
 //! | 003 (second-order feed-forward) | Sec. 4.3 planar reflectors | `step::try_step` |
 //! | 004 (Hi-Z cone tracing) | Sec. 4.4.1 / 4.5.1, Listing 4.3 Hi-Z pass | `hiz::try_build_hiz`, `hiz::try_build_hiz_level_rows` |
 //! | 004 (Hi-Z cone tracing) | Sec. 4.4.2 / 4.5.2, Listing 4.4 pre-integration | `cone::try_build_visibility_pyramid`, `cone::try_build_visibility_level_rows` |

@@ -216,7 +216,6 @@ impl Frame {
 /// depth images), with the reflector's diffuse image unless `no_diffuse`.
 struct Run {
     texels: Vec<ClusterTexel>,
-    cluster_of: Vec<u32>,
     stats: ClusterPlanStats,
     concave_pixels: Vec<bool>,
     self_hits: u64,
@@ -281,7 +280,6 @@ fn run(f: &Frame, conv: DepthConvention, options: ClusterPassOptions) -> Result<
     }
     Ok(Run {
         texels,
-        cluster_of: ids,
         stats,
         concave_pixels,
         self_hits,
