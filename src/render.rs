@@ -289,7 +289,35 @@ pub fn planar_mirror_of(
     objects: &dyn Fn(u32) -> bool,
     pool: &rayon::ThreadPool,
 ) -> Result<ReflectionImage, Error> {
-    if scale == 0 {
+    planar_mirror_bounces(shader, g, scale, 1, objects, pool)
+}
+
+/// [`planar_mirror_of`] following perfect planar mirrors for `bounces`
+/// reflections (1 or 2): with 2, a pixel whose mirrored render shows
+/// another perfect planar mirror `M2` takes that mirror's direct term and
+/// its own reflection composited as [`Shader::trace_reflection_bounces`]
+/// composites them (`direct (1 - specular) + reflection specular`), the
+/// reflection read from a second render through the twice-mirrored camera
+/// (the mirrored camera mirrored about `M2`, clipped to `M2`'s side facing
+/// the first mirrored eye, without `M2`): for planar mirrors the twice
+/// reflected ray of a pixel is that camera's primary ray through the same
+/// pixel, so at `scale = 1` the second bounce is exact pixel for pixel, as
+/// the first is. The third hit shows its direct term (the two-bounce
+/// reference's rule). One extra render per pair of facing mirrors that
+/// see each other.
+///
+/// # Errors
+/// As [`planar_mirror`]; [`Error::InvalidArgument`] for `bounces` not 1
+/// or 2, or 2 bounces with `scale != 1`.
+pub fn planar_mirror_bounces(
+    shader: &Shader,
+    g: &GBuffer,
+    scale: u32,
+    bounces: u32,
+    objects: &dyn Fn(u32) -> bool,
+    pool: &rayon::ThreadPool,
+) -> Result<ReflectionImage, Error> {
+    if scale == 0 || !(1..=2).contains(&bounces) || (bounces == 2 && scale != 1) {
         return Err(Error::InvalidArgument);
     }
     let scene = shader.scene;
@@ -394,6 +422,41 @@ pub fn planar_mirror_of(
                 })
         })?;
         let mirrored = pass.mirrored_camera();
+        // Second bounces: the other perfect planar mirrors the render
+        // shows, each rendered through the twice-mirrored camera.
+        let mut second: Vec<(u32, refl_core::Camera, crate::raster::VisBuffer)> = Vec::new();
+        if bounces == 2 {
+            let mut seen = vec![false; scene.objects.len()];
+            let first = rect.y0 as usize * w as usize;
+            for t in &texels[first..rect.y1 as usize * w as usize] {
+                if t.status == PlanarStatus::Hit {
+                    let prim = vis.prim[t.texel[1] as usize * rw as usize + t.texel[0] as usize];
+                    if prim != NONE {
+                        seen[scene.tri_object[prim as usize] as usize] = true;
+                    }
+                }
+            }
+            for (m2, o2) in scene.objects.iter().enumerate() {
+                let (Some(p2), true) = (o2.planar, seen[m2]) else {
+                    continue;
+                };
+                if m2 as u32 == id || !scene.materials[o2.material as usize].is_mirror() {
+                    continue;
+                }
+                let cam2 = refl_core::try_mirrored_camera(&mirrored, &p2)?;
+                // Keep M2's side facing the first mirrored eye.
+                let (e1, n) = (mirrored.eye(), p2.normal());
+                let d = p2.signed_distance(e1);
+                let toward = if d >= 0.0 { n } else { -n };
+                let clip = refl_core::Plane::try_from_point_normal(e1 - n * d, toward)?;
+                let raster2 = RasterOptions {
+                    clip_plane: Some(clip),
+                    exclude_object: Some(m2 as u32),
+                    scissor: raster.scissor,
+                };
+                second.push((m2 as u32, cam2, rasterize(scene, &cam2, &raster2, pool)));
+            }
+        }
         let texels = &texels;
         out.fill(
             pool,
@@ -413,10 +476,29 @@ pub fn planar_mirror_of(
                 } else {
                     ray_triangle_plane(&scene.tris[prim as usize], prim, ray.origin, ray.dir)
                 };
-                match hit {
-                    Some(hit) => shader.shade_reflection_hit(ray.origin, ray.dir, &hit),
-                    None => env_map(ray.dir),
-                }
+                let Some(hit) = hit else {
+                    return env_map(ray.dir);
+                };
+                let m2 = scene.tri_object[hit.prim as usize];
+                let Some((_, cam2, vis2)) = second.iter().find(|(o, _, _)| *o == m2) else {
+                    return shader.shade_reflection_hit(ray.origin, ray.dir, &hit);
+                };
+                // The second bounce off M2 (the two-bounce reference's
+                // composite), read at the same pixel of M2's render.
+                let s2 = crate::shade::Surface::at_hit(scene, ray.origin, ray.dir, &hit);
+                let spec = scene.materials[s2.material as usize].specular;
+                let ray2 = cam2.primary_ray(pixel_center(x, y));
+                let prim2 = vis2.prim[i];
+                let hit2 = if prim2 == NONE {
+                    None
+                } else {
+                    ray_triangle_plane(&scene.tris[prim2 as usize], prim2, ray2.origin, ray2.dir)
+                };
+                let reflected = match hit2 {
+                    Some(h) => shader.shade_reflection_hit(ray2.origin, ray2.dir, &h),
+                    None => env_map(ray2.dir),
+                };
+                shader.direct(&s2) * (1.0 - spec) + reflected * spec
             },
         );
     }
