@@ -303,7 +303,17 @@ fn bounce_rows_on_the_default_scenes_and_the_hall() {
     assert!(
         num(h[1], "vs_seed_model_mean_abs_255") < 0.5 * num(h[1], "second_bounce_mean_abs_255")
     );
+    // The planar recursion meets issue 18's target on the hall's facing
+    // mirrors (two perfect planar mirrors; the room has one).
+    let p = of("hall", "planar-mirror");
+    assert_eq!(p.len(), 1);
+    assert_eq!(p[0][col("setting")], "resolution=1/1;bounces=2");
+    assert!(num(p[0], "second_bounce_share") > 0.05);
+    assert!(num(p[0], "second_bounce_mean_abs_255") < 2.0);
+    assert!(num(p[0], "mean_abs_255") < 2.0);
+    assert!(of("room", "planar-mirror").is_empty());
     let md = std::fs::read_to_string(out.join("summary.md")).unwrap();
+    assert!(md.contains("(issue 18's 2/255: met)"), "{md}");
     assert!(
         md.contains("this run measures it with `hiz-bounce` only"),
         "{md}"
