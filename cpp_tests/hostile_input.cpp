@@ -4713,7 +4713,7 @@ void summary_functions() {
         CHECK_EQ(plan.passes[k].pass, uint32_t(k));
         CHECK(plan.passes[k].reason == REFL_PLAN_REASON_RUNS || plan.passes[k].bytes == 0);
     }
-    const refl_plan_object_hints one_hint[1] = {{true, false}};
+    const refl_plan_object_hints one_hint[1] = {{true, false, false}};
     auto plan_call = [&](const char* what, refl_status want, size_t planar_len, const refl_plan_object_hints* hints,
                          size_t hints_len, uint32_t width) {
         bool pl[2] = {true, true};

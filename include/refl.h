@@ -183,7 +183,7 @@
 /**
  * Number of passes in `refl_plan.passes`.
  */
-#define REFL_PLAN_PASS_COUNT 9
+#define REFL_PLAN_PASS_COUNT 10
 #endif
 
 #if (defined(REFL_FEATURE_DEPTH_IMAGE) || defined(REFL_FEATURE_HIZ) || defined(REFL_FEATURE_MIRROR))
@@ -1069,6 +1069,14 @@ enum refl_plan_pass
      */
     REFL_PLAN_PASS_PROBE = 8,
 #endif
+#if (defined(REFL_FEATURE_DEPTH_IMAGE) || defined(REFL_FEATURE_HIZ) || defined(REFL_FEATURE_MIRROR))
+    /**
+     * The temporal pass (seed 004 Sec. 4.6.5, `refl_temporal_*`): the
+     * history re-projected into the frame, recovering pixels whose ray
+     * failed.
+     */
+    REFL_PLAN_PASS_TEMPORAL = 9,
+#endif
 };
 #ifndef __cplusplus
 #if __STDC_VERSION__ >= 202311L
@@ -1136,6 +1144,19 @@ enum refl_plan_reason
      * The pass's own setting leaves it out.
      */
     REFL_PLAN_REASON_NOT_USED = 7,
+#endif
+#if (defined(REFL_FEATURE_DEPTH_IMAGE) || defined(REFL_FEATURE_HIZ) || defined(REFL_FEATURE_MIRROR))
+    /**
+     * Nothing moved since the last frame and the host keeps its
+     * reflections: they are this frame's.
+     */
+    REFL_PLAN_REASON_UNCHANGED = 8,
+#endif
+#if (defined(REFL_FEATURE_DEPTH_IMAGE) || defined(REFL_FEATURE_HIZ) || defined(REFL_FEATURE_MIRROR))
+    /**
+     * Every object with layered maps moved: the maps are stale.
+     */
+    REFL_PLAN_REASON_MAPS_STALE = 9,
 #endif
 };
 #ifndef __cplusplus
@@ -3621,6 +3642,23 @@ typedef struct refl_plan_options {
      * The glossy options read a visibility pyramid. Default true.
      */
     bool glossy_visibility;
+    /**
+     * The host keeps the last frame's reflections (the temporal pass's
+     * history) and can show them again. Default false.
+     */
+    bool history;
+    /**
+     * The camera is the last frame's. Default false.
+     */
+    bool camera_still;
+    /**
+     * Nothing else changed since the last frame (geometry, lights,
+     * materials; objects whose hints say `moving` count as changes
+     * whatever this says). Default false. With `history`, `camera_still`,
+     * `scene_still` and no moving object, every pass is skipped as
+     * UNCHANGED.
+     */
+    bool scene_still;
 } refl_plan_options;
 #endif
 
@@ -3679,6 +3717,11 @@ typedef struct refl_plan_object_hints {
      * The object has layered depth maps the layered pass can trace.
      */
     bool layered_map;
+    /**
+     * The object moved or changed shape since the last frame: its
+     * layered maps are stale, and the frame is not unchanged.
+     */
+    bool moving;
 } refl_plan_object_hints;
 #endif
 
@@ -7469,8 +7512,13 @@ struct refl_plan_options refl_plan_options_default(void);
  * mirror pass runs for the mirror pixels left; the glossy pass and its
  * pyramids for glossy pixels; Hi-Z when the mirror pass uses it or the
  * glossy pass runs; the layered pass when an object has maps and a
- * screen-space pass runs; host rays with a tracer; the probe for rough
- * pixels. A skip says why, and `bytes` are those of the pyramids built.
+ * screen-space pass runs (MAPS_STALE when every mapped
+ * object's hints say `moving`); host rays with a tracer; the probe for
+ * rough pixels; the temporal pass with the mirror pass when
+ * `options->history`. With `history`, `camera_still` and `scene_still`
+ * and no object `moving`, every pass is skipped as UNCHANGED (the last
+ * frame's reflections hold). A skip says why, and `bytes` are those of
+ * the pyramids built.
  *
  * Returns `REFL_STATUS_NULL_POINTER` if `out`, `frame`, `caps`,
  * `summary_options`, `options`, or `objects` / `planar` / `hints` with a

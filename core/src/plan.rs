@@ -28,6 +28,20 @@
 //! * **Host rays** (the unresolved-ray lists for the host's tracer) are
 //!   kept when the host has a ray tracer and a screen-space pass runs.
 //! * The **probe** answers rough-class pixels, when the host has one.
+//! * The **temporal pass** (seed 004 Sec. 4.6.5: the last frame's
+//!   reflections re-projected, recovering the pixels whose ray failed)
+//!   runs with the mirror pass when the host keeps a history
+//!   ([`FrameMotion::history`]).
+//! * **Nothing moved** ([`PlanOptions::motion`]: a history, the camera
+//!   still, the scene still, no object stated moving): every pass is
+//!   skipped as [`SkipReason::Unchanged`]; the host shows its last
+//!   reflections again (seed 000 Sec. 3's stationary camera, for every
+//!   method).
+//! * An object stated **moving** ([`ObjectHints::moving`]) has stale
+//!   layered maps: they were built before it moved. The layered pass runs
+//!   for the maps of still objects only; if every mapped object moves it is
+//!   skipped as [`SkipReason::MapsStale`], and [`try_choose_methods`]
+//!   offers no layered option to a moving object.
 //!
 //! A pass whose family is not compiled in is skipped as
 //! [`SkipReason::NotBuilt`] (Cargo features), whatever the frame needs.
@@ -56,6 +70,26 @@ pub struct ObjectHints {
     /// The object has layered depth maps (seed 001) the layered pass can
     /// trace.
     pub layered_map: bool,
+    /// The object moved or changed shape since the last frame (the one
+    /// whose results the host keeps): its layered maps, if any, are stale,
+    /// and the frame is not unchanged (module docs).
+    pub moving: bool,
+}
+
+/// What changed since the last frame, whose reflections the host may keep
+/// ([`PlanOptions::motion`]). The default states nothing: no history, the
+/// camera and the scene possibly moved.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash)]
+pub struct FrameMotion {
+    /// The host keeps the last frame's reflections (the temporal pass's
+    /// history, `crate::temporal`) and can show them again.
+    pub history: bool,
+    /// The camera (view and projection) is the last frame's.
+    pub camera_still: bool,
+    /// Nothing else changed: no geometry moved (listed or not), no light or
+    /// material changed. Objects stated [`ObjectHints::moving`] count as
+    /// changes whatever this says.
+    pub scene_still: bool,
 }
 
 /// How the passes that run are set up (what their sizes depend on).
@@ -67,6 +101,9 @@ pub struct PlanOptions {
     /// The glossy options read a visibility pyramid
     /// (`GlossyOptions::uses_visibility`). Default `true`.
     pub glossy_visibility: bool,
+    /// What changed since the last frame. Default: nothing stated (no
+    /// history, everything may have moved).
+    pub motion: FrameMotion,
 }
 
 impl Default for PlanOptions {
@@ -74,6 +111,7 @@ impl Default for PlanOptions {
         Self {
             mirror_hiz: true,
             glossy_visibility: true,
+            motion: FrameMotion::default(),
         }
     }
 }
@@ -100,10 +138,13 @@ pub enum Pass {
     HostRays = 7,
     /// The environment probe lookups for rough pixels.
     Probe = 8,
+    /// The temporal pass (seed 004 Sec. 4.6.5): the history re-projected
+    /// into the frame, recovering pixels whose ray failed.
+    Temporal = 9,
 }
 
 /// Number of [`Pass`]es.
-pub const PASS_COUNT: usize = 9;
+pub const PASS_COUNT: usize = 10;
 
 impl Pass {
     /// Every pass, in [`Pass`] order.
@@ -117,6 +158,7 @@ impl Pass {
         Pass::Layered,
         Pass::HostRays,
         Pass::Probe,
+        Pass::Temporal,
     ];
 }
 
@@ -141,6 +183,11 @@ pub enum SkipReason {
     /// The pass's own setting leaves it out (a visibility pyramid the
     /// glossy options do not read; stepping needs no Hi-Z).
     NotUsed = 7,
+    /// Nothing moved since the last frame and the host keeps its
+    /// reflections: they are this frame's.
+    Unchanged = 8,
+    /// Every object with layered maps moved: the maps are stale.
+    MapsStale = 9,
 }
 
 /// One pass's decision.
@@ -264,10 +311,12 @@ pub fn try_plan_passes(
     );
     // Objects on the planar pass, and the mirror pixels left.
     let (mut planar_objects, mut planar_pixels, mut listed_mirror) = (0u32, 0u64, 0u64);
-    let mut any_map = false;
+    let (mut any_map, mut any_fresh_map, mut any_moving) = (false, false, false);
     for (k, o) in objects.iter().enumerate() {
         let h = hints.get(k).copied().unwrap_or_default();
         any_map |= h.layered_map;
+        any_fresh_map |= h.layered_map && !h.moving;
+        any_moving |= h.moving;
         listed_mirror += o.classes[mirror];
         let on_planar = caps.planar_views
             && o.pixels > 0
@@ -343,6 +392,8 @@ pub fn try_plan_passes(
         decide(Pass::Layered, SkipReason::NotBuilt, 0)
     } else if !any_map {
         decide(Pass::Layered, SkipReason::NoMaps, 0)
+    } else if !any_fresh_map {
+        decide(Pass::Layered, SkipReason::MapsStale, 0)
     } else if screen {
         decide(Pass::Layered, SkipReason::Runs, 0)
     } else {
@@ -364,18 +415,38 @@ pub fn try_plan_passes(
     } else {
         decide(Pass::Probe, SkipReason::NoHostSupport, 0)
     };
+    let motion = &options.motion;
+    let temporal_d = if !cfg!(feature = "hiz") {
+        // The temporal filter re-projects the mirror pass's results.
+        decide(Pass::Temporal, SkipReason::NotBuilt, 0)
+    } else if !motion.history {
+        decide(Pass::Temporal, SkipReason::NoHostSupport, 0)
+    } else if mirror_d.runs() {
+        decide(Pass::Temporal, SkipReason::Runs, 0)
+    } else {
+        decide(Pass::Temporal, SkipReason::NoReader, 0)
+    };
+    let mut passes = [
+        hiz_d,
+        planar_d,
+        mirror_d,
+        color_d,
+        visibility_d,
+        glossy_d,
+        layered_d,
+        host_d,
+        probe_d,
+        temporal_d,
+    ];
+    if motion.history && motion.camera_still && motion.scene_still && !any_moving {
+        for d in passes.iter_mut() {
+            if d.reason != SkipReason::NotBuilt {
+                *d = decide(d.pass, SkipReason::Unchanged, 0);
+            }
+        }
+    }
     Ok(PassPlan {
-        passes: [
-            hiz_d,
-            planar_d,
-            mirror_d,
-            color_d,
-            visibility_d,
-            glossy_d,
-            layered_d,
-            host_d,
-            probe_d,
-        ],
+        passes,
         planar_objects,
         mirror_pixels,
     })
@@ -432,7 +503,8 @@ pub struct CostEntry {
     /// The passes it runs, as [`pass_bit`]s (at least one). What the host
     /// must offer follows from them: [`Pass::Planar`] extra views,
     /// [`Pass::HostRays`] a ray tracer, [`Pass::Probe`] a probe,
-    /// [`Pass::Layered`] the object's layered maps.
+    /// [`Pass::Layered`] the object's layered maps. Never
+    /// [`Pass::Temporal`].
     pub passes: u32,
     /// Time per reflective pixel over the reference tracer's time per ray
     /// (one closest-hit ray, shaded), measured in the same run. Finite, at
@@ -457,14 +529,16 @@ impl CostEntry {
 
     /// # Errors
     /// [`Error::InvalidArgument`] for a NaN, infinite or negative
-    /// `time_ratio` or `error_255`, and for a `passes` mask that is empty or
-    /// has a bit past the last [`Pass`].
+    /// `time_ratio` or `error_255`, and for a `passes` mask that is empty,
+    /// has a bit past the last [`Pass`] or names [`Pass::Temporal`] (no
+    /// option runs it: it follows the mirror pass, [`try_chosen_passes`]).
     pub fn try_validate(&self) -> Result<(), Error> {
         let finite = |v: f32| v.is_finite() && v >= 0.0;
         if finite(self.time_ratio)
             && finite(self.error_255)
             && self.passes != 0
             && self.passes & !PASS_MASK == 0
+            && self.passes & pass_bit(Pass::Temporal) == 0
         {
             Ok(())
         } else {
@@ -624,9 +698,12 @@ fn pass_available(pass: Pass, caps: &HostCaps, hint: &ObjectHints, planar: bool)
         Pass::Planar => cfg!(feature = "mirror") && caps.planar_views && planar,
         Pass::Mirror => screen,
         Pass::ColorPyramid | Pass::VisibilityPyramid | Pass::Glossy => cfg!(feature = "cone"),
-        Pass::Layered => cfg!(feature = "layered") && screen && hint.layered_map,
+        Pass::Layered => cfg!(feature = "layered") && screen && hint.layered_map && !hint.moving,
         Pass::HostRays => caps.ray_tracer,
         Pass::Probe => caps.probe,
+        // No calibrated option runs it (it follows the mirror pass in
+        // `try_chosen_passes`).
+        Pass::Temporal => false,
     }
 }
 
@@ -994,7 +1071,9 @@ pub fn try_choose_methods(
 /// (as [`try_choose_methods`] wrote them), from the frame's `base` plan
 /// ([`try_plan_passes`], what the frame and host allow): a pass runs when
 /// a chosen option runs it and the base plan does not rule it out as
-/// [`SkipReason::NotBuilt`] or [`SkipReason::NoHostSupport`]; a pass the
+/// [`SkipReason::NotBuilt`], [`SkipReason::NoHostSupport`],
+/// [`SkipReason::Unchanged`] or [`SkipReason::MapsStale`] (the temporal
+/// pass runs with the mirror pass when the base plan allows it); a pass the
 /// base plan runs but no chosen option needs is skipped as
 /// [`SkipReason::NotUsed`]; the others keep the base plan's reason. The
 /// bytes are those of the buffers of `width x height` that run. Choices
@@ -1026,10 +1105,20 @@ pub fn try_chosen_passes(
             }
         }
     }
+    // The temporal pass follows the mirror pass (no option names it).
+    if needed & pass_bit(Pass::Mirror) != 0 {
+        needed |= pass_bit(Pass::Temporal);
+    }
     let mut passes = base.passes;
     for d in passes.iter_mut() {
         let want = needed & pass_bit(d.pass) != 0;
-        let blocked = matches!(d.reason, SkipReason::NotBuilt | SkipReason::NoHostSupport);
+        let blocked = matches!(
+            d.reason,
+            SkipReason::NotBuilt
+                | SkipReason::NoHostSupport
+                | SkipReason::Unchanged
+                | SkipReason::MapsStale
+        );
         if want && !blocked {
             d.reason = SkipReason::Runs;
             d.bytes = match d.pass {

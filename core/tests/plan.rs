@@ -110,7 +110,7 @@ fn a_frame_of_planar_mirrors_builds_no_hiz_and_runs_no_mirror_pass() {
     assert_eq!(reason(&p, Pass::HostRays), SkipReason::NoReader);
     assert_eq!(reason(&p, Pass::Probe), SkipReason::NoPixels);
     assert_eq!(p.bytes(), 0);
-    assert_eq!(p.counts(), (1, 8));
+    assert_eq!(p.counts(), (1, 9));
     // Without extra views the floor goes through the mirror pass, on Hi-Z.
     let caps = HostCaps {
         planar_views: false,
@@ -220,7 +220,7 @@ fn rough_pixels_go_to_the_probe_and_maps_to_the_layered_pass() {
     // No reflective pixel at all: nothing runs.
     let none = summary(&f, [false; 3], [0.0; 3]);
     let (p, _) = plan(&f, &none, &maps, ALL_CAPS, PlanOptions::default());
-    assert_eq!(p.counts(), (0, 9));
+    assert_eq!(p.counts(), (0, 10));
     assert_eq!(p.bytes(), 0);
 }
 
@@ -255,4 +255,104 @@ fn refusals_write_nothing() {
         Error::InvalidArgument
     );
     assert_eq!(planar, [true, false, true]);
+}
+
+/// What moved (issue 15: "static or moving", "camera motion since the last
+/// frame"): with a history and nothing moved every pass is skipped as
+/// unchanged; the temporal pass runs with the mirror pass when the host
+/// keeps a history; a moving object's layered maps are stale.
+#[test]
+fn motion_decides_reuse_the_temporal_pass_and_stale_maps() {
+    use refl_core::plan::FrameMotion;
+    let f = render(default_camera(), DepthConvention::ReversedZ);
+    // The sphere and the box curved mirrors: the mirror pass runs.
+    let s = summary(&f, [false, true, true], [0.0; 3]);
+    let with = |motion: FrameMotion| PlanOptions {
+        motion,
+        ..PlanOptions::default()
+    };
+    let maps = |moving: [bool; 3]| {
+        [0, 1, 2].map(|k| ObjectHints {
+            layered_map: k > 0,
+            moving: moving[k],
+            ..ObjectHints::default()
+        })
+    };
+    let still = maps([false; 3]);
+    // Nothing stated (the default): no history, no temporal pass.
+    let (p, _) = plan(&f, &s, &still, ALL_CAPS, PlanOptions::default());
+    assert_eq!(reason(&p, Pass::Mirror), SkipReason::Runs);
+    assert_eq!(reason(&p, Pass::Temporal), SkipReason::NoHostSupport);
+    assert_eq!(reason(&p, Pass::Layered), SkipReason::Runs);
+    let base_bytes = p.bytes();
+    assert!(base_bytes > 0);
+    // A history and a moving camera: the temporal pass joins the mirror
+    // pass; nothing else changes.
+    let history = FrameMotion {
+        history: true,
+        ..FrameMotion::default()
+    };
+    let (pt, _) = plan(&f, &s, &still, ALL_CAPS, with(history));
+    assert_eq!(reason(&pt, Pass::Temporal), SkipReason::Runs);
+    for pass in Pass::ALL {
+        if pass != Pass::Temporal {
+            assert_eq!(pt.decision(pass), p.decision(pass), "{pass:?}");
+        }
+    }
+    // Nothing moved: every pass skipped, no buffer.
+    let unchanged = FrameMotion {
+        history: true,
+        camera_still: true,
+        scene_still: true,
+    };
+    let (pu, _) = plan(&f, &s, &still, ALL_CAPS, with(unchanged));
+    assert_eq!(pu.counts(), (0, 10));
+    assert_eq!(pu.bytes(), 0);
+    for pass in Pass::ALL {
+        assert_eq!(reason(&pu, pass), SkipReason::Unchanged, "{pass:?}");
+    }
+    // ... but not without a history, nor with the camera or the scene
+    // moved, nor with an object stated moving.
+    for m in [
+        FrameMotion {
+            history: false,
+            ..unchanged
+        },
+        FrameMotion {
+            camera_still: false,
+            ..unchanged
+        },
+        FrameMotion {
+            scene_still: false,
+            ..unchanged
+        },
+    ] {
+        let (pm, _) = plan(&f, &s, &still, ALL_CAPS, with(m));
+        assert_eq!(pm.bytes(), base_bytes, "{m:?}");
+        assert!(Pass::ALL
+            .iter()
+            .all(|&q| reason(&pm, q) != SkipReason::Unchanged));
+    }
+    // The box moves: its maps are stale, the sphere's still serve.
+    let (pb, _) = plan(
+        &f,
+        &s,
+        &maps([false, false, true]),
+        ALL_CAPS,
+        with(unchanged),
+    );
+    assert_eq!(reason(&pb, Pass::Layered), SkipReason::Runs);
+    assert_eq!(reason(&pb, Pass::Mirror), SkipReason::Runs);
+    assert_eq!(reason(&pb, Pass::Temporal), SkipReason::Runs);
+    // Both mapped objects move: no map serves.
+    let (ps, _) = plan(&f, &s, &maps([false, true, true]), ALL_CAPS, with(history));
+    assert_eq!(reason(&ps, Pass::Layered), SkipReason::MapsStale);
+    // A moving object without maps leaves the layered pass alone.
+    let (pn, _) = plan(&f, &s, &maps([true, false, false]), ALL_CAPS, with(history));
+    assert_eq!(reason(&pn, Pass::Layered), SkipReason::Runs);
+    // Without the mirror pass there is nothing to re-project.
+    let planar_only = summary(&f, [true, false, false], [0.0; 3]);
+    let (pp, _) = plan(&f, &planar_only, &[], ALL_CAPS, with(history));
+    assert_eq!(reason(&pp, Pass::Mirror), SkipReason::AllMirrorsPlanar);
+    assert_eq!(reason(&pp, Pass::Temporal), SkipReason::NoReader);
 }

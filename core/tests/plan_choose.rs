@@ -342,11 +342,14 @@ fn bad_inputs_are_refused_and_nothing_is_written() {
         run(&t, Budget::MaxError(1.0), &mut out, &[], &planar),
         Err(Error::InvalidArgument)
     );
-    t[0].passes = 1 << 9;
-    assert_eq!(
-        run(&t, Budget::MaxError(1.0), &mut out, &[], &planar),
-        Err(Error::InvalidArgument)
-    );
+    // Past the last pass, and the temporal pass (no option runs it).
+    for bad in [1 << 10, pass_bit(Pass::Temporal)] {
+        t[0].passes = bad;
+        assert_eq!(
+            run(&t, Budget::MaxError(1.0), &mut out, &[], &planar),
+            Err(Error::InvalidArgument)
+        );
+    }
     // Hints of the wrong length, planar flags too short.
     let hints = [ObjectHints::default(); 2];
     assert_eq!(
@@ -432,7 +435,7 @@ fn chosen_passes_follow_the_choice() {
     let hints = [
         ObjectHints {
             planar_mirror: true,
-            layered_map: false,
+            ..ObjectHints::default()
         },
         ObjectHints::default(),
         ObjectHints::default(),
@@ -492,4 +495,100 @@ fn chosen_passes_follow_the_choice() {
         Err(Error::InvalidArgument)
     );
     assert_eq!(pass_bit(Pass::Probe), PROBE);
+}
+
+/// A layered option is offered to an object with maps only while it
+/// stands still (stale maps after it moved); the chosen passes keep the
+/// base plan's "unchanged" skips and run the temporal pass exactly when a
+/// chosen option runs the mirror pass and the host keeps a history.
+#[test]
+fn moving_maps_and_the_temporal_pass_in_the_choice() {
+    use refl_core::plan::FrameMotion;
+    let layered = 1 << Pass::Layered as u32 | 1 << Pass::Mirror as u32;
+    let mut t = table();
+    // A cheap, exact layered option for mirrors (the curved mirror has
+    // maps).
+    t.push(entry(
+        8,
+        RoughnessClass::Mirror,
+        Surface::Any,
+        layered,
+        0.1,
+        0.0,
+    ));
+    let (f, objects, planar) = frame();
+    let hints = |moving: bool| {
+        [
+            ObjectHints::default(),
+            ObjectHints {
+                layered_map: true,
+                moving,
+                ..ObjectHints::default()
+            },
+            ObjectHints::default(),
+        ]
+    };
+    let pick = |h: &[ObjectHints]| {
+        let mut out = vec![Choice::default(); choices_len(objects.len())];
+        let p = try_choose_methods(
+            &mut out,
+            &f,
+            &objects,
+            &planar,
+            h,
+            &HOST,
+            &t,
+            Budget::MaxError(0.0),
+        )
+        .unwrap();
+        out.truncate(p.groups);
+        out
+    };
+    assert_eq!(pick(&hints(false))[1].entry, Some(8));
+    assert_ne!(pick(&hints(true))[1].entry, Some(8));
+    // The temporal pass follows a chosen mirror pass when there is a
+    // history (here the layered option runs the mirror pass).
+    let c = pick(&hints(false));
+    let so = SummaryOptions::default();
+    let base_of = |motion: FrameMotion| {
+        let mut p = [false; 3];
+        try_plan_passes(
+            &mut p,
+            &f,
+            &objects,
+            &hints(false),
+            &HOST,
+            &so,
+            &PlanOptions {
+                motion,
+                ..PlanOptions::default()
+            },
+            (100, 100),
+        )
+        .unwrap()
+    };
+    let history = FrameMotion {
+        history: true,
+        ..FrameMotion::default()
+    };
+    let chosen = try_chosen_passes(&base_of(history), &c, &t, (100, 100)).unwrap();
+    assert!(chosen.decision(Pass::Mirror).runs());
+    assert!(chosen.decision(Pass::Temporal).runs());
+    let chosen = try_chosen_passes(&base_of(FrameMotion::default()), &c, &t, (100, 100)).unwrap();
+    assert!(chosen.decision(Pass::Mirror).runs());
+    assert_eq!(
+        chosen.decision(Pass::Temporal).reason,
+        SkipReason::NoHostSupport
+    );
+    // Nothing moved: the choice changes nothing, every pass stays skipped.
+    let still = FrameMotion {
+        history: true,
+        camera_still: true,
+        scene_still: true,
+    };
+    let chosen = try_chosen_passes(&base_of(still), &c, &t, (100, 100)).unwrap();
+    assert_eq!(chosen.counts(), (0, 10));
+    assert!(Pass::ALL
+        .iter()
+        .all(|&p| chosen.decision(p).reason == SkipReason::Unchanged));
 }

@@ -12,7 +12,8 @@ use crate::ptr::{
 use crate::status::{fail, guard, refl_status};
 use refl_core::plan::{
     choices_len, try_choose_methods, try_plan_passes, Budget, BudgetPlan, Choice, ChoiceReason,
-    CostEntry, HostCaps, ObjectHints, Pass, PassPlan, PlanOptions, SkipReason, Surface, PASS_COUNT,
+    CostEntry, FrameMotion, HostCaps, ObjectHints, Pass, PassPlan, PlanOptions, SkipReason,
+    Surface, PASS_COUNT,
 };
 use refl_core::summary::{
     try_summarize_rows, FrameSummary, ObjectSummary, SummaryOptions, NO_OBJECT, TILE,
@@ -153,6 +154,7 @@ const _: () = {
     assert!(
         offset_of!(refl_plan_object_hints, layered_map) == offset_of!(ObjectHints, layered_map)
     );
+    assert!(offset_of!(refl_plan_object_hints, moving) == offset_of!(ObjectHints, moving));
 };
 
 impl From<refl_summary_frame> for FrameSummary {
@@ -455,6 +457,10 @@ pub enum refl_plan_pass {
     HostRays = 7,
     /// Environment probe lookups for rough pixels.
     Probe = 8,
+    /// The temporal pass (seed 004 Sec. 4.6.5, `refl_temporal_*`): the
+    /// history re-projected into the frame, recovering pixels whose ray
+    /// failed.
+    Temporal = 9,
 }
 
 /// Why a pass runs or is skipped (`refl_plan_decision.reason`,
@@ -478,10 +484,15 @@ pub enum refl_plan_reason {
     NoMaps = 6,
     /// The pass's own setting leaves it out.
     NotUsed = 7,
+    /// Nothing moved since the last frame and the host keeps its
+    /// reflections: they are this frame's.
+    Unchanged = 8,
+    /// Every object with layered maps moved: the maps are stale.
+    MapsStale = 9,
 }
 
 /// Number of passes in `refl_plan.passes`.
-pub const REFL_PLAN_PASS_COUNT: usize = 9;
+pub const REFL_PLAN_PASS_COUNT: usize = 10;
 
 const _: () = assert!(REFL_PLAN_PASS_COUNT == PASS_COUNT);
 
@@ -505,6 +516,9 @@ pub struct refl_plan_object_hints {
     pub planar_mirror: bool,
     /// The object has layered depth maps the layered pass can trace.
     pub layered_map: bool,
+    /// The object moved or changed shape since the last frame: its
+    /// layered maps are stale, and the frame is not unchanged.
+    pub moving: bool,
 }
 
 /// How the passes that run are set up (`refl_core::plan::PlanOptions`);
@@ -517,6 +531,17 @@ pub struct refl_plan_options {
     pub mirror_hiz: bool,
     /// The glossy options read a visibility pyramid. Default true.
     pub glossy_visibility: bool,
+    /// The host keeps the last frame's reflections (the temporal pass's
+    /// history) and can show them again. Default false.
+    pub history: bool,
+    /// The camera is the last frame's. Default false.
+    pub camera_still: bool,
+    /// Nothing else changed since the last frame (geometry, lights,
+    /// materials; objects whose hints say `moving` count as changes
+    /// whatever this says). Default false. With `history`, `camera_still`,
+    /// `scene_still` and no moving object, every pass is skipped as
+    /// UNCHANGED.
+    pub scene_still: bool,
 }
 
 /// One pass's decision.
@@ -557,6 +582,7 @@ impl From<Pass> for refl_plan_pass {
             Pass::Layered => Self::Layered,
             Pass::HostRays => Self::HostRays,
             Pass::Probe => Self::Probe,
+            Pass::Temporal => Self::Temporal,
         }
     }
 }
@@ -572,6 +598,8 @@ impl From<SkipReason> for refl_plan_reason {
             SkipReason::NoHostSupport => Self::NoHostSupport,
             SkipReason::NoMaps => Self::NoMaps,
             SkipReason::NotUsed => Self::NotUsed,
+            SkipReason::Unchanged => Self::Unchanged,
+            SkipReason::MapsStale => Self::MapsStale,
         }
     }
 }
@@ -599,6 +627,9 @@ pub extern "C" fn refl_plan_options_default() -> refl_plan_options {
     refl_plan_options {
         mirror_hiz: o.mirror_hiz,
         glossy_visibility: o.glossy_visibility,
+        history: o.motion.history,
+        camera_still: o.motion.camera_still,
+        scene_still: o.motion.scene_still,
     }
 }
 
@@ -613,8 +644,13 @@ pub extern "C" fn refl_plan_options_default() -> refl_plan_options {
 /// mirror pass runs for the mirror pixels left; the glossy pass and its
 /// pyramids for glossy pixels; Hi-Z when the mirror pass uses it or the
 /// glossy pass runs; the layered pass when an object has maps and a
-/// screen-space pass runs; host rays with a tracer; the probe for rough
-/// pixels. A skip says why, and `bytes` are those of the pyramids built.
+/// screen-space pass runs (MAPS_STALE when every mapped
+/// object's hints say `moving`); host rays with a tracer; the probe for
+/// rough pixels; the temporal pass with the mirror pass when
+/// `options->history`. With `history`, `camera_still` and `scene_still`
+/// and no object `moving`, every pass is skipped as UNCHANGED (the last
+/// frame's reflections hold). A skip says why, and `bytes` are those of
+/// the pyramids built.
 ///
 /// Returns `REFL_STATUS_NULL_POINTER` if `out`, `frame`, `caps`,
 /// `summary_options`, `options`, or `objects` / `planar` / `hints` with a
@@ -681,7 +717,7 @@ pub unsafe extern "C" fn refl_plan_passes(
         )?;
         // SAFETY: checked pointers, readable for their lengths (contract);
         // refl_summary_object is ObjectSummary field for field (asserted),
-        // refl_plan_object_hints is two bools as ObjectHints is (converted).
+        // refl_plan_object_hints is three bools as ObjectHints is (converted).
         let objs =
             unsafe { slice_or_empty(objects.cast::<ObjectSummary>(), objects_len, "objects") }?;
         // SAFETY: as above.
@@ -696,6 +732,11 @@ pub unsafe extern "C" fn refl_plan_passes(
         let po = PlanOptions {
             mirror_hiz: o.mirror_hiz,
             glossy_visibility: o.glossy_visibility,
+            motion: FrameMotion {
+                history: o.history,
+                camera_still: o.camera_still,
+                scene_still: o.scene_still,
+            },
         };
         let plan = plan_with_hints(pl, &f.into(), objs, hs, &caps, &so.into(), &po, (width, height))
             .map_err(|e| {
@@ -725,7 +766,7 @@ fn plan_with_hints(
     options: &PlanOptions,
     size: (u32, u32),
 ) -> Result<PassPlan, Error> {
-    // SAFETY: refl_plan_object_hints and ObjectHints are both two bools in the
+    // SAFETY: refl_plan_object_hints and ObjectHints are both three bools in the
     // same order (asserted below), so the slice reinterprets in place.
     let hints: &[ObjectHints] =
         unsafe { core::slice::from_raw_parts(hints.as_ptr().cast(), hints.len()) };

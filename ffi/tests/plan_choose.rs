@@ -109,8 +109,14 @@ fn scenes() -> Vec<Scene> {
                 ObjectHints {
                     planar_mirror: false,
                     layered_map: true,
+                    moving: false,
                 },
-                ObjectHints::default(),
+                // Maps, but moving: stale (no layered option).
+                ObjectHints {
+                    planar_mirror: false,
+                    layered_map: true,
+                    moving: true,
+                },
             ],
         },
         // No objects listed: every pixel unlisted.
@@ -174,6 +180,7 @@ fn hints_c(h: &[ObjectHints]) -> Vec<refl_plan_object_hints> {
         .map(|h| refl_plan_object_hints {
             planar_mirror: h.planar_mirror,
             layered_map: h.layered_map,
+            moving: h.moving,
         })
         .collect()
 }

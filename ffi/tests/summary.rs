@@ -369,11 +369,28 @@ fn scene_summary() -> (
 
 #[test]
 fn plan_passes_equals_the_rust_plan() {
-    use refl_core::plan::{try_plan_passes, HostCaps, ObjectHints, PlanOptions};
+    use refl_core::plan::{try_plan_passes, FrameMotion, HostCaps, ObjectHints, PlanOptions};
     let (frame, objects, o) = scene_summary();
-    let po = refl_plan_options_default();
-    assert!(po.mirror_hiz && po.glossy_visibility);
-    for (planar_views, hint) in [(true, false), (false, false), (true, true)] {
+    let po0 = refl_plan_options_default();
+    assert!(po0.mirror_hiz && po0.glossy_visibility);
+    assert!(!(po0.history || po0.camera_still || po0.scene_still));
+    // (extra views, planar hint, object 1 moving, history, camera still,
+    // scene still).
+    for (planar_views, hint, moving, history, camera_still, scene_still) in [
+        (true, false, false, false, false, false),
+        (false, false, false, false, false, false),
+        (true, true, false, false, false, false),
+        (false, false, false, true, false, false),
+        (false, false, false, true, true, true),
+        (false, false, true, true, true, true),
+        (false, false, true, true, false, false),
+    ] {
+        let po = refl_plan_options {
+            history,
+            camera_still,
+            scene_still,
+            ..po0
+        };
         let caps = refl_plan_host_caps {
             planar_views,
             ray_tracer: true,
@@ -384,6 +401,7 @@ fn plan_passes_equals_the_rust_plan() {
             refl_plan_object_hints {
                 planar_mirror: hint,
                 layered_map: true,
+                moving,
             },
         ];
         let mut out = refl_plan::default();
@@ -415,6 +433,7 @@ fn plan_passes_equals_the_rust_plan() {
             ObjectHints {
                 planar_mirror: hint,
                 layered_map: true,
+                moving,
             },
         ];
         let ro = [
@@ -433,7 +452,14 @@ fn plan_passes_equals_the_rust_plan() {
                 probe: false,
             },
             &o.into(),
-            &PlanOptions::default(),
+            &PlanOptions {
+                motion: FrameMotion {
+                    history,
+                    camera_still,
+                    scene_still,
+                },
+                ..PlanOptions::default()
+            },
             (W, H),
         )
         .unwrap();
@@ -441,10 +467,24 @@ fn plan_passes_equals_the_rust_plan() {
         assert_eq!(out, refl_plan::from(want));
         // The floor is planar: with extra views it goes to the planar pass.
         assert_eq!(planar[0], planar_views);
+        let unchanged = history && camera_still && scene_still && !moving;
         for (k, d) in out.passes.iter().enumerate() {
             assert_eq!(d.pass as usize, k);
-            assert!(d.reason <= refl_plan_reason::NotUsed as u32);
+            assert!(d.reason <= refl_plan_reason::MapsStale as u32);
             assert!(d.reason == refl_plan_reason::Runs as u32 || d.bytes == 0);
+            assert_eq!(
+                unchanged,
+                d.reason == refl_plan_reason::Unchanged as u32,
+                "pass {k}"
+            );
+        }
+        let temporal = out.passes[refl_plan_pass::Temporal as usize];
+        let mirror = out.passes[refl_plan_pass::Mirror as usize];
+        if !unchanged {
+            assert_eq!(
+                temporal.reason == refl_plan_reason::Runs as u32,
+                history && mirror.reason == refl_plan_reason::Runs as u32
+            );
         }
     }
 }

@@ -55,6 +55,7 @@ const PASSES: [refl_plan_pass; REFL_PLAN_PASS_COUNT] = [
     refl_plan_pass::Layered,
     refl_plan_pass::HostRays,
     refl_plan_pass::Probe,
+    refl_plan_pass::Temporal,
 ];
 
 const fn bit(p: refl_plan_pass) -> u32 {
@@ -238,6 +239,8 @@ fn entry_ok(e: &refl_plan_cost_entry) -> bool {
         && e.surface <= 2
         && e.passes != 0
         && e.passes & !PASS_MASK == 0
+        // No option runs the temporal pass (it follows the mirror pass).
+        && e.passes & bit(refl_plan_pass::Temporal) == 0
         && fine(e.time_ratio)
         && fine(e.error_255)
 }
@@ -309,7 +312,8 @@ fn groups(
                     class: c as u32,
                     pixels: o.classes[c],
                     planar: planar[k],
-                    layered: hints.get(k).is_some_and(|h| h.layered_map),
+                    // A moving object's maps are stale.
+                    layered: hints.get(k).is_some_and(|h| h.layered_map && !h.moving),
                 });
             }
         }
@@ -915,6 +919,7 @@ fuzz_target!(|data: &[u8]| {
             .map(|_| refl_plan_object_hints {
                 planar_mirror: b.bool(),
                 layered_map: b.bool(),
+                moving: b.chance(4),
             })
             .collect()
     };

@@ -79,8 +79,14 @@ fn check_plan(b: &mut Bytes, f: &refl_summary_frame, objs: &[refl_summary_object
         _ => n,
     };
     let hints: Vec<refl_plan_object_hints> =
-        (0..hints_len).map(|_| refl_plan_object_hints { planar_mirror: b.bool(), layered_map: b.bool() }).collect();
-    let po = refl_plan_options { mirror_hiz: b.bool(), glossy_visibility: b.bool() };
+        (0..hints_len).map(|_| refl_plan_object_hints { planar_mirror: b.bool(), layered_map: b.bool(), moving: b.chance(4) }).collect();
+    let po = refl_plan_options {
+        mirror_hiz: b.bool(),
+        glossy_visibility: b.bool(),
+        history: b.bool(),
+        camera_still: b.bool(),
+        scene_still: b.bool(),
+    };
     let planar_len = if b.chance(16) { n.saturating_sub(1) } else { n };
     let mut planar = vec![true; planar_len.max(1)];
     let (w, h) = if b.chance(8) { (0, size.1) } else { size };
@@ -110,8 +116,17 @@ fn check_plan(b: &mut Bytes, f: &refl_summary_frame, objs: &[refl_summary_object
     assert_eq!(out.planar_objects as usize, planar[..n].iter().filter(|&&p| p).count());
     for (k, d) in out.passes.iter().enumerate() {
         assert_eq!(d.pass as usize, k, "{what}: pass order");
-        assert!(d.reason <= refl_plan_reason::NotUsed as u32, "{what}: reason {}", d.reason);
+        assert!(d.reason <= refl_plan_reason::MapsStale as u32, "{what}: reason {}", d.reason);
         assert!(d.reason == refl_plan_reason::Runs as u32 || d.bytes == 0, "{what}: bytes of a skipped pass");
+    }
+    // Nothing moved: every pass skipped as unchanged (every family is
+    // built here), and only then.
+    let unchanged = po.history && po.camera_still && po.scene_still && !hints.iter().any(|h| h.moving);
+    for d in &out.passes {
+        assert_eq!(d.reason == refl_plan_reason::Unchanged as u32, unchanged, "{what}: unchanged {po:?}");
+    }
+    if unchanged {
+        return;
     }
     let listed_mirror: u64 = objs.iter().map(|o| o.classes[0]).sum();
     let want_mirror = listed_mirror - planar_pixels + f.classes[0].saturating_sub(listed_mirror);
@@ -129,8 +144,9 @@ fn check_plan(b: &mut Bytes, f: &refl_summary_frame, objs: &[refl_summary_object
         assert!(caps.ray_tracer && (mirror || glossy || runs(refl_plan_pass::Layered as u32)), "{what}: host rays");
     }
     if runs(refl_plan_pass::Layered as u32) {
-        assert!(hints.iter().any(|h| h.layered_map) && (mirror || glossy), "{what}: layered pass");
+        assert!(hints.iter().any(|h| h.layered_map && !h.moving) && (mirror || glossy), "{what}: layered pass");
     }
+    assert_eq!(runs(refl_plan_pass::Temporal as u32), po.history && mirror, "{what}: temporal pass");
 }
 
 fn summarize(

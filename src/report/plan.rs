@@ -80,6 +80,9 @@ pub fn plan_frame(scene: &Scene, g: &GBuffer, caps: &HostCaps) -> Result<FramePl
                     o.planar.is_some() && scene.materials[o.material as usize].is_mirror()
                 }),
                 layered_map: mapped.contains(&(k as u32)),
+                // The built-in and OBJ scenes are static: only the camera
+                // moves along its path.
+                moving: false,
             }
         })
         .collect();
@@ -129,6 +132,7 @@ pub fn pass_name(pass: Pass) -> &'static str {
         Pass::Layered => "layered maps",
         Pass::HostRays => "host rays",
         Pass::Probe => "probe",
+        Pass::Temporal => "temporal pass",
     }
 }
 
@@ -143,6 +147,8 @@ pub fn reason_text(reason: SkipReason) -> &'static str {
         SkipReason::NoHostSupport => "the host cannot",
         SkipReason::NoMaps => "no object has maps",
         SkipReason::NotUsed => "its setting leaves it out",
+        SkipReason::Unchanged => "nothing moved: the last frame's reflections hold",
+        SkipReason::MapsStale => "every mapped object moved: its maps are stale",
     }
 }
 
