@@ -196,13 +196,14 @@ pub use image::{ImageView, ImageViewMut, RowRange};
 pub use layered::{
     try_layered_len, try_prr_classify, ColumnFill, ColumnRay, Face, LayerHit, LayeredGrid,
     LayeredHit, LayeredLen, LayeredMap, LayeredMapMut, LayeredMiss, LayeredOptions, LayeredStamp,
-    LayeredTrace, LayeredWork, PrrClass, EXIT_ENTRY_TEXELS, LAYERED_STAMP_LEN,
+    LayeredTrace, LayeredWork, PrrClass, PrrTriangle, EXIT_ENTRY_TEXELS, LAYERED_STAMP_LEN,
 };
 #[cfg(all(feature = "layered", any(feature = "depth-image", feature = "hiz")))]
 pub use layered_pass::{
-    layered_pass_scratch_len, try_prepare_layered_pass, LayeredBound, LayeredHostRay,
-    LayeredMapSet, LayeredPass, LayeredPassOptions, LayeredPassSink, LayeredPassStats,
-    LayeredPassStatus, LayeredPassTexel,
+    layered_pass_scratch_len, prr_radii, try_prepare_layered_pass, try_prr_masks, LayeredBound,
+    LayeredHostRay, LayeredMapSet, LayeredPass, LayeredPassOptions, LayeredPassSink,
+    LayeredPassStats, LayeredPassStatus, LayeredPassTexel, PrrRadii, PrrStats, PRR_MAX_MAPS,
+    PRR_NO_REGION,
 };
 #[cfg(feature = "mirror")]
 pub use mirror::{
