@@ -276,6 +276,22 @@
 #define REFL_LAYERED_EXIT_ENTRY_TEXELS 2.0
 #endif
 
+#if (defined(REFL_FEATURE_LAYERED) && (defined(REFL_FEATURE_DEPTH_IMAGE) || defined(REFL_FEATURE_HIZ)))
+/**
+ * The region id of a pixel without a region
+ * (`refl_layered_pass_input.regions`): every map applies.
+ */
+#define REFL_LAYERED_NO_REGION 4294967295
+#endif
+
+#if (defined(REFL_FEATURE_LAYERED) && (defined(REFL_FEATURE_DEPTH_IMAGE) || defined(REFL_FEATURE_HIZ)))
+/**
+ * Most maps a pass with regions, or `refl_layered_prr_masks`, takes (one
+ * bit of a `uint64_t` mask per map).
+ */
+#define REFL_LAYERED_PRR_MAX_MAPS 64
+#endif
+
 #if (defined(REFL_FEATURE_DEPTH_IMAGE) || defined(REFL_FEATURE_HIZ))
 /**
  * The largest `refl_extrapolate_options.radius`.
@@ -4784,6 +4800,27 @@ typedef struct refl_layered_pass_input {
      * Number of ids readable from `map_ids`.
      */
     size_t map_ids_len;
+    /**
+     * Optional region per pixel (the camera's size; absent when `data` is
+     * NULL): the index of the reflector triangle the pixel's surface
+     * point lies on, into `region_masks` (the triangles given to
+     * `refl_layered_prr_masks`), or `REFL_LAYERED_NO_REGION` (every map
+     * applies). Needs at most `REFL_LAYERED_PRR_MAX_MAPS` maps. Read by
+     * `refl_layered_trace_rows` only (listed rays have the host's
+     * directions, not the mirror rays the masks were made for).
+     */
+    struct refl_image_u32 regions;
+    /**
+     * With `regions`: per region the maps that may reflect on it, bit k
+     * for map k (`refl_layered_prr_masks`); pixel (x, y) traces map k only
+     * if bit k of `region_masks[regions(x, y)]` is set. Ignored without
+     * `regions`.
+     */
+    const uint64_t *region_masks;
+    /**
+     * Number of masks readable from `region_masks`.
+     */
+    size_t region_masks_len;
 } refl_layered_pass_input;
 #endif
 
@@ -4807,6 +4844,50 @@ typedef struct refl_layered_bound {
      */
     uint32_t key;
 } refl_layered_bound;
+#endif
+
+#if (defined(REFL_FEATURE_LAYERED) && (defined(REFL_FEATURE_DEPTH_IMAGE) || defined(REFL_FEATURE_HIZ)))
+/**
+ * Counts of one `refl_layered_prr_masks` call.
+ */
+typedef struct refl_layered_prr_stats {
+    /**
+     * Triangles (regions) written.
+     */
+    uint64_t regions;
+    /**
+     * (triangle, map) pairs.
+     */
+    uint64_t pairs;
+    /**
+     * Pairs whose bit is set (the map may reflect on the triangle).
+     */
+    uint64_t may_reflect;
+    /**
+     * Of those, pairs set untested (a degenerate triangle, normals 90
+     * degrees or more from its plane).
+     */
+    uint64_t untested;
+} refl_layered_prr_stats;
+#endif
+
+#if (defined(REFL_FEATURE_LAYERED) && (defined(REFL_FEATURE_DEPTH_IMAGE) || defined(REFL_FEATURE_HIZ)))
+/**
+ * One reflector triangle as a region of `refl_layered_prr_masks`: its
+ * world corners and the vertex normals the G-buffer's shading normals
+ * interpolate on it (any non-zero length, consistently oriented; for flat
+ * shading the face normal three times).
+ */
+typedef struct refl_layered_prr_triangle {
+    /**
+     * World corners.
+     */
+    struct refl_vec3 corners[3];
+    /**
+     * Vertex normals.
+     */
+    struct refl_vec3 normals[3];
+} refl_layered_prr_triangle;
 #endif
 
 #if (defined(REFL_FEATURE_LAYERED) && (defined(REFL_FEATURE_DEPTH_IMAGE) || defined(REFL_FEATURE_HIZ)))
@@ -4844,6 +4925,19 @@ typedef struct refl_layered_pass_stats {
      * Buffer reads of the kernel, summed.
      */
     uint64_t fetches;
+    /**
+     * (ray, map) pairs the ray's bounding-sphere test rejected (no
+     * kernel trace).
+     */
+    uint64_t sphere_culled;
+    /**
+     * (ray, map) pairs the pixel's region mask skipped before the sphere
+     * test (0 without regions): the lookups the potential reflection
+     * regions save. The masks are conservative: `sphere_culled +
+     * prr_skipped` is the `sphere_culled` of the same call without
+     * regions, every other count and every texel are the same.
+     */
+    uint64_t prr_skipped;
 } refl_layered_pass_stats;
 #endif
 
@@ -8230,13 +8324,15 @@ refl_status refl_layered_pass_scratch_len(size_t *out_len,
  *
  * Returns `REFL_STATUS_NULL_POINTER` if `input`, `options`, a required
  * G-buffer image, a map buffer, `input.maps` or (with ids)
- * `input.map_ids` with a non-zero length, or `scratch` with a non-zero
- * count of maps is NULL; `REFL_STATUS_INSUFFICIENT_SIZE` if `scratch_len`
- * is below the number of maps, `input.map_ids_len` below it, or an
- * image's or a map buffer's `len` is too small;
+ * `input.map_ids` or (with regions) `input.region_masks` with a non-zero
+ * length, or `scratch` with a non-zero count of maps is NULL;
+ * `REFL_STATUS_INSUFFICIENT_SIZE` if `scratch_len` is below the number of
+ * maps, `input.map_ids_len` below it, or an image's or a map buffer's
+ * `len` is too small;
  * `REFL_STATUS_INVALID_ARGUMENT` for an option out of range, an unknown
- * convention or normal space, an image not of the camera's size, a map
- * whose grid or stamp does not match, a map too far out for f32, a
+ * convention or normal space, an image not of the camera's size, regions
+ * with more than `REFL_LAYERED_PRR_MAX_MAPS` maps, a map whose grid or
+ * stamp does not match, a map too far out for f32, a
  * misaligned pointer, or `scratch` overlapping an input;
  * `REFL_STATUS_DEGENERATE_GEOMETRY` for a map's degenerate grid; the
  * camera's status if it is invalid. Nothing is written on error.
@@ -8250,6 +8346,43 @@ refl_status refl_layered_pass_prepare(struct refl_layered_bound *scratch,
                                       size_t scratch_len,
                                       const struct refl_layered_pass_input *input,
                                       const struct refl_layered_pass_options *options);
+#endif
+
+#if (defined(REFL_FEATURE_LAYERED) && (defined(REFL_FEATURE_DEPTH_IMAGE) || defined(REFL_FEATURE_HIZ)))
+/**
+ * The potential-reflection-region masks of seed 001 Sec. 3.2 (Fig. 2(a))
+ * for `input.regions`: for each reflector triangle `triangles[t]`, bit k
+ * of `masks[t]` is set if map k (of the `scratch` that
+ * `refl_layered_pass_prepare` wrote for this frame, `scratch_len` maps)
+ * may reflect on the triangle for a camera at `eye`: the seed's cone test
+ * (`refl_layered_prr_classify`) against the map's bounding sphere,
+ * widened so that the masks keep every map the pass's per-ray sphere test
+ * can pass for a pixel on the triangle (interpolated normals, rounding;
+ * refl-core's `prr_radii` documents the widening). Bits at and above
+ * `scratch_len` are 0. Call it per frame after `refl_layered_pass_prepare`.
+ *
+ * Returns `REFL_STATUS_NULL_POINTER` if `out_stats` is NULL, or `masks`,
+ * `triangles` or `scratch` with a non-zero length;
+ * `REFL_STATUS_INSUFFICIENT_SIZE` if `masks_len < triangles_len`;
+ * `REFL_STATUS_INVALID_ARGUMENT` for more than
+ * `REFL_LAYERED_PRR_MAX_MAPS` maps, a non-finite `eye`, corner or normal,
+ * a record of `scratch` with a non-finite center or radius (or a negative
+ * radius), a misaligned pointer, or `masks` overlapping an input. Nothing
+ * is written on error.
+ *
+ * # Safety
+ * `out_stats` NULL or writable; `masks` NULL or writable for `masks_len`
+ * values; `triangles` NULL or readable for `triangles_len` records;
+ * `scratch` NULL or readable for `scratch_len` records.
+ */
+refl_status refl_layered_prr_masks(struct refl_layered_prr_stats *out_stats,
+                                   uint64_t *masks,
+                                   size_t masks_len,
+                                   const struct refl_layered_prr_triangle *triangles,
+                                   size_t triangles_len,
+                                   struct refl_vec3 eye,
+                                   const struct refl_layered_bound *scratch,
+                                   size_t scratch_len);
 #endif
 
 #if (defined(REFL_FEATURE_LAYERED) && (defined(REFL_FEATURE_DEPTH_IMAGE) || defined(REFL_FEATURE_HIZ)))
@@ -8282,8 +8415,9 @@ refl_status refl_layered_pass_prepare(struct refl_layered_bound *scratch,
  * reversed or beyond the height, `color` not of the camera's size or
  * given without `payload_color`, outputs overlapping each other or the
  * inputs, a scratch not prepared for these maps (other maps, order or
- * placement), and the cases of `refl_layered_pass_prepare`. Nothing is
- * written on error.
+ * placement), a region id neither below `input.region_masks_len` nor
+ * `REFL_LAYERED_NO_REGION`, and the cases of `refl_layered_pass_prepare`.
+ * Nothing is written on error.
  *
  * # Safety
  * `out_stats` NULL or writable; `out` NULL or writable for `out_len`

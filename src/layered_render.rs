@@ -305,15 +305,7 @@ impl LayeredScene {
         })?;
         let stats = bands
             .iter()
-            .fold(LayeredPassStats::default(), |a, b| LayeredPassStats {
-                traced: a.traced + b.traced,
-                hits: a.hits + b.hits,
-                sky: a.sky + b.sky,
-                host_rays: a.host_rays + b.host_rays,
-                host_rays_written: a.host_rays_written + b.host_rays_written,
-                kernel_traces: a.kernel_traces + b.kernel_traces,
-                fetches: a.fetches + b.fetches,
-            });
+            .fold(LayeredPassStats::default(), |a, b| a.sum(b));
         Ok(LayeredTraces { texels, stats })
     }
 }
