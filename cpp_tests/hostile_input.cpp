@@ -3898,8 +3898,12 @@ void layered_pass_functions() {
         masks_refused("prr masks short", REFL_STATUS_INSUFFICIENT_SIZE, 1, tris, eye, &scratch, 1);
         masks_refused("prr masks NULL triangles", REFL_STATUS_NULL_POINTER, 2, nullptr, eye, &scratch, 1);
         masks_refused("prr masks NULL scratch", REFL_STATUS_NULL_POINTER, 2, tris, eye, nullptr, 1);
-        std::vector<refl_layered_bound> many(REFL_LAYERED_PRR_MAX_MAPS + 1, scratch);
-        masks_refused("prr masks too many maps", REFL_STATUS_INVALID_ARGUMENT, 2, tris, eye, many.data(), many.size());
+        // 65 maps: two words per triangle.
+        std::vector<refl_layered_bound> many(65, scratch);
+        masks_refused("prr masks short for 65 maps", REFL_STATUS_INSUFFICIENT_SIZE, 2, tris, eye, many.data(), many.size());
+        CHECK_EQ(expect_ok<size_t>("prr masks len", [&](size_t* o) { return refl_layered_prr_masks_len(o, 2, 65); }),
+                 size_t(4));
+        CHECK_STATUS(refl_layered_prr_masks_len(nullptr, 2, 65), REFL_STATUS_NULL_POINTER);
         refl_layered_prr_triangle bad[2] = {tris[0], tris[1]};
         bad[1].normals[2].y = kInf;
         masks_refused("prr masks infinite normal", REFL_STATUS_INVALID_ARGUMENT, 2, bad, eye, &scratch, 1);

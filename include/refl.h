@@ -284,14 +284,6 @@
 #define REFL_LAYERED_NO_REGION 4294967295
 #endif
 
-#if (defined(REFL_FEATURE_LAYERED) && (defined(REFL_FEATURE_DEPTH_IMAGE) || defined(REFL_FEATURE_HIZ)))
-/**
- * Most maps a pass with regions, or `refl_layered_prr_masks`, takes (one
- * bit of a `uint64_t` mask per map).
- */
-#define REFL_LAYERED_PRR_MAX_MAPS 64
-#endif
-
 #if (defined(REFL_FEATURE_DEPTH_IMAGE) || defined(REFL_FEATURE_HIZ))
 /**
  * The largest `refl_extrapolate_options.radius`.
@@ -4805,20 +4797,20 @@ typedef struct refl_layered_pass_input {
      * NULL): the index of the reflector triangle the pixel's surface
      * point lies on, into `region_masks` (the triangles given to
      * `refl_layered_prr_masks`), or `REFL_LAYERED_NO_REGION` (every map
-     * applies). Needs at most `REFL_LAYERED_PRR_MAX_MAPS` maps. Read by
-     * `refl_layered_trace_rows` only (listed rays have the host's
+     * applies). Read by `refl_layered_trace_rows` only (listed rays have the host's
      * directions, not the mirror rays the masks were made for).
      */
     struct refl_image_u32 regions;
     /**
-     * With `regions`: per region the maps that may reflect on it, bit k
-     * for map k (`refl_layered_prr_masks`); pixel (x, y) traces map k only
-     * if bit k of `region_masks[regions(x, y)]` is set. Ignored without
-     * `regions`.
+     * With `regions`: per region the maps that may reflect on it, as
+     * `refl_layered_prr_masks` writes them: `n = ceil(maps_len / 64)`
+     * words (at least 1) per region, bit `k % 64` of word `k / 64` for map
+     * k; pixel (x, y) with region r traces map k only if that bit of
+     * `region_masks[r * n + k / 64]` is set. Ignored without `regions`.
      */
     const uint64_t *region_masks;
     /**
-     * Number of masks readable from `region_masks`.
+     * Number of words readable from `region_masks`.
      */
     size_t region_masks_len;
 } refl_layered_pass_input;
@@ -8330,9 +8322,8 @@ refl_status refl_layered_pass_scratch_len(size_t *out_len,
  * maps, `input.map_ids_len` below it, or an image's or a map buffer's
  * `len` is too small;
  * `REFL_STATUS_INVALID_ARGUMENT` for an option out of range, an unknown
- * convention or normal space, an image not of the camera's size, regions
- * with more than `REFL_LAYERED_PRR_MAX_MAPS` maps, a map whose grid or
- * stamp does not match, a map too far out for f32, a
+ * convention or normal space, an image not of the camera's size, a map
+ * whose grid or stamp does not match, a map too far out for f32, a
  * misaligned pointer, or `scratch` overlapping an input;
  * `REFL_STATUS_DEGENERATE_GEOMETRY` for a map's degenerate grid; the
  * camera's status if it is invalid. Nothing is written on error.
@@ -8350,22 +8341,42 @@ refl_status refl_layered_pass_prepare(struct refl_layered_bound *scratch,
 
 #if (defined(REFL_FEATURE_LAYERED) && (defined(REFL_FEATURE_DEPTH_IMAGE) || defined(REFL_FEATURE_HIZ)))
 /**
+ * Size query: the `uint64_t` words of the masks of `triangles` reflector
+ * triangles over `maps` maps (`triangles * ceil(maps / 64)`, at least one
+ * word per triangle) into `*out_len`: the `masks_len` of
+ * `refl_layered_prr_masks` and the `region_masks_len` of its regions.
+ *
+ * Returns `REFL_STATUS_NULL_POINTER` if `out_len` is NULL;
+ * `REFL_STATUS_INVALID_ARGUMENT` if the count overflows `size_t` (only
+ * where `size_t` has 32 bits).
+ *
+ * # Safety
+ * `out_len` NULL or writable.
+ */
+refl_status refl_layered_prr_masks_len(size_t *out_len,
+                                       uint32_t triangles,
+                                       uint32_t maps);
+#endif
+
+#if (defined(REFL_FEATURE_LAYERED) && (defined(REFL_FEATURE_DEPTH_IMAGE) || defined(REFL_FEATURE_HIZ)))
+/**
  * The potential-reflection-region masks of seed 001 Sec. 3.2 (Fig. 2(a))
- * for `input.regions`: for each reflector triangle `triangles[t]`, bit k
- * of `masks[t]` is set if map k (of the `scratch` that
- * `refl_layered_pass_prepare` wrote for this frame, `scratch_len` maps)
- * may reflect on the triangle for a camera at `eye`: the seed's cone test
+ * for `input.regions`: for each reflector triangle `triangles[t]`, with
+ * `n = ceil(scratch_len / 64)` words per triangle (at least 1), bit
+ * `k % 64` of `masks[t * n + k / 64]` is set if map k (of the `scratch`
+ * that `refl_layered_pass_prepare` wrote for this frame, `scratch_len`
+ * maps) may reflect on the triangle for a camera at `eye`: the seed's cone test
  * (`refl_layered_prr_classify`) against the map's bounding sphere,
  * widened so that the masks keep every map the pass's per-ray sphere test
  * can pass for a pixel on the triangle (interpolated normals, rounding;
- * refl-core's `prr_radii` documents the widening). Bits at and above
- * `scratch_len` are 0. Call it per frame after `refl_layered_pass_prepare`.
+ * refl-core's `prr_radii` documents the widening). Bits of no map are 0.
+ * Call it per frame after `refl_layered_pass_prepare`.
  *
  * Returns `REFL_STATUS_NULL_POINTER` if `out_stats` is NULL, or `masks`,
  * `triangles` or `scratch` with a non-zero length;
- * `REFL_STATUS_INSUFFICIENT_SIZE` if `masks_len < triangles_len`;
- * `REFL_STATUS_INVALID_ARGUMENT` for more than
- * `REFL_LAYERED_PRR_MAX_MAPS` maps, a non-finite `eye`, corner or normal,
+ * `REFL_STATUS_INSUFFICIENT_SIZE` if `masks_len` is below
+ * `refl_layered_prr_masks_len`; `REFL_STATUS_INVALID_ARGUMENT` for a
+ * non-finite `eye`, corner or normal, a count that overflows,
  * a record of `scratch` with a non-finite center or radius (or a negative
  * radius), a misaligned pointer, or `masks` overlapping an input. Nothing
  * is written on error.
@@ -8415,8 +8426,8 @@ refl_status refl_layered_prr_masks(struct refl_layered_prr_stats *out_stats,
  * reversed or beyond the height, `color` not of the camera's size or
  * given without `payload_color`, outputs overlapping each other or the
  * inputs, a scratch not prepared for these maps (other maps, order or
- * placement), a region id neither below `input.region_masks_len` nor
- * `REFL_LAYERED_NO_REGION`, and the cases of `refl_layered_pass_prepare`.
+ * placement), a region id neither below the regions of
+ * `input.region_masks` nor `REFL_LAYERED_NO_REGION`, and the cases of `refl_layered_pass_prepare`.
  * Nothing is written on error.
  *
  * # Safety

@@ -551,9 +551,27 @@ pub fn try_prepare_layered_pass<M: LayeredMapSet + ?Sized>(
     Ok(())
 }
 
-/// Most maps a pass with regions ([`LayeredPass::try_with_regions`]) or
-/// [`try_prr_masks`] takes: one bit of a `u64` mask per map.
-pub const PRR_MAX_MAPS: usize = 64;
+/// The `u64` words of one region's mask for `maps` maps (bit `k % 64` of
+/// word `k / 64` for map `k`): `ceil(maps / 64)`, at least 1.
+pub const fn prr_mask_words(maps: usize) -> usize {
+    if maps == 0 {
+        1
+    } else {
+        maps.div_ceil(64)
+    }
+}
+
+/// Elements (`u64` words) of the masks of `triangles` regions over `maps`
+/// maps: `triangles * prr_mask_words(maps)` ([`try_prr_masks`],
+/// [`LayeredPass::try_with_regions`]).
+///
+/// # Errors
+/// [`Error::InvalidArgument`] if the count overflows `usize`.
+pub fn try_prr_masks_len(triangles: usize, maps: usize) -> Result<usize, Error> {
+    triangles
+        .checked_mul(prr_mask_words(maps))
+        .ok_or(Error::InvalidArgument)
+}
 
 /// The region id of a pixel without a region
 /// ([`LayeredPass::try_with_regions`]): every map applies.
@@ -662,25 +680,27 @@ pub struct PrrStats {
 /// The potential-reflection-region masks of seed 001 Sec. 3.2 (Fig. 2(a))
 /// for the layered pass's regions ([`LayeredPass::try_with_regions`]):
 /// for each reflector triangle `triangles[t]` (world space, with the
-/// vertex normals the G-buffer interpolates on it), bit `k` of `dst[t]` is
-/// set if the map of `bounds[k]` (the bounds [`try_prepare_layered_pass`]
+/// vertex normals the G-buffer interpolates on it), with `n =`
+/// [`prr_mask_words`]`(bounds.len())` words per triangle, bit `k % 64` of
+/// `dst[t * n + k / 64]` is set if the map of `bounds[k]` (the bounds [`try_prepare_layered_pass`]
 /// wrote for this frame) may reflect on the triangle for a camera at
 /// `eye`: [`try_prr_classify`] with the map's center and
 /// [`PrrRadii::cone`] says [`PrrClass::may_reflect`](crate::PrrClass::may_reflect)
 /// (or refuses the triangle as degenerate), or the triangle comes within
-/// [`PrrRadii::near`] of the center, or [`prr_radii`] is `None`. Bits at
-/// and above `bounds.len()` are 0. Once per frame (the camera moved) and
+/// [`PrrRadii::near`] of the center, or [`prr_radii`] is `None`. Bits of
+/// no map are 0. Once per frame (the camera moved) and
 /// per placement of the maps.
 ///
 /// The masks are conservative (see [`prr_radii`]): a pixel whose surface
 /// point lies on triangle `t` (its normal one the vertex normals
-/// interpolate) traces, with `dst[t]`, every map it traces without it.
+/// interpolate) traces, with its mask, every map it traces without it.
 ///
 /// # Errors
-/// * [`Error::InvalidArgument`]: more than [`PRR_MAX_MAPS`] bounds; a
-///   non-finite `eye`, corner or normal; a bound whose center is not
-///   finite or whose radius is not finite and `>= 0`.
-/// * [`Error::InsufficientSize`]: `dst` shorter than `triangles`.
+/// * [`Error::InvalidArgument`]: a non-finite `eye`, corner or normal; a
+///   bound whose center is not finite or whose radius is not finite and
+///   `>= 0`; a length that overflows ([`try_prr_masks_len`]).
+/// * [`Error::InsufficientSize`]: `dst` shorter than
+///   [`try_prr_masks_len`]`(triangles.len(), bounds.len())`.
 ///
 /// Nothing is written on error.
 pub fn try_prr_masks(
@@ -692,19 +712,19 @@ pub fn try_prr_masks(
     let bound_ok = |b: &LayeredBound| {
         b.center.iter().all(|c| c.is_finite()) && b.radius.is_finite() && b.radius >= 0.0
     };
-    if bounds.len() > PRR_MAX_MAPS
-        || !eye.is_finite()
+    if !eye.is_finite()
         || !bounds.iter().all(bound_ok)
         || !triangles.iter().all(PrrTriangle::is_finite)
     {
         return Err(Error::InvalidArgument);
     }
-    if dst.len() < triangles.len() {
+    if dst.len() < try_prr_masks_len(triangles.len(), bounds.len())? {
         return Err(Error::InsufficientSize);
     }
+    let words = prr_mask_words(bounds.len());
     let mut stats = PrrStats::default();
-    for (slot, tri) in dst.iter_mut().zip(triangles) {
-        let mut mask = 0u64;
+    for (mask, tri) in dst.chunks_exact_mut(words).zip(triangles) {
+        mask.fill(0);
         let corners = tri.corners.map(Vec3::from_array);
         for (k, b) in bounds.iter().enumerate() {
             let center = Vec3::from_array(b.center);
@@ -720,11 +740,10 @@ pub fn try_prr_masks(
                 }
             };
             if set {
-                mask |= 1 << k;
+                mask[k / 64] |= 1 << (k % 64);
                 stats.may_reflect += 1;
             }
         }
-        *slot = mask;
         stats.regions += 1;
         stats.pairs += bounds.len() as u64;
     }
@@ -843,8 +862,9 @@ impl<'a, M: LayeredMapSet + ?Sized> LayeredPass<'a, M> {
 
     /// The same pass with potential reflection regions (seed 001 Sec. 3.2,
     /// Fig. 2(a); module docs, step 2): pixel `(x, y)` with region
-    /// `r = regions(x, y)` traces only the maps whose bit is set in
-    /// `masks[r]` (bit `k` for map `k`), a pixel with region
+    /// `r = regions(x, y)` traces only the maps whose bit is set in its
+    /// mask (`n =` [`prr_mask_words`]`(maps)` words per region, bit
+    /// `k % 64` of `masks[r * n + k / 64]` for map `k`), a pixel with region
     /// [`PRR_NO_REGION`] every map. A region is a reflector triangle
     /// (the G-buffer's primitive id, re-indexed to the triangles the host
     /// gave [`try_prr_masks`]), and the masks are what [`try_prr_masks`]
@@ -860,24 +880,22 @@ impl<'a, M: LayeredMapSet + ?Sized> LayeredPass<'a, M> {
     ///
     /// # Errors
     /// [`Error::InvalidArgument`] if `regions` is not the G-buffer's size,
-    /// a region id is neither below `masks.len()` nor [`PRR_NO_REGION`],
-    /// or the pass has more than [`PRR_MAX_MAPS`] maps.
+    /// or a region id is neither below `masks.len() / n` nor
+    /// [`PRR_NO_REGION`].
     pub fn try_with_regions(
         self,
         regions: ImageView<'a, u32>,
         masks: &'a [u64],
     ) -> Result<Self, Error> {
         let g = self.mirror.gbuffer();
-        if regions.width() != g.width()
-            || regions.height() != g.height()
-            || self.maps.len() > PRR_MAX_MAPS
-        {
+        if regions.width() != g.width() || regions.height() != g.height() {
             return Err(Error::InvalidArgument);
         }
+        let count = masks.len() / prr_mask_words(self.maps.len());
         for y in 0..regions.height() {
             for x in 0..regions.width() {
                 match regions.get(x, y) {
-                    Some(r) if r == PRR_NO_REGION || (r as usize) < masks.len() => {}
+                    Some(r) if r == PRR_NO_REGION || (r as usize) < count => {}
                     _ => return Err(Error::InvalidArgument),
                 }
             }
@@ -944,20 +962,24 @@ impl<'a, M: LayeredMapSet + ?Sized> LayeredPass<'a, M> {
         self.ids.and_then(|(img, _)| img.get(x, y))
     }
 
-    /// The region mask of `(x, y)`: the maps its region may see
-    /// (all bits without regions or with [`PRR_NO_REGION`]).
-    fn region_mask(&self, x: u32, y: u32) -> u64 {
-        self.regions
-            .and_then(|(img, masks)| {
-                let r = img.get(x, y)?;
-                masks.get(r as usize).copied()
-            })
-            .unwrap_or(u64::MAX)
+    /// The region mask of `(x, y)`: the maps its region may see (`None`,
+    /// every map, without regions or with [`PRR_NO_REGION`]).
+    fn region_mask(&self, x: u32, y: u32) -> Option<&'a [u64]> {
+        let (img, masks) = self.regions?;
+        let n = prr_mask_words(self.maps.len());
+        let r = img.get(x, y)? as usize;
+        masks.get(r.checked_mul(n)?..r.checked_add(1)?.checked_mul(n)?)
     }
 
     /// Module docs, steps 2 and 3: `ray` (from the segment's start) up to
     /// `t_seg` against every map that applies (`mask`: the region's maps).
-    fn trace_maps(&self, own: Option<u32>, mask: u64, ray: &Ray, t_seg: f32) -> MapsTrace {
+    fn trace_maps(
+        &self,
+        own: Option<u32>,
+        mask: Option<&[u64]>,
+        ray: &Ray,
+        t_seg: f32,
+    ) -> MapsTrace {
         let mut out = MapsTrace::default();
         for (k, b) in self.bounds.iter().enumerate() {
             if let (Some(id), Some((_, map_ids))) = (own, self.ids) {
@@ -970,9 +992,7 @@ impl<'a, M: LayeredMapSet + ?Sized> LayeredPass<'a, M> {
                 // A hit at the segment's start: nothing can be nearer.
                 break;
             }
-            // Bits exist for the first PRR_MAX_MAPS maps (a pass with
-            // regions has no more); later maps always apply.
-            if mask.checked_shr(k as u32).unwrap_or(1) & 1 == 0 {
+            if mask.is_some_and(|m| m.get(k / 64).is_some_and(|w| w >> (k % 64) & 1 == 0)) {
                 out.prr_skipped += 1;
                 continue;
             }
@@ -1316,7 +1336,7 @@ impl<'a, M: LayeredMapSet + ?Sized> LayeredPass<'a, M> {
             let Some((seg, t_seg)) = Self::segment(&r) else {
                 continue;
             };
-            let mt = self.trace_maps(self.own_id(r.x, r.y), u64::MAX, &seg, t_seg);
+            let mt = self.trace_maps(self.own_id(r.x, r.y), None, &seg, t_seg);
             let (texel, c) = self.texel_of(&mt, r.t_min, r.t_max, r.dir);
             let host_ray = texel.status.needs_host().then_some(LayeredHostRay {
                 x: r.x,

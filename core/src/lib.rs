@@ -200,10 +200,10 @@ pub use layered::{
 };
 #[cfg(all(feature = "layered", any(feature = "depth-image", feature = "hiz")))]
 pub use layered_pass::{
-    layered_pass_scratch_len, prr_radii, try_prepare_layered_pass, try_prr_masks, LayeredBound,
-    LayeredHostRay, LayeredMapSet, LayeredPass, LayeredPassOptions, LayeredPassSink,
-    LayeredPassStats, LayeredPassStatus, LayeredPassTexel, PrrRadii, PrrStats, PRR_MAX_MAPS,
-    PRR_NO_REGION,
+    layered_pass_scratch_len, prr_mask_words, prr_radii, try_prepare_layered_pass, try_prr_masks,
+    try_prr_masks_len, LayeredBound, LayeredHostRay, LayeredMapSet, LayeredPass,
+    LayeredPassOptions, LayeredPassSink, LayeredPassStats, LayeredPassStatus, LayeredPassTexel,
+    PrrRadii, PrrStats, PRR_NO_REGION,
 };
 #[cfg(feature = "mirror")]
 pub use mirror::{

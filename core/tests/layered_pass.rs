@@ -18,11 +18,11 @@ mod scene;
 use refl_core::glam::{Affine3A, DVec3, Vec2, Vec3};
 use refl_core::layered::{Face, LayerHit, LayeredGrid, LayeredMap, LayeredMapMut, LayeredTrace};
 use refl_core::{
-    layered_pass_scratch_len, prr_radii, try_prepare_layered_pass, try_prr_classify, try_prr_masks,
-    Error, HostRay, ImageView, ImageViewMut, LayeredBound, LayeredHostRay, LayeredMiss,
-    LayeredOptions, LayeredPass, LayeredPassOptions, LayeredPassStats, LayeredPassStatus,
-    LayeredPassTexel, MirrorOptions, MirrorPass, MirrorStatus, PrrStats, PrrTriangle, Ray,
-    RowRange, PRR_MAX_MAPS, PRR_NO_REGION,
+    layered_pass_scratch_len, prr_mask_words, prr_radii, try_prepare_layered_pass,
+    try_prr_classify, try_prr_masks, try_prr_masks_len, Error, HostRay, ImageView, ImageViewMut,
+    LayeredBound, LayeredHostRay, LayeredMiss, LayeredOptions, LayeredPass, LayeredPassOptions,
+    LayeredPassStats, LayeredPassStatus, LayeredPassTexel, MirrorOptions, MirrorPass, MirrorStatus,
+    PrrStats, PrrTriangle, Ray, RowRange, PRR_NO_REGION,
 };
 use scene::{default_camera, grazing_camera, render, Frame, Scene, BOX_HI, BOX_LO, CONVENTIONS};
 
@@ -1444,14 +1444,18 @@ fn random_case(rng: &mut Lcg, maps: usize) -> (Vec<PrrTriangle>, Vec<LayeredBoun
 fn prr_masks_equal_the_classify_loop() {
     let mut rng = Lcg(19);
     let (mut set, mut unset, mut untested) = (0, 0, 0);
-    for case in 0..6 {
-        let n = [1, 5, 17, 63, 64, 0][case];
+    for case in 0..8 {
+        let n = [1, 5, 17, 63, 64, 0, 65, 130][case];
         let (tris, bounds) = random_case(&mut rng, n);
         let eye = rng.vec(-6.0, 6.0);
-        let mut masks = vec![u64::MAX; tris.len() + 1];
+        let words = prr_mask_words(n);
+        assert_eq!(words, n.div_ceil(64).max(1));
+        let len = try_prr_masks_len(tris.len(), n).unwrap();
+        assert_eq!(len, tris.len() * words);
+        let mut masks = vec![u64::MAX; len + 1];
         let st = try_prr_masks(&mut masks, &tris, eye, &bounds).unwrap();
         assert_eq!(
-            masks[tris.len()],
+            masks[len],
             u64::MAX,
             "past the triangles nothing is written"
         );
@@ -1461,7 +1465,7 @@ fn prr_masks_equal_the_classify_loop() {
             ..PrrStats::default()
         };
         for (t, tri) in tris.iter().enumerate() {
-            let mut mask = 0u64;
+            let mut mask = vec![0u64; words];
             for (k, b) in bounds.iter().enumerate() {
                 let center = Vec3::from_array(b.center);
                 let corners = tri.corners.map(Vec3::from_array);
@@ -1489,14 +1493,18 @@ fn prr_masks_equal_the_classify_loop() {
                     }
                 };
                 if bit {
-                    mask |= 1 << k;
+                    mask[k / 64] |= 1 << (k % 64);
                     want.may_reflect += 1;
                     set += 1;
                 } else {
                     unset += 1;
                 }
             }
-            assert_eq!(masks[t], mask, "triangle {t} of case {case}");
+            assert_eq!(
+                masks[t * words..(t + 1) * words],
+                mask[..],
+                "triangle {t} of case {case}"
+            );
         }
         untested += want.untested;
         assert_eq!(st, want);
@@ -1570,12 +1578,12 @@ fn prr_refusals_leave_every_output_untouched() {
     let mut rng = Lcg(3);
     let (tris, bounds) = random_case(&mut rng, 4);
     let eye = Vec3::new(0.0, 1.0, 9.0);
-    let mut dst = vec![7u64; tris.len()];
+    let mut dst = vec![7u64; 2 * tris.len()];
     let mut bad_tri = tris.clone();
     bad_tri[3].corners[1][2] = f32::NAN;
     let mut bad_normal = tris.clone();
     bad_normal[5].normals[0][0] = f32::INFINITY;
-    let many = vec![bounds[0]; PRR_MAX_MAPS + 1];
+    let many = vec![bounds[0]; 65];
     let bad_radius = [LayeredBound {
         radius: -1.0,
         ..bounds[0]
@@ -1607,7 +1615,13 @@ fn prr_refusals_leave_every_output_untouched() {
             tris.len(),
             Error::InvalidArgument,
         ),
-        (&tris, eye, &many, tris.len(), Error::InvalidArgument),
+        (
+            &tris,
+            eye,
+            &many,
+            2 * tris.len() - 1,
+            Error::InsufficientSize,
+        ),
         (&tris, eye, &bad_radius, tris.len(), Error::InvalidArgument),
         (&tris, eye, &bad_center, tris.len(), Error::InvalidArgument),
         (&tris, eye, &bounds, tris.len() - 1, Error::InsufficientSize),
@@ -1616,10 +1630,16 @@ fn prr_refusals_leave_every_output_untouched() {
         assert_eq!(try_prr_masks(&mut dst[..len], t, e, b), Err(err));
         assert!(dst.iter().all(|&m| m == 7));
     }
-    // 64 maps and no triangles are fine.
-    assert!(try_prr_masks(&mut [], &[], eye, &many[..PRR_MAX_MAPS]).is_ok());
+    // No triangles are fine; a count that overflows is refused.
+    assert!(try_prr_masks(&mut [], &[], eye, &many).is_ok());
+    assert_eq!(
+        try_prr_masks_len(usize::MAX, 65),
+        Err(Error::InvalidArgument)
+    );
+    assert_eq!(try_prr_masks_len(usize::MAX, 64), Ok(usize::MAX));
 
-    // The pass: regions of the wrong size, an id out of range, too many maps.
+    // The pass: regions of the wrong size, an id out of range (one word
+    // per region; two for 65 maps).
     let m = maps();
     let views = m.views();
     let f = frame(default_camera(), refl_core::DepthConvention::Linear);
@@ -1644,13 +1664,15 @@ fn prr_refusals_leave_every_output_untouched() {
         pass.try_with_regions(out_of_range, &masks).err(),
         Some(Error::InvalidArgument)
     );
-    let many_views = vec![views[0]; PRR_MAX_MAPS + 1];
+    let many_views = vec![views[0]; 65];
     let many_bounds = prepared(&f, &many_views, &o);
     let big = LayeredPass::try_new(f.gbuffer(false), &many_views[..], o, &many_bounds).unwrap();
-    let fine = vec![PRR_NO_REGION; (w * h) as usize];
-    let fine = ImageView::try_new(&fine, w, h, w).unwrap();
+    let mut two = vec![PRR_NO_REGION; (w * h) as usize];
+    two[7] = 1;
+    let two = ImageView::try_new(&two, w, h, w).unwrap();
     assert_eq!(
-        big.try_with_regions(fine, &masks).err(),
+        big.try_with_regions(two, &masks[..3]).err(),
         Some(Error::InvalidArgument)
     );
+    assert!(big.try_with_regions(two, &masks).is_ok());
 }

@@ -30,22 +30,17 @@ use crate::status::{fail, guard, refl_status};
 use crate::types::{refl_vec2, refl_vec3};
 use refl_core::layered::LayeredMap;
 use refl_core::{
-    try_prepare_layered_pass, try_prr_masks, Error, GBuffer, HostRay, ImageView, ImageViewMut,
-    LayeredBound, LayeredHostRay, LayeredMapSet, LayeredPass, LayeredPassOptions, LayeredPassSink,
-    LayeredPassStats, LayeredPassStatus, LayeredPassTexel, MirrorStatus, PrrStats, PrrTriangle,
-    PRR_MAX_MAPS, PRR_NO_REGION,
+    prr_mask_words, try_prepare_layered_pass, try_prr_masks, try_prr_masks_len, Error, GBuffer,
+    HostRay, ImageView, ImageViewMut, LayeredBound, LayeredHostRay, LayeredMapSet, LayeredPass,
+    LayeredPassOptions, LayeredPassSink, LayeredPassStats, LayeredPassStatus, LayeredPassTexel,
+    MirrorStatus, PrrStats, PrrTriangle, PRR_NO_REGION,
 };
 
 /// The region id of a pixel without a region
 /// (`refl_layered_pass_input.regions`): every map applies.
 pub const REFL_LAYERED_NO_REGION: u32 = 0xFFFF_FFFF;
 
-/// Most maps a pass with regions, or `refl_layered_prr_masks`, takes (one
-/// bit of a `uint64_t` mask per map).
-pub const REFL_LAYERED_PRR_MAX_MAPS: usize = 64;
-
 const _: () = assert!(REFL_LAYERED_NO_REGION == PRR_NO_REGION);
-const _: () = assert!(REFL_LAYERED_PRR_MAX_MAPS == PRR_MAX_MAPS);
 
 /// Settings of the layered pass; `refl_layered_pass_options_default` gives
 /// the defaults.
@@ -311,16 +306,16 @@ pub struct refl_layered_pass_input {
     /// NULL): the index of the reflector triangle the pixel's surface
     /// point lies on, into `region_masks` (the triangles given to
     /// `refl_layered_prr_masks`), or `REFL_LAYERED_NO_REGION` (every map
-    /// applies). Needs at most `REFL_LAYERED_PRR_MAX_MAPS` maps. Read by
-    /// `refl_layered_trace_rows` only (listed rays have the host's
+    /// applies). Read by `refl_layered_trace_rows` only (listed rays have the host's
     /// directions, not the mirror rays the masks were made for).
     pub regions: refl_image_u32,
-    /// With `regions`: per region the maps that may reflect on it, bit k
-    /// for map k (`refl_layered_prr_masks`); pixel (x, y) traces map k only
-    /// if bit k of `region_masks[regions(x, y)]` is set. Ignored without
-    /// `regions`.
+    /// With `regions`: per region the maps that may reflect on it, as
+    /// `refl_layered_prr_masks` writes them: `n = ceil(maps_len / 64)`
+    /// words (at least 1) per region, bit `k % 64` of word `k / 64` for map
+    /// k; pixel (x, y) with region r traces map k only if that bit of
+    /// `region_masks[r * n + k / 64]` is set. Ignored without `regions`.
     pub region_masks: *const u64,
-    /// Number of masks readable from `region_masks`.
+    /// Number of words readable from `region_masks`.
     pub region_masks_len: usize,
 }
 
@@ -494,15 +489,6 @@ unsafe fn inputs<'a>(
                 format_args!("`input.regions` is not the camera's size"),
             ));
         }
-        if inp.maps_len > PRR_MAX_MAPS {
-            return Err(fail(
-                Error::InvalidArgument,
-                format_args!(
-                    "regions take at most {PRR_MAX_MAPS} maps, there are {}",
-                    inp.maps_len
-                ),
-            ));
-        }
         // SAFETY: caller contract.
         let m = unsafe {
             slice_or_empty(inp.region_masks, inp.region_masks_len, "input.region_masks")
@@ -594,8 +580,8 @@ fn pass<'a>(
             fail(
                 e,
                 format_args!(
-                    "a region id of `input.regions` is neither below `region_masks_len` ({}) nor REFL_LAYERED_NO_REGION",
-                    m.len()
+                    "a region id of `input.regions` is neither below the {} regions of `region_masks` nor REFL_LAYERED_NO_REGION",
+                    m.len() / prr_mask_words(i.inp.maps_len)
                 ),
             )
         }),
@@ -651,9 +637,8 @@ pub unsafe extern "C" fn refl_layered_pass_scratch_len(
 /// maps, `input.map_ids_len` below it, or an image's or a map buffer's
 /// `len` is too small;
 /// `REFL_STATUS_INVALID_ARGUMENT` for an option out of range, an unknown
-/// convention or normal space, an image not of the camera's size, regions
-/// with more than `REFL_LAYERED_PRR_MAX_MAPS` maps, a map whose grid or
-/// stamp does not match, a map too far out for f32, a
+/// convention or normal space, an image not of the camera's size, a map
+/// whose grid or stamp does not match, a map too far out for f32, a
 /// misaligned pointer, or `scratch` overlapping an input;
 /// `REFL_STATUS_DEGENERATE_GEOMETRY` for a map's degenerate grid; the
 /// camera's status if it is invalid. Nothing is written on error.
@@ -747,22 +732,54 @@ impl From<PrrStats> for refl_layered_prr_stats {
     }
 }
 
+/// Size query: the `uint64_t` words of the masks of `triangles` reflector
+/// triangles over `maps` maps (`triangles * ceil(maps / 64)`, at least one
+/// word per triangle) into `*out_len`: the `masks_len` of
+/// `refl_layered_prr_masks` and the `region_masks_len` of its regions.
+///
+/// Returns `REFL_STATUS_NULL_POINTER` if `out_len` is NULL;
+/// `REFL_STATUS_INVALID_ARGUMENT` if the count overflows `size_t` (only
+/// where `size_t` has 32 bits).
+///
+/// # Safety
+/// `out_len` NULL or writable.
+#[no_mangle]
+pub unsafe extern "C" fn refl_layered_prr_masks_len(
+    out_len: *mut usize,
+    triangles: u32,
+    maps: u32,
+) -> refl_status {
+    guard("refl_layered_prr_masks_len", || {
+        let out = Out::new(out_len, "out_len")?;
+        let n = try_prr_masks_len(triangles as usize, maps as usize).map_err(|e| {
+            fail(
+                e,
+                format_args!("{triangles} triangles x {maps} maps overflow"),
+            )
+        })?;
+        // SAFETY: caller contract.
+        unsafe { out.write(n) };
+        Ok(())
+    })
+}
+
 /// The potential-reflection-region masks of seed 001 Sec. 3.2 (Fig. 2(a))
-/// for `input.regions`: for each reflector triangle `triangles[t]`, bit k
-/// of `masks[t]` is set if map k (of the `scratch` that
-/// `refl_layered_pass_prepare` wrote for this frame, `scratch_len` maps)
-/// may reflect on the triangle for a camera at `eye`: the seed's cone test
+/// for `input.regions`: for each reflector triangle `triangles[t]`, with
+/// `n = ceil(scratch_len / 64)` words per triangle (at least 1), bit
+/// `k % 64` of `masks[t * n + k / 64]` is set if map k (of the `scratch`
+/// that `refl_layered_pass_prepare` wrote for this frame, `scratch_len`
+/// maps) may reflect on the triangle for a camera at `eye`: the seed's cone test
 /// (`refl_layered_prr_classify`) against the map's bounding sphere,
 /// widened so that the masks keep every map the pass's per-ray sphere test
 /// can pass for a pixel on the triangle (interpolated normals, rounding;
-/// refl-core's `prr_radii` documents the widening). Bits at and above
-/// `scratch_len` are 0. Call it per frame after `refl_layered_pass_prepare`.
+/// refl-core's `prr_radii` documents the widening). Bits of no map are 0.
+/// Call it per frame after `refl_layered_pass_prepare`.
 ///
 /// Returns `REFL_STATUS_NULL_POINTER` if `out_stats` is NULL, or `masks`,
 /// `triangles` or `scratch` with a non-zero length;
-/// `REFL_STATUS_INSUFFICIENT_SIZE` if `masks_len < triangles_len`;
-/// `REFL_STATUS_INVALID_ARGUMENT` for more than
-/// `REFL_LAYERED_PRR_MAX_MAPS` maps, a non-finite `eye`, corner or normal,
+/// `REFL_STATUS_INSUFFICIENT_SIZE` if `masks_len` is below
+/// `refl_layered_prr_masks_len`; `REFL_STATUS_INVALID_ARGUMENT` for a
+/// non-finite `eye`, corner or normal, a count that overflows,
 /// a record of `scratch` with a non-finite center or radius (or a negative
 /// radius), a misaligned pointer, or `masks` overlapping an input. Nothing
 /// is written on error.
@@ -793,10 +810,13 @@ pub unsafe extern "C" fn refl_layered_prr_masks(
         // SAFETY: caller contract; refl_layered_bound is LayeredBound.
         let bounds =
             unsafe { slice_or_empty(scratch.cast::<LayeredBound>(), scratch_len, "scratch") }?;
-        if masks_len < triangles_len {
+        let need = try_prr_masks_len(triangles_len, scratch_len)?;
+        if masks_len < need {
             return Err(fail(
                 Error::InsufficientSize,
-                format_args!("`masks_len` is {masks_len}, there are {triangles_len} triangles"),
+                format_args!(
+                    "`masks_len` is {masks_len}, {triangles_len} triangles over {scratch_len} maps need {need} (refl_layered_prr_masks_len)"
+                ),
             ));
         }
         let outs = [
@@ -825,9 +845,7 @@ pub unsafe extern "C" fn refl_layered_prr_masks(
         let st = try_prr_masks(dst, tris, eye.into(), bounds).map_err(|e| {
             fail(
                 e,
-                format_args!(
-                    "`eye`, a triangle or a scratch record is not finite, or there are more than {PRR_MAX_MAPS} maps"
-                ),
+                format_args!("`eye`, a triangle or a scratch record is not finite"),
             )
         })?;
         // SAFETY: caller contract.
@@ -902,8 +920,8 @@ fn optional_out<T>(p: *const T, len: usize, name: &str) -> Result<usize, Error> 
 /// reversed or beyond the height, `color` not of the camera's size or
 /// given without `payload_color`, outputs overlapping each other or the
 /// inputs, a scratch not prepared for these maps (other maps, order or
-/// placement), a region id neither below `input.region_masks_len` nor
-/// `REFL_LAYERED_NO_REGION`, and the cases of `refl_layered_pass_prepare`.
+/// placement), a region id neither below the regions of
+/// `input.region_masks` nor `REFL_LAYERED_NO_REGION`, and the cases of `refl_layered_pass_prepare`.
 /// Nothing is written on error.
 ///
 /// # Safety

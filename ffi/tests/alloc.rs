@@ -2363,6 +2363,16 @@ fn layered_pass(cov: &mut Coverage) {
         }
     };
     let tris = [floor(2.0), floor(60.0)];
+    let mut words = uninit::<usize>();
+    ok!(
+        cov,
+        refl_layered_prr_masks_len(words.as_mut_ptr(), 2, len as u32)
+    );
+    err!(
+        cov,
+        refl_layered_prr_masks_len(core::ptr::null_mut(), 2, 65)
+    );
+    assert_eq!(unsafe { words.assume_init() }, 2);
     let mut masks = [0u64; 2];
     let mut prr = uninit::<refl_layered_prr_stats>();
     ok!(

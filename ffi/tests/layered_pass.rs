@@ -1286,8 +1286,10 @@ fn bad_regions_and_prr_masks_are_refused_untouched() {
     refused(Bad, &out_of_range, &d, &scratch, all, n, false);
     assert!(last_error().contains("region id"), "{}", last_error());
     regions[n - 1] = REFL_LAYERED_NO_REGION;
-    // More maps than mask bits.
-    let many = vec![e.descs[0]; REFL_LAYERED_PRR_MAX_MAPS + 1];
+    // More maps than bits of a word: two words per region, so the eight
+    // words hold four regions.
+    let many = vec![e.descs[0]; 65];
+    let few_regions: Vec<u32> = regions.iter().map(|&r| r.min(3)).collect();
     let many_inp = refl_layered_pass_input {
         maps: many.as_ptr(),
         maps_len: many.len(),
@@ -1295,12 +1297,50 @@ fn bad_regions_and_prr_masks_are_refused_untouched() {
             data: core::ptr::null(),
             ..inp.ids
         },
-        ..with_regions(&inp, &regions, &masks)
+        ..with_regions(&inp, &few_regions, &masks)
     };
-    prepare_refused(Bad, &many_inp, &d, many.len());
+    let (many_scratch, _) = prepare(&many_inp, &d);
+    let (s, _, _) = c_run(&many_inp, &d, &many_scratch, false);
+    assert_eq!(s, refl_status::Ok, "{}", last_error());
+    let mut five: Vec<u32> = few_regions.clone();
+    five[3] = 4;
+    let five_inp = refl_layered_pass_input {
+        regions: refl_image_u32 {
+            data: five.as_ptr(),
+            ..many_inp.regions
+        },
+        ..many_inp
+    };
+    refused(Bad, &five_inp, &d, &many_scratch, all, n, false);
 
-    // The mask builder: NaN eye, short masks, NULL stats, NULL triangles,
-    // too many maps; nothing written.
+    // The size query.
+    let mut words = 0usize;
+    // SAFETY: valid pointer.
+    assert_eq!(
+        unsafe { refl_layered_prr_masks_len(&mut words, 10, 65) },
+        refl_status::Ok
+    );
+    assert_eq!(words, 20);
+    // SAFETY: valid pointer.
+    assert_eq!(
+        unsafe { refl_layered_prr_masks_len(&mut words, 10, 0) },
+        refl_status::Ok
+    );
+    assert_eq!(words, 10);
+    // SAFETY: NULL is refused.
+    assert_eq!(
+        unsafe { refl_layered_prr_masks_len(core::ptr::null_mut(), 10, 65) },
+        Null
+    );
+    // SAFETY: valid pointer. (32-bit counts cannot overflow a 64-bit size_t.)
+    assert_eq!(
+        unsafe { refl_layered_prr_masks_len(&mut words, u32::MAX, 65) },
+        refl_status::Ok
+    );
+    assert_eq!(words as u64, 2 * u64::from(u32::MAX));
+
+    // The mask builder: NaN eye, short masks (one and two words per
+    // triangle), NULL stats, NULL triangles; nothing written.
     let tris = prr_triangles();
     let eye = refl_vec3 {
         x: 0.3,
@@ -1308,7 +1348,7 @@ fn bad_regions_and_prr_masks_are_refused_untouched() {
         z: 4.0,
     };
     let nan = refl_vec3 { x: f32::NAN, ..eye };
-    let many_scratch = vec![scratch[0]; REFL_LAYERED_PRR_MAX_MAPS + 1];
+    let many_scratch = vec![scratch[0]; 65];
     let cases: [(
         refl_status,
         bool,
@@ -1321,10 +1361,17 @@ fn bad_regions_and_prr_masks_are_refused_untouched() {
         (Short, false, tris.len() - 1, tris.as_ptr(), eye, &scratch),
         (Null, true, tris.len(), tris.as_ptr(), eye, &scratch),
         (Null, false, tris.len(), core::ptr::null(), eye, &scratch),
-        (Bad, false, tris.len(), tris.as_ptr(), eye, &many_scratch),
+        (
+            Short,
+            false,
+            2 * tris.len() - 1,
+            tris.as_ptr(),
+            eye,
+            &many_scratch,
+        ),
     ];
     for (want, null_stats, masks_len, tp, eye, sc) in cases {
-        let mut out = vec![7u64; tris.len()];
+        let mut out = vec![7u64; 2 * tris.len()];
         let mut st = refl_layered_prr_stats {
             regions: 55,
             ..Default::default()
