@@ -122,17 +122,32 @@ impl PrrRegions {
         out
     }
 
-    /// Per pixel of `g`, the region of the triangle it sees.
-    pub fn pixel_regions(&self, g: &GBuffer) -> Vec<u32> {
-        g.prim
-            .iter()
-            .map(|&p| {
-                self.region_of
-                    .get(p as usize)
-                    .copied()
-                    .unwrap_or(PRR_NO_REGION)
+    /// The regions a frame needs: the reflector triangles that its
+    /// reflective pixels see, in the order they first appear, and per
+    /// pixel of `g` the index of its triangle among them
+    /// ([`PRR_NO_REGION`] for pixels the pass does not trace with a
+    /// region: not reflective, or not on a reflector triangle). Only these
+    /// triangles' masks are built: a triangle no pixel sees needs none.
+    pub fn frame_regions(&self, g: &GBuffer) -> (Vec<PrrTriangle>, Vec<u32>) {
+        let mut local = vec![PRR_NO_REGION; self.triangles.len()];
+        let mut tris = Vec::new();
+        let pixels = (0..g.len())
+            .map(|i| {
+                let Some(&r) = self.region_of.get(g.prim[i] as usize) else {
+                    return PRR_NO_REGION;
+                };
+                if r == PRR_NO_REGION || !g.is_reflective(i) {
+                    return PRR_NO_REGION;
+                }
+                let slot = &mut local[r as usize];
+                if *slot == PRR_NO_REGION {
+                    *slot = tris.len() as u32;
+                    tris.push(self.triangles[r as usize]);
+                }
+                *slot
             })
-            .collect()
+            .collect();
+        (tris, pixels)
     }
 }
 
@@ -329,8 +344,9 @@ impl LayeredScene {
     /// default, object ids from the G-buffer (a pixel's ray skips its own
     /// object's map), the bounds prepared per call (per frame) and, with
     /// [`LayeredScene::regions`], the potential-reflection-region masks of
-    /// the frame's camera (seed 001 Sec. 3.2, built on `pool`) and each
-    /// pixel's region from the G-buffer's primitive id. The pixels the
+    /// the frame's camera (seed 001 Sec. 3.2, built on `pool`) for the
+    /// reflector triangles the frame's reflective pixels see, each pixel's
+    /// region from the G-buffer's primitive id ([`PrrRegions::frame_regions`]). The pixels the
     /// maps cannot answer are not listed (their texels say why).
     ///
     /// # Errors
@@ -358,14 +374,16 @@ impl LayeredScene {
             .try_with_ids(ImageView::try_new(&g.object, w, h, w)?, &ids)?;
         let (mut masks, mut pixel_regions, mut prr) = (Vec::new(), Vec::new(), None);
         if let Some(r) = &self.regions {
-            masks = vec![0u64; try_prr_masks_len(r.triangles.len(), bounds.len())?];
+            let tris;
+            (tris, pixel_regions) = r.frame_regions(g);
+            masks = vec![0u64; try_prr_masks_len(tris.len(), bounds.len())?];
             let eye = g.camera.eye();
             const CHUNK: usize = 1024;
             let words = prr_mask_words(bounds.len());
             let parts: Vec<PrrStats> = pool.install(|| {
                 masks
                     .par_chunks_mut(CHUNK * words)
-                    .zip(r.triangles.par_chunks(CHUNK))
+                    .zip(tris.par_chunks(CHUNK))
                     .map(|(m, t)| try_prr_masks(m, t, eye, &bounds))
                     .collect::<Result<_, Error>>()
             })?;
@@ -375,7 +393,6 @@ impl LayeredScene {
                 may_reflect: a.may_reflect + b.may_reflect,
                 untested: a.untested + b.untested,
             }));
-            pixel_regions = r.pixel_regions(g);
         }
         if self.regions.is_some() {
             pass = pass.try_with_regions(ImageView::try_new(&pixel_regions, w, h, w)?, &masks)?;
