@@ -78,6 +78,7 @@
 //! | 000 (TCRR) | Sec. 4.3 / 4.4 reflection-reuse strategy | `tcrr::KeyFramePolicy` |
 //! | 000 (TCRR) | Sec. 5 (future work): re-trace by local contrast | `tcrr::TcrrOptions::retrace_contrast` |
 //! | 001 (layered depth textures) | Sec. 3.2 potential reflection regions, Fig. 2 | `layered::try_prr_classify`, `layered::PrrClass` |
+//! | 001 (layered depth textures) | Sec. 3.2 regions per reflector triangle in the pass | `layered_pass::try_prr_masks`, `layered_pass::prr_radii`, `layered_pass::LayeredPass::try_with_regions` |
 //! | 001 (layered depth textures) | Sec. 3.3 orthographic face rendering | `layered::LayeredGrid::try_face_ray` |
 //! | 001 (layered depth textures) | Sec. 3.3 ray in the object's local space | `layered::LayeredGrid::try_with_transform` |
 //! | 001 (layered depth textures) | Sec. 3.3, Alg. 1 linear then binary search | `layered::LayeredMap::try_trace`, `layered::LayeredOptions` |

@@ -1592,7 +1592,9 @@ fn prr_refusals_leave_every_output_untouched() {
         center: [0.0, f32::NAN, 0.0],
         ..bounds[0]
     }];
-    let cases: [(&[PrrTriangle], Vec3, &[LayeredBound], usize, Error); 8] = [
+    // (triangles, eye, bounds, dst length, error)
+    type Case<'a> = (&'a [PrrTriangle], Vec3, &'a [LayeredBound], usize, Error);
+    let cases: [Case<'_>; 8] = [
         (
             &tris,
             Vec3::new(f32::NAN, 0.0, 0.0),

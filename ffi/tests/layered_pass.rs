@@ -1181,8 +1181,9 @@ fn c_pass_with_regions_equals_the_rust_pass_bit_for_bit() {
                 )
                 .unwrap();
             assert_eq!(c.stats, st.into());
-            for i in 0..np {
-                assert_eq!(texel_bits(&c.texels[i]), texel_bits(&out[i].into()), "{i}");
+            assert_eq!(c.texels.len(), np);
+            for (i, (a, b)) in c.texels.iter().zip(&out).enumerate() {
+                assert_eq!(texel_bits(a), texel_bits(&(*b).into()), "{i}");
             }
             skipped += c.stats.prr_skipped;
         }
@@ -1349,14 +1350,16 @@ fn bad_regions_and_prr_masks_are_refused_untouched() {
     };
     let nan = refl_vec3 { x: f32::NAN, ..eye };
     let many_scratch = vec![scratch[0]; 65];
-    let cases: [(
+    // (status, NULL stats, masks_len, triangles, eye, scratch)
+    type Case<'a> = (
         refl_status,
         bool,
         usize,
         *const refl_layered_prr_triangle,
         refl_vec3,
-        &[refl_layered_bound],
-    ); 5] = [
+        &'a [refl_layered_bound],
+    );
+    let cases: [Case<'_>; 5] = [
         (Bad, false, tris.len(), tris.as_ptr(), nan, &scratch),
         (Short, false, tris.len() - 1, tris.as_ptr(), eye, &scratch),
         (Null, true, tris.len(), tris.as_ptr(), eye, &scratch),
