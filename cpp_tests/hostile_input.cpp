@@ -3875,6 +3875,66 @@ void layered_pass_functions() {
                      REFL_STATUS_INVALID_ARGUMENT);
     }
 
+    // Potential reflection regions: the mask builder (NaN eye, short masks,
+    // NULL triangles or scratch, too many maps, an infinite normal, masks
+    // aliasing the triangles), then the pass with regions of another size,
+    // NULL masks and a region id out of range. Nothing written.
+    {
+        const refl_vec3 c0 = v3(-2, -1, 2), c1 = v3(2, -1, 2), c2 = v3(0, -1, -4), up = v3(0, 1, 0);
+        const refl_layered_prr_triangle tris[2] = {{{c0, c1, c2}, {up, up, up}},
+                                                   {{c0, c2, c1}, {up, v3(0.2f, 1, 0), v3(0, 1, 0.2f)}}};
+        uint64_t masks[2] = {0, 0};
+        const refl_vec3 eye = v3(0, 1, 3);
+        const refl_layered_prr_stats ps = expect_ok<refl_layered_prr_stats>(
+            "prr masks", [&](refl_layered_prr_stats* st) { return refl_layered_prr_masks(st, masks, 2, tris, 2, eye, &scratch, 1); });
+        CHECK(ps.regions == 2 && ps.pairs == 2);
+        auto masks_refused = [&](const char* what, refl_status want, size_t masks_len, const refl_layered_prr_triangle* t,
+                                 refl_vec3 e, const refl_layered_bound* sc, size_t sc_len) {
+            uint64_t m[2] = {0x5A5A, 0x5A5A};
+            expect<refl_layered_prr_stats>(what, want, [&](refl_layered_prr_stats* st) {
+                return refl_layered_prr_masks(st, m, masks_len, t, 2, e, sc, sc_len);
+            });
+            CHECK(m[0] == 0x5A5A && m[1] == 0x5A5A);
+        };
+        masks_refused("prr masks NaN eye", REFL_STATUS_INVALID_ARGUMENT, 2, tris, v3(kNaN, 0, 0), &scratch, 1);
+        masks_refused("prr masks short", REFL_STATUS_INSUFFICIENT_SIZE, 1, tris, eye, &scratch, 1);
+        masks_refused("prr masks NULL triangles", REFL_STATUS_NULL_POINTER, 2, nullptr, eye, &scratch, 1);
+        masks_refused("prr masks NULL scratch", REFL_STATUS_NULL_POINTER, 2, tris, eye, nullptr, 1);
+        // 65 maps: two words per triangle.
+        std::vector<refl_layered_bound> many(65, scratch);
+        masks_refused("prr masks short for 65 maps", REFL_STATUS_INSUFFICIENT_SIZE, 2, tris, eye, many.data(), many.size());
+        CHECK_EQ(expect_ok<size_t>("prr masks len", [&](size_t* o) { return refl_layered_prr_masks_len(o, 2, 65); }),
+                 size_t(4));
+        CHECK_STATUS(refl_layered_prr_masks_len(nullptr, 2, 65), REFL_STATUS_NULL_POINTER);
+        refl_layered_prr_triangle bad[2] = {tris[0], tris[1]};
+        bad[1].normals[2].y = kInf;
+        masks_refused("prr masks infinite normal", REFL_STATUS_INVALID_ARGUMENT, 2, bad, eye, &scratch, 1);
+        {
+            refl_layered_prr_stats st{};
+            CHECK_STATUS(refl_layered_prr_masks(&st, reinterpret_cast<uint64_t*>(bad), 2, bad, 2, eye, &scratch, 1),
+                         REFL_STATUS_INVALID_ARGUMENT);
+        }
+        std::vector<uint32_t> regions(n, 0u);
+        regions[1] = REFL_LAYERED_NO_REGION;
+        I ri = in;
+        ri.regions = {regions.data(), n, w, h, w};
+        ri.region_masks = masks;
+        ri.region_masks_len = 2;
+        const refl_layered_pass_stats rs = expect_ok<refl_layered_pass_stats>("layered trace regions", [&](refl_layered_pass_stats* st) {
+            std::vector<refl_layered_pass_texel> out(n);
+            return refl_layered_trace_rows(st, out.data(), n, {nullptr, 0, 0, 0, 0}, nullptr, 0, &ri, &def, &scratch, 1, all);
+        });
+        CHECK(rs.traced == ok.traced && rs.hits == ok.hits);
+        I other = ri;
+        other.regions.width = w - 1;
+        trace("layered trace regions of another size", REFL_STATUS_INVALID_ARGUMENT, &other, &def, &scratch, 1, all, n);
+        I null_masks = ri;
+        null_masks.region_masks = nullptr;
+        trace("layered trace NULL region masks", REFL_STATUS_NULL_POINTER, &null_masks, &def, &scratch, 1, all, n);
+        regions[n - 1] = 2;
+        trace("layered trace region id out of range", REFL_STATUS_INVALID_ARGUMENT, &ri, &def, &scratch, 1, all, n);
+    }
+
     // Listed rays.
     const refl_host_ray good{1, 2, v3(0, 1, 3), v3(0, 0, -1), 0.0f, kInf, 0};
     auto listed = [&](const char* what, refl_status want, std::vector<refl_host_ray> rays, size_t out_len,

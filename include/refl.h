@@ -276,6 +276,14 @@
 #define REFL_LAYERED_EXIT_ENTRY_TEXELS 2.0
 #endif
 
+#if (defined(REFL_FEATURE_LAYERED) && (defined(REFL_FEATURE_DEPTH_IMAGE) || defined(REFL_FEATURE_HIZ)))
+/**
+ * The region id of a pixel without a region
+ * (`refl_layered_pass_input.regions`): every map applies.
+ */
+#define REFL_LAYERED_NO_REGION 4294967295
+#endif
+
 #if (defined(REFL_FEATURE_DEPTH_IMAGE) || defined(REFL_FEATURE_HIZ))
 /**
  * The largest `refl_extrapolate_options.radius`.
@@ -4884,6 +4892,27 @@ typedef struct refl_layered_pass_input {
      * Number of ids readable from `map_ids`.
      */
     size_t map_ids_len;
+    /**
+     * Optional region per pixel (the camera's size; absent when `data` is
+     * NULL): the index of the reflector triangle the pixel's surface
+     * point lies on, into `region_masks` (the triangles given to
+     * `refl_layered_prr_masks`), or `REFL_LAYERED_NO_REGION` (every map
+     * applies). Read by `refl_layered_trace_rows` only (listed rays have the host's
+     * directions, not the mirror rays the masks were made for).
+     */
+    struct refl_image_u32 regions;
+    /**
+     * With `regions`: per region the maps that may reflect on it, as
+     * `refl_layered_prr_masks` writes them: `n = ceil(maps_len / 64)`
+     * words (at least 1) per region, bit `k % 64` of word `k / 64` for map
+     * k; pixel (x, y) with region r traces map k only if that bit of
+     * `region_masks[r * n + k / 64]` is set. Ignored without `regions`.
+     */
+    const uint64_t *region_masks;
+    /**
+     * Number of words readable from `region_masks`.
+     */
+    size_t region_masks_len;
 } refl_layered_pass_input;
 #endif
 
@@ -4907,6 +4936,50 @@ typedef struct refl_layered_bound {
      */
     uint32_t key;
 } refl_layered_bound;
+#endif
+
+#if (defined(REFL_FEATURE_LAYERED) && (defined(REFL_FEATURE_DEPTH_IMAGE) || defined(REFL_FEATURE_HIZ)))
+/**
+ * Counts of one `refl_layered_prr_masks` call.
+ */
+typedef struct refl_layered_prr_stats {
+    /**
+     * Triangles (regions) written.
+     */
+    uint64_t regions;
+    /**
+     * (triangle, map) pairs.
+     */
+    uint64_t pairs;
+    /**
+     * Pairs whose bit is set (the map may reflect on the triangle).
+     */
+    uint64_t may_reflect;
+    /**
+     * Of those, pairs set untested (a degenerate triangle, normals 90
+     * degrees or more from its plane).
+     */
+    uint64_t untested;
+} refl_layered_prr_stats;
+#endif
+
+#if (defined(REFL_FEATURE_LAYERED) && (defined(REFL_FEATURE_DEPTH_IMAGE) || defined(REFL_FEATURE_HIZ)))
+/**
+ * One reflector triangle as a region of `refl_layered_prr_masks`: its
+ * world corners and the vertex normals the G-buffer's shading normals
+ * interpolate on it (any non-zero length, consistently oriented; for flat
+ * shading the face normal three times).
+ */
+typedef struct refl_layered_prr_triangle {
+    /**
+     * World corners.
+     */
+    struct refl_vec3 corners[3];
+    /**
+     * Vertex normals.
+     */
+    struct refl_vec3 normals[3];
+} refl_layered_prr_triangle;
 #endif
 
 #if (defined(REFL_FEATURE_LAYERED) && (defined(REFL_FEATURE_DEPTH_IMAGE) || defined(REFL_FEATURE_HIZ)))
@@ -4944,6 +5017,19 @@ typedef struct refl_layered_pass_stats {
      * Buffer reads of the kernel, summed.
      */
     uint64_t fetches;
+    /**
+     * (ray, map) pairs the ray's bounding-sphere test rejected (no
+     * kernel trace).
+     */
+    uint64_t sphere_culled;
+    /**
+     * (ray, map) pairs the pixel's region mask skipped before the sphere
+     * test (0 without regions): the lookups the potential reflection
+     * regions save. The masks are conservative: `sphere_culled +
+     * prr_skipped` is the `sphere_culled` of the same call without
+     * regions, every other count and every texel are the same.
+     */
+    uint64_t prr_skipped;
 } refl_layered_pass_stats;
 #endif
 
@@ -8336,10 +8422,11 @@ refl_status refl_layered_pass_scratch_len(size_t *out_len,
  *
  * Returns `REFL_STATUS_NULL_POINTER` if `input`, `options`, a required
  * G-buffer image, a map buffer, `input.maps` or (with ids)
- * `input.map_ids` with a non-zero length, or `scratch` with a non-zero
- * count of maps is NULL; `REFL_STATUS_INSUFFICIENT_SIZE` if `scratch_len`
- * is below the number of maps, `input.map_ids_len` below it, or an
- * image's or a map buffer's `len` is too small;
+ * `input.map_ids` or (with regions) `input.region_masks` with a non-zero
+ * length, or `scratch` with a non-zero count of maps is NULL;
+ * `REFL_STATUS_INSUFFICIENT_SIZE` if `scratch_len` is below the number of
+ * maps, `input.map_ids_len` below it, or an image's or a map buffer's
+ * `len` is too small;
  * `REFL_STATUS_INVALID_ARGUMENT` for an option out of range, an unknown
  * convention or normal space, an image not of the camera's size, a map
  * whose grid or stamp does not match, a map too far out for f32, a
@@ -8356,6 +8443,63 @@ refl_status refl_layered_pass_prepare(struct refl_layered_bound *scratch,
                                       size_t scratch_len,
                                       const struct refl_layered_pass_input *input,
                                       const struct refl_layered_pass_options *options);
+#endif
+
+#if (defined(REFL_FEATURE_LAYERED) && (defined(REFL_FEATURE_DEPTH_IMAGE) || defined(REFL_FEATURE_HIZ)))
+/**
+ * Size query: the `uint64_t` words of the masks of `triangles` reflector
+ * triangles over `maps` maps (`triangles * ceil(maps / 64)`, at least one
+ * word per triangle) into `*out_len`: the `masks_len` of
+ * `refl_layered_prr_masks` and the `region_masks_len` of its regions.
+ *
+ * Returns `REFL_STATUS_NULL_POINTER` if `out_len` is NULL;
+ * `REFL_STATUS_INVALID_ARGUMENT` if the count overflows `size_t` (only
+ * where `size_t` has 32 bits).
+ *
+ * # Safety
+ * `out_len` NULL or writable.
+ */
+refl_status refl_layered_prr_masks_len(size_t *out_len,
+                                       uint32_t triangles,
+                                       uint32_t maps);
+#endif
+
+#if (defined(REFL_FEATURE_LAYERED) && (defined(REFL_FEATURE_DEPTH_IMAGE) || defined(REFL_FEATURE_HIZ)))
+/**
+ * The potential-reflection-region masks of seed 001 Sec. 3.2 (Fig. 2(a))
+ * for `input.regions`: for each reflector triangle `triangles[t]`, with
+ * `n = ceil(scratch_len / 64)` words per triangle (at least 1), bit
+ * `k % 64` of `masks[t * n + k / 64]` is set if map k (of the `scratch`
+ * that `refl_layered_pass_prepare` wrote for this frame, `scratch_len`
+ * maps) may reflect on the triangle for a camera at `eye`: the seed's cone test
+ * (`refl_layered_prr_classify`) against the map's bounding sphere,
+ * widened so that the masks keep every map the pass's per-ray sphere test
+ * can pass for a pixel on the triangle (interpolated normals, rounding;
+ * refl-core's `prr_radii` documents the widening). Bits of no map are 0.
+ * Call it per frame after `refl_layered_pass_prepare`.
+ *
+ * Returns `REFL_STATUS_NULL_POINTER` if `out_stats` is NULL, or `masks`,
+ * `triangles` or `scratch` with a non-zero length;
+ * `REFL_STATUS_INSUFFICIENT_SIZE` if `masks_len` is below
+ * `refl_layered_prr_masks_len`; `REFL_STATUS_INVALID_ARGUMENT` for a
+ * non-finite `eye`, corner or normal, a count that overflows,
+ * a record of `scratch` with a non-finite center or radius (or a negative
+ * radius), a misaligned pointer, or `masks` overlapping an input. Nothing
+ * is written on error.
+ *
+ * # Safety
+ * `out_stats` NULL or writable; `masks` NULL or writable for `masks_len`
+ * values; `triangles` NULL or readable for `triangles_len` records;
+ * `scratch` NULL or readable for `scratch_len` records.
+ */
+refl_status refl_layered_prr_masks(struct refl_layered_prr_stats *out_stats,
+                                   uint64_t *masks,
+                                   size_t masks_len,
+                                   const struct refl_layered_prr_triangle *triangles,
+                                   size_t triangles_len,
+                                   struct refl_vec3 eye,
+                                   const struct refl_layered_bound *scratch,
+                                   size_t scratch_len);
 #endif
 
 #if (defined(REFL_FEATURE_LAYERED) && (defined(REFL_FEATURE_DEPTH_IMAGE) || defined(REFL_FEATURE_HIZ)))
@@ -8388,8 +8532,9 @@ refl_status refl_layered_pass_prepare(struct refl_layered_bound *scratch,
  * reversed or beyond the height, `color` not of the camera's size or
  * given without `payload_color`, outputs overlapping each other or the
  * inputs, a scratch not prepared for these maps (other maps, order or
- * placement), and the cases of `refl_layered_pass_prepare`. Nothing is
- * written on error.
+ * placement), a region id neither below the regions of
+ * `input.region_masks` nor `REFL_LAYERED_NO_REGION`, and the cases of `refl_layered_pass_prepare`.
+ * Nothing is written on error.
  *
  * # Safety
  * `out_stats` NULL or writable; `out` NULL or writable for `out_len`

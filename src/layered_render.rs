@@ -5,6 +5,15 @@
 //! apply, the nearest hit), and the measurements of `refl report`'s
 //! `layered` rows.
 //!
+//! Which maps a pixel searches is decided per reflector triangle first
+//! (seed 001 Sec. 3.2, the potential reflection regions): every frame the
+//! reflective objects' triangles get a mask of the maps that may reflect on
+//! them ([`refl_core::try_prr_masks`]), and each pixel, through the
+//! G-buffer's primitive id, searches only its triangle's maps
+//! ([`refl_core::LayeredPass::try_with_regions`]). The masks are
+//! conservative, so the hits are those of the pass without them; what they
+//! save is counted ([`LayeredPassStats::prr_skipped`]).
+//!
 //! Reflected objects are the scene's compact, closed, non-reflective
 //! objects ([`reflected_objects`]): seed 001 represents the objects seen in
 //! a curved reflector by layered depth maps and leaves the surroundings
@@ -32,9 +41,11 @@ use glam::Vec3;
 use rayon::prelude::*;
 use refl_core::layered::{LayeredMap, LayeredOptions};
 use refl_core::{
-    layered_pass_scratch_len, try_prepare_layered_pass, DepthConvention, DepthImage, Error,
-    GBuffer as CoreGBuffer, ImageView, ImageViewMut, LayeredBound, LayeredPass, LayeredPassOptions,
-    LayeredPassStats, LayeredPassStatus, LayeredPassTexel, NormalSpace, RowRange,
+    layered_pass_scratch_len, prr_mask_words, try_prepare_layered_pass, try_prr_masks,
+    try_prr_masks_len, DepthConvention, DepthImage, Error, GBuffer as CoreGBuffer, ImageView,
+    ImageViewMut, LayeredBound, LayeredPass, LayeredPassOptions, LayeredPassStats,
+    LayeredPassStatus, LayeredPassTexel, NormalSpace, PrrStats, PrrTriangle, RowRange,
+    PRR_NO_REGION,
 };
 use std::sync::Arc;
 
@@ -72,6 +83,72 @@ pub struct LayeredTraces {
     pub texels: Vec<LayeredPassTexel>,
     /// Counts summed over the bands.
     pub stats: LayeredPassStats,
+    /// Counts of the frame's potential-reflection-region masks (`None`
+    /// when the pass ran without regions).
+    pub prr: Option<PrrStats>,
+}
+
+/// The reflector triangles of a scene as regions of the layered pass
+/// (seed 001 Sec. 3.2): every triangle of a reflective object, with the
+/// vertex normals the G-buffer interpolates, and per scene triangle its
+/// region.
+#[derive(Clone, Debug, Default)]
+pub struct PrrRegions {
+    /// The regions' triangles (world space).
+    pub triangles: Vec<PrrTriangle>,
+    /// Per scene triangle, its region ([`PRR_NO_REGION`] for triangles of
+    /// objects that are not reflective).
+    pub region_of: Vec<u32>,
+}
+
+impl PrrRegions {
+    /// The reflective objects' triangles of `scene`.
+    pub fn new(scene: &Scene) -> Self {
+        let mut out = PrrRegions {
+            triangles: Vec::new(),
+            region_of: vec![PRR_NO_REGION; scene.tris.len()],
+        };
+        for (t, tri) in scene.tris.iter().enumerate() {
+            let o = scene.tri_object[t] as usize;
+            if !scene.materials[scene.objects[o].material as usize].is_reflective() {
+                continue;
+            }
+            out.region_of[t] = out.triangles.len() as u32;
+            out.triangles.push(PrrTriangle {
+                corners: tri.map(|p| p.to_array()),
+                normals: scene.normals[t].map(|n| n.to_array()),
+            });
+        }
+        out
+    }
+
+    /// The regions a frame needs: the reflector triangles that its
+    /// reflective pixels see, in the order they first appear, and per
+    /// pixel of `g` the index of its triangle among them
+    /// ([`PRR_NO_REGION`] for pixels the pass does not trace with a
+    /// region: not reflective, or not on a reflector triangle). Only these
+    /// triangles' masks are built: a triangle no pixel sees needs none.
+    pub fn frame_regions(&self, g: &GBuffer) -> (Vec<PrrTriangle>, Vec<u32>) {
+        let mut local = vec![PRR_NO_REGION; self.triangles.len()];
+        let mut tris = Vec::new();
+        let pixels = (0..g.len())
+            .map(|i| {
+                let Some(&r) = self.region_of.get(g.prim[i] as usize) else {
+                    return PRR_NO_REGION;
+                };
+                if r == PRR_NO_REGION || !g.is_reflective(i) {
+                    return PRR_NO_REGION;
+                }
+                let slot = &mut local[r as usize];
+                if *slot == PRR_NO_REGION {
+                    *slot = tris.len() as u32;
+                    tris.push(self.triangles[r as usize]);
+                }
+                *slot
+            })
+            .collect();
+        (tris, pixels)
+    }
 }
 
 /// The G-buffer images the layered pass reads, in refl-core's layout
@@ -207,6 +284,9 @@ pub struct LayeredScene {
     /// The global environment for rays that leave every map (see
     /// [`Surroundings`]); `None` leaves them unhandled.
     pub surroundings: Option<Arc<Surroundings>>,
+    /// The scene's reflector triangles as regions of the pass (seed 001
+    /// Sec. 3.2); `None` traces every pixel against every map.
+    pub regions: Option<PrrRegions>,
 }
 
 impl LayeredScene {
@@ -226,10 +306,12 @@ impl LayeredScene {
             .into_iter()
             .map(|o| layered::build(scene, o, face_res, layers, pool))
             .collect::<Result<Vec<_>, _>>()?;
+        let regions = Some(PrrRegions::new(scene));
         Ok(Self {
             objects,
             build_ms: start.elapsed().as_secs_f64() * 1e3,
             surroundings: None,
+            regions,
         })
     }
 
@@ -260,8 +342,12 @@ impl LayeredScene {
     /// (`frame` its images) against every map with the kernel settings
     /// `params`, in row bands on `pool`: the pass's options otherwise
     /// default, object ids from the G-buffer (a pixel's ray skips its own
-    /// object's map), the bounds prepared per call (per frame). The pixels
-    /// the maps cannot answer are not listed (their texels say why).
+    /// object's map), the bounds prepared per call (per frame) and, with
+    /// [`LayeredScene::regions`], the potential-reflection-region masks of
+    /// the frame's camera (seed 001 Sec. 3.2, built on `pool`) for the
+    /// reflector triangles the frame's reflective pixels see, each pixel's
+    /// region from the G-buffer's primitive id ([`PrrRegions::frame_regions`]). The pixels the
+    /// maps cannot answer are not listed (their texels say why).
     ///
     /// # Errors
     /// The pass's errors (bad parameters, buffers that do not match the
@@ -284,8 +370,33 @@ impl LayeredScene {
         };
         let mut bounds = vec![LayeredBound::default(); layered_pass_scratch_len(&maps[..])];
         try_prepare_layered_pass(&mut bounds, &gb, &maps[..], &options)?;
-        let pass = LayeredPass::try_new(gb, &maps[..], options, &bounds)?
+        let mut pass = LayeredPass::try_new(gb, &maps[..], options, &bounds)?
             .try_with_ids(ImageView::try_new(&g.object, w, h, w)?, &ids)?;
+        let (mut masks, mut pixel_regions, mut prr) = (Vec::new(), Vec::new(), None);
+        if let Some(r) = &self.regions {
+            let tris;
+            (tris, pixel_regions) = r.frame_regions(g);
+            masks = vec![0u64; try_prr_masks_len(tris.len(), bounds.len())?];
+            let eye = g.camera.eye();
+            const CHUNK: usize = 1024;
+            let words = prr_mask_words(bounds.len());
+            let parts: Vec<PrrStats> = pool.install(|| {
+                masks
+                    .par_chunks_mut(CHUNK * words)
+                    .zip(tris.par_chunks(CHUNK))
+                    .map(|(m, t)| try_prr_masks(m, t, eye, &bounds))
+                    .collect::<Result<_, Error>>()
+            })?;
+            prr = Some(parts.iter().fold(PrrStats::default(), |a, b| PrrStats {
+                regions: a.regions + b.regions,
+                pairs: a.pairs + b.pairs,
+                may_reflect: a.may_reflect + b.may_reflect,
+                untested: a.untested + b.untested,
+            }));
+        }
+        if self.regions.is_some() {
+            pass = pass.try_with_regions(ImageView::try_new(&pixel_regions, w, h, w)?, &masks)?;
+        }
         let mut texels = vec![LayeredPassTexel::default(); g.len()];
         let band = PYRAMID_BAND as usize * w as usize;
         let bands: Vec<LayeredPassStats> = pool.install(|| {
@@ -305,16 +416,8 @@ impl LayeredScene {
         })?;
         let stats = bands
             .iter()
-            .fold(LayeredPassStats::default(), |a, b| LayeredPassStats {
-                traced: a.traced + b.traced,
-                hits: a.hits + b.hits,
-                sky: a.sky + b.sky,
-                host_rays: a.host_rays + b.host_rays,
-                host_rays_written: a.host_rays_written + b.host_rays_written,
-                kernel_traces: a.kernel_traces + b.kernel_traces,
-                fetches: a.fetches + b.fetches,
-            });
-        Ok(LayeredTraces { texels, stats })
+            .fold(LayeredPassStats::default(), |a, b| a.sum(b));
+        Ok(LayeredTraces { texels, stats, prr })
     }
 }
 

@@ -154,6 +154,25 @@ fn quick_report_writes_summary_plot_and_images() {
     assert!(num(dilated, "mean_abs_255") > num(pass, "mean_abs_255"));
     assert!(num(dilated, "mean_abs_255") < 40.0);
 
+    // The layered rows count the map lookups (a ray's sphere test of one
+    // map) with and without the potential reflection regions of seed 001
+    // Sec. 3.2: the regions skip some, never all, and the kernel traces
+    // they leave are the same (tests/screen.rs holds the texels equal).
+    for s in ["room", "concave"] {
+        let r = find(s, "layered", "face_res=64;layers=4");
+        let (with, without) = (
+            num(r, "map_lookups_prr_per_ray"),
+            num(r, "map_lookups_per_ray"),
+        );
+        assert!(0.0 < with && with < without, "{s}: {with} vs {without}");
+        let share = num(r, "prr_skipped_share");
+        assert!(share > 0.0 && share < 1.0, "{s}: {share}");
+        assert!((1.0 - with / without - share).abs() < 0.01, "{s}");
+        assert!(num(r, "prr_skipped") > 0.0);
+        let region = num(r, "prr_region_share");
+        assert!(region > 0.0 && region < 1.0, "{s}: {region}");
+    }
+
     // Concave: no planar mirror and no glossy surface, so planar-mirror is
     // skipped and the reference needs no sample-count sweep.
     assert!(rows

@@ -12,8 +12,11 @@
 //!
 //! 1. [`layered_pass_scratch_len`] and [`try_prepare_layered_pass`]: the
 //!    options and every map validated, and per map its world bounding
-//!    sphere ([`LayeredBound`]) in caller memory;
-//! 2. [`LayeredPass::try_new`] (and [`LayeredPass::try_with_ids`]) over the
+//!    sphere ([`LayeredBound`]) in caller memory; optionally
+//!    [`try_prr_masks`]: per reflector triangle, the maps that may reflect
+//!    on it (seed 001 Sec. 3.2);
+//! 2. [`LayeredPass::try_new`] (and [`LayeredPass::try_with_ids`],
+//!    [`LayeredPass::try_with_regions`]) over the
 //!    G-buffer, the maps and the bounds, then [`LayeredPass::try_run`] or
 //!    [`LayeredPass::try_run_rows`] over row bands from its threads, or
 //!    [`LayeredPass::try_trace_rays`] over a list of its own rays (the
@@ -100,7 +103,15 @@
 //!    decides which reflector regions may show it). The sphere holds the
 //!    map's box with a margin ([`BOUND_SLACK`]), so a ray it rejects is one
 //!    the kernel reports as [`LayeredMiss::MissedBox`] after no work: the
-//!    cull changes the cost, never the result.
+//!    cull changes the cost, never the result. With regions
+//!    ([`LayeredPass::try_with_regions`]) the seed's own, per-triangle form
+//!    of Sec. 3.2 (Fig. 2(a)) comes first: a pixel traces only the maps
+//!    its reflector triangle's mask holds ([`try_prr_masks`], once per
+//!    frame per triangle and map instead of once per ray and map). The
+//!    masks are widened to keep every map whose sphere test a pixel's ray
+//!    of that triangle can pass ([`prr_radii`]), so regions too change the
+//!    cost only: [`LayeredPassStats::prr_skipped`] counts the sphere tests
+//!    they save, [`LayeredPassStats::sphere_culled`] the ones left.
 //! 3. **Trace** ([`LayeredMap::try_trace`], seed 001 Sec. 3.3-3.4 and
 //!    Algorithm 1, with [`LayeredPassOptions::trace`]) of the ray from
 //!    `P + t_start r`, the maps in their order: the first up to
@@ -135,7 +146,10 @@
 //! caller's slice; rays past its end are counted, and
 //! [`LayeredPass::host_ray`] gives any pixel's ray again.
 
-use crate::layered::{Face, LayeredGrid, LayeredHit, LayeredMap, LayeredMiss, LayeredTrace};
+use crate::layered::{
+    try_prr_classify, Face, LayeredGrid, LayeredHit, LayeredMap, LayeredMiss, LayeredTrace,
+    PrrTriangle,
+};
 use crate::ssr::Setup;
 use crate::{
     Error, GBuffer, HostRay, ImageView, ImageViewMut, LayeredOptions, MirrorOptions, MirrorPass,
@@ -351,6 +365,34 @@ pub struct LayeredPassStats {
     pub kernel_traces: u64,
     /// Buffer reads of the kernel, summed.
     pub fetches: u64,
+    /// (ray, map) pairs whose map the ray's bounding-sphere test rejected
+    /// (module docs, step 2): no kernel trace.
+    pub sphere_culled: u64,
+    /// (ray, map) pairs the pixel's region mask skipped before the sphere
+    /// test ([`LayeredPass::try_with_regions`], module docs, step 2): the
+    /// lookups seed 001 Sec. 3.2's test saves. The masks are conservative,
+    /// so every such pair is one the sphere test would have rejected:
+    /// `sphere_culled + prr_skipped` of a run with regions is
+    /// `sphere_culled` of the same run without them, and every other count
+    /// and every texel are the same.
+    pub prr_skipped: u64,
+}
+
+impl LayeredPassStats {
+    /// The counts of two runs (bands) added.
+    pub fn sum(&self, o: &Self) -> Self {
+        Self {
+            traced: self.traced + o.traced,
+            hits: self.hits + o.hits,
+            sky: self.sky + o.sky,
+            host_rays: self.host_rays + o.host_rays,
+            host_rays_written: self.host_rays_written + o.host_rays_written,
+            kernel_traces: self.kernel_traces + o.kernel_traces,
+            fetches: self.fetches + o.fetches,
+            sphere_culled: self.sphere_culled + o.sphere_culled,
+            prr_skipped: self.prr_skipped + o.prr_skipped,
+        }
+    }
 }
 
 /// The world bounding sphere of one map and the key of the map it was
@@ -509,6 +551,205 @@ pub fn try_prepare_layered_pass<M: LayeredMapSet + ?Sized>(
     Ok(())
 }
 
+/// The `u64` words of one region's mask for `maps` maps (bit `k % 64` of
+/// word `k / 64` for map `k`): `ceil(maps / 64)`, at least 1.
+pub const fn prr_mask_words(maps: usize) -> usize {
+    if maps == 0 {
+        1
+    } else {
+        maps.div_ceil(64)
+    }
+}
+
+/// Elements (`u64` words) of the masks of `triangles` regions over `maps`
+/// maps: `triangles * prr_mask_words(maps)` ([`try_prr_masks`],
+/// [`LayeredPass::try_with_regions`]).
+///
+/// # Errors
+/// [`Error::InvalidArgument`] if the count overflows `usize`.
+pub fn try_prr_masks_len(triangles: usize, maps: usize) -> Result<usize, Error> {
+    triangles
+        .checked_mul(prr_mask_words(maps))
+        .ok_or(Error::InvalidArgument)
+}
+
+/// The region id of a pixel without a region
+/// ([`LayeredPass::try_with_regions`]): every map applies.
+pub const PRR_NO_REGION: u32 = u32::MAX;
+
+/// The radii of one (reflector triangle, map) pair's potential-reflection
+/// test in [`try_prr_masks`] ([`prr_radii`]).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct PrrRadii {
+    /// The radius of the sphere about the map's center whose cone
+    /// [`try_prr_classify`] tests (seed 001 Sec. 3.2, Fig. 2(a)).
+    pub cone: f32,
+    /// The map applies whatever the cone says when the triangle may come
+    /// this close to the map's center: its bounding box and its plane both
+    /// lie within `near` of the center.
+    pub near: f32,
+}
+
+/// The radii [`try_prr_masks`] tests triangle `tri` against the map of
+/// bound `b` with, for a camera at `eye`, or `None` where the map applies
+/// to the triangle untested ([`PrrTriangle::normal_spread_sin`] is `None`,
+/// or a radius is not finite in f32). In f64, rounded up.
+///
+/// Seed 001 Sec. 3.2 asks whether the reflection of the object's bounding
+/// sphere (center `O`, radius `R`) about the triangle's plane can show on
+/// the triangle: the cone from the camera `C` tangent to the mirrored
+/// sphere (Fig. 2(a)) meets the triangle. The pass traces a map only for a
+/// ray that passes the sphere test of module docs' step 2 (`may_meet`),
+/// so the masks must keep every map whose *padded* sphere the pass's ray
+/// may meet; three widenings of ours make the seed's test conservative for
+/// that (`kappa` = [`BOUND_SLACK`], `V_i` the corners, `D = max |V_i - O|`,
+/// `Q = max |V_i|`):
+///
+/// 1. **The pass's pad.** The sphere test widens `R` by `kappa (|o| +
+///    |O - o|)`, `o` the ray's start, which lies up to `t_start` along the
+///    ray from the surface point `P`; a start beyond the sphere fails the
+///    test, so `t_start <= (1 + 3 kappa)(|P - O| + R + kappa |P|)` and the
+///    pad is at most `pad = R + 1.01 kappa (2 R + Q + 3 D)`.
+/// 2. **Shading normals.** The pass reflects the view ray about the
+///    G-buffer's normal, within `delta` of the plane's
+///    ([`PrrTriangle::normal_spread_sin`]); the two mirror directions are
+///    at most `2 sin delta` apart (`|H_n v - H_f v| <= 2 |n n^T - f f^T|
+///    = 2 sin delta`, `H` the appendix's mirror), so a ray meeting the
+///    sphere within `s <= D + pad` of `P` has a plane-mirror ray that
+///    passes within `pad + 2 sin(delta) (D + pad)` of `O`.
+/// 3. **Rounding.** The pass's surface point comes back from depth and
+///    its direction is rounded to f32, and [`try_prr_classify`] runs in f32:
+///    `m = kappa (|C| + Q + |O| + D + pad)` more, far above both (about
+///    `1e-6` of the same lengths).
+///
+/// `cone = pad + 2 sin(delta) (D + pad) + m`. The sphere test also passes a
+/// ray whose start lies behind the sphere's center within `pad` (its
+/// nearest point then is its start, up to `sqrt 2 pad` from `O`): a
+/// triangle that may come that close keeps the map,
+/// `near = 1.5 pad + m`.
+pub fn prr_radii(tri: &PrrTriangle, eye: Vec3, b: &LayeredBound) -> Option<PrrRadii> {
+    let kappa = BOUND_SLACK;
+    let sin_delta = tri.normal_spread_sin()?;
+    let o = DVec3::from_array(b.center.map(f64::from));
+    let r = f64::from(b.radius);
+    let v = tri.corners.map(|c| DVec3::from_array(c.map(f64::from)));
+    let q = v.iter().fold(0.0f64, |m, p| m.max(p.length()));
+    let d = v.iter().fold(0.0f64, |m, p| m.max((*p - o).length()));
+    let pad = r + 1.01 * kappa * (2.0 * r + q + 3.0 * d);
+    let m = kappa * (eye.as_dvec3().length() + q + o.length() + d + pad);
+    let cone = pad + 2.0 * sin_delta * (d + pad) + m;
+    let near = 1.5 * pad + m;
+    let up = |x: f64| {
+        let f = (x * (1.0 + 1e-6)) as f32;
+        f.is_finite().then_some(f)
+    };
+    Some(PrrRadii {
+        cone: up(cone)?,
+        near: up(near)?,
+    })
+}
+
+/// `true` if the triangle's bounding box and its plane both lie within
+/// `near` of `o` ([`PrrRadii::near`]), in f64.
+fn prr_near(tri: &PrrTriangle, o: Vec3, near: f32) -> bool {
+    let v = tri.corners.map(|c| DVec3::from_array(c.map(f64::from)));
+    let o = o.as_dvec3();
+    let lo = v[0].min(v[1]).min(v[2]);
+    let hi = v[0].max(v[1]).max(v[2]);
+    let box_dist = (o - o.clamp(lo, hi)).length();
+    let n = (v[1] - v[0]).cross(v[2] - v[0]).normalize_or_zero();
+    let plane_dist = n.dot(o - v[0]).abs();
+    let near = f64::from(near);
+    box_dist <= near && plane_dist <= near
+}
+
+/// Counts of one [`try_prr_masks`] call.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct PrrStats {
+    /// Triangles (regions) written.
+    pub regions: u64,
+    /// (triangle, map) pairs: `regions` times the maps.
+    pub pairs: u64,
+    /// Pairs whose bit is set (the map may reflect on the triangle).
+    pub may_reflect: u64,
+    /// Of those, pairs set untested ([`prr_radii`] is `None`: a
+    /// degenerate triangle, normals 90 degrees or more from its plane).
+    pub untested: u64,
+}
+
+/// The potential-reflection-region masks of seed 001 Sec. 3.2 (Fig. 2(a))
+/// for the layered pass's regions ([`LayeredPass::try_with_regions`]):
+/// for each reflector triangle `triangles[t]` (world space, with the
+/// vertex normals the G-buffer interpolates on it), with `n =`
+/// [`prr_mask_words`]`(bounds.len())` words per triangle, bit `k % 64` of
+/// `dst[t * n + k / 64]` is set if the map of `bounds[k]` (the bounds [`try_prepare_layered_pass`]
+/// wrote for this frame) may reflect on the triangle for a camera at
+/// `eye`: [`try_prr_classify`] with the map's center and
+/// [`PrrRadii::cone`] says [`PrrClass::may_reflect`](crate::PrrClass::may_reflect)
+/// (or refuses the triangle as degenerate), or the triangle comes within
+/// [`PrrRadii::near`] of the center, or [`prr_radii`] is `None`. Bits of
+/// no map are 0. Once per frame (the camera moved) and
+/// per placement of the maps.
+///
+/// The masks are conservative (see [`prr_radii`]): a pixel whose surface
+/// point lies on triangle `t` (its normal one the vertex normals
+/// interpolate) traces, with its mask, every map it traces without it.
+///
+/// # Errors
+/// * [`Error::InvalidArgument`]: a non-finite `eye`, corner or normal; a
+///   bound whose center is not finite or whose radius is not finite and
+///   `>= 0`; a length that overflows ([`try_prr_masks_len`]).
+/// * [`Error::InsufficientSize`]: `dst` shorter than
+///   [`try_prr_masks_len`]`(triangles.len(), bounds.len())`.
+///
+/// Nothing is written on error.
+pub fn try_prr_masks(
+    dst: &mut [u64],
+    triangles: &[PrrTriangle],
+    eye: Vec3,
+    bounds: &[LayeredBound],
+) -> Result<PrrStats, Error> {
+    let bound_ok = |b: &LayeredBound| {
+        b.center.iter().all(|c| c.is_finite()) && b.radius.is_finite() && b.radius >= 0.0
+    };
+    if !eye.is_finite()
+        || !bounds.iter().all(bound_ok)
+        || !triangles.iter().all(PrrTriangle::is_finite)
+    {
+        return Err(Error::InvalidArgument);
+    }
+    if dst.len() < try_prr_masks_len(triangles.len(), bounds.len())? {
+        return Err(Error::InsufficientSize);
+    }
+    let words = prr_mask_words(bounds.len());
+    let mut stats = PrrStats::default();
+    for (mask, tri) in dst.chunks_exact_mut(words).zip(triangles) {
+        mask.fill(0);
+        let corners = tri.corners.map(Vec3::from_array);
+        for (k, b) in bounds.iter().enumerate() {
+            let center = Vec3::from_array(b.center);
+            let set = match prr_radii(tri, eye, b) {
+                None => {
+                    stats.untested += 1;
+                    true
+                }
+                Some(r) => {
+                    prr_near(tri, center, r.near)
+                        || try_prr_classify(eye, center, r.cone, corners)
+                            .map_or(true, |c| c.may_reflect())
+                }
+            };
+            if set {
+                mask[k / 64] |= 1 << (k % 64);
+                stats.may_reflect += 1;
+            }
+        }
+        stats.regions += 1;
+        stats.pairs += bounds.len() as u64;
+    }
+    Ok(stats)
+}
+
 /// Where [`LayeredPass::try_run_rows`] puts its results.
 pub trait LayeredPassSink {
     /// Pixel `(x, y)`'s texel and reflection color (the payload's color at
@@ -528,6 +769,8 @@ struct MapsTrace {
     out_of_steps: bool,
     kernels: u32,
     fetches: u32,
+    sphere_culled: u32,
+    prr_skipped: u32,
 }
 
 /// One ray's result with its color and host ray.
@@ -536,6 +779,8 @@ struct Traced {
     color: [f32; 3],
     host: Option<LayeredHostRay>,
     kernels: u32,
+    sphere_culled: u32,
+    prr_skipped: u32,
 }
 
 /// The layered pass over one frame (module docs).
@@ -544,6 +789,7 @@ pub struct LayeredPass<'a, M: ?Sized = [LayeredMap<'a>]> {
     maps: &'a M,
     bounds: &'a [LayeredBound],
     ids: Option<(ImageView<'a, u32>, &'a [u32])>,
+    regions: Option<(ImageView<'a, u32>, &'a [u64])>,
     options: LayeredPassOptions,
 }
 
@@ -587,6 +833,7 @@ impl<'a, M: LayeredMapSet + ?Sized> LayeredPass<'a, M> {
             maps,
             bounds: &bounds[..n],
             ids: None,
+            regions: None,
             options,
         })
     }
@@ -609,6 +856,52 @@ impl<'a, M: LayeredMapSet + ?Sized> LayeredPass<'a, M> {
         }
         Ok(Self {
             ids: Some((ids, map_ids)),
+            ..self
+        })
+    }
+
+    /// The same pass with potential reflection regions (seed 001 Sec. 3.2,
+    /// Fig. 2(a); module docs, step 2): pixel `(x, y)` with region
+    /// `r = regions(x, y)` traces only the maps whose bit is set in its
+    /// mask (`n =` [`prr_mask_words`]`(maps)` words per region, bit
+    /// `k % 64` of `masks[r * n + k / 64]` for map `k`), a pixel with region
+    /// [`PRR_NO_REGION`] every map. A region is a reflector triangle
+    /// (the G-buffer's primitive id, re-indexed to the triangles the host
+    /// gave [`try_prr_masks`]), and the masks are what [`try_prr_masks`]
+    /// wrote for this frame's camera and bounds: then every texel and
+    /// count is the same as without regions, except that
+    /// [`LayeredPassStats::prr_skipped`] counts the sphere tests saved.
+    /// A pixel whose region is not the triangle its surface point lies on
+    /// may lose hits. Listed rays ([`LayeredPass::try_trace_rays`]) do not
+    /// use regions: their directions are the host's, not the pixel's
+    /// mirror ray the masks were made for.
+    ///
+    /// Every region id is checked here (once per frame).
+    ///
+    /// # Errors
+    /// [`Error::InvalidArgument`] if `regions` is not the G-buffer's size,
+    /// or a region id is neither below `masks.len() / n` nor
+    /// [`PRR_NO_REGION`].
+    pub fn try_with_regions(
+        self,
+        regions: ImageView<'a, u32>,
+        masks: &'a [u64],
+    ) -> Result<Self, Error> {
+        let g = self.mirror.gbuffer();
+        if regions.width() != g.width() || regions.height() != g.height() {
+            return Err(Error::InvalidArgument);
+        }
+        let count = masks.len() / prr_mask_words(self.maps.len());
+        for y in 0..regions.height() {
+            for x in 0..regions.width() {
+                match regions.get(x, y) {
+                    Some(r) if r == PRR_NO_REGION || (r as usize) < count => {}
+                    _ => return Err(Error::InvalidArgument),
+                }
+            }
+        }
+        Ok(Self {
+            regions: Some((regions, masks)),
             ..self
         })
     }
@@ -669,9 +962,24 @@ impl<'a, M: LayeredMapSet + ?Sized> LayeredPass<'a, M> {
         self.ids.and_then(|(img, _)| img.get(x, y))
     }
 
+    /// The region mask of `(x, y)`: the maps its region may see (`None`,
+    /// every map, without regions or with [`PRR_NO_REGION`]).
+    fn region_mask(&self, x: u32, y: u32) -> Option<&'a [u64]> {
+        let (img, masks) = self.regions?;
+        let n = prr_mask_words(self.maps.len());
+        let r = img.get(x, y)? as usize;
+        masks.get(r.checked_mul(n)?..r.checked_add(1)?.checked_mul(n)?)
+    }
+
     /// Module docs, steps 2 and 3: `ray` (from the segment's start) up to
-    /// `t_seg` against every map that applies.
-    fn trace_maps(&self, own: Option<u32>, ray: &Ray, t_seg: f32) -> MapsTrace {
+    /// `t_seg` against every map that applies (`mask`: the region's maps).
+    fn trace_maps(
+        &self,
+        own: Option<u32>,
+        mask: Option<&[u64]>,
+        ray: &Ray,
+        t_seg: f32,
+    ) -> MapsTrace {
         let mut out = MapsTrace::default();
         for (k, b) in self.bounds.iter().enumerate() {
             if let (Some(id), Some((_, map_ids))) = (own, self.ids) {
@@ -684,7 +992,12 @@ impl<'a, M: LayeredMapSet + ?Sized> LayeredPass<'a, M> {
                 // A hit at the segment's start: nothing can be nearer.
                 break;
             }
+            if mask.is_some_and(|m| m.get(k / 64).is_some_and(|w| w >> (k % 64) & 1 == 0)) {
+                out.prr_skipped += 1;
+                continue;
+            }
             if !may_meet(b, ray.origin, ray.dir, t_max) {
+                out.sphere_culled += 1;
                 continue;
             }
             let Some(m) = self.maps.map(k) else {
@@ -788,6 +1101,8 @@ impl<'a, M: LayeredMapSet + ?Sized> LayeredPass<'a, M> {
             color: [0.0; 3],
             host: None,
             kernels: 0,
+            sphere_culled: 0,
+            prr_skipped: 0,
         };
         let r = match self.mirror.setup(x, y) {
             Setup::Done(s) => {
@@ -808,6 +1123,7 @@ impl<'a, M: LayeredMapSet + ?Sized> LayeredPass<'a, M> {
         };
         let mt = self.trace_maps(
             self.own_id(x, y),
+            self.region_mask(x, y),
             &r.kernel_ray(),
             self.options.t_max - r.t_start,
         );
@@ -821,6 +1137,8 @@ impl<'a, M: LayeredMapSet + ?Sized> LayeredPass<'a, M> {
             color,
             host,
             kernels: mt.kernels,
+            sphere_culled: mt.sphere_culled,
+            prr_skipped: mt.prr_skipped,
         }
     }
 
@@ -925,6 +1243,8 @@ impl<'a, M: LayeredMapSet + ?Sized> LayeredPass<'a, M> {
             _ => {}
         }
         stats.kernel_traces += u64::from(p.kernels);
+        stats.sphere_culled += u64::from(p.sphere_culled);
+        stats.prr_skipped += u64::from(p.prr_skipped);
         stats.fetches += u64::from(p.texel.fetches);
     }
 
@@ -1016,7 +1336,7 @@ impl<'a, M: LayeredMapSet + ?Sized> LayeredPass<'a, M> {
             let Some((seg, t_seg)) = Self::segment(&r) else {
                 continue;
             };
-            let mt = self.trace_maps(self.own_id(r.x, r.y), &seg, t_seg);
+            let mt = self.trace_maps(self.own_id(r.x, r.y), None, &seg, t_seg);
             let (texel, c) = self.texel_of(&mt, r.t_min, r.t_max, r.dir);
             let host_ray = texel.status.needs_host().then_some(LayeredHostRay {
                 x: r.x,
@@ -1032,6 +1352,8 @@ impl<'a, M: LayeredMapSet + ?Sized> LayeredPass<'a, M> {
                 color: c,
                 host: host_ray,
                 kernels: mt.kernels,
+                sphere_culled: mt.sphere_culled,
+                prr_skipped: mt.prr_skipped,
             };
             Self::count(&mut stats, &p);
             if let Some(hr) = p.host {

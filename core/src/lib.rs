@@ -78,6 +78,7 @@
 //! | 000 (TCRR) | Sec. 4.3 / 4.4 reflection-reuse strategy | `tcrr::KeyFramePolicy` |
 //! | 000 (TCRR) | Sec. 5 (future work): re-trace by local contrast | `tcrr::TcrrOptions::retrace_contrast` |
 //! | 001 (layered depth textures) | Sec. 3.2 potential reflection regions, Fig. 2 | `layered::try_prr_classify`, `layered::PrrClass` |
+//! | 001 (layered depth textures) | Sec. 3.2 regions per reflector triangle in the pass | `layered_pass::try_prr_masks`, `layered_pass::prr_radii`, `layered_pass::LayeredPass::try_with_regions` |
 //! | 001 (layered depth textures) | Sec. 3.3 orthographic face rendering | `layered::LayeredGrid::try_face_ray` |
 //! | 001 (layered depth textures) | Sec. 3.3 ray in the object's local space | `layered::LayeredGrid::try_with_transform` |
 //! | 001 (layered depth textures) | Sec. 3.3, Alg. 1 linear then binary search | `layered::LayeredMap::try_trace`, `layered::LayeredOptions` |
@@ -198,13 +199,14 @@ pub use image::{ImageView, ImageViewMut, RowRange};
 pub use layered::{
     try_layered_len, try_prr_classify, ColumnFill, ColumnRay, Face, LayerHit, LayeredGrid,
     LayeredHit, LayeredLen, LayeredMap, LayeredMapMut, LayeredMiss, LayeredOptions, LayeredStamp,
-    LayeredTrace, LayeredWork, PrrClass, EXIT_ENTRY_TEXELS, LAYERED_STAMP_LEN,
+    LayeredTrace, LayeredWork, PrrClass, PrrTriangle, EXIT_ENTRY_TEXELS, LAYERED_STAMP_LEN,
 };
 #[cfg(all(feature = "layered", any(feature = "depth-image", feature = "hiz")))]
 pub use layered_pass::{
-    layered_pass_scratch_len, try_prepare_layered_pass, LayeredBound, LayeredHostRay,
-    LayeredMapSet, LayeredPass, LayeredPassOptions, LayeredPassSink, LayeredPassStats,
-    LayeredPassStatus, LayeredPassTexel,
+    layered_pass_scratch_len, prr_mask_words, prr_radii, try_prepare_layered_pass, try_prr_masks,
+    try_prr_masks_len, LayeredBound, LayeredHostRay, LayeredMapSet, LayeredPass,
+    LayeredPassOptions, LayeredPassSink, LayeredPassStats, LayeredPassStatus, LayeredPassTexel,
+    PrrRadii, PrrStats, PRR_NO_REGION,
 };
 #[cfg(feature = "mirror")]
 pub use mirror::{

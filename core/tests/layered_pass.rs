@@ -18,10 +18,11 @@ mod scene;
 use refl_core::glam::{Affine3A, DVec3, Vec2, Vec3};
 use refl_core::layered::{Face, LayerHit, LayeredGrid, LayeredMap, LayeredMapMut, LayeredTrace};
 use refl_core::{
-    layered_pass_scratch_len, try_prepare_layered_pass, Error, HostRay, ImageView, ImageViewMut,
+    layered_pass_scratch_len, prr_mask_words, prr_radii, try_prepare_layered_pass,
+    try_prr_classify, try_prr_masks, try_prr_masks_len, Error, HostRay, ImageView, ImageViewMut,
     LayeredBound, LayeredHostRay, LayeredMiss, LayeredOptions, LayeredPass, LayeredPassOptions,
     LayeredPassStats, LayeredPassStatus, LayeredPassTexel, MirrorOptions, MirrorPass, MirrorStatus,
-    Ray, RowRange,
+    PrrStats, PrrTriangle, Ray, RowRange, PRR_NO_REGION,
 };
 use scene::{default_camera, grazing_camera, render, Frame, Scene, BOX_HI, BOX_LO, CONVENTIONS};
 
@@ -1248,4 +1249,432 @@ fn hits_never_pass_t_max() {
         }
     }
     assert!(checked > 1000, "{checked} hits checked");
+}
+
+/// Cells per side of the floor's triangulation in the region tests: the
+/// floor `[-8, 8]^2` in `FLOOR_CELLS^2` squares of two triangles each.
+const FLOOR_CELLS: u32 = 16;
+
+/// The floor's triangles (cell `(i, j)` gives triangles `2 (j n + i)`,
+/// below its diagonal `x - x0 >= z - z0`, and `+ 1`), their vertex
+/// normals tilted by up to `tilt` (x and z components) from the floor's
+/// `+Y`, in both orientations of the corners.
+fn floor_triangles(tilt: f32) -> Vec<PrrTriangle> {
+    let n = FLOOR_CELLS;
+    let size = 16.0 / n as f32;
+    let mut out = Vec::new();
+    for j in 0..n {
+        for i in 0..n {
+            let (x0, z0) = (-8.0 + i as f32 * size, -8.0 + j as f32 * size);
+            let p = |dx: f32, dz: f32| Vec3::new(x0 + dx * size, 0.0, z0 + dz * size);
+            let tilted = |k: u32| {
+                let a = (i * 7 + j * 3 + k) as f32;
+                Vec3::new(tilt * (a * 0.7).sin(), 1.0, tilt * (a * 1.3).cos()).to_array()
+            };
+            for corners in [
+                [p(0.0, 0.0), p(1.0, 0.0), p(1.0, 1.0)],
+                [p(0.0, 0.0), p(1.0, 1.0), p(0.0, 1.0)],
+            ] {
+                let mut t = PrrTriangle::flat(corners);
+                if tilt > 0.0 {
+                    t.normals = [tilted(0), tilted(1), tilted(2)];
+                }
+                out.push(t);
+            }
+        }
+    }
+    out
+}
+
+/// Per pixel, the floor triangle its surface point lies on (from the
+/// f64 scene's hit), `PRR_NO_REGION` off the floor.
+fn floor_regions(f: &Frame) -> Vec<u32> {
+    let (w, h) = (f.camera.width(), f.camera.height());
+    let eye = f.camera.eye().as_dvec3();
+    let size = 16.0 / f64::from(FLOOR_CELLS);
+    let mut out = vec![PRR_NO_REGION; (w * h) as usize];
+    for y in 0..h {
+        for x in 0..w {
+            let i = (y * w + x) as usize;
+            if f.id[i] != 0 {
+                continue;
+            }
+            let d = f
+                .camera
+                .primary_ray(Vec2::new(x as f32 + 0.5, y as f32 + 0.5))
+                .dir
+                .as_dvec3()
+                .normalize();
+            let p = eye + d * (-eye.y / d.y);
+            let (u, v) = ((p.x + 8.0) / size, (p.z + 8.0) / size);
+            let (ci, cj) = (u.floor().clamp(0.0, 15.0), v.floor().clamp(0.0, 15.0));
+            let lower = u - ci >= v - cj;
+            out[i] = 2 * (cj as u32 * FLOOR_CELLS + ci as u32) + u32::from(!lower);
+        }
+    }
+    out
+}
+
+/// The masks of `tris` for `f`'s camera and `bounds`.
+fn masks_of(f: &Frame, tris: &[PrrTriangle], bounds: &[LayeredBound]) -> (Vec<u64>, PrrStats) {
+    let mut masks = vec![0u64; tris.len()];
+    let st = try_prr_masks(&mut masks, tris, f.camera.eye(), bounds).unwrap();
+    (masks, st)
+}
+
+#[test]
+fn regions_change_no_texel_and_count_the_lookups_they_save() {
+    let m = maps();
+    let views = m.views();
+    let mut skipped = 0u64;
+    for (cam, tilt) in [
+        (default_camera(), 0.0),
+        (grazing_camera(), 0.0),
+        (default_camera(), 0.15),
+    ] {
+        for conv in CONVENTIONS {
+            let f = frame(cam, conv);
+            let tris = floor_triangles(tilt);
+            let regions = floor_regions(&f);
+            let (w, h) = (f.camera.width(), f.camera.height());
+            let region_view = ImageView::try_new(&regions, w, h, w).unwrap();
+            for o in option_sets() {
+                let bounds = prepared(&f, &views, &o);
+                let (masks, st) = masks_of(&f, &tris, &bounds);
+                assert_eq!(
+                    (st.regions, st.pairs),
+                    (tris.len() as u64, 2 * tris.len() as u64)
+                );
+                assert_eq!(
+                    st.may_reflect,
+                    masks.iter().map(|m| u64::from(m.count_ones())).sum::<u64>()
+                );
+                // The floor's far corners cannot show the objects.
+                assert!(st.may_reflect < st.pairs, "{st:?}");
+                for ids in [false, true] {
+                    let mut plain =
+                        LayeredPass::try_new(f.gbuffer(false), &views[..], o, &bounds).unwrap();
+                    if ids {
+                        plain = plain.try_with_ids(ids_view(&f), &MAP_IDS).unwrap();
+                    }
+                    let with = plain.try_with_regions(region_view, &masks).unwrap();
+                    let (a, ca, ha, sa) = run(&plain, o.payload_color);
+                    let (b, cb, hb, sb) = run(&with, o.payload_color);
+                    for (i, (x, y)) in a.iter().zip(&b).enumerate() {
+                        assert_eq!(
+                            bits(x),
+                            bits(y),
+                            "pixel {i} ({conv:?}, tilt {tilt}, ids {ids}, {o:?})"
+                        );
+                    }
+                    assert_eq!(ca, cb);
+                    assert_eq!(ha.len(), hb.len());
+                    for (x, y) in ha.iter().zip(&hb) {
+                        assert_eq!(host_bits(x), host_bits(y));
+                    }
+                    assert_eq!(sa.prr_skipped, 0);
+                    assert_eq!(
+                        sa.sphere_culled,
+                        sb.sphere_culled + sb.prr_skipped,
+                        "every pair the regions skip is one the sphere test rejects"
+                    );
+                    assert_eq!(
+                        LayeredPassStats {
+                            sphere_culled: sa.sphere_culled,
+                            prr_skipped: 0,
+                            ..sb
+                        },
+                        sa
+                    );
+                    skipped += sb.prr_skipped;
+                }
+            }
+        }
+    }
+    assert!(skipped > 10_000, "the regions skip only {skipped} lookups");
+}
+
+/// Deterministic pseudo-random numbers in `[0, 1)`.
+struct Lcg(u64);
+
+impl Lcg {
+    fn next(&mut self) -> f32 {
+        self.0 = self
+            .0
+            .wrapping_mul(6_364_136_223_846_793_005)
+            .wrapping_add(1_442_695_040_888_963_407);
+        (self.0 >> 40) as f32 / (1u64 << 24) as f32
+    }
+    fn vec(&mut self, lo: f32, hi: f32) -> Vec3 {
+        Vec3::new(self.next(), self.next(), self.next()) * (hi - lo) + Vec3::splat(lo)
+    }
+}
+
+/// Random reflector triangles near the origin (small and large, some
+/// degenerate, some with tilted vertex normals) and random spheres.
+fn random_case(rng: &mut Lcg, maps: usize) -> (Vec<PrrTriangle>, Vec<LayeredBound>) {
+    let tris = (0..200)
+        .map(|k| {
+            let c = rng.vec(-4.0, 4.0);
+            let s = if k % 3 == 0 { 0.2 } else { 1.5 };
+            let mut corners = [c + rng.vec(-s, s), c + rng.vec(-s, s), c + rng.vec(-s, s)];
+            if k % 50 == 7 {
+                corners[2] = corners[1];
+            }
+            let mut t = PrrTriangle::flat(corners);
+            if k % 2 == 1 {
+                let f = Vec3::from_array(t.normals[0]).normalize_or_zero();
+                let tilt = if k % 10 == 9 { 2.0 } else { 0.2 };
+                t.normals = [0, 1, 2].map(|_| (f + rng.vec(-tilt, tilt) * f.length()).to_array());
+            }
+            t
+        })
+        .collect();
+    let bounds = (0..maps)
+        .map(|_| LayeredBound {
+            center: rng.vec(-5.0, 5.0).to_array(),
+            radius: 0.1 + 0.8 * rng.next(),
+            key: 0,
+        })
+        .collect();
+    (tris, bounds)
+}
+
+#[test]
+fn prr_masks_equal_the_classify_loop() {
+    let mut rng = Lcg(19);
+    let (mut set, mut unset, mut untested) = (0, 0, 0);
+    for case in 0..8 {
+        let n = [1, 5, 17, 63, 64, 0, 65, 130][case];
+        let (tris, bounds) = random_case(&mut rng, n);
+        let eye = rng.vec(-6.0, 6.0);
+        let words = prr_mask_words(n);
+        assert_eq!(words, n.div_ceil(64).max(1));
+        let len = try_prr_masks_len(tris.len(), n).unwrap();
+        assert_eq!(len, tris.len() * words);
+        let mut masks = vec![u64::MAX; len + 1];
+        let st = try_prr_masks(&mut masks, &tris, eye, &bounds).unwrap();
+        assert_eq!(
+            masks[len],
+            u64::MAX,
+            "past the triangles nothing is written"
+        );
+        let mut want = PrrStats {
+            regions: tris.len() as u64,
+            pairs: (tris.len() * n) as u64,
+            ..PrrStats::default()
+        };
+        for (t, tri) in tris.iter().enumerate() {
+            let mut mask = vec![0u64; words];
+            for (k, b) in bounds.iter().enumerate() {
+                let center = Vec3::from_array(b.center);
+                let corners = tri.corners.map(Vec3::from_array);
+                let bit = match prr_radii(tri, eye, b) {
+                    None => {
+                        want.untested += 1;
+                        true
+                    }
+                    Some(r) => {
+                        // The near rule: box and plane within `near`.
+                        let v = corners.map(|c| c.as_dvec3());
+                        let o = center.as_dvec3();
+                        let lo = v[0].min(v[1]).min(v[2]);
+                        let hi = v[0].max(v[1]).max(v[2]);
+                        let nrm = (v[1] - v[0]).cross(v[2] - v[0]).normalize();
+                        let near = f64::from(r.near);
+                        ((o - o.clamp(lo, hi)).length() <= near && nrm.dot(o - v[0]).abs() <= near)
+                            || match try_prr_classify(eye, center, r.cone, corners) {
+                                Ok(c) => c.may_reflect(),
+                                Err(e) => {
+                                    assert_eq!(e, Error::DegenerateGeometry);
+                                    true
+                                }
+                            }
+                    }
+                };
+                if bit {
+                    mask[k / 64] |= 1 << (k % 64);
+                    want.may_reflect += 1;
+                    set += 1;
+                } else {
+                    unset += 1;
+                }
+            }
+            assert_eq!(
+                masks[t * words..(t + 1) * words],
+                mask[..],
+                "triangle {t} of case {case}"
+            );
+        }
+        untested += want.untested;
+        assert_eq!(st, want);
+    }
+    assert!(
+        set > 500 && unset > 500 && untested > 50,
+        "{set} set, {unset} unset, {untested} untested"
+    );
+}
+
+/// Seed 001 Sec. 3.2 for flat triangles: with the radii of `prr_radii`
+/// the masks keep every map whose padded sphere a mirror ray from a point
+/// of the triangle meets, and with the seed's own radius (the sphere's)
+/// they are the seed's test exactly; tilted normals only add maps.
+#[test]
+fn prr_masks_keep_every_map_a_mirror_ray_meets() {
+    let mut rng = Lcg(7);
+    let (mut checked, mut meets) = (0u64, 0u64);
+    for _ in 0..4 {
+        let (tris, bounds) = random_case(&mut rng, 24);
+        let eye = rng.vec(-6.0, 6.0);
+        let mut masks = vec![0u64; tris.len()];
+        try_prr_masks(&mut masks, &tris, eye, &bounds).unwrap();
+        for (t, tri) in tris.iter().enumerate() {
+            let Some(sin_delta) = tri.normal_spread_sin() else {
+                assert_eq!(masks[t], (1 << bounds.len()) - 1);
+                continue;
+            };
+            let v = tri.corners.map(|c| Vec3::from_array(c).as_dvec3());
+            let nv = tri.normals.map(|c| Vec3::from_array(c).as_dvec3());
+            let f = (v[1] - v[0]).cross(v[2] - v[0]).normalize();
+            for _ in 0..40 {
+                let (a, b) = (f64::from(rng.next()), f64::from(rng.next()));
+                let (a, b) = if a + b > 1.0 {
+                    (1.0 - a, 1.0 - b)
+                } else {
+                    (a, b)
+                };
+                let w = [1.0 - a - b, a, b];
+                let p = v[0] * w[0] + v[1] * w[1] + v[2] * w[2];
+                let n = (nv[0] * w[0] + nv[1] * w[1] + nv[2] * w[2]).normalize();
+                assert!(n.dot(f).abs() >= (1.0 - sin_delta * sin_delta).sqrt() - 1e-9);
+                let view = (p - eye.as_dvec3()).normalize();
+                let r = view - 2.0 * view.dot(n) * n;
+                for (k, bd) in bounds.iter().enumerate() {
+                    let o = DVec3::from_array(bd.center.map(f64::from));
+                    // The ray from p meets the sphere (radius widened by the
+                    // pass's pad at the surface point).
+                    let pad = f64::from(bd.radius) * (1.0 + 1e-4);
+                    let oc = o - p;
+                    let tc = oc.dot(r);
+                    let perp2 = (oc - r * tc).length_squared();
+                    let hit = perp2 <= pad * pad && (tc >= 0.0 || oc.length() <= pad);
+                    checked += 1;
+                    if hit {
+                        meets += 1;
+                        assert!(
+                            masks[t] >> k & 1 == 1,
+                            "triangle {t}, map {k}: a ray meets it"
+                        );
+                    }
+                }
+            }
+        }
+    }
+    assert!(meets > 1000 && checked > 10 * meets, "{meets} of {checked}");
+}
+
+#[test]
+fn prr_refusals_leave_every_output_untouched() {
+    let mut rng = Lcg(3);
+    let (tris, bounds) = random_case(&mut rng, 4);
+    let eye = Vec3::new(0.0, 1.0, 9.0);
+    let mut dst = vec![7u64; 2 * tris.len()];
+    let mut bad_tri = tris.clone();
+    bad_tri[3].corners[1][2] = f32::NAN;
+    let mut bad_normal = tris.clone();
+    bad_normal[5].normals[0][0] = f32::INFINITY;
+    let many = vec![bounds[0]; 65];
+    let bad_radius = [LayeredBound {
+        radius: -1.0,
+        ..bounds[0]
+    }];
+    let bad_center = [LayeredBound {
+        center: [0.0, f32::NAN, 0.0],
+        ..bounds[0]
+    }];
+    // (triangles, eye, bounds, dst length, error)
+    type Case<'a> = (&'a [PrrTriangle], Vec3, &'a [LayeredBound], usize, Error);
+    let cases: [Case<'_>; 8] = [
+        (
+            &tris,
+            Vec3::new(f32::NAN, 0.0, 0.0),
+            &bounds,
+            tris.len(),
+            Error::InvalidArgument,
+        ),
+        (
+            &tris,
+            Vec3::splat(f32::INFINITY),
+            &bounds,
+            tris.len(),
+            Error::InvalidArgument,
+        ),
+        (&bad_tri, eye, &bounds, tris.len(), Error::InvalidArgument),
+        (
+            &bad_normal,
+            eye,
+            &bounds,
+            tris.len(),
+            Error::InvalidArgument,
+        ),
+        (
+            &tris,
+            eye,
+            &many,
+            2 * tris.len() - 1,
+            Error::InsufficientSize,
+        ),
+        (&tris, eye, &bad_radius, tris.len(), Error::InvalidArgument),
+        (&tris, eye, &bad_center, tris.len(), Error::InvalidArgument),
+        (&tris, eye, &bounds, tris.len() - 1, Error::InsufficientSize),
+    ];
+    for (t, e, b, len, err) in cases {
+        assert_eq!(try_prr_masks(&mut dst[..len], t, e, b), Err(err));
+        assert!(dst.iter().all(|&m| m == 7));
+    }
+    // No triangles are fine; a count that overflows is refused.
+    assert!(try_prr_masks(&mut [], &[], eye, &many).is_ok());
+    assert_eq!(
+        try_prr_masks_len(usize::MAX, 65),
+        Err(Error::InvalidArgument)
+    );
+    assert_eq!(try_prr_masks_len(usize::MAX, 64), Ok(usize::MAX));
+
+    // The pass: regions of the wrong size, an id out of range (one word
+    // per region; two for 65 maps).
+    let m = maps();
+    let views = m.views();
+    let f = frame(default_camera(), refl_core::DepthConvention::Linear);
+    let (w, h) = (f.camera.width(), f.camera.height());
+    let o = LayeredPassOptions::default();
+    let b = prepared(&f, &views, &o);
+    let pass = LayeredPass::try_new(f.gbuffer(false), &views[..], o, &b).unwrap();
+    let masks = [3u64; 4];
+    let mut regions = vec![PRR_NO_REGION; (w * h) as usize];
+    regions[5] = 3;
+    let small = ImageView::try_new(&regions[..(w * (h - 1)) as usize], w, h - 1, w).unwrap();
+    assert_eq!(
+        pass.try_with_regions(small, &masks).err(),
+        Some(Error::InvalidArgument)
+    );
+    assert!(pass
+        .try_with_regions(ImageView::try_new(&regions, w, h, w).unwrap(), &masks)
+        .is_ok());
+    regions[(w * h - 1) as usize] = 4;
+    let out_of_range = ImageView::try_new(&regions, w, h, w).unwrap();
+    assert_eq!(
+        pass.try_with_regions(out_of_range, &masks).err(),
+        Some(Error::InvalidArgument)
+    );
+    let many_views = vec![views[0]; 65];
+    let many_bounds = prepared(&f, &many_views, &o);
+    let big = LayeredPass::try_new(f.gbuffer(false), &many_views[..], o, &many_bounds).unwrap();
+    let mut two = vec![PRR_NO_REGION; (w * h) as usize];
+    two[7] = 1;
+    let two = ImageView::try_new(&two, w, h, w).unwrap();
+    assert_eq!(
+        big.try_with_regions(two, &masks[..3]).err(),
+        Some(Error::InvalidArgument)
+    );
+    assert!(big.try_with_regions(two, &masks).is_ok());
 }

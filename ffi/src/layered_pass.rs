@@ -12,6 +12,12 @@
 //! sphere written to the scratch), then `refl_layered_trace_rows` once per
 //! row band, from any number of threads (or `refl_layered_trace_host_rays`
 //! on a list of rays). The G-buffer is the mirror pass's `refl_gbuffer`.
+//!
+//! Optionally, potential reflection regions (seed 001 Sec. 3.2, Fig. 2(a)):
+//! `refl_layered_prr_masks` writes per reflector triangle the maps that may
+//! reflect on it, and `refl_layered_pass_input.regions` gives each pixel's
+//! triangle, so that a pixel traces only its triangle's maps (same results,
+//! fewer per-ray sphere tests).
 
 use crate::gbuffer::{gbuffer, gbuffer_ranges, put_host_ray, refl_gbuffer, refl_host_ray};
 use crate::image::{refl_image_u32, refl_image_vec3_mut, refl_row_range};
@@ -24,10 +30,17 @@ use crate::status::{fail, guard, refl_status};
 use crate::types::{refl_vec2, refl_vec3};
 use refl_core::layered::LayeredMap;
 use refl_core::{
-    try_prepare_layered_pass, Error, GBuffer, HostRay, ImageView, ImageViewMut, LayeredBound,
-    LayeredHostRay, LayeredMapSet, LayeredPass, LayeredPassOptions, LayeredPassSink,
-    LayeredPassStats, LayeredPassStatus, LayeredPassTexel, MirrorStatus,
+    prr_mask_words, try_prepare_layered_pass, try_prr_masks, try_prr_masks_len, Error, GBuffer,
+    HostRay, ImageView, ImageViewMut, LayeredBound, LayeredHostRay, LayeredMapSet, LayeredPass,
+    LayeredPassOptions, LayeredPassSink, LayeredPassStats, LayeredPassStatus, LayeredPassTexel,
+    MirrorStatus, PrrStats, PrrTriangle, PRR_NO_REGION,
 };
+
+/// The region id of a pixel without a region
+/// (`refl_layered_pass_input.regions`): every map applies.
+pub const REFL_LAYERED_NO_REGION: u32 = 0xFFFF_FFFF;
+
+const _: () = assert!(REFL_LAYERED_NO_REGION == PRR_NO_REGION);
 
 /// Settings of the layered pass; `refl_layered_pass_options_default` gives
 /// the defaults.
@@ -199,6 +212,15 @@ pub struct refl_layered_pass_stats {
     pub kernel_traces: u64,
     /// Buffer reads of the kernel, summed.
     pub fetches: u64,
+    /// (ray, map) pairs the ray's bounding-sphere test rejected (no
+    /// kernel trace).
+    pub sphere_culled: u64,
+    /// (ray, map) pairs the pixel's region mask skipped before the sphere
+    /// test (0 without regions): the lookups the potential reflection
+    /// regions save. The masks are conservative: `sphere_culled +
+    /// prr_skipped` is the `sphere_culled` of the same call without
+    /// regions, every other count and every texel are the same.
+    pub prr_skipped: u64,
 }
 
 impl From<LayeredPassStats> for refl_layered_pass_stats {
@@ -211,6 +233,8 @@ impl From<LayeredPassStats> for refl_layered_pass_stats {
             host_rays_written: s.host_rays_written,
             kernel_traces: s.kernel_traces,
             fetches: s.fetches,
+            sphere_culled: s.sphere_culled,
+            prr_skipped: s.prr_skipped,
         }
     }
 }
@@ -278,6 +302,21 @@ pub struct refl_layered_pass_input {
     pub map_ids: *const u32,
     /// Number of ids readable from `map_ids`.
     pub map_ids_len: usize,
+    /// Optional region per pixel (the camera's size; absent when `data` is
+    /// NULL): the index of the reflector triangle the pixel's surface
+    /// point lies on, into `region_masks` (the triangles given to
+    /// `refl_layered_prr_masks`), or `REFL_LAYERED_NO_REGION` (every map
+    /// applies). Read by `refl_layered_trace_rows` only (listed rays have the host's
+    /// directions, not the mirror rays the masks were made for).
+    pub regions: refl_image_u32,
+    /// With `regions`: per region the maps that may reflect on it, as
+    /// `refl_layered_prr_masks` writes them: `n = ceil(maps_len / 64)`
+    /// words (at least 1) per region, bit `k % 64` of word `k / 64` for map
+    /// k; pixel (x, y) with region r traces map k only if that bit of
+    /// `region_masks[r * n + k / 64]` is set. Ignored without `regions`.
+    pub region_masks: *const u64,
+    /// Number of words readable from `region_masks`.
+    pub region_masks_len: usize,
 }
 
 /// The caller's maps, read through their descriptors (no copy).
@@ -324,6 +363,7 @@ struct Inputs<'a> {
     gb: GBuffer<'a>,
     maps: CMaps<'a>,
     ids: Option<(ImageView<'a, u32>, &'a [u32])>,
+    regions: Option<(ImageView<'a, u32>, &'a [u64])>,
     opts: LayeredPassOptions,
 }
 
@@ -341,6 +381,10 @@ impl Inputs<'_> {
         if !self.inp.ids.data.is_null() {
             f(range(self.inp.ids.data, self.inp.ids.len))?;
             f(range(self.inp.map_ids, self.inp.map_ids_len))?;
+        }
+        if !self.inp.regions.data.is_null() {
+            f(range(self.inp.regions.data, self.inp.regions.len))?;
+            f(range(self.inp.region_masks, self.inp.region_masks_len))?;
         }
         f(range(self.inp.maps, self.inp.maps_len))?;
         for d in self.maps.descs {
@@ -434,12 +478,30 @@ unsafe fn inputs<'a>(
         let m = unsafe { slice_or_empty(inp.map_ids, inp.map_ids_len, "input.map_ids") }?;
         Some((v, m))
     };
+    let regions = if inp.regions.data.is_null() {
+        None
+    } else {
+        // SAFETY: caller contract.
+        let v = unsafe { inp.regions.view() }?;
+        if v.width() != gb.width() || v.height() != gb.height() {
+            return Err(fail(
+                Error::InvalidArgument,
+                format_args!("`input.regions` is not the camera's size"),
+            ));
+        }
+        // SAFETY: caller contract.
+        let m = unsafe {
+            slice_or_empty(inp.region_masks, inp.region_masks_len, "input.region_masks")
+        }?;
+        Some((v, m))
+    };
     Ok(Inputs {
         g,
         inp,
         gb,
         maps: CMaps { descs },
         ids,
+        regions,
         opts,
     })
 }
@@ -509,8 +571,20 @@ fn pass<'a>(
             format_args!("`scratch` is not what refl_layered_pass_prepare wrote for these maps"),
         )
     })?;
-    match i.ids {
-        Some((ids, m)) => p.try_with_ids(ids, m),
+    let p = match i.ids {
+        Some((ids, m)) => p.try_with_ids(ids, m)?,
+        None => p,
+    };
+    match i.regions {
+        Some((r, m)) => p.try_with_regions(r, m).map_err(|e| {
+            fail(
+                e,
+                format_args!(
+                    "a region id of `input.regions` is neither below the {} regions of `region_masks` nor REFL_LAYERED_NO_REGION",
+                    m.len() / prr_mask_words(i.inp.maps_len)
+                ),
+            )
+        }),
         None => Ok(p),
     }
 }
@@ -557,10 +631,11 @@ pub unsafe extern "C" fn refl_layered_pass_scratch_len(
 ///
 /// Returns `REFL_STATUS_NULL_POINTER` if `input`, `options`, a required
 /// G-buffer image, a map buffer, `input.maps` or (with ids)
-/// `input.map_ids` with a non-zero length, or `scratch` with a non-zero
-/// count of maps is NULL; `REFL_STATUS_INSUFFICIENT_SIZE` if `scratch_len`
-/// is below the number of maps, `input.map_ids_len` below it, or an
-/// image's or a map buffer's `len` is too small;
+/// `input.map_ids` or (with regions) `input.region_masks` with a non-zero
+/// length, or `scratch` with a non-zero count of maps is NULL;
+/// `REFL_STATUS_INSUFFICIENT_SIZE` if `scratch_len` is below the number of
+/// maps, `input.map_ids_len` below it, or an image's or a map buffer's
+/// `len` is too small;
 /// `REFL_STATUS_INVALID_ARGUMENT` for an option out of range, an unknown
 /// convention or normal space, an image not of the camera's size, a map
 /// whose grid or stamp does not match, a map too far out for f32, a
@@ -604,6 +679,178 @@ pub unsafe extern "C" fn refl_layered_pass_prepare(
         let dst =
             unsafe { slice_mut_or_empty(scratch.cast::<LayeredBound>(), scratch_len, "scratch") }?;
         try_prepare_layered_pass(dst, &i.gb, &i.maps, &i.opts)
+    })
+}
+
+/// One reflector triangle as a region of `refl_layered_prr_masks`: its
+/// world corners and the vertex normals the G-buffer's shading normals
+/// interpolate on it (any non-zero length, consistently oriented; for flat
+/// shading the face normal three times).
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct refl_layered_prr_triangle {
+    /// World corners.
+    pub corners: [refl_vec3; 3],
+    /// Vertex normals.
+    pub normals: [refl_vec3; 3],
+}
+
+// refl_layered_prr_triangle is refl-core's `PrrTriangle` (`#[repr(C)]`),
+// field for field: the triangles are read in place.
+const _: () = {
+    use core::mem::{align_of, offset_of, size_of};
+    assert!(size_of::<refl_layered_prr_triangle>() == size_of::<PrrTriangle>());
+    assert!(align_of::<refl_layered_prr_triangle>() == align_of::<PrrTriangle>());
+    assert!(offset_of!(refl_layered_prr_triangle, corners) == offset_of!(PrrTriangle, corners));
+    assert!(offset_of!(refl_layered_prr_triangle, normals) == offset_of!(PrrTriangle, normals));
+    assert!(size_of::<refl_vec3>() == size_of::<[f32; 3]>());
+};
+
+/// Counts of one `refl_layered_prr_masks` call.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct refl_layered_prr_stats {
+    /// Triangles (regions) written.
+    pub regions: u64,
+    /// (triangle, map) pairs.
+    pub pairs: u64,
+    /// Pairs whose bit is set (the map may reflect on the triangle).
+    pub may_reflect: u64,
+    /// Of those, pairs set untested (a degenerate triangle, normals 90
+    /// degrees or more from its plane).
+    pub untested: u64,
+}
+
+impl From<PrrStats> for refl_layered_prr_stats {
+    fn from(s: PrrStats) -> Self {
+        Self {
+            regions: s.regions,
+            pairs: s.pairs,
+            may_reflect: s.may_reflect,
+            untested: s.untested,
+        }
+    }
+}
+
+/// Size query: the `uint64_t` words of the masks of `triangles` reflector
+/// triangles over `maps` maps (`triangles * ceil(maps / 64)`, at least one
+/// word per triangle) into `*out_len`: the `masks_len` of
+/// `refl_layered_prr_masks` and the `region_masks_len` of its regions.
+///
+/// Returns `REFL_STATUS_NULL_POINTER` if `out_len` is NULL;
+/// `REFL_STATUS_INVALID_ARGUMENT` if the count overflows `size_t` (only
+/// where `size_t` has 32 bits).
+///
+/// # Safety
+/// `out_len` NULL or writable.
+#[no_mangle]
+pub unsafe extern "C" fn refl_layered_prr_masks_len(
+    out_len: *mut usize,
+    triangles: u32,
+    maps: u32,
+) -> refl_status {
+    guard("refl_layered_prr_masks_len", || {
+        let out = Out::new(out_len, "out_len")?;
+        let n = try_prr_masks_len(triangles as usize, maps as usize).map_err(|e| {
+            fail(
+                e,
+                format_args!("{triangles} triangles x {maps} maps overflow"),
+            )
+        })?;
+        // SAFETY: caller contract.
+        unsafe { out.write(n) };
+        Ok(())
+    })
+}
+
+/// The potential-reflection-region masks of seed 001 Sec. 3.2 (Fig. 2(a))
+/// for `input.regions`: for each reflector triangle `triangles[t]`, with
+/// `n = ceil(scratch_len / 64)` words per triangle (at least 1), bit
+/// `k % 64` of `masks[t * n + k / 64]` is set if map k (of the `scratch`
+/// that `refl_layered_pass_prepare` wrote for this frame, `scratch_len`
+/// maps) may reflect on the triangle for a camera at `eye`: the seed's cone test
+/// (`refl_layered_prr_classify`) against the map's bounding sphere,
+/// widened so that the masks keep every map the pass's per-ray sphere test
+/// can pass for a pixel on the triangle (interpolated normals, rounding;
+/// refl-core's `prr_radii` documents the widening). Bits of no map are 0.
+/// Call it per frame after `refl_layered_pass_prepare`.
+///
+/// Returns `REFL_STATUS_NULL_POINTER` if `out_stats` is NULL, or `masks`,
+/// `triangles` or `scratch` with a non-zero length;
+/// `REFL_STATUS_INSUFFICIENT_SIZE` if `masks_len` is below
+/// `refl_layered_prr_masks_len`; `REFL_STATUS_INVALID_ARGUMENT` for a
+/// non-finite `eye`, corner or normal, a count that overflows,
+/// a record of `scratch` with a non-finite center or radius (or a negative
+/// radius), a misaligned pointer, or `masks` overlapping an input. Nothing
+/// is written on error.
+///
+/// # Safety
+/// `out_stats` NULL or writable; `masks` NULL or writable for `masks_len`
+/// values; `triangles` NULL or readable for `triangles_len` records;
+/// `scratch` NULL or readable for `scratch_len` records.
+#[no_mangle]
+#[allow(clippy::too_many_arguments)]
+pub unsafe extern "C" fn refl_layered_prr_masks(
+    out_stats: *mut refl_layered_prr_stats,
+    masks: *mut u64,
+    masks_len: usize,
+    triangles: *const refl_layered_prr_triangle,
+    triangles_len: usize,
+    eye: refl_vec3,
+    scratch: *const refl_layered_bound,
+    scratch_len: usize,
+) -> refl_status {
+    guard("refl_layered_prr_masks", || {
+        let stats_out = Out::new(out_stats, "out_stats")?;
+        let masks_bytes = optional_out(masks.cast_const(), masks_len, "masks")?;
+        // SAFETY: caller contract; refl_layered_prr_triangle is PrrTriangle
+        // (asserted above).
+        let tris =
+            unsafe { slice_or_empty(triangles.cast::<PrrTriangle>(), triangles_len, "triangles") }?;
+        // SAFETY: caller contract; refl_layered_bound is LayeredBound.
+        let bounds =
+            unsafe { slice_or_empty(scratch.cast::<LayeredBound>(), scratch_len, "scratch") }?;
+        let need = try_prr_masks_len(triangles_len, scratch_len)?;
+        if masks_len < need {
+            return Err(fail(
+                Error::InsufficientSize,
+                format_args!(
+                    "`masks_len` is {masks_len}, {triangles_len} triangles over {scratch_len} maps need {need} (refl_layered_prr_masks_len)"
+                ),
+            ));
+        }
+        let outs = [
+            (masks as usize, masks_bytes),
+            (
+                out_stats as usize,
+                core::mem::size_of::<refl_layered_prr_stats>(),
+            ),
+        ];
+        let ins = [range(triangles, triangles_len), range(scratch, scratch_len)];
+        for (k, a) in outs.iter().enumerate() {
+            if outs[k + 1..]
+                .iter()
+                .chain(&ins)
+                .any(|b| overlaps(a.0, a.1, b.0, b.1))
+            {
+                return Err(fail(
+                    Error::InvalidArgument,
+                    format_args!("the outputs overlap each other or an input"),
+                ));
+            }
+        }
+        // SAFETY: checked non-null (or empty), aligned, size fits isize;
+        // writable by contract, disjoint from the inputs (checked).
+        let dst = unsafe { slice_mut_or_empty(masks, masks_len, "masks") }?;
+        let st = try_prr_masks(dst, tris, eye.into(), bounds).map_err(|e| {
+            fail(
+                e,
+                format_args!("`eye`, a triangle or a scratch record is not finite"),
+            )
+        })?;
+        // SAFETY: caller contract.
+        unsafe { stats_out.write(st.into()) };
+        Ok(())
     })
 }
 
@@ -673,8 +920,9 @@ fn optional_out<T>(p: *const T, len: usize, name: &str) -> Result<usize, Error> 
 /// reversed or beyond the height, `color` not of the camera's size or
 /// given without `payload_color`, outputs overlapping each other or the
 /// inputs, a scratch not prepared for these maps (other maps, order or
-/// placement), and the cases of `refl_layered_pass_prepare`. Nothing is
-/// written on error.
+/// placement), a region id neither below the regions of
+/// `input.region_masks` nor `REFL_LAYERED_NO_REGION`, and the cases of `refl_layered_pass_prepare`.
+/// Nothing is written on error.
 ///
 /// # Safety
 /// `out_stats` NULL or writable; `out` NULL or writable for `out_len`

@@ -2240,6 +2240,15 @@ fn layered_pass(cov: &mut Coverage) {
         ids: u32_img(&s.objects),
         map_ids: map_ids.as_ptr(),
         map_ids_len: 1,
+        regions: refl_image_u32 {
+            data: core::ptr::null(),
+            len: 0,
+            width: 0,
+            height: 0,
+            stride: 0,
+        },
+        region_masks: core::ptr::null(),
+        region_masks_len: 0,
     };
     let opts = value!(cov, refl_layered_pass_options_default());
     let bad_o = refl_layered_pass_options {
@@ -2349,6 +2358,82 @@ fn layered_pass(cov: &mut Coverage) {
             len,
             bad.as_ptr(),
             8
+        )
+    );
+    // Potential reflection regions: the masks of two reflector triangles
+    // (a floor under the sphere and one far behind the camera), then the
+    // pass with every pixel in the floor's region.
+    let floor = |z: f32| {
+        let t = refl_core::PrrTriangle::flat([
+            Vec3::new(-3.0, -0.5, z),
+            Vec3::new(3.0, -0.5, z),
+            Vec3::new(0.0, -0.5, z - 6.0),
+        ]);
+        refl_layered_prr_triangle {
+            corners: t.corners.map(|c| v3(c[0], c[1], c[2])),
+            normals: t.normals.map(|c| v3(c[0], c[1], c[2])),
+        }
+    };
+    let tris = [floor(2.0), floor(60.0)];
+    let mut words = uninit::<usize>();
+    ok!(
+        cov,
+        refl_layered_prr_masks_len(words.as_mut_ptr(), 2, len as u32)
+    );
+    err!(
+        cov,
+        refl_layered_prr_masks_len(core::ptr::null_mut(), 2, 65)
+    );
+    assert_eq!(unsafe { words.assume_init() }, 2);
+    let mut masks = [0u64; 2];
+    let mut prr = uninit::<refl_layered_prr_stats>();
+    ok!(
+        cov,
+        refl_layered_prr_masks(
+            prr.as_mut_ptr(),
+            masks.as_mut_ptr(),
+            2,
+            tris.as_ptr(),
+            2,
+            v3(0.0, 0.0, 2.0),
+            scratch.as_ptr(),
+            len
+        )
+    );
+    err!(
+        cov,
+        refl_layered_prr_masks(
+            prr.as_mut_ptr(),
+            masks.as_mut_ptr(),
+            1,
+            tris.as_ptr(),
+            2,
+            v3(0.0, 0.0, 2.0),
+            scratch.as_ptr(),
+            len
+        )
+    );
+    let regions = vec![0u32; N];
+    let with_regions = refl_layered_pass_input {
+        regions: u32_img(&regions),
+        region_masks: masks.as_ptr(),
+        region_masks_len: 2,
+        ..input
+    };
+    ok!(
+        cov,
+        refl_layered_trace_rows(
+            stats.as_mut_ptr(),
+            texels.as_mut_ptr(),
+            N,
+            no_color,
+            host.as_mut_ptr(),
+            N,
+            &with_regions,
+            &opts,
+            scratch.as_ptr(),
+            len,
+            rows(0, H)
         )
     );
 }

@@ -16,9 +16,9 @@ use refl::*;
 use refl_core::glam::{Affine3A, Quat, Vec3};
 use refl_core::layered::{Face, LayerHit, LayeredGrid, LayeredMap, LayeredMapMut};
 use refl_core::{
-    layered_pass_scratch_len, try_prepare_layered_pass, DepthConvention, HostRay, ImageView,
-    ImageViewMut, LayeredBound, LayeredHostRay, LayeredPass, LayeredPassOptions, LayeredPassTexel,
-    MirrorOptions, MirrorPass, MirrorTexel,
+    layered_pass_scratch_len, try_prepare_layered_pass, try_prr_masks, DepthConvention, HostRay,
+    ImageView, ImageViewMut, LayeredBound, LayeredHostRay, LayeredPass, LayeredPassOptions,
+    LayeredPassTexel, MirrorOptions, MirrorPass, MirrorTexel, PrrTriangle,
 };
 
 impl HostRaysWritten for refl_layered_pass_stats {
@@ -185,6 +185,35 @@ fn input(f: &Frame, descs: &[refl_layered_map], ids: bool) -> refl_layered_pass_
             core::ptr::null()
         },
         map_ids_len: if ids { MAP_IDS.len() } else { 0 },
+        regions: refl_image_u32 {
+            data: core::ptr::null(),
+            len: 0,
+            width: 0,
+            height: 0,
+            stride: 0,
+        },
+        region_masks: core::ptr::null(),
+        region_masks_len: 0,
+    }
+}
+
+/// `inp` with per-pixel `regions` (W x H) and their `masks`.
+fn with_regions(
+    inp: &refl_layered_pass_input,
+    regions: &[u32],
+    masks: &[u64],
+) -> refl_layered_pass_input {
+    refl_layered_pass_input {
+        regions: refl_image_u32 {
+            data: regions.as_ptr(),
+            len: regions.len(),
+            width: W,
+            height: H,
+            stride: W,
+        },
+        region_masks: masks.as_ptr(),
+        region_masks_len: masks.len(),
+        ..*inp
     }
 }
 
@@ -448,6 +477,8 @@ fn row_bands_from_threads_equal_the_whole_image() {
                     host_rays_written: a.host_rays_written + s.host_rays_written,
                     kernel_traces: a.kernel_traces + s.kernel_traces,
                     fetches: a.fetches + s.fetches,
+                    sphere_culled: a.sphere_culled + s.sphere_culled,
+                    prr_skipped: a.prr_skipped + s.prr_skipped,
                 }
             });
         assert_eq!(sum, whole.stats);
@@ -1100,4 +1131,274 @@ fn bad_listed_rays_are_refused_untouched() {
     }
     listed(Short, &[good, good], 1, false);
     listed(Bad, &[good], 1, true);
+}
+
+/// Regions over the frame: pixel `i` has region `i % 9`, region 8 is
+/// `REFL_LAYERED_NO_REGION`; the masks of regions 0..8 drop maps in every
+/// combination, so the C pass's region rule is held against refl-core's.
+fn test_regions() -> (Vec<u32>, [u64; 8]) {
+    let regions = (0..W * H)
+        .map(|i| {
+            if i % 9 == 8 {
+                REFL_LAYERED_NO_REGION
+            } else {
+                i % 9
+            }
+        })
+        .collect();
+    (regions, [0, 1, 2, 3, 3, 2, 1, 0])
+}
+
+#[test]
+fn c_pass_with_regions_equals_the_rust_pass_bit_for_bit() {
+    let owned = maps();
+    let views = [owned[0].map(), owned[1].map()];
+    let descs = [owned[0].c(), owned[1].c()];
+    let f = render(DepthConvention::Linear);
+    let (regions, masks) = test_regions();
+    let mut skipped = 0;
+    for o in option_sets() {
+        let oc: refl_layered_pass_options = o.into();
+        for ids in [false, true] {
+            let inp = with_regions(&input(&f, &descs, ids), &regions, &masks);
+            let (scratch, _) = prepare(&inp, &oc);
+            let (s, c, allocs) = c_run(&inp, &oc, &scratch, o.payload_color);
+            assert_eq!(s, refl_status::Ok, "{}", last_error());
+            assert_eq!(allocs, 0);
+            let mut rb = vec![LayeredBound::default(); 2];
+            try_prepare_layered_pass(&mut rb, &f.gbuffer(false), &views[..], &o).unwrap();
+            let pass = rust_pass(&f, &views, &rb, o, ids)
+                .try_with_regions(ImageView::try_new(&regions, W, H, W).unwrap(), &masks)
+                .unwrap();
+            let np = (W * H) as usize;
+            let mut out = vec![LayeredPassTexel::default(); np];
+            let mut host = vec![LayeredHostRay::default(); np];
+            let st = pass
+                .try_run(
+                    &mut ImageViewMut::try_new(&mut out, W, H, W).unwrap(),
+                    None,
+                    &mut host,
+                )
+                .unwrap();
+            assert_eq!(c.stats, st.into());
+            assert_eq!(c.texels.len(), np);
+            for (i, (a, b)) in c.texels.iter().zip(&out).enumerate() {
+                assert_eq!(texel_bits(a), texel_bits(&(*b).into()), "{i}");
+            }
+            skipped += c.stats.prr_skipped;
+        }
+    }
+    assert!(skipped > 1000, "{skipped}");
+}
+
+/// Flat and tilted reflector triangles around the maps.
+fn prr_triangles() -> Vec<refl_layered_prr_triangle> {
+    let v = |x: f32, y: f32, z: f32| refl_vec3 { x, y, z };
+    (0..40)
+        .map(|k| {
+            let (x, z) = ((k % 8) as f32 - 4.0, -((k / 8) as f32) * 1.5);
+            let corners = [v(x, 0.0, z), v(x + 1.0, 0.0, z), v(x, 0.2, z - 1.0)];
+            let t = PrrTriangle::flat(corners.map(Vec3::from));
+            let n = t.normals[0];
+            let tilt = if k % 3 == 0 { 0.3 } else { 0.0 };
+            refl_layered_prr_triangle {
+                corners,
+                normals: [
+                    v(n[0] + tilt, n[1], n[2]),
+                    v(n[0], n[1] + tilt, n[2]),
+                    v(n[0], n[1], n[2] - tilt),
+                ],
+            }
+        })
+        .collect()
+}
+
+#[test]
+fn prr_masks_equal_refl_core_without_allocating() {
+    let e = ErrorSetup::new();
+    let (_, _, scratch) = e.c();
+    let tris = prr_triangles();
+    let eye = refl_vec3 {
+        x: 0.3,
+        y: 1.8,
+        z: 4.0,
+    };
+    let mut masks = vec![u64::MAX; tris.len() + 1];
+    let mut st = refl_layered_prr_stats::default();
+    // SAFETY: valid buffers of the stated lengths.
+    let (s, allocs) = counted(|| unsafe {
+        refl_layered_prr_masks(
+            &mut st,
+            masks.as_mut_ptr(),
+            tris.len(),
+            tris.as_ptr(),
+            tris.len(),
+            eye,
+            scratch.as_ptr(),
+            scratch.len(),
+        )
+    });
+    assert_eq!((s, allocs), (refl_status::Ok, 0), "{}", last_error());
+    let rt: Vec<PrrTriangle> = tris
+        .iter()
+        .map(|t| PrrTriangle {
+            corners: t.corners.map(|c| [c.x, c.y, c.z]),
+            normals: t.normals.map(|c| [c.x, c.y, c.z]),
+        })
+        .collect();
+    let rb: Vec<LayeredBound> = scratch
+        .iter()
+        .map(|b| LayeredBound {
+            center: [b.center.x, b.center.y, b.center.z],
+            radius: b.radius,
+            key: b.key,
+        })
+        .collect();
+    let mut want = vec![0u64; tris.len()];
+    let ws = try_prr_masks(&mut want, &rt, eye.into(), &rb).unwrap();
+    assert_eq!(masks[..tris.len()], want[..]);
+    assert_eq!(masks[tris.len()], u64::MAX);
+    assert_eq!(st, ws.into());
+    assert!(ws.may_reflect > 0 && ws.may_reflect < ws.pairs, "{ws:?}");
+}
+
+#[test]
+fn bad_regions_and_prr_masks_are_refused_untouched() {
+    let e = ErrorSetup::new();
+    let (inp, d, scratch) = e.c();
+    let all = refl_row_range { begin: 0, end: H };
+    let n = (W * H) as usize;
+    let (mut regions, masks) = test_regions();
+    // Regions of another size.
+    let mut wrong = with_regions(&inp, &regions, &masks);
+    wrong.regions.width = W - 1;
+    refused(Bad, &wrong, &d, &scratch, all, n, false);
+    assert!(last_error().contains("`input.regions`"), "{}", last_error());
+    prepare_refused(Bad, &wrong, &d, 2);
+    // NULL masks with a length.
+    let null_masks = refl_layered_pass_input {
+        region_masks: core::ptr::null(),
+        ..with_regions(&inp, &regions, &masks)
+    };
+    refused(Null, &null_masks, &d, &scratch, all, n, false);
+    // A region id out of range.
+    regions[n - 1] = masks.len() as u32;
+    let out_of_range = with_regions(&inp, &regions, &masks);
+    refused(Bad, &out_of_range, &d, &scratch, all, n, false);
+    assert!(last_error().contains("region id"), "{}", last_error());
+    regions[n - 1] = REFL_LAYERED_NO_REGION;
+    // More maps than bits of a word: two words per region, so the eight
+    // words hold four regions.
+    let many = vec![e.descs[0]; 65];
+    let few_regions: Vec<u32> = regions.iter().map(|&r| r.min(3)).collect();
+    let many_inp = refl_layered_pass_input {
+        maps: many.as_ptr(),
+        maps_len: many.len(),
+        ids: refl_image_u32 {
+            data: core::ptr::null(),
+            ..inp.ids
+        },
+        ..with_regions(&inp, &few_regions, &masks)
+    };
+    let (many_scratch, _) = prepare(&many_inp, &d);
+    let (s, _, _) = c_run(&many_inp, &d, &many_scratch, false);
+    assert_eq!(s, refl_status::Ok, "{}", last_error());
+    let mut five: Vec<u32> = few_regions.clone();
+    five[3] = 4;
+    let five_inp = refl_layered_pass_input {
+        regions: refl_image_u32 {
+            data: five.as_ptr(),
+            ..many_inp.regions
+        },
+        ..many_inp
+    };
+    refused(Bad, &five_inp, &d, &many_scratch, all, n, false);
+
+    // The size query.
+    let mut words = 0usize;
+    // SAFETY: valid pointer.
+    assert_eq!(
+        unsafe { refl_layered_prr_masks_len(&mut words, 10, 65) },
+        refl_status::Ok
+    );
+    assert_eq!(words, 20);
+    // SAFETY: valid pointer.
+    assert_eq!(
+        unsafe { refl_layered_prr_masks_len(&mut words, 10, 0) },
+        refl_status::Ok
+    );
+    assert_eq!(words, 10);
+    // SAFETY: NULL is refused.
+    assert_eq!(
+        unsafe { refl_layered_prr_masks_len(core::ptr::null_mut(), 10, 65) },
+        Null
+    );
+    // SAFETY: valid pointer. (32-bit counts cannot overflow a 64-bit size_t.)
+    assert_eq!(
+        unsafe { refl_layered_prr_masks_len(&mut words, u32::MAX, 65) },
+        refl_status::Ok
+    );
+    assert_eq!(words as u64, 2 * u64::from(u32::MAX));
+
+    // The mask builder: NaN eye, short masks (one and two words per
+    // triangle), NULL stats, NULL triangles; nothing written.
+    let tris = prr_triangles();
+    let eye = refl_vec3 {
+        x: 0.3,
+        y: 1.8,
+        z: 4.0,
+    };
+    let nan = refl_vec3 { x: f32::NAN, ..eye };
+    let many_scratch = vec![scratch[0]; 65];
+    // (status, NULL stats, masks_len, triangles, eye, scratch)
+    type Case<'a> = (
+        refl_status,
+        bool,
+        usize,
+        *const refl_layered_prr_triangle,
+        refl_vec3,
+        &'a [refl_layered_bound],
+    );
+    let cases: [Case<'_>; 5] = [
+        (Bad, false, tris.len(), tris.as_ptr(), nan, &scratch),
+        (Short, false, tris.len() - 1, tris.as_ptr(), eye, &scratch),
+        (Null, true, tris.len(), tris.as_ptr(), eye, &scratch),
+        (Null, false, tris.len(), core::ptr::null(), eye, &scratch),
+        (
+            Short,
+            false,
+            2 * tris.len() - 1,
+            tris.as_ptr(),
+            eye,
+            &many_scratch,
+        ),
+    ];
+    for (want, null_stats, masks_len, tp, eye, sc) in cases {
+        let mut out = vec![7u64; 2 * tris.len()];
+        let mut st = refl_layered_prr_stats {
+            regions: 55,
+            ..Default::default()
+        };
+        let stats_ptr: *mut refl_layered_prr_stats = if null_stats {
+            core::ptr::null_mut()
+        } else {
+            &mut st
+        };
+        // SAFETY: valid buffers of the stated lengths, or NULL.
+        let (s, allocs) = counted(|| unsafe {
+            refl_layered_prr_masks(
+                stats_ptr,
+                out.as_mut_ptr(),
+                masks_len,
+                tp,
+                tris.len(),
+                eye,
+                sc.as_ptr(),
+                sc.len(),
+            )
+        });
+        assert_eq!(s, want, "{}", last_error());
+        assert_eq!(allocs, 0);
+        assert!(out.iter().all(|&m| m == 7) && st.regions == 55);
+    }
 }

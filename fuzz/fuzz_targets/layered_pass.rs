@@ -683,6 +683,10 @@ fn pass_section(b: &mut Bytes, fg: &FuzzGBuffer, maps: &[PassMap], o: &refl_laye
         ids: ids.desc(),
         map_ids: ids.map_ids.cptr(),
         map_ids_len: ids.map_ids.len(),
+        // Potential reflection regions are not fuzzed here (none given).
+        regions: refl_image_u32 { data: core::ptr::null(), len: 0, width: 0, height: 0, stride: 0 },
+        region_masks: core::ptr::null(),
+        region_masks_len: 0,
     };
     let ib = Buf::from_slice(&[inp], b.ptr_kind());
     let ob = Buf::from_slice(&[*o], b.ptr_kind());

@@ -196,6 +196,67 @@ pub struct ScreenAccum {
     /// object, `found` those hit on the same object within a texel
     /// diagonal, the error is in texels.
     pub layered: bool,
+    /// Layered rows: the map lookups with and without the potential
+    /// reflection regions.
+    pub layered_lookups: Option<LayeredLookups>,
+}
+
+/// Map lookups of the layered pass over the frames of a row: a lookup is
+/// one (ray, map) pair the pass considers, a bounding-sphere test and, if
+/// it passes, a kernel trace (refl-core `layered_pass`, module docs, step
+/// 2). Seed 001 Sec. 3.2's regions decide per reflector triangle which maps
+/// its pixels look up; conservative, they skip only lookups the sphere
+/// test would have rejected, so the kernel traces and the hits are the same
+/// with and without them.
+#[derive(Clone, Copy, Debug, Default)]
+pub struct LayeredLookups {
+    /// Rays the pass traced.
+    pub traced: u64,
+    /// Lookups without regions: kernel traces, sphere culls and the
+    /// lookups the regions skipped.
+    pub without_prr: u64,
+    /// Of those, the lookups the regions skipped.
+    pub prr_skipped: u64,
+    /// (reflector triangle, map) pairs the masks classified.
+    pub mask_pairs: u64,
+    /// Of those, the pairs that may reflect (bit set).
+    pub mask_set: u64,
+}
+
+impl LayeredLookups {
+    fn add(&mut self, o: &LayeredLookups) {
+        self.traced += o.traced;
+        self.without_prr += o.without_prr;
+        self.prr_skipped += o.prr_skipped;
+        self.mask_pairs += o.mask_pairs;
+        self.mask_set += o.mask_set;
+    }
+
+    fn columns(&self) -> Vec<(String, String)> {
+        let per_ray = |n: u64| format!("{:.3}", n as f64 / self.traced.max(1) as f64);
+        vec![
+            ("map_lookups_per_ray".into(), per_ray(self.without_prr)),
+            (
+                "map_lookups_prr_per_ray".into(),
+                per_ray(self.without_prr - self.prr_skipped),
+            ),
+            ("prr_skipped".into(), self.prr_skipped.to_string()),
+            (
+                "prr_skipped_share".into(),
+                format!(
+                    "{:.4}",
+                    self.prr_skipped as f64 / self.without_prr.max(1) as f64
+                ),
+            ),
+            (
+                "prr_region_share".into(),
+                format!(
+                    "{:.4}",
+                    self.mask_set as f64 / self.mask_pairs.max(1) as f64
+                ),
+            ),
+        ]
+    }
 }
 
 impl ScreenAccum {
@@ -207,6 +268,11 @@ impl ScreenAccum {
         self.obvhs_ms_1t += o.obvhs_ms_1t;
         self.bytes_per_pixel = o.bytes_per_pixel;
         self.layered = o.layered;
+        if let Some(l) = &o.layered_lookups {
+            self.layered_lookups
+                .get_or_insert_with(LayeredLookups::default)
+                .add(l);
+        }
     }
 
     /// The method-specific columns.
@@ -277,6 +343,13 @@ impl ScreenAccum {
                 format!("{:.2}", self.bytes_per_pixel),
             ),
         ]
+        .into_iter()
+        .chain(
+            self.layered_lookups
+                .iter()
+                .flat_map(LayeredLookups::columns),
+        )
+        .collect()
     }
 }
 

@@ -98,6 +98,7 @@ impl Setting for ExtrapolateSetting {
                     + std::mem::size_of::<[f32; 3]>() as f64
                     + 1.0,
                 layered: false,
+                layered_lookups: None,
             }),
         })
     }

@@ -158,6 +158,7 @@ impl Setting for HalfSetting {
                     bytes_per_pixel: kernel.bytes_per_pixel(g.width(), g.height())
                         + half_bytes_per_pixel(g.width(), g.height()),
                     layered: false,
+                    layered_lookups: None,
                 },
                 half,
             ),

@@ -8,7 +8,7 @@
 //! same pixels, the error, the images, the pooling over frames) is the
 //! report loop's, the same for every method.
 
-use super::accum::{ClusterAccum, Extra, ScreenAccum};
+use super::accum::{ClusterAccum, Extra, LayeredLookups, ScreenAccum};
 use super::content::Content;
 use super::{Level, Sizes};
 use crate::gbuffer::GBuffer;
@@ -368,6 +368,7 @@ impl Setting for ScreenSetting {
                 obvhs_ms_1t: sf.obvhs_ms_1t,
                 bytes_per_pixel: kernel.bytes_per_pixel(g.width(), g.height()),
                 layered: false,
+                layered_lookups: None,
             }),
         })
     }
@@ -666,6 +667,15 @@ impl Setting for LayeredSetting {
                 obvhs_ms_1t,
                 bytes_per_pixel: ls.bytes() as f64 / pixels,
                 layered: true,
+                layered_lookups: Some(LayeredLookups {
+                    traced: u64::from(traces.stats.traced),
+                    without_prr: traces.stats.kernel_traces
+                        + traces.stats.sphere_culled
+                        + traces.stats.prr_skipped,
+                    prr_skipped: traces.stats.prr_skipped,
+                    mask_pairs: traces.prr.map_or(0, |p| p.pairs),
+                    mask_set: traces.prr.map_or(0, |p| p.may_reflect),
+                }),
             }),
         })
     }

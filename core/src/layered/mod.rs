@@ -120,7 +120,7 @@ mod prr;
 mod trace;
 
 pub use build::{ColumnFill, ColumnRay, LayerHit, LayeredGrid, LayeredMapMut};
-pub use prr::{try_prr_classify, PrrClass};
+pub use prr::{try_prr_classify, PrrClass, PrrTriangle};
 pub use trace::{LayeredMap, EXIT_ENTRY_TEXELS};
 
 /// Payload value of an unused layer slot.

@@ -1,9 +1,82 @@
 //! The potential-reflection-region test of seed 001 Sec. 3.2 (Fig. 2):
 //! whether a reflector triangle can show the reflection of an object's
-//! bounding sphere ([`try_prr_classify`], [`PrrClass`]).
+//! bounding sphere ([`try_prr_classify`], [`PrrClass`]), and the reflector
+//! triangle as a region of the layered pass's masks ([`PrrTriangle`]).
 
 use crate::Error;
-use glam::Vec3;
+use glam::{DVec3, Vec3};
+
+/// One reflector triangle as a *region* of the potential-reflection-region
+/// masks of the layered pass (seed 001 Sec. 3.2, Fig. 2(a): the seed tests
+/// each small planar reflector, a triangle, against the cone of each
+/// reflected object; `crate::layered_pass` builds the masks): its world
+/// corners and the vertex normals the G-buffer's shading normals
+/// interpolate on it (`#[repr(C)]`: the C ABI's `refl_prr_triangle`).
+///
+/// The seed reflects about the triangle's plane; a G-buffer with
+/// interpolated normals reflects about a normal up to the angle
+/// [`PrrTriangle::normal_spread_sin`] away from it, which the masks allow
+/// for (ours). For flat shading every vertex normal is the face normal
+/// ([`PrrTriangle::flat`]).
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+#[repr(C)]
+pub struct PrrTriangle {
+    /// World corners.
+    pub corners: [[f32; 3]; 3],
+    /// Vertex normals (any non-zero length, consistently oriented; the
+    /// sign of the whole triangle's normals is free: a reflection does not
+    /// depend on it).
+    pub normals: [[f32; 3]; 3],
+}
+
+impl PrrTriangle {
+    /// A flat-shaded triangle: every vertex normal is the face normal
+    /// `(b - a) x (c - a)` (zero for a degenerate triangle, which the masks
+    /// then leave unrestricted).
+    pub fn flat(corners: [Vec3; 3]) -> Self {
+        let n = (corners[1] - corners[0]).cross(corners[2] - corners[0]);
+        Self {
+            corners: corners.map(|c| c.to_array()),
+            normals: [n.to_array(); 3],
+        }
+    }
+
+    /// `true` if every corner and normal is finite.
+    pub fn is_finite(&self) -> bool {
+        self.corners
+            .iter()
+            .chain(&self.normals)
+            .all(|v| v.iter().all(|c| c.is_finite()))
+    }
+
+    /// The sine of the largest angle `delta` between the triangle's plane
+    /// normal `f` and a shading normal on it, in f64, or `None` where no
+    /// bound below 90 degrees exists (a degenerate triangle, a zero or
+    /// non-finite normal, a vertex normal at 90 degrees or more from `f`).
+    ///
+    /// A shading normal interpolates the vertex normals `n_i` with weights
+    /// `w_i >= 0`: `x = sum w_i n_i / |sum w_i n_i|`. With
+    /// `c = min_i f . n_i / |n_i| > 0`, `f . x >= c sum w_i |n_i| /
+    /// |sum w_i n_i| >= c` (the triangle inequality), so every shading
+    /// normal lies within `acos c` of `f` and `sin delta = sqrt(1 - c^2)`.
+    pub fn normal_spread_sin(&self) -> Option<f64> {
+        let v = self.corners.map(|c| DVec3::from_array(c.map(f64::from)));
+        let f = (v[1] - v[0]).cross(v[2] - v[0]);
+        let f = f.try_normalize()?;
+        let mut dots = [0.0f64; 3];
+        for (d, n) in dots.iter_mut().zip(&self.normals) {
+            let n = DVec3::from_array(n.map(f64::from)).try_normalize()?;
+            *d = f.dot(n);
+        }
+        let s = if dots[0] + dots[1] + dots[2] >= 0.0 {
+            1.0
+        } else {
+            -1.0
+        };
+        let c = dots.iter().fold(f64::INFINITY, |m, &d| m.min(s * d));
+        (c > 0.0).then(|| libm::sqrt(((1.0 - c) * (1.0 + c)).max(0.0)))
+    }
+}
 
 /// How a reflector triangle relates to the potential reflection region of
 /// one reflected object (seed 001 Sec. 3.2).
