@@ -443,7 +443,7 @@ pub fn planar_mirror_bounces(
                 if m2 as u32 == id || !scene.materials[o2.material as usize].is_mirror() {
                     continue;
                 }
-                let cam2 = refl_core::try_mirrored_camera(&mirrored, &p2)?;
+                let cam2 = refl_core::try_mirrored_camera(mirrored, &p2)?;
                 // Keep M2's side facing the first mirrored eye.
                 let (e1, n) = (mirrored.eye(), p2.normal());
                 let d = p2.signed_distance(e1);
