@@ -245,6 +245,7 @@ fn refl_plan_skips_what_a_frame_cannot_use_and_says_why() {
         reflective: Vec::new(),
         camera_path: None,
         bare_host,
+        history: false,
         max_error: vec![0.5],
         max_time: Vec::new(),
         calibration: None,
@@ -311,6 +312,23 @@ fn refl_plan_skips_what_a_frame_cannot_use_and_says_why() {
         bare.contains("no calibrated option applies: its pixels are left out"),
         "{bare}"
     );
+    // A host that keeps its last reflections: the temporal pass joins the
+    // mirror pass from the second pose on (the camera moves every pose),
+    // and the first pose has no history.
+    let mut history = args(false);
+    history.history = true;
+    let with = refl_app::report::plans(&history).unwrap();
+    let room_poses = poses(with.split_at(with.find("concave:").unwrap()).0);
+    assert!(
+        !room_poses[0].contains("temporal pass,")
+            && room_poses[0].contains("temporal pass (the host cannot)")
+    );
+    assert!(room_poses[1..]
+        .iter()
+        .all(|l| l.contains(", temporal pass;") && !l.contains("nothing moved")));
+    assert!(poses(room)
+        .iter()
+        .all(|l| l.contains("temporal pass (the host cannot)")));
     // A budget that is not a number is refused with its flag.
     let mut nan = args(false);
     nan.max_time = vec![f32::NAN];

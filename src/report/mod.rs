@@ -398,6 +398,12 @@ pub struct PlanArgs {
     /// for the screen-space passes alone).
     #[arg(long)]
     pub bare_host: bool,
+    /// The host keeps the last frame's reflections: every pose after the
+    /// first is planned knowing whether the camera moved since the pose
+    /// before (the scene stands still), so a pose equal to the last one
+    /// runs no pass and the others add the temporal pass.
+    #[arg(long)]
+    pub history: bool,
     /// Error budgets: the planner chooses a method per reflector and
     /// roughness class so that the frame's mean error (0..255) is at most
     /// this (repeatable; with neither `--max-error` nor `--max-time`, the
@@ -482,7 +488,13 @@ pub fn plans(args: &PlanArgs) -> Result<String, String> {
                 .camera(pose, sizes.width, sizes.height)
                 .map_err(|e| format!("{}: camera: {e}", scene.name))?;
             let g = GBuffer::render(&scene, &tracer, &camera, &pool);
-            let p = plan::plan_frame(&scene, &g, &caps)?;
+            let motion = refl_core::plan::FrameMotion {
+                history: args.history && pose > 0,
+                camera_still: pose > 0
+                    && scene.camera(pose - 1, sizes.width, sizes.height).ok() == Some(camera),
+                scene_still: true,
+            };
+            let p = plan::plan_frame_moving(&scene, &g, &caps, motion)?;
             let f = &p.frame;
             let _ = writeln!(
                 out,

@@ -10,7 +10,7 @@ use crate::gbuffer::GBuffer;
 use crate::scene::Scene;
 use crate::screen::{DepthBuffer, PassImages};
 use refl_core::plan::{
-    try_plan_passes, HostCaps, ObjectHints, Pass, PassPlan, PlanOptions, SkipReason,
+    try_plan_passes, FrameMotion, HostCaps, ObjectHints, Pass, PassPlan, PlanOptions, SkipReason,
 };
 use refl_core::summary::{try_summarize_rows, FrameSummary, ObjectSummary, SummaryOptions};
 use refl_core::{DepthConvention, ImageView, RowRange};
@@ -49,6 +49,20 @@ pub struct FramePlan {
 /// # Errors
 /// refl-core's errors, as text (never for a rendered G-buffer).
 pub fn plan_frame(scene: &Scene, g: &GBuffer, caps: &HostCaps) -> Result<FramePlan, String> {
+    plan_frame_moving(scene, g, caps, FrameMotion::default())
+}
+
+/// [`plan_frame`] for a host that states `motion` (what moved since the
+/// last frame; the scenes' objects stand still).
+///
+/// # Errors
+/// As [`plan_frame`].
+pub fn plan_frame_moving(
+    scene: &Scene,
+    g: &GBuffer,
+    caps: &HostCaps,
+    motion: FrameMotion,
+) -> Result<FramePlan, String> {
     let err = |e: refl_core::Error| format!("{}: plan: {e}", scene.name);
     let (w, h) = (g.width(), g.height());
     let depth = DepthBuffer::new(g, DepthConvention::ReversedZ, f32::INFINITY).map_err(err)?;
@@ -94,7 +108,10 @@ pub fn plan_frame(scene: &Scene, g: &GBuffer, caps: &HostCaps) -> Result<FramePl
         &hints,
         caps,
         &options,
-        &PlanOptions::default(),
+        &PlanOptions {
+            motion,
+            ..PlanOptions::default()
+        },
         (w, h),
     )
     .map_err(err)?;
