@@ -330,38 +330,34 @@ fn output_resolution_study_rows() {
 /// the ray-traced reference than the first way (ignoring the reflector).
 #[test]
 fn concave_second_intersection_comes_closer_to_the_reference() {
-    let pool = pool();
-    let scene = Scene::concave(20_000);
-    let tracer = Tracer::new(&scene);
-    let shader = Shader::new(&scene, &tracer);
-    let cam = scene.camera(0, 160, 120).unwrap();
-    let g = GBuffer::render(&scene, &tracer, &cam, &pool);
-    let truth = reference(&shader, &g, 64, &pool);
-    let direct = direct_image(&shader, &g, &pool);
-    let truth_final = composite(&g, &direct, &truth);
-    let first = run(&shader, &g, &ClusterSettings::default(), &pool, false).unwrap();
-    let s = ClusterSettings {
-        second_intersection: true,
-        ..ClusterSettings::default()
-    };
-    assert_eq!(s.label(), "gain=64;res=1;glossy_rays=8;concave=second");
-    let second = run(&shader, &g, &s, &pool, false).unwrap();
-    assert_eq!(second.image.handled, first.image.handled);
-    let err = |f: &refl_app::cluster::ClusterFrame| {
-        compare(
-            &truth_final,
-            &composite(&g, &direct, &f.image),
-            &f.image.handled,
-        )
-        .mean_abs
-    };
-    let changed = (0..g.len())
-        .filter(|&i| first.image.rgb[i] != second.image.rgb[i])
-        .count();
-    let (e1, e2) = (err(&first), err(&second));
-    eprintln!("concave: first way {e1:.4}, second way {e2:.4}, {changed} pixels changed");
-    assert!(changed > 100, "{changed}");
-    assert!(e2 < e1, "{e2} vs {e1}");
+    with_reference(
+        Scene::concave(20_000),
+        |shader, g, direct, truth_final, pool| {
+            let first = run(shader, g, &ClusterSettings::default(), pool, false).unwrap();
+            let s = ClusterSettings {
+                second_intersection: true,
+                ..ClusterSettings::default()
+            };
+            assert_eq!(s.label(), "gain=64;res=1;glossy_rays=8;concave=second");
+            let second = run(shader, g, &s, pool, false).unwrap();
+            assert_eq!(second.image.handled, first.image.handled);
+            let err = |f: &refl_app::cluster::ClusterFrame| {
+                compare(
+                    truth_final,
+                    &composite(g, direct, &f.image),
+                    &f.image.handled,
+                )
+                .mean_abs
+            };
+            let changed = (0..g.len())
+                .filter(|&i| first.image.rgb[i] != second.image.rgb[i])
+                .count();
+            let (e1, e2) = (err(&first), err(&second));
+            eprintln!("concave: first way {e1:.4}, second way {e2:.4}, {changed} pixels changed");
+            assert!(changed > 100, "{changed}");
+            assert!(e2 < e1, "{e2} vs {e1}");
+        },
+    );
 }
 
 /// Seed 003 Sec. 4.2.2 in the renderer: the single-ray glossy variant
@@ -370,8 +366,47 @@ fn concave_second_intersection_comes_closer_to_the_reference() {
 /// room's glossy pixels: 19.03 against 17.70 when written).
 #[test]
 fn single_ray_glossy_changes_only_glossy_pixels() {
+    with_reference(
+        Scene::room(20_000),
+        |shader, g, direct, truth_final, pool| {
+            let lobe = run(shader, g, &ClusterSettings::default(), pool, false).unwrap();
+            let s = ClusterSettings {
+                glossy_single_ray: true,
+                ..ClusterSettings::default()
+            };
+            assert_eq!(s.label(), "gain=64;res=1;glossy_rays=8;glossy=single_ray");
+            let single = run(shader, g, &s, pool, false).unwrap();
+            let glossy: Vec<bool> = (0..g.len())
+                .map(|i| g.is_reflective(i) && g.roughness[i] > 0.0)
+                .collect();
+            let mut changed = 0;
+            for (i, &gl) in glossy.iter().enumerate() {
+                if gl {
+                    changed += usize::from(lobe.image.rgb[i] != single.image.rgb[i]);
+                } else {
+                    assert_eq!(lobe.image.rgb[i], single.image.rgb[i], "{i}");
+                }
+            }
+            assert!(changed > 50, "{changed}");
+            let err = |f: &refl_app::cluster::ClusterFrame| {
+                compare(truth_final, &composite(g, direct, &f.image), &glossy).mean_abs
+            };
+            let (el, es) = (err(&lobe), err(&single));
+            eprintln!(
+                "room glossy pixels: 8-ray lobe {el:.4}, single ray {es:.4}, {changed} changed"
+            );
+            assert!((es - el).abs() < 0.1 * el, "{es} vs {el}");
+        },
+    );
+}
+
+/// The 160x120 pose-0 frame of `scene`, its direct image and its
+/// ray-traced final image (64 glossy samples), handed to `f`.
+fn with_reference(
+    scene: Scene,
+    f: impl FnOnce(&Shader, &GBuffer, &[glam::Vec3], &[glam::Vec3], &rayon::ThreadPool),
+) {
     let pool = pool();
-    let scene = Scene::room(20_000);
     let tracer = Tracer::new(&scene);
     let shader = Shader::new(&scene, &tracer);
     let cam = scene.camera(0, 160, 120).unwrap();
@@ -379,29 +414,5 @@ fn single_ray_glossy_changes_only_glossy_pixels() {
     let truth = reference(&shader, &g, 64, &pool);
     let direct = direct_image(&shader, &g, &pool);
     let truth_final = composite(&g, &direct, &truth);
-    let lobe = run(&shader, &g, &ClusterSettings::default(), &pool, false).unwrap();
-    let s = ClusterSettings {
-        glossy_single_ray: true,
-        ..ClusterSettings::default()
-    };
-    assert_eq!(s.label(), "gain=64;res=1;glossy_rays=8;glossy=single_ray");
-    let single = run(&shader, &g, &s, &pool, false).unwrap();
-    let glossy: Vec<bool> = (0..g.len())
-        .map(|i| g.is_reflective(i) && g.roughness[i] > 0.0)
-        .collect();
-    let mut changed = 0;
-    for (i, &gl) in glossy.iter().enumerate() {
-        if gl {
-            changed += usize::from(lobe.image.rgb[i] != single.image.rgb[i]);
-        } else {
-            assert_eq!(lobe.image.rgb[i], single.image.rgb[i], "{i}");
-        }
-    }
-    assert!(changed > 50, "{changed}");
-    let err = |f: &refl_app::cluster::ClusterFrame| {
-        compare(&truth_final, &composite(&g, &direct, &f.image), &glossy).mean_abs
-    };
-    let (el, es) = (err(&lobe), err(&single));
-    eprintln!("room glossy pixels: 8-ray lobe {el:.4}, single ray {es:.4}, {changed} changed");
-    assert!((es - el).abs() < 0.1 * el, "{es} vs {el}");
+    f(&shader, &g, &direct, &truth_final, &pool);
 }
