@@ -6,6 +6,10 @@
 //! untouched.
 
 use refl::*;
+
+#[path = "common/gbuffer.rs"]
+mod common;
+use common::{none_f32, none_u32, none_vec3};
 use refl_core::cluster::{ClusterPass, ClusterPassOptions, ClusterRender, ClusterTexel, Lobe};
 use refl_core::glam::{DVec3, Vec2, Vec3};
 use refl_core::{
@@ -109,27 +113,9 @@ fn concave_second_intersection_through_the_c_abi_equals_core() {
             height: 0,
             stride: 0,
         },
-        roughness: refl_image_f32 {
-            data: core::ptr::null(),
-            len: 0,
-            width: 0,
-            height: 0,
-            stride: 0,
-        },
-        color: refl_image_vec3 {
-            data: core::ptr::null(),
-            len: 0,
-            width: 0,
-            height: 0,
-            stride: 0,
-        },
-        back_depth: refl_image_f32 {
-            data: core::ptr::null(),
-            len: 0,
-            width: 0,
-            height: 0,
-            stride: 0,
-        },
+        roughness: none_f32(),
+        color: none_vec3(),
+        back_depth: none_f32(),
     };
     let lobes = [refl_cluster_lobe {
         rays: 1,
@@ -241,27 +227,9 @@ fn concave_second_intersection_through_the_c_abi_equals_core() {
                 height: dh,
                 stride: dw,
             }),
-            back_depth: refl_image_f32 {
-                data: core::ptr::null(),
-                len: 0,
-                width: 0,
-                height: 0,
-                stride: 0,
-            },
-            reflector_diffuse: refl_image_vec3 {
-                data: core::ptr::null(),
-                len: 0,
-                width: 0,
-                height: 0,
-                stride: 0,
-            },
-            reflector_ids: refl_image_u32 {
-                data: core::ptr::null(),
-                len: 0,
-                width: 0,
-                height: 0,
-                stride: 0,
-            },
+            back_depth: none_f32(),
+            reflector_diffuse: none_vec3(),
+            reflector_ids: none_u32(),
         };
         let finalize = |render: &refl_cluster_render, out: &mut Vec<refl_cluster_texel>| {
             let mut st = refl_cluster_stats::default();

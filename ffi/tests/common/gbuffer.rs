@@ -153,7 +153,6 @@ pub fn none_f32() -> refl_image_f32 {
     }
 }
 
-#[allow(dead_code)] // not every test binary uses it
 pub fn none_vec3() -> refl_image_vec3 {
     refl_image_vec3 {
         data: core::ptr::null(),
@@ -164,7 +163,6 @@ pub fn none_vec3() -> refl_image_vec3 {
     }
 }
 
-#[allow(dead_code)] // not every test binary uses it
 pub fn none_u32() -> refl_image_u32 {
     refl_image_u32 {
         data: core::ptr::null(),
