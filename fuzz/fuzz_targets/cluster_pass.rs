@@ -236,7 +236,7 @@ fn same_shade(a: &refl_cluster_shade, b: &refl_cluster_shade) -> bool {
         && a.env_weight.to_bits() == b.env_weight.to_bits()
         && bits3(a.env_dir) == bits3(b.env_dir)
         && bits3(a.mirror_dir) == bits3(b.mirror_dir)
-        && (a.rays, a.hits, a.fetches, a.steps) == (b.rays, b.hits, b.fetches, b.steps)
+        && (a.rays, a.hits, a.fetches, a.steps, a.self_hits) == (b.rays, b.hits, b.fetches, b.steps, b.self_hits)
 }
 
 fn same_texel(a: &refl_cluster_texel, b: &refl_cluster_texel) -> bool {
@@ -244,8 +244,8 @@ fn same_texel(a: &refl_cluster_texel, b: &refl_cluster_texel) -> bool {
 }
 
 fn same_stats(a: &refl_cluster_stats, b: &refl_cluster_stats) -> bool {
-    (a.pixels, a.hits, a.sky, a.host_rays, a.host_rays_written, a.rays, a.ray_hits)
-        == (b.pixels, b.hits, b.sky, b.host_rays, b.host_rays_written, b.rays, b.ray_hits)
+    (a.pixels, a.hits, a.sky, a.host_rays, a.host_rays_written, a.rays, a.ray_hits, a.self_hits)
+        == (b.pixels, b.hits, b.sky, b.host_rays, b.host_rays_written, b.rays, b.ray_hits, b.self_hits)
 }
 
 fn img_ok<T: Copy>(buf: &Buf<T>, iw: u32, ih: u32, stride: u32, w: u32, h: u32) -> bool {
@@ -407,6 +407,95 @@ fn world_normal(n: refl_vec3) -> Option<refl_vec3> {
     }
     let k = 1.0 / len2.sqrt();
     Some(v3(n.x * k, n.y * k, n.z * k))
+}
+
+/// `refl_cluster_finalize_rows` of the accepted call (`first`: its texels)
+/// again with `second_intersection` and reflector images (fuzzed ids near
+/// the entry's object, diffuse colors, sometimes missing or of another
+/// size). A convex entry is finalized as before, bit for bit; a concave
+/// one needs both images of the G-buffer's size (else INVALID_ARGUMENT,
+/// nothing written), and then every pixel none of whose rays met its
+/// reflector is as before, and the others count their self hits within
+/// their hits.
+fn second_intersection(
+    b: &mut Bytes,
+    c: &Ctx,
+    e: &refl_cluster_plan_entry,
+    mut r: refl_cluster_render,
+    rows: refl_row_range,
+    first: &Buf<refl_cluster_texel>,
+) {
+    let (w, h, n) = (c.w, c.h, c.n);
+    let ids: Vec<u32> = (0..n)
+        .map(|_| match b.u8() % 4 {
+            3 => b.u32(),
+            _ => e.object,
+        })
+        .collect();
+    let diffuse: Vec<refl_vec3> = (0..n).map(|i| v3((i % 7) as f32 * 0.1, b.f32_in(0.0, 1.0), 0.5)).collect();
+    // Zeros past the input's end take the valid path.
+    let (dw, iw) = match b.u8() % 8 {
+        6 => (w, w.saturating_sub(1)),
+        7 => (w.saturating_sub(1), w),
+        _ => (w, w),
+    };
+    let missing = rare(b, 64);
+    if !missing {
+        let dh = if dw == w { h } else { (n as u32 / dw.max(1)).min(h) };
+        let ih = if iw == w { h } else { (n as u32 / iw.max(1)).min(h) };
+        r.reflector_diffuse = refl_image_vec3 { data: diffuse.as_ptr(), len: n, width: dw, height: dh, stride: dw.max(1) };
+        r.reflector_ids = refl_image_u32 { data: ids.as_ptr(), len: n, width: iw, height: ih, stride: iw.max(1) };
+    }
+    let sized = !missing && (dw, iw) == (w, w);
+    let o2 = refl_cluster_pass_options { second_intersection: true, ..c.o };
+    let mut out = Buf::<refl_cluster_texel>::sentinel(n, PtrKind::Valid);
+    let mut st = refl_cluster_stats::default();
+    // SAFETY: every buffer valid for its length.
+    let s = unsafe {
+        refl_cluster_finalize_rows(&mut st, out.ptr(), n, core::ptr::null_mut(), 0, &c.g, &o2, c.scratch.cptr(), c.slen, e, &r, rows)
+    };
+    let what = "refl_cluster_finalize_rows (second intersection)";
+    no_panic(s, what);
+    if e.camera.concave && !sized {
+        // Missing images, or of another size: refused.
+        assert!(s != refl_status::Ok, "{what}: a concave entry accepted without its reflector images");
+        assert!(all_sentinel(&out, 0), "{what}: wrote on error");
+        return;
+    }
+    if !e.camera.concave && !sized && !missing {
+        // A view of another size is still a valid image; a convex entry
+        // does not read it.
+        if s != refl_status::Ok {
+            return;
+        }
+    }
+    assert_eq!(s, refl_status::Ok, "{what}: {}", last_error());
+    let was = sentinel_mask(first);
+    let now = sentinel_mask(&out);
+    let mut self_hits = 0u64;
+    for i in 0..n {
+        assert_eq!(was[i], now[i], "{what}: texel {i} written in one call only");
+        if now[i] {
+            continue;
+        }
+        let (a, t) = (first.get(i), out.get(i));
+        self_hits += u64::from(t.shade.self_hits);
+        if t.shade.self_hits == 0 {
+            assert!(same_texel(&a, &t), "{what}: texel {i} changed without a self hit: {a:?} vs {t:?}");
+        } else {
+            assert!(e.camera.concave, "{what}: a self hit in a convex cluster");
+            assert!(t.shade.self_hits <= t.shade.hits && t.shade.hits <= t.shade.rays, "{what}: {t:?}");
+            assert!(bits3(t.shade.mirror_dir) == bits3(a.shade.mirror_dir), "{what}: mirror direction changed");
+            // A self hit replaces a depth-image hit or a miss: never fewer
+            // hits, never more fallback (the colors are the host's, any
+            // value).
+            assert!(t.shade.hits >= a.shade.hits && t.shade.env_weight <= a.shade.env_weight, "{what}: {a:?} -> {t:?}");
+            // The same rays through the depth image (the self test is not
+            // counted there).
+            assert_eq!((t.shade.rays, t.shade.fetches, t.shade.steps), (a.shade.rays, a.shade.fetches, a.shade.steps), "{what}");
+        }
+    }
+    assert_eq!(st.self_hits, self_hits, "{what}: stats");
 }
 
 /// Finalizes entry `e` of the plan with fuzzed arguments and checks the
@@ -691,6 +780,12 @@ fn finalize(b: &mut Bytes, c: &Ctx, e0: &refl_cluster_plan_entry, gb: &Buf<refl_
         for (a, j) in f1.host.iter().zip(joined) {
             assert!(same_host(a, j), "host list differs between one call and two bands");
         }
+    }
+
+    // Seed 003 Sec. 4.4's second way: the same call with
+    // `second_intersection` and the reflector images.
+    if let (true, Some(r)) = (is_cam && rare(b, 48), rdesc) {
+        second_intersection(b, c, &e, r, rows, &out);
     }
 
     // A render of another camera (the same size): refused.
