@@ -967,6 +967,67 @@ fn pass_section(b: &mut Bytes, fg: &FuzzGBuffer, maps: &[PassMap], o: &refl_laye
         }
     }
 
+    // 6. Potential reflection regions (seed 001 Sec. 3.2): fuzzed region
+    // ids with masks of every map give the same texels as without regions
+    // (and skip no sphere test); masks of no map leave a pixel with a region
+    // nothing to trace (no hit, no fetch) and the others as they were; a
+    // region id past the masks is refused, nothing written.
+    if cheap && b.chance(64) {
+        let whole = refl_row_range { begin: 0, end: h };
+        let pc = o.payload_color;
+        let base = run(&inp, o, &scratch, pc, 0, whole);
+        assert_eq!(base.s, refl_status::Ok, "the whole image refused after a band was accepted: {}", last_error());
+        let nr = 1 + b.below(4) as usize;
+        let words = n.div_ceil(64).max(1);
+        let regions: Vec<u32> = (0..npix).map(|_| if b.chance(64) { REFL_LAYERED_NO_REGION } else { b.below(nr as u32) }).collect();
+        let with = |masks: &[u64], regions: &[u32]| {
+            let inp2 = refl_layered_pass_input {
+                regions: refl_image_u32 { data: regions.as_ptr(), len: npix, width: w, height: h, stride: w },
+                region_masks: masks.as_ptr(),
+                region_masks_len: masks.len(),
+                ..inp
+            };
+            run(&inp2, o, &scratch, pc, 0, whole)
+        };
+        let all = vec![u64::MAX; nr * words];
+        let r = with(&all, &regions);
+        assert_eq!(r.s, refl_status::Ok, "regions of every map refused: {}", last_error());
+        for i in 0..npix {
+            assert!(texel_bits(&r.out[i]) == texel_bits(&base.out[i]), "texel {i}: regions of every map changed it");
+        }
+        assert_eq!((r.st.traced, r.st.hits, r.st.fetches, r.st.kernel_traces), (base.st.traced, base.st.hits, base.st.fetches, base.st.kernel_traces));
+        assert_eq!(r.st.prr_skipped, 0, "masks of every map skipped a lookup");
+        let none = vec![0u64; nr * words];
+        let r = with(&none, &regions);
+        assert_eq!(r.s, refl_status::Ok, "regions of no map refused: {}", last_error());
+        for i in 0..npix {
+            let (t, t0) = (&r.out[i], &base.out[i]);
+            if regions[i] == REFL_LAYERED_NO_REGION || t0.status == SKIPPED || t0.status == NO_SURFACE {
+                assert!(texel_bits(t) == texel_bits(t0), "texel {i} without a region changed");
+            } else {
+                assert!(t.status != HIT && t.status != OUT_OF_STEPS && t.status != STARTED_INSIDE && t.fetches == 0, "texel {i}: a region of no map traced one: {t:?}");
+                assert!(bits3(t.dir) == bits3(t0.dir), "texel {i}: the ray changed");
+            }
+        }
+        // A region id past the masks: refused, nothing written.
+        let mut bad = regions.clone();
+        let k = b.below(npix as u32) as usize;
+        bad[k] = nr as u32 + b.below(3);
+        let inp3 = refl_layered_pass_input {
+            regions: refl_image_u32 { data: bad.as_ptr(), len: npix, width: w, height: h, stride: w },
+            region_masks: all.as_ptr(),
+            region_masks_len: all.len(),
+            ..inp
+        };
+        let mut out3 = Buf::<refl_layered_pass_texel>::sentinel(npix, PtrKind::Valid);
+        let cm3 = refl_image_vec3_mut { data: core::ptr::null_mut(), len: 0, width: w, height: h, stride: w };
+        let mut st3 = refl_layered_pass_stats::default();
+        // SAFETY: buffers valid for their lengths.
+        let s3 = unsafe { refl_layered_trace_rows(&mut st3, out3.ptr(), npix, cm3, core::ptr::null_mut(), 0, &inp3, o, scratch.cptr(), scratch.len(), whole) };
+        assert_eq!(s3, refl_status::InvalidArgument, "a region id past the masks accepted");
+        assert!((0..npix).all(|i| out3.is_sentinel(i)), "written on a refused region id");
+    }
+
     // 5. Bands: the same bytes as one call over the whole image.
     if cheap && h >= 2 && b.chance(64) {
         let whole = refl_row_range { begin: 0, end: h };
