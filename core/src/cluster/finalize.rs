@@ -336,9 +336,9 @@ pub(crate) struct SelfHits<'p, 'a> {
 }
 
 impl SelfHits<'_, '_> {
-    /// The reflector's pixel `ray` meets first within `t_max`, visible and
-    /// from its front, with the ray parameter there.
-    fn trace(&self, input: &impl Surfaces, ray: &Ray, t_max: f32) -> Option<(u32, f32)> {
+    /// The diffuse color of the reflector's pixel `ray` meets first within
+    /// `t_max`, visible and from its front, with the ray parameter there.
+    fn trace(&self, input: &impl Surfaces, ray: &Ray, t_max: f32) -> Option<([f32; 3], f32)> {
         let hit = self.mirror.trace_visible(ray, t_max)?;
         let g = self.mirror.gbuffer();
         let (x, y) = (hit.pixel.x as u32, hit.pixel.y as u32);
@@ -347,9 +347,11 @@ impl SelfHits<'_, '_> {
             return None;
         }
         // Its front: the surface faces the ray (normals face the eye).
-        let p = y * g.width() + x;
-        let (_, n) = input.at(p)?;
-        (n.dot(ray.dir) < 0.0).then_some((p, hit.t))
+        let (_, n) = input.at(y * g.width() + x)?;
+        if !(n.dot(ray.dir) < 0.0) {
+            return None;
+        }
+        Some((self.diffuse.get(x, y)?, hit.t))
     }
 }
 
@@ -498,12 +500,8 @@ pub(crate) fn finalize_pixel(
             shade.steps = shade.steps.saturating_add(w.steps);
         }
         // Sec. 4.4: the reflector itself, nearer than the depth image's hit.
-        let own = self_hits.and_then(|sh| {
-            let bound = hit.map_or(f32::INFINITY, |h| h.t);
-            let w = sh.mirror.gbuffer().width();
-            sh.trace(input, &ray, bound)
-                .and_then(|(q, t)| Some((sh.diffuse.get(q % w, q / w)?, t)))
-        });
+        let own =
+            self_hits.and_then(|sh| sh.trace(input, &ray, hit.map_or(f32::INFINITY, |h| h.t)));
         if own.is_none() && unanswered.is_none() {
             unanswered = why;
         }
