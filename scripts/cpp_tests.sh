@@ -52,9 +52,9 @@ c++ -std=c++17 cpp_tests/example.cpp -Iinclude -Ltarget/release -lrefl -Wl,-rpat
 "$link_dir/example-shared" >/dev/null
 # The static program needs no librefl.so; the shared one loads the copy
 # beside it.
-if ldd "$link_dir/example-static" | grep -q librefl; then
+if grep -q librefl <<<"$(ldd "$link_dir/example-static" 2>&1)"; then
   echo "example-static depends on librefl.so" >&2
   exit 1
 fi
-ldd "$link_dir/example-shared" | grep -q "$link_dir/librefl.so"
+grep -q "$link_dir/librefl.so" <<<"$(ldd "$link_dir/example-shared")"
 echo "README link lines: static $(stat -c %s target/release/librefl.a) bytes (librefl.a), shared $(stat -c %s target/release/librefl.so) bytes (librefl.so)"

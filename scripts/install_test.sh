@@ -41,7 +41,7 @@ $got"
 echo "$got" | sed 's/^/   /'
 [ "$(readlink "$work/all/lib/librefl.so")" = "librefl.so.$so_version" ] || fail "librefl.so link"
 [ "$(readlink "$work/all/lib/librefl.so.$so_version")" = "librefl.so.$version" ] || fail "soname link"
-readelf -d "$work/all/lib/librefl.so.$version" | grep -q "Library soname: \[librefl.so.$so_version\]" \
+grep -q "Library soname: \[librefl.so.$so_version\]" <<<"$(readelf -d "$work/all/lib/librefl.so.$version")" \
   || fail "librefl.so.$version lacks the soname librefl.so.$so_version"
 for f in MIRROR HIZ DEPTH_IMAGE CONE LAYERED CLUSTER TCRR EPIPOLAR; do
   grep -q "^#define REFL_FEATURE_$f 1" "$work/all/include/refl_config.h" || fail "refl_config.h lacks $f"
@@ -53,9 +53,9 @@ cmake -S cpp_tests/consumer -B "$work/consumer" -DCMAKE_PREFIX_PATH="$work/all" 
 cmake --build "$work/consumer" >>"$work/consumer.log" 2>&1 || { cat "$work/consumer.log"; fail "build"; }
 "$work/consumer/example_shared" >/dev/null || fail "example_shared failed"
 "$work/consumer/example_static" >/dev/null || fail "example_static failed"
-ldd "$work/consumer/example_shared" | grep -q "librefl.so.$so_version => $work/all/lib/" \
+grep -q "librefl.so.$so_version => $work/all/lib/" <<<"$(ldd "$work/consumer/example_shared")" \
   || fail "example_shared does not load the installed librefl.so.$so_version"
-if ldd "$work/consumer/example_static" | grep -q librefl; then fail "example_static loads librefl"; fi
+if grep -q librefl <<<"$(ldd "$work/consumer/example_static" 2>&1)"; then fail "example_static loads librefl"; fi
 
 echo "-- pkg-config"
 export PKG_CONFIG_PATH="$work/all/lib/pkgconfig"
@@ -73,7 +73,7 @@ if grep -q '^#define REFL_FEATURE_\(CONE\|LAYERED\|CLUSTER\|TCRR\|EPIPOLAR\|MIRR
 if nm -D --defined-only "$work/hiz/lib/librefl.so.$version" | grep -Eq ' refl_(cone|layered|cluster|tcrr|epipolar|planar)_'; then
   fail "the hiz library exports other families' functions"
 fi
-nm -D --defined-only "$work/hiz/lib/librefl.so.$version" | grep -q ' refl_hiz_trace_rays$' || fail "no refl_hiz_trace_rays"
+grep -q ' refl_hiz_trace_rays$' <<<"$(nm -D --defined-only "$work/hiz/lib/librefl.so.$version")" || fail "no refl_hiz_trace_rays"
 # A call into a family the build lacks does not compile.
 printf '#include "refl.h"\nint main(void) { struct refl_cone_options o = refl_cone_options_default(); return (int)o.max_iterations; }\n' >"$work/cone.c"
 if cc -std=c99 -Werror -c "$work/cone.c" -I"$work/hiz/include" -o "$work/cone.o" 2>/dev/null; then
